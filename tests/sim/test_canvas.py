@@ -1,0 +1,144 @@
+"""The rasteriser: ink model, orientation, accumulation, images on disk."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import sim.canvas as canvas_module
+from pencilbot.errors import PencilbotError
+from sim.canvas import Canvas, render_paths
+
+
+def brute_force(paths, width_mm, height_mm, dpi, pen_width):
+    """Reference: every pixel against every segment, straight from the ink model's definition."""
+    px = 25.4 / dpi
+    h, w = math.ceil(height_mm / px - 1e-6), math.ceil(width_mm / px - 1e-6)
+    cx = (np.arange(w) + 0.5) * px
+    cy = height_mm - (np.arange(h) + 0.5) * px
+    X, Y = np.meshgrid(cx, cy)
+    transmit = np.ones((h, w))
+    for path in paths:
+        path = np.asarray(path, float).reshape(-1, 2)
+        segs = list(zip(path[:-1], path[1:])) or [(path[0], path[0])]
+        dist = np.full((h, w), np.inf)
+        for a, b in segs:
+            d = b - a
+            t = ((X - a[0]) * d[0] + (Y - a[1]) * d[1]) / max(d @ d, 1e-300)
+            t = np.clip(t, 0, 1)
+            dist = np.minimum(dist, np.hypot(X - a[0] - t * d[0], Y - a[1] - t * d[1]))
+        r, dd = pen_width / 2 / px, dist / px
+        cover = np.clip(np.minimum(dd + r, 0.5) - np.maximum(dd - r, -0.5), 0, 1)
+        transmit *= 1 - cover
+    return 1 - transmit
+
+
+point = st.tuples(st.floats(-2, 22), st.floats(-2, 17))
+path = st.lists(point, min_size=1, max_size=5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(path, min_size=1, max_size=4), st.sampled_from([0.1, 0.4, 1.3]))
+def test_matches_brute_force_reference(paths, pen_width):
+    got = render_paths(paths, 20, 15, dpi=50.8, pen_width=pen_width)  # 0.5 mm pixels
+    want = brute_force(paths, 20, 15, 50.8, pen_width)
+    np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0, math.pi), st.floats(0.2, 2.0))
+def test_ink_is_conserved_at_any_angle(angle, pen_width):
+    """Total ink of one segment = its area (length × width plus two half-disc caps)."""
+    length = 30.0
+    centre = np.array([25.0, 25.0])
+    half = 0.5 * length * np.array([math.cos(angle), math.sin(angle)])
+    d = render_paths([np.array([centre - half, centre + half])], 50, 50, dpi=254, pen_width=pen_width)
+    area = d.sum() * 0.1**2
+    assert area == pytest.approx(length * pen_width + math.pi * pen_width**2 / 4, rel=0.01)
+
+
+def test_y_up_maps_to_top_rows_and_x_to_columns():
+    c = Canvas(100, 50, dpi=25.4)  # 1 mm pixels
+    c.draw_paths([np.array([[10.5, 45.5], [10.5, 45.5]])])  # near the top-left corner
+    rows, cols = np.nonzero(c.darkness > 0)
+    assert rows.max() < 6 and cols.max() < 12
+    assert c.darkness[4, 10] == c.darkness.max()  # y = 45.5 → row 50 − 45.5 − 0.5 = 4
+    assert c.darkness.shape == (50, 100)
+
+
+def test_origin_shifts_the_window():
+    line = [np.array([[12.0, 7.0], [18.0, 7.0]])]
+    whole = render_paths(line, 40, 20, dpi=25.4)
+    window = render_paths(line, 20, 10, dpi=25.4, origin=(10.0, 5.0))
+    np.testing.assert_allclose(window, whole[5:15, 10:30])
+
+
+def test_a_path_inks_each_pixel_once_but_paths_stack():
+    there_and_back = np.array([[5.0, 5.0], [15.0, 5.0], [5.0, 5.0], [15.0, 5.0]])
+    once = render_paths([there_and_back[:2]], 20, 10, dpi=254, pen_width=0.05)
+    retraced = render_paths([there_and_back], 20, 10, dpi=254, pen_width=0.05)
+    twice = render_paths([there_and_back[:2]] * 2, 20, 10, dpi=254, pen_width=0.05)
+    np.testing.assert_allclose(retraced, once, atol=1e-6)
+    np.testing.assert_allclose(twice, 1 - (1 - once) ** 2, atol=1e-6)
+    assert twice.max() > once.max() > 0
+
+
+def test_separate_calls_accumulate_like_paths():
+    a, b = np.array([[1.0, 1.0], [9.0, 9.0]]), np.array([[1.0, 9.0], [9.0, 1.0]])
+    c = Canvas(10, 10, dpi=100, pen_width=0.3)
+    c.draw_paths([a])
+    c.draw_paths([b])
+    np.testing.assert_allclose(c.darkness, render_paths([a, b], 10, 10, dpi=100, pen_width=0.3), atol=1e-6)
+
+
+def test_chunking_does_not_change_the_result(monkeypatch):
+    rng = np.random.default_rng(3)
+    paths = [rng.uniform(0, 30, (rng.integers(1, 6), 2)) for _ in range(300)]
+    whole = render_paths(paths, 30, 30, dpi=100, pen_width=0.4)
+    monkeypatch.setattr(canvas_module, "_CHUNK_CANDIDATES", 500)
+    np.testing.assert_allclose(render_paths(paths, 30, 30, dpi=100, pen_width=0.4), whole, atol=1e-6)
+
+
+def test_empty_and_off_page_paths_leave_paper_white():
+    d = render_paths([np.zeros((0, 2)), np.array([[-50.0, -50.0], [-40.0, -60.0]])], 10, 10)
+    assert d.shape == (40, 40) and not d.any()
+
+
+def test_travel_overlay_is_coloured_and_leaves_darkness_alone(tmp_path):
+    c = Canvas(20, 10, dpi=50.8)
+    c.draw_paths([np.array([[2.0, 2.0], [18.0, 2.0]])])
+    before = c.darkness.copy()
+    assert c.to_image().ndim == 2
+    c.draw_travel([np.array([[2.0, 8.0], [18.0, 8.0]])])
+    np.testing.assert_array_equal(c.darkness, before)
+    rgb = c.to_image()
+    assert rgb.shape == (20, 40, 3) and rgb.dtype == np.uint8
+    row = rgb[3, 20]  # y = 8 mm → row 3 at 0.5 mm pixels
+    assert int(row[0]) > int(row[1]) + 50  # reddish
+    c.save_png(tmp_path / "p.png")
+    back = cv2.imread(str(tmp_path / "p.png"))[..., ::-1]
+    np.testing.assert_array_equal(back, rgb)
+
+
+def test_save_png_round_trips_and_leaves_no_temp_files(tmp_path):
+    c = Canvas(30, 20, dpi=50.8, pen_width=1.0)
+    c.draw_paths([np.array([[3.0, 3.0], [27.0, 17.0]])])
+    c.save_png(tmp_path / "drawing.png")
+    back = cv2.imread(str(tmp_path / "drawing.png"), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(back, c.to_image())
+    assert back.min() == 0 and back.max() == 255
+    assert [p.name for p in tmp_path.iterdir()] == ["drawing.png"]
+
+
+def test_save_png_into_missing_folder_is_a_user_error(tmp_path):
+    with pytest.raises(PencilbotError, match="cannot write"):
+        Canvas(10, 10).save_png(tmp_path / "nope" / "x.png")
+
+
+@pytest.mark.parametrize("args", [(0, 10), (10, -1)])
+def test_bad_sizes_are_user_errors(args):
+    with pytest.raises(PencilbotError, match="positive"):
+        Canvas(*args)
