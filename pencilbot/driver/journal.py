@@ -1,0 +1,126 @@
+"""The job journal: a small JSON file that remembers how far a plot got.
+
+It sits next to the G-code (``drawing.gcode`` → ``drawing.gcode.job.json``) or, when that folder
+is not writable, in the user's state folder. Every update writes a temporary file and renames it
+over the old one, so a crash or a pulled plug leaves either the old or the new journal, never half
+of one. ``pencilbot draw --resume JOURNAL`` reads it back.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+from pencilbot.errors import PlotError
+
+SUFFIX = ".job.json"
+FORMAT = 1
+
+
+@dataclass
+class Journal:
+    """How far one job got.
+
+    Attributes
+    ----------
+    gcode : str
+        Absolute path of the G-code file.
+    sha256 : str
+        Hash of the file's bytes, so a resume refuses a file that changed since.
+    port, profile : str
+        Where and with which plotter profile the job ran.
+    total_lines : int
+        Number of lines in the file.
+    acked_line : int
+        File line number (1-based) of the last line the plotter acknowledged; 0 before any.
+    next_line : int
+        File line number to send first on resume.
+    stop_xy : list of float or None
+        Where the pen stopped inside ``next_line``'s move (job units), if it stopped mid-move.
+    status : {"running", "stopped", "done"}
+    message : str
+        The fault that stopped the job, if any.
+    """
+
+    gcode: str
+    sha256: str
+    port: str
+    profile: str
+    total_lines: int
+    acked_line: int = 0
+    next_line: int = 1
+    stop_xy: list[float] | None = None
+    status: str = "running"
+    message: str = ""
+    path: Path | None = field(default=None, compare=False, repr=False)
+
+    def save(self) -> None:
+        """Write the journal atomically (temporary file + rename)."""
+        assert self.path is not None
+        data = {k: v for k, v in asdict(self).items() if k != "path"}
+        data["format"] = FORMAT
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=self.path.name, suffix=".tmp", dir=self.path.parent)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as f:
+                json.dump(data, f, indent=1)
+            os.replace(tmp, self.path)
+        except BaseException:
+            Path(tmp).unlink(missing_ok=True)
+            raise
+
+
+def file_sha256(path: Path) -> str:
+    """Hex SHA-256 of a file's bytes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def state_dir() -> Path:
+    """The per-user folder for journals of read-only G-code (``$XDG_STATE_HOME/pencilbot/jobs``)."""
+    base = os.environ.get("XDG_STATE_HOME") or Path.home() / ".local" / "state"
+    return Path(base) / "pencilbot" / "jobs"
+
+
+def journal_path(gcode: Path) -> Path:
+    """Where the journal of a G-code file lives: beside it if that folder is writable."""
+    gcode = Path(gcode).resolve()
+    if os.access(gcode.parent, os.W_OK):
+        return gcode.with_name(gcode.name + SUFFIX)
+    digest = hashlib.sha256(str(gcode).encode()).hexdigest()[:16]
+    return state_dir() / f"{gcode.name}-{digest}{SUFFIX}"
+
+
+def load_journal(path: str | Path) -> Journal:
+    """Read a journal written by :meth:`Journal.save`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The journal, or the G-code file whose journal to read.
+
+    Raises
+    ------
+    PlotError
+        The journal is missing or unreadable.
+    """
+    path = Path(path)
+    if not path.name.endswith(SUFFIX):
+        path = journal_path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if data.pop("format", None) != FORMAT:
+            raise ValueError("unknown journal format")
+        journal = Journal(**data)
+    except FileNotFoundError:
+        raise PlotError(
+            f"no job journal at {path}: resume needs the journal a stopped 'pencilbot draw' wrote; "
+            "or give --start-line N with the G-code file"
+        ) from None
+    except (OSError, ValueError, TypeError) as exc:
+        raise PlotError(f"job journal {path} is unreadable ({exc}); use --start-line N instead") from None
+    journal.path = path
+    return journal

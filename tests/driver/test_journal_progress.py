@@ -1,0 +1,69 @@
+"""Job journal (atomic, round-trips, clear errors) and progress output modes."""
+
+import io
+import json
+
+import pytest
+
+from pencilbot.driver.journal import Journal, journal_path, load_journal
+from pencilbot.driver.progress import Progress
+from pencilbot.errors import PlotError
+
+
+def make(tmp_path):
+    gcode = tmp_path / "job.gcode"
+    gcode.write_text("G21\nG90\n")
+    journal = Journal(str(gcode), "abc", "sim://", "grbl-servo-a4", 2, path=journal_path(gcode))
+    return gcode, journal
+
+
+def test_journal_sits_next_to_the_gcode_and_round_trips(tmp_path):
+    gcode, journal = make(tmp_path)
+    journal.acked_line, journal.next_line, journal.stop_xy, journal.status = 7, 8, [1.5, 2.0], "stopped"
+    journal.save()
+    assert journal.path == tmp_path / "job.gcode.job.json"
+    for where in (journal.path, gcode):  # by journal or by the G-code it belongs to
+        assert load_journal(where) == journal
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["job.gcode", "job.gcode.job.json"]
+
+
+def test_journal_updates_replace_the_file_whole(tmp_path):
+    _, journal = make(tmp_path)
+    for n in range(1, 30):
+        journal.acked_line = n
+        journal.save()
+        assert json.loads(journal.path.read_text())["acked_line"] == n
+    assert len(list(tmp_path.iterdir())) == 2
+
+
+def test_missing_or_broken_journal_is_a_plain_error(tmp_path):
+    with pytest.raises(PlotError, match="no job journal"):
+        load_journal(tmp_path / "nothing.gcode")
+    (tmp_path / "bad.gcode.job.json").write_text("{not json")
+    with pytest.raises(PlotError, match="unreadable.*--start-line"):
+        load_journal(tmp_path / "bad.gcode.job.json")
+
+
+def test_json_lines_progress_reports_lines_percent_state_and_end():
+    out = io.StringIO()
+    progress = Progress("json", total_lines=4, total_seconds=10.0, out=out)
+    progress.update(2, 5.0, "Run")
+    progress.update(4, 10.0, "Idle")  # the last line is always reported
+    progress.close("done")
+    records = [json.loads(l) for l in out.getvalue().splitlines()]
+    assert [r["event"] for r in records] == ["progress", "progress", "done"]
+    assert (records[0]["line"], records[0]["percent"], records[0]["state"]) == (2, 50.0, "Run")
+    assert records[1]["percent"] == 100.0
+
+
+def test_quiet_progress_prints_nothing():
+    out = io.StringIO()
+    progress = Progress("quiet", total_lines=4, total_seconds=1.0, out=out)
+    progress.update(4, 1.0, "Idle")
+    progress.close("done")
+    assert out.getvalue() == ""
+
+
+def test_unknown_progress_mode_is_refused():
+    with pytest.raises(ValueError):
+        Progress("loud", 1, 1.0)

@@ -1,0 +1,96 @@
+"""Modal-state tracking and resume preambles: a resumed job leaves the machine exactly as the full job would."""
+
+from dataclasses import replace
+
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pencilbot.driver.modal import ModalState, PenModel, advance, clean_line, line_seconds
+from pencilbot.driver.resume import resume_preamble, state_before
+
+SPINDLE = PenModel("spindle", up=0, down=1000, up_lines=("M5",), down_lines=("M3S1000",))
+ZPEN = PenModel("z", up=5, down=0, up_lines=("G0Z5",), down_lines=("G1Z0F600",))
+SERVO = PenModel("servo", up=90, down=30, up_lines=("M280P0S90",), down_lines=("M280P0S30",))
+
+
+def run(lines, pen, state=None):
+    state = state or ModalState()
+    for line in lines:
+        state = advance(state, clean_line(line), pen)
+    return state
+
+
+@pytest.mark.parametrize(
+    "raw, cleaned",
+    [("G1 X1.5 Y-2 ; draw", "G1X1.5Y-2"), ("(pen up) M5", "M5"), ("  ", ""), ("g0 x1 (c) y2", "G0X1Y2")],
+)
+def test_clean_line_strips_comments_and_spaces(raw, cleaned):
+    assert clean_line(raw) == cleaned
+
+
+def test_tracks_units_distance_feed_and_position():
+    s = run(["G20", "G91", "G1 X1 Y2 F10", "X1", "G90", "G0 X5"], SPINDLE)
+    assert (s.inches, s.relative, s.feed, s.motion) == (True, False, 10.0, 0)
+    assert (s.x, s.y) == (5.0, 2.0)
+
+
+@pytest.mark.parametrize(
+    "pen, down, up",
+    [(SPINDLE, ["M3 S1000"], ["M5"]), (SPINDLE, ["M3 S900"], ["S10"]), (ZPEN, ["G1 Z0.5"], ["G0 Z4"]),
+     (SERVO, ["M280 P0 S35"], ["M280 P0 S80"])],
+)
+def test_pen_state_follows_the_pen_model(pen, down, up):
+    assert run(down, pen).pen_down
+    assert not run(down + up, pen).pen_down
+
+
+def test_dwell_units_follow_dialect():
+    s = ModalState()
+    assert line_seconds(s, s, "G4P0.5", 3000, "grbl") == 0.5
+    assert line_seconds(s, s, "G4P500", 3000, "marlin") == 0.5
+
+
+def test_move_time_is_distance_over_feed():
+    a = ModalState(feed=600.0, motion=1)
+    b = replace(a, x=30.0, y=40.0)
+    assert line_seconds(a, b, "G1X30Y40", 6000, "grbl") == pytest.approx(5.0)  # 50 mm at 10 mm/s
+    assert line_seconds(replace(a, motion=0), replace(b, motion=0), "G0X30Y40", 6000, "grbl") == pytest.approx(0.5)
+
+
+coord = st.floats(-200, 200, allow_nan=False).map(lambda v: round(v, 3))
+job_line = st.one_of(
+    st.builds(lambda x, y: f"G1 X{x} Y{y}", coord, coord),
+    st.builds(lambda x, y: f"G0 X{x} Y{y}", coord, coord),
+    st.builds(lambda x: f"X{x}", coord),
+    st.builds(lambda f: f"G1 F{f}", st.integers(100, 5000)),
+    st.sampled_from(["M3 S1000", "M5", "G4 P0.1", "G90", "G91", "G21", "G20"]),
+)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(job_line, min_size=1, max_size=25), st.data())
+def test_preamble_then_rest_ends_like_the_whole_job(job, data):
+    cleaned = [clean_line(l) for l in job]
+    k = data.draw(st.integers(0, len(cleaned)))
+    full = run(cleaned, SPINDLE)
+    before = state_before(cleaned, k, SPINDLE)
+    # The machine after a reset: wherever it stopped, pen state unknown, default modes.
+    woken = ModalState(x=-7.0, y=3.0, spindle_on=True, s=1000.0)
+    after_preamble = run(resume_preamble(before, SPINDLE), SPINDLE, woken)
+    fields = ("inches", "relative", "feed", "motion", "x", "y", "pen_down")
+    assert {f: getattr(after_preamble, f) for f in fields} == pytest.approx({f: getattr(before, f) for f in fields})
+    resumed = run(cleaned[k:], SPINDLE, after_preamble)
+    assert {f: getattr(resumed, f) for f in fields} == pytest.approx({f: getattr(full, f) for f in fields})
+
+
+def test_preamble_travels_with_the_pen_up():
+    before = state_before(["G21", "G90", "M3S1000", "G1X10Y10F500"], 4, SPINDLE)
+    lines = resume_preamble(before, SPINDLE, stop_xy=(4.0, 4.0))
+    state = ModalState(spindle_on=True, s=1000.0)
+    for line in lines:
+        nxt = advance(state, line, SPINDLE)
+        if (nxt.x, nxt.y) != (state.x, state.y):
+            assert not state.pen_down and not nxt.pen_down, line
+        state = nxt
+    assert (state.x, state.y, state.pen_down) == (4.0, 4.0, True)
