@@ -1,0 +1,190 @@
+"""Where the picture goes on the paper: page sizes, margins, fit, alignment, rotation.
+
+This module holds the **one** mapping between image pixels and page millimetres, and with it the
+one Y flip: image coordinates are ``(col, row)`` with rows growing downward and pixel ``(r, c)``
+centred at ``(c, r)`` (so the image covers ``[-0.5, W − 0.5] × [-0.5, H − 0.5]``, the convention
+of ``np.nonzero`` indices); page coordinates are mm from the page's bottom-left corner, Y up.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from pencilbot.errors import PencilbotError
+from pencilbot.planning.plan import Page
+
+# Portrait sizes in mm (ISO 216 and US Letter).
+PAGE_SIZES: dict[str, tuple[float, float]] = {
+    "A5": (148.0, 210.0),
+    "A4": (210.0, 297.0),
+    "A3": (297.0, 420.0),
+    "Letter": (215.9, 279.4),
+}
+ORIENTATIONS = ("portrait", "landscape", "auto")
+_CUSTOM = re.compile(r"^\s*(\d+(?:\.\d*)?)\s*[xX×]\s*(\d+(?:\.\d*)?)\s*$")
+_HORIZONTAL = {"left": 0.0, "center": 0.5, "right": 1.0}
+_VERTICAL = {"bottom": 0.0, "center": 0.5, "top": 1.0}
+
+
+def page_size(
+    name: str,
+    orientation: str | None = None,
+    image_shape: tuple[int, int] | None = None,
+    margin: float = 15.0,
+) -> Page:
+    """A page by name (``"A5"``, ``"A4"``, ``"A3"``, ``"Letter"``) or custom ``"WxH"`` in mm.
+
+    Parameters
+    ----------
+    name : str
+        Page name (case-insensitive) or ``"WIDTHxHEIGHT"`` in mm, e.g. ``"300x200"``.
+    orientation : {"portrait", "landscape", "auto"} or None, optional
+        ``portrait`` puts the long side vertical, ``landscape`` horizontal, ``auto`` follows the
+        image (landscape when the image is wider than tall). None keeps the size as given: named
+        pages in portrait, a custom size exactly as typed.
+    image_shape : (H, W), optional
+        Image size in pixels, needed for ``"auto"``.
+    margin : float, optional
+        Blank border on every side, mm.
+
+    Returns
+    -------
+    Page
+    """
+    key = {n.lower(): n for n in PAGE_SIZES}.get(name.strip().lower())
+    if key is not None:
+        width, height = PAGE_SIZES[key]
+    elif match := _CUSTOM.match(name):
+        width, height = float(match[1]), float(match[2])
+        key = f"{match[1]}x{match[2]}"
+    else:
+        raise PencilbotError(
+            f"unknown page size {name!r}: use one of {', '.join(PAGE_SIZES)} "
+            "or a custom size in mm such as 300x200"
+        )
+    if orientation not in (None, *ORIENTATIONS):
+        raise PencilbotError(f"unknown orientation {orientation!r}: use {', '.join(ORIENTATIONS)}")
+    if orientation == "auto":
+        if image_shape is None:
+            raise PencilbotError("orientation 'auto' needs the image size; pass image_shape")
+        orientation = "landscape" if image_shape[1] > image_shape[0] else "portrait"
+    if orientation == "portrait":
+        width, height = min(width, height), max(width, height)
+    elif orientation == "landscape":
+        width, height = max(width, height), min(width, height)
+    if not (width > 0 and height > 0):
+        raise PencilbotError(f"page {name!r} has no area: both sides must be positive mm")
+    if not 0 <= margin < min(width, height) / 2:
+        raise PencilbotError(
+            f"margin {margin} mm does not fit a {width:g} x {height:g} mm page: "
+            f"use 0 to {min(width, height) / 2:g} mm (exclusive)"
+        )
+    return Page(width=width, height=height, margin=float(margin), name=key)
+
+
+@dataclass(frozen=True)
+class Layout:
+    """An image of ``image_shape`` pixels placed on ``page``: uniform scale, rotation, offset.
+
+    Use :meth:`fit` to make one. ``rotate`` turns the picture counter-clockwise on the page
+    (degrees, a multiple of 90). ``drawing_box`` is the picture's rectangle on the page
+    ``(x0, y0, x1, y1)`` in mm, inside the margins.
+    """
+
+    page: Page
+    image_shape: tuple[int, int]
+    mm_per_px: float
+    rotate: int
+    drawing_box: tuple[float, float, float, float]
+
+    @classmethod
+    def fit(
+        cls, image_shape: tuple[int, int], page: Page, align: str = "center", rotate: int = 0
+    ) -> Layout:
+        """Scale an image as large as fits inside the page margins, keeping its aspect ratio.
+
+        Parameters
+        ----------
+        image_shape : (H, W)
+            Image size in pixels.
+        page : Page
+        align : str, optional
+            Where the picture sits in the free space: ``"center"``, or a side or corner such as
+            ``"top"``, ``"left"``, ``"bottom-right"``, ``"top-left"``.
+        rotate : int, optional
+            Counter-clockwise rotation in degrees: 0, 90, 180 or 270.
+        """
+        h, w = int(image_shape[0]), int(image_shape[1])
+        if h <= 0 or w <= 0:
+            raise PencilbotError(f"cannot lay out an empty image of {w} x {h} pixels")
+        if rotate % 90:
+            raise PencilbotError(f"rotation {rotate}° is not supported: use 0, 90, 180 or 270")
+        rotate = int(rotate) % 360
+        fx, fy = _alignment(align)
+        placed_w, placed_h = (h, w) if rotate in (90, 270) else (w, h)
+        m = page.margin
+        free_w, free_h = page.width - 2 * m, page.height - 2 * m
+        scale = min(free_w / placed_w, free_h / placed_h)
+        x0 = m + fx * (free_w - placed_w * scale)
+        y0 = m + fy * (free_h - placed_h * scale)
+        box = (x0, y0, x0 + placed_w * scale, y0 + placed_h * scale)
+        return cls(page, (h, w), scale, rotate, box)
+
+    def px_to_mm(self, pts: np.ndarray) -> np.ndarray:
+        """Image ``(col, row)`` pixel coordinates (N, 2) → page mm (N, 2), Y up."""
+        pts = np.asarray(pts, np.float64).reshape(-1, 2)
+        h, w = self.image_shape
+        # Centre the image, flip rows to Y up, scale, rotate, then move to the box centre.
+        local = np.column_stack([pts[:, 0] - (w - 1) / 2, (h - 1) / 2 - pts[:, 1]]) * self.mm_per_px
+        return local @ self._rotation().T + self._box_centre()
+
+    def mm_to_px(self, pts: np.ndarray) -> np.ndarray:
+        """Page mm (N, 2), Y up → image ``(col, row)`` pixel coordinates (N, 2); inverse of :meth:`px_to_mm`."""
+        pts = np.asarray(pts, np.float64).reshape(-1, 2)
+        h, w = self.image_shape
+        local = (pts - self._box_centre()) @ self._rotation() / self.mm_per_px
+        return np.column_stack([local[:, 0] + (w - 1) / 2, (h - 1) / 2 - local[:, 1]])
+
+    def clip(self, paths: list[np.ndarray], box: tuple[float, float, float, float] | None = None) -> list[np.ndarray]:
+        """Cut paths (mm) to ``box`` (default: the drawing box); outside pieces vanish, crossings split."""
+        paths = [np.asarray(p, np.float64).reshape(-1, 2) for p in paths]
+        keep = [p for p in paths if len(p) >= 2]
+        if not keep:
+            return []
+        owner = np.repeat(np.arange(len(keep)), [len(p) for p in keep])
+        lines = shapely.linestrings(np.concatenate(keep), indices=owner)
+        parts = shapely.get_parts(shapely.clip_by_rect(lines, *(box or self.drawing_box)))
+        parts = parts[shapely.get_type_id(parts) == shapely.GeometryType.LINESTRING]
+        parts = parts[~shapely.is_empty(parts)]
+        coords, index = shapely.get_coordinates(parts, return_index=True)
+        return np.split(coords, np.flatnonzero(np.diff(index)) + 1) if len(coords) else []
+
+    def _rotation(self) -> np.ndarray:
+        theta = np.deg2rad(self.rotate)
+        c, s = round(np.cos(theta)), round(np.sin(theta))  # exact for multiples of 90°
+        return np.array([[c, -s], [s, c]], np.float64)
+
+    def _box_centre(self) -> np.ndarray:
+        x0, y0, x1, y1 = self.drawing_box
+        return np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+
+
+def _alignment(align: str) -> tuple[float, float]:
+    """``"top-left"`` → (0, 1): fractions of free space to the left and below the picture."""
+    fx = fy = 0.5
+    words = align.strip().lower().replace("_", "-").replace(" ", "-").split("-")
+    for word in words:
+        if word in ("left", "right"):
+            fx = _HORIZONTAL[word]
+        elif word in ("top", "bottom"):
+            fy = _VERTICAL[word]
+        elif word not in ("center", "centre", "middle", ""):
+            raise PencilbotError(
+                f"unknown alignment {align!r}: use center, top, bottom, left, right or a corner "
+                "such as top-left"
+            )
+    return fx, fy
