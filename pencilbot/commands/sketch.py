@@ -1,0 +1,123 @@
+"""``pencilbot sketch``: photo → pencil drawing PNG (or the line drawing alone)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from PIL import Image
+
+from pencilbot.commands.common import add_verbosity
+from pencilbot.errors import PencilbotError
+from pencilbot.imaging.gmed import gmed_stages
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
+from pencilbot.imaging.strokes import line_drawing
+
+OUTPUT_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "sketch",
+        help="turn a photo into a pencil drawing image",
+        description="Turn a photo into a pencil drawing (GMED line drawing + pencil tone and texture).",
+    )
+    parser.add_argument("input", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...)")
+    parser.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
+    parser.add_argument("--lines-only", action="store_true", help="write only the line drawing")
+    parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
+    parser.add_argument("--color", action="store_true", help="colour pencil drawing")
+    parser.add_argument(
+        "--line-length", type=int, metavar="N", help="stroke length in pixels (default: by image size, 6-13)"
+    )
+    parser.add_argument("--texture-seed", type=int, default=0, metavar="S", help="pencil texture seed")
+    parser.add_argument(
+        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
+    )
+    parser.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
+    add_verbosity(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    output = Path(args.output)
+    _check_output(output)
+    if args.line_length is not None and args.line_length < 1:
+        raise PencilbotError(f"--line-length must be at least 1 pixel, got {args.line_length}.")
+    if args.max_pixels < 1:
+        raise PencilbotError(f"--max-pixels must be positive, got {args.max_pixels}.")
+    if args.lines_only and args.color:
+        raise PencilbotError("--color needs the tone layer; drop --lines-only or --color.")
+    image = load_image(args.input, max_pixels=args.max_pixels, downscale=args.downscale)
+
+    if args.lines_only:
+        stages = gmed_stages(image.gray)
+        line = line_drawing(stages["edges"], length=args.line_length)
+        result = line.drawing
+    else:
+        from pencilbot.imaging.pencil import sketch  # issue 3's pipeline
+
+        drawn = sketch(
+            image,
+            color=args.color,
+            line_length=args.line_length,
+            texture_seed=args.texture_seed,
+            lines_only=False,
+        )
+        stages = gmed_stages(image.gray) if args.stages else {}
+        line, result = drawn.line, drawn.result
+    if args.stages:
+        stages["lines"] = line.drawing
+        write_stages(Path(args.stages), stages)
+    write_image(result, output)
+    if not args.quiet:
+        height, width = result.shape[:2]
+        print(f"wrote {output} ({width}×{height} px, stroke length {line.length} px)")
+    return 0
+
+
+def write_stages(directory: Path, stages: dict[str, np.ndarray]) -> None:
+    """Write each stage as ``DIR/<name>.png``; maps without a fixed range are scaled to their peak.
+
+    The gradient is shown white-on-black scaled to its maximum so faint edges stay visible; every
+    other stage is already in [0, 1].
+    """
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise PencilbotError(f"cannot create the stages directory {directory}: {err.strerror}.") from None
+    for name, array in stages.items():
+        peak = float(array.max(initial=0.0))
+        shown = array / peak if name == "gradient" and peak > 0 else array
+        write_image(shown, directory / f"{name}.png")
+
+
+def write_image(array: np.ndarray, path: Path) -> None:
+    """Write a float [0, 1] grey or RGB image atomically (temp file in the same folder + rename)."""
+    pixels = np.round(np.clip(array, 0.0, 1.0) * 255.0).astype(np.uint8)
+    image_format = Image.registered_extensions()[path.suffix.lower()]
+    try:
+        fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+        try:
+            with os.fdopen(fd, "wb") as handle:
+                Image.fromarray(pixels).save(handle, format=image_format)
+            os.replace(temp, path)
+        except BaseException:
+            os.unlink(temp)
+            raise
+    except OSError as err:
+        raise PencilbotError(f"cannot write {path}: {err.strerror or err}. Check the folder's permissions and free space.") from None
+
+
+def _check_output(output: Path) -> None:
+    if output.suffix.lower() not in OUTPUT_SUFFIXES:
+        raise PencilbotError(
+            f"cannot tell the image format of {output}: name it with one of {', '.join(OUTPUT_SUFFIXES)}."
+        )
+    if not output.parent.is_dir():
+        raise PencilbotError(
+            f"the folder {output.parent} does not exist; create it or pick another output path."
+        )
