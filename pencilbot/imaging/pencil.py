@@ -1,0 +1,139 @@
+"""The finished pencil drawing R = L · T (paper formula 15), in grey or colour.
+
+The line drawing L (GMED edges → directional strokes) carries the contours, the texture map T
+(the tone target rendered with pencil texture) carries the shading; multiplying them overlays
+graphite on graphite as a second pass of the pencil would.
+
+Colour follows Lu et al.: the drawing replaces the photo's luma and keeps its chroma, in
+Rec. 601 YUV — the space :mod:`pencilbot.imaging.io` already defines grey in, so the drawing is
+made from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y fixed while Y changes by
+ΔY shifts all three channels by the same ΔY, so the colour version is ``rgb + (R − Y)``. Where
+that leaves [0, 1] (a saturated colour pushed towards paper white) the channels are clipped, and
+only there does the chroma change.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pencilbot.imaging.gmed import edge_map
+from pencilbot.imaging.io import LUMA_601, LoadedImage
+from pencilbot.imaging.strokes import LineDrawing, line_drawing
+from pencilbot.imaging.texture import TextureResult, pencil_texture, texture_map
+from pencilbot.imaging.tone import tone_target
+
+
+@dataclass(frozen=True)
+class Sketch:
+    """A pencil drawing and the stages it was made from.
+
+    Attributes
+    ----------
+    result : ndarray of float32, shape (H, W) or (H, W, 3)
+        The drawing in [0, 1], 1 = paper; RGB when made with ``color=True``.
+    line : LineDrawing
+        The line drawing L and its labels and edge map.
+    tone : ndarray of float32, shape (H, W), or None
+        Tone target J (None for a line-only sketch).
+    texture : ndarray of float32, shape (H, W), or None
+        Pencil texture H.
+    fit : TextureResult or None
+        β, T = H^β and the solver's iteration count and residual.
+    timings : dict of str to float
+        Seconds spent in each stage, in pipeline order: ``edges``, ``lines``, ``tone``,
+        ``texture``, ``beta`` (the β solve and T), ``compose``.
+    """
+
+    result: np.ndarray
+    line: LineDrawing
+    tone: np.ndarray | None = None
+    texture: np.ndarray | None = None
+    fit: TextureResult | None = None
+    timings: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def beta(self) -> np.ndarray | None:
+        """β, the number of pencil passes per pixel (None for a line-only sketch)."""
+        return None if self.fit is None else self.fit.beta
+
+    @property
+    def T(self) -> np.ndarray | None:  # noqa: N802 - the paper's name
+        """The texture map T = H^β (None for a line-only sketch)."""
+        return None if self.fit is None else self.fit.T
+
+
+def sketch(
+    image: LoadedImage,
+    *,
+    color: bool = False,
+    line_length: int | None = None,
+    texture_seed: int = 0,
+    lines_only: bool = False,
+) -> Sketch:
+    """Turn a photo into a pencil drawing.
+
+    Parameters
+    ----------
+    image : LoadedImage
+        The photo (its ``gray`` drives every stage; ``rgb`` gives the chroma for ``color``).
+    color : bool
+        Keep the photo's chroma (Rec. 601 YUV) instead of returning grey.
+    line_length : int, optional
+        Stroke length ℓ in pixels; default from the image size (6–13 px).
+    texture_seed : int
+        Seed of the synthesised pencil texture.
+    lines_only : bool
+        Stop after the line drawing: ``result`` is L (in colour if asked), no tone or texture.
+
+    Returns
+    -------
+    Sketch
+    """
+    timings: dict[str, float] = {}
+    clock = time.perf_counter()
+
+    def lap(stage: str) -> None:
+        nonlocal clock
+        now = time.perf_counter()
+        timings[stage] = now - clock
+        clock = now
+
+    edges = edge_map(image.gray)
+    lap("edges")
+    line = line_drawing(edges, length=line_length)
+    lap("lines")
+    if lines_only:
+        luma, tone, texture, fit = line.drawing, None, None, None
+    else:
+        tone = tone_target(image.gray)
+        lap("tone")
+        texture = pencil_texture(image.shape, seed=texture_seed)
+        lap("texture")
+        fit = texture_map(tone, texture)
+        lap("beta")
+        luma = line.drawing * fit.T
+    result = with_luma(image.rgb, luma) if color else luma.astype(np.float32)
+    lap("compose")
+    return Sketch(result=result, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+
+
+def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:
+    """Replace the Rec. 601 luma of ``rgb`` by ``luma``, keeping its chroma (U, V).
+
+    Parameters
+    ----------
+    rgb : ndarray, shape (H, W, 3)
+        Colour image in [0, 1].
+    luma : ndarray, shape (H, W)
+        New luma in [0, 1].
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W, 3)
+        In [0, 1]; chroma equal to ``rgb``'s wherever no channel had to be clipped.
+    """
+    shift = luma - rgb @ LUMA_601
+    return np.clip(rgb + shift[..., None], 0.0, 1.0).astype(np.float32)
