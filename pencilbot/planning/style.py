@@ -1,0 +1,193 @@
+"""Drawing styles: the artistic parameters of a plan, kept as data in ``configs/styles/*.toml``.
+
+A style says how a photo becomes strokes (line length, edge threshold, hatch angles, pen width)
+and where it goes on paper (page, orientation, margin). Shipped styles live in the package
+``pencilbot.configs`` (``styles/<name>.toml``) and are read with :mod:`importlib.resources`, so an
+installed wheel finds them; a path to any TOML file works too. Every key is optional (missing keys
+keep the defaults below); an unknown key or a wrongly typed value is a
+:class:`~pencilbot.errors.ProfileError` naming the file and the key, so a typo never silently does
+nothing.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+from pencilbot.errors import ProfileError
+
+
+@dataclass(frozen=True)
+class Style:
+    """How to draw a photo with a pen.
+
+    Attributes
+    ----------
+    name : str
+        The style's name (file stem), recorded in the plan's metadata.
+    page : str
+        Paper: ``"A5"``, ``"A4"``, ``"A3"``, ``"Letter"`` or ``"WxH"`` in mm.
+    orientation : str
+        ``"portrait"``, ``"landscape"`` or ``"auto"`` (follow the image's aspect).
+    margin : float
+        Blank border on every side, mm.
+    pen_width : float
+        Width of the line the pen draws, mm. Sets hatch spacing and how close two parallel
+        edge strokes may be before they merge.
+    line_length : int or None
+        Stroke length ℓ of the line drawing in image pixels; None picks it from the image size.
+    edge_threshold : float or None
+        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None chooses it
+        automatically from the edge map.
+    min_edge_pixels : int
+        Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
+    hatch : bool
+        Whether tone is drawn as hatching at all (False: outline drawing only).
+    hatch_angles : tuple of float
+        Angle of each hatch layer in degrees, counter-clockwise from the page's +x axis. The first
+        layer covers the lightest tones, later layers add darkness on top.
+    hatch_coverage : float
+        Fraction of paper (0, 1) one hatch layer covers at its densest; spacing = pen_width /
+        hatch_coverage.
+    hatch_blur : float
+        Gaussian blur (mm) applied to the darkness before hatching, so hatch runs follow regions
+        of tone instead of pixel noise.
+    min_hatch_run : float
+        Shortest hatch line kept, mm; shorter pieces would be dots.
+    hatch_jitter : float
+        Random offset of each hatch line as a fraction of its spacing (0 = ruled lines).
+    seed : int
+        Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
+    """
+
+    name: str = "default"
+    page: str = "A4"
+    orientation: str = "portrait"
+    margin: float = 15.0
+    pen_width: float = 0.5
+    line_length: int | None = None
+    edge_threshold: float | None = None
+    min_edge_pixels: int = 3
+    hatch: bool = True
+    hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
+    hatch_coverage: float = 0.5
+    hatch_blur: float = 1.0
+    min_hatch_run: float = 2.0
+    hatch_jitter: float = 0.0
+    seed: int = 0
+
+
+_ORIENTATIONS = ("portrait", "landscape", "auto")
+
+
+def load_style(name_or_path: str | Path = "default") -> Style:
+    """Read a style by shipped name (``"default"``) or from a TOML file path.
+
+    Parameters
+    ----------
+    name_or_path : str or Path
+        A name of a file in ``configs/styles`` without ``.toml``, or a path to a TOML file.
+
+    Returns
+    -------
+    Style
+
+    Raises
+    ------
+    ProfileError
+        The style does not exist, is not valid TOML, has an unknown key or a bad value.
+    """
+    text, where, stem = _read_style_text(str(name_or_path))
+    try:
+        table = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
+    return style_from_mapping(table, where=where, name=stem)
+
+
+def list_styles() -> list[str]:
+    """Names of the styles shipped in ``configs/styles``."""
+    folder = resources.files("pencilbot.configs").joinpath("styles")
+    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def style_from_mapping(table: dict, *, where: str = "<style>", name: str = "custom") -> Style:
+    """Validate a parsed TOML table into a :class:`Style` (``where`` names it in errors)."""
+    fields = {f.name: f for f in dataclasses.fields(Style)}
+    values: dict = {"name": name}
+    for key, value in table.items():
+        if key not in fields or key == "name":
+            known = ", ".join(k for k in fields if k != "name")
+            raise ProfileError(
+                f"style file {where} has unknown key {key!r}; the known keys are: {known}"
+            )
+        values[key] = _check_value(key, value, where)
+    return Style(**values)
+
+
+def _read_style_text(name_or_path: str) -> tuple[str, str, str]:
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or path.parent != Path("."):
+        try:
+            return path.read_text(encoding="utf-8"), str(path), path.stem
+        except OSError as exc:
+            raise ProfileError(
+                f"cannot read style file {path} ({exc.strerror}); check the path"
+            ) from None
+    shipped = resources.files("pencilbot.configs").joinpath("styles", f"{name_or_path}.toml")
+    if not shipped.is_file():
+        raise ProfileError(
+            f"no style named {name_or_path!r}; choose one of {', '.join(list_styles())} "
+            "or give a path to a .toml file"
+        )
+    return shipped.read_text(encoding="utf-8"), f"styles/{name_or_path}.toml", name_or_path
+
+
+def _check_value(key: str, value, where: str):
+    def bad(expected: str) -> ProfileError:
+        return ProfileError(f"style file {where}: {key} = {value!r} is invalid; expected {expected}")
+
+    def number(v) -> bool:
+        return isinstance(v, int | float) and not isinstance(v, bool)
+
+    if key in ("page", "orientation"):
+        if not isinstance(value, str):
+            raise bad("a string")
+        if key == "orientation" and value not in _ORIENTATIONS:
+            raise bad(" or ".join(_ORIENTATIONS))
+        return value
+    if key == "hatch":
+        if not isinstance(value, bool):
+            raise bad("true or false")
+        return value
+    if key == "hatch_angles":
+        if not isinstance(value, list) or not value or not all(number(v) for v in value):
+            raise bad("a non-empty list of angles in degrees")
+        return tuple(float(v) for v in value)
+    if key in ("line_length", "min_edge_pixels", "seed"):
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise bad("a whole number ≥ 0")
+        return value
+    if key == "edge_threshold":
+        if not number(value) or not 0 <= value <= 1:
+            raise bad("a number in [0, 1] (or leave it out for automatic)")
+        return float(value)
+    if key == "hatch_coverage":
+        if not number(value) or not 0 < value < 1:
+            raise bad("a number strictly between 0 and 1")
+        return float(value)
+    if key in ("pen_width",):
+        if not number(value) or value <= 0:
+            raise bad("a positive number of millimetres")
+        return float(value)
+    if key == "hatch_jitter":
+        if not number(value) or not 0 <= value <= 1:
+            raise bad("a fraction of the hatch spacing in [0, 1]")
+        return float(value)
+    # margin, hatch_blur, min_hatch_run: lengths in mm
+    if not number(value) or value < 0:
+        raise bad("a number of millimetres ≥ 0")
+    return float(value)
