@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from pencilbot.driver.modal import ModalState, PenModel, advance
+from pencilbot.driver.modal import ModalState, PenModel, advance, clean_line
 
 
 def state_before(lines: Sequence[str], index: int, pen: PenModel) -> ModalState:
@@ -55,3 +55,64 @@ def resume_preamble(
     if state.relative:
         lines.append("G91")
     return lines
+
+
+def pen_model(profile) -> PenModel:
+    """The :class:`PenModel` of a :class:`pencilbot.gcode.profiles.Profile`."""
+    pen = profile.pen
+    return PenModel(
+        kind=pen.kind,
+        up=float(pen.up),
+        down=float(pen.down),
+        up_lines=tuple(clean_line(line) for line in profile.render(pen.up_command)),
+        down_lines=tuple(clean_line(line) for line in profile.render(pen.down_command)),
+    )
+
+
+def locate_stop(
+    states: Sequence[ModalState], acked: int, position: tuple[float, float] | None, *, window: int = 40,
+    tolerance: float = 0.005,
+) -> tuple[int, tuple[float, float] | None]:
+    """Where to resume after the machine stopped at ``position``.
+
+    The plotter has acknowledged lines up to ``acked`` (0-based; −1 for none), but the last few
+    may still have been waiting in its planner when it stopped, so the stop position, not the
+    acknowledgement count, tells what was drawn. The latest acknowledged move (within
+    ``window`` lines) that passes through the position is taken: the machine runs moves in
+    order and a plot rarely passes the very same point twice within a planner's length.
+
+    Parameters
+    ----------
+    states : sequence of ModalState
+        ``states[i]`` is the state after job line ``i``.
+    acked : int
+        Index of the last acknowledged line.
+    position : (float, float) or None
+        Work position where the machine stopped (job units); ``None`` if unknown.
+    window : int
+        How many acknowledged lines back to look (a planner holds 15 moves).
+    tolerance : float
+        Distance (job units) under which the position counts as on a move.
+
+    Returns
+    -------
+    next_index : int
+        First line to send on resume.
+    stop_xy : (float, float) or None
+        Set when the machine stopped inside ``next_index``'s move.
+    """
+    if position is None:
+        return acked + 1, None
+    p = complex(*position)
+    for i in range(acked, max(acked - window, -1), -1):
+        end = complex(states[i].x, states[i].y)
+        start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
+        if abs(p - end) <= tolerance:
+            return i + 1, None
+        seg = end - start
+        if seg == 0:
+            continue
+        t = ((p - start) / seg).real
+        if 0.0 <= t < 1.0 and abs(start + t * seg - p) <= tolerance:
+            return i, (position if t > 0.0 else None)
+    return acked + 1, None

@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.driver.modal import ModalState, PenModel, advance, clean_line, line_seconds
-from pencilbot.driver.resume import resume_preamble, state_before
+from pencilbot.driver.resume import locate_stop, resume_preamble, state_before
 
 SPINDLE = PenModel("spindle", up=0, down=1000, up_lines=("M5",), down_lines=("M3S1000",))
 ZPEN = PenModel("z", up=5, down=0, up_lines=("G0Z5",), down_lines=("G1Z0F600",))
@@ -94,3 +94,33 @@ def test_preamble_travels_with_the_pen_up():
             assert not state.pen_down and not nxt.pen_down, line
         state = nxt
     assert (state.x, state.y, state.pen_down) == (4.0, 4.0, True)
+
+
+def job_states(lines):
+    states, s = [], ModalState()
+    for line in lines:
+        s = advance(s, clean_line(line), SPINDLE)
+        states.append(s)
+    return states
+
+
+JOB = ["G21", "G90", "M3S30", "G0X10Y0", "M3S90", "G1X20Y0F600", "G1X20Y10", "M3S30", "G0X0Y0"]
+
+
+@pytest.mark.parametrize(
+    "position, expected",
+    [
+        ((20.0, 10.0), (8, None)),  # start of the last travel: the acked pen-up before it ran
+        ((20.0, 4.0), (6, (20.0, 4.0))),  # inside G1X20Y10: resend it from the stop point
+        ((15.0, 0.0), (5, (15.0, 0.0))),
+        ((0.0, 0.0), (9, None)),  # everything ran
+        (None, (9, None)),  # position unknown: trust the acknowledgements
+    ],
+)
+def test_locate_stop_finds_the_move_in_progress(position, expected):
+    assert locate_stop(job_states(JOB), len(JOB) - 1, position) == expected
+
+
+def test_locate_stop_never_looks_past_acknowledged_lines():
+    # Acked up to G1X20Y0 (index 5): a position on a later move is not trusted.
+    assert locate_stop(job_states(JOB), 5, (20.0, 5.0)) == (6, None)

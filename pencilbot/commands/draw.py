@@ -1,0 +1,56 @@
+"""``pencilbot draw INPUT --port PORT``: stream G-code to a plotter (or resume a stopped job)."""
+
+from __future__ import annotations
+
+import argparse
+
+from pencilbot.commands.common import add_verbosity
+from pencilbot.driver import draw
+from pencilbot.driver.journal import load_journal
+from pencilbot.errors import PlotError
+
+
+def add_parser(subparsers) -> None:
+    p = subparsers.add_parser(
+        "draw",
+        help="stream G-code to a pen plotter over serial",
+        description="Stream a G-code file to a GRBL or Marlin plotter. If the job stops (error, alarm, "
+        "reset, lost port, Ctrl-C) the message gives the exact command to resume it.",
+    )
+    p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
+    p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
+    p.add_argument("--profile", help="plotter profile name or TOML file (default grbl-servo-a4)")
+    p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default 115200)")
+    p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
+    p.add_argument("--check", action="store_true", help="run the file through GRBL's $C check mode first")
+    p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
+    p.add_argument("--on-error", choices=("stop", "continue"), default="stop",
+                   help="on error:N stop (feed hold, pen up; default) or log it and continue")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue")
+    where.add_argument("--start-line", type=int, metavar="N", help="start at file line N, restoring the state before it")
+    p.add_argument("--timeout", type=float, default=10.0, help="seconds of silence before giving up (default 10)")
+    p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
+    add_verbosity(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    journal = load_journal(args.resume) if args.resume else None
+    gcode = journal.gcode if journal else args.input
+    port = args.port or (journal.port if journal else None)
+    if gcode is None:
+        raise PlotError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
+    if port is None:
+        raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
+    profile = args.profile or (journal.profile if journal else "grbl-servo-a4")
+    progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
+    result = draw(
+        gcode, port, profile=profile, baud=args.baud, unlock=args.unlock, check=args.check,
+        send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
+        resume=args.resume, progress=progress, timeout=args.timeout,
+    )
+    if not args.quiet and not args.json_lines:
+        rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
+        print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
+    return 1 if result.rejected else 0

@@ -1,0 +1,92 @@
+"""Open a serial port by URL and read lines from it.
+
+Every transport goes through :func:`serial.serial_for_url`, so ``/dev/ttyUSB0``, ``COM3``,
+``socket://host:23``, ``rfc2217://host:port`` and the virtual plotter's ``sim://…`` are one code
+path. The simulator's URL handler is found through pyserial's ``protocol_handler_packages`` by
+package name, so the driver never imports the simulator.
+"""
+
+from __future__ import annotations
+
+import time
+
+import serial
+
+from pencilbot.errors import PlotError
+
+#: Package holding ``protocol_sim`` (pyserial looks up ``<package>.protocol_<scheme>``).
+SIM_HANDLER_PACKAGE = "sim"
+#: How long one read waits for the first byte (s): short, so status polls keep their pace.
+READ_SLICE = 0.02
+
+
+class PortLost(Exception):
+    """The port stopped working (unplugged, pty closed, socket dropped)."""
+
+
+def open_port(url: str, *, baudrate: int = 115200) -> serial.SerialBase:
+    """Open ``url`` for streaming.
+
+    Parameters
+    ----------
+    url : str
+        A device path or any pyserial URL, including ``sim://…``.
+    baudrate : int
+        Bits per second (ignored by sockets).
+
+    Raises
+    ------
+    PlotError
+        The port does not exist, is busy, or the URL is malformed.
+    """
+    if SIM_HANDLER_PACKAGE not in serial.protocol_handler_packages:
+        serial.protocol_handler_packages.append(SIM_HANDLER_PACKAGE)
+    try:
+        return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10)
+    except (serial.SerialException, ValueError, OSError) as exc:
+        raise PlotError(
+            f"could not open port {url!r}: {exc}. Check the cable and the port name "
+            "(list ports with: python -m serial.tools.list_ports) and that no other program has it open."
+        ) from None
+
+
+class LineReader:
+    """Split what a port sends into text lines, with transport failures turned into :class:`PortLost`.
+
+    Parameters
+    ----------
+    port : serial.SerialBase
+        An open port (its read timeout bounds how long :meth:`read_lines` blocks).
+    """
+
+    def __init__(self, port: serial.SerialBase):
+        self.port = port
+        self._partial = b""
+        self.last_rx = time.monotonic()
+
+    def read_lines(self) -> list[str]:
+        """Complete lines received so far (without line endings); waits at most one read slice."""
+        try:
+            data = self.port.read(max(self.port.in_waiting, 1))
+        except (serial.SerialException, OSError) as exc:
+            raise PortLost(str(exc)) from None
+        if not data:
+            return []
+        self.last_rx = time.monotonic()
+        *lines, self._partial = (self._partial + data).split(b"\n")
+        return [ln.strip(b"\r").decode("ascii", errors="replace") for ln in lines if ln.strip(b"\r")]
+
+    def write(self, data: bytes) -> None:
+        """Send bytes; a failed write means the port is gone."""
+        try:
+            self.port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise PortLost(str(exc)) from None
+
+    def discard_input(self) -> None:
+        """Forget anything received and not yet read (after a wake or a reset)."""
+        try:
+            self.port.reset_input_buffer()
+        except (serial.SerialException, OSError) as exc:
+            raise PortLost(str(exc)) from None
+        self._partial = b""
