@@ -1,0 +1,100 @@
+"""Streaming speed: wall time over motion time on a real-time virtual plotter, and driver CPU cost.
+
+Prints JSON. A 2 000-segment drawing (short strokes, pen lifts between them) is streamed to the
+virtual GRBL plotter emulating 115 200 baud with its motion clock in real time, once with
+character counting and once with send-and-wait. ``ratio`` = wall time / motion time, where the
+motion time is the simulator's planner clock for the same lines (target ≤ 1.05 for character
+counting). ``cpu_ms_per_1000_lines``: process CPU time of the driver side per 1 000 lines with the
+simulator's clock instant (the simulator runs in-process, so this is an upper bound).
+
+Run: ``python bench/stream.py [--segments 2000]``. Timings on a shared 2-core machine are noisy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pencilbot.driver import draw
+from pencilbot.driver.modal import clean_line
+from pencilbot.gcode.profiles import load_profile
+
+PROFILE = "grbl-servo-a4"
+
+
+def drawing_lines(segments: int, per_path: int = 20, seed: int = 0) -> list[str]:
+    """G-code for ``segments`` pen-down segments of 1–2 mm in random-walk paths of ``per_path``,
+    each path starting a few mm from the last (like ordered pencil strokes)."""
+    profile = load_profile(PROFILE)
+    rng = np.random.default_rng(seed)
+    up, down = profile.render(profile.pen.up_command), profile.render(profile.pen.down_command)
+    lines = ["G21", "G90", *up]
+    x, y = 100.0, 150.0
+    for _ in range(math.ceil(segments / per_path)):
+        x, y = float(np.clip(x + rng.uniform(-6, 6), 10, 200)), float(np.clip(y + rng.uniform(-6, 6), 10, 290))
+        lines.append(f"G0 X{x:.3f} Y{y:.3f}")
+        lines.extend(down)
+        for _ in range(per_path):
+            angle, step = rng.uniform(0, 2 * np.pi), rng.uniform(1, 2)
+            x, y = float(np.clip(x + step * np.cos(angle), 10, 200)), float(np.clip(y + step * np.sin(angle), 10, 290))
+            lines.append(f"G1 X{x:.3f} Y{y:.3f} F{profile.motion.draw_feed:.0f}")
+        lines.extend(up)
+    return lines
+
+
+def motion_seconds(lines: list[str]) -> float:
+    """The simulator's planner clock for ``lines`` (instant replay, no serial link)."""
+    from sim.machine import Machine, MachineConfig
+
+    machine = Machine(MachineConfig.from_profile(load_profile(PROFILE)), instant=True)
+    for line in lines:
+        block = machine.parse(clean_line(line))  # the firmware front end strips spaces first
+        if isinstance(block, int):
+            raise RuntimeError(f"simulator rejected {line!r}: error:{block}")
+        if machine.must_wait(block):
+            machine.synchronize()
+        machine.apply(block)
+    machine.finish()
+    return machine.clock
+
+
+def stream_once(path: Path, url: str, send_and_wait: bool) -> tuple[float, float]:
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    draw(path, url, profile=PROFILE, send_and_wait=send_and_wait, progress="quiet", wake_wait=0.5)
+    return time.perf_counter() - wall0, time.process_time() - cpu0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--segments", type=int, default=2000)
+    args = parser.parse_args()
+    lines = drawing_lines(args.segments)
+    motion = motion_seconds(lines)
+    realtime = f"sim://?profile={PROFILE}&baud=115200&realtime=1"
+    instant = f"sim://?profile={PROFILE}&baud=0&realtime=0"
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.gcode"
+        path.write_text("\n".join(lines) + "\n")
+        counting_wall, _ = stream_once(path, realtime, send_and_wait=False)
+        wait_wall, _ = stream_once(path, realtime, send_and_wait=True)
+        _, cpu = stream_once(path, instant, send_and_wait=False)
+    print(json.dumps({
+        "segments": args.segments,
+        "lines": len(lines),
+        "motion_s": round(motion, 2),
+        "character_counting": {"wall_s": round(counting_wall, 2), "ratio": round(counting_wall / motion, 4),
+                               "target": 1.05, "met": counting_wall / motion <= 1.05},
+        "send_and_wait": {"wall_s": round(wait_wall, 2), "ratio": round(wait_wall / motion, 4)},
+        "cpu_ms_per_1000_lines": round(1000 * cpu / len(lines) * 1000, 2),
+        "note": "shared 2-core machine; the simulator runs in the same process",
+    }, indent=1))
+
+
+if __name__ == "__main__":
+    main()

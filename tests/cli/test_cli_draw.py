@@ -1,0 +1,49 @@
+"""`pencilbot draw` argument handling: every user mistake is one plain message, never a traceback."""
+
+import pytest
+
+from pencilbot.cli import main
+
+
+def run(capsys, *argv):
+    code = main(["draw", *argv])
+    return code, capsys.readouterr().err
+
+
+def test_missing_file_says_which_and_what_to_do(capsys, tmp_path):
+    code, err = run(capsys, str(tmp_path / "nope.gcode"), "--port", "sim://")
+    assert code == 3 and "does not exist" in err and "Traceback" not in err
+
+
+def test_missing_port_is_asked_for(capsys, tmp_path):
+    (tmp_path / "a.gcode").write_text("G21\n")
+    code, err = run(capsys, str(tmp_path / "a.gcode"))
+    assert code == 3 and "--port" in err
+
+
+def test_unopenable_port_names_the_port(capsys, tmp_path):
+    (tmp_path / "a.gcode").write_text("G21\n")
+    code, err = run(capsys, str(tmp_path / "a.gcode"), "--port", str(tmp_path / "ttyNOPE"))
+    assert code == 3 and "could not open port" in err and "ttyNOPE" in err
+
+
+def test_resume_without_journal_explains(capsys, tmp_path):
+    code, err = run(capsys, "--resume", str(tmp_path / "job.gcode"), "--port", "sim://")
+    assert code == 3 and "no job journal" in err
+
+
+def test_empty_gcode_is_refused_before_opening_the_port(capsys, tmp_path):
+    (tmp_path / "e.gcode").write_text("; only a comment\n\n")
+    code, err = run(capsys, str(tmp_path / "e.gcode"), "--port", str(tmp_path / "ttyNOPE"))
+    assert code == 3 and "no G-code commands" in err
+
+
+def test_start_line_outside_the_file(capsys, tmp_path):
+    (tmp_path / "a.gcode").write_text("G21\nG90\n")
+    code, err = run(capsys, str(tmp_path / "a.gcode"), "--port", "sim://", "--start-line", "9")
+    assert code == 3 and "outside" in err
+
+
+def test_resume_and_start_line_exclude_each_other(capsys):
+    with pytest.raises(SystemExit):
+        main(["draw", "x.gcode", "--resume", "j", "--start-line", "3"])
