@@ -42,6 +42,8 @@ class GrblSession:
         self.budget = budget
         self.timeout = timeout
         self.status: grbl.Status | None = None
+        self._pending: deque[tuple[int, int]] = deque()
+        self._on_ack: Callable[[int, str], None] = lambda index, state: None
         self.wco: tuple[float, ...] = (0.0, 0.0, 0.0)
         self._last_poll = 0.0
         self.reports = 0  # status reports received so far
@@ -94,7 +96,8 @@ class GrblSession:
 
         Sends line endings (a board that just reset on port open ignores the first bytes),
         waits for the banner, and if none comes (the board did not reset) asks for one with a
-        soft reset, which is harmless before a job. Input received meanwhile is discarded.
+        soft reset, which is harmless before a job. The board answers each line ending with an
+        ``ok``; reading on until the line goes quiet keeps those out of the job's count.
 
         Raises
         ------
@@ -111,17 +114,20 @@ class GrblSession:
                 f"no GRBL banner from {self.reader.port.name} within {2 * wait:g} s: check the port, "
                 "the baud rate (--baud) and that the board runs GRBL (a Marlin board needs a marlin profile)"
             )
-        time.sleep(0.05)  # the banner's follow-up lines ([MSG:…]) arrive right behind it
-        self.reader.discard_input()
         return version
 
-    def _await_banner(self, wait: float) -> str | None:
+    def _await_banner(self, wait: float, quiet: float = 0.15) -> str | None:
+        """The version of a banner seen within ``wait`` s, once nothing more arrived for ``quiet`` s."""
         deadline = time.monotonic() + wait
+        version = None
         while time.monotonic() < deadline:
             for message in self._messages():
                 if isinstance(message, grbl.Welcome):
-                    return message.version
-        return None
+                    version = message.version
+            if version is not None and time.monotonic() - self.reader.last_rx >= quiet:
+                break
+        self.reader.discard_input()
+        return version
 
     def query_status(self, wait: float | None = None) -> grbl.Status:
         """Ask for a status report and return it (other messages are dropped)."""
@@ -198,6 +204,8 @@ class GrblSession:
         """
         encoded = [grbl.encode_line(line) for line in lines]
         pending: deque[tuple[int, int]] = deque()  # (index, bytes) sent and not yet answered
+        # Kept for halt(): lines still in flight when a fault stops the stream are answered late.
+        self._pending, self._on_ack = pending, on_ack
         in_flight = 0
         rejected: list[int] = []
         nxt = start
@@ -256,13 +264,22 @@ class GrblSession:
         self.status = None
         while time.monotonic() < deadline:
             self._poll()
-            for _ in self._messages():
-                pass  # late oks and errors for lines about to be discarded
+            for message in self._messages():
+                # The board keeps parsing what it had received: those lines reach the planner
+                # (and may run before the reset), so they count as acknowledged.
+                if isinstance(message, (grbl.Ok, grbl.Error)) and self._pending:
+                    index, _ = self._pending.popleft()
+                    if isinstance(message, grbl.Ok):
+                        self._on_ack(index, self.state)
             st = self.status
             if st is not None and (st.state in HOLD_STATES or (st.state == "Hold" and st.substate == 0)):
                 break
+        return self.reset(wait)
+
+    def reset(self, wait: float = 5.0) -> bool:
+        """Soft reset (0x18): flush the board's buffers and planner; True once the banner came.
+
+        Also the way out of a critical alarm (hard/soft limit), after which GRBL reads nothing.
+        """
         self.reader.write(grbl.SOFT_RESET)
-        banner = self._await_banner(wait)
-        time.sleep(0.05)
-        self.reader.discard_input()
-        return banner is not None
+        return self._await_banner(wait) is not None

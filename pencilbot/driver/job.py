@@ -276,7 +276,7 @@ class _Runner:
         self._setup_command(session, "$C", "entering check mode")
         rejected = session.stream(self.job.lines, 0, lambda i, s: None, on_error="continue")
         session.command("$C")  # leaving check mode soft-resets GRBL
-        session.wake(2.5)
+        session.reset()
         if rejected:
             where = ", ".join(str(self.job.numbers[i]) for i in rejected[:10])
             more = f" and {len(rejected) - 10} more" if len(rejected) > 10 else ""
@@ -319,11 +319,16 @@ class _Runner:
         try:
             if fault.kind in ("error", "interrupt", "timeout"):
                 session.halt()
+            elif fault.kind == "alarm":
+                session.reset()  # a limit alarm blocks all input until a reset
             session.query_status(wait=min(session.timeout, 3.0))
             position = session.work_position()
             for line in self.pen.up_lines:
                 reply = session.command(line)
                 if type(reply).__name__ == "Error":
+                    if self.pen.kind == "spindle":
+                        # GRBL switches the spindle off on an alarm or reset; M5 is pen up here.
+                        return "pen up (the alarm switched the spindle off)", position
                     return f"the plotter refused to raise the pen ({reply}: it is locked by the alarm)", position
             if position is not None and self.job.states[max(self.acked, 0)].inches:
                 position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
