@@ -96,13 +96,15 @@ def gml_lut(source_hist: np.ndarray, target_hist: np.ndarray) -> np.ndarray:
 
 
 def sml_lut(source_hist: np.ndarray, target_hist: np.ndarray) -> np.ndarray:
-    """Histogram specification by the single mapping law: each source level goes to the target
-    level whose cumulative histogram is closest to its own.
+    """Histogram specification by the single mapping law: each source level goes to the
+    non-empty target level whose cumulative histogram is closest to its own (the lower one on a
+    tie).
 
     Parameters and return as :func:`gml_lut`.
     """
     cs, ct = _cumulative(source_hist), _cumulative(target_hist)
-    return _closest(ct, cs)
+    targets = np.flatnonzero(np.asarray(target_hist) > 0)
+    return targets[_closest(ct[targets], cs)]
 
 
 def tone_target(
@@ -150,8 +152,7 @@ def _closest(cum: np.ndarray, values: np.ndarray) -> np.ndarray:
     hi = np.clip(np.searchsorted(cum, values, side="left"), 0, cum.size - 1)
     below = np.maximum(hi - 1, 0)
     # hi is already the first of its run of equal entries; move the candidate below to the
-    # first of its run too (a flat run of a cumulative histogram is an empty level after the
-    # one that filled it, and an empty level must never win).
+    # first of its run too, so the lowest index wins among equals (as argmin would).
     lo = np.searchsorted(cum, cum[below], side="left")
     take_lo = np.abs(values - cum[lo]) <= np.abs(cum[hi] - values)
     return np.where(take_lo, lo, hi)
