@@ -1,0 +1,263 @@
+"""pyserial URL handler ``sim://``: a serial port wired to an in-process virtual GRBL plotter.
+
+Register the package once (``serial.protocol_handler_packages.append("sim")``; the driver's
+``open_port`` does it) and open ::
+
+    serial.serial_for_url("sim://NAME?profile=grbl-servo-a4&baud=115200&realtime=0&faults=error@5")
+
+URL parts (all optional):
+
+``NAME``
+    Registry key. Ports opened with the same name reach the same plotter (so a test can look
+    at what a driver drew with :func:`plotter` and a sender can reconnect after a dropped
+    link); without a name every open makes a fresh plotter.
+``profile``
+    Plotter profile name or TOML path (bed, pen, motion); default ``grbl-servo-a4``.
+``baud``
+    Emulated line speed in bit/s (10 bits per byte, both directions); ``0`` (default): no limit.
+``realtime``
+    ``0`` (default): instant — motion costs no wall time, the simulated clock still counts.
+    ``r > 0``: the machine moves ``r`` times faster than real time (``1`` = real time), so the
+    planner fills, ``ok`` waits for room and the receive buffer can overflow, as on hardware.
+``faults``
+    Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.firmware.Faults`.
+``reset``
+    ``1`` (default): opening the port resets the board like an Arduino's DTR line does (banner,
+    motion stopped). ``0``: a board without auto-reset.
+
+``port.plotter`` is the :class:`VirtualPlotter` behind an open port.
+"""
+
+from __future__ import annotations
+
+import time
+import urllib.parse
+
+import serial
+from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
+
+from sim.canvas import Canvas
+from sim.firmware import Faults, Firmware
+from sim.machine import Machine, MachineConfig
+
+DEFAULT_PROFILE = "grbl-servo-a4"
+_OPTIONS = ("profile", "baud", "realtime", "faults", "reset")
+_PLOTTERS: dict[str, VirtualPlotter] = {}
+_SLICE = 0.001  # s between polls while a read waits
+
+
+class _Wire:
+    """Bytes in flight over a serial line at ``baud`` bit/s (10 bits per byte); 0 = instant."""
+
+    def __init__(self, baud: int):
+        self.rate = baud / 10.0
+        self.buf = bytearray()
+        self.t = 0.0  # when the head byte started its way
+
+    def put(self, data: bytes, now: float) -> None:
+        if not self.buf:
+            self.t = now
+        self.buf += data
+
+    def take(self, now: float) -> bytes:
+        n = len(self.buf) if not self.rate else min(int((now - self.t) * self.rate), len(self.buf))
+        chunk = bytes(self.buf[:n])
+        del self.buf[:n]
+        if self.rate:
+            self.t += n / self.rate
+        return chunk
+
+
+class VirtualPlotter:
+    """A virtual GRBL plotter: firmware, machine, clock and wires, driven by :meth:`pump`.
+
+    Parameters
+    ----------
+    profile : str
+        Profile name or path (see :func:`pencilbot.gcode.profiles.load_profile`).
+    baud : int
+        Emulated bit/s, 0 for unlimited.
+    realtime : float
+        0 for instant motion, else the speed-up over real time.
+    faults : Faults
+        Failures to inject.
+    """
+
+    def __init__(self, profile: str = DEFAULT_PROFILE, *, baud: int = 0, realtime: float = 0.0,
+                 faults: Faults | None = None):
+        from pencilbot.gcode.profiles import load_profile
+
+        self.profile = load_profile(profile)
+        self.machine = Machine(MachineConfig.from_profile(self.profile), instant=realtime == 0)
+        self.firmware = Firmware(self.machine, faults)
+        self.realtime = realtime
+        self._to_board = _Wire(baud)
+        self._to_host = _Wire(baud)
+        self._last = time.monotonic()
+
+    def write(self, data: bytes) -> None:
+        """Bytes from the host onto the wire."""
+        self._to_board.put(data, time.monotonic())
+        self.pump()
+
+    def pump(self) -> None:
+        """Deliver what has arrived at the board, run the clock, put its replies on the wire."""
+        now = time.monotonic()
+        elapsed, self._last = now - self._last, now
+        self.firmware.receive(self._to_board.take(now))
+        self.firmware.poll(elapsed * self.realtime)
+        self._to_host.put(self.firmware.take_output(), now)
+
+    def read(self) -> bytes:
+        """What has reached the host so far."""
+        self.pump()
+        return self._to_host.take(time.monotonic())
+
+    def canvas(self, *, dpi: float = 100, pen_width: float = 0.5, travel: bool = False) -> Canvas:
+        """The bed as drawn so far (queued motion finished first in instant mode)."""
+        self.firmware.finish()
+        bed = self.profile.bed
+        canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
+        canvas.draw_paths(self.machine.bed_strokes())
+        if travel:
+            canvas.draw_travel(self.machine.bed_travel())
+        return canvas
+
+    @property
+    def seconds(self) -> float:
+        """Simulated seconds of motion and dwell so far."""
+        return self.machine.clock
+
+
+def plotter(name: str) -> VirtualPlotter:
+    """The plotter a ``sim://NAME`` port reaches (``KeyError`` if none was opened)."""
+    return _PLOTTERS[name]
+
+
+def forget(name: str) -> None:
+    """Remove ``name`` from the registry (the next ``sim://NAME`` gets a fresh plotter)."""
+    _PLOTTERS.pop(name, None)
+
+
+def parse_url(url: str) -> tuple[str, dict[str, str]]:
+    """``(name, options)`` from a ``sim://`` URL; ``SerialException`` says what is wrong."""
+    parts = urllib.parse.urlsplit(url)
+    if parts.scheme != "sim":
+        raise SerialException(f"expected a sim:// URL, got {url!r}")
+    options = {}
+    for key, values in urllib.parse.parse_qs(parts.query, keep_blank_values=True).items():
+        if key not in _OPTIONS:
+            raise SerialException(f"unknown sim:// option {key!r}; use {', '.join(_OPTIONS)}")
+        options[key] = values[-1]
+    return parts.netloc + parts.path.strip("/"), options
+
+
+def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
+    """Build a plotter from URL / command-line options (strings)."""
+    try:
+        baud = int(options.get("baud", 0))
+        realtime = float(options.get("realtime", 0))
+        faults = Faults.parse(options.get("faults", ""))
+    except ValueError as exc:
+        raise SerialException(f"bad sim:// option: {exc}") from None
+    if baud < 0 or realtime < 0:
+        raise SerialException("sim:// baud and realtime must be 0 or positive")
+    return VirtualPlotter(options.get("profile", DEFAULT_PROFILE), baud=baud, realtime=realtime, faults=faults)
+
+
+class Serial(SerialBase):
+    """The pyserial port class pyserial finds for ``sim://`` URLs."""
+
+    plotter: VirtualPlotter | None = None
+
+    def open(self) -> None:
+        if self.is_open:
+            raise SerialException("Port is already open.")
+        name, options = parse_url(self.portstr)
+        fresh = not name or name not in _PLOTTERS
+        self.plotter = plotter_from_options(options) if fresh else _PLOTTERS[name]
+        if name:
+            _PLOTTERS[name] = self.plotter
+        firmware = self.plotter.firmware
+        firmware.link_dropped = False  # plugged back in
+        if not fresh and options.get("reset", "1") != "0":
+            firmware.reset(reboot=True)
+        self._rx = bytearray()
+        self.is_open = True
+
+    def close(self) -> None:
+        self.is_open = False
+
+    def _reconfigure_port(self) -> None:
+        """Line settings mean nothing to a virtual wire."""
+
+    def _check(self) -> VirtualPlotter:
+        if not self.is_open:
+            raise PortNotOpenError()
+        if self.plotter.firmware.link_dropped:
+            raise SerialException("device reports readiness to read but returned no data (link dropped)")
+        return self.plotter
+
+    def _pump(self) -> None:
+        self._rx += self._check().read()
+
+    @property
+    def in_waiting(self) -> int:
+        self._pump()
+        return len(self._rx)
+
+    def read(self, size: int = 1) -> bytes:
+        timeout = Timeout(self._timeout)
+        while True:
+            self._pump()
+            if len(self._rx) >= size or timeout.expired():
+                break
+            time.sleep(_SLICE)
+        data = bytes(self._rx[:size])
+        del self._rx[:size]
+        return data
+
+    def write(self, data) -> int:
+        self._check().write(bytes(data))
+        return len(data)
+
+    def reset_input_buffer(self) -> None:
+        self._pump()
+        self._rx.clear()
+
+    def reset_output_buffer(self) -> None:
+        self._check()
+
+    def send_break(self, duration: float = 0.25) -> None:
+        self._check()
+
+    def _update_break_state(self) -> None:
+        pass
+
+    def _update_rts_state(self) -> None:
+        pass
+
+    def _update_dtr_state(self) -> None:
+        pass
+
+    @property
+    def cts(self) -> bool:
+        return True
+
+    @property
+    def dsr(self) -> bool:
+        return True
+
+    @property
+    def ri(self) -> bool:
+        return False
+
+    @property
+    def cd(self) -> bool:
+        return True
+
+
+def register() -> None:
+    """Make ``serial.serial_for_url`` find this handler (idempotent)."""
+    if "sim" not in serial.protocol_handler_packages:
+        serial.protocol_handler_packages.append("sim")
