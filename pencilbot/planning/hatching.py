@@ -136,19 +136,19 @@ def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_ru
     a = np.deg2rad(angle)
     direction = np.array([np.cos(a), np.sin(a)])
     normal = np.array([-np.sin(a), np.cos(a)])
-    pts = (
-        centre
-        + along_t[None, :, None] * direction
-        + offsets[:, None, None] * normal
-    )
-    px = layout.mm_to_px(pts.reshape(-1, 2))
+    # The page → pixel map is affine: map each line's centre and the unit step once, then
+    # every sample is a broadcast multiply-add (float32) instead of millions of mappings.
+    base_mm = centre + offsets[:, None] * normal
+    base_px = layout.mm_to_px(base_mm).astype(np.float32)
+    step_px = (layout.mm_to_px(centre + direction) - layout.mm_to_px(centre))[0].astype(np.float32)
+    t = along_t.astype(np.float32)
     height, width = dark.shape
-    col = np.rint(px[:, 0]).astype(np.intp)
-    row = np.rint(px[:, 1]).astype(np.intp)
+    col = np.rint(base_px[:, None, 0] + t[None, :] * step_px[0]).astype(np.intp)
+    row = np.rint(base_px[:, None, 1] + t[None, :] * step_px[1]).astype(np.intp)
     inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
-    values = np.zeros(col.size, dtype=np.float32)
+    values = np.zeros(col.shape, dtype=np.float32)
     values[inside] = dark[row[inside], col[inside]]
-    on = values.reshape(len(offsets), along_t.size) > threshold[:, None]
+    on = values > threshold[:, None]
 
     padded = np.zeros((on.shape[0], on.shape[1] + 2), dtype=np.int8)
     padded[:, 1:-1] = on
@@ -175,7 +175,7 @@ def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_ru
     line_s, start, stop, backwards = line_s[order], start[order], stop[order], backwards[order]
     t0 = np.where(backwards, along_t[stop], along_t[start])
     t1 = np.where(backwards, along_t[start], along_t[stop])
-    base = centre + offsets[line_s, None] * normal
+    base = base_mm[line_s]
     p0 = base + t0[:, None] * direction
     p1 = base + t1[:, None] * direction
     return list(np.stack([p0, p1], axis=1))

@@ -18,6 +18,7 @@ from importlib import resources
 from pathlib import Path
 
 from pencilbot.errors import ProfileError
+from pencilbot.planning.layout import ORIENTATIONS
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,8 @@ class Style:
         Shortest hatch line kept, mm; shorter pieces would be dots.
     hatch_jitter : float
         Random offset of each hatch line as a fraction of its spacing (0 = ruled lines).
+    order_time : float
+        Seconds the path ordering may spend improving on nearest neighbour, for the whole plan.
     seed : int
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """
@@ -77,10 +80,8 @@ class Style:
     hatch_blur: float = 1.0
     min_hatch_run: float = 2.0
     hatch_jitter: float = 0.0
+    order_time: float = 0.5
     seed: int = 0
-
-
-_ORIENTATIONS = ("portrait", "landscape", "auto")
 
 
 def load_style(name_or_path: str | Path = "default") -> Style:
@@ -105,7 +106,7 @@ def load_style(name_or_path: str | Path = "default") -> Style:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
-    return style_from_mapping(table, where=where, name=stem)
+    return with_overrides(Style(name=stem), table, where=f"style file {where}")
 
 
 def list_styles() -> list[str]:
@@ -114,18 +115,29 @@ def list_styles() -> list[str]:
     return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
 
-def style_from_mapping(table: dict, *, where: str = "<style>", name: str = "custom") -> Style:
-    """Validate a parsed TOML table into a :class:`Style` (``where`` names it in errors)."""
-    fields = {f.name: f for f in dataclasses.fields(Style)}
-    values: dict = {"name": name}
-    for key, value in table.items():
-        if key not in fields or key == "name":
-            known = ", ".join(k for k in fields if k != "name")
-            raise ProfileError(
-                f"style file {where} has unknown key {key!r}; the known keys are: {known}"
-            )
-        values[key] = _check_value(key, value, where)
-    return Style(**values)
+def with_overrides(style: Style, values: dict, *, where: str = "command line") -> Style:
+    """``style`` with some parameters replaced, each checked as strictly as in a style file.
+
+    Parameters
+    ----------
+    style : Style
+    values : dict
+        Parameter name → new value (TOML types: str, int, float, bool, list).
+    where : str
+        Where the values came from, for error messages.
+
+    Raises
+    ------
+    ProfileError
+        An unknown parameter or a bad value.
+    """
+    known = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
+    checked = {}
+    for key, value in values.items():
+        if key not in known:
+            raise ProfileError(f"{where} has unknown key {key!r}; the known keys are: {', '.join(known)}")
+        checked[key] = _check_value(key, value, where)
+    return dataclasses.replace(style, **checked)
 
 
 def _read_style_text(name_or_path: str) -> tuple[str, str, str]:
@@ -148,7 +160,7 @@ def _read_style_text(name_or_path: str) -> tuple[str, str, str]:
 
 def _check_value(key: str, value, where: str):
     def bad(expected: str) -> ProfileError:
-        return ProfileError(f"style file {where}: {key} = {value!r} is invalid; expected {expected}")
+        return ProfileError(f"{where}: {key} = {value!r} is invalid; expected {expected}")
 
     def number(v) -> bool:
         return isinstance(v, int | float) and not isinstance(v, bool)
@@ -156,8 +168,8 @@ def _check_value(key: str, value, where: str):
     if key in ("page", "orientation"):
         if not isinstance(value, str):
             raise bad("a string")
-        if key == "orientation" and value not in _ORIENTATIONS:
-            raise bad(" or ".join(_ORIENTATIONS))
+        if key == "orientation" and value not in ORIENTATIONS:
+            raise bad(" or ".join(ORIENTATIONS))
         return value
     if key == "hatch":
         if not isinstance(value, bool):
@@ -168,8 +180,9 @@ def _check_value(key: str, value, where: str):
             raise bad("a non-empty list of angles in degrees")
         return tuple(float(v) for v in value)
     if key in ("line_length", "min_edge_pixels", "seed"):
-        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            raise bad("a whole number ≥ 0")
+        smallest = 2 if key == "line_length" else 0
+        if not isinstance(value, int) or isinstance(value, bool) or value < smallest:
+            raise bad(f"a whole number ≥ {smallest}")
         return value
     if key == "edge_threshold":
         if not number(value) or not 0 <= value <= 1:
@@ -187,7 +200,7 @@ def _check_value(key: str, value, where: str):
         if not number(value) or not 0 <= value <= 1:
             raise bad("a fraction of the hatch spacing in [0, 1]")
         return float(value)
-    # margin, hatch_blur, min_hatch_run: lengths in mm
+    # margin, hatch_blur, min_hatch_run (mm) and order_time (s)
     if not number(value) or value < 0:
-        raise bad("a number of millimetres ≥ 0")
+        raise bad("a number ≥ 0")
     return float(value)

@@ -1,0 +1,187 @@
+"""From a photo to a plan: the one entry point that ties imaging and planning together.
+
+The pencil sketch gives the line drawing (labels, E, ℓ) and the texture tone T = H^β. The plan
+draws the tone first, as hatch layers from light to dark, and the GMED edges last, on top, the
+order an artist shades and then outlines (and the order in which a wet pen smears least over
+its own contours). Each layer is ordered for short pen-up travel, starting where the previous
+layer ended; the first starts at the plotter's home, the page origin.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy import ndimage as ndi
+
+from pencilbot.imaging.io import LoadedImage
+from pencilbot.imaging.pencil import Sketch, sketch
+from pencilbot.planning.hatching import hatch_layers
+from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.ordering import order_paths
+from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.style import Style, load_style
+from pencilbot.planning.vectorize import edge_strokes, edge_threshold
+from sim.canvas import MM_PER_INCH, render_paths
+
+HOME = (0.0, 0.0)
+
+
+def make_plan(
+    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None
+) -> Plan:
+    """Plan the pen drawing of a photo.
+
+    Parameters
+    ----------
+    image : LoadedImage
+        The photo (see :func:`pencilbot.imaging.io.load_image`).
+    page : Page, optional
+        The sheet; default from the style's ``page``, ``orientation`` and ``margin``.
+    style : Style, str or Path, optional
+        A :class:`Style`, a shipped style name or a style file; default ``"default"``.
+
+    Returns
+    -------
+    Plan
+        Hatch layers (lightest first, if the style hatches) then ``"edges"``, each ordered
+        for short pen-up travel; ``meta`` records the source and every drawing parameter.
+    """
+    style = style if isinstance(style, Style) else load_style(style or "default")
+    if page is None:
+        page = page_size(style.page, style.orientation, image.shape, style.margin)
+    drawing = sketch(
+        image, line_length=style.line_length, texture_seed=style.seed, lines_only=not style.hatch
+    )
+    return plan_from_sketch(drawing, page, style, source=image.source)
+
+
+def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str = "") -> Plan:
+    """Plan the pen strokes of an already computed pencil sketch (see :func:`make_plan`).
+
+    Parameters
+    ----------
+    drawing : Sketch
+        Line drawing and, when ``style.hatch``, the texture fit (T).
+    page : Page
+    style : Style
+    source : str
+        Where the picture came from, for the plan's metadata.
+
+    Returns
+    -------
+    Plan
+    """
+    started = time.perf_counter()
+    line = drawing.line
+    layout = Layout.fit(line.edges.shape, page)
+    threshold = edge_threshold(line.edges) if style.edge_threshold is None else style.edge_threshold
+    strokes = edge_strokes(
+        line, layout, pen_width=style.pen_width, threshold=threshold, min_pixels=style.min_edge_pixels
+    )
+    layers = []
+    if style.hatch:
+        hatches = hatch_layers(
+            hatch_darkness(drawing, strokes, layout, pen_width=style.pen_width, blur=style.hatch_blur),
+            layout,
+            pen_width=style.pen_width,
+            angles=style.hatch_angles,
+            coverage=style.hatch_coverage,
+            blur=0.0,  # hatch_darkness is already smoothed at this scale
+            min_run=style.min_hatch_run,
+            jitter=style.hatch_jitter,
+            seed=style.seed,
+        )
+        layers += [layer for layer in hatches if layer.paths]
+    layers.append(Layer("edges", strokes, pen_width=style.pen_width))
+
+    total = sum(len(layer.paths) for layer in layers) or 1
+    position = HOME
+    for layer in layers:
+        # Split the improvement budget by work: a layer's share is its share of the paths.
+        budget = style.order_time * len(layer.paths) / total
+        layer.paths = order_paths(
+            layer.paths, start=position, pen_width=style.pen_width, time_budget=budget
+        )
+        if layer.paths:
+            position = tuple(layer.paths[-1][-1])
+
+    meta = {
+        "source": source,
+        "style": style.name,
+        "page": f"{page.name} {page.width:g}x{page.height:g} mm, margin {page.margin:g} mm",
+        "image_px": f"{line.edges.shape[1]}x{line.edges.shape[0]}",
+        "mm_per_px": f"{layout.mm_per_px:.6g}",
+        "pen_width_mm": f"{style.pen_width:g}",
+        "line_length_px": str(line.length),
+        "edge_threshold": f"{threshold:.4g}",
+        "hatch_angles_deg": " ".join(f"{a:g}" for a in style.hatch_angles) if style.hatch else "",
+        "hatch_coverage": f"{style.hatch_coverage:g}",
+        "texture_seed": str(style.seed),
+        "planning_seconds": f"{time.perf_counter() - started:.3f}",
+    }
+    return Plan(page=page, layers=layers, meta=meta)
+
+
+
+def hatch_darkness(
+    drawing: Sketch, strokes: list[np.ndarray], layout: Layout, *, pen_width: float, blur: float
+) -> np.ndarray:
+    """The darkness the hatching must add so that edges plus hatching match the pencil sketch.
+
+    The sketch's darkness is 1 − R with R = L·T. The pen draws its edge strokes solid, darker
+    than the grey raster lines, so shading with the plain tone 1 − T would overshoot near
+    contours. Ink stacks as 1 − (1 − e)(1 − h), hence the hatching supplies
+    h = 1 − (1 − D) / (1 − e), with D the sketch's and e the edge strokes' darkness, both
+    Gaussian-blurred by ``blur`` mm (the scale at which tone is judged).
+
+    Parameters
+    ----------
+    drawing : Sketch
+        A full (not lines-only) pencil sketch.
+    strokes : list of (N, 2) arrays
+        The edge strokes in page mm.
+    layout : Layout
+    pen_width : float
+        Pen width, mm.
+    blur : float
+        Gaussian sigma, mm.
+
+    Returns
+    -------
+    (H, W) float32 in [0, 1]
+    """
+    edge_ink = ink_on_image_grid(strokes, layout, pen_width=pen_width)
+    sigma = blur / layout.mm_per_px
+    paper = ndi.gaussian_filter(drawing.line.drawing * drawing.T, sigma, mode="nearest")
+    edge_paper = ndi.gaussian_filter(edge_ink, sigma, mode="nearest")
+    return np.clip(1.0 - paper / np.maximum(1.0 - edge_paper, 1e-3), 0.0, 1.0).astype(np.float32)
+
+
+def ink_on_image_grid(paths: list[np.ndarray], layout: Layout, *, pen_width: float) -> np.ndarray:
+    """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
+
+    Parameters
+    ----------
+    paths : list of (N, 2) arrays
+        Paths in page mm, Y up.
+    layout : Layout
+        The placement that produced them.
+    pen_width : float
+        Pen width, mm.
+
+    Returns
+    -------
+    (H, W) float32 in [0, 1]
+        Ink per image pixel, as the plotter's pen would lay it at plot scale.
+    """
+    height, width = layout.image_shape
+    # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
+    points = layout.mm_to_px(np.concatenate(paths)) if paths else np.zeros((0, 2))
+    points[:, 1] = height - 0.5 - points[:, 1]
+    points[:, 0] += 0.5
+    in_px = np.split(points, np.cumsum([len(p) for p in paths])[:-1])
+    return render_paths(
+        in_px, width, height, dpi=MM_PER_INCH, pen_width=pen_width / layout.mm_per_px
+    )
