@@ -6,10 +6,11 @@ graphite on graphite as a second pass of the pencil would.
 
 Colour follows Lu et al.: the drawing replaces the photo's luma and keeps its chroma, in
 Rec. 601 YUV — the space :mod:`pencilbot.imaging.io` already defines grey in, so the drawing is
-made from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y fixed while Y changes by
-ΔY shifts all three channels by the same ΔY, so the colour version is ``rgb + (R − Y)``. Where
-that leaves [0, 1] (a saturated colour pushed towards paper white) the channels are clipped, and
-only there does the chroma change.
+made from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y while Y becomes R means
+``R + (rgb − Y)`` in every channel. A pencil drawing is far lighter than its photo, and a
+saturated colour often does not exist at the new luma; clipping channels would then shift hue
+and darken the drawing's tone, so instead the chroma is scaled down just enough to fit (hue and
+luma exact, saturation reduced only where it must be).
 """
 
 from __future__ import annotations
@@ -133,7 +134,14 @@ def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:
     Returns
     -------
     ndarray of float32, shape (H, W, 3)
-        In [0, 1]; chroma equal to ``rgb``'s wherever no channel had to be clipped.
+        In [0, 1], with luma exactly ``luma``. The chroma equals ``rgb``'s wherever that colour
+        exists at the new luma; where it does not (a saturated orange lifted to near paper
+        white), the chroma is scaled down just enough to fit, keeping its hue.
     """
-    shift = luma - rgb @ LUMA_601
-    return np.clip(rgb + shift[..., None], 0.0, 1.0).astype(np.float32)
+    chroma = rgb - (rgb @ LUMA_601)[..., None]  # per-channel offset from grey; luma 0
+    y = luma[..., None]
+    # Largest k <= 1 with y + k·chroma inside [0, 1] in every channel.
+    with np.errstate(divide="ignore", invalid="ignore"):
+        room = np.where(chroma > 0, (1.0 - y) / chroma, np.where(chroma < 0, -y / chroma, np.inf))
+    k = np.clip(room.min(axis=-1, keepdims=True), 0.0, 1.0)
+    return np.clip(y + k * chroma, 0.0, 1.0).astype(np.float32)

@@ -63,7 +63,7 @@ class TextureResult:
     Attributes
     ----------
     T : ndarray of float32, shape (H, W)
-        Texture map H^β in (0, 1].
+        Texture map min(H^β, 1) in (0, 1].
     beta : ndarray of float32, shape (H, W)
         Number of pencil passes at each pixel (≥ 0 in practice, 0 on paper white).
     iterations : int
@@ -162,7 +162,9 @@ def texture_map(
     rhs = a * np.log(np.clip(J, J_FLOOR, 1.0))
     beta, iterations = _solve(a * a, rhs, float(lam), tol, max_iter)
     residual = _relative_residual(a * a, rhs, float(lam), beta)
-    T = np.exp(beta * a)
+    # Next to paper white the smoothness term makes β overshoot slightly below 0; a pencil
+    # cannot lighten the paper, so T stops at 1.
+    T = np.minimum(np.exp(beta * a), 1.0)
     return TextureResult(T=T, beta=beta, iterations=iterations, residual=residual)
 
 
