@@ -108,7 +108,8 @@ class Firmware:
         self.silent = False
         self._ring = bytearray()
         self._line = bytearray()
-        self._pending: tuple[int, str, Parsed] | None = None
+        # A line waiting to run, or (parsed None) run and waiting for its dwell to end.
+        self._pending: tuple[int, str, Parsed | None] | None = None
         self._alarm = 0  # alarm code while in Alarm state
         self._critical = False  # soft/hard limit: nothing is read until reset
         self._hold = False
@@ -167,10 +168,14 @@ class Firmware:
         self.out += text.encode("ascii") + b"\r\n"
 
     def _resume(self) -> None:
-        if self._pending is not None and not self._must_wait(self._pending[2]):
+        if self._pending is not None:
             index, text, parsed = self._pending
-            self._pending = None
-            self._run_gcode(index, text, parsed)
+            if parsed is None and not self.machine.dwelling:
+                self._pending = None
+                self._reply(index, text, "ok")
+            elif parsed is not None and not self._must_wait(parsed):
+                self._pending = None
+                self._run_gcode(index, text, parsed)
         while not self._blocked and self._ring and not self.silent:
             ring, self._ring = self._ring, bytearray()
             self.receive(bytes(ring))
@@ -263,7 +268,10 @@ class Firmware:
         for message in self.machine.messages:
             self._emit(message)
         self.machine.messages.clear()
-        self._reply(index, text, "ok")
+        if self.machine.dwelling:
+            self._pending = (index, text, None)  # GRBL answers a dwell when it has ended
+        else:
+            self._reply(index, text, "ok")
 
     def _raise_alarm(self, code: int) -> None:
         self._alarm = code
@@ -367,7 +375,7 @@ class Firmware:
             return "Hold:0"
         if m.check_mode:
             return "Check"
-        if m.planner.busy or m.planner.clock < m.dwell_until:
+        if m.planner.busy or m.dwelling:
             return "Run"
         return "Idle"
 

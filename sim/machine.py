@@ -297,7 +297,7 @@ class Machine:
     def must_wait(self, block: Parsed) -> bool:
         """True if ``block`` cannot run yet: it needs the planner empty (pen change, dwell,
         program end) or a free planner slot (a move), or a dwell is still running."""
-        if self.planner.clock < self.dwell_until:
+        if self.dwelling:
             return True
         if self._synchronizes(block):
             return self.planner.busy
@@ -408,6 +408,11 @@ class Machine:
         if self.instant and self.planner.free_blocks == 0:
             self._complete([self.planner.finish_one()])
         self.planner.add(Block(start, target, length, unit, nominal, accel, pen))
+
+    @property
+    def dwelling(self) -> bool:
+        """Real-time mode: a G4 is still counting down."""
+        return self.planner.clock < self.dwell_until
 
     def _dwell(self, seconds: float) -> None:
         if self.check_mode:
