@@ -256,13 +256,14 @@ class GrblSession:
     def halt(self, wait: float = 5.0) -> bool:
         """Feed hold, let the machine decelerate, then soft-reset to drop queued moves.
 
-        A reset once the hold has completed keeps the machine position (GRBL only loses it when
-        reset while moving). Returns whether the board confirmed with a banner.
+        Returns whether the machine was at rest (hold complete or idle) before the reset: then
+        its position is exact even if the board raises ``ALARM:3`` for a reset with moves queued.
         """
         self.reader.write(grbl.FEED_HOLD)
         deadline = time.monotonic() + wait
         self.status = None
-        while time.monotonic() < deadline:
+        at_rest = False
+        while time.monotonic() < deadline and not at_rest:
             self._poll()
             for message in self._messages():
                 # The board keeps parsing what it had received: those lines reach the planner
@@ -272,9 +273,9 @@ class GrblSession:
                     if isinstance(message, grbl.Ok):
                         self._on_ack(index, self.state)
             st = self.status
-            if st is not None and (st.state in HOLD_STATES or (st.state == "Hold" and st.substate == 0)):
-                break
-        return self.reset(wait)
+            at_rest = st is not None and (st.state in HOLD_STATES or (st.state == "Hold" and st.substate == 0))
+        self.reset(wait)
+        return at_rest
 
     def reset(self, wait: float = 5.0) -> bool:
         """Soft reset (0x18): flush the board's buffers and planner; True once the banner came.

@@ -314,24 +314,29 @@ class _Runner:
         return f"{fault} {where}. Stopped; {pen_note}. Resume with: {resume_cmd}"
 
     def _halt_and_lift(self, session, fault):
+        """Stop the machine, read where it stands (job units) and raise the pen: (note, position)."""
         if fault.kind == "port":
-            return "the pen state is unknown (no port to send pen-up)", None
+            return "the pen state is unknown (no port left to raise it)", None
         try:
+            at_rest = False
             if fault.kind in ("error", "interrupt", "timeout"):
-                session.halt()
+                at_rest = session.halt()
             elif fault.kind == "alarm":
                 session.reset()  # a limit alarm blocks all input until a reset
-            session.query_status(wait=min(session.timeout, 3.0))
+            status = session.query_status(wait=min(session.timeout, 3.0))
             position = session.work_position()
-            for line in self.pen.up_lines:
-                reply = session.command(line)
-                if type(reply).__name__ == "Error":
-                    if self.pen.kind == "spindle":
-                        # GRBL switches the spindle off on an alarm or reset; M5 is pen up here.
-                        return "pen up (the alarm switched the spindle off)", position
-                    return f"the plotter refused to raise the pen ({reply}: it is locked by the alarm)", position
             if position is not None and self.job.states[max(self.acked, 0)].inches:
                 position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
+            if status is not None and status.state == "Alarm" and at_rest:
+                # Our own reset of a machine at rest: the position is exact, so the alarm
+                # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
+                session.command("$X")
+            for line in self.pen.up_lines:
+                if type(session.command(line)).__name__ == "Error":
+                    if self.pen.kind == "spindle":
+                        # The alarm switched the spindle off, and spindle off is pen up.
+                        return "pen up (the alarm switched the spindle off)", position
+                    return "the alarm locks G-code, so the pen could not be raised", position
             return "pen raised", position
         except (StreamFault, PortLost) as exc:
             return f"could not raise the pen ({exc})", None
