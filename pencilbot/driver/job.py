@@ -175,7 +175,8 @@ def draw(
             if prof.dialect == "grbl"
             else MarlinSession(reader, timeout=timeout)
         )
-        return runner.run(session, start, stop_xy, check, wake_wait)
+        resumed_acked = job.index_of(journal.acked_line) if resume is not None and journal.acked_line else None
+        return runner.run(session, start, stop_xy, check, wake_wait, resumed_acked)
     finally:
         try:
             reader.port.close()
@@ -207,10 +208,16 @@ class _Runner:
         self.acked = -1
         self._journal_at = 0.0
 
-    def run(self, session, start, stop_xy, check, wake_wait) -> DrawResult:
+    def run(self, session, start, stop_xy, check, wake_wait, resumed_acked=None) -> DrawResult:
+        """Stream from job line ``start``; ``resumed_acked``: last acknowledged index of a resumed job."""
         t0 = time.monotonic()
         try:
             self._prepare(session, check, wake_wait)
+            if resumed_acked is not None:
+                # Where the machine stands now tells what the stopped job really drew (a lost link
+                # or a hung board leaves moves that were acknowledged but never run).
+                here = self._job_position(session, resumed_acked)
+                start, stop_xy = locate_stop(self.job.states, resumed_acked, here) or (start, stop_xy)
             if start > 0:
                 state = self.job.states[start - 1]
                 for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=self.profile.gcode.decimals):
@@ -304,10 +311,9 @@ class _Runner:
         if fault.kind == "error" and self.on_error == "stop":
             # The rejected line never ran: resume no later than it (it is sent again).
             self.acked = min(self.acked, fault.index - 1)
-        index, stop_xy = locate_stop(self.job.states, self.acked, position)
-        if fault.kind == "error":
-            index = min(index, fault.index)
-            stop_xy = stop_xy if index != fault.index else None
+        # Without a known position, trust the acknowledgements; a resume looks again (the
+        # machine's position after reconnecting tells what a lost link or hung board ran).
+        index, stop_xy = locate_stop(self.job.states, self.acked, position) or (self.acked + 1, None)
         line_no = self.job.numbers[min(fault.index, len(self.job.lines) - 1)] if fault.index >= 0 else None
         where = f"at line {line_no} of {self.job.source} ({self.job.lines[fault.index]!r})" if line_no else ""
         resume_cmd = self._resume_command(index, stop_xy, fault)
@@ -324,9 +330,7 @@ class _Runner:
             elif fault.kind == "alarm":
                 session.reset()  # a limit alarm blocks all input until a reset
             status = session.query_status(wait=min(session.timeout, 3.0))
-            position = session.work_position()
-            if position is not None and self.job.states[max(self.acked, 0)].inches:
-                position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
+            position = self._job_position(session, self.acked)
             if status is not None and status.state == "Alarm" and at_rest:
                 # Our own reset of a machine at rest: the position is exact, so the alarm
                 # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
@@ -340,6 +344,13 @@ class _Runner:
             return "pen raised", position
         except (StreamFault, PortLost) as exc:
             return f"could not raise the pen ({exc})", None
+
+    def _job_position(self, session, acked: int):
+        """The machine's work position X, Y in the units the job uses at line ``acked``."""
+        position = session.work_position()
+        if position is not None and self.job.states[max(acked, 0)].inches:
+            position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
+        return position
 
     def _resume_command(self, index, stop_xy, fault) -> str:
         unlock = " --unlock" if fault.kind in ("alarm", "reset") else ""

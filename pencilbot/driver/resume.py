@@ -72,8 +72,9 @@ def pen_model(profile) -> PenModel:
 def locate_stop(
     states: Sequence[ModalState], acked: int, position: tuple[float, float] | None, *, window: int = 40,
     tolerance: float = 0.005,
-) -> tuple[int, tuple[float, float] | None]:
-    """Where to resume after the machine stopped at ``position``.
+) -> tuple[int, tuple[float, float] | None] | None:
+    """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
+    the last acknowledged moves (unknown, or the machine was power-cycled or moved by hand).
 
     The plotter has acknowledged lines up to ``acked`` (0-based; −1 for none), but the last few
     may still have been waiting in its planner when it stopped, so the stop position, not the
@@ -102,7 +103,7 @@ def locate_stop(
         Set when the machine stopped inside ``next_index``'s move.
     """
     if position is None:
-        return acked + 1, None
+        return None
     p = complex(*position)
     for i in range(acked, max(acked - window, -1), -1):
         end = complex(states[i].x, states[i].y)
@@ -115,4 +116,4 @@ def locate_stop(
         t = ((p - start) / seg).real
         if 0.0 <= t < 1.0 and abs(start + t * seg - p) <= tolerance:
             return i, (position if t > 0.0 else None)
-    return acked + 1, None
+    return None

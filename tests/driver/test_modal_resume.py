@@ -114,7 +114,8 @@ JOB = ["G21", "G90", "M3S30", "G0X10Y0", "M3S90", "G1X20Y0F600", "G1X20Y10", "M3
         ((20.0, 4.0), (6, (20.0, 4.0))),  # inside G1X20Y10: resend it from the stop point
         ((15.0, 0.0), (5, (15.0, 0.0))),
         ((0.0, 0.0), (9, None)),  # everything ran
-        (None, (9, None)),  # position unknown: trust the acknowledgements
+        ((50.0, 50.0), None),  # not on the job's last moves (power-cycled, moved by hand)
+        (None, None),  # position unknown
     ],
 )
 def test_locate_stop_finds_the_move_in_progress(position, expected):
@@ -123,4 +124,4 @@ def test_locate_stop_finds_the_move_in_progress(position, expected):
 
 def test_locate_stop_never_looks_past_acknowledged_lines():
     # Acked up to G1X20Y0 (index 5): a position on a later move is not trusted.
-    assert locate_stop(job_states(JOB), 5, (20.0, 5.0)) == (6, None)
+    assert locate_stop(job_states(JOB), 5, (20.0, 5.0)) is None
