@@ -90,6 +90,7 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
             coverage=style.hatch_coverage,
             blur=0.0,  # hatch_darkness is already smoothed at this scale
             min_run=style.min_hatch_run,
+            blank_below=style.hatch_blank_below,
             jitter=style.hatch_jitter,
             seed=style.seed,
         )

@@ -35,6 +35,7 @@ def hatch_layers(
     coverage: float = 0.5,
     blur: float = 1.0,
     min_run: float = 2.0,
+    blank_below: float = 0.0,
     jitter: float = 0.0,
     seed: int = 0,
 ) -> list[Layer]:
@@ -57,6 +58,8 @@ def hatch_layers(
         Gaussian sigma in mm applied to ``darkness`` first, so runs follow regions, not noise.
     min_run : float
         Shortest kept piece of hatch line, mm; gaps shorter than half of it are bridged.
+    blank_below : float
+        Darkness (after the blur) below which the paper is left blank.
     jitter : float
         Random offset of each line across its direction, as a fraction of the spacing in [0, 1].
     seed : int
@@ -73,6 +76,9 @@ def hatch_layers(
     dark = np.clip(np.asarray(darkness, dtype=np.float32), 0.0, 1.0)
     if blur > 0:
         dark = ndi.gaussian_filter(dark, blur / layout.mm_per_px, mode="nearest")
+    # The lightest tones would get single ruled lines centimetres apart, which read as
+    # scratches, not tone: leave them as paper.
+    dark = np.where(dark < blank_below, 0.0, dark)
     spacing = pen_width / coverage
     step = min(layout.mm_per_px, pen_width) / 2
     x0, y0, x1, y1 = layout.drawing_box

@@ -58,6 +58,9 @@ class Style:
         of tone instead of pixel noise.
     min_hatch_run : float
         Shortest hatch line kept, mm; shorter pieces would be dots.
+    hatch_blank_below : float
+        Darkness in [0, 1) below which no hatching is drawn: the lightest tones stay paper
+        rather than getting single lines centimetres apart.
     hatch_jitter : float
         Random offset of each hatch line as a fraction of its spacing (0 = ruled lines).
     order_time : float
@@ -79,6 +82,7 @@ class Style:
     hatch_coverage: float = 0.5
     hatch_blur: float = 1.0
     min_hatch_run: float = 2.0
+    hatch_blank_below: float = 0.06
     hatch_jitter: float = 0.0
     order_time: float = 0.5
     seed: int = 0
@@ -195,6 +199,10 @@ def _check_value(key: str, value, where: str):
     if key in ("pen_width",):
         if not number(value) or value <= 0:
             raise bad("a positive number of millimetres")
+        return float(value)
+    if key == "hatch_blank_below":
+        if not number(value) or not 0 <= value < 1:
+            raise bad("a darkness in [0, 1)")
         return float(value)
     if key == "hatch_jitter":
         if not number(value) or not 0 <= value <= 1:

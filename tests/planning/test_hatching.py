@@ -120,3 +120,11 @@ def test_ideal_coverage_is_monotone_and_capped(d, f, k):
     assert b >= a - 1e-12
     assert 0 <= a <= 1 - (1 - f) ** k + 1e-12
     assert abs(a - min(d, 1 - (1 - f) ** k)) <= f / 16 + 1e-9
+
+
+def test_the_lightest_tones_stay_paper():
+    layout = _layout()
+    faint = np.full((100, 100), 0.04)
+    assert any(layer.paths for layer in hatch_layers(faint, layout, blank_below=0.0))
+    assert not any(layer.paths for layer in hatch_layers(faint, layout, blank_below=0.06))
+    assert any(layer.paths for layer in hatch_layers(faint + 0.04, layout, blank_below=0.06))
