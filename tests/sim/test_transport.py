@@ -1,0 +1,137 @@
+"""The virtual plotter reached through pyserial: the sim:// URL handler and a real pseudo-terminal."""
+
+import time
+
+import numpy as np
+import pytest
+import serial
+
+from firmware_protocol import grbl
+from pencilbot.errors import ProfileError
+from sim import protocol_sim
+from sim.protocol_sim import VirtualPlotter, plotter
+from sim.pty_server import PtyServer
+
+protocol_sim.register()
+DPI = 150
+
+SQUARE = ["G21", "G90", "M3 S30", "G0 X20 Y20", "M3 S90", "G1 X60 F3000", "G1 Y60", "G1 X20", "G1 Y20",
+          "M3 S30", "G0 X0 Y0"]
+
+
+def read_line(port, deadline=5.0):
+    end = time.monotonic() + deadline
+    buf = b""
+    while not buf.endswith(b"\n"):
+        assert time.monotonic() < end, f"no reply, got {buf!r}"
+        buf += port.read(1)
+    return buf.decode().strip()
+
+
+def send_and_wait(port, lines):
+    """A minimal sender: reset the board (pyserial's open flushes input, so a banner printed
+    before it is gone), then one line at a time, waiting for each ok."""
+    time.sleep(0.05)
+    port.reset_input_buffer()
+    port.write(grbl.SOFT_RESET)
+    assert read_line(port) == ""  # the banner starts with an empty line
+    assert grbl.parse_line(read_line(port)) == grbl.Welcome("1.1h")
+    for line in lines:
+        port.write(grbl.encode_line(line))
+        assert read_line(port) == "ok"
+
+
+def drawing(plotter_):
+    return plotter_.canvas(dpi=DPI).darkness
+
+
+def check_square(darkness):
+    mm = DPI / 25.4  # px per mm
+    rows, cols = darkness.shape
+    def px(x, y):
+        return int(round(rows - y * mm)), int(round(x * mm))
+    for x, y in [(40, 20), (60, 40), (40, 60), (20, 40)]:  # mid-points of the four sides
+        r, c = px(x, y)
+        assert darkness[r - 1:r + 2, c - 1:c + 2].max() > 0.5
+    inside = darkness[px(0, 55)[0]:px(0, 25)[0], px(25, 0)[1]:px(55, 0)[1]]
+    assert inside.max() < 0.02
+    ink = darkness > 0.05
+    assert ink.sum() < 4 * 40 * mm * 4  # only the outline is inked
+    assert darkness[: px(0, 65)[0]].max() < 0.02 and darkness[:, px(65, 0)[1]:].max() < 0.02
+
+
+def test_square_through_sim_url_and_through_a_pty_gives_the_same_image():
+    with serial.serial_for_url("sim://square-url", timeout=0.05) as port:
+        send_and_wait(port, SQUARE)
+    via_url = drawing(plotter("square-url"))
+    check_square(via_url)
+
+    served = VirtualPlotter()
+    with PtyServer(served) as server, serial.Serial(server.path, 115200, timeout=0.05) as port:
+        send_and_wait(port, SQUARE)
+    via_pty = drawing(served)
+    check_square(via_pty)
+    np.testing.assert_array_equal(via_url, via_pty)
+    assert plotter("square-url").seconds == pytest.approx(served.seconds)
+
+
+def test_named_plotter_survives_reconnect_and_resets_on_open():
+    protocol_sim.forget("again")
+    with serial.serial_for_url("sim://again", timeout=0.05) as port:
+        send_and_wait(port, ["G0 X5"])
+    with serial.serial_for_url("sim://again", timeout=0.05) as port:
+        assert port.read(100).startswith(b"\r\nGrbl")  # the board reset on open
+        send_and_wait(port, ["G0 X6"])
+    assert plotter("again").firmware.accepted_lines() == ["G0 X5", "G0 X6"]
+    with serial.serial_for_url("sim://again?reset=0", timeout=0.05) as port:
+        assert port.read(10) == b""
+
+
+def test_drop_fault_raises_like_an_unplugged_port_and_reconnect_works():
+    protocol_sim.forget("drops")
+    port = serial.serial_for_url("sim://drops?faults=drop@2", timeout=0.05)
+    send_and_wait(port, ["G0 X1"])
+    port.write(b"G0 X2\n")
+    with pytest.raises(serial.SerialException):
+        port.read(1)
+    with pytest.raises(serial.SerialException):
+        port.write(b"G0 X3\n")
+    port.close()
+    with serial.serial_for_url("sim://drops", timeout=0.05) as again:
+        send_and_wait(again, ["G0 X3"])
+    assert plotter("drops").firmware.accepted_lines() == ["G0 X1", "G0 X3"]
+
+
+def test_baud_emulation_limits_bytes_per_second():
+    with serial.serial_for_url("sim://?baud=9600", timeout=0.05) as port:
+        banner_len = len("\r\nGrbl 1.1h ['$' for help]\r\n")
+        start = time.monotonic()
+        got = b""
+        while len(got) < banner_len:
+            got += port.read(banner_len - len(got))
+        # 28 bytes at 960 bytes/s take about 29 ms; instant delivery would take ~0
+        assert time.monotonic() - start >= 0.02
+
+
+def test_realtime_mode_takes_wall_time_scaled():
+    with serial.serial_for_url("sim://?realtime=20", timeout=0.05) as port:
+        send_and_wait(port, ["G1 X100 F3000"])  # ~2 s of machine time → ~0.1 s
+        port.write(b"?")
+        assert grbl.parse_line(read_line(port)).state == "Run"
+        end = time.monotonic() + 5
+        state = "Run"
+        while state != "Idle" and time.monotonic() < end:
+            port.write(b"?")
+            state = grbl.parse_line(read_line(port)).state
+        assert state == "Idle"
+
+
+@pytest.mark.parametrize(
+    "url, error",
+    [("sim://?colour=red", serial.SerialException), ("sim://?baud=fast", serial.SerialException),
+     ("sim://?faults=melt@3", serial.SerialException), ("sim://?realtime=-1", serial.SerialException),
+     ("sim://?profile=no-such-plotter", ProfileError)],
+)
+def test_bad_urls_say_what_is_wrong(url, error):
+    with pytest.raises(error):
+        serial.serial_for_url(url)
