@@ -64,7 +64,8 @@ class Style:
     hatch_jitter : float
         Random offset of each hatch line as a fraction of its spacing (0 = ruled lines).
     order_time : float
-        Seconds the path ordering may spend improving on nearest neighbour, for the whole plan.
+        Seconds the path ordering may spend improving on nearest neighbour, per 1000 paths
+        (a bigger drawing has more to gain and its plot takes longer anyway).
     seed : int
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """
@@ -84,7 +85,7 @@ class Style:
     min_hatch_run: float = 2.0
     hatch_blank_below: float = 0.06
     hatch_jitter: float = 0.0
-    order_time: float = 0.5
+    order_time: float = 0.25
     seed: int = 0
 
 
