@@ -253,12 +253,13 @@ class GrblSession:
 
     # --- stopping ------------------------------------------------------------------------
 
-    def halt(self, wait: float = 5.0) -> bool:
+    def halt(self, wait: float | None = None) -> bool:
         """Feed hold, let the machine decelerate, then soft-reset to drop queued moves.
 
         Returns whether the machine was at rest (hold complete or idle) before the reset: then
         its position is exact even if the board raises ``ALARM:3`` for a reset with moves queued.
         """
+        wait = min(self.timeout, 5.0) if wait is None else wait
         self.reader.write(grbl.FEED_HOLD)
         deadline = time.monotonic() + wait
         self.status = None
@@ -277,10 +278,10 @@ class GrblSession:
         self.reset(wait)
         return at_rest
 
-    def reset(self, wait: float = 5.0) -> bool:
+    def reset(self, wait: float | None = None) -> bool:
         """Soft reset (0x18): flush the board's buffers and planner; True once the banner came.
 
         Also the way out of a critical alarm (hard/soft limit), after which GRBL reads nothing.
         """
         self.reader.write(grbl.SOFT_RESET)
-        return self._await_banner(wait) is not None
+        return self._await_banner(min(self.timeout, 5.0) if wait is None else wait) is not None
