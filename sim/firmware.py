@@ -31,6 +31,8 @@ from firmware_protocol import grbl
 from sim.machine import Machine, MachineAlarm, Parsed
 
 _EOL = b"\n\r"
+_LINE_END = re.compile(rb"[\n\r]")
+_SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
 _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block delete
 _RING = grbl.RX_BUFFER_SIZE - 1  # one slot of the ring stays empty
 _HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
@@ -121,9 +123,28 @@ class Firmware:
 
     def receive(self, data: bytes) -> None:
         """Bytes from the host, in arrival order."""
-        if self.silent:
-            return
+        pos, n = 0, len(data)
+        while pos < n and not self.silent:
+            if self._blocked:
+                self._receive_bytes(data[pos:])
+                return
+            # Fast path: take everything up to the next line end in one piece.
+            m = _LINE_END.search(data, pos)
+            end = m.start() if m else n
+            chunk = data[pos:end]
+            if chunk.translate(None, _SPECIAL) == chunk:
+                self._line += chunk
+            else:
+                self._receive_bytes(chunk)
+            pos = end + 1
+            if m and not self._blocked and not self.silent:
+                self._end_of_line()
+
+    def _receive_bytes(self, data: bytes) -> None:
+        """Byte by byte, as GRBL's serial interrupt sees them."""
         for b in data:
+            if self.silent:
+                return
             if b in grbl.REALTIME_BYTES:
                 self._realtime(b)
             elif b >= 0x80:
@@ -137,8 +158,6 @@ class Firmware:
                 self._end_of_line()
             else:
                 self._line.append(b)
-            if self.silent:
-                return
 
     def take_output(self) -> bytes:
         """Everything the board has printed since the last call."""

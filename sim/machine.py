@@ -54,6 +54,8 @@ _G_KNOWN = {g for g, _ in _G_GROUPS}
 _M_GROUPS = {0: 4, 1: 4, 2: 4, 30: 4, 3: 7, 4: 7, 5: 7, 7: 8, 8: 8, 9: 8, 280: 100}
 _VALUE_WORDS = frozenset("FIJKLNPRSTXYZ")
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
+_WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
+_WELL_FORMED = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*")
 _AXES = "XYZ"
 
 
@@ -138,10 +140,7 @@ class Parsed:
     g: dict[int, tuple[int, int]] = field(default_factory=dict)  # modal group → (G, mantissa)
     m: dict[int, int] = field(default_factory=dict)  # modal group → M number
     words: dict[str, float] = field(default_factory=dict)
-
-    @property
-    def axes(self) -> dict[str, float]:
-        return {a: v for a, v in self.words.items() if a in _AXES}
+    axes: dict[str, float] = field(default_factory=dict)  # the X, Y, Z words
 
 
 class Machine:
@@ -224,16 +223,14 @@ class Machine:
     def parse(self, line: str) -> Parsed | int:
         """Validate one filtered line; return the block or GRBL's error code."""
         block = Parsed()
-        pos, n = 0, len(line)
-        while pos < n:
-            letter = line[pos]
-            if not "A" <= letter <= "Z":
-                return EXPECTED_LETTER
-            m = _NUMBER.match(line, pos + 1)
-            if m is None:
-                return BAD_NUMBER
-            pos = m.end()
-            value = float(m.group())
+        if _WELL_FORMED.fullmatch(line):
+            words = _WORD.findall(line)
+        else:
+            words = self._scan_words(line)
+            if isinstance(words, int):
+                return words
+        for letter, number in words:
+            value = float(number)
             int_value = math.trunc(value)
             mantissa = round(100 * abs(value - int_value))
             if letter == "G":
@@ -262,7 +259,24 @@ class Machine:
                 if letter in "FNPTS" and value < 0:
                     return NEGATIVE
                 block.words[letter] = value
+                if letter in _AXES:
+                    block.axes[letter] = value
         return self._check(block)
+
+    @staticmethod
+    def _scan_words(line: str) -> list[tuple[str, str]] | int:
+        """Word by word, to find the first malformed one as GRBL does (error 1 or 2)."""
+        words, pos = [], 0
+        while pos < len(line):
+            letter = line[pos]
+            if not "A" <= letter <= "Z":
+                return EXPECTED_LETTER
+            m = _NUMBER.match(line, pos + 1)
+            if m is None:
+                return BAD_NUMBER
+            words.append((letter, m.group()))
+            pos = m.end()
+        return words
 
     def _check(self, block: Parsed) -> Parsed | int:
         words, g = block.words, block.g
@@ -399,12 +413,18 @@ class Machine:
         self.position = target
         if length < 1e-9 or self.check_mode:
             return
-        unit = tuple(d / length for d in delta)
+        unit = (delta[0] / length, delta[1] / length, delta[2] / length)
         # Per-axis limits along the move, as GRBL's limit_value_by_axis_maximum.
-        rate = min(self.settings[110 + i] / abs(u) for i, u in enumerate(unit) if u) / 60.0
-        accel = min(self.settings[120 + i] / abs(u) for i, u in enumerate(unit) if u)
+        rate = accel = math.inf
+        settings = self.settings
+        for i in range(3):
+            u = abs(unit[i])
+            if u:
+                rate = min(rate, settings[110 + i] / u)
+                accel = min(accel, settings[120 + i] / u)
+        rate /= 60.0
         nominal = rate if rapid else min(self.feed / 60.0, rate)
-        pen = pen_before and self.pen_down
+        pen = pen_before and (self.config.pen.kind != "z" or self.pen_down)
         if self.instant and self.planner.free_blocks == 0:
             self._complete([self.planner.finish_one()])
         self.planner.add(Block(start, target, length, unit, nominal, accel, pen))

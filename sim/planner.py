@@ -11,7 +11,6 @@ profile. Units: mm, mm/s, mm/s², s.
 from __future__ import annotations
 
 import math
-from collections import deque
 from dataclasses import dataclass
 
 #: Blocks the planner holds: GRBL's 16-slot ring keeps one slot empty.
@@ -72,7 +71,7 @@ def block_duration(length: float, accel: float, entry: float, exit_: float, nomi
 
 def junction_speed(prev_unit, unit, accel: float, deviation: float) -> float:
     """GRBL's junction-deviation corner speed (mm/s) between two unit directions."""
-    cos_theta = -sum(p * u for p, u in zip(prev_unit, unit))
+    cos_theta = -(prev_unit[0] * unit[0] + prev_unit[1] * unit[1] + prev_unit[2] * unit[2])
     if cos_theta > 0.999999:  # full reversal
         return 0.0
     if cos_theta < -0.999999:  # straight on
@@ -92,7 +91,7 @@ class Planner:
 
     def __init__(self, junction_deviation: float = 0.01):
         self.junction_deviation = junction_deviation
-        self.queue: deque[Block] = deque()
+        self.queue: list[Block] = []  # at most PLANNER_CAPACITY, so list pops are cheap
         self.executing: Block | None = None
         self.elapsed = 0.0  # s into the executing block
         self.clock = 0.0  # s of simulated motion and dwell since power-on
@@ -125,24 +124,26 @@ class Planner:
     def _replan(self) -> None:
         q = self.queue
         # Backward pass: the newest block must be able to stop by its end.
-        next_entry = 0.0
+        next_entry, first = 0.0, len(q) - 1
         for i in range(len(q) - 1, 0, -1):
             b = q[i]
             limit = min(b.max_entry, math.sqrt(next_entry * next_entry + 2.0 * b.accel * b.length))
             if limit == b.entry and i < len(q) - 1:
                 break  # earlier blocks were planned against this same speed
             b.entry = limit
-            next_entry = limit
-        # Forward pass: nothing may enter faster than acceleration from the block before allows.
+            next_entry, first = limit, i
+        # Forward pass from the first changed block: nothing may enter faster than the
+        # acceleration from the block before allows.
         q[0].entry = self._speed_into_queue
-        for prev, b in zip(q, list(q)[1:]):
+        for i in range(max(first, 1), len(q)):
+            prev, b = q[i - 1], q[i]
             reachable = math.sqrt(prev.entry * prev.entry + 2.0 * prev.accel * prev.length)
             if b.entry > reachable:
                 b.entry = reachable
 
     def start_next(self) -> Block:
         """Take the oldest queued block for execution and fix its speed profile."""
-        b = self.queue.popleft()
+        b = self.queue.pop(0)
         b.exit = self.queue[0].entry if self.queue else 0.0
         b.duration = block_duration(b.length, b.accel, b.entry, b.exit, b.nominal)
         self._speed_into_queue = b.exit

@@ -1,0 +1,61 @@
+"""``pencilbot sim-serve``: the virtual plotter on a pseudo-terminal, for any sender to open."""
+
+from __future__ import annotations
+
+import argparse
+
+from pencilbot.commands.common import add_verbosity
+from pencilbot.errors import PencilbotError
+
+DEFAULT_PROFILE = "grbl-servo-a4"
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "sim-serve",
+        help="serve the virtual GRBL plotter on a pseudo-terminal",
+        description=(
+            "Start a virtual GRBL 1.1 plotter on a new pseudo-terminal and print its device path; "
+            "open that path with any sender (pencilbot draw --port PATH, Universal G-code Sender, "
+            "a terminal). Runs until Ctrl-C, then saves what was drawn if -o is given."
+        ),
+    )
+    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
+                        help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
+    parser.add_argument("--realtime", type=float, default=1.0, metavar="R",
+                        help="move R times faster than real time; 0 = instant (default 1)")
+    parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default 0: unlimited)")
+    parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
+                        help="inject faults: error@K[:N], alarm@K, silent@K, drop@K, reset@K, garbage@K")
+    parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
+    parser.add_argument("--dpi", type=float, default=150.0, help="resolution of the saved drawing")
+    add_verbosity(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from serial import SerialException
+
+    from sim.protocol_sim import plotter_from_options
+    from sim.pty_server import PtyServer
+
+    if args.output and not args.output.lower().endswith(".png"):
+        raise PencilbotError(f"name the output {args.output} with .png")
+    options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
+               "faults": args.faults}
+    try:
+        plotter = plotter_from_options(options)
+    except SerialException as exc:
+        raise PencilbotError(f"{exc}; see pencilbot sim-serve --help") from None
+    server = PtyServer(plotter)
+    print(server.path, flush=True)
+    try:
+        server.serve_forever()
+    except KeyboardInterrupt:
+        pass
+    if not args.quiet:
+        print(f"simulated drawing time {plotter.seconds:.1f} s; "
+              f"{len(plotter.firmware.accepted_lines())} lines accepted")
+    if args.output:
+        plotter.canvas(dpi=args.dpi).save_png(args.output)
+    return 0

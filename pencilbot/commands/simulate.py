@@ -1,0 +1,100 @@
+"""``pencilbot simulate``: draw G-code, a plan SVG or a photo on the virtual plotter, save a PNG.
+
+The G-code goes the way it would to hardware: through the driver, over pyserial, to the
+``sim://`` port of an in-process virtual GRBL 1.1 plotter. What the pen drew is rendered at the
+chosen dpi over the whole bed, and the simulated drawing time is reported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import os
+import urllib.parse
+from pathlib import Path
+
+from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.export import _plan
+from pencilbot.driver import draw
+from pencilbot.errors import PencilbotError
+from pencilbot.gcode.profiles import load_profile
+from pencilbot.gcode.writer import duration_text, gcode_lines
+
+DEFAULT_PROFILE = "grbl-servo-a4"
+GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
+_RUNS = itertools.count(1)
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "simulate",
+        help="draw on the virtual plotter and save what it drew as a PNG",
+        description=(
+            "Stream INPUT (G-code, a plan SVG, or a photo, which is planned first) through the "
+            "serial driver into the virtual GRBL plotter, save the drawing as a PNG of the whole "
+            "bed and print the simulated drawing time."
+        ),
+    )
+    parser.add_argument("input", metavar="INPUT", help="G-code file, plan .svg, or photo")
+    parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
+    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
+                        help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
+    parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default 150)")
+    parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
+    parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
+                        help="move R times faster than real time (default 0: instant)")
+    photo = parser.add_argument_group("photo inputs")
+    photo.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
+    photo.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's")
+    photo.add_argument("--pen-width", type=float, metavar="MM",
+                       help="pen width in mm for planning a photo and for rendering (default: the plan's, else 0.5)")
+    add_verbosity(parser)
+    parser.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    source, output = Path(args.input), Path(args.output)
+    if output.suffix.lower() != ".png":
+        raise PencilbotError(f"name the output {output} with .png")
+    if args.dpi <= 0 or args.realtime < 0 or (args.pen_width is not None and args.pen_width <= 0):
+        raise PencilbotError("--dpi and --pen-width must be positive and --realtime 0 or more")
+    profile = load_profile(args.profile)
+    if profile.dialect != "grbl":
+        raise PencilbotError(
+            f"profile {profile.name} is for {profile.dialect}; the virtual plotter speaks GRBL 1.1 "
+            "only — simulate with a grbl profile (e.g. --profile grbl-servo-a4)"
+        )
+    lines, pen_width = _gcode(source, profile, args)
+
+    from sim import protocol_sim
+
+    name = f"simulate-{os.getpid()}-{next(_RUNS)}"
+    query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
+    try:
+        draw(lines, f"sim://{name}?{query}", profile=args.profile,
+             progress="quiet" if args.quiet else "bar")
+        plotter = protocol_sim.plotter(name)
+        canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+        canvas.save_png(output)
+    finally:
+        protocol_sim.forget(name)
+    if not args.quiet:
+        strokes = len(plotter.machine.strokes)
+        print(f"wrote {output}: {strokes} pen-down strokes, simulated drawing time "
+              f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
+    return 0
+
+
+def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[list[str], float]:
+    """G-code lines for ``source`` and the pen width (mm) to render them with."""
+    if not source.is_file():
+        raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
+    if source.suffix.lower() in GCODE_SUFFIXES:
+        try:
+            lines = source.read_text(encoding="ascii").splitlines()
+        except (UnicodeDecodeError, OSError) as exc:
+            raise PencilbotError(f"cannot read G-code file {source} ({exc}); G-code must be plain ASCII text") from None
+        return lines, args.pen_width or 0.5
+    plan = _plan(source, args)
+    widths = [layer.pen_width for layer in plan.layers]
+    return gcode_lines(plan, profile, source=str(source)), args.pen_width or (widths[0] if widths else 0.5)
