@@ -1,0 +1,135 @@
+"""`pencilbot simulate` and `pencilbot sim-serve` end to end: real files, real pty, real PNGs."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+import serial
+from PIL import Image
+
+from firmware_protocol import grbl
+from pencilbot.cli import main
+
+SQUARE = """G21
+G90
+M3 S30
+G0 X20 Y20
+M3 S90
+G4 P0.2
+G1 X60 F3000
+G1 Y60
+G1 X20
+G1 Y20
+M3 S30
+G0 X0 Y0
+"""
+DPI = 100
+
+
+def ink(png):
+    return 1.0 - np.asarray(Image.open(png).convert("L"), dtype=np.float64) / 255.0
+
+
+def px(rows, x, y, bed_height=310.0):
+    """Pixel (row, col) of bed point (x, y) mm, Y up (``rows`` only checks the image is the bed)."""
+    mm = DPI / 25.4
+    assert abs(rows - bed_height * mm) <= 1
+    return int((bed_height - y) * mm), int(x * mm)
+
+
+def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
+    src = tmp_path / "square.gcode"
+    src.write_text(SQUARE)
+    out = tmp_path / "plot.png"
+    assert main(["simulate", str(src), "-o", str(out), "--dpi", str(DPI), "-q"]) == 0
+    dark = ink(out)
+    rows = dark.shape[0]
+    assert np.allclose(dark.shape, (310 / 25.4 * DPI, 220 / 25.4 * DPI), atol=1)  # the whole bed
+    for x, y in [(40, 20), (60, 40), (40, 60), (20, 40)]:
+        r, c = px(rows, x, y)
+        assert dark[r - 1:r + 2, c - 1:c + 2].max() > 0.5
+    r0, c0 = px(rows, 25, 55)
+    r1, c1 = px(rows, 55, 25)
+    assert dark[r0:r1, c0:c1].max() < 0.02
+    assert capsys.readouterr().out == ""
+
+    assert main(["simulate", str(src), "-o", str(out), "--dpi", str(DPI), "--travel"]) == 0
+    said = capsys.readouterr().out
+    assert "pen-down strokes" in said and "simulated drawing time 0:00:0" in said
+    travel = np.asarray(Image.open(out).convert("RGB"), dtype=int)
+    r, c = px(rows, 10, 10)  # on the pen-up diagonal from (0,0) to (20,20)
+    red = travel[r - 2:r + 3, c - 2:c + 3]
+    assert ((red[..., 0] - red[..., 2]) > 60).any()
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["simulate", "{missing}", "-o", "{out}"], "does not exist"),
+        (["simulate", "{src}", "-o", "{tmp}/plot.jpg"], ".png"),
+        (["simulate", "{src}", "-o", "{out}", "--profile", "marlin-servo-a4"], "GRBL"),
+        (["simulate", "{src}", "-o", "{out}", "--profile", "nope"], "nope"),
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "0"], "--dpi"),
+    ],
+)
+def test_simulate_bad_input_is_one_clear_error_and_no_file(tmp_path, capsys, argv, message):
+    src = tmp_path / "square.gcode"
+    src.write_text(SQUARE)
+    out = tmp_path / "plot.png"
+    values = {"missing": tmp_path / "none.gcode", "out": out, "src": src, "tmp": tmp_path}
+    assert main([a.format(**values) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pencilbot: error:") and message in err and "Traceback" not in err
+    assert not out.exists() and not (tmp_path / "plot.jpg").exists()
+
+
+def test_simulate_gcode_outside_the_bed_fails_with_the_alarm(tmp_path, capsys):
+    src = tmp_path / "far.gcode"
+    src.write_text("G21\nG90\nG0 X500 Y10\n")
+    out = tmp_path / "plot.png"
+    assert main(["simulate", str(src), "-o", str(out), "-q"]) != 0
+    err = capsys.readouterr().err
+    assert err.startswith("pencilbot: error:") and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_simulate_a_photo(tmp_path):
+    from skimage import data
+
+    photo = tmp_path / "camera.png"
+    Image.fromarray(data.camera()[::4, ::4]).save(photo)
+    out = tmp_path / "plot.png"
+    assert main(["simulate", str(photo), "-o", str(out), "--dpi", "50", "-q"]) == 0
+    dark = ink(out)
+    assert 0.01 < dark.mean() < 0.6  # a drawing: some graphite, mostly paper
+
+
+def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
+    out = tmp_path / "served.png"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        path = proc.stdout.readline().strip()
+        assert path.startswith("/dev/")
+        with serial.Serial(path, 115200, timeout=0.1) as port:
+            port.write(grbl.SOFT_RESET)
+            seen = b""
+            end = time.monotonic() + 10
+            while b"Grbl 1.1h" not in seen and time.monotonic() < end:
+                seen += port.read(64)
+            assert b"Grbl 1.1h" in seen
+            for line in SQUARE.splitlines():
+                port.write(grbl.encode_line(line))
+                assert port.readline() == b"ok\r\n"
+    finally:
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == 0, stderr
+    assert "12 lines accepted" in stdout
+    assert ink(out).max() > 0.5
