@@ -101,8 +101,11 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     position = HOME
     for layer in layers:
         budget = style.order_time * len(layer.paths) / 1000
+        # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
+        # lifting; edge strokes only where they touch, so each stays a separate stroke.
+        join = style.hatch_join if layer.name != "edges" else style.pen_width
         layer.paths = order_paths(
-            layer.paths, start=position, pen_width=style.pen_width, time_budget=budget
+            layer.paths, start=position, join_tolerance=join, time_budget=budget
         )
         if layer.paths:
             position = tuple(layer.paths[-1][-1])

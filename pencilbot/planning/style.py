@@ -58,6 +58,9 @@ class Style:
         of tone instead of pixel noise.
     min_hatch_run : float
         Shortest hatch line kept, mm; shorter pieces would be dots.
+    hatch_join : float
+        Hatch runs whose ends lie closer than this (mm) are joined with a pen-down move,
+        zig-zag fashion, saving a pen lift each (edges join only where they touch).
     hatch_blank_below : float
         Darkness in [0, 1) below which no hatching is drawn: the lightest tones stay paper
         rather than getting single lines centimetres apart.
@@ -83,9 +86,10 @@ class Style:
     hatch_coverage: float = 0.5
     hatch_blur: float = 1.0
     min_hatch_run: float = 2.0
+    hatch_join: float = 2.0
     hatch_blank_below: float = 0.06
     hatch_jitter: float = 0.0
-    order_time: float = 0.25
+    order_time: float = 0.15
     seed: int = 0
 
 
