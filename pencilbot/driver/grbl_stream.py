@@ -92,29 +92,43 @@ class GrblSession:
     # --- setup ---------------------------------------------------------------------------
 
     def wake(self, wait: float = 2.5) -> str:
-        """Wake the board and return its GRBL version.
+        """Wake the board, make sure it speaks GRBL, and return its version.
 
-        Sends line endings (a board that just reset on port open ignores the first bytes),
-        waits for the banner, and if none comes (the board did not reset) asks for one with a
-        soft reset, which is harmless before a job. The board answers each line ending with an
-        ``ok``; reading on until the line goes quiet keeps those out of the job's count.
+        Sends line endings (a board that just reset on port open ignores the first bytes) and
+        waits for the banner. A board that did not reset (a pty, a socket, a reconnected cable)
+        sends none: a status report proves it is GRBL without disturbing it, and only if that
+        fails too does a soft reset ask for the banner. The ``ok`` replies to the line endings
+        are read and dropped here so they never count as answers to job lines.
 
         Raises
         ------
         PlotError
-            No GRBL banner: wrong port, wrong baud rate or not a GRBL board.
+            No GRBL answer: wrong port, wrong baud rate or not a GRBL board.
         """
         self.reader.write(b"\r\n\r\n")
         version = self._await_banner(wait)
         if version is None:
-            self.reader.write(grbl.SOFT_RESET)
-            version = self._await_banner(wait)
+            try:
+                self.query_status(wait)
+                return "(no banner: the board was already running)"
+            except StreamFault:
+                self.reader.write(grbl.SOFT_RESET)
+                version = self._await_banner(wait)
         if version is None:
             raise PlotError(
-                f"no GRBL banner from {self.reader.port.name} within {2 * wait:g} s: check the port, "
-                "the baud rate (--baud) and that the board runs GRBL (a Marlin board needs a marlin profile)"
+                f"no answer from a GRBL board on {self.reader.port.name} within {2 * wait:g} s: check the "
+                "port, the baud rate (--baud) and that the board runs GRBL (a Marlin board needs a marlin profile)"
             )
         return version
+
+    def wait_until_still(self) -> grbl.Status:
+        """Poll until the machine has finished what it was doing (not Run/Jog/Home)."""
+        self.reader.last_rx = time.monotonic()
+        while True:
+            status = self.query_status()
+            if status.state not in ("Run", "Jog", "Home"):
+                return status
+            time.sleep(POLL_INTERVAL)
 
     def _await_banner(self, wait: float, quiet: float = 0.15) -> str | None:
         """The version of a banner seen within ``wait`` s, once nothing more arrived for ``quiet`` s."""

@@ -262,7 +262,7 @@ class _Runner:
         session.wake(wake_wait)
         if not isinstance(session, GrblSession):
             return
-        status = session.query_status()
+        status = session.wait_until_still()  # a reconnected board may still be drawing
         if status.state == "Alarm":
             if not self.unlock:
                 raise PlotError(

@@ -1,0 +1,66 @@
+"""The driver over a real pseudo-terminal (the same file-descriptor path as a USB adapter)."""
+
+import json
+
+import numpy as np
+import pytest
+from test_stream_sim import DROP_DEFECT, PROFILE, assert_same_drawing, drawing
+
+from pencilbot.cli import main
+from pencilbot.driver import draw
+from pencilbot.driver.modal import clean_line
+from pencilbot.errors import PlotError
+
+pytest.importorskip("sim.pty_server")
+from sim.firmware import Faults  # noqa: E402
+from sim.protocol_sim import VirtualPlotter  # noqa: E402
+from sim.pty_server import PtyServer  # noqa: E402
+
+
+@pytest.fixture
+def job(tmp_path):
+    lines = drawing()
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    return path, [clean_line(line) for line in lines]
+
+
+def accepted(plotter):
+    return [line for line in plotter.firmware.accepted_lines() if line]
+
+
+def test_exactly_once_over_a_pty_with_json_progress(job, capsys):
+    path, lines = job
+    plotter = VirtualPlotter(PROFILE, baud=115200, realtime=50)
+    with PtyServer(plotter) as server:
+        code = main(["draw", str(path), "--port", server.path, "--profile", PROFILE, "--json-lines"])
+    assert code == 0
+    assert accepted(plotter) == lines and plotter.firmware.lost_bytes == 0
+    records = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert records[-1]["event"] == "done"
+    progress = [r for r in records if r["event"] == "progress"]
+    assert progress[-1]["line"] == progress[-1]["total"] == len(lines)
+    assert progress[-1]["percent"] == 100.0
+    assert all(r["state"] in ("Idle", "Run", "") for r in progress)
+    assert [r["line"] for r in progress] == sorted(r["line"] for r in progress)
+
+
+@DROP_DEFECT
+def test_pty_vanishing_mid_job_then_resume_on_a_new_pty(job):
+    path, lines = job
+    reference = VirtualPlotter(PROFILE)
+    with PtyServer(reference) as server:
+        draw(path, server.path, profile=PROFILE, wake_wait=0.2)
+
+    plotter = VirtualPlotter(PROFILE, faults=Faults.parse("drop@40"))
+    with PtyServer(plotter) as server, pytest.raises(PlotError) as info:
+        draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=2.0)
+    assert "serial port vanished" in str(info.value) and "--resume" in str(info.value)
+
+    plotter.firmware.faults.at.clear()
+    plotter.firmware.link_dropped = False  # plugged back in, on a new device path
+    with PtyServer(plotter) as server:
+        draw(path, server.path, resume=f"{path}.job.json", wake_wait=0.2)
+    assert_same_drawing(plotter.canvas(dpi=40).darkness, reference.canvas(dpi=40).darkness)
+    assert set(lines) <= set(accepted(plotter))
+    assert not np.array_equal(plotter.canvas(dpi=40).darkness, 0)
