@@ -356,6 +356,11 @@ def _check_consistency(profile: Profile, where: str) -> None:
         ("gcode", "header", profile.gcode.header),
         ("gcode", "footer", profile.gcode.footer),
     ):
+        if not text.isascii():
+            raise ProfileError(
+                f"plotter profile {where}: {_label(section, key)} = {text!r} is invalid; expected "
+                "plain ASCII G-code (firmware reads bytes; write comments without accents)"
+            )
         try:
             check_template(text, TEMPLATE_FIELDS)
             lines = profile.render(text)

@@ -317,17 +317,17 @@ def _feed_changes(draw: np.ndarray, path_start: np.ndarray, profile: Profile) ->
     GRBL's G0 runs at the machine's max rate and leaves the modal F alone, so only G1 rows count;
     Marlin's G0 takes F too. If a pen template sets F itself, the feed is unknown after it.
     """
-    counts = draw | (profile.dialect == "marlin")
-    feed_value = draw[counts]
+    applies = draw | (profile.dialect == "marlin")  # rows whose motion uses the modal F
+    feed_value = draw[applies]
     changed = np.ones(len(feed_value), dtype=bool)
     changed[1:] = feed_value[1:] != feed_value[:-1]
     if _pen_sets_feed(profile):
         # Pen commands come before every travel (pen up) and before a path's first drawing
         # move (pen down), which is its first row or the row after its travel.
         after_travel = np.concatenate([[True], ~draw[:-1]])
-        changed |= (~draw | path_start | after_travel)[counts]
+        changed |= (~draw | path_start | after_travel)[applies]
     result = np.zeros(len(draw), dtype=bool)
-    result[counts] = changed
+    result[applies] = changed
     return result
 
 
@@ -461,11 +461,14 @@ def _write_atomically(target: Path, data: bytes) -> None:
     folder = target.parent if str(target.parent) else Path(".")
     if not folder.is_dir():
         raise PencilbotError(f"cannot write {target}: folder {folder} does not exist; create it first")
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
     try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(tmp, target)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+        try:
+            with os.fdopen(fd, "wb") as handle:
+                handle.write(data)
+            os.replace(tmp, target)
+        except BaseException:  # also Ctrl-C: never leave the temporary file behind
+            Path(tmp).unlink(missing_ok=True)
+            raise
     except OSError as exc:
-        Path(tmp).unlink(missing_ok=True)
         raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the path and free space") from None

@@ -143,6 +143,7 @@ BAD = {
     "unknown field": (_set("gcode", "footer", "M5 {secret}"), ["{secret}", "{travel_feed}"]),
     "unbalanced brace": (_set("pen", "up_command", "M3 S{up"), ["[pen] up_command", "{{"]),
     "empty pen command": (_set("pen", "down_command", " \n "), ["[pen] down_command is empty"]),
+    "non-ASCII template": (_set("gcode", "header", "G21 ; millimètres"), ["[gcode] header", "ASCII"]),
     "line too long": (_set("gcode", "header", "G21 " + "G90 " * 25), ["[gcode] header", "at most 80"]),
 }
 

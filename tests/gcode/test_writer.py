@@ -339,6 +339,15 @@ def test_missing_folder_is_a_clear_error(tmp_path):
         write_gcode(plan, load_profile("grbl-servo-a4"), tmp_path / "nope" / "x.gcode")
 
 
+def test_failed_rename_leaves_no_temporary_file(tmp_path):
+    blocker = tmp_path / "drawing.gcode"
+    blocker.mkdir()  # a folder where the file should go: the final rename fails
+    plan = plan_of([np.array([[20.0, 20.0], [30.0, 30.0]])])
+    with pytest.raises(PencilbotError, match=r"cannot write .*drawing.gcode"):
+        write_gcode(plan, load_profile("grbl-servo-a4"), blocker)
+    assert [p.name for p in tmp_path.iterdir()] == ["drawing.gcode"] and blocker.is_dir()
+
+
 def test_write_gcode_writes_what_gcode_lines_returns(tmp_path):
     plan = plan_of([np.array([[20.0, 20.0], [30.0, 30.0], [40.0, 20.0]])])
     profile = load_profile("marlin-servo-a4")
