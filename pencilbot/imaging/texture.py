@@ -21,6 +21,14 @@ of the same problem on a grid of half the size, recursively (cascadic multigrid)
 problem is the exact restriction of the energy to β constant on 2×2 blocks, so its solution is
 the best such β; CG then only has to remove the high-frequency error that Jacobi handles well.
 
+λ is per pixel of a reference-sized image (about 500 × 500, coffee's size). On a larger image
+the texture's strokes span proportionally more pixels (see :func:`texture_scale`); solved per
+pixel, β would follow them and flatten the texture (the relative spread of ln T falls from 0.25
+at 512² to 0.06 at 12 MP). So β is solved constant on blocks of ``round(texture_scale)`` pixels —
+again the exact restriction of the same energy, hence the same problem on reference-sized
+pixels — and interpolated bilinearly. That keeps the look independent of resolution and makes
+a 12 MP solve cost what a 0.25 MP one does.
+
 The texture itself is synthesised, not scanned: a periodic Gaussian random field whose spectrum
 is concentrated in long thin diagonal streaks (two stroke directions, as a right hand hatches)
 plus fine isotropic grain for the paper's tooth.
@@ -36,7 +44,8 @@ import numpy as np
 import scipy.fft
 
 #: Pixels across a "reference" image (about coffee's size); bigger images get proportionally
-#: wider and longer strokes so the drawing looks the same at the same print size.
+#: wider and longer strokes, and a β solved on proportionally larger blocks, so the drawing
+#: looks the same at the same print size.
 REFERENCE_SIDE = 500.0
 #: Stroke shape at the reference size, in pixels: Gaussian std along and across the stroke.
 STROKE_LENGTH, STROKE_WIDTH = 30.0, 0.7
@@ -67,15 +76,19 @@ class TextureResult:
     beta : ndarray of float32, shape (H, W)
         Number of pencil passes at each pixel (≥ 0 in practice, 0 on paper white).
     iterations : int
-        CG iterations on the full-resolution grid (the coarse grids cost about a third more).
+        CG iterations on the solved grid (its coarser start-up grids cost about a third more).
     residual : float
-        Relative residual ‖A β − a·b‖ / ‖a·b‖ of the normal equations, computed in float64.
+        Relative residual ‖A β − a·b‖ / ‖a·b‖ of the normal equations on the solved grid
+        (block-restricted when ``block > 1``), computed in float64.
+    block : int
+        Side in pixels of the blocks β was solved on (1 = per pixel, the paper's problem).
     """
 
     T: np.ndarray
     beta: np.ndarray
     iterations: int
     residual: float
+    block: int
 
 
 def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None = None) -> np.ndarray:
@@ -88,8 +101,8 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
     seed : int
         Seed of the random field; the same ``(shape, seed, scale)`` gives the same texture.
     scale : float, optional
-        Stroke size multiplier. Default: ``max(1, sqrt(H·W) / 500)``, so strokes are about 0.7 px
-        wide and 30 px long on a coffee-sized image and proportionally larger on bigger ones.
+        Stroke size multiplier. Default :func:`texture_scale`, so strokes are about 0.7 px wide
+        and 30 px long on a coffee-sized image and proportionally larger on bigger ones.
 
     Returns
     -------
@@ -101,24 +114,37 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
     if h < 1 or w < 1:
         raise ValueError(f"shape must be positive, got {shape!r}")
     if scale is None:
-        scale = max(1.0, math.sqrt(h * w) / REFERENCE_SIDE)
+        scale = texture_scale((h, w))
+    # White noise through a filter: a circular convolution, hence periodic. Arithmetic is in
+    # place where it can be, since at 12 MP each fresh temporary costs 0.1 s or more.
     noise = np.random.default_rng(seed).standard_normal((h, w), dtype=np.float32)
-    # Frequencies in cycles per pixel; the field is a circular convolution, hence periodic.
-    fy = scipy.fft.fftfreq(h).astype(np.float32)[:, None]
-    fx = scipy.fft.rfftfreq(w).astype(np.float32)[None, :]
-    spectrum = GRAIN_WEIGHT * _unit_power(_gaussian_spectrum(fx, fy, 0.0, 0.5 * scale, 0.5 * scale))
+    spectrum = scipy.fft.rfft2(noise, workers=-1)
+    del noise
+    fy = scipy.fft.fftfreq(h).astype(np.float32)  # cycles per pixel
+    fx = scipy.fft.rfftfreq(w).astype(np.float32)
+    gain = GRAIN_WEIGHT * _unit_power(_gaussian_spectrum(fx, fy, 0.0, 0.5 * scale, 0.5 * scale))
     for angle, weight in zip(STROKE_ANGLES, STROKE_WEIGHTS):
         blob = _gaussian_spectrum(fx, fy, angle, STROKE_LENGTH * scale, STROKE_WIDTH * scale)
-        spectrum += weight * _unit_power(blob)
-    field = scipy.fft.irfft2(scipy.fft.rfft2(noise, workers=-1) * spectrum, s=(h, w), workers=-1)
+        blob = _unit_power(blob)
+        blob *= weight
+        gain += blob
+    spectrum *= gain
+    del gain
+    field = scipy.fft.irfft2(spectrum, s=(h, w), workers=-1)
+    del spectrum
     field -= field.mean()
-    field /= max(float(field.std()), 1e-12)
+    field *= CONTRAST / max(float(field.std()), 1e-12)
     # Log-normal graphite density: sparse thin dark strokes over a lighter ground (a symmetric
     # field would draw white streaks as boldly as dark ones, which reads as rain, not pencil).
     # It is positive, so ln H < 0: H strictly inside (0, 1).
-    density = np.exp(CONTRAST * field)
-    density *= MEAN_DENSITY / density.mean()
-    return np.exp(-density).astype(np.float32)
+    density = np.exp(field, out=field)
+    density *= -MEAN_DENSITY / density.mean()
+    return np.exp(density, out=density)
+
+
+def texture_scale(shape: tuple[int, ...]) -> float:
+    """Texture size multiplier for an image of ``shape`` (H, W[, C]): ``max(1, √(H·W) / 500)``."""
+    return max(1.0, math.sqrt(shape[0] * shape[1]) / REFERENCE_SIDE)
 
 
 def texture_map(
@@ -126,6 +152,7 @@ def texture_map(
     H: np.ndarray,
     *,
     lam: float = 0.2,
+    block: int | None = None,
     tol: float = 1e-3,
     max_iter: int = 1000,
 ) -> TextureResult:
@@ -138,9 +165,12 @@ def texture_map(
     H : ndarray, shape (H, W)
         Pencil texture strictly inside (0, 1), e.g. from :func:`pencil_texture`.
     lam : float
-        Smoothness weight λ (per unit ln-tone² per pixel²). The paper's 0.2 is the default.
+        Smoothness weight λ per (block) pixel. The paper's 0.2 is the default.
+    block : int, optional
+        Solve β constant on ``block`` × ``block`` pixel blocks, then interpolate. Default
+        ``round(texture_scale(J.shape))``: 1 (per pixel) up to about 750 × 750.
     tol : float
-        Relative residual at which CG stops, on the full-resolution normal equations. The solver
+        Relative residual at which CG stops, on the normal equations of the solved grid. The solver
         works in float32 (half the memory and time at 12 MP); its floor is about 2e-6, so ask
         for no less than 1e-5.
     max_iter : int
@@ -158,32 +188,48 @@ def texture_map(
         raise ValueError("H must lie strictly inside (0, 1) so that ln H is finite and negative")
     if lam < 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
+    block = round(texture_scale(J.shape)) if block is None else int(block)
+    if block < 1:
+        raise ValueError(f"block must be at least 1 pixel, got {block}")
     a = np.log(H)
-    rhs = a * np.log(np.clip(J, J_FLOOR, 1.0))
-    beta, iterations = _solve(a * a, rhs, float(lam), tol, max_iter)
-    residual = _relative_residual(a * a, rhs, float(lam), beta)
-    # Next to paper white the smoothness term makes β overshoot slightly below 0; a pencil
-    # cannot lighten the paper, so T stops at 1.
-    T = np.minimum(np.exp(beta * a), 1.0)
-    return TextureResult(T=T, beta=beta, iterations=iterations, residual=residual)
+    rhs = np.log(np.clip(J, J_FLOOR, 1.0))
+    rhs *= a
+    # β constant on blocks: data terms add up, and `block` fine edges cross each coarse edge.
+    d, rhs, mu = _block_sum(np.square(a), block), _block_sum(rhs, block), float(lam) * block
+    beta, iterations = _solve(d, rhs, mu, tol, max_iter)
+    residual = _relative_residual(d, rhs, mu, beta)
+    beta = _upsample(beta, block, J.shape)
+    # T = H^β = exp(β ln H), computed in a's buffer. Next to paper white the smoothness term
+    # makes β overshoot slightly below 0; a pencil cannot lighten the paper, so T stops at 1.
+    T = np.exp(np.multiply(beta, a, out=a), out=a)
+    np.minimum(T, 1.0, out=T)
+    return TextureResult(T=T, beta=beta, iterations=iterations, residual=residual, block=block)
 
 
 def _gaussian_spectrum(fx, fy, angle_deg: float, sigma_along: float, sigma_across: float) -> np.ndarray:
-    """Fourier transform of an oriented Gaussian blob (std in pixels along/across ``angle``).
+    """Fourier transform of an oriented Gaussian blob on the rfft2 grid ``fy`` × ``fx``.
 
-    The direction follows the image convention: (cos θ, −sin θ) in (col, row)."""
-    # Python-float coefficients keep the arithmetic in float32 (NumPy scalars would promote it).
+    ``sigma_along`` and ``sigma_across`` are its std in pixels along and across the direction
+    ``angle_deg``, which follows the image convention: (cos θ, −sin θ) in (col, row). The
+    exponent is the quadratic form A·fx² + B·fx·fy + C·fy², built from the 1-D axes so that only
+    two half-image arrays are ever allocated.
+    """
     t = math.radians(angle_deg)
-    cos_t, sin_t = math.cos(t), math.sin(t)
-    f_along = fx * (cos_t * sigma_along) - fy * (sin_t * sigma_along)
-    f_across = fx * (sin_t * sigma_across) + fy * (cos_t * sigma_across)
-    return np.exp(-2.0 * math.pi**2 * (f_along**2 + f_across**2))
+    c, s = math.cos(t), math.sin(t)
+    # f_along = σu (c fx − s fy), f_across = σv (s fx + c fy); sum of squares expanded.
+    u2, v2 = sigma_along**2, sigma_across**2
+    A, B, C = c * c * u2 + s * s * v2, 2 * c * s * (v2 - u2), s * s * u2 + c * c * v2
+    k = -2.0 * math.pi**2  # Python floats keep the arithmetic in float32
+    exponent = np.add.outer((k * C) * fy * fy, (k * A) * fx * fx)
+    exponent += np.multiply.outer((k * B) * fy, fx)
+    return np.exp(exponent, out=exponent)
 
 
 def _unit_power(spectrum: np.ndarray) -> np.ndarray:
     """Scale a filter so white noise through it has unit variance (Parseval), so the weights
     above compare components of equal strength whatever their bandwidth."""
-    return spectrum / np.sqrt(np.mean(spectrum**2))
+    spectrum *= 1.0 / math.sqrt(float(np.vdot(spectrum, spectrum)) / spectrum.size)
+    return spectrum
 
 
 _LAPLACIAN = np.array([[0, -1, 0], [-1, 4, -1], [0, -1, 0]], dtype=np.float32)
@@ -218,10 +264,8 @@ def _solve(d: np.ndarray, rhs: np.ndarray, mu: float, tol: float, max_iter: int)
     """Solve (diag(d) + μ DᵀD) x = rhs: coarse-grid start, then Jacobi-preconditioned CG."""
     h, w = d.shape
     if min(h, w) >= 2 * COARSEST_SIDE:
-        # β constant on 2×2 blocks: data terms add up, and two fine edges cross each coarse edge.
-        coarse, _ = _solve(_block_sum(d), _block_sum(rhs), 2.0 * mu, tol, max_iter)
-        x = cv2.resize(coarse, (2 * coarse.shape[1], 2 * coarse.shape[0]), interpolation=cv2.INTER_LINEAR)
-        x = np.ascontiguousarray(x[:h, :w])
+        coarse, _ = _solve(_block_sum(d, 2), _block_sum(rhs, 2), 2.0 * mu, tol, max_iter)
+        x = np.ascontiguousarray(_upsample(coarse, 2, (h, w)))
     else:
         x = np.zeros_like(rhs)
     return _pcg(d, rhs, mu, x, tol, max_iter)
@@ -250,12 +294,22 @@ def _pcg(d, rhs, mu, x, tol, max_iter) -> tuple[np.ndarray, int]:
     return x, max_iter
 
 
-def _block_sum(x: np.ndarray) -> np.ndarray:
-    """Sums over 2×2 blocks (an odd last row/column forms half blocks)."""
+def _block_sum(x: np.ndarray, block: int) -> np.ndarray:
+    """Sums over ``block`` × ``block`` blocks (the last row/column of blocks may be partial)."""
+    if block == 1:
+        return x
+    rows = np.add.reduceat(x, np.arange(0, x.shape[0], block), axis=0)
+    return np.add.reduceat(rows, np.arange(0, x.shape[1], block), axis=1)
+
+
+def _upsample(x: np.ndarray, block: int, shape: tuple[int, int]) -> np.ndarray:
+    """Bilinear interpolation of block values (one per block centre) to pixels of ``shape``.
+
+    Returns a view into a slightly larger array when ``shape`` is not a multiple of ``block``."""
+    if block == 1:
+        return x
     h, w = x.shape
-    padded = np.zeros((h + h % 2, w + w % 2), dtype=x.dtype)
-    padded[:h, :w] = x
-    return padded[0::2, 0::2] + padded[1::2, 0::2] + padded[0::2, 1::2] + padded[1::2, 1::2]
+    return cv2.resize(x, (w * block, h * block), interpolation=cv2.INTER_LINEAR)[: shape[0], : shape[1]]
 
 
 def _relative_residual(d: np.ndarray, rhs: np.ndarray, mu: float, x: np.ndarray) -> float:
