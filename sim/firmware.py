@@ -217,8 +217,11 @@ class Firmware:
                 self._resume()
 
     def reset(self, *, reboot: bool = False) -> None:
-        """Ctrl-X soft reset (``reboot``: a power cycle, no ALARM:3)."""
+        """Ctrl-X soft reset (``reboot``: a power cycle or DTR reset — no ALARM:3, and a hung
+        board comes back)."""
         moving = self.machine.stop()
+        if reboot:
+            self.silent = False
         if moving and not reboot:
             self._emit("ALARM:3")
             self._alarm = 3
@@ -287,6 +290,9 @@ class Firmware:
         for message in self.machine.messages:
             self._emit(message)
         self.machine.messages.clear()
+        if self.machine.pause_requested:  # M0: ok now, then a feed hold until ~
+            self.machine.pause_requested = False
+            self._hold = True
         if self.machine.dwelling:
             self._pending = (index, text, None)  # GRBL answers a dwell when it has ended
         else:
@@ -305,8 +311,9 @@ class Firmware:
             self._emit(reply)
 
     def accepted_lines(self) -> list[str]:
-        """Texts of the lines answered ``ok``, in order (the exactly-once record)."""
-        return [entry.text for entry in self.log if entry.reply == "ok"]
+        """Texts of the non-blank lines answered ``ok``, in order (the exactly-once record;
+        blank lines, such as a sender's wake-up line ends, carry nothing to deliver)."""
+        return [entry.text for entry in self.log if entry.reply == "ok" and entry.text]
 
     # --- $ commands -------------------------------------------------------------------------
 
@@ -406,7 +413,7 @@ class Firmware:
         mask = int(m.settings[10])
         pos = m.machine_position()
         executing = m.planner.executing or (m.planner.queue[0] if m.planner.queue else None)
-        feed = executing.nominal * 60.0 if executing is not None and busy else 0.0
+        feed = executing.nominal * 60.0 if executing is not None and state == "Run" else 0.0
         fields = dict(
             mpos=pos if mask & 1 else None,
             wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, m.g92)),

@@ -165,6 +165,7 @@ class Machine:
         self.travel: list[np.ndarray] = []  # pen-up moves, machine mm
         self.messages: list[str] = []  # push messages for the firmware to print
         self.dwell_until = 0.0
+        self.pause_requested = False  # M0 asks the firmware for a feed hold
         self._stroke: list[tuple[float, float]] = []
         self.position = (0.0, 0.0, 0.0)  # machine mm, where the parser believes the tool is
         self.reset_modes()
@@ -375,6 +376,8 @@ class Machine:
         elif block.axes and self.motion in (0, 1):
             self._line(self._target(block.axes, scale), rapid=self.motion == 0)
         stop = block.m.get(4)
+        if stop == 0 and not self.check_mode:
+            self.pause_requested = True
         if stop in (2, 30):
             self.synchronize()
             self.motion, self.absolute, self.units_mm = 1, True, True
@@ -407,8 +410,8 @@ class Machine:
             self.stop()
             raise MachineAlarm(SOFT_LIMIT_ALARM)
         start = self.position
-        delta = [t - s for t, s in zip(target, start)]
-        length = math.sqrt(sum(d * d for d in delta))
+        delta = (target[0] - start[0], target[1] - start[1], target[2] - start[2])
+        length = math.hypot(*delta)
         pen_before = self.pen_down
         self.position = target
         if length < 1e-9 or self.check_mode:
@@ -417,11 +420,13 @@ class Machine:
         # Per-axis limits along the move, as GRBL's limit_value_by_axis_maximum.
         rate = accel = math.inf
         settings = self.settings
-        for i in range(3):
-            u = abs(unit[i])
+        for i, u in enumerate(unit):
             if u:
-                rate = min(rate, settings[110 + i] / u)
-                accel = min(accel, settings[120 + i] / u)
+                u = abs(u)
+                if settings[110 + i] < rate * u:
+                    rate = settings[110 + i] / u
+                if settings[120 + i] < accel * u:
+                    accel = settings[120 + i] / u
         rate /= 60.0
         nominal = rate if rapid else min(self.feed / 60.0, rate)
         pen = pen_before and (self.config.pen.kind != "z" or self.pen_down)

@@ -36,6 +36,7 @@ import urllib.parse
 import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
+from pencilbot.errors import ProfileError
 from sim.canvas import Canvas
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine, MachineConfig
@@ -68,6 +69,25 @@ class _Wire:
         return chunk
 
 
+def grbl_profile(name: str):
+    """Load a plotter profile the virtual GRBL can play.
+
+    Raises
+    ------
+    ProfileError
+        Unknown or invalid profile, or one for another firmware dialect.
+    """
+    from pencilbot.gcode.profiles import load_profile
+
+    profile = load_profile(name)
+    if profile.dialect != "grbl":
+        raise ProfileError(
+            f"profile {profile.name} is for {profile.dialect}; the virtual plotter speaks GRBL 1.1 "
+            "only — use a grbl profile (e.g. grbl-servo-a4)"
+        )
+    return profile
+
+
 class VirtualPlotter:
     """A virtual GRBL plotter: firmware, machine, clock and wires, driven by :meth:`pump`.
 
@@ -85,9 +105,7 @@ class VirtualPlotter:
 
     def __init__(self, profile: str = DEFAULT_PROFILE, *, baud: int = 0, realtime: float = 0.0,
                  faults: Faults | None = None):
-        from pencilbot.gcode.profiles import load_profile
-
-        self.profile = load_profile(profile)
+        self.profile = grbl_profile(profile)
         self.machine = Machine(MachineConfig.from_profile(self.profile), instant=realtime == 0)
         self.firmware = Firmware(self.machine, faults)
         self.realtime = realtime

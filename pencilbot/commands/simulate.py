@@ -17,7 +17,6 @@ from pencilbot.commands.common import add_verbosity
 from pencilbot.commands.export import _plan
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
-from pencilbot.gcode.profiles import load_profile
 from pencilbot.gcode.writer import duration_text, gcode_lines
 
 DEFAULT_PROFILE = "grbl-servo-a4"
@@ -58,15 +57,10 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"name the output {output} with .png")
     if args.dpi <= 0 or args.realtime < 0 or (args.pen_width is not None and args.pen_width <= 0):
         raise PencilbotError("--dpi and --pen-width must be positive and --realtime 0 or more")
-    profile = load_profile(args.profile)
-    if profile.dialect != "grbl":
-        raise PencilbotError(
-            f"profile {profile.name} is for {profile.dialect}; the virtual plotter speaks GRBL 1.1 "
-            "only — simulate with a grbl profile (e.g. --profile grbl-servo-a4)"
-        )
-    lines, pen_width = _gcode(source, profile, args)
-
     from sim import protocol_sim
+
+    profile = protocol_sim.grbl_profile(args.profile)  # fails before any slow planning
+    lines, pen_width = _gcode(source, profile, args)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})

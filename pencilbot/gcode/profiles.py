@@ -161,7 +161,7 @@ _REQUIRED = object()
 
 def _number(low: float, high: float = float("inf"), *, open_low: bool, unit: str):
     bound = f"> {low:g}" if open_low else f"≥ {low:g}"
-    upper = f" and ≤ {high:g}" if high != float("inf") else ""
+    upper = f" and ≤ {high:.10g}" if high != float("inf") else ""
     expected = f"a number {bound}{upper} ({unit})"
 
     def check(value):
@@ -202,8 +202,9 @@ _TEXT = _kind(str, "a string")
 _TEMPLATE = _kind(str, "a string of G-code (a template using " + ", ".join(
     f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")")
 _FLAG = _kind(bool, "true or false")
-_FEED = _number(0, open_low=True, unit="mm/min")
-_SECONDS = _number(0, open_low=False, unit="seconds")
+# Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
+_FEED = _number(0, 1e6, open_low=True, unit="mm/min")
+_SECONDS = _number(0, 60, open_low=False, unit="seconds")
 _BED = _number(0, _MAX_BED, open_low=True, unit="mm")
 
 _SCHEMA: dict[str, dict[str, tuple[Any, Any]]] = {

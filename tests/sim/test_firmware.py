@@ -95,7 +95,7 @@ CONFORMANCE = [
      "ALARM:2\r\n[MSG:Reset to continue]\r\n" + BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"
      "[MSG:Caution: Unlocked]\r\nok\r\nok\r\n"),
     (b"G0 X10\n!?~?",
-     "ok\r\n<Hold:0|MPos:0.000,0.000,0.000|FS:6000,0|WCO:0.000,0.000,0.000>\r\n"
+     "ok\r\n<Hold:0|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
      "<Idle|MPos:10.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"),
     (b"!", ""),  # feed hold while idle does nothing
     (b"\xff\x85G0 X1\n", "ok\r\n"),  # extended-ASCII bytes never reach the line
@@ -260,3 +260,17 @@ def test_pen_model_servo_m280():
     fw.finish()
     strokes = fw.machine.strokes
     assert len(strokes) == 1 and strokes[0].tolist() == [[10, 10], [20, 10]]
+
+
+def test_m0_pauses_after_its_ok_until_cycle_start():
+    fw = board()
+    assert exchange(fw, b"G0 X10\nM0\nG0 X20\n?") == (
+        "ok\r\nok\r\nok\r\n<Hold:0|MPos:10.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n")
+    assert exchange(fw, b"~?") == "<Idle|MPos:20.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"
+
+
+def test_reboot_revives_a_hung_board():
+    fw = board(faults="silent@1")
+    assert exchange(fw, b"G0 X1\n?") == ""
+    fw.reset(reboot=True)
+    assert exchange(fw, b"G0 X1\n") == BANNER + "ok\r\n"
