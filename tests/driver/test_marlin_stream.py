@@ -1,0 +1,134 @@
+"""Marlin streaming over a real pty: numbered, checksummed lines, Resend after line noise, busy.
+
+The virtual plotter speaks GRBL only, so the board here is a small Marlin line-protocol front
+end built on :mod:`firmware_protocol.marlin` (the same framing rules the driver uses are checked
+from the board's side with ``unframe_line``). It answers the way Marlin 2 does: ``start`` on
+open, ``ok`` per good line, ``Error:…`` + ``Resend: N`` + ``ok`` for a corrupt or out-of-order
+line, and ``echo:busy: processing`` while a slow command runs.
+"""
+
+import os
+import select
+import threading
+import time
+import tty
+
+import pytest
+
+from firmware_protocol import marlin
+from pencilbot.driver import draw
+from pencilbot.driver.modal import clean_line
+from pencilbot.errors import PlotError
+
+PROFILE = "marlin-servo-a4"
+
+
+class MarlinBoard:
+    """Marlin's serial line protocol on a pty; ``noise_on`` = frame numbers to corrupt once."""
+
+    def __init__(self, noise_on=(), busy_seconds=0.0, slow=("G4",)):
+        self.master, slave = os.openpty()
+        tty.setraw(slave)
+        self.path = os.ttyname(slave)
+        self._slave = slave
+        self.noise_on = set(noise_on)
+        self.busy_seconds = busy_seconds
+        self.slow = slow  # command prefixes that keep the board busy for busy_seconds
+        self.answered = 0  # commands finished and answered with ok
+        self.most_in_flight = 0  # most frames the host had sent before hearing back
+        self.commands: list[str] = []  # executed, in order
+        self.resends: list[int] = []
+        self.expected = 1
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join(timeout=5)
+        os.close(self.master)
+        os.close(self._slave)
+
+    def _say(self, *lines):
+        os.write(self.master, "".join(line + "\n" for line in lines).encode())
+
+    def _serve(self):
+        self._say("start", "echo:Marlin 2.1.2")
+        buffer = b""
+        while not self._stop.is_set():
+            if not select.select([self.master], [], [], 0.02)[0]:
+                continue
+            buffer += os.read(self.master, 4096)
+            *lines, buffer = buffer.split(b"\n")
+            self.most_in_flight = max(self.most_in_flight, len([ln for ln in lines if ln.strip()]))
+            for raw in lines:
+                self._line(raw.decode("ascii", "replace").strip())
+
+    def _line(self, text):
+        if not text:
+            return
+        framed = marlin.unframe_line(text)
+        number = int(text[1:].split(" ", 1)[0]) if text.startswith("N") else None
+        if number in self.noise_on:  # the wire flipped a bit of this frame
+            self.noise_on.discard(number)
+            framed = None
+        if framed is None:
+            self._say(f"Error:checksum mismatch, Last Line: {self.expected - 1}")
+            return self._request_resend()
+        number, command = framed
+        if command.startswith("M110"):
+            self.expected = int(command.split("N")[1]) + 1
+            return self._say("ok")
+        if number != self.expected:
+            self._say(f"Error:Line Number is not Last Line Number+1, Last Line: {self.expected - 1}")
+            return self._request_resend()
+        self.expected += 1
+        self.commands.append(command)
+        if command.startswith(self.slow) and self.busy_seconds:
+            end = time.monotonic() + self.busy_seconds
+            while time.monotonic() < end:
+                self._say("echo:busy: processing")
+                time.sleep(0.1)
+        self.answered += 1
+        self._say("ok")
+
+    def _request_resend(self):
+        self.resends.append(self.expected)
+        self._say(f"Resend: {self.expected}", "ok")
+        time.sleep(0.1)  # a host that took the ok for the resent line sends two frames by now
+
+
+def lines_for_marlin(n=30):
+    out = ["G21", "G90", "M400", "M280 P0 S50"]
+    out += [f"G1 X{10 + i % 7}.5 Y{20 + i // 7}.25 F3000" for i in range(n)]
+    return out + ["M400", "M280 P0 S50"]
+
+
+def test_corrupted_line_is_resent_and_nothing_else_twice(tmp_path):
+    lines = lines_for_marlin()
+    path = tmp_path / "m.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    with MarlinBoard(noise_on={7, 19}, busy_seconds=0.3, slow=("M400",)) as board:
+        draw(path, board.path, profile=PROFILE, wake_wait=0.5)
+    # One frame in flight: the ok Marlin sends after "Resend:" belongs to the corrupt frame,
+    # not to the resent one, so it must not release the next frame.
+    assert board.most_in_flight == 1
+    assert board.resends == [7, 19]
+    assert board.commands == [clean_line(line) for line in lines] + ["M400"]  # M400: wait for the end
+
+
+def test_busy_keepalives_hold_off_the_timeout(tmp_path):
+    lines = ["G21", "G4 P1500", "G1 X5 Y5 F3000"]
+    with MarlinBoard(busy_seconds=1.5) as board:
+        draw(lines, board.path, profile=PROFILE, wake_wait=0.5, timeout=0.6)
+    assert board.commands[:3] == ["G21", "G4P1500", "G1X5Y5F3000"]
+
+
+def test_silent_marlin_board_is_a_plain_error():
+    board = MarlinBoard()
+    board._say = lambda *lines: None  # a hung board: says nothing at all
+    with board, pytest.raises(PlotError, match="no answer from a Marlin board.*stopped answering"):
+        draw(["G21"], board.path, profile=PROFILE, wake_wait=0.3, timeout=0.5)
