@@ -153,6 +153,8 @@ def _draw(paths: list[np.ndarray], s: MotionSettings) -> tuple[float, int, float
     sin_half = np.sqrt(np.clip((1.0 - cos_theta) / 2.0, 0.0, 1.0))
     with np.errstate(divide="ignore"):
         junction = s.acceleration * s.junction_deviation * sin_half / (1.0 - sin_half)
+    # GRBL's cut-offs: within 1e-6 of a full reversal stop, of straight on go full speed.
+    junction = np.where(cos_theta > 0.999999, 0.0, np.where(cos_theta < -0.999999, np.inf, junction))
     cap = np.zeros(count + 1)  # v² limit at each vertex
     cap[1:-1] = np.where(joined, np.minimum(junction, s.draw_speed**2), 0.0)
     # Reachable v² at vertex i: min over j of cap_j + 2a·|P_i − P_j| (P = distance along the plan).

@@ -151,7 +151,7 @@ class _Ends:
         self.points = np.concatenate([first, last])  # (2(n+1), 2)
 
     def neighbours(self) -> np.ndarray:
-        """(2(n+1), k) nearest other ends of each end, nearest first (-1 pads short inputs)."""
+        """(2(n+1), k) nearest other ends of each end, nearest first."""
         count = len(self.points)
         k = min(_NEIGHBOURS + 1, count)
         _, idx = cKDTree(self.points).query(self.points, k=k)
@@ -174,7 +174,7 @@ def _greedy(ends: _Ends, neighbours: np.ndarray) -> tuple[np.ndarray, np.ndarray
     tree, tree_ids, stale = cKDTree(points[free_ids]), free_ids, 0
     current = n  # end id at which the pen stands: home
     for _ in range(n):
-        chosen = next((e for e in nbr[current] if e >= 0 and not used[e % nodes]), -1)
+        chosen = next((e for e in nbr[current] if not used[e % nodes]), -1)
         if chosen < 0:
             if stale > len(tree_ids) // 2:  # most of the tree is used up: rebuild with free ends
                 alive = np.frombuffer(bytes(used), np.uint8)[tree_ids % nodes] == 0
@@ -215,7 +215,7 @@ class _Tour:
         self.rev[order] = reverse
         pairs_e = np.repeat(np.arange(len(neighbours)), neighbours.shape[1])
         pairs_f = neighbours.ravel()
-        keep = (pairs_f >= 0) & (pairs_e % self.nodes != pairs_f % self.nodes)
+        keep = pairs_e % self.nodes != pairs_f % self.nodes  # not the other end of the same path
         self.pair_e, self.pair_f = pairs_e[keep], pairs_f[keep]
         self.pair_d = np.hypot(*(self.points[self.pair_e] - self.points[self.pair_f]).T)
 

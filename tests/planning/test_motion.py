@@ -31,7 +31,12 @@ def reference_time(path, s: MotionSettings) -> float:
     for u, w in zip(unit[:-1], unit[1:]):
         cos_theta = -float(u @ w)
         sin_half = math.sqrt(max(0.0, (1 - cos_theta) / 2))
-        v2 = s.draw_speed**2 if sin_half >= 1 else s.acceleration * s.junction_deviation * sin_half / (1 - sin_half)
+        if cos_theta > 0.999999:  # GRBL: reversal
+            v2 = 0.0
+        elif cos_theta < -0.999999:  # GRBL: straight on
+            v2 = s.draw_speed**2
+        else:
+            v2 = s.acceleration * s.junction_deviation * sin_half / (1 - sin_half)
         cap.append(min(v2, s.draw_speed**2))
     cap.append(0.0)
     for i in range(len(length) - 1, -1, -1):  # backward: able to brake
