@@ -1,20 +1,24 @@
 """The GMED line drawing as pen strokes: short straight lines along the 8 stroke directions.
 
 The raster line drawing paints, for every edge pixel labelled with direction i, a line of length
-ℓ along direction i (L = Σ Lᵢ ⊗ Bᵢ). A pen reproduces that by drawing each straight run of such
-pixels once: for direction i we rotate pixel coordinates so direction i is the u axis, bin the
-across coordinate v into bands one pen width wide (so a thick dilated edge becomes one or a few
-touching lines, never five overlapping ones), sort by (band, u) and split where u jumps. A run of
-pixels [u0, u1] becomes a stroke from u0 − ℓ/2 to u1 + ℓ/2 — exactly the extent the kernel
-paints — cut into pieces of about ``piece_length`` · ℓ that overlap, so consecutive strokes of a
-contour cross at their ends as a hand-drawn line does. Everything is whole-array numpy: one
-lexsort over the edge pixels, no loop per pixel or per stroke.
+ℓ along direction i (L = Σ Lᵢ ⊗ Bᵢ). A pen reproduces that by drawing each straight stretch of
+such pixels once. Edge pixels (E above a threshold) that share a direction label and touch
+(8-connected) form a component: one straight piece of contour, however thick the dilated edge
+is, so a band of edge pixels is never drawn as several overlapping lines. In coordinates rotated
+so direction i is the u axis, a component spanning [u0, u1] becomes a stroke from u0 − ℓ/2 to
+u1 + ℓ/2 — the extent the kernel paints — cut into pieces of at most ``piece_length`` · ℓ that
+overlap by ℓ/4, so consecutive strokes of a contour cross at their ends as a hand-drawn line
+does. Each piece sits at the mean across-position v of its own pixels (following a gently
+curving contour), and a piece whose pixels span two pen widths across — a strong, wide edge,
+darker in the raster — becomes a bold stroke of two touching lines. Everything is whole-array
+numpy (connected components, one lexsort, bincounts); no loop per pixel or per stroke.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import cv2
 import numpy as np
 from skimage.filters import threshold_otsu
 
@@ -60,13 +64,13 @@ def edge_strokes(
     layout : pencilbot.planning.layout.Layout
         Maps image pixels to page millimetres (``mm_per_px``, ``px_to_mm``).
     pen_width : float
-        Pen line width, mm. Parallel runs closer than this are drawn as one stroke.
+        Pen line width, mm; a component two pen widths thick is drawn bold (two lines).
     threshold : float or None
         Edge strength in [0, 1] below which pixels draw nothing; None uses :func:`edge_threshold`.
     min_pixels : int
-        Runs of fewer edge pixels are dropped (speckle, not contour).
+        Components of fewer edge pixels are dropped (speckle, not contour).
     piece_length : float
-        Longest stroke, in units of ℓ; longer runs are cut into overlapping pieces.
+        Longest stroke, in units of ℓ; longer components are cut into overlapping pieces.
 
     Returns
     -------
@@ -76,45 +80,68 @@ def edge_strokes(
     edges = np.asarray(line.edges, dtype=np.float32)
     ell = float(line.length)
     thr = edge_threshold(edges) if threshold is None else float(threshold)
-    rows, cols = np.nonzero(edges > thr)
+    component = _direction_components(edges > thr, line.labels)
+    rows, cols = np.nonzero(component)
     if rows.size == 0:
         return []
+    ident = component[rows, cols]
     direction = line.labels[rows, cols].astype(np.intp)
-    theta = direction * (np.pi / N_DIRECTIONS)
-    # Direction k is (cos θ, −sin θ) in (col, row): rows grow downward on screen.
-    along = np.stack([np.cos(theta), -np.sin(theta)], axis=1)
-    across = np.stack([np.sin(theta), np.cos(theta)], axis=1)
-    pts = np.stack([cols, rows], axis=1).astype(np.float64)
-    u = np.einsum("ij,ij->i", pts, along)
-    v = np.einsum("ij,ij->i", pts, across)
+    u, v = _rotate(cols, rows, direction)
+    order = np.lexsort((u, ident))
+    ident, direction, u, v = ident[order], direction[order], u[order], v[order]
 
-    band_px = max(1.0, pen_width / layout.mm_per_px)
-    band = np.floor(v / band_px).astype(np.int64)
-    order = np.lexsort((u, band, direction))
-    direction, band, u, v = direction[order], band[order], u[order], v[order]
-
-    # A gap longer than ℓ/2 is not bridged by the kernel either: start a new run there.
-    new_run = np.ones(u.size, dtype=bool)
-    new_run[1:] = (
-        (direction[1:] != direction[:-1]) | (band[1:] != band[:-1]) | (np.diff(u) > max(2.0, ell / 2))
-    )
-    starts = np.flatnonzero(new_run)
-    counts = np.diff(np.append(starts, u.size))
-    keep = counts >= min_pixels
-    starts, counts = starts[keep], counts[keep]
-    if starts.size == 0:
+    first = np.flatnonzero(np.append(True, ident[1:] != ident[:-1]))
+    counts = np.diff(np.append(first, u.size))
+    keep = np.repeat(counts >= min_pixels, counts)
+    ident, direction, u, v = ident[keep], direction[keep], u[keep], v[keep]
+    if u.size == 0:
         return []
-    ends = starts + counts - 1
-    run_dir = direction[starts]
-    run_v = np.add.reduceat(v, np.flatnonzero(new_run))[keep] / counts
-    u0 = u[starts] - ell / 2
-    u1 = u[ends] + ell / 2
+    first = np.flatnonzero(np.append(True, ident[1:] != ident[:-1]))
+    last = np.append(first[1:], u.size) - 1
+    comp_dir = direction[first]
+    # Each component paints from its first pixel − ℓ/2 to its last + ℓ/2, like the kernel.
+    start, stop = u[first] - ell / 2, u[last] + ell / 2
+    overlap = ell / 4
+    n_pieces = np.maximum(
+        1, np.ceil((stop - start - overlap) / max(piece_length * ell - overlap, 1e-9))
+    ).astype(np.intp)
+    piece = (stop - start + (n_pieces - 1) * overlap) / n_pieces
+    step = piece - overlap
 
-    u0, u1 = _clip_to_image(u0, u1, run_v, run_dir, line.edges.shape)
-    inside = u1 - u0 > 1e-6
-    u0, u1, run_v, run_dir = u0[inside], u1[inside], run_v[inside], run_dir[inside]
-    p0, p1, piece_dir, piece_v = _cut_into_pieces(u0, u1, run_v, run_dir, piece_length * ell, ell)
+    # Each piece lies on the mean across-position of its own pixels, so a gently curving
+    # contour is followed piece by piece instead of by one chord.
+    comp_of_pixel = np.repeat(np.arange(first.size), np.diff(np.append(first, u.size)))
+    index_in_comp = np.clip(
+        np.floor((u - start[comp_of_pixel]) / step[comp_of_pixel]), 0, n_pieces[comp_of_pixel] - 1
+    ).astype(np.intp)
+    piece_base = np.cumsum(n_pieces) - n_pieces
+    piece_of_pixel = piece_base[comp_of_pixel] + index_in_comp
+    total = int(n_pieces.sum())
+    pixels = np.bincount(piece_of_pixel, minlength=total)
+    v_sum = np.bincount(piece_of_pixel, weights=v, minlength=total)
+    comp_v = np.bincount(comp_of_pixel, weights=v) / np.diff(np.append(first, u.size))
+    owner = np.repeat(np.arange(first.size), n_pieces)
+    piece_v = np.where(pixels > 0, v_sum / np.maximum(pixels, 1), comp_v[owner])
+    within = np.arange(total) - piece_base[owner]
+    p0 = start[owner] + within * step[owner]
+    p1 = p0 + piece[owner]
+    piece_dir = comp_dir[owner]
 
+    # A piece whose pixels span two pen widths across is a strong, wide edge (the raster
+    # draws it darker): draw it as two touching lines, a bold stroke, not one thin one.
+    v_min = np.full(total, np.inf)
+    v_max = np.full(total, -np.inf)
+    np.minimum.at(v_min, piece_of_pixel, v)
+    np.maximum.at(v_max, piece_of_pixel, v)
+    pen_px = pen_width / layout.mm_per_px
+    bold = v_max - v_min + 1 >= 2 * pen_px
+    shift = np.where(bold, pen_px / 2, 0.0)
+    p0, p1, piece_dir = (np.concatenate([a, a[bold]]) for a in (p0, p1, piece_dir))
+    piece_v = np.concatenate([piece_v - shift, piece_v[bold] + pen_px / 2])
+
+    p0, p1 = _clip_to_image(p0, p1, piece_v, piece_dir, edges.shape)
+    inside = p1 - p0 > 1e-6
+    p0, p1, piece_v, piece_dir = p0[inside], p1[inside], piece_v[inside], piece_dir[inside]
     theta = piece_dir * (np.pi / N_DIRECTIONS)
     along = np.stack([np.cos(theta), -np.sin(theta)], axis=1)
     across = np.stack([np.sin(theta), np.cos(theta)], axis=1)
@@ -122,6 +149,27 @@ def edge_strokes(
     end_px = p1[:, None] * along + piece_v[:, None] * across
     ends_mm = layout.px_to_mm(np.concatenate([start_px, end_px])).reshape(2, -1, 2)
     return list(np.stack([ends_mm[0], ends_mm[1]], axis=1))
+
+
+def _direction_components(mask: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """Label 8-connected groups of masked pixels that share a direction; 0 = not an edge."""
+    out = np.zeros(mask.shape, dtype=np.int32)
+    offset = 0
+    for k in range(N_DIRECTIONS):
+        count, comp = cv2.connectedComponents((mask & (labels == k)).astype(np.uint8), connectivity=8)
+        hit = comp > 0
+        out[hit] = comp[hit] + offset
+        offset += count
+    return out
+
+
+def _rotate(cols, rows, direction):
+    """(u, v): pixel coordinates along and across direction k."""
+    theta = direction * (np.pi / N_DIRECTIONS)
+    # Direction k is (cos θ, −sin θ) in (col, row): rows grow downward on screen.
+    u = cols * np.cos(theta) - rows * np.sin(theta)
+    v = cols * np.sin(theta) + rows * np.cos(theta)
+    return u, v
 
 
 def _clip_to_image(u0, u1, v, direction, shape):
@@ -140,15 +188,3 @@ def _clip_to_image(u0, u1, v, direction, shape):
         t_max = np.where(moving, np.maximum(t_a, t_b), np.inf)
         lo, hi = np.maximum(lo, t_min), np.minimum(hi, t_max)
     return lo, np.maximum(hi, lo)
-
-
-def _cut_into_pieces(u0, u1, v, direction, max_len, ell):
-    """Cut [u0, u1] into equal pieces ≤ ``max_len`` that overlap by ℓ/4 so their ends cross."""
-    overlap = ell / 4
-    length = u1 - u0
-    n = np.maximum(1, np.ceil((length - overlap) / max(max_len - overlap, 1e-9))).astype(np.intp)
-    piece = (length + (n - 1) * overlap) / n
-    run = np.repeat(np.arange(u0.size), n)
-    index = np.arange(run.size) - np.repeat(np.cumsum(n) - n, n)
-    start = u0[run] + index * (piece[run] - overlap)
-    return start, start + piece[run], direction[run], v[run]

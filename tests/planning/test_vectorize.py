@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from skimage.draw import polygon
+from skimage.draw import disk, polygon
 
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.strokes import LineDrawing, line_drawing
@@ -75,19 +75,47 @@ def test_a_long_run_becomes_overlapping_pieces_covering_the_kernel_extent():
     assert np.all(spans[1:, 0] < spans[:-1, 1])
 
 
-def test_a_thick_edge_is_not_drawn_several_times():
-    # A 4-px-wide band of edge pixels (what dilation makes of one contour); with a pen 2 px wide
-    # at plot scale the band must become at most 2 touching lines, not 4 overlapping ones.
+@pytest.mark.parametrize(("band", "lines"), [(1, 1), (3, 1), (4, 2), (8, 2)])
+def test_a_thick_edge_is_drawn_once_and_bold_when_wide(band, lines):
+    # A band of edge pixels (what dilation makes of one contour), pen 2 px wide at plot scale:
+    # one line, or for a band two pen widths thick one bold stroke of two touching lines —
+    # never one line per pixel row.
     h, w = 60, 100
     edges = np.zeros((h, w), np.float32)
-    edges[28:32, 10:90] = 0.8
+    edges[28 : 28 + band, 10:90] = 0.8
     labels = np.zeros((h, w), np.uint8)
     layout = _layout((h, w), mm_per_px=0.25)
     strokes = edge_strokes(_hand_made(edges, labels), layout, pen_width=0.5)
     rows = np.unique(np.round([layout.mm_to_px(s)[:, 1].mean() for s in strokes], 6))
-    assert 1 <= len(rows) <= 2
-    if len(rows) == 2:
-        assert rows[1] - rows[0] >= 0.5 / 0.25 - 1e-9
+    assert len(rows) == lines
+    assert rows.mean() == pytest.approx(28 + (band - 1) / 2)
+    if lines == 2:
+        assert rows[1] - rows[0] == pytest.approx(0.5 / 0.25)  # touching, not doubled
+
+
+def test_two_separate_parallel_contours_stay_two():
+    h, w = 60, 100
+    edges = np.zeros((h, w), np.float32)
+    edges[20, 10:90] = edges[26, 10:90] = 0.8
+    layout = _layout((h, w), mm_per_px=0.25)
+    strokes = edge_strokes(_hand_made(edges, np.zeros((h, w), np.uint8)), layout, pen_width=0.5)
+    rows = np.unique(np.round([layout.mm_to_px(s)[:, 1].mean() for s in strokes], 6))
+    assert rows.tolist() == [20, 26]
+
+
+def test_strokes_follow_a_curved_contour():
+    gray = np.full((140, 140), 0.9, np.float32)
+    gray[disk((70, 70), 45)] = 0.2
+    line = line_drawing(edge_map(gray))
+    layout = _layout(gray.shape)
+    strokes = edge_strokes(line, layout)
+    mid = np.array([layout.mm_to_px(s).mean(axis=0) for s in strokes])
+    radius = np.hypot(mid[:, 0] - 70, mid[:, 1] - 70)
+    # The mid-points of the chords hug the circle; the band of E is ~3 px wide around r = 45.
+    assert np.all(np.abs(radius - 45) < 3.5)
+    # And the strokes go round: every 30° sector of the circle has some.
+    sectors = np.floor(np.degrees(np.arctan2(mid[:, 1] - 70, mid[:, 0] - 70)) % 360 / 30)
+    assert set(sectors.astype(int)) == set(range(12))
 
 
 def test_speckle_and_weak_edges_draw_nothing():
