@@ -25,3 +25,18 @@ class StreamFault(Exception):
 
     def __str__(self) -> str:
         return KINDS[self.kind] + (f" ({self.detail})" if self.detail else "")
+
+
+class BadLine(Exception):
+    """Job line ``index`` (0-based) cannot be sent to this firmware; ``reason`` says why."""
+
+    def __init__(self, index: int, reason: str):
+        super().__init__(reason)
+        self.index, self.reason = index, reason
+
+
+def is_rejection(reply) -> bool:
+    """Whether a firmware's answer to one line says it was refused (GRBL or Marlin ``Error``)."""
+    from firmware_protocol import grbl, marlin
+
+    return isinstance(reply, (grbl.Error, marlin.Error))

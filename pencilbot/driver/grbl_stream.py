@@ -14,7 +14,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 
 from firmware_protocol import grbl
-from pencilbot.driver.faults import StreamFault
+from pencilbot.driver.faults import BadLine, StreamFault
 from pencilbot.driver.port import LineReader, PortLost
 from pencilbot.errors import PlotError
 
@@ -22,6 +22,17 @@ log = logging.getLogger(__name__)
 
 POLL_INTERVAL = 0.2  # s: status queries at 5 Hz, GRBL's recommended ceiling
 HOLD_STATES = ("Idle", "Alarm", "Check", "Sleep")
+
+
+def encode_lines(lines: Sequence[str]) -> list[bytes]:
+    """Each line framed for GRBL; :class:`BadLine` names the first one GRBL cannot take."""
+    encoded = []
+    for index, line in enumerate(lines):
+        try:
+            encoded.append(grbl.encode_line(line))
+        except PlotError as exc:
+            raise BadLine(index, str(exc)) from None
+    return encoded
 
 
 class GrblSession:
@@ -216,7 +227,7 @@ class GrblSession:
             ``error`` (with ``on_error="stop"``), ``alarm``, ``reset``, ``timeout``, ``port``
             or ``interrupt``; ``index`` is the line concerned.
         """
-        encoded = [grbl.encode_line(line) for line in lines]
+        encoded = encode_lines(lines)
         pending: deque[tuple[int, int]] = deque()  # (index, bytes) sent and not yet answered
         # Kept for halt(): lines still in flight when a fault stops the stream are answered late.
         self._pending, self._on_ack = pending, on_ack

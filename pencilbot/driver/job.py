@@ -14,9 +14,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.faults import StreamFault
-from pencilbot.driver.grbl_stream import GrblSession
-from pencilbot.driver.marlin_stream import MarlinSession
+from pencilbot.driver.faults import BadLine, StreamFault, is_rejection
+from pencilbot.driver.grbl_stream import GrblSession, encode_lines
+from pencilbot.driver.marlin_stream import MarlinSession, check_lines
 from pencilbot.driver.modal import MM_PER_INCH, ModalState, advance, clean_line, line_seconds
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
@@ -140,17 +140,22 @@ def draw(
     if isinstance(gcode, (str, Path)):
         path = Path(gcode)
         try:
-            raw = path.read_text(encoding="ascii").splitlines()
+            # Comments may hold any text; a command that is not ASCII is refused line by line below.
+            raw = path.read_text(encoding="utf-8", errors="replace").splitlines()
         except FileNotFoundError:
             raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
-        except (UnicodeDecodeError, OSError) as exc:
-            raise PlotError(f"cannot read G-code file {path} ({exc}); G-code must be plain ASCII text") from None
+        except OSError as exc:
+            raise PlotError(f"cannot read G-code file {path} ({exc})") from None
         job = load_job(raw, prof, str(path))
         total_lines = len(raw)
     else:
         path, job, total_lines = None, load_job(list(gcode), prof), len(gcode)
     if not job.lines:
         raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
+    try:
+        encode_lines(job.lines) if prof.dialect == "grbl" else check_lines(job.lines)
+    except BadLine as bad:
+        raise PlotError(f"line {job.numbers[bad.index]} of {job.source}: {bad.reason}") from None
 
     start = 0
     if journal is not None:
@@ -275,7 +280,7 @@ class _Runner:
 
     def _setup_command(self, session, line, doing) -> None:
         reply = session.command(line)
-        if type(reply).__name__ == "Error":
+        if is_rejection(reply):
             raise PlotError(f"the plotter refused {line!r} while {doing} ({reply}); check the profile")
 
     def _check_mode(self, session) -> None:
@@ -336,7 +341,7 @@ class _Runner:
                 # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
                 session.command("$X")
             for line in self.pen.up_lines:
-                if type(session.command(line)).__name__ == "Error":
+                if is_rejection(session.command(line)):
                     if self.pen.kind == "spindle":
                         # The alarm switched the spindle off, and spindle off is pen up.
                         return "pen up (the alarm switched the spindle off)", position

@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable, Sequence
 
 from firmware_protocol import marlin
-from pencilbot.driver.faults import StreamFault
+from pencilbot.driver.faults import BadLine, StreamFault
 from pencilbot.driver.port import LineReader, PortLost
 from pencilbot.errors import PlotError
 
@@ -20,6 +20,16 @@ log = logging.getLogger(__name__)
 
 #: Marlin ``Error:`` texts that announce a ``Resend`` rather than a failed command.
 _TRANSMISSION_ERRORS = ("checksum", "line number", "no line number", "no checksum")
+
+
+def check_lines(lines: Sequence[str]) -> None:
+    """Raise :class:`BadLine` for the first line Marlin cannot take once numbered."""
+    widest = len(lines) + 10  # line numbers grow with resends and set-up commands
+    for index, line in enumerate(lines):
+        try:
+            marlin.frame_line(widest, line)
+        except PlotError as exc:
+            raise BadLine(index, str(exc)) from None
 
 
 class MarlinSession:

@@ -47,3 +47,9 @@ def test_start_line_outside_the_file(capsys, tmp_path):
 def test_resume_and_start_line_exclude_each_other(capsys):
     with pytest.raises(SystemExit):
         main(["draw", "x.gcode", "--resume", "j", "--start-line", "3"])
+
+
+def test_a_line_grbl_cannot_take_is_named_before_anything_is_sent(capsys, tmp_path):
+    (tmp_path / "long.gcode").write_text("G21 ; ünïcode comments are fine\nG1 X" + "1" * 90 + "\n")
+    code, err = run(capsys, str(tmp_path / "long.gcode"), "--port", str(tmp_path / "ttyNOPE"))
+    assert code == 3 and "line 2 of" in err and "at most 79" in err
