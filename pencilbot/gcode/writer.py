@@ -440,9 +440,9 @@ def _gather(table: np.ndarray, order: np.ndarray, *, cuts: np.ndarray, inserts: 
     """The rows ``table[order]`` without their NUL padding, with line ``inserts[i]`` placed
     before row ``cuts[i]`` of ``order``."""
     picked = table[order]
-    kept = picked != 0
-    blob = picked[kept].tobytes()
-    offsets = np.concatenate([[0], np.cumsum(kept.sum(axis=1))])[cuts].tolist()
+    blob = picked[picked != 0].tobytes()
+    lengths = np.count_nonzero(table, axis=1)[order]
+    offsets = np.concatenate([[0], np.cumsum(lengths)])[cuts].tolist()
     pieces, start = [], 0
     for offset, line in zip(offsets, inserts):
         pieces += [blob[start:offset], line.encode("ascii") + b"\n"]
