@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from pencilbot.commands.common import add_verbosity
 from pencilbot.driver import draw
@@ -35,9 +36,21 @@ def add_parser(subparsers) -> None:
     p.set_defaults(func=run)
 
 
+#: Inputs that are pictures or plans, not G-code: `pencilbot export` turns them into G-code.
+NOT_GCODE = {".svg", ".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".gif"}
+
+
 def run(args: argparse.Namespace) -> int:
     journal = load_journal(args.resume) if args.resume else None
     gcode = journal.gcode if journal else args.input
+    if gcode is not None and Path(gcode).suffix.lower() in NOT_GCODE:
+        out = Path(gcode).with_suffix(".gcode")
+        profile = f" --profile {args.profile}" if args.profile else ""
+        raise PlotError(
+            f"{gcode} is a picture, not G-code; make the G-code first (and look at it with "
+            f"pencilbot simulate), then draw it: pencilbot export {gcode} -o {out}{profile} && "
+            f"pencilbot draw {out} --port {args.port or 'PORT'}{profile}"
+        )
     port = args.port or (journal.port if journal else None)
     if gcode is None:
         raise PlotError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")

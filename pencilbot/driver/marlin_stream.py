@@ -8,6 +8,7 @@ sends line N again. ``busy:`` keep-alives mean a long move is running; they rese
 from __future__ import annotations
 
 import logging
+import re
 import time
 from collections.abc import Callable, Sequence
 
@@ -22,12 +23,22 @@ log = logging.getLogger(__name__)
 _TRANSMISSION_ERRORS = ("checksum", "line number", "no line number", "no checksum")
 
 
+_FRAMED = re.compile(r"N\d+(.*?)(?:\*\d+)?")
+
+
+def command_of(line: str) -> str:
+    """A cleaned line without the ``N…`` / ``*checksum`` a profile with line numbers wrote into
+    the file: the session numbers lines itself, continuing where the board expects."""
+    framed = _FRAMED.fullmatch(line)
+    return framed.group(1) if framed else line
+
+
 def check_lines(lines: Sequence[str]) -> None:
     """Raise :class:`BadLine` for the first line Marlin cannot take once numbered."""
     widest = len(lines) + 10  # line numbers grow with resends and set-up commands
     for index, line in enumerate(lines):
         try:
-            marlin.frame_line(widest, line)
+            marlin.frame_line(widest, command_of(line))
         except PlotError as exc:
             raise BadLine(index, str(exc)) from None
 
@@ -131,7 +142,7 @@ class MarlinSession:
         index = start
         try:
             for index in range(start, len(lines)):
-                reply = self.command(lines[index], index=index)
+                reply = self.command(command_of(lines[index]), index=index)
                 if isinstance(reply, marlin.Error):
                     if on_error == "stop":
                         raise StreamFault("error", index, f"Error:{reply.text}")

@@ -53,3 +53,9 @@ def test_a_line_grbl_cannot_take_is_named_before_anything_is_sent(capsys, tmp_pa
     (tmp_path / "long.gcode").write_text("G21 ; ünïcode comments are fine\nG1 X" + "1" * 90 + "\n")
     code, err = run(capsys, str(tmp_path / "long.gcode"), "--port", str(tmp_path / "ttyNOPE"))
     assert code == 3 and "line 2 of" in err and "at most 79" in err
+
+
+def test_a_photo_input_gets_the_export_command_to_run_first(capsys, tmp_path):
+    code, err = run(capsys, str(tmp_path / "cat.jpg"), "--port", "/dev/ttyUSB0", "--profile", "grbl-z-a3")
+    assert code == 3 and "is a picture, not G-code" in err
+    assert f"pencilbot export {tmp_path / 'cat.jpg'} -o {tmp_path / 'cat.gcode'} --profile grbl-z-a3" in err

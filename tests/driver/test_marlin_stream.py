@@ -132,3 +132,12 @@ def test_silent_marlin_board_is_a_plain_error():
     board._say = lambda *lines: None  # a hung board: says nothing at all
     with board, pytest.raises(PlotError, match="no answer from a Marlin board.*stopped answering"):
         draw(["G21"], board.path, profile=PROFILE, wake_wait=0.3, timeout=0.5)
+
+
+def test_line_numbers_written_by_the_profile_are_replaced_by_the_session_s_own(tmp_path):
+    commands = ["G21", "G90", "G1 X5 Y5 F3000"]
+    numbered = [marlin.frame_line(n, c).decode().strip() for n, c in enumerate(commands, start=100)]
+    with MarlinBoard() as board:
+        draw(numbered, board.path, profile=PROFILE, wake_wait=0.5)
+    assert board.commands == ["G21", "G90", "G1X5Y5F3000", "M400"]
+    assert board.resends == []
