@@ -64,7 +64,7 @@ PEN_KINDS = ("spindle", "z", "servo")
 MAX_LINE = 80  # GRBL's line buffer; the longest line the writer produces
 FRAME_ROOM = 13  # "N1234567 " + "*255": what Marlin line numbering adds to a line
 TEMPLATE_FIELDS = ("up", "down", "draw_feed", "travel_feed", "bed_width", "bed_height")
-_MAX_BED = 10_000.0  # mm; keeps every coordinate within five integer digits
+MAX_BED = 10_000  # mm; keeps every coordinate within five integer digits
 
 
 @dataclass(frozen=True)
@@ -205,7 +205,7 @@ _FLAG = _kind(bool, "true or false")
 # Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
 _FEED = _number(0, 1e6, open_low=True, unit="mm/min")
 _SECONDS = _number(0, 60, open_low=False, unit="seconds")
-_BED = _number(0, _MAX_BED, open_low=True, unit="mm")
+_BED = _number(0, MAX_BED, open_low=True, unit="mm")
 
 _SCHEMA: dict[str, dict[str, tuple[Any, Any]]] = {
     "": {

@@ -30,11 +30,11 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.errors import OutOfBedError, PencilbotError
-from pencilbot.gcode.profiles import MAX_LINE, Bed, Profile
+from pencilbot.gcode.profiles import MAX_BED, MAX_LINE, Bed, Profile
 from pencilbot.planning.motion import PlanStats, estimate
 from pencilbot.planning.plan import Page, Plan
 
-_INT_DIGITS = 5  # bed sides are at most 10 000 mm (profiles enforce it)
+_INT_DIGITS = len(str(MAX_BED))  # the bed check keeps |coordinate| ≤ MAX_BED mm
 
 
 @dataclass(frozen=True)
@@ -413,9 +413,9 @@ def _number_rows(values: np.ndarray, decimals: int) -> np.ndarray:
 
 @cache
 def _integer_table() -> np.ndarray:
-    """Row i: the digits of i (0 ≤ i ≤ 10 000) right-aligned in 5 bytes, NUL-padded."""
-    return _text_rows([f"{i:>5}".replace(" ", "\0") for i in range(10**_INT_DIGITS // 10 + 1)],
-                      _INT_DIGITS, newline=False)
+    """Row i: the digits of i (0 ≤ i ≤ MAX_BED) right-aligned, NUL-padded."""
+    texts = [f"{i:>{_INT_DIGITS}}".replace(" ", "\0") for i in range(MAX_BED + 1)]
+    return _text_rows(texts, _INT_DIGITS, newline=False)
 
 
 @cache

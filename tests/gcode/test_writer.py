@@ -148,7 +148,7 @@ layers = st.lists(st.lists(path, max_size=6), min_size=1, max_size=3)
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(layers, st.sampled_from(PROFILES), st.integers(0, 4), st.booleans())
+@given(layers, st.sampled_from(PROFILES), st.integers(0, 6), st.booleans())
 def test_any_plan_reads_back_within_rounding(layer_paths, name, decimals, numbered):
     profile = with_format(load_profile(name), decimals=decimals)
     if numbered and profile.dialect == "marlin":
