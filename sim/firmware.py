@@ -106,6 +106,7 @@ class Firmware:
         self.out = bytearray()
         self.log: list[LoggedLine] = []
         self.lost_bytes = 0  # bytes dropped because the receive ring was full
+        self._rebooting = False
         self.link_dropped = False
         self.silent = False
         self._ring = bytearray()
@@ -123,8 +124,9 @@ class Firmware:
 
     def receive(self, data: bytes) -> None:
         """Bytes from the host, in arrival order."""
+        self._rebooting = False
         pos, n = 0, len(data)
-        while pos < n and not self.silent:
+        while pos < n and not self._deaf:
             if self._blocked:
                 self._receive_bytes(data[pos:])
                 return
@@ -137,13 +139,13 @@ class Firmware:
             else:
                 self._receive_bytes(chunk)
             pos = end + 1
-            if m and not self._blocked and not self.silent:
+            if m and not self._blocked and not self._deaf:
                 self._end_of_line()
 
     def _receive_bytes(self, data: bytes) -> None:
         """Byte by byte, as GRBL's serial interrupt sees them."""
         for b in data:
-            if self.silent:
+            if self._deaf:
                 return
             if b in grbl.REALTIME_BYTES:
                 self._realtime(b)
@@ -180,6 +182,12 @@ class Firmware:
             self.machine.finish()
 
     @property
+    def _deaf(self) -> bool:
+        """Nothing more of the bytes being received gets through: a hung board, a pulled
+        cable, or a board rebooting (what was in flight is lost)."""
+        return self.silent or self.link_dropped or self._rebooting
+
+    @property
     def _blocked(self) -> bool:
         return self._pending is not None or self._critical
 
@@ -195,7 +203,7 @@ class Firmware:
             elif parsed is not None and not self._must_wait(parsed):
                 self._pending = None
                 self._run_gcode(index, text, parsed)
-        while not self._blocked and self._ring and not self.silent:
+        while not self._blocked and self._ring and not self._deaf:
             ring, self._ring = self._ring, bytearray()
             self.receive(bytes(ring))
 
@@ -222,6 +230,7 @@ class Firmware:
         moving = self.machine.stop()
         if reboot:
             self.silent = False
+            self._rebooting = True  # the rest of what is arriving now is lost
         if moving and not reboot:
             self._emit("ALARM:3")
             self._alarm = 3

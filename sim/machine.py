@@ -469,10 +469,11 @@ class Machine:
     def stop(self) -> bool:
         """Halt at once (reset, alarm): drop planned moves. True if the machine was moving."""
         moving = self.planner.busy
+        here = self.machine_position()  # moves not yet started are dropped, not reached
         cut = self.planner.discard()
         if cut is not None:
             self._complete([cut])
-        self.position = cut.end if cut is not None else self.machine_position()
+        self.position = here
         self.dwell_until = self.planner.clock
         self._close_stroke()
         return moving

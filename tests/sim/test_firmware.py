@@ -233,7 +233,9 @@ def test_each_gcode_like_line_gets_exactly_one_reply(lines):
     fw = board()
     assert exchange(fw, b"$20=0\n") == "ok\r\n"  # no soft limits: no alarm may stand in for a reply
     for line in lines:
-        out = exchange(fw, line.encode() + b"\n")
+        # "~" after each line: an M0 pause (a feed hold) would otherwise rightly hold back the
+        # reply to the next line that needs the planner to drain.
+        out = exchange(fw, line.encode() + b"\n~")
         replies = [ln for ln in out.split("\r\n") if ln in ("ok",) or ln.startswith("error:")]
         assert len(replies) == 1, (line, out)
 
@@ -274,3 +276,19 @@ def test_reboot_revives_a_hung_board():
     assert exchange(fw, b"G0 X1\n?") == ""
     fw.reset(reboot=True)
     assert exchange(fw, b"G0 X1\n") == BANNER + "ok\r\n"
+
+
+@pytest.mark.parametrize("fault", ["drop@1", "reset@1", "silent@1"])
+def test_bytes_in_flight_behind_a_fault_are_lost(fault):
+    fw = board(faults=fault)
+    fw.receive(b"G0X1\nG0X2\n")
+    assert fw.accepted_lines() == []
+    assert len(fw.log) == 1
+
+
+def test_stop_reports_where_the_tool_stopped_not_where_queued_moves_end():
+    fw = board()
+    exchange(fw, b"G1X10F1000\nG1X20\n\x18")
+    assert fw.machine.machine_position() == (0.0, 0.0, 0.0)
+    exchange(fw, b"$X\n?")
+    assert grbl.parse_line(exchange(fw, b"?").strip()).mpos == (0.0, 0.0, 0.0)
