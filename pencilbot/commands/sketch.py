@@ -14,6 +14,7 @@ from pencilbot.commands.common import add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.gmed import gmed_stages
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
+from pencilbot.imaging.pencil import sketch
 from pencilbot.imaging.strokes import line_drawing
 
 OUTPUT_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
@@ -47,6 +48,8 @@ def run(args: argparse.Namespace) -> int:
     _check_output(output)
     if args.line_length is not None and args.line_length < 1:
         raise PencilbotError(f"--line-length must be at least 1 pixel, got {args.line_length}.")
+    if args.texture_seed < 0:
+        raise PencilbotError(f"--texture-seed must be 0 or more, got {args.texture_seed}.")
     if args.max_pixels < 1:
         raise PencilbotError(f"--max-pixels must be positive, got {args.max_pixels}.")
     if args.lines_only and args.color:
@@ -58,8 +61,6 @@ def run(args: argparse.Namespace) -> int:
         line = line_drawing(stages["edges"], length=args.line_length)
         result = line.drawing
     else:
-        from pencilbot.imaging.pencil import sketch  # issue 3's pipeline
-
         drawn = sketch(
             image,
             color=args.color,
@@ -67,7 +68,10 @@ def run(args: argparse.Namespace) -> int:
             texture_seed=args.texture_seed,
             lines_only=False,
         )
-        stages = gmed_stages(image.gray) if args.stages else {}
+        stages = {}
+        if args.stages:
+            stages = gmed_stages(image.gray)
+            stages.update(tone=drawn.tone, texture=drawn.texture, beta=drawn.beta, T=drawn.T)
         line, result = drawn.line, drawn.result
     if args.stages:
         stages["lines"] = line.drawing
@@ -82,8 +86,8 @@ def run(args: argparse.Namespace) -> int:
 def write_stages(directory: Path, stages: dict[str, np.ndarray]) -> None:
     """Write each stage as ``DIR/<name>.png``; maps without a fixed range are scaled to their peak.
 
-    The gradient is shown white-on-black scaled to its maximum so faint edges stay visible; every
-    other stage is already in [0, 1].
+    The gradient and β (pencil passes) are shown white-on-black scaled to their maximum so faint
+    edges and light shading stay visible; every other stage is already in [0, 1].
     """
     try:
         directory.mkdir(parents=True, exist_ok=True)
@@ -91,7 +95,7 @@ def write_stages(directory: Path, stages: dict[str, np.ndarray]) -> None:
         raise PencilbotError(f"cannot create the stages directory {directory}: {err.strerror}.") from None
     for name, array in stages.items():
         peak = float(array.max(initial=0.0))
-        shown = array / peak if name == "gradient" and peak > 0 else array
+        shown = array / peak if name in ("gradient", "beta") and peak > 0 else array
         write_image(shown, directory / f"{name}.png")
 
 
