@@ -2,8 +2,7 @@
 
 Prints JSON. Target: pen-up travel ≤ 0.85 × greedy nearest neighbour with reversal on the same
 strokes; 100 000 strokes ordered within a few seconds. Stroke sets: synthetic short strokes
-(uniform, and clustered like contours) and, when the planner is available, the strokes of the
-coffee and astronaut plans (each layer shuffled, then ordered both ways from the same start).
+(uniform, and clustered like contours) and the strokes of the coffee and astronaut plans (each layer shuffled, then ordered both ways from the same start).
 Timings are wall-clock on a shared machine: expect noise.
 
 Usage: python bench/ordering.py [--budget SECONDS] [--quick]
@@ -13,11 +12,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import sys
 import time
 
-import numpy as np
+# Python puts this script's folder first on sys.path, where bench/sim.py would shadow the `sim`
+# package the planner imports; this script needs nothing from bench/.
+sys.path = [p for p in sys.path if os.path.abspath(p or ".") != os.path.dirname(os.path.abspath(__file__))]
 
-from pencilbot.planning.ordering import greedy_order, order_paths, travel_length
+import numpy as np  # noqa: E402
+from skimage import data  # noqa: E402
+
+from pencilbot.imaging.io import image_from_array  # noqa: E402
+from pencilbot.planning.build import make_plan  # noqa: E402
+from pencilbot.planning.ordering import greedy_order, order_paths, travel_length  # noqa: E402
 
 
 def synthetic_uniform(n: int, rng) -> list[np.ndarray]:
@@ -63,13 +71,6 @@ def measure(paths: list[np.ndarray], budget: float, start=(0.0, 0.0)) -> dict:
 
 def real_sets(rng) -> dict[str, list[np.ndarray]]:
     """Per-layer strokes of the coffee and astronaut plans (A4 portrait, 0.5 mm pen)."""
-    try:
-        from skimage import data
-
-        from pencilbot.imaging.io import image_from_array
-        from pencilbot.planning.build import make_plan
-    except ImportError:  # the planner has not landed yet
-        return {}
     sets = {}
     for name in ("coffee", "astronaut"):
         plan = make_plan(image_from_array(getattr(data, name)(), source=name))
@@ -92,9 +93,16 @@ def main() -> None:
         results[f"contours_{n}"] = measure(synthetic_contours(n, rng), args.budget)
     for name, paths in real_sets(rng).items():
         results[name] = measure(paths, args.budget)
+    plans = {}
+    for image in ("coffee", "astronaut"):
+        layers = [r for name, r in results.items() if name.startswith(image + "/")]
+        greedy = sum(r["greedy_pen_up_mm"] for r in layers)
+        ordered = sum(r["ordered_pen_up_mm"] for r in layers)
+        plans[image] = {"greedy_pen_up_mm": round(greedy, 1), "ordered_pen_up_mm": round(ordered, 1),
+                        "ratio_vs_greedy": round(ordered / greedy, 3)}
     ratios = [r["ratio_vs_greedy"] for r in results.values() if r["ratio_vs_greedy"]]
-    print(json.dumps({"budget_seconds": args.budget, "target_ratio": 0.85,
-                      "worst_ratio": max(ratios), "sets": results}, indent=2))
+    print(json.dumps({"budget_seconds": args.budget, "target_ratio": 0.85, "worst_ratio": max(ratios),
+                      "whole_plans": plans, "sets": results}, indent=2))
 
 
 if __name__ == "__main__":
