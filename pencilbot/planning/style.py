@@ -84,8 +84,8 @@ class Style:
     hatch: bool = True
     hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
     hatch_coverage: float = 0.5
-    hatch_blur: float = 1.0
-    min_hatch_run: float = 2.0
+    hatch_blur: float = 1.5
+    min_hatch_run: float = 3.0
     hatch_join: float = 2.0
     hatch_blank_below: float = 0.06
     hatch_jitter: float = 0.0
