@@ -395,8 +395,6 @@ class Firmware:
         if number == 20 and value and not settings[22]:
             return "error:10"
         settings[number] = int(value) if number in grbl.INTEGER_SETTINGS else value
-        if number == 11:
-            self.machine.planner.junction_deviation = value
         return "ok"
 
     # --- status -----------------------------------------------------------------------------

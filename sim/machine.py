@@ -160,7 +160,7 @@ class Machine:
         self.config = config or MachineConfig()
         self.instant = instant
         self.settings = self.config.settings()
-        self.planner = Planner(self.settings[11])
+        self.planner = Planner()
         self.strokes: list[np.ndarray] = []  # pen-down polylines, machine mm
         self.travel: list[np.ndarray] = []  # pen-up moves, machine mm
         self.messages: list[str] = []  # push messages for the firmware to print
@@ -173,7 +173,8 @@ class Machine:
     # --- modal state ------------------------------------------------------------------------
 
     def reset_modes(self) -> None:
-        """Power-on / soft-reset modal state (position and offsets are kept, as in GRBL)."""
+        """Power-on / soft-reset modal state: GRBL 1.1 keeps the machine position and clears
+        the G92 offset; the pen ends up lifted (spindle off, servo at ``up``)."""
         self.motion = 0
         self.units_mm = True
         self.absolute = True
@@ -184,7 +185,7 @@ class Machine:
         self.tool = 0
         self.servo_angle = self.config.pen.up
         self.line_number = 0
-        self.g92 = (0.0, 0.0, 0.0)  # GRBL 1.1 clears G92 on reset
+        self.g92 = (0.0, 0.0, 0.0)
         self.check_mode = False
 
     @property
@@ -208,6 +209,7 @@ class Machine:
         )
 
     def work_position(self) -> tuple[float, float, float]:
+        """Machine position minus the G92 offset (mm)."""
         return tuple(m - o for m, o in zip(self.machine_position(), self.g92))
 
     def machine_position(self) -> tuple[float, float, float]:
@@ -432,7 +434,7 @@ class Machine:
         pen = pen_before and (self.config.pen.kind != "z" or self.pen_down)
         if self.instant and self.planner.free_blocks == 0:
             self._complete([self.planner.finish_one()])
-        self.planner.add(Block(start, target, length, unit, nominal, accel, pen))
+        self.planner.add(Block(start, target, length, unit, nominal, accel, pen), settings[11])
 
     @property
     def dwelling(self) -> bool:

@@ -81,16 +81,9 @@ def junction_speed(prev_unit, unit, accel: float, deviation: float) -> float:
 
 
 class Planner:
-    """The queue of planned blocks plus the one executing, and the clock they advance.
+    """The queue of planned blocks plus the one executing, and the clock they advance."""
 
-    Parameters
-    ----------
-    junction_deviation : float
-        GRBL ``$11`` in mm.
-    """
-
-    def __init__(self, junction_deviation: float = 0.01):
-        self.junction_deviation = junction_deviation
+    def __init__(self):
         self.queue: list[Block] = []  # at most PLANNER_CAPACITY, so list pops are cheap
         self.executing: Block | None = None
         self.elapsed = 0.0  # s into the executing block
@@ -109,11 +102,14 @@ class Planner:
     def busy(self) -> bool:
         return len(self) > 0
 
-    def add(self, block: Block) -> None:
-        """Queue ``block`` and re-plan entry speeds (caller ensures a free slot)."""
+    def add(self, block: Block, junction_deviation: float) -> None:
+        """Queue ``block`` and re-plan entry speeds (caller ensures a free slot).
+
+        ``junction_deviation`` is GRBL's ``$11`` in mm, for the corner with the previous block.
+        """
         moving = self.busy
         if moving and self._last is not None:
-            corner = junction_speed(self._last.unit, block.unit, block.accel, self.junction_deviation)
+            corner = junction_speed(self._last.unit, block.unit, block.accel, junction_deviation)
             block.max_entry = min(corner, block.nominal, self._last.nominal)
         else:
             block.max_entry = 0.0

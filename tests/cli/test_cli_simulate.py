@@ -1,6 +1,5 @@
 """`pencilbot simulate` and `pencilbot sim-serve` end to end: real files, real pty, real PNGs."""
 
-import os
 import signal
 import subprocess
 import sys
