@@ -9,7 +9,6 @@ layer ended; the first starts at the plotter's home, the page origin.
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import cv2
@@ -74,7 +73,6 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     -------
     Plan
     """
-    started = time.perf_counter()
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
     threshold = edge_threshold(line.edges) if style.edge_threshold is None else style.edge_threshold
@@ -104,9 +102,7 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
         # lifting; edge strokes only where they touch, so each stays a separate stroke.
         join = style.hatch_join if layer.name != "edges" else style.pen_width
-        layer.paths = order_paths(
-            layer.paths, start=position, join_tolerance=join, time_budget=budget
-        )
+        layer.paths = order_paths(layer.paths, start=position, join_tolerance=join, time_budget=budget)
         if layer.paths:
             position = tuple(layer.paths[-1][-1])
 
@@ -122,7 +118,6 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "hatch_angles_deg": " ".join(f"{a:g}" for a in style.hatch_angles) if style.hatch else "",
         "hatch_coverage": f"{style.hatch_coverage:g}",
         "texture_seed": str(style.seed),
-        "planning_seconds": f"{time.perf_counter() - started:.3f}",
     }
     return Plan(page=page, layers=layers, meta=meta)
 
