@@ -1,0 +1,106 @@
+"""`pencilbot plan` end to end: a real image file in, an SVG in mm and a preview PNG out."""
+
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from PIL import Image
+from skimage import data
+from skimage.transform import resize
+
+from pencilbot.cli import main
+from pencilbot.planning.svg import read_svg
+
+
+@pytest.fixture(scope="module")
+def photo(tmp_path_factory):
+    """A small real photo (coffee at 1/3 size) written as a PNG file."""
+    rgb = resize(data.coffee(), (134, 200), anti_aliasing=True)
+    path = tmp_path_factory.mktemp("in") / "coffee.png"
+    Image.fromarray((rgb * 255).astype(np.uint8)).save(path)
+    return path
+
+
+def _svg_size(path):
+    head = path.read_text()[:2000]
+    width = re.search(r'width="([\d.]+)mm"', head)
+    height = re.search(r'height="([\d.]+)mm"', head)
+    return float(width[1]), float(height[1])
+
+
+def test_plan_writes_an_svg_in_mm_and_a_preview(photo, tmp_path, capsys):
+    out, preview = tmp_path / "plan.svg", tmp_path / "preview.png"
+    code = main(["plan", str(photo), "-o", str(out), "--preview", str(preview)])
+    assert code == 0
+    assert _svg_size(out) == (210.0, 297.0)
+    plan = read_svg(out)
+    names = [layer.name for layer in plan.layers]
+    assert names[-1] == "edges" and any(name.startswith("hatch") for name in names)
+    with Image.open(preview) as png:
+        assert png.size == (827, 1170)  # A4 at 100 dpi
+        ink = 255 - np.asarray(png.convert("L"), dtype=float)
+    assert ink.mean() > 5  # something is drawn ...
+    assert ink[:100].max() == 0 and ink[:, :50].max() == 0  # ... but nothing in the margins
+    assert "plan.svg" in capsys.readouterr().out
+
+
+def test_page_orientation_margin_and_pen_reach_the_plan(photo, tmp_path):
+    out = tmp_path / "plan.svg"
+    args = ["plan", str(photo), "-o", str(out), "--page", "A5", "--orientation", "auto"]
+    assert main([*args, "--margin", "10", "--pen-width", "0.3", "--style", "outline", "-q"]) == 0
+    assert _svg_size(out) == (210.0, 148.0)  # the photo is wide: landscape A5
+    plan = read_svg(out)
+    assert [layer.name for layer in plan.layers] == ["edges"]
+    pts = np.concatenate(plan.all_paths())
+    assert pts.min() >= 10 - 1e-6 and pts[:, 0].max() <= 200 + 1e-6 and pts[:, 1].max() <= 138 + 1e-6
+
+
+def test_a_style_file_is_accepted(photo, tmp_path):
+    style = tmp_path / "mine.toml"
+    style.write_text("hatch_angles = [0]\npen_width = 0.8\n")
+    out = tmp_path / "plan.svg"
+    assert main(["plan", str(photo), "-o", str(out), "--style", str(style), "-q"]) == 0
+    assert [layer.name for layer in read_svg(out).layers] == ["hatch1-0", "edges"]
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--style", "nope"], "no style named 'nope'"),
+        (["--pen-width", "-1"], "pen_width"),
+        (["--page", "B7"], "unknown page size"),
+        (["--margin", "200"], "margin"),
+    ],
+)
+def test_bad_options_give_one_clear_error_and_no_file(photo, tmp_path, capsys, extra, message):
+    out = tmp_path / "plan.svg"
+    assert main(["plan", str(photo), "-o", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_bad_input_files_give_one_clear_error(tmp_path, capsys):
+    out = tmp_path / "plan.svg"
+    assert main(["plan", str(tmp_path / "missing.jpg"), "-o", str(out)]) == 2
+    junk = tmp_path / "junk.png"
+    junk.write_bytes(b"not a picture")
+    assert main(["plan", str(junk), "-o", str(out)]) == 2
+    assert main(["plan", str(junk), "-o", str(tmp_path / "plan.pdf")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("pencilbot: error:") == 3 and "Traceback" not in err
+    assert not out.exists()
+
+
+def test_the_console_script_runs(photo, tmp_path):
+    out = tmp_path / "plan.svg"
+    done = subprocess.run(
+        [sys.executable, "-m", "pencilbot.cli", "plan", str(photo), "-o", str(out), "--style", "outline"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert out.stat().st_size > 0
