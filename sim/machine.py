@@ -161,7 +161,7 @@ class Machine:
         self.instant = instant
         self.settings = self.config.settings()
         self.planner = Planner()
-        self.strokes: list[np.ndarray] = []  # pen-down polylines, machine mm
+        self._strokes: list[np.ndarray] = []  # finished pen-down polylines, machine mm
         self.travel: list[np.ndarray] = []  # pen-up moves, machine mm
         self.messages: list[str] = []  # push messages for the firmware to print
         self.dwell_until = 0.0
@@ -341,6 +341,7 @@ class Machine:
             A target lies outside the soft limits; the planner has been stopped.
         """
         w = block.words
+        was_down = self.pen_down
         if "N" in w:
             self.line_number = int(w["N"])
         units_mm = {20: False, 21: True}.get(block.g.get(6, (0,))[0], self.units_mm)
@@ -385,6 +386,8 @@ class Machine:
             self.motion, self.absolute, self.units_mm = 1, True, True
             self.spindle, self.coolant = 5, 9
             self.messages.append("[MSG:Pgm End]")
+        if was_down and not self.pen_down and not self.planner.busy:
+            self._close_stroke()  # lifted in place: a later pen-down starts a new stroke
 
     def _target(self, axes: dict[str, float], scale: float) -> tuple[float, float, float]:
         target = list(self.position)
@@ -453,7 +456,6 @@ class Machine:
         """Instant mode: finish every queued move now (GRBL's buffer synchronize)."""
         if self.instant and not self.check_mode:
             self._complete(self.planner.finish_all())
-        self._close_stroke()
 
     def home(self) -> None:
         """``$H``: seek the home switches at ``$25`` and set machine (0, 0, 0) there."""
@@ -494,13 +496,21 @@ class Machine:
                 self.travel.append(np.array([b.start[:2], b.end[:2]]))
 
     def _close_stroke(self) -> None:
+        """The pen has left the paper: the polyline being drawn is finished."""
         if len(self._stroke) >= 2:
-            self.strokes.append(np.array(self._stroke))
+            self._strokes.append(np.array(self._stroke))
         self._stroke = []
 
     def finish(self) -> None:
-        """Complete all queued motion (instant mode) and close the open stroke."""
+        """Complete all queued motion (instant mode)."""
         self.synchronize()
+
+    @property
+    def strokes(self) -> list[np.ndarray]:
+        """Pen-down polylines drawn so far (machine mm), the one still being drawn last."""
+        if len(self._stroke) >= 2:
+            return self._strokes + [np.array(self._stroke)]
+        return list(self._strokes)
 
     @property
     def clock(self) -> float:

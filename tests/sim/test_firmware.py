@@ -292,3 +292,10 @@ def test_stop_reports_where_the_tool_stopped_not_where_queued_moves_end():
     assert fw.machine.machine_position() == (0.0, 0.0, 0.0)
     exchange(fw, b"$X\n?")
     assert grbl.parse_line(exchange(fw, b"?").strip()).mpos == (0.0, 0.0, 0.0)
+
+
+def test_status_polls_mid_stroke_do_not_split_the_stroke():
+    fw = board()
+    for line in [b"M3S90", b"G1X10F1000", b"G1Y10", b"G1X0", b"G1Y0", b"M3S30"]:
+        exchange(fw, line + b"\n?")  # instant mode: each ? runs the queued motion
+    assert [s.tolist() for s in fw.machine.strokes] == [[[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]]]
