@@ -6,8 +6,8 @@ graphite on graphite as a second pass of the pencil would.
 
 Colour follows Lu et al.: the drawing replaces the photo's luma and keeps its chroma, in
 Rec. 601 YUV — the space :mod:`pencilbot.imaging.io` already defines grey in, so the drawing is
-made from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y while Y becomes R means
-``R + (rgb − Y)`` in every channel. A pencil drawing is far lighter than its photo, and a
+made from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y while Y becomes the
+drawing's value D means ``D + (rgb − Y)`` in every channel. A pencil drawing is far lighter than its photo, and a
 saturated colour often does not exist at the new luma; clipping channels would then shift hue
 and darken the drawing's tone, so instead the chroma is scaled down just enough to fit (hue and
 luma exact, saturation reduced only where it must be).
@@ -108,7 +108,7 @@ def sketch(
     line = line_drawing(edges, length=line_length)
     lap("lines")
     if lines_only:
-        luma, tone, texture, fit = line.drawing, None, None, None
+        luma, tone, texture, fit = line.drawing.copy(), None, None, None
     else:
         tone = tone_target(image.gray)
         lap("tone")
@@ -117,7 +117,7 @@ def sketch(
         fit = texture_map(tone, texture)
         lap("beta")
         luma = line.drawing * fit.T
-    result = with_luma(image.rgb, luma) if color else luma.astype(np.float32)
+    result = with_luma(image.rgb, luma) if color else luma
     lap("compose")
     return Sketch(result=result, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
 

@@ -17,6 +17,7 @@ Both produce a monotone 256-entry lookup table applied in one indexing operation
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 
 LEVELS = 256
@@ -131,11 +132,15 @@ def tone_target(
     gray = np.asarray(gray)
     if gray.ndim != 2:
         raise ValueError(f"gray must be a 2-D array, got shape {gray.shape}")
-    levels = np.rint(np.clip(gray, 0.0, 1.0) * (LEVELS - 1)).astype(np.uint8)
-    source_hist = np.bincount(levels.ravel(), minlength=LEVELS)
+    scaled = np.clip(gray, 0.0, 1.0).astype(np.float32)
+    scaled *= LEVELS - 1
+    levels = np.rint(scaled, out=scaled).astype(np.uint8)
+    # OpenCV's histogram and table lookup read the uint8 image directly; NumPy's bincount and
+    # fancy indexing would first widen it to 8-byte indices (100 MB at 12 MP).
+    source_hist = cv2.calcHist([levels], [0], None, [LEVELS], [0, LEVELS]).ravel()
     mapping = (gml_lut if method == "gml" else sml_lut)(source_hist, pencil_histogram(weights))
     lut = (mapping / (LEVELS - 1)).astype(np.float32)
-    return lut[levels]
+    return cv2.LUT(levels, lut)
 
 
 def _cumulative(hist: np.ndarray) -> np.ndarray:
