@@ -9,7 +9,7 @@ from pencilbot.commands.common import add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.gcode.profiles import list_profiles, load_profile
 from pencilbot.gcode.writer import GcodeSummary, duration_text, write_gcode
-from pencilbot.imaging.io import load_image
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.planning.build import make_plan
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import load_style, with_overrides
@@ -42,6 +42,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     photo.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
     photo.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's (e.g. A3, 300x200)")
     photo.add_argument("--pen-width", type=float, metavar="MM", help="pen line width in mm, overrides the style's")
+    photo.add_argument(
+        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
+    )
+    photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -81,10 +85,13 @@ def _targets(inputs: list[Path], output: str | None) -> list[tuple[Path, Path]]:
 
 def _plan(source: Path, args: argparse.Namespace) -> Plan:
     if source.suffix.lower() == ".svg":
-        if args.style or args.page or args.pen_width is not None:
+        photo_only = {"--style": args.style, "--page": args.page, "--pen-width": args.pen_width,
+                      "--downscale": args.downscale or None}
+        given = [flag for flag, value in photo_only.items() if value is not None]
+        if given:
             raise PencilbotError(
-                f"{source} is a plan: its page and pen are already set; --style, --page and "
-                "--pen-width apply to photos only"
+                f"{source} is a plan: its page and pen are already set; {', '.join(given)} "
+                "apply to photos only"
             )
         return read_svg(source)
     options = {"page": args.page, "pen_width": args.pen_width}
@@ -93,7 +100,8 @@ def _plan(source: Path, args: argparse.Namespace) -> Plan:
         {key: value for key, value in options.items() if value is not None},
         where="command line",
     )
-    return make_plan(load_image(source), style=style)
+    image = load_image(source, max_pixels=args.max_pixels, downscale=args.downscale)
+    return make_plan(image, style=style)
 
 
 def _report(summary: GcodeSummary, profile: str) -> str:

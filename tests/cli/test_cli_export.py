@@ -128,7 +128,8 @@ def test_list_profiles(capsys):
     ("extra", "message"),
     [
         (["--profile", "axidraw"], "no plotter profile named 'axidraw'"),
-        (["--page", "A4"], "apply to photos only"),
+        (["--page", "A4"], "--page apply to photos only"),
+        (["--pen-width", "1", "--downscale"], "--pen-width, --downscale apply to photos only"),
         (["-o", "{tmp}/drawing.txt"], "name the output"),
         (["-o", "{tmp}/missing/drawing.gcode"], "does not exist"),
     ],
@@ -167,3 +168,11 @@ def test_no_input_and_bad_pen_width(photo, tmp_path, capsys):
     assert main(["export", str(photo), "-o", str(tmp_path / "x.gcode"), "--pen-width", "-1"]) == 2
     assert "pen_width" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_large_photo_is_refused_or_downscaled_as_asked(photo, tmp_path, capsys):
+    out = tmp_path / "small.gcode"
+    assert main(["export", str(photo), "-o", str(out), "--max-pixels", "10000"]) == 2
+    assert "--downscale" in capsys.readouterr().err and not out.exists()
+    assert main(["export", str(photo), "-o", str(out), "--max-pixels", "10000", "--downscale", "-q"]) == 0
+    assert out.is_file()
