@@ -4,6 +4,9 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage as ndi
 from skimage import data
 from skimage.draw import disk
 from skimage.transform import resize
@@ -193,3 +196,28 @@ def test_neighbouring_hatch_runs_are_joined_pen_down(camera):
         # Each join adds one connecting move no longer than the tolerance.
         added = _length(after) - _length(before)
         assert -1e-6 <= added <= (len(before) - len(after)) * 2.0 + 1e-6
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    shape=st.tuples(st.integers(12, 64), st.integers(12, 64)),
+    page=st.sampled_from(["A5", "A4", "Letter", "150x90"]),
+    orientation=st.sampled_from(["portrait", "landscape", "auto"]),
+    margin=st.floats(0, 30),
+    pen=st.floats(0.2, 1.2),
+)
+def test_any_photo_on_any_page_stays_inside_the_margins(seed, shape, page, orientation, margin, pen):
+    rng = np.random.default_rng(seed)
+    blobs = ndi.gaussian_filter(rng.random(shape), 3)
+    gray = (blobs - blobs.min()) / max(np.ptp(blobs), 1e-9)
+    image = image_from_array(gray.astype(np.float32), source="blobs")
+    style = Style(page=page, orientation=orientation, margin=margin, pen_width=pen, order_time=0)
+    plan = make_plan(image, style=style)
+    page_ = plan.page
+    assert page_.margin == margin
+    for layer in plan.layers:
+        assert layer.pen_width == pen
+        for p in layer.paths:
+            assert np.all((p[:, 0] >= margin - 1e-6) & (p[:, 0] <= page_.width - margin + 1e-6))
+            assert np.all((p[:, 1] >= margin - 1e-6) & (p[:, 1] <= page_.height - margin + 1e-6))
