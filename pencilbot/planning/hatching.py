@@ -80,7 +80,8 @@ def hatch_layers(
     # scratches, not tone: leave them as paper.
     dark = np.where(dark < blank_below, 0.0, dark)
     spacing = pen_width / coverage
-    step = min(layout.mm_per_px, pen_width) / 2
+    # Run ends to a quarter pen width; the tone itself varies on the scale of millimetres.
+    step = pen_width / 4
     x0, y0, x1, y1 = layout.drawing_box
     centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
     radius = np.hypot(x1 - x0, y1 - y0) / 2
