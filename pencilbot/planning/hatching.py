@@ -24,6 +24,8 @@ from pencilbot.planning.plan import Layer
 
 # Lines per dither period: a layer's coverage moves in steps of 1/16 of its maximum.
 DITHER_PERIOD = 16
+# Hatch samples looked up at once: ~2 M keeps the temporary index arrays near 50 MB.
+_SAMPLES_PER_BLOCK = 2_000_000
 
 
 def hatch_layers(
@@ -149,13 +151,13 @@ def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_ru
     base_px = layout.mm_to_px(base_mm).astype(np.float32)
     step_px = (layout.mm_to_px(centre + direction) - layout.mm_to_px(centre))[0].astype(np.float32)
     t = along_t.astype(np.float32)
-    height, width = dark.shape
-    col = np.rint(base_px[:, None, 0] + t[None, :] * step_px[0]).astype(np.intp)
-    row = np.rint(base_px[:, None, 1] + t[None, :] * step_px[1]).astype(np.intp)
-    inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
-    values = np.zeros(col.shape, dtype=np.float32)
-    values[inside] = dark[row[inside], col[inside]]
-    on = values > threshold[:, None]
+    on = np.empty((len(offsets), t.size), dtype=bool)
+    # Whole lines at a time, in blocks, so a fine pen on a big sheet stays within memory.
+    block = max(1, _SAMPLES_PER_BLOCK // t.size)
+    for first in range(0, len(offsets), block):
+        lines = slice(first, first + block)
+        values = _sample(dark, base_px[lines], step_px, t)
+        on[lines] = values > threshold[lines, None]
 
     padded = np.zeros((on.shape[0], on.shape[1] + 2), dtype=np.int8)
     padded[:, 1:-1] = on
@@ -186,3 +188,14 @@ def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_ru
     p0 = base + t0[:, None] * direction
     p1 = base + t1[:, None] * direction
     return list(np.stack([p0, p1], axis=1))
+
+
+def _sample(dark: np.ndarray, base_px: np.ndarray, step_px: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Darkness at ``base + t·step`` (pixels, nearest) for each line; 0 outside the image."""
+    height, width = dark.shape
+    col = np.rint(base_px[:, None, 0] + t[None, :] * step_px[0]).astype(np.intp)
+    row = np.rint(base_px[:, None, 1] + t[None, :] * step_px[1]).astype(np.intp)
+    inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
+    values = np.zeros(col.shape, dtype=np.float32)
+    values[inside] = dark[row[inside], col[inside]]
+    return values
