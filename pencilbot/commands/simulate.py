@@ -14,10 +14,12 @@ import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import add_verbosity
+# Photos and plans are turned into a Plan exactly as `pencilbot export` does (same options).
 from pencilbot.commands.export import _plan
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
 from pencilbot.gcode.writer import duration_text, gcode_lines
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
 
 DEFAULT_PROFILE = "grbl-servo-a4"
 GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
@@ -46,7 +48,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     photo.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
     photo.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's")
     photo.add_argument("--pen-width", type=float, metavar="MM",
-                       help="pen width in mm for planning a photo and for rendering (default: the plan's, else 0.5)")
+                       help="pen width in mm: plans a photo, renders G-code (default: the plan's, else 0.5)")
+    photo.add_argument("--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images")
+    photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
