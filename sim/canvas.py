@@ -4,9 +4,11 @@ One rasteriser serves plan previews, fidelity measurements and the simulator, so
 on what a drawn line looks like. The model of ink:
 
 * a pen of width ``w`` mm covers the points within ``w/2`` of its path (round caps and joins);
-* a pixel's coverage by one path is the fraction of the pixel the stroke's band covers, computed
-  from the distance ``d`` between the pixel centre and the path as the 1-D overlap of
-  ``[d − w/2, d + w/2]`` with the pixel (so ink is conserved even for pens thinner than a pixel);
+* a pixel's coverage by one segment is the fraction of the pixel's area inside the segment's band:
+  from the distance ``d`` between the pixel centre and the segment, the share of the pixel's
+  projection onto the segment's normal (a trapezoid, a box when axis-aligned) that falls in
+  ``[d − w/2, d + w/2]``. Exact for the straight part at any angle, so ink is conserved and
+  diagonal lines are not lighter or darker than straight ones, even for pens thinner than a pixel;
 * within one path a pixel is inked once (the maximum over the path's segments: a polyline's
   joints are not darker than its middle);
 * separate paths (and separate calls) stack like translucent layers:
@@ -14,7 +16,8 @@ on what a drawn line looks like. The model of ink:
 
 Everything is vectorised: candidate pixels are generated per segment, column by column along the
 segment's major axis (a ragged array built with ``np.repeat``), so long diagonal hatch lines cost
-what they ink, not their bounding box. Work is chunked by whole paths to bound memory.
+what they ink, not their bounding box. Work is chunked to bound memory; a path longer than a chunk
+carries its pixels over so it still inks each pixel once.
 """
 
 from __future__ import annotations
@@ -181,19 +184,37 @@ def _accumulate(log_paper: np.ndarray, paths: Sequence[np.ndarray], grid: _Grid)
     a, b, seg_path = _segments(arrays)
     a, b = grid.to_px(a), grid.to_px(b)
     counts, plan = _candidate_counts(a, b, grid.radius)
-    # Chunk at path boundaries so a path's pixels are max-reduced within one chunk.
-    per_path = np.bincount(seg_path, weights=counts, minlength=len(arrays))
-    path_end = np.cumsum(per_path)
-    seg_end = np.cumsum(counts)
-    start_seg = 0
-    while start_seg < len(counts):
-        done = seg_end[start_seg - 1] if start_seg else 0
-        last_path = np.searchsorted(path_end, done + _CHUNK_CANDIDATES, side="right")
-        last_path = max(last_path, seg_path[start_seg] + 1)  # at least one whole path
-        stop_seg = np.searchsorted(seg_path, last_path, side="left")
-        chunk = slice(start_seg, stop_seg)
-        _ink_chunk(log_paper, a[chunk], b[chunk], seg_path[chunk], counts[chunk], plan[:, chunk], grid)
-        start_seg = stop_seg
+    hw = grid.shape[0] * grid.shape[1]
+    # Chunks of about _CHUNK_CANDIDATES candidates (at least one segment each). A path that spans
+    # chunks collects its per-pixel maximum in `running` and inks the paper once it is complete.
+    cum = np.cumsum(counts)
+    cuts = np.searchsorted(cum, np.arange(_CHUNK_CANDIDATES, cum[-1], _CHUNK_CANDIDATES), side="right")
+    bounds = np.unique(np.concatenate([[0], cuts, [len(counts)]])).tolist()
+    running = np.zeros(hw) if len(bounds) > 2 else None
+    for lo, hi in zip(bounds[:-1], bounds[1:]):
+        key, cover = _chunk_coverage(a[lo:hi], b[lo:hi], counts[lo:hi], plan[:, lo:hi], grid)
+        key, cover = _max_per_key(seg_path[lo:hi][key // hw] * hw + key % hw, cover)
+        path, pixel = key // hw, key % hw
+        continued = seg_path[lo] if lo > 0 and seg_path[lo] == seg_path[lo - 1] else -1
+        runs_on = seg_path[hi - 1] if hi < len(counts) and seg_path[hi] == seg_path[hi - 1] else -1
+        if continued >= 0:
+            mine = path == continued
+            np.maximum.at(running, pixel[mine], cover[mine])
+            if continued != runs_on:  # it ends in this chunk: ink it
+                touched = np.flatnonzero(running)
+                _ink(log_paper, touched, running[touched])
+                running[touched] = 0.0
+        if runs_on >= 0 and runs_on != continued:
+            mine = path == runs_on
+            np.maximum.at(running, pixel[mine], cover[mine])
+        whole = (path != continued) & (path != runs_on)
+        _ink(log_paper, pixel[whole], cover[whole])
+
+
+def _ink(log_paper: np.ndarray, pixel: np.ndarray, cover: np.ndarray) -> None:
+    """Stack coverages onto the paper (flat pixel indices; repeats stack as separate paths)."""
+    log_ink = np.log1p(-np.minimum(cover, _MAX_COVERAGE))
+    log_paper += np.bincount(pixel, weights=log_ink, minlength=log_paper.size).reshape(log_paper.shape)
 
 
 def _segments(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -219,7 +240,7 @@ def _candidate_counts(a: np.ndarray, b: np.ndarray, radius: float):
     Each segment is walked along its major axis ``u`` one pixel column at a time; in each column
     ``k`` pixels along the minor axis ``v`` cover the band (radius + half a pixel) around the line.
     """
-    reach = radius + 0.5  # px: beyond this distance a pixel gets no ink
+    reach = radius + 0.75  # px: beyond radius + half a pixel diagonal (√2/2) a pixel gets no ink
     steep = np.abs(b[:, 1] - a[:, 1]) > np.abs(b[:, 0] - a[:, 0])
     u0 = np.where(steep, a[:, 1], a[:, 0])
     v0 = np.where(steep, a[:, 0], a[:, 1])
@@ -235,14 +256,15 @@ def _candidate_counts(a: np.ndarray, b: np.ndarray, radius: float):
     n_cols = np.floor(u1 + reach) - first_col + 1
     k = np.ceil(2 * half) + 1
     counts = (n_cols * k).astype(np.int64)
-    return counts, np.stack([steep, u0, v0, du, slope, half, first_col, k])
+    # The pixel's projection onto the segment's normal: boxes of widths cos φ and sin φ convolved.
+    across = 1.0 / np.sqrt(1.0 + slope * slope)
+    return counts, np.stack([steep, u0, v0, du, slope, half, first_col, k, across, np.abs(slope) * across])
 
 
-def _ink_chunk(log_paper, a, b, seg_path, counts, plan, grid: _Grid) -> None:
-    steep, u0, v0, du, slope, half, first_col, k = plan
+def _chunk_coverage(a, b, counts, plan, grid: _Grid) -> tuple[np.ndarray, np.ndarray]:
+    """Inked pixels of segments a→b: keys ``segment × H·W + pixel`` and coverages (unreduced)."""
+    steep, u0, v0, du, slope, half, first_col, k, wide, narrow = plan
     total = int(counts.sum())
-    if total == 0:
-        return
     seg = np.repeat(np.arange(len(counts)), counts)
     local = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
     kk = k[seg].astype(np.int64)
@@ -255,21 +277,20 @@ def _ink_chunk(log_paper, a, b, seg_path, counts, plan, grid: _Grid) -> None:
     h, w = grid.shape
     inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
     seg, col, row = seg[inside], col[inside], row[inside]
-    cover = _coverage(_distance(col, row, a[seg], b[seg]), grid.radius)
+    cover = _coverage(_distance(col, row, a[seg], b[seg]), grid.radius, wide[seg], narrow[seg])
     inked = cover > 0
-    if not inked.any():
-        return
-    seg, cover = seg[inked], cover[inked]
     flat = row[inked].astype(np.int64) * w + col[inked].astype(np.int64)
-    # Group-max per (path, pixel): a path inks each pixel once.
-    key = (seg_path[seg] - seg_path[0]).astype(np.int64) * (h * w) + flat
+    return seg[inked] * (h * w) + flat, cover[inked]
+
+
+def _max_per_key(key: np.ndarray, cover: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group-max of coverage per (path, pixel) key: a path inks each pixel once."""
+    if not len(key):
+        return key, cover
     order = np.argsort(key, kind="stable")
     key, cover = key[order], cover[order]
     first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    cover = np.maximum.reduceat(cover, first)
-    flat = key[first] % (h * w)
-    log_ink = np.log1p(-np.minimum(cover, _MAX_COVERAGE))
-    log_paper += np.bincount(flat, weights=log_ink, minlength=h * w).reshape(h, w)
+    return key[first], np.maximum.reduceat(cover, first)
 
 
 def _distance(col, row, a, b) -> np.ndarray:
@@ -283,6 +304,18 @@ def _distance(col, row, a, b) -> np.ndarray:
     return np.hypot(px - t * d[:, 0], py - t * d[:, 1])
 
 
-def _coverage(distance: np.ndarray, radius: float) -> np.ndarray:
-    """Fraction of a unit pixel covered by a band of half-width ``radius`` at ``distance``."""
-    return np.clip(np.minimum(distance + radius, 0.5) - np.maximum(distance - radius, -0.5), 0.0, 1.0)
+def _coverage(distance, radius: float, wide, narrow) -> np.ndarray:
+    """Share of a unit pixel inside a band of half-width ``radius`` whose centre line is ``distance`` away.
+
+    ``wide ≥ narrow`` are |cos|, |sin| of the band's direction: the pixel projects onto the band's
+    normal as a trapezoid of total width ``wide + narrow``.
+    """
+    return _projected_cdf(distance + radius, wide, narrow) - _projected_cdf(distance - radius, wide, narrow)
+
+
+def _projected_cdf(x, wide, narrow) -> np.ndarray:
+    """Share of the pixel's projected trapezoid below ``x`` (0 at the pixel centre's projection)."""
+    t = np.maximum((wide + narrow) / 2 - np.abs(x), 0.0)  # depth inside the trapezoid from its near end
+    ramp = t * t / (2 * wide * np.maximum(narrow, 1e-12))
+    tail = np.where(t <= narrow, ramp, narrow / (2 * wide) + (t - narrow) / wide)
+    return np.where(x < 0, tail, 1.0 - tail)
