@@ -11,6 +11,8 @@ import threading
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
@@ -87,7 +89,7 @@ def test_character_counting_never_overflows_a_busy_board(job):
     # lose bytes if the driver sent more than the board can hold.
     path, lines = job
     url, name = fresh("realtime=50&baud=115200")
-    draw(path, url, profile=PROFILE, wake_wait=0.2)
+    draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=3.0)
     assert protocol_sim.plotter(name).firmware.lost_bytes == 0
     assert accepted(name) == lines
 
@@ -285,3 +287,19 @@ def test_on_error_continue_reports_rejected_lines(tmp_path):
     result = draw(path, url, profile=PROFILE, on_error="continue", wake_wait=0.2)
     assert result.rejected == [11]
     assert accepted(name) == [clean_line(l) for i, l in enumerate(lines) if i != 10]
+
+
+move = st.builds(
+    lambda x, y, d, g: f"G{g} X{x:.{d}f} Y{y:.{d}f}" + (" F3000" if g == 1 else ""),
+    st.floats(5, 200), st.floats(5, 300), st.integers(0, 5), st.sampled_from([0, 1]),
+)
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.one_of(move, st.sampled_from(["M3 S90", "M3 S30", "G4 P0.01"])), min_size=5, max_size=60))
+def test_any_job_arrives_exactly_once_on_a_busy_board(tmp_path, job_lines):
+    lines = ["G21", "G90", *job_lines]
+    url, name = fresh("realtime=100")
+    draw(lines, url, profile=PROFILE, wake_wait=0.2, timeout=3.0)  # lost bytes would stall it
+    assert protocol_sim.plotter(name).firmware.lost_bytes == 0
+    assert accepted(name) == [clean_line(line) for line in lines]
