@@ -184,15 +184,20 @@ def test_overrides_are_checked_like_file_values():
         with_overrides(Style(), {"colour": "red"})
 
 
-def test_neighbouring_hatch_runs_are_joined_pen_down(camera):
-    drawing = sketch(camera)
-    page = page_size("A4", "portrait")
+def test_neighbouring_hatch_runs_are_joined_pen_down():
+    # A dark disc: hatched line after line, so serpentine hops between neighbours are short.
+    gray = np.full((120, 120), 0.92, np.float32)
+    gray[disk((60, 60), 40)] = 0.02
+    drawing = sketch(image_from_array((gray * 255).astype(np.uint8), source="disc"))
+    page = page_size("100x100", margin=5)
     apart = plan_from_sketch(drawing, page, Style(hatch_join=0.0, order_time=0))
     joined = plan_from_sketch(drawing, page, Style(hatch_join=2.0, order_time=0))
-    for name in [layer.name for layer in apart.layers if layer.name != "edges"]:
+    names = [layer.name for layer in apart.layers if layer.name != "edges"]
+    assert names
+    for name in names:
         before, after = apart.layer(name).paths, joined.layer(name).paths
         assert all(len(p) == 2 for p in before)  # one straight run per path when not joined
-        assert len(after) < 0.9 * len(before)  # lifts saved
+        assert len(after) <= 0.9 * len(before)  # lifts saved
         # Each join adds one connecting move no longer than the tolerance.
         added = _length(after) - _length(before)
         assert -1e-6 <= added <= (len(before) - len(after)) * 2.0 + 1e-6
