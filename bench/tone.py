@@ -54,7 +54,10 @@ def main() -> None:
         for method in ("gml", "sml"):
             J = tone_target(image.gray, method=method)
             R = lines * texture_map(J, texture).T
-            row[method] = {"tone": round(cdf_distance(J, model), 4), "result": round(cdf_distance(R, model), 4)}
+            row[method] = {
+                "tone": round(cdf_distance(J, model), 4),
+                "result": round(cdf_distance(R, model), 4),
+            }
         row["photo"] = round(cdf_distance(image.gray, model), 4)
         photos[name] = row
     print(json.dumps({"metric": "L1 of CDFs / 255 vs the 3-layer model (52:37:11)",

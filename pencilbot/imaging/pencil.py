@@ -4,13 +4,13 @@ The line drawing L (GMED edges → directional strokes) carries the contours, th
 (the tone target rendered with pencil texture) carries the shading; multiplying them overlays
 graphite on graphite as a second pass of the pencil would.
 
-Colour follows Lu et al.: the drawing replaces the photo's luma and keeps its chroma, in
-Rec. 601 YUV — the space :mod:`pencilbot.imaging.io` already defines grey in, so the drawing is
-made from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y while Y becomes the
-drawing's value D means ``D + (rgb − Y)`` in every channel. A pencil drawing is far lighter than its photo, and a
-saturated colour often does not exist at the new luma; clipping channels would then shift hue
-and darken the drawing's tone, so instead the chroma is scaled down just enough to fit (hue and
-luma exact, saturation reduced only where it must be).
+Colour follows Lu et al.: the drawing replaces the photo's luma and keeps its chroma, in Rec.
+601 YUV — the space :mod:`pencilbot.imaging.io` already defines grey in, so the drawing is made
+from exactly the luma it replaces. Keeping U ∝ B − Y and V ∝ R − Y while Y becomes the drawing's
+value D means ``D + (rgb − Y)`` in every channel. A pencil drawing is far lighter than its
+photo, and a saturated colour often does not exist at the new luma; clipping channels would then
+shift hue and darken the drawing's tone, so instead the chroma is scaled down just enough to fit
+(hue and luma exact, saturation reduced only where it must be).
 """
 
 from __future__ import annotations

@@ -24,11 +24,11 @@ as much time as it saved on the grids solved here (≤ 0.6 MP, see below), so it
 λ is per pixel of a reference-sized image (about 500 × 500, coffee's size). On a larger image
 the texture's strokes span proportionally more pixels (see :func:`texture_scale`); solved per
 pixel, β would follow them and flatten the texture (the relative spread of ln T falls from 0.25
-at 512² to 0.06 at 12 MP). So β is solved constant on blocks of ``round(texture_scale)`` pixels —
-the exact minimiser of the same energy over such β: block sums of a² and a·b on the diagonal
+at 512² to 0.06 at 12 MP). So β is solved constant on blocks of ``round(texture_scale)`` pixels
+— the exact minimiser of the same energy over such β: block sums of a² and a·b on the diagonal
 and right-hand side, λ·block per block edge (that many pixel edges cross it), i.e. the paper's
-problem on reference-sized pixels — and interpolated bilinearly. That keeps the look independent of resolution and makes
-a 12 MP solve cost what a 0.25 MP one does.
+problem on reference-sized pixels — and interpolated bilinearly. That keeps the look independent
+of resolution and makes a 12 MP solve cost what a 0.25 MP one does.
 
 The texture itself is synthesised, not scanned: a periodic Gaussian random field whose spectrum
 is concentrated in long thin diagonal streaks (two stroke directions, as a right hand hatches)
