@@ -116,10 +116,10 @@ def improve_order(
 def _descend(tour: _Tour, deadline: float) -> None:
     """Rounds of 2-opt and Or-opt moves until none improves or time is up."""
     while time.perf_counter() < deadline:
-        improved = tour.two_opt_round()
+        improved = tour.or_opt_round()  # first: it gains most per round on a greedy tour
         if time.perf_counter() >= deadline:
             break
-        improved |= tour.or_opt_round()
+        improved |= tour.two_opt_round()
         if not improved:
             break
 
@@ -290,7 +290,7 @@ class _Tour:
         attached_e = cost[np.where(re, pe, np.maximum(pe - 1, 0))]
         attached_f = cost[np.where(rf, pf, np.maximum(pf - 1, 0))]
         m = self.pair_d < np.maximum(attached_e, attached_f)
-        return re[m], rf[m], pe[m], pf[m]
+        return re[m], rf[m], pe[m], pf[m], self.pair_d[m]
 
     def _to_entry(self, point: np.ndarray, t: np.ndarray, entry: np.ndarray) -> np.ndarray:
         """Distance from points to the entry of position t; position n + 1 is the free end (0)."""
@@ -301,7 +301,7 @@ class _Tour:
     def two_opt_round(self) -> bool:
         """Reverse runs of paths where reconnecting two nearby ends shortens travel."""
         entry, exit_, cost, pos, role = self._state()
-        re, rf, pe, pf = self._promising_pairs(cost, pos, role)
+        re, rf, pe, pf, _ = self._promising_pairs(cost, pos, role)
         same = re == rf
         # both exits: edges at their positions; both entries: edges before their positions
         a = pe[same] - (~re[same]).astype(np.int64)
@@ -330,29 +330,30 @@ class _Tour:
         """Move runs of 1–3 paths (optionally reversed) next to a nearby end."""
         entry, exit_, cost, pos, role = self._state()
         n = self.n
-        re, rf, pe, pf = self._promising_pairs(cost, pos, role)
-        cands = []  # (i, j, p, reversed)
+        re, rf, pe, pf, d = self._promising_pairs(cost, pos, role)
+        cands = []  # (i, j, p, reversed, length of the new edge between the pair's ends)
         for length in range(1, _MAX_RUN + 1):
             span = length - 1
             # exit of p near entry of i: run i..j forward after p
             m = re & ~rf
-            cands.append((pf[m], pf[m] + span, pe[m], False))
+            cands.append((pf[m], pf[m] + span, pe[m], False, d[m]))
             # entry of q near exit of j: run i..j forward before q
             m = ~re & rf
-            cands.append((pf[m] - span, pf[m], pe[m] - 1, False))
+            cands.append((pf[m] - span, pf[m], pe[m] - 1, False, d[m]))
             # exit of p near exit of j: run i..j reversed after p
             m = re & rf
-            cands.append((pf[m] - span, pf[m], pe[m], True))
+            cands.append((pf[m] - span, pf[m], pe[m], True, d[m]))
             # entry of q near entry of i: run i..j reversed before q
             m = ~re & ~rf
-            cands.append((pf[m], pf[m] + span, pe[m] - 1, True))
-        i = np.concatenate([c[0] for c in cands])
-        j = np.concatenate([c[1] for c in cands])
-        p = np.concatenate([c[2] for c in cands])
+            cands.append((pf[m], pf[m] + span, pe[m] - 1, True, d[m]))
+        i, j, p, dist = (np.concatenate([c[k] for c in cands]) for k in (0, 1, 2, 4))
         flip = np.concatenate([np.full(len(c[0]), c[3]) for c in cands])
         ok = (i >= 1) & (j <= n) & (p >= 0) & ((p < i - 1) | (p > j))
-        i, j, p, flip = i[ok], j[ok], p[ok], flip[ok]
+        i, j, p, flip, dist = i[ok], j[ok], p[ok], flip[ok], dist[ok]
         removed = cost[i - 1] + cost[j] + cost[p]
+        # The pair's own edge is one of the three added: a cheap bound that rules most out.
+        hopeful = removed - dist > _EPS
+        i, j, p, flip, removed = i[hopeful], j[hopeful], p[hopeful], flip[hopeful], removed[hopeful]
         bridge = self._to_entry(exit_[i - 1], j + 1, entry)
         run_in = np.where(flip[:, None], exit_[j], entry[i])  # first point drawn of the moved run
         run_out = np.where(flip[:, None], entry[i], exit_[j])  # last point drawn
