@@ -4,7 +4,7 @@ import json
 
 import numpy as np
 import pytest
-from test_stream_sim import DROP_DEFECT, PROFILE, assert_same_drawing, drawing
+from test_stream_sim import PROFILE, assert_same_drawing, drawing
 
 from pencilbot.cli import main
 from pencilbot.driver import draw
@@ -45,7 +45,6 @@ def test_exactly_once_over_a_pty_with_json_progress(job, capsys):
     assert [r["line"] for r in progress] == sorted(r["line"] for r in progress)
 
 
-@DROP_DEFECT
 def test_pty_vanishing_mid_job_then_resume_on_a_new_pty(job):
     path, lines = job
     reference = VirtualPlotter(PROFILE)

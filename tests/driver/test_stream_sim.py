@@ -140,63 +140,8 @@ def assert_same_drawing(image, reference):
     assert diff.sum() < 0.01 * reference.sum()
 
 
-def sim_stop_forgets_where_the_tool_is() -> bool:
-    """Known simulator defect: after a stop with moves queued but not started, the machine
-    reports the end of those dropped moves as its position (so a resume would skip them)."""
-    from sim.machine import Machine, MachineConfig
-
-    machine = Machine(MachineConfig(), instant=True)
-    for line in ("G21", "G90", "G1X10Y0F1000", "G1X20Y0"):
-        machine.apply(machine.parse(line))
-    machine.stop()
-    return machine.machine_position()[:2] != (0.0, 0.0)
-
-
-def sim_reboot_keeps_buffered_lines() -> bool:
-    """Known simulator defect: a board rebooting mid-job goes on to run the lines that were
-    waiting in its receive buffer (a real board loses them)."""
-    from sim.firmware import Faults, Firmware
-    from sim.machine import Machine
-
-    firmware = Firmware(Machine(), Faults.parse("reset@1"))
-    firmware.receive(b"G0X1\nG0X2\n")
-    return "G0X2" in firmware.accepted_lines()
-
-
-def sim_dropped_link_still_delivers() -> bool:
-    """Known simulator defect: after a ``drop`` fault the board still receives and answers the
-    rest of the bytes written with the dropped line (a pulled cable delivers nothing more)."""
-    from sim.firmware import Faults, Firmware
-    from sim.machine import Machine
-
-    firmware = Firmware(Machine(), Faults.parse("drop@1"))
-    firmware.receive(b"G0X1\nG0X2\n")
-    return "G0X2" in firmware.accepted_lines()
-
-
-STOP_DEFECT = pytest.mark.xfail(sim_stop_forgets_where_the_tool_is(), reason="simulator: Machine.stop() "
-                                "reports the end of discarded moves as the tool position", strict=True)
-DROP_DEFECT = pytest.mark.xfail(sim_dropped_link_still_delivers(), reason="simulator: a dropped link "
-                                "still delivers the bytes written after the dropped line", strict=True)
-REBOOT_DEFECT = pytest.mark.xfail(sim_reboot_keeps_buffered_lines(), reason="simulator: a reboot fault "
-                                  "runs the lines that were in the receive buffer", strict=True)
-
-
-@pytest.mark.parametrize(
-    "send_and_wait, kind",
-    [
-        (False, "error"),
-        (False, "drop"),
-        pytest.param(False, "alarm", marks=STOP_DEFECT),
-        pytest.param(False, "silent", marks=STOP_DEFECT),
-        pytest.param(False, "reset", marks=REBOOT_DEFECT),
-        pytest.param(True, "error", marks=STOP_DEFECT),
-        pytest.param(True, "alarm", marks=STOP_DEFECT),
-        pytest.param(True, "reset", marks=STOP_DEFECT),
-        pytest.param(True, "silent", marks=STOP_DEFECT),
-        pytest.param(True, "drop", marks=STOP_DEFECT),
-    ],
-)
+@pytest.mark.parametrize("kind", ["error", "alarm", "reset", "silent", "drop"])
+@pytest.mark.parametrize("send_and_wait", [False, True])
 def test_resume_after_fault_completes_the_same_drawing(job, reference, kind, send_and_wait):
     # Character counting runs on a real-time clock (20x): as on hardware, the lines behind a
     # failing one are still queued when the driver holds and resets. (On an instant clock they
