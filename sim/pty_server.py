@@ -28,20 +28,25 @@ class PtyServer:
         self.plotter = plotter
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)
+        os.set_blocking(self._master, False)
         self.path = os.ttyname(self._slave)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
     def serve_forever(self) -> None:
         """Shuttle bytes between the pty and the plotter until stopped or the link drops."""
+        out = b""
         try:
             while not self._stop.is_set() and not self.plotter.firmware.link_dropped:
-                ready, _, _ = select.select([self._master], [], [], POLL)
-                if ready:
+                readable, _, _ = select.select([self._master], [], [], POLL)
+                if readable:
                     self.plotter.write(os.read(self._master, 4096))
-                out = self.plotter.read()
+                out += self.plotter.read()
                 if out:
-                    os.write(self._master, out)
+                    try:  # a full pty takes part of it; the rest waits, nothing is lost
+                        out = out[os.write(self._master, out):]
+                    except BlockingIOError:
+                        pass
         finally:
             self.close()
 
