@@ -324,10 +324,8 @@ class Machine:
     def _synchronizes(self, block: Parsed) -> bool:
         spindle = block.m.get(7, self.spindle)
         s_changes = "S" in block.words and block.words["S"] != self.s and spindle != 5 and 100 not in block.m
-        return (
-            spindle != self.spindle or s_changes or 100 in block.m or 4 in block.m
-            or block.g.get(0) == (4, 0) or block.m.get(4) == 0
-        )
+        # Spindle (pen) changes, servo moves, dwells and program stops wait for motion to end.
+        return spindle != self.spindle or s_changes or 100 in block.m or 4 in block.m or block.g.get(0) == (4, 0)
 
     def _moves(self, block: Parsed) -> bool:
         return bool(block.axes) or block.g.get(0) == (28, 0)
@@ -344,7 +342,8 @@ class Machine:
         was_down = self.pen_down
         if "N" in w:
             self.line_number = int(w["N"])
-        units_mm = {20: False, 21: True}.get(block.g.get(6, (0,))[0], self.units_mm)
+        units = block.g.get(6)  # G20/G21 apply to this block's own words already
+        units_mm = self.units_mm if units is None else units[0] == 21
         scale = 1.0 if units_mm else 25.4
         if "F" in w:
             self.feed = w["F"] * scale
