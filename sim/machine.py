@@ -382,7 +382,8 @@ class Machine:
             self.pause_requested = True
         if stop in (2, 30):
             self.synchronize()
-            self.motion, self.absolute, self.units_mm = 1, True, True
+            # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9 (units and offsets stay).
+            self.motion, self.absolute = 1, True
             self.spindle, self.coolant = 5, 9
             self.messages.append("[MSG:Pgm End]")
         if was_down and not self.pen_down and not self.planner.busy:

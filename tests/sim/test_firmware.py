@@ -87,6 +87,7 @@ CONFORMANCE = [
     (b"$22=0\n$20=1\n", "ok\r\nerror:10\r\n"),
     (b"$22=0\n$H\n", "ok\r\nerror:5\r\n"),
     (b"M2\n", "[MSG:Pgm End]\r\nok\r\n"),
+    (b"G20 G91 M3 S90\nM30\n$G\n", "ok\r\n[MSG:Pgm End]\r\nok\r\n[GC:G1 G54 G17 G20 G90 G94 M5 M9 T0 F0 S90]\r\nok\r\n"),
     (b"\x18", BANNER),
     (b"G0 X10\n\x18", "ok\r\nALARM:3\r\n" + BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"),
     (b"G0 X10\n\x18G0 X1\n$X\nG0 X1\n",
