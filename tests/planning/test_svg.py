@@ -77,6 +77,8 @@ def test_round_trip_any_plan(tmp_path_factory, layers, width, height):
     assert [l.name for l in back.layers] == [l.name for l in plan.layers]
     assert [len(l.paths) for l in back.layers] == [len(l.paths) for l in plan.layers]
     for a, b in zip(back.all_paths(), plan.all_paths()):
+        if len(b) == 2 and np.array_equal(np.round(b[0], 3), np.round(b[1], 3)):
+            b = b[:1]  # a zero-length segment is written like a dot, and is one: reads back as a dot
         assert a.shape == b.shape
         np.testing.assert_allclose(a, b, atol=1.5e-3)
 
