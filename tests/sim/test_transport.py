@@ -114,8 +114,8 @@ def test_baud_emulation_limits_bytes_per_second():
 
 
 def test_realtime_mode_takes_wall_time_scaled():
-    with serial.serial_for_url("sim://?realtime=20", timeout=0.05) as port:
-        send_and_wait(port, ["G1 X100 F3000"])  # ~2 s of machine time → ~0.1 s
+    with serial.serial_for_url("sim://?realtime=2", timeout=0.05) as port:
+        send_and_wait(port, ["G1 X100 F3000"])  # ~2 s of machine time → ~1 s of wall time
         port.write(b"?")
         assert grbl.parse_line(read_line(port)).state == "Run"
         end = time.monotonic() + 5
