@@ -44,7 +44,8 @@ GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 @dataclass(frozen=True)
 class Faults:
-    """Failures to inject, keyed by 1-based index of the complete line received.
+    """Failures to inject, keyed by the 1-based index of the complete line received (blank
+    lines count too: the index is the one in :attr:`Firmware.log`).
 
     ``error@k[:N]`` answers line k with ``error:N`` (default 20) without running it;
     ``alarm@k`` raises ALARM:1 (hard limit) instead of running line k; ``silent@k`` stops
