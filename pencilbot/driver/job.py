@@ -251,6 +251,7 @@ class _Runner:
             message = self._stop(session, fault)
             self.progress.close("stopped", message)
             raise PlotError(message) from None
+        self.progress.update(len(self.job.lines) - start, total, session.state)  # drawn: now Idle
         self.progress.close("done")
         if self.journal is not None:
             self.journal.status, self.journal.next_line = "done", self.job.numbers[-1] + 1
@@ -322,7 +323,10 @@ class _Runner:
         line_no = self.job.numbers[min(fault.index, len(self.job.lines) - 1)] if fault.index >= 0 else None
         where = f"at line {line_no} of {self.job.source} ({self.job.lines[fault.index]!r})" if line_no else ""
         resume_cmd = self._resume_command(index, stop_xy, fault)
-        return f"{fault} {where}. Stopped; {pen_note}. Resume with: {resume_cmd}"
+        message = f"{fault} {where}. Stopped; {pen_note}. Resume with: {resume_cmd}"
+        if fault.kind == "error" and line_no:
+            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and use --start-line)"
+        return message
 
     def _halt_and_lift(self, session, fault):
         """Stop the machine, read where it stands (job units) and raise the pen: (note, position)."""

@@ -49,16 +49,15 @@ class Progress:
                 total=total_lines,
                 unit="line",
                 dynamic_ncols=True,
-                bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} lines {postfix}",
+                bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} lines{postfix}",
             )
 
-    def eta(self, done_seconds: float) -> float | None:
-        """Seconds left (s), or ``None`` until enough of the job ran to judge the pace."""
+    def eta(self, done_seconds: float) -> float:
+        """Seconds left (s): the motion estimate of the rest, slowed to the pace seen so far."""
         elapsed = time.monotonic() - self.started
         remaining = max(self.total_seconds - done_seconds, 0.0)
-        if done_seconds < 1.0 or elapsed < 1.0:
-            return remaining if done_seconds == 0.0 and remaining == 0.0 else None
-        return remaining * max(elapsed / done_seconds, 1.0)
+        pace = elapsed / done_seconds if done_seconds >= 1.0 else 1.0  # too early to judge before
+        return remaining * max(pace, 1.0)
 
     def update(self, lines_done: int, done_seconds: float, state: str) -> None:
         """Report progress: lines acknowledged, their motion estimate (s), machine state."""
@@ -69,8 +68,7 @@ class Progress:
         eta = self.eta(done_seconds)
         if self._bar is not None:
             self._bar.n = lines_done
-            eta_text = "?" if eta is None else time.strftime("%H:%M:%S", time.gmtime(eta))
-            self._bar.set_postfix_str(f"{state or '?'} ETA {eta_text}", refresh=False)
+            self._bar.set_postfix_str(f"{state or '?'} ETA {time.strftime('%H:%M:%S', time.gmtime(eta))}", refresh=False)
             self._bar.refresh()
         else:
             self._emit(
@@ -79,7 +77,7 @@ class Progress:
                 total=self.total_lines,
                 percent=round(100.0 * lines_done / max(self.total_lines, 1), 2),
                 state=state,
-                eta_s=None if eta is None else round(eta, 1),
+                eta_s=round(eta, 1),
             )
 
     def close(self, status: str, message: str = "") -> None:

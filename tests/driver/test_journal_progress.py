@@ -67,3 +67,11 @@ def test_quiet_progress_prints_nothing():
 def test_unknown_progress_mode_is_refused():
     with pytest.raises(ValueError):
         Progress("loud", 1, 1.0)
+
+
+def test_eta_is_the_motion_estimate_left_slowed_to_the_observed_pace():
+    progress = Progress("quiet", total_lines=10, total_seconds=100.0)
+    assert progress.eta(0.0) == pytest.approx(100.0, rel=0.01)  # nothing known yet: the estimate
+    progress.started -= 40.0  # 40 s of wall time went by ...
+    assert progress.eta(20.0) == pytest.approx(80.0 * 2.0, rel=0.01)  # ... for 20 s of motion
+    assert progress.eta(60.0) == pytest.approx(40.0, rel=0.01)  # never faster than the estimate
