@@ -107,6 +107,22 @@ def test_simulate_a_photo(tmp_path):
     assert 0.01 < dark.mean() < 0.6  # a drawing: some graphite, mostly paper
 
 
+def test_simulate_a_plan_svg_draws_its_paths(tmp_path):
+    from pencilbot.planning.plan import Layer, Page, Plan
+    from pencilbot.planning.svg import write_svg
+
+    plan = Plan(Page(210.0, 297.0, margin=15.0, name="A4"),
+                [Layer("edges", [np.array([[50.0, 50.0], [150.0, 50.0], [150.0, 150.0]])], pen_width=0.5)])
+    svg = tmp_path / "plan.svg"
+    write_svg(plan, svg)
+    out = tmp_path / "plot.png"
+    assert main(["simulate", str(svg), "-o", str(out), "--dpi", str(DPI), "-q"]) == 0
+    dark = ink(out)
+    # an L of 100 + 100 mm at 0.5 mm: about that much ink, wherever the writer placed the page
+    inked_mm2 = dark.sum() / (DPI / 25.4) ** 2
+    assert 0.7 * 200 * 0.5 < inked_mm2 < 1.3 * 200 * 0.5
+
+
 def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     out = tmp_path / "served.png"
     proc = subprocess.Popen(
