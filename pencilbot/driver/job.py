@@ -7,7 +7,6 @@ pen is doing now, and the exact command that resumes the job.
 
 from __future__ import annotations
 
-import logging
 import shlex
 import time
 from dataclasses import dataclass, field
@@ -23,8 +22,6 @@ from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import locate_stop, pen_model, resume_preamble
 from pencilbot.errors import PlotError
 from pencilbot.gcode.profiles import load_profile
-
-log = logging.getLogger(__name__)
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
 
