@@ -3,7 +3,7 @@
 Prints JSON. Target: pen-up travel ≤ 0.85 × greedy nearest neighbour with reversal on the same
 strokes; 100 000 strokes ordered within a few seconds. Stroke sets: synthetic short strokes
 (uniform, and clustered like contours) and the strokes of the coffee and astronaut plans (each layer shuffled, then ordered both ways from the same start).
-Timings are wall-clock on a shared machine: expect noise.
+Timings are wall-clock (and CPU for order_paths) on a shared machine: expect noise.
 
 Usage: python bench/ordering.py [--budget SECONDS] [--quick]
 """
@@ -52,9 +52,9 @@ def synthetic_contours(n: int, rng) -> list[np.ndarray]:
 def measure(paths: list[np.ndarray], budget: float, start=(0.0, 0.0)) -> dict:
     t0 = time.perf_counter()
     greedy = greedy_order(paths, start)
-    t1 = time.perf_counter()
+    t1, c1 = time.perf_counter(), time.process_time()
     ours = order_paths(paths, start=start, join_tolerance=-1, time_budget=budget)
-    t2 = time.perf_counter()
+    t2, c2 = time.perf_counter(), time.process_time()
     joined = order_paths(paths, start=start, time_budget=budget)  # default: join within 0.5 mm
     g, o, j = travel_length(greedy, start), travel_length(ours, start), travel_length(joined, start)
     return {
@@ -66,6 +66,7 @@ def measure(paths: list[np.ndarray], budget: float, start=(0.0, 0.0)) -> dict:
         "joined_paths": len(joined),
         "greedy_seconds": round(t1 - t0, 3),
         "order_seconds": round(t2 - t1, 3),
+        "order_cpu_seconds": round(c2 - c1, 3),  # less noisy than wall time on a shared machine
     }
 
 
