@@ -32,6 +32,8 @@ FEED_HOLD = b"!"
 CYCLE_START = b"~"
 SOFT_RESET = b"\x18"
 REALTIME_BYTES = frozenset(STATUS_QUERY + FEED_HOLD + CYCLE_START + SOFT_RESET)
+#: Extended realtime command (bytes >= 0x80 never enter the line buffer): stop a ``$J=`` jog.
+JOG_CANCEL = b"\x85"
 
 VERSION = "1.1h"
 BUILD_DATE = "20190825"

@@ -3,8 +3,8 @@
 :class:`Firmware` behaves like GRBL's serial ISR + protocol loop in front of a
 :class:`sim.machine.Machine`:
 
-* realtime bytes ``?`` ``!`` ``~`` 0x18 act the moment they arrive, even when everything else
-  is stuck; other bytes ≥ 0x80 are discarded;
+* realtime bytes ``?`` ``!`` ``~`` 0x18 and jog cancel 0x85 act the moment they arrive, even
+  when everything else is stuck; other bytes ≥ 0x80 (overrides) are discarded;
 * other bytes go to the line being read; while the protocol loop is blocked (planner full in
   real-time mode, feed hold, a pen change waiting for motion to end, a critical alarm) they
   wait in a 128-byte receive ring, and bytes that arrive when it is full are **lost**, as on
@@ -12,7 +12,8 @@
 * each complete line gets exactly one ``ok`` or ``error:N`` (GRBL's filtering: whitespace and
   comments dropped, upper-cased, 79 significant characters at most, ``\\r`` and ``\\n`` both
   end a line), except when it raises an alarm;
-* ``$`` system commands ``$ $$ $# $G $I $N $C $X $H $RST=$ $N=V``;
+* ``$`` system commands ``$ $$ $# $G $I $N $C $X $H $J= $RST=$ $N=V`` (a jog moves at its own
+  F without touching the parser's modes; G-code is locked out while it runs);
 * soft-limit breach → ``ALARM:2`` + ``[MSG:Reset to continue]`` and nothing is read until a
   reset; reset while moving → ``ALARM:3``; after a reset the banner, and in alarm
   ``[MSG:'$H'|'$X' to unlock]``.
@@ -117,6 +118,7 @@ class Firmware:
         self._alarm = 0  # alarm code while in Alarm state
         self._critical = False  # soft/hard limit: nothing is read until reset
         self._hold = False
+        self._jog = False  # the planner holds a $J= move
         self._wco_counter = 0
         self._ovr_counter = 0
         self._emit("\r\n" + grbl.BANNER)
@@ -150,8 +152,12 @@ class Firmware:
                 return
             if b in grbl.REALTIME_BYTES:
                 self._realtime(b)
+            elif b == grbl.JOG_CANCEL[0]:
+                if self._jogging:
+                    self.machine.stop()
+                    self._jog = False
             elif b >= 0x80:
-                continue
+                continue  # other extended realtime commands (overrides) are not emulated
             elif self._blocked:
                 if len(self._ring) < _RING:
                     self._ring.append(b)
@@ -187,6 +193,12 @@ class Firmware:
         """Nothing more of the bytes being received gets through: a hung board, a pulled
         cable, or a board rebooting (what was in flight is lost)."""
         return self.silent or self.link_dropped or self._rebooting
+
+    @property
+    def _jogging(self) -> bool:
+        """A ``$J=`` move is what the planner holds (jogging ends when the planner empties)."""
+        self._jog = self._jog and self.machine.planner.busy
+        return self._jog
 
     @property
     def _blocked(self) -> bool:
@@ -277,8 +289,8 @@ class Firmware:
             self._reply(index, text, "ok")
         elif line[0] == "$":
             self._system(index, text, line)
-        elif self._alarm:
-            self._reply(index, text, "error:9")
+        elif self._alarm or self._jogging:
+            self._reply(index, text, "error:9")  # G-code is locked out in alarm and jog
         else:
             parsed = self.machine.parse(line)
             if isinstance(parsed, int):
@@ -348,6 +360,15 @@ class Firmware:
                 return self._reply(index, text, "error:8")
             m.check_mode = True
             self._emit("[MSG:Enabled]")
+        elif line.startswith("$J"):
+            if self._alarm or self._hold or (m.planner.busy and not self._jogging):
+                return self._reply(index, text, "error:8")
+            if not line.startswith("$J="):
+                return self._reply(index, text, "error:3")
+            code = m.jog(line[3:])
+            if code:
+                return self._reply(index, text, f"error:{code}")
+            self._jog = True
         elif line == "$H":
             if not m.settings[22]:
                 return self._reply(index, text, "error:5")
@@ -410,7 +431,7 @@ class Firmware:
         if m.check_mode:
             return "Check"
         if m.planner.busy or m.dwelling:
-            return "Run"
+            return "Jog" if self._jogging else "Run"
         return "Idle"
 
     def status_report(self) -> str:

@@ -34,7 +34,9 @@ EXPECTED_LETTER, BAD_NUMBER, NEGATIVE = 1, 2, 4
 UNSUPPORTED, MODAL_GROUP, UNDEFINED_FEED, NOT_INTEGER = 20, 21, 22, 23
 AXIS_CONFLICT, REPEATED_WORD, NO_AXIS_WORDS, BAD_LINE_NUMBER = 24, 25, 26, 27
 VALUE_MISSING, AXIS_WORDS_UNUSED, UNUSED_WORDS, TOOL_TOO_BIG = 28, 31, 36, 38
+TRAVEL_EXCEEDED, INVALID_JOG = 15, 16
 SOFT_LIMIT_ALARM = 2
+_JOG_MODES = {(20, 0), (21, 0), (90, 0), (91, 0)}  # all a $J= line may set, for itself only
 
 #: GRBL 1.1 factory settings; a profile overrides the machine-specific ones.
 DEFAULT_SETTINGS: dict[int, float] = {
@@ -389,13 +391,37 @@ class Machine:
         if was_down and not self.pen_down and not self.planner.busy:
             self._close_stroke()  # lifted in place: a later pen-down starts a new stroke
 
-    def _target(self, axes: dict[str, float], scale: float) -> tuple[float, float, float]:
+    def _target(self, axes: dict[str, float], scale: float, absolute: bool | None = None):
+        """Machine target (mm) of axis words in the block's units and distance mode."""
+        absolute = self.absolute if absolute is None else absolute
         target = list(self.position)
         for i, a in enumerate(_AXES):
             if a in axes:
                 v = axes[a] * scale
-                target[i] = target[i] + v if not self.absolute else v + self.g92[i]
+                target[i] = v + self.g92[i] if absolute else target[i] + v
         return tuple(target)
+
+    def jog(self, line: str) -> int:
+        """``$J=`` body: a move at its own F that leaves the parser's modes untouched.
+
+        Returns GRBL's status code: 16 for words a jog may not hold, 22 without F, 15 when
+        the target is outside the soft limits (a jog is refused, not an alarm).
+        """
+        block = self.parse(line)
+        if isinstance(block, int):
+            return block
+        if block.m or set(block.g.values()) - _JOG_MODES or set(block.words) - set("XYZF"):
+            return INVALID_JOG
+        if "F" not in block.words:
+            return UNDEFINED_FEED
+        units, distance = block.g.get(6), block.g.get(3)
+        scale = 25.4 if (units or (21 if self.units_mm else 20, 0))[0] == 20 else 1.0
+        absolute = self.absolute if distance is None else distance[0] == 90
+        target = self._target(block.axes, scale, absolute)
+        if self._soft_limit_exceeded(target):
+            return TRAVEL_EXCEEDED
+        self._line(target, rapid=False, feed=block.words["F"] * scale)
+        return OK
 
     def _soft_limit_exceeded(self, target) -> bool:
         if not self.settings[20]:
@@ -410,7 +436,7 @@ class Machine:
                 return True
         return False
 
-    def _line(self, target: tuple[float, float, float], *, rapid: bool) -> None:
+    def _line(self, target: tuple[float, float, float], *, rapid: bool, feed: float | None = None) -> None:
         if self._soft_limit_exceeded(target):
             self.stop()
             raise MachineAlarm(SOFT_LIMIT_ALARM)
@@ -433,7 +459,7 @@ class Machine:
                 if settings[120 + i] < accel * u:
                     accel = settings[120 + i] / u
         rate /= 60.0
-        nominal = rate if rapid else min(self.feed / 60.0, rate)
+        nominal = rate if rapid else min((feed or self.feed) / 60.0, rate)
         pen = pen_before and (self.config.pen.kind != "z" or self.pen_down)
         if self.instant and self.planner.free_blocks == 0:
             self._complete([self.planner.finish_one()])

@@ -99,6 +99,14 @@ CONFORMANCE = [
      "ok\r\n<Hold:0|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
      "<Idle|MPos:10.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"),
     (b"!", ""),  # feed hold while idle does nothing
+    (b"$J=G91 X10 F1000\n$J=X5 F500\n?",  # the G91 was the first jog's only
+     "ok\r\nok\r\n<Idle|MPos:5.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"),
+    (b"$J=G91 G20 X1 F10\n$G\n", "ok\r\n[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]\r\nok\r\n"),
+    (b"$J=X10\n", "error:22\r\n"),
+    (b"$J=G1 X10 F100\n", "error:16\r\n"),
+    (b"$J=X10 F100 M3\n", "error:16\r\n"),
+    (b"$J=X500 F100\n", "error:15\r\n"),
+    (b"$JX10\n", "error:3\r\n"),
     (b"\xff\x85G0 X1\n", "ok\r\n"),  # extended-ASCII bytes never reach the line
 ]
 
@@ -300,3 +308,18 @@ def test_status_polls_mid_stroke_do_not_split_the_stroke():
     for line in [b"M3S90", b"G1X10F1000", b"G1Y10", b"G1X0", b"G1Y0", b"M3S30"]:
         exchange(fw, line + b"\n?")  # instant mode: each ? runs the queued motion
     assert [s.tolist() for s in fw.machine.strokes] == [[[0, 0], [10, 0], [10, 10], [0, 10], [0, 0]]]
+
+
+def test_jog_runs_as_jog_and_cancel_stops_it_where_it_is():
+    fw = board(instant=False)
+    assert exchange(fw, b"$J=G91 X50 F600\n") == "ok\r\n"
+    assert exchange(fw, b"G1 X1 F100\n") == "error:9\r\n"
+    fw.poll(1.0)
+    assert grbl.parse_line(exchange(fw, b"?").strip()).state == "Jog"
+    exchange(fw, grbl.JOG_CANCEL)
+    x = fw.machine.machine_position()[0]
+    assert 0 < x < 50
+    fw.poll(10.0)
+    assert grbl.parse_line(exchange(fw, b"?").strip()).state == "Idle"
+    assert fw.machine.machine_position()[0] == x
+    assert exchange(fw, b"G1 X0 F600\n$J=X5 F100\n") == "ok\r\nerror:8\r\n"  # not while running G-code
