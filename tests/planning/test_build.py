@@ -14,7 +14,13 @@ from skimage.transform import resize
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
-from pencilbot.planning.build import hatch_darkness, ink_on_image_grid, make_plan, plan_from_sketch
+from pencilbot.planning.build import (
+    at_plot_resolution,
+    hatch_darkness,
+    ink_on_image_grid,
+    make_plan,
+    plan_from_sketch,
+)
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes
@@ -227,3 +233,15 @@ def test_any_photo_on_any_page_stays_inside_the_margins(seed, shape, page, orien
         for p in layer.paths:
             assert np.all((p[:, 0] >= margin - 1e-6) & (p[:, 0] <= page_.width - margin + 1e-6))
             assert np.all((p[:, 1] >= margin - 1e-6) & (p[:, 1] <= page_.height - margin + 1e-6))
+
+
+def test_a_huge_photo_is_planned_at_what_the_pen_can_draw():
+    page = page_size("A5", "portrait")  # drawing box 118 × 180 mm
+    big = image_from_array(resize(data.camera(), (1800, 1800), anti_aliasing=False), source="big")
+    small = at_plot_resolution(big, page, pen_width=0.5)
+    mm_per_px = Layout.fit(small.shape, page).mm_per_px
+    assert mm_per_px == pytest.approx(0.5 / 3, rel=0.01)
+    assert small.source == "big" and abs(small.gray.mean() - big.gray.mean()) < 0.01
+    assert at_plot_resolution(small, page, pen_width=0.5) is small
+    plan = make_plan(big, page=page, style=Style(order_time=0))
+    assert plan.meta["image_px"] == f"{small.shape[1]}x{small.shape[0]}"
