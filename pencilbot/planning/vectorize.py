@@ -80,57 +80,16 @@ def edge_strokes(
     edges = np.asarray(line.edges, dtype=np.float32)
     ell = float(line.length)
     thr = edge_threshold(edges) if threshold is None else float(threshold)
-    component = _direction_components(edges > thr, line.labels)
-    rows, cols = np.nonzero(component)
-    if rows.size == 0:
+    found = _component_pixels(edges > thr, line.labels, min_pixels)
+    if found is None:
         return []
-    ident = component[rows, cols]
-    direction = line.labels[rows, cols].astype(np.intp)
-    u, v = _rotate(cols, rows, direction)
-    order = np.lexsort((u, ident))
-    ident, direction, u, v = ident[order], direction[order], u[order], v[order]
-
-    first = np.flatnonzero(np.append(True, ident[1:] != ident[:-1]))
-    counts = np.diff(np.append(first, u.size))
-    keep = np.repeat(counts >= min_pixels, counts)
-    ident, direction, u, v = ident[keep], direction[keep], u[keep], v[keep]
-    if u.size == 0:
-        return []
-    first = np.flatnonzero(np.append(True, ident[1:] != ident[:-1]))
-    last = np.append(first[1:], u.size) - 1
-    comp_dir = direction[first]
-    # Each component paints from its first pixel − ℓ/2 to its last + ℓ/2, like the kernel.
-    start, stop = u[first] - ell / 2, u[last] + ell / 2
-    overlap = ell / 4
-    n_pieces = np.maximum(
-        1, np.ceil((stop - start - overlap) / max(piece_length * ell - overlap, 1e-9))
-    ).astype(np.intp)
-    piece = (stop - start + (n_pieces - 1) * overlap) / n_pieces
-    step = piece - overlap
-
-    # Each piece lies on the mean across-position of its own pixels, so a gently curving
-    # contour is followed piece by piece instead of by one chord.
-    comp_of_pixel = np.repeat(np.arange(first.size), np.diff(np.append(first, u.size)))
-    index_in_comp = np.clip(
-        np.floor((u - start[comp_of_pixel]) / step[comp_of_pixel]), 0, n_pieces[comp_of_pixel] - 1
-    ).astype(np.intp)
-    piece_base = np.cumsum(n_pieces) - n_pieces
-    piece_of_pixel = piece_base[comp_of_pixel] + index_in_comp
-    total = int(n_pieces.sum())
-    pixels = np.bincount(piece_of_pixel, minlength=total)
-    v_sum = np.bincount(piece_of_pixel, weights=v, minlength=total)
-    comp_v = np.bincount(comp_of_pixel, weights=v) / np.diff(np.append(first, u.size))
-    owner = np.repeat(np.arange(first.size), n_pieces)
-    piece_v = np.where(pixels > 0, v_sum / np.maximum(pixels, 1), comp_v[owner])
-    within = np.arange(total) - piece_base[owner]
-    p0 = start[owner] + within * step[owner]
-    p1 = p0 + piece[owner]
-    piece_dir = comp_dir[owner]
+    comp, direction, u, v = found
+    p0, p1, piece_v, piece_dir, piece_of_pixel = _pieces(comp, direction, u, v, ell, piece_length)
 
     # A piece whose pixels span two pen widths across is a strong, wide edge (the raster
     # draws it darker): draw it as two touching lines, a bold stroke, not one thin one.
-    v_min = np.full(total, np.inf)
-    v_max = np.full(total, -np.inf)
+    v_min = np.full(p0.size, np.inf)
+    v_max = np.full(p0.size, -np.inf)
     np.minimum.at(v_min, piece_of_pixel, v)
     np.maximum.at(v_max, piece_of_pixel, v)
     pen_px = pen_width / layout.mm_per_px
@@ -149,6 +108,65 @@ def edge_strokes(
     end_px = p1[:, None] * along + piece_v[:, None] * across
     ends_mm = layout.px_to_mm(np.concatenate([start_px, end_px])).reshape(2, -1, 2)
     return list(np.stack([ends_mm[0], ends_mm[1]], axis=1))
+
+
+def _component_pixels(mask, labels, min_pixels):
+    """Pixels of components with at least ``min_pixels``, sorted by (component, u).
+
+    Returns ``(component index 0..n−1, direction, u, v)`` per pixel, or None if nothing is left.
+    """
+    component = _direction_components(mask, labels)
+    rows, cols = np.nonzero(component)
+    if rows.size == 0:
+        return None
+    ident = component[rows, cols]
+    direction = labels[rows, cols].astype(np.intp)
+    u, v = _rotate(cols, rows, direction)
+    order = np.lexsort((u, ident))
+    ident, direction, u, v = ident[order], direction[order], u[order], v[order]
+    counts = np.diff(np.append(np.flatnonzero(np.append(True, ident[1:] != ident[:-1])), ident.size))
+    keep = np.repeat(counts >= min_pixels, counts)
+    if not keep.any():
+        return None
+    kept = ident[keep]
+    comp = np.cumsum(np.append(True, kept[1:] != kept[:-1])) - 1
+    return comp, direction[keep], u[keep], v[keep]
+
+
+def _pieces(comp, direction, u, v, ell, piece_length):
+    """Cut every component's stroke into overlapping pieces, each at its own pixels' mean v.
+
+    A component spanning [u0, u1] paints from u0 − ℓ/2 to u1 + ℓ/2, like the kernel; the
+    extent is split into equal pieces of at most ``piece_length`` · ℓ that overlap by ℓ/4.
+    Following the mean v piece by piece tracks a gently curving contour instead of one chord.
+
+    Returns
+    -------
+    p0, p1, v, direction : arrays, one entry per piece (u extent, across position, label)
+    piece_of_pixel : array mapping every pixel to its piece
+    """
+    first = np.flatnonzero(np.append(True, comp[1:] != comp[:-1]))
+    last = np.append(first[1:], u.size) - 1
+    start, stop = u[first] - ell / 2, u[last] + ell / 2
+    overlap = ell / 4
+    n_pieces = np.maximum(
+        1, np.ceil((stop - start - overlap) / max(piece_length * ell - overlap, 1e-9))
+    ).astype(np.intp)
+    piece = (stop - start + (n_pieces - 1) * overlap) / n_pieces
+    step = piece - overlap
+
+    index_in_comp = np.clip(np.floor((u - start[comp]) / step[comp]), 0, n_pieces[comp] - 1)
+    piece_base = np.cumsum(n_pieces) - n_pieces
+    piece_of_pixel = piece_base[comp] + index_in_comp.astype(np.intp)
+    total = int(n_pieces.sum())
+    pixels = np.bincount(piece_of_pixel, minlength=total)
+    v_sum = np.bincount(piece_of_pixel, weights=v, minlength=total)
+    comp_v = np.bincount(comp, weights=v) / np.bincount(comp)
+    owner = np.repeat(np.arange(first.size), n_pieces)
+    # A piece over a gap in its component has no pixels: it keeps the component's mean v.
+    piece_v = np.where(pixels > 0, v_sum / np.maximum(pixels, 1), comp_v[owner])
+    p0 = start[owner] + (np.arange(total) - piece_base[owner]) * step[owner]
+    return p0, p0 + piece[owner], piece_v, direction[first][owner], piece_of_pixel
 
 
 def _direction_components(mask: np.ndarray, labels: np.ndarray) -> np.ndarray:
