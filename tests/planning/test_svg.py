@@ -84,7 +84,7 @@ def test_round_trip_any_plan(tmp_path_factory, layers, width, height):
 
 
 def test_vpype_reads_layers_and_physical_size(tmp_path):
-    vpype = pytest.importorskip("vpype")
+    import vpype  # a test dependency: vpype must read our SVG as the plotter community does
     write_svg(sample_plan(), tmp_path / "p.svg")
     doc = vpype.read_multilayer_svg(str(tmp_path / "p.svg"), quantization=0.1)
     px_per_mm = 96 / 25.4  # vpype works in CSS pixels
