@@ -45,6 +45,10 @@ class Style:
         automatically from the edge map.
     min_edge_pixels : int
         Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
+    edge_join : float
+        Edge strokes whose ends lie within this many ℓ (at plot scale, at least a pen width)
+        are drawn in one pen-down path; consecutive strokes of a contour overlap by ℓ/4, so
+        this retraces ink already there and saves a pen lift each.
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
@@ -81,6 +85,7 @@ class Style:
     line_length: int | None = None
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
+    edge_join: float = 0.5
     hatch: bool = True
     hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
     hatch_coverage: float = 0.5
@@ -213,7 +218,7 @@ def _check_value(key: str, value, where: str):
         if not number(value) or not 0 <= value <= 1:
             raise bad("a fraction of the hatch spacing in [0, 1]")
         return float(value)
-    # margin, hatch_blur, min_hatch_run (mm) and order_time (s)
+    # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ), order_time (s)
     if not number(value) or value < 0:
         raise bad("a number ≥ 0")
     return float(value)
