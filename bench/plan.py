@@ -3,8 +3,9 @@
 Runs coffee (600×400), astronaut (512×512) and a 1 MP photo (astronaut upscaled to 1024×1024)
 on A4 portrait, 15 mm margins, 0.5 mm pen, the default style, and prints JSON:
 
-* strokes, pen-down / pen-up length, lifts and the estimated plot time on the grbl-servo-a4
-  profile (acceleration-aware, ``planning.motion.estimate``);
+* paths (pen-down polylines: strokes joined where they meet), segments (straight strokes plus
+  the short joins), pen-down / pen-up length, lifts and the estimated plot time on the
+  grbl-servo-a4 profile (acceleration-aware, ``planning.motion.estimate``);
 * ``planning_s``: :func:`plan_from_sketch` alone (after imaging; imaging time listed apart);
 * ``pen_up_vs_greedy``: the plan's pen-up travel over that of plain nearest-neighbour ordering
   with reversal on the same paths, layer after layer from home, measured in the same run;
@@ -93,8 +94,9 @@ def measure(name: str, rgb: np.ndarray) -> dict:
     return {
         "image_px": list(image.shape),
         "mm_per_px": round(layout.mm_per_px, 4),
-        "layers": {layer.name: len(layer.paths) for layer in plan.layers},
-        "strokes": sum(len(layer.paths) for layer in plan.layers),
+        "paths_per_layer": {layer.name: len(layer.paths) for layer in plan.layers},
+        "paths": total.paths,
+        "segments": total.segments,
         "pen_down_mm": round(total.pen_down_mm, 1),
         "pen_up_mm": round(total.pen_up_mm, 1),
         "lifts": total.lifts,
