@@ -5,7 +5,7 @@ strokes; 100 000 strokes ordered within a few seconds. Stroke sets: synthetic sh
 (uniform, and clustered like contours) and the strokes of the coffee and astronaut plans (each layer shuffled, then ordered both ways from the same start).
 Timings are wall-clock (and CPU for order_paths) on a shared machine: expect noise.
 
-Usage: python bench/ordering.py [--budget SECONDS] [--quick]
+Usage: python bench/ordering.py [--rounds N] [--quick]
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from skimage import data  # noqa: E402
 
 from pencilbot.imaging.io import image_from_array  # noqa: E402
 from pencilbot.planning.build import make_plan  # noqa: E402
-from pencilbot.planning.ordering import greedy_order, order_paths, travel_length  # noqa: E402
+from pencilbot.planning.ordering import DEFAULT_ROUNDS, greedy_order, order_paths, travel_length  # noqa: E402
 
 
 def synthetic_uniform(n: int, rng) -> list[np.ndarray]:
@@ -49,13 +49,13 @@ def synthetic_contours(n: int, rng) -> list[np.ndarray]:
     return list(strokes[rng.permutation(len(strokes))])
 
 
-def measure(paths: list[np.ndarray], budget: float, start=(0.0, 0.0)) -> dict:
+def measure(paths: list[np.ndarray], rounds: int, start=(0.0, 0.0)) -> dict:
     t0 = time.perf_counter()
     greedy = greedy_order(paths, start)
     t1, c1 = time.perf_counter(), time.process_time()
-    ours = order_paths(paths, start=start, join_tolerance=-1, time_budget=budget)
+    ours = order_paths(paths, start=start, join_tolerance=-1, rounds=rounds)
     t2, c2 = time.perf_counter(), time.process_time()
-    joined = order_paths(paths, start=start, time_budget=budget)  # default: join within 0.5 mm
+    joined = order_paths(paths, start=start, rounds=rounds)  # default: join within 0.5 mm
     g, o, j = travel_length(greedy, start), travel_length(ours, start), travel_length(joined, start)
     return {
         "strokes": len(paths),
@@ -83,17 +83,17 @@ def real_sets(rng) -> dict[str, list[np.ndarray]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--budget", type=float, default=1.0, help="improvement seconds per set")
+    parser.add_argument("--rounds", type=int, default=DEFAULT_ROUNDS, help="improvement rounds per set")
     parser.add_argument("--quick", action="store_true", help="skip the 100 000-stroke sets")
     args = parser.parse_args()
     rng = np.random.default_rng(0)
     results = {}
     sizes = (1_000, 10_000) if args.quick else (1_000, 10_000, 100_000)
     for n in sizes:
-        results[f"uniform_{n}"] = measure(synthetic_uniform(n, rng), args.budget)
-        results[f"contours_{n}"] = measure(synthetic_contours(n, rng), args.budget)
+        results[f"uniform_{n}"] = measure(synthetic_uniform(n, rng), args.rounds)
+        results[f"contours_{n}"] = measure(synthetic_contours(n, rng), args.rounds)
     for name, paths in real_sets(rng).items():
-        results[name] = measure(paths, args.budget)
+        results[name] = measure(paths, args.rounds)
     plans = {}
     for image in ("coffee", "astronaut"):
         layers = [r for name, r in results.items() if name.startswith(image + "/")]
@@ -102,7 +102,7 @@ def main() -> None:
         plans[image] = {"greedy_pen_up_mm": round(greedy, 1), "ordered_pen_up_mm": round(ordered, 1),
                         "ratio_vs_greedy": round(ordered / greedy, 3)}
     ratios = [r["ratio_vs_greedy"] for r in results.values() if r["ratio_vs_greedy"]]
-    print(json.dumps({"budget_seconds": args.budget, "target_ratio": 0.85, "worst_ratio": max(ratios),
+    print(json.dumps({"rounds": args.rounds, "target_ratio": 0.85, "worst_ratio": max(ratios),
                       "whole_plans": plans, "sets": results}, indent=2))
 
 

@@ -125,13 +125,12 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
 
     position = HOME
     for layer in layers:
-        budget = style.order_time * len(layer.paths) / 1000
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
         # lifting. Edge strokes overlap their neighbours along a contour by ℓ/4, so joining
         # ends within ℓ/2 retraces ink already there and saves a lift per stroke.
         edge_join = max(style.pen_width, style.edge_join * line.length * layout.mm_per_px)
         join = style.hatch_join if layer.name != "edges" else edge_join
-        layer.paths = order_paths(layer.paths, start=position, join_tolerance=join, time_budget=budget)
+        layer.paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
         if layer.paths:
             position = tuple(layer.paths[-1][-1])
 

@@ -6,11 +6,13 @@ A path may be drawn in either direction. The pen starts at its home position. Th
    end), using a k-nearest-neighbour graph of all ends and a KD-tree of the ends still free when
    the graph's candidates are used up. This alone is what plotter tools commonly do
    (:func:`greedy_order`, the baseline).
-2. **Local improvement** inside a time budget, by rounds of vectorised moves: every pair of nearby
+2. **Local improvement** for a fixed number of rounds of vectorised moves: every pair of nearby
    ends proposes a 2-opt move (reverse a run of paths, each path flipped) and Or-opt moves (move a
    run of 1–3 paths elsewhere, optionally reversed); the gains of all proposals are computed at
-   once with numpy and a set of non-conflicting improving moves is applied per round. Budget left
-   at a local optimum goes to iterated local search (double-bridge kicks, keep improvements).
+   once with numpy and a set of non-conflicting improving moves is applied per round. Rounds left
+   at a local optimum go to iterated local search (double-bridge kicks, keep improvements).
+   The budget is counted in rounds, not seconds, so the same paths always give the same order
+   (a plan, and its G-code, are reproducible); a wall-clock cap is available on top.
 3. **Joining**: consecutive paths whose ends meet within ``join_tolerance`` (the pen width) become
    one path, so the pen stays down across the gap.
 
@@ -29,6 +31,7 @@ from scipy.spatial import cKDTree
 _NEIGHBOURS = 10  # nearby ends per end: enough candidate moves, cheap to compute
 _MAX_RUN = 3  # Or-opt moves runs of up to this many paths
 _EPS = 1e-9  # mm: gains below this are float noise
+DEFAULT_ROUNDS = 40  # reaches ~0.75 of greedy's pen-up travel on photo plans (bench/ordering.py)
 
 
 def order_paths(
@@ -37,7 +40,8 @@ def order_paths(
     start: tuple[float, float] = (0.0, 0.0),
     join_tolerance: float | None = None,
     pen_width: float = 0.5,
-    time_budget: float = 1.0,
+    rounds: int = DEFAULT_ROUNDS,
+    time_budget: float | None = None,
 ) -> list[np.ndarray]:
     """Reorder and reverse paths to shorten pen-up travel, then join paths that touch.
 
@@ -52,9 +56,12 @@ def order_paths(
         ``pen_width``. 0 joins only paths that meet exactly; negative disables joining.
     pen_width : float, optional
         Pen width in mm, the default join tolerance.
+    rounds : int, optional
+        Improvement rounds after the greedy tour (each costs about one pass over the paths);
+        0 keeps the greedy tour. The result depends only on the paths and this number.
     time_budget : float, optional
-        Seconds for local improvement after the greedy tour; all of it is used (iterated local
-        search), so results can differ between runs. 0: greedy only, fully reproducible.
+        Wall-clock cap in seconds on the improvement; when it binds the result depends on the
+        machine's speed. Default: no cap.
 
     Returns
     -------
@@ -62,7 +69,7 @@ def order_paths(
         The same strokes, each possibly reversed, in drawing order, some joined.
     """
     arrays = _nonempty(paths)
-    order, reverse = improve_order(arrays, start, time_budget=time_budget)
+    order, reverse = improve_order(arrays, start, rounds=rounds, time_budget=time_budget)
     ordered = _apply(arrays, order, reverse)
     tolerance = pen_width if join_tolerance is None else join_tolerance
     return join_touching(ordered, tolerance) if tolerance >= 0 else ordered
@@ -87,7 +94,11 @@ def travel_length(paths: Sequence[np.ndarray], start: tuple[float, float] = (0.0
 
 
 def improve_order(
-    paths: Sequence[np.ndarray], start: tuple[float, float], *, time_budget: float = 1.0
+    paths: Sequence[np.ndarray],
+    start: tuple[float, float],
+    *,
+    rounds: int = DEFAULT_ROUNDS,
+    time_budget: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Greedy tour then local improvement: ``(order, reverse)`` indices into ``paths`` and flags."""
     ends = _Ends(paths, start)
@@ -95,16 +106,16 @@ def improve_order(
         return np.zeros(0, np.int64), np.zeros(0, bool)
     neighbours = ends.neighbours()
     order, reverse = _greedy(ends, neighbours)
-    deadline = time.perf_counter() + time_budget
+    budget = _Budget(rounds, time_budget)
     tour = _Tour(ends, neighbours, order, reverse)
-    _descend(tour, deadline)
-    # Iterated local search with what is left of the budget: a local optimum is kicked
-    # (double bridge within a short window) and descended again; only improvements are kept.
+    _descend(tour, budget)
+    # Iterated local search with the rounds left: a local optimum is kicked (double bridge
+    # within a short window) and descended again; only improvements are kept.
     rng = np.random.default_rng(0)
     best, best_length = tour.snapshot(), tour.length()
-    while time.perf_counter() < deadline and ends.n >= 8:
+    while budget.take() and ends.n >= 8:
         tour.double_bridge(rng)
-        _descend(tour, deadline)
+        _descend(tour, budget)
         length = tour.length()
         if length < best_length - _EPS:
             best, best_length = tour.snapshot(), length
@@ -113,11 +124,26 @@ def improve_order(
     return tour.result()
 
 
-def _descend(tour: _Tour, deadline: float) -> None:
-    """Rounds of 2-opt and Or-opt moves until none improves or time is up."""
-    while time.perf_counter() < deadline:
+class _Budget:
+    """Improvement rounds left, with an optional wall-clock deadline on top."""
+
+    def __init__(self, rounds: int, seconds: float | None) -> None:
+        self.rounds = int(rounds)
+        self.deadline = None if seconds is None else time.perf_counter() + seconds
+
+    def take(self) -> bool:
+        """Spend one round if any is left (and the deadline, if any, has not passed)."""
+        if self.rounds <= 0 or (self.deadline is not None and time.perf_counter() >= self.deadline):
+            return False
+        self.rounds -= 1
+        return True
+
+
+def _descend(tour: _Tour, budget: _Budget) -> None:
+    """Rounds of Or-opt and 2-opt moves until none improves or the budget is spent."""
+    while budget.take():
         improved = tour.or_opt_round()  # first: it gains most per round on a greedy tour
-        if time.perf_counter() >= deadline:
+        if not budget.take():
             break
         improved |= tour.two_opt_round()
         if not improved:

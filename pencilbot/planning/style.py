@@ -70,9 +70,10 @@ class Style:
         rather than getting single lines centimetres apart.
     hatch_jitter : float
         Random offset of each hatch line as a fraction of its spacing (0 = ruled lines).
-    order_time : float
-        Seconds the path ordering may spend improving on nearest neighbour, per 1000 paths
-        (a bigger drawing has more to gain and its plot takes longer anyway).
+    order_rounds : int
+        Rounds of local improvement the path ordering makes on nearest neighbour, per layer
+        (each about one pass over the layer's paths); counted in rounds, not seconds, so a
+        plan is reproducible. 0 keeps plain nearest-neighbour order.
     seed : int
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """
@@ -94,7 +95,7 @@ class Style:
     hatch_join: float = 2.0
     hatch_blank_below: float = 0.06
     hatch_jitter: float = 0.0
-    order_time: float = 0.15
+    order_rounds: int = 40
     seed: int = 0
 
 
@@ -193,7 +194,7 @@ def _check_value(key: str, value, where: str):
         if not isinstance(value, list) or not value or not all(number(v) for v in value):
             raise bad("a non-empty list of angles in degrees")
         return tuple(float(v) for v in value)
-    if key in ("line_length", "min_edge_pixels", "seed"):
+    if key in ("line_length", "min_edge_pixels", "seed", "order_rounds"):
         smallest = 2 if key == "line_length" else 0
         if not isinstance(value, int) or isinstance(value, bool) or value < smallest:
             raise bad(f"a whole number ≥ {smallest}")
@@ -218,7 +219,7 @@ def _check_value(key: str, value, where: str):
         if not number(value) or not 0 <= value <= 1:
             raise bad("a fraction of the hatch spacing in [0, 1]")
         return float(value)
-    # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ), order_time (s)
+    # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ)
     if not number(value) or value < 0:
         raise bad("a number ≥ 0")
     return float(value)

@@ -25,7 +25,7 @@ from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes
 
-FAST = Style(order_time=0.05)
+FAST = Style(order_rounds=4)
 
 
 def _length(paths):
@@ -95,7 +95,7 @@ def _segments(paths):
 
 
 def test_a_plan_is_reproducible(camera):
-    a, b = make_plan(camera, style=Style(order_time=0)), make_plan(camera, style=Style(order_time=0))
+    a, b = make_plan(camera, style=Style(order_rounds=0)), make_plan(camera, style=Style(order_rounds=0))
     assert [layer.name for layer in a.layers] == [layer.name for layer in b.layers]
     for la, lb in zip(a.layers, b.layers, strict=True):
         assert len(la.paths) == len(lb.paths)
@@ -139,7 +139,7 @@ def test_outline_style_draws_edges_only(camera):
 
 def test_auto_orientation_turns_the_page_for_a_wide_photo():
     wide = image_from_array(np.tile(np.linspace(0, 1, 200), (80, 1)).astype(np.float32), source="ramp")
-    plan = make_plan(wide, style=Style(orientation="auto", order_time=0))
+    plan = make_plan(wide, style=Style(orientation="auto", order_rounds=0))
     assert plan.page.width > plan.page.height
 
 
@@ -198,8 +198,8 @@ def test_neighbouring_hatch_runs_are_joined_pen_down():
     gray[disk((60, 60), 40)] = 0.02
     drawing = sketch(image_from_array((gray * 255).astype(np.uint8), source="disc"))
     page = page_size("100x100", margin=5)
-    apart = plan_from_sketch(drawing, page, Style(hatch_join=0.0, order_time=0))
-    joined = plan_from_sketch(drawing, page, Style(hatch_join=2.0, order_time=0))
+    apart = plan_from_sketch(drawing, page, Style(hatch_join=0.0, order_rounds=0))
+    joined = plan_from_sketch(drawing, page, Style(hatch_join=2.0, order_rounds=0))
     names = [layer.name for layer in apart.layers if layer.name != "edges"]
     assert names
     for name in names:  # hatch1 covers the disc; the few runs of later layers rarely meet
@@ -226,7 +226,7 @@ def test_any_photo_on_any_page_stays_inside_the_margins(seed, shape, page, orien
     blobs = ndi.gaussian_filter(rng.random(shape), 3)
     gray = (blobs - blobs.min()) / max(np.ptp(blobs), 1e-9)
     image = image_from_array(gray.astype(np.float32), source="blobs")
-    style = Style(page=page, orientation=orientation, margin=margin, pen_width=pen, order_time=0)
+    style = Style(page=page, orientation=orientation, margin=margin, pen_width=pen, order_rounds=0)
     plan = make_plan(image, style=style)
     page_ = plan.page
     assert page_.margin == margin
@@ -245,5 +245,5 @@ def test_a_huge_photo_is_planned_at_what_the_pen_can_draw():
     assert mm_per_px == pytest.approx(0.5 / 3, rel=0.01)
     assert small.source == "big" and abs(small.gray.mean() - big.gray.mean()) < 0.01
     assert at_plot_resolution(small, page, pen_width=0.5) is small
-    plan = make_plan(big, page=page, style=Style(order_time=0))
+    plan = make_plan(big, page=page, style=Style(order_rounds=0))
     assert plan.meta["image_px"] == f"{small.shape[1]}x{small.shape[0]}"
