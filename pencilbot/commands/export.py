@@ -1,36 +1,36 @@
-"""``pencilbot export``: photo or plan SVG → G-code for a plotter profile."""
+"""``pencilbot export``: photos or plan SVGs → G-code for a plotter profile."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.batch import (
+    Inputs, add_jobs_option, collect_inputs, distinct, make_folders, output_paths, run_batch,
+)
+from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
 from pencilbot.errors import PencilbotError
-from pencilbot.gcode.profiles import list_profiles, load_profile
-from pencilbot.gcode.writer import GcodeSummary, duration_text, write_gcode
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
-from pencilbot.planning.build import make_plan
-from pencilbot.planning.plan import Plan
-from pencilbot.planning.style import load_style, with_overrides
-from pencilbot.planning.svg import read_svg
+from pencilbot.gcode.profiles import Profile, list_profiles, load_profile
+from pencilbot.gcode.writer import duration_text, write_gcode
 
 DEFAULT_PROFILE = "grbl-servo-a4"
+GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "export",
-        help="write G-code for a plotter from a photo or a plan SVG",
+        help="write G-code for a plotter from photos or plan SVGs",
         description=(
             "Write G-code for a plotter profile. INPUT is a photo (planned with the style, page "
-            "and pen width given) or a plan SVG written by `pencilbot plan`. With several "
-            "inputs, -o names a folder and each input gets NAME.gcode there."
+            "and pen width given), a plan SVG written by `pencilbot plan`, or a folder of photos. "
+            "With several inputs or a folder, -o names a folder, each input gets NAME.gcode "
+            "there, and the files are planned on all cores."
         ),
     )
-    parser.add_argument("inputs", nargs="*", metavar="INPUT", help="photo or plan .svg")
+    parser.add_argument("inputs", nargs="*", metavar="INPUT", help="photo, plan .svg, or folder of photos")
     parser.add_argument(
-        "-o", "--output", metavar="OUT.gcode",
+        "-o", "--output", metavar="OUT.gcode|DIR",
         help="G-code file to write (a folder for several inputs; default: INPUT's name .gcode beside it)",
     )
     parser.add_argument(
@@ -38,14 +38,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help=f"shipped plotter profile or a profile file (default {DEFAULT_PROFILE}; see --list-profiles)",
     )
     parser.add_argument("--list-profiles", action="store_true", help="list the shipped profiles and exit")
-    photo = parser.add_argument_group("photo inputs")
-    photo.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
-    photo.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's (e.g. A3, 300x200)")
-    photo.add_argument("--pen-width", type=float, metavar="MM", help="pen line width in mm, overrides the style's")
-    photo.add_argument(
-        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
-    )
-    photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
+    add_photo_options(parser)
+    add_jobs_option(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -57,56 +51,30 @@ def run(args: argparse.Namespace) -> int:
         return 0
     if not args.inputs:
         raise PencilbotError("give a photo or plan SVG to export (pencilbot export photo.jpg -o drawing.gcode)")
-    profile = load_profile(args.profile)  # a bad profile fails before any slow planning
-    targets = _targets([Path(p) for p in args.inputs], args.output)
-    for source, target in targets:
-        plan = _plan(source, args)
-        summary = write_gcode(plan, profile, target, source=str(source))
-        if not args.quiet:
-            print(_report(summary, profile.name))
-    return 0
+    profile = load_profile(args.profile)  # a bad profile or style fails before any slow planning
+    inputs = collect_inputs(args.inputs)
+    if any(p.suffix.lower() != ".svg" for p in inputs.paths):
+        photo_style(args)
+    outputs = _outputs(inputs, args.output)
+    jobs = [(source, target, profile, args) for source, target in zip(inputs.paths, outputs)]
+    return run_batch(export_one, jobs, workers=args.jobs, quiet=args.quiet, verbose=args.verbose)
 
 
-def _targets(inputs: list[Path], output: str | None) -> list[tuple[Path, Path]]:
-    """Each input with the G-code file it becomes."""
+def _outputs(inputs: Inputs, output: str | None) -> list[Path]:
+    """The G-code file each input becomes (beside it when no -o is given)."""
     if output is None:
-        return [(p, p.with_suffix(".gcode")) for p in inputs]
-    out = Path(output)
-    if out.is_dir():
-        return [(p, out / f"{p.stem}.gcode") for p in inputs]
-    if len(inputs) > 1:
-        raise PencilbotError(
-            f"{len(inputs)} inputs need -o to name an existing folder, not {out}; create it first"
-        )
-    if out.suffix.lower() not in (".gcode", ".nc", ".gc", ".ngc"):
-        raise PencilbotError(f"name the output {out} with .gcode (or .nc, .gc, .ngc)")
-    return [(inputs[0], out)]
+        return distinct([p.with_suffix(GCODE_SUFFIXES[0]) for p in inputs.paths], inputs.paths)
+    outputs = output_paths(inputs, output, what="output", suffixes=GCODE_SUFFIXES)
+    if inputs.batch:
+        make_folders(outputs)
+    return outputs
 
 
-def _plan(source: Path, args: argparse.Namespace) -> Plan:
-    if source.suffix.lower() == ".svg":
-        photo_only = {"--style": args.style, "--page": args.page, "--pen-width": args.pen_width,
-                      "--downscale": args.downscale or None}
-        given = [flag for flag, value in photo_only.items() if value is not None]
-        if given:
-            raise PencilbotError(
-                f"{source} is a plan: its page and pen are already set; {', '.join(given)} "
-                "apply to photos only"
-            )
-        return read_svg(source)
-    options = {"page": args.page, "pen_width": args.pen_width}
-    style = with_overrides(
-        load_style(args.style or "default"),
-        {key: value for key, value in options.items() if value is not None},
-        where="command line",
-    )
-    image = load_image(source, max_pixels=args.max_pixels, downscale=args.downscale)
-    return make_plan(image, style=style)
-
-
-def _report(summary: GcodeSummary, profile: str) -> str:
+def export_one(source: Path, target: Path, profile: Profile, args: argparse.Namespace) -> str:
+    """Write the G-code of ``source`` (photo or plan SVG) to ``target``; return the line reporting it."""
+    summary = write_gcode(plan_for_input(source, args), profile, target, source=str(source))
     return (
-        f"wrote {summary.path} for {profile}: {summary.paths} paths, {summary.lines} lines, "
+        f"wrote {summary.path} for {profile.name}: {summary.paths} paths, {summary.lines} lines, "
         f"{summary.bytes / 1e3:.0f} kB; about {duration_text(summary.stats.total.seconds)} to draw; "
         f"{summary.placement.describe()}"
     )

@@ -13,13 +13,10 @@ import os
 import urllib.parse
 from pathlib import Path
 
-from pencilbot.commands.common import add_verbosity
-# Photos and plans are turned into a Plan exactly as `pencilbot export` does (same options).
-from pencilbot.commands.export import _plan
+from pencilbot.commands.common import add_photo_options, add_verbosity, plan_for_input
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
 from pencilbot.gcode.writer import duration_text, gcode_lines
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
 
 DEFAULT_PROFILE = "grbl-servo-a4"
 GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
@@ -33,7 +30,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description=(
             "Stream INPUT (G-code, a plan SVG, or a photo, which is planned first) through the "
             "serial driver into the virtual GRBL plotter, save the drawing as a PNG of the whole "
-            "bed and print the simulated drawing time."
+            "bed and print the simulated drawing time. --pen-width also sets the line width a "
+            "G-code input is rendered with (default: the plan's, else 0.5 mm)."
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, plan .svg, or photo")
@@ -44,13 +42,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
                         help="move R times faster than real time (default 0: instant)")
-    photo = parser.add_argument_group("photo inputs")
-    photo.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
-    photo.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's")
-    photo.add_argument("--pen-width", type=float, metavar="MM",
-                       help="pen width in mm: plans a photo, renders G-code (default: the plan's, else 0.5)")
-    photo.add_argument("--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images")
-    photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
+    add_photo_options(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -93,6 +85,6 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[list[str], 
         except (UnicodeDecodeError, OSError) as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc}); G-code must be plain ASCII text") from None
         return lines, args.pen_width or 0.5
-    plan = _plan(source, args)
+    plan = plan_for_input(source, args)
     widths = [layer.pen_width for layer in plan.layers]
     return gcode_lines(plan, profile, source=str(source)), args.pen_width or (widths[0] if widths else 0.5)

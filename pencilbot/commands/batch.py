@@ -1,0 +1,199 @@
+"""Many inputs at once: expand folders, name the outputs, run the files on every core.
+
+``pencilbot plan`` and ``pencilbot export`` share this. One input behaves like a single command
+(an error is the command's error). Several inputs, or a folder, run in a process pool: each file
+that fails is reported on one line naming it while the others carry on, a progress bar counts the
+files, and a summary line ends the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import traceback
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+from pathlib import Path
+
+from tqdm import tqdm
+
+from pencilbot.errors import PencilbotError
+
+PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
+
+def add_jobs_option(parser: argparse.ArgumentParser) -> None:
+    """``-j/--jobs``: how many files to work on at once."""
+    parser.add_argument(
+        "-j", "--jobs", type=int, metavar="N",
+        help=f"files worked on at once with several inputs (default: all {os.cpu_count()} cores; 1: one by one)",
+    )
+
+
+@dataclass(frozen=True)
+class Inputs:
+    """Input files in command-line order; ``batch`` when there are several or a folder was given."""
+
+    paths: list[Path]
+    batch: bool
+
+
+def collect_inputs(names: Sequence[str]) -> Inputs:
+    """Input files from the command line, each folder replaced by the photos in it (by name).
+
+    Raises
+    ------
+    PencilbotError
+        A folder holds no photo.
+    """
+    paths: list[Path] = []
+    for name in map(Path, names):
+        if not name.is_dir():
+            paths.append(name)
+            continue
+        photos = sorted(p for p in name.iterdir() if p.is_file() and p.suffix.lower() in PHOTO_SUFFIXES)
+        if not photos:
+            raise PencilbotError(f"folder {name} holds no photo ({', '.join(PHOTO_SUFFIXES)}); give files or another folder")
+        paths.extend(photos)
+    return Inputs(paths, batch=len(paths) > 1 or any(Path(n).is_dir() for n in names))
+
+
+def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[str]) -> list[Path]:
+    """Where each input's result goes: ``output`` itself, or ``output/<input name><suffix>``.
+
+    ``output`` is a folder when it is one, or when the run is a batch (then :func:`make_folders`
+    creates it: its parent must exist); otherwise a file, which must end with one of ``suffixes`` (the first is the
+    one given to files in a folder).
+
+    Raises
+    ------
+    PencilbotError
+        A single file for a batch, a wrong suffix, or two inputs that would write the same file.
+    """
+    out = Path(output)
+    if not out.is_dir() and not inputs.batch:
+        if out.suffix.lower() not in suffixes:
+            raise PencilbotError(f"name the {what} {out} with {' or '.join(suffixes)}")
+        return [out]
+    if not out.is_dir():
+        if out.suffix.lower() in suffixes:
+            raise PencilbotError(f"{len(inputs.paths)} inputs need a folder for the {what}, not the file {out}")
+        if not out.parent.is_dir():
+            raise PencilbotError(f"cannot create the {what} folder {out}: {out.parent} does not exist")
+    return distinct([out / f"{p.stem}{suffixes[0]}" for p in inputs.paths], inputs.paths)
+
+
+def make_folders(paths: Sequence[Path | None]) -> None:
+    """Create the folders :func:`output_paths` named but that do not exist yet."""
+    for folder in {p.parent for p in paths if p is not None}:
+        folder.mkdir(exist_ok=True)
+
+
+def distinct(targets: list[Path], sources: Sequence[Path]) -> list[Path]:
+    """``targets`` unchanged, after checking no two sources would overwrite each other's result."""
+    seen: dict[Path, Path] = {}
+    for source, target in zip(sources, targets):
+        if target in seen:
+            raise PencilbotError(f"{seen[target]} and {source} would both be written to {target}; rename one")
+        seen[target] = source
+    return targets
+
+
+@dataclass(frozen=True)
+class Failure:
+    """Why one file failed: the message, and the exit code it would have had on its own."""
+
+    message: str
+    exit_code: int
+
+
+def run_batch(
+    work: Callable[..., str], jobs: Sequence[tuple], *, workers: int | None, quiet: bool, verbose: int
+) -> int:
+    """Call ``work(*job)`` for every job, each job's first item being the input file it is about.
+
+    ``work`` returns the line reporting what it wrote. With one job its errors propagate as they
+    would from a single command. With several, failures are reported per file on stderr,
+    successes only with ``verbose``, and a summary line follows.
+
+    Parameters
+    ----------
+    work : callable
+        A module-level function (it is sent to worker processes).
+    jobs : sequence of tuple
+        Arguments of each call; ``job[0]`` is the input path.
+    workers : int or None
+        Processes to use; None: one per core; 1 runs in this process.
+    quiet, verbose : bool, int
+        ``-q`` hides the progress bar and summary; ``-v`` prints each file's report.
+
+    Returns
+    -------
+    int
+        0 if every file was written, else the highest exit code of the failures.
+    """
+    if workers is not None and workers < 1:
+        raise PencilbotError(f"--jobs {workers}: give 1 or more files at once")
+    if len(jobs) == 1:
+        report = work(*jobs[0])
+        if not quiet:
+            print(report)
+        return 0
+    failures: list[Failure] = []
+    with tqdm(total=len(jobs), unit="file", file=sys.stderr, disable=quiet, leave=False) as bar:
+        for source, outcome in _outcomes(work, jobs, workers or os.cpu_count() or 1, verbose):
+            if isinstance(outcome, Failure):
+                failures.append(outcome)
+                bar.write(_error_line(source, outcome.message), file=sys.stderr)
+            elif verbose:
+                bar.write(outcome, file=sys.stdout)
+            bar.update()
+    if not quiet:
+        print(f"{len(jobs) - len(failures)} written, {len(failures)} failed")
+    return max((failure.exit_code for failure in failures), default=0)
+
+
+def _outcomes(
+    work: Callable[..., str], jobs: Sequence[tuple], workers: int, verbose: int
+) -> Iterator[tuple[Path, str | Failure]]:
+    """Each job's input with its report or failure, in the order they finish."""
+    if workers == 1:
+        for job in jobs:
+            yield job[0], _attempt(work, job, verbose)
+        return
+    workers = min(workers, len(jobs))
+    with ProcessPoolExecutor(workers, initializer=_share_cores, initargs=(workers,)) as pool:
+        futures = {pool.submit(_attempt, work, job, verbose): job[0] for job in jobs}
+        for future in as_completed(futures):
+            try:
+                outcome = future.result()
+            except BrokenProcessPool:
+                outcome = Failure("its worker process died (out of memory?); retry it with --jobs 1", 1)
+            yield futures[future], outcome
+
+
+def _attempt(work: Callable[..., str], job: tuple, verbose: int) -> str | Failure:
+    """``work(*job)``, with any error turned into a picklable :class:`Failure`."""
+    try:
+        return work(*job)
+    except PencilbotError as err:
+        return Failure(str(err), err.exit_code)
+    except Exception as err:  # noqa: BLE001 - one file's bug must not stop the others
+        detail = traceback.format_exc() if verbose else "run with -v for the traceback"
+        return Failure(f"unexpected {type(err).__name__}: {err} ({detail})", 1)
+
+
+def _share_cores(workers: int) -> None:
+    """Split the cores between the worker processes instead of each running one thread per core."""
+    import cv2
+
+    cv2.setNumThreads(max(1, (os.cpu_count() or 1) // workers))
+
+
+def _error_line(source: Path, message: str) -> str:
+    """One line naming the failed file (once: most messages already start with it)."""
+    named = message if str(source) in message else f"{source}: {message}"
+    return f"pencilbot: error: {named}"
