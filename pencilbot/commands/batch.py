@@ -9,6 +9,7 @@ files, and a summary line ends the run.
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import sys
 import traceback
@@ -28,9 +29,16 @@ PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 def add_jobs_option(parser: argparse.ArgumentParser) -> None:
     """``-j/--jobs``: how many files to work on at once."""
     parser.add_argument(
-        "-j", "--jobs", type=int, metavar="N",
+        "-j", "--jobs", type=_positive_count, metavar="N",
         help=f"files worked on at once with several inputs (default: all {os.cpu_count()} cores; 1: one by one)",
     )
+
+
+def _positive_count(text: str) -> int:
+    """``--jobs`` value: a whole number ≥ 1 (argparse reports anything else as a usage error)."""
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of files (1 or more)")
+    return int(text)
 
 
 @dataclass(frozen=True)
@@ -56,7 +64,9 @@ def collect_inputs(names: Sequence[str]) -> Inputs:
             continue
         photos = sorted(p for p in name.iterdir() if p.is_file() and p.suffix.lower() in PHOTO_SUFFIXES)
         if not photos:
-            raise PencilbotError(f"folder {name} holds no photo ({', '.join(PHOTO_SUFFIXES)}); give files or another folder")
+            raise PencilbotError(
+                f"folder {name} holds no photo ({', '.join(PHOTO_SUFFIXES)}); give files or another folder"
+            )
         paths.extend(photos)
     return Inputs(paths, batch=len(paths) > 1 or any(Path(n).is_dir() for n in names))
 
@@ -135,8 +145,6 @@ def run_batch(
     int
         0 if every file was written, else the highest exit code of the failures.
     """
-    if workers is not None and workers < 1:
-        raise PencilbotError(f"--jobs {workers}: give 1 or more files at once")
     if len(jobs) == 1:
         report = work(*jobs[0])
         if not quiet:
@@ -165,7 +173,12 @@ def _outcomes(
             yield job[0], _attempt(work, job, verbose)
         return
     workers = min(workers, len(jobs))
-    with ProcessPoolExecutor(workers, initializer=_share_cores, initargs=(workers,)) as pool:
+    # Not fork: a copy of this process would inherit OpenCV's and SciPy's thread pools without
+    # their threads and can hang in them. The fork server starts clean, imports the pipeline once
+    # and forks each worker from there.
+    context = multiprocessing.get_context("forkserver")
+    context.set_forkserver_preload(["pencilbot.commands.common"])
+    with ProcessPoolExecutor(workers, context, initializer=_share_cores, initargs=(workers,)) as pool:
         futures = {pool.submit(_attempt, work, job, verbose): job[0] for job in jobs}
         for future in as_completed(futures):
             try:

@@ -33,8 +33,13 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
         "--style", metavar="NAME|FILE.toml",
         help=f"drawing style: {', '.join(list_styles())} or a .toml file (default: default)",
     )
-    photo.add_argument("--page", metavar="A4|WxH", help="paper: A5, A4, A3, Letter or WxH in mm (default: the style's, A4)")
-    photo.add_argument("--orientation", choices=ORIENTATIONS, help="default: the style's, portrait")
+    photo.add_argument(
+        "--page", metavar="A4|WxH", help="paper: A5, A4, A3, Letter or WxH in mm (default: the style's, A4)"
+    )
+    photo.add_argument(
+        "--orientation", choices=ORIENTATIONS,
+        help="auto turns the sheet to suit the photo (default: the style's)",
+    )
     photo.add_argument("--margin", type=float, metavar="MM", help="blank border in mm (default: the style's, 15)")
     photo.add_argument("--pen-width", type=float, metavar="MM", help="pen line width in mm (default: the style's, 0.5)")
     photo.add_argument(

@@ -26,8 +26,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "(NAME.png) there, and the files are planned on all cores."
         ),
     )
-    parser.add_argument("inputs", nargs="+", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...) or folder of them")
-    parser.add_argument("-o", "--output", required=True, metavar="PLAN.svg|DIR", help="SVG to write (a folder for several inputs)")
+    parser.add_argument(
+        "inputs", nargs="+", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...) or folder of them"
+    )
+    parser.add_argument(
+        "-o", "--output", required=True, metavar="PLAN.svg|DIR", help="SVG to write (a folder for several inputs)"
+    )
     parser.add_argument("--preview", metavar="PREVIEW.png|DIR", help="also render each plan as a PNG")
     add_photo_options(parser)
     add_jobs_option(parser)

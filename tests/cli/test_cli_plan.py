@@ -32,7 +32,7 @@ def _svg_size(path):
 
 def test_plan_writes_an_svg_in_mm_and_a_preview(photo, tmp_path, capsys):
     out, preview = tmp_path / "plan.svg", tmp_path / "preview.png"
-    code = main(["plan", str(photo), "-o", str(out), "--preview", str(preview)])
+    code = main(["plan", str(photo), "-o", str(out), "--preview", str(preview), "--orientation", "portrait"])
     assert code == 0
     assert _svg_size(out) == (210.0, 297.0)
     plan = read_svg(out)
