@@ -15,9 +15,12 @@ on what a drawn line looks like. The model of ink:
   ``darkness = 1 − Π(1 − coverage)``, accumulated as a sum of ``log(1 − coverage)``.
 
 Everything is vectorised: candidate pixels are generated per segment, column by column along the
-segment's major axis (a ragged array built with ``np.repeat``), so long diagonal hatch lines cost
-what they ink, not their bounding box. Work is chunked to bound memory; a path longer than a chunk
-carries its pixels over so it still inks each pixel once.
+segment's major axis, only as many per column as the pen's band can reach, so long diagonal hatch
+lines cost what they ink, not their bounding box. Coverage is computed in float32 in each
+segment's own frame (offsets of a few pixels, so float32 keeps ~1e-7 accuracy) on cache-sized
+dense blocks. "Once per path" is a group-max per (path, pixel), found with one ``np.maximum.at``
+into a page-sized buffer (sorting only where separate paths overlap). Work is chunked to bound
+memory; a path longer than a chunk keeps its per-pixel maximum open until it ends.
 """
 
 from __future__ import annotations
@@ -32,8 +35,10 @@ import numpy as np
 from pencilbot.errors import PencilbotError
 
 MM_PER_INCH = 25.4
-# Candidates per chunk: ~10 float64 arrays of this length stay below ~100 MB.
-_CHUNK_CANDIDATES = 1_500_000
+# Candidates per chunk: its inked pixels (~30 bytes each) stay below ~100 MB.
+_CHUNK_CANDIDATES = 3_000_000
+# Candidates per block of coverage arithmetic: a dozen float32 temporaries stay in the CPU cache.
+_BATCH_CANDIDATES = 32_768
 # Coverage is clipped below 1 so log(1 − c) stays finite; 1e-9 is far below 8-bit resolution.
 _MAX_COVERAGE = 1.0 - 1e-9
 TRAVEL_RGB = (220, 40, 40)  # pen-up overlay colour in previews
@@ -182,39 +187,203 @@ def _accumulate(log_paper: np.ndarray, paths: Sequence[np.ndarray], grid: _Grid)
     if not arrays:
         return
     a, b, seg_path = _segments(arrays)
-    a, b = grid.to_px(a), grid.to_px(b)
-    counts, plan = _candidate_counts(a, b, grid.radius)
-    hw = grid.shape[0] * grid.shape[1]
-    # Chunks of about _CHUNK_CANDIDATES candidates (at least one segment each). A path that spans
-    # chunks collects its per-pixel maximum in `running` and inks the paper once it is complete.
-    cum = np.cumsum(counts)
+    frames = _Frames(grid.to_px(a), grid.to_px(b), grid.radius)
+    # Chunks of about _CHUNK_CANDIDATES candidates (at least one segment each) bound memory.
+    cum = np.cumsum(frames.candidates)
     cuts = np.searchsorted(cum, np.arange(_CHUNK_CANDIDATES, cum[-1], _CHUNK_CANDIDATES), side="right")
-    bounds = np.unique(np.concatenate([[0], cuts, [len(counts)]])).tolist()
-    running = np.zeros(hw) if len(bounds) > 2 else None
+    bounds = np.unique(np.concatenate([[0], cuts, [len(cum)]])).tolist()
+    paper = _Paper(log_paper)
     for lo, hi in zip(bounds[:-1], bounds[1:]):
-        key, cover = _chunk_coverage(a[lo:hi], b[lo:hi], counts[lo:hi], plan[:, lo:hi], grid)
-        key, cover = _max_per_key(seg_path[lo:hi][key // hw] * hw + key % hw, cover)
-        path, pixel = key // hw, key % hw
-        continued = seg_path[lo] if lo > 0 and seg_path[lo] == seg_path[lo - 1] else -1
-        runs_on = seg_path[hi - 1] if hi < len(counts) and seg_path[hi] == seg_path[hi - 1] else -1
-        if continued >= 0:
-            mine = path == continued
-            np.maximum.at(running, pixel[mine], cover[mine])
-            if continued != runs_on:  # it ends in this chunk: ink it
-                touched = np.flatnonzero(running)
-                _ink(log_paper, touched, running[touched])
-                running[touched] = 0.0
-        if runs_on >= 0 and runs_on != continued:
-            mine = path == runs_on
-            np.maximum.at(running, pixel[mine], cover[mine])
-        whole = (path != continued) & (path != runs_on)
-        _ink(log_paper, pixel[whole], cover[whole])
+        pixel, cover, segment = _chunk_coverage(frames, lo, hi, grid)
+        path = seg_path[lo:hi][segment] - seg_path[lo]
+        # A path cut by chunk boundaries keeps its per-pixel maximum open until its last chunk.
+        last = seg_path[hi - 1] - seg_path[lo]
+        continued = lo > 0 and seg_path[lo] == seg_path[lo - 1]
+        runs_on = hi < len(seg_path) and seg_path[hi] == seg_path[hi - 1]
+        complete = np.ones(len(path), bool)
+        if continued:
+            mine = path == 0
+            paper.extend_open(pixel[mine], cover[mine])
+            complete &= ~mine
+            if not (runs_on and last == 0):
+                paper.close_open()
+        if runs_on and not (continued and last == 0):
+            mine = path == last
+            paper.extend_open(pixel[mine], cover[mine])
+            complete &= ~mine
+        paper.ink_once_per_path(pixel[complete], cover[complete], path[complete])
 
 
-def _ink(log_paper: np.ndarray, pixel: np.ndarray, cover: np.ndarray) -> None:
-    """Stack coverages onto the paper (flat pixel indices; repeats stack as separate paths)."""
-    log_ink = np.log1p(-np.minimum(cover, _MAX_COVERAGE))
-    log_paper += np.bincount(pixel, weights=log_ink, minlength=log_paper.size).reshape(log_paper.shape)
+class _Frames:
+    """Per segment (pixel units): its own frame and the columns of pixels that can take its ink.
+
+    A segment is walked along its major axis ``u`` one pixel column at a time; ``v`` is the minor
+    axis. A pixel gets ink when its centre is closer than ``reach = radius + (cos + sin)/2`` to the
+    segment (the pen's radius plus half the pixel's extent across the segment), so a column holds
+    at most ``k = ⌈2·reach / cos⌉`` candidates around the line: as tight as a per-column walk gets,
+    and long diagonal lines cost what they ink, not their bounding box.
+    """
+
+    def __init__(self, a: np.ndarray, b: np.ndarray, radius: float) -> None:
+        self.radius = radius
+        self.steep = np.abs(b[:, 1] - a[:, 1]) > np.abs(b[:, 0] - a[:, 0])
+        u0, v0 = np.where(self.steep, a[:, 1], a[:, 0]), np.where(self.steep, a[:, 0], a[:, 1])
+        u1, v1 = np.where(self.steep, b[:, 1], b[:, 0]), np.where(self.steep, b[:, 0], b[:, 1])
+        flip = u1 < u0
+        self.u0, self.v0 = np.where(flip, u1, u0), np.where(flip, v1, v0)
+        self.du = np.abs(u1 - u0)
+        dv = np.where(flip, v0 - v1, v1 - v0)
+        self.length = np.hypot(self.du, dv)
+        dot = self.length == 0  # a dot is inked like a horizontal zero-length segment
+        self.cos = np.where(dot, 1.0, self.du / np.where(dot, 1.0, self.length))
+        self.sin = np.where(dot, 0.0, dv / np.where(dot, 1.0, self.length))  # signed
+        self.slope = self.sin / self.cos
+        self.reach = radius + (self.cos + np.abs(self.sin)) / 2
+        self.half = self.reach / self.cos  # half-height of the band in a column
+        self.k = np.ceil(2 * self.half).astype(np.int64)
+        self.first = np.floor(self.u0 - self.reach) + 1
+        self.columns = np.maximum(np.ceil(self.u0 + self.du + self.reach) - self.first, 0).astype(np.int64)
+        self.candidates = self.columns * self.k
+
+
+def _chunk_coverage(frames: _Frames, lo: int, hi: int, grid: _Grid):
+    """Inked pixels of segments ``lo:hi``: flat pixel index, coverage (< 1), segment (from ``lo``).
+
+    One segment inks each of its pixels once. Segments are grouped by (candidates per column,
+    steep) so a block of columns is a dense ``(k, columns)`` array; blocks are cache-sized.
+    """
+    h, w = grid.shape
+    pixels, covers, segments = [], [], []
+    segs = np.arange(lo, hi)
+    group = frames.k[segs] * 2 + frames.steep[segs]
+    for key in np.unique(group):
+        k, steep = int(key) // 2, bool(key % 2)
+        u_size, v_size = (h, w) if steep else (w, h)
+        col = _Columns(frames, segs[group == key], u_size)
+        j = np.arange(k, dtype=np.float32)[:, None]
+        jv = np.arange(k, dtype=np.int64)[:, None]
+        step = max(1, _BATCH_CANDIDATES // k)
+        for s in range(0, len(col.segment), step):
+            c = col.block(s, s + step)
+            cover = _capsule_coverage(j, c, frames.radius)
+            v = c["v"] + jv
+            inked = (cover > 0) & (v >= 0) & (v < v_size)
+            pixel = c["u"] * w + v if steep else v * w + c["u"]
+            pixels.append(pixel[inked])
+            covers.append(np.minimum(cover[inked], _MAX_COVERAGE, dtype=np.float64))
+            segments.append(np.broadcast_to(c["segment"], inked.shape)[inked])
+    if not pixels:
+        return np.zeros(0, np.intp), np.zeros(0), np.zeros(0, np.intp)
+    return np.concatenate(pixels), np.concatenate(covers), np.concatenate(segments) - lo
+
+
+class _Columns:
+    """The on-page pixel columns of some segments, in each column's own frame (float32)."""
+
+    def __init__(self, f: _Frames, segs: np.ndarray, span: int) -> None:
+        n = f.columns[segs]
+        seg = np.repeat(segs, n)
+        u = f.first[seg] + (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n))
+        on = (u >= 0) & (u < span)
+        seg, u = seg[on], u[on]
+        x = u - f.u0[seg]  # along the major axis from the segment's start
+        # Endcaps: beyond the segment's ends a column is centred on the nearest end.
+        centre = f.v0[seg] + np.clip(x, 0.0, f.du[seg]) * f.slope[seg]
+        v = np.floor(centre - f.half[seg]) + 1  # first candidate's minor coordinate
+        y = v - f.v0[seg]
+        along = x * f.cos[seg] + y * f.sin[seg]
+        self.segment = seg
+        self.u = u.astype(np.int64)
+        self.v = v.astype(np.int64)
+        # Candidate j of a column lies at along + j·sin, across + j·cos in the segment's frame.
+        # Distances beyond each end are kept separately so float32 stays exact near the caps.
+        self.f32 = {name: arr.astype(np.float32) for name, arr in {
+            "before": -along, "after": along - f.length[seg], "across": y * f.cos[seg] - x * f.sin[seg],
+            "sin": f.sin[seg], "cos": f.cos[seg], "outer": (f.cos[seg] + np.abs(f.sin[seg])) / 2,
+            "inner": (f.cos[seg] - np.abs(f.sin[seg])) / 2, "inv_cos": 1.0 / f.cos[seg],
+            "inv_2cs": 0.5 / (f.cos[seg] * np.maximum(np.abs(f.sin[seg]), 1e-12)),
+        }.items()}
+
+    def block(self, start: int, stop: int) -> dict[str, np.ndarray]:
+        """Columns ``start:stop`` as row vectors (float32 geometry, int64 positions)."""
+        out = {name: arr[None, start:stop] for name, arr in self.f32.items()}
+        out.update(u=self.u[None, start:stop], v=self.v[None, start:stop], segment=self.segment[None, start:stop])
+        return out
+
+
+def _capsule_coverage(j: np.ndarray, c: dict[str, np.ndarray], radius: float) -> np.ndarray:
+    """Coverage (k, columns) of candidates ``j`` (column vector) in columns ``c``.
+
+    The pixel centre's distance ``d`` to the segment (to its nearest end beyond the ends) gives the
+    share of the pixel's projection onto the segment's normal inside ``[d − r, d + r]``.
+    """
+    shift = j * c["sin"]
+    beyond = np.maximum(np.maximum(c["before"] - shift, c["after"] + shift), 0.0)
+    across = c["across"] + j * c["cos"]
+    d = np.sqrt(across * across + beyond * beyond)
+    return _projected_share(d + radius, c) - _projected_share(d - radius, c)
+
+
+def _projected_share(x: np.ndarray, c: dict[str, np.ndarray]) -> np.ndarray:
+    """Signed share of the pixel's projection between its centre and offset ``x`` (in [−½, ½]).
+
+    The projection is a trapezoid (a unit box seen at angle φ: boxes of widths cos φ and sin φ
+    convolved): flat top up to ``inner = (cos − sin)/2``, quadratic shoulder up to ``outer``.
+    """
+    y = np.minimum(np.abs(x), c["outer"])
+    shoulder = np.maximum(y - c["inner"], 0.0)
+    return np.copysign(y * c["inv_cos"] - shoulder * shoulder * c["inv_2cs"], x)
+
+
+class _Paper:
+    """The canvas's log-transmittance plus page-sized scratch buffers for inking paths once."""
+
+    def __init__(self, log_paper: np.ndarray) -> None:
+        self.log = log_paper.reshape(-1)  # a view: writes land on the canvas
+        self.best = np.zeros(log_paper.size)  # path + 1 + coverage of a pixel's top entry, 0 = free
+        self.open = np.zeros(log_paper.size)  # coverage so far of a path that spans chunks
+        self.open_pixels: list[np.ndarray] = []
+
+    def ink_once_per_path(self, pixel: np.ndarray, cover: np.ndarray, path: np.ndarray) -> None:
+        """Stack the maximum coverage per (path, pixel) of complete paths onto the paper.
+
+        Most pixels are touched by one path of a chunk: one ``np.maximum.at`` over values packed as
+        ``path + 1 + coverage`` finds each pixel's highest-numbered path and its maximum coverage
+        there. Entries of other paths at the same pixels (overlapping paths) are reduced by sorting.
+        """
+        packed = path + 1.0 + cover
+        np.maximum.at(self.best, pixel, packed)
+        best = self.best[pixel]
+        top = packed == best
+        # The top entry may repeat (a path retracing itself): the repeats carry the same value,
+        # and `log[won] += …` with repeated indices adds it once.
+        won, value = pixel[top], packed[top]
+        self.best[won] = 0.0
+        self.log[won] += np.log1p(-(value - np.floor(value)))
+        below = packed < np.floor(best)
+        if below.any():
+            key, cover = _max_per_key(path[below] * self.log.size + pixel[below], cover[below])
+            np.add.at(self.log, key % self.log.size, np.log1p(-cover))
+
+    def extend_open(self, pixel: np.ndarray, cover: np.ndarray) -> None:
+        """Add pixels of the open path (keeping each pixel's maximum)."""
+        self.open_pixels.append(pixel[self.open[pixel] == 0.0])
+        np.maximum.at(self.open, pixel, cover)
+
+    def close_open(self) -> None:
+        """Ink the open path; repeated pixels in the list add once (same value, one `+=`)."""
+        touched = np.concatenate(self.open_pixels) if self.open_pixels else np.zeros(0, np.intp)
+        self.log[touched] += np.log1p(-self.open[touched])
+        self.open[touched] = 0.0
+        self.open_pixels = []
+
+
+def _max_per_key(key: np.ndarray, cover: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Group-max of coverage per key."""
+    order = np.argsort(key)
+    key, cover = key[order], cover[order]
+    first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+    return key[first], np.maximum.reduceat(cover, first)
 
 
 def _segments(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -232,90 +401,3 @@ def _segments(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndar
     starts = np.flatnonzero(~is_last | dot)
     ends = np.where(dot[starts], starts, starts + 1)
     return pts[starts], pts[ends], owner[starts]
-
-
-def _candidate_counts(a: np.ndarray, b: np.ndarray, radius: float):
-    """Per segment: number of candidate pixels, and the geometry to enumerate them.
-
-    Each segment is walked along its major axis ``u`` one pixel column at a time; in each column
-    ``k`` pixels along the minor axis ``v`` cover the band (radius + half a pixel) around the line.
-    """
-    reach = radius + 0.75  # px: beyond radius + half a pixel diagonal (√2/2) a pixel gets no ink
-    steep = np.abs(b[:, 1] - a[:, 1]) > np.abs(b[:, 0] - a[:, 0])
-    u0 = np.where(steep, a[:, 1], a[:, 0])
-    v0 = np.where(steep, a[:, 0], a[:, 1])
-    u1 = np.where(steep, b[:, 1], b[:, 0])
-    v1 = np.where(steep, b[:, 0], b[:, 1])
-    flip = u1 < u0
-    u0, u1 = np.where(flip, u1, u0), np.where(flip, u0, u1)
-    v0, v1 = np.where(flip, v1, v0), np.where(flip, v0, v1)
-    du = u1 - u0
-    slope = np.divide(v1 - v0, du, out=np.zeros_like(du), where=du > 0)
-    half = reach * np.sqrt(1.0 + slope * slope)  # vertical half-extent of the band in a column
-    first_col = np.ceil(u0 - reach)
-    n_cols = np.floor(u1 + reach) - first_col + 1
-    k = np.ceil(2 * half) + 1
-    counts = (n_cols * k).astype(np.int64)
-    # The pixel's projection onto the segment's normal: boxes of widths cos φ and sin φ convolved.
-    across = 1.0 / np.sqrt(1.0 + slope * slope)
-    return counts, np.stack([steep, u0, v0, du, slope, half, first_col, k, across, np.abs(slope) * across])
-
-
-def _chunk_coverage(a, b, counts, plan, grid: _Grid) -> tuple[np.ndarray, np.ndarray]:
-    """Inked pixels of segments a→b: keys ``segment × H·W + pixel`` and coverages (unreduced)."""
-    steep, u0, v0, du, slope, half, first_col, k, wide, narrow = plan
-    total = int(counts.sum())
-    seg = np.repeat(np.arange(len(counts)), counts)
-    local = np.arange(total) - np.repeat(np.cumsum(counts) - counts, counts)
-    kk = k[seg].astype(np.int64)
-    u = first_col[seg] + local // kk
-    along = np.clip(u - u0[seg], 0.0, du[seg])  # endcaps: the column's nearest point on the segment
-    v = np.ceil(v0[seg] + along * slope[seg] - half[seg]) + local % kk
-    is_steep = steep[seg].astype(bool)
-    col = np.where(is_steep, v, u)
-    row = np.where(is_steep, u, v)
-    h, w = grid.shape
-    inside = (col >= 0) & (col < w) & (row >= 0) & (row < h)
-    seg, col, row = seg[inside], col[inside], row[inside]
-    cover = _coverage(_distance(col, row, a[seg], b[seg]), grid.radius, wide[seg], narrow[seg])
-    inked = cover > 0
-    flat = row[inked].astype(np.int64) * w + col[inked].astype(np.int64)
-    return seg[inked] * (h * w) + flat, cover[inked]
-
-
-def _max_per_key(key: np.ndarray, cover: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Group-max of coverage per (path, pixel) key: a path inks each pixel once."""
-    if not len(key):
-        return key, cover
-    order = np.argsort(key, kind="stable")
-    key, cover = key[order], cover[order]
-    first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
-    return key[first], np.maximum.reduceat(cover, first)
-
-
-def _distance(col, row, a, b) -> np.ndarray:
-    """Distance (px) from pixel centres to segments a→b."""
-    d = b - a
-    length2 = np.einsum("ij,ij->i", d, d)
-    px = col - a[:, 0]
-    py = row - a[:, 1]
-    t = np.divide(px * d[:, 0] + py * d[:, 1], length2, out=np.zeros_like(px), where=length2 > 0)
-    t = np.clip(t, 0.0, 1.0)
-    return np.hypot(px - t * d[:, 0], py - t * d[:, 1])
-
-
-def _coverage(distance, radius: float, wide, narrow) -> np.ndarray:
-    """Share of a unit pixel inside a band of half-width ``radius`` whose centre line is ``distance`` away.
-
-    ``wide ≥ narrow`` are |cos|, |sin| of the band's direction: the pixel projects onto the band's
-    normal as a trapezoid of total width ``wide + narrow``.
-    """
-    return _projected_cdf(distance + radius, wide, narrow) - _projected_cdf(distance - radius, wide, narrow)
-
-
-def _projected_cdf(x, wide, narrow) -> np.ndarray:
-    """Share of the pixel's projected trapezoid below ``x`` (0 at the pixel centre's projection)."""
-    t = np.maximum((wide + narrow) / 2 - np.abs(x), 0.0)  # depth inside the trapezoid from its near end
-    ramp = t * t / (2 * wide * np.maximum(narrow, 1e-12))
-    tail = np.where(t <= narrow, ramp, narrow / (2 * wide) + (t - narrow) / wide)
-    return np.where(x < 0, tail, 1.0 - tail)
