@@ -30,14 +30,13 @@ from pathlib import Path
 sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
 
 import cv2  # noqa: E402
-import numpy as np  # noqa: E402
-from scipy import ndimage as ndi  # noqa: E402
 from skimage import data  # noqa: E402
 
 from pencilbot.gcode.profiles import load_profile  # noqa: E402
 from pencilbot.imaging.io import image_from_array  # noqa: E402
 from pencilbot.imaging.pencil import sketch  # noqa: E402
 from pencilbot.planning.build import HOME, ink_on_image_grid, plan_from_sketch  # noqa: E402
+from pencilbot.planning.fidelity import fidelity  # noqa: E402
 from pencilbot.planning.layout import Layout, page_size  # noqa: E402
 from pencilbot.planning.motion import estimate  # noqa: E402
 from pencilbot.planning.ordering import greedy_order, travel_length  # noqa: E402
@@ -53,10 +52,6 @@ TARGETS = {
 }
 
 
-def pearson(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.corrcoef(a.ravel(), b.ravel())[0, 1])
-
-
 def greedy_travel(plan) -> float:
     """Pen-up travel of plain greedy NN with reversal on the plan's own paths, layer by layer."""
     position, ordered = HOME, []
@@ -68,7 +63,7 @@ def greedy_travel(plan) -> float:
     return travel_length(ordered, HOME)
 
 
-def measure(name: str, rgb: np.ndarray) -> dict:
+def measure(name: str, rgb) -> dict:
     image = image_from_array(rgb, source=f"skimage.data.{name}")
     style = load_style("default")
     page = page_size("A4", "portrait", margin=15.0)
@@ -84,13 +79,8 @@ def measure(name: str, rgb: np.ndarray) -> dict:
     pen_up = travel_length(plan.all_paths(), HOME)
 
     layout = Layout.fit(image.shape, page)
-    edges = ink_on_image_grid(plan.layer("edges").paths, layout, pen_width=style.pen_width)
-    line_r = pearson(ndi.gaussian_filter(edges, 2.0), ndi.gaussian_filter(1.0 - drawing.line.drawing, 2.0))
     ink = ink_on_image_grid(plan.all_paths(), layout, pen_width=style.pen_width)
-    sigma = 3.0 / layout.mm_per_px
-    plotted = ndi.gaussian_filter(ink, sigma)
-    raster = ndi.gaussian_filter(1.0 - drawing.result, sigma)
-
+    faithful = fidelity(plan, drawing)
     return {
         "image_px": list(image.shape),
         "mm_per_px": round(layout.mm_per_px, 4),
@@ -104,9 +94,9 @@ def measure(name: str, rgb: np.ndarray) -> dict:
         "imaging_s": round(imaging_s, 3),
         "planning_s": round(planning_s, 3),
         "pen_up_vs_greedy": round(pen_up / greedy_travel(plan), 3),
-        "line_fidelity": round(line_r, 3),
-        "tone_fidelity_r": round(pearson(plotted, raster), 3),
-        "tone_fidelity_mae": round(float(np.abs(plotted - raster).mean()), 4),
+        "line_fidelity": round(faithful.line_r, 3),
+        "tone_fidelity_r": round(faithful.tone_r, 3),
+        "tone_fidelity_mae": round(faithful.tone_mae, 4),
         "darkness_mean": {"plot": round(float(ink.mean()), 3), "raster": round(float(1 - drawing.result.mean()), 3)},
     }
 

@@ -43,10 +43,11 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 1
-    verbose = getattr(args, "verbose", 0)
-    logging.basicConfig(
-        level=logging.DEBUG if verbose else logging.WARNING, format="%(levelname)s: %(message)s"
-    )
+    # -v shows pencilbot's own debug messages, not those of every library (Pillow, ...).
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s: %(message)s")
+    if getattr(args, "verbose", 0):
+        for name in ("pencilbot", "sim", "firmware_protocol"):
+            logging.getLogger(name).setLevel(logging.DEBUG)
     try:
         return int(args.func(args) or 0)
     except PencilbotError as err:

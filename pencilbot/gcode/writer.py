@@ -351,7 +351,7 @@ def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: 
     total = stats.total
     return [
         _comment(f"pencilbot G-code for {profile.name} ({profile.dialect})"),
-        _comment(f"source: {source or 'plan'}"),
+        _comment(f"source: {source or plan.meta.get('source') or 'plan'}"),
         _comment(f"profile: {profile.source}"),
         _comment(f"page: {page.name} {page.width:g} x {page.height:g} mm on a {bed.width:g} x "
                  f"{bed.height:g} mm bed"),

@@ -47,6 +47,17 @@ def make_plan(
         Hatch layers (lightest first, if the style hatches) then ``"edges"``, each ordered
         for short pen-up travel; ``meta`` records the source and every drawing parameter.
     """
+    return sketch_and_plan(image, page=page, style=style)[1]
+
+
+def sketch_and_plan(
+    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None
+) -> tuple[Sketch, Plan]:
+    """:func:`make_plan`, also returning the pencil sketch it was planned from.
+
+    The sketch is of the image at plot resolution (see :func:`at_plot_resolution`), the grid
+    the plan was laid out on.
+    """
     style = style if isinstance(style, Style) else load_style(style or "default")
     if page is None:
         page = page_size(style.page, style.orientation, image.shape, style.margin)
@@ -54,7 +65,7 @@ def make_plan(
     drawing = sketch(
         image, line_length=style.line_length, texture_seed=style.seed, lines_only=not style.hatch
     )
-    return plan_from_sketch(drawing, page, style, source=image.source)
+    return drawing, plan_from_sketch(drawing, page, style, source=image.source)
 
 
 def at_plot_resolution(image: LoadedImage, page: Page, pen_width: float) -> LoadedImage:

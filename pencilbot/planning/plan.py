@@ -48,6 +48,20 @@ class Plan:
         """Every path of every layer, in drawing order."""
         return [p for layer in self.layers for p in layer.paths]
 
+    def to_gcode(self, profile="grbl-servo-a4", path=None, *, source: str = ""):
+        """G-code for a plotter profile (a name, a TOML path or a loaded ``Profile``).
+
+        With ``path``, writes the file atomically and returns its
+        :class:`~pencilbot.gcode.writer.GcodeSummary`; without, returns the lines.
+        """
+        from pencilbot.gcode.profiles import Profile, load_profile
+        from pencilbot.gcode.writer import gcode_lines, write_gcode
+
+        profile = profile if isinstance(profile, Profile) else load_profile(profile)
+        if path is None:
+            return gcode_lines(self, profile, source=source)
+        return write_gcode(self, profile, path, source=source)
+
     def layer(self, name: str) -> Layer:
         for layer in self.layers:
             if layer.name == name:

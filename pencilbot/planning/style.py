@@ -80,7 +80,7 @@ class Style:
 
     name: str = "default"
     page: str = "A4"
-    orientation: str = "portrait"
+    orientation: str = "auto"
     margin: float = 15.0
     pen_width: float = 0.5
     line_length: int | None = None

@@ -1,0 +1,68 @@
+"""The library API for scripts: photo → sketch → plan → G-code → plotter.
+
+>>> import pencilbot
+>>> drawing = pencilbot.sketch("photo.jpg")              # raster pencil drawing (Sketch)
+>>> plan = pencilbot.plan("photo.jpg", page="A4")        # pen strokes on a page (Plan)
+>>> plan.to_gcode("grbl-servo-a4", "drawing.gcode")      # G-code file for a plotter profile
+>>> pencilbot.draw("drawing.gcode", "/dev/ttyUSB0")      # stream it (or port="sim://")
+
+Images may be a path, a numpy array (grey or RGB, uint8 or float in [0, 1]) or a
+:class:`~pencilbot.imaging.io.LoadedImage`. User mistakes raise
+:class:`~pencilbot.errors.PencilbotError` with a plain message.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from pencilbot.driver import DrawResult
+from pencilbot.driver import draw as _draw
+from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
+from pencilbot.imaging.pencil import Sketch
+from pencilbot.imaging.pencil import sketch as _sketch
+from pencilbot.planning.build import make_plan
+from pencilbot.planning.layout import page_size
+from pencilbot.planning.plan import Page, Plan
+from pencilbot.planning.style import Style, load_style, with_overrides
+
+ImageLike = str | Path | np.ndarray | LoadedImage
+
+
+def as_image(image: ImageLike) -> LoadedImage:
+    """A :class:`LoadedImage` from a path, an array or a LoadedImage."""
+    if isinstance(image, LoadedImage):
+        return image
+    if isinstance(image, np.ndarray):
+        return image_from_array(image, source="array")
+    return load_image(image)
+
+
+def sketch(image: ImageLike, *, color: bool = False, line_length: int | None = None,
+           texture_seed: int = 0, lines_only: bool = False) -> Sketch:
+    """The GMED pencil drawing of an image; ``.result`` is the picture in [0, 1]."""
+    return _sketch(as_image(image), color=color, line_length=line_length,
+                   texture_seed=texture_seed, lines_only=lines_only)
+
+
+def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,
+         margin: float | None = None, style: str | Path | Style | None = None,
+         pen_width: float | None = None) -> Plan:
+    """Plan the pen drawing of an image on a page (``"A4"``, ``"300x200"`` mm or a Page).
+
+    Unset options come from the style (``"default"`` unless given).
+    """
+    chosen = style if isinstance(style, Style) else load_style(style or "default")
+    if pen_width is not None:
+        chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
+    loaded = as_image(image)
+    if not isinstance(page, Page):
+        page = page_size(page or chosen.page, orientation or chosen.orientation, loaded.shape,
+                         chosen.margin if margin is None else margin)
+    return make_plan(loaded, page=page, style=chosen)
+
+
+def draw(gcode: str | Path | list[str], port: str, **options) -> DrawResult:
+    """Stream G-code to a plotter; see :func:`pencilbot.driver.draw` for the options."""
+    return _draw(gcode, port, **options)

@@ -1,0 +1,191 @@
+"""``pencilbot demo``: the whole way in one command, from a photo to a (virtual) plotted picture.
+
+With no arguments it takes scikit-image's coffee photo, writes the pencil sketch, the plan SVG
+and its preview, the G-code, streams the G-code over the serial path into the built-in virtual
+GRBL plotter, writes what the plotter drew, and prints a summary. ``--input`` takes your photo
+and ``--port`` a real plotter.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+import urllib.parse
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.sketch import write_image
+from pencilbot.errors import PencilbotError
+
+DEFAULT_PHOTO = "coffee"
+DEFAULT_PROFILE = "grbl-servo-a4"
+PREVIEW_DPI = 150.0
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> None:
+    parser = subparsers.add_parser(
+        "demo",
+        help="photo → sketch → plan → G-code → virtual plotter, in one go",
+        description=(
+            "Run the whole job: pencil sketch, plan SVG and preview, G-code, streaming to a plotter "
+            "(the built-in virtual one unless --port is given) and a summary. Without --input it "
+            f"uses scikit-image's {DEFAULT_PHOTO!r} photo."
+        ),
+    )
+    parser.add_argument("--input", metavar="PHOTO", help=f"photo to draw (default: skimage.data.{DEFAULT_PHOTO})")
+    parser.add_argument("--out", default="pencilbot-demo", metavar="DIR", help="folder for the outputs")
+    parser.add_argument("--port", metavar="PORT",
+                        help="plotter port or pyserial URL (default: the built-in virtual plotter)")
+    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
+                        help=f"plotter profile (default {DEFAULT_PROFILE})")
+    parser.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
+    parser.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's")
+    parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_verbosity(parser)
+    parser.set_defaults(func=run)
+
+
+@dataclass
+class _Step:
+    """Prints one line per finished step (unless quiet)."""
+
+    quiet: bool
+
+    def done(self, what: str, started: float) -> None:
+        if not self.quiet:
+            print(f"  {what} ({time.perf_counter() - started:.1f} s)", flush=True)
+
+
+def run(args: argparse.Namespace) -> int:
+    # Heavy imports here, so `pencilbot --help` stays quick.
+    from pencilbot.gcode.profiles import load_profile
+    from pencilbot.gcode.writer import Placement, duration_text, write_gcode
+    from pencilbot.imaging.io import image_from_array, load_image
+    from pencilbot.planning.build import sketch_and_plan
+    from pencilbot.planning.fidelity import fidelity
+    from pencilbot.planning.layout import page_size
+    from pencilbot.planning.motion import estimate
+    from pencilbot.planning.style import load_style
+    from pencilbot.planning.svg import write_svg
+    from sim.canvas import Canvas
+
+    profile = load_profile(args.profile)  # a bad profile fails before any slow work
+    style = load_style(args.style or "default")
+    image = _photo(args.input, load_image, image_from_array)
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise PencilbotError(f"cannot create the output folder {out}: {err.strerror}") from None
+    step = _Step(args.quiet or args.json)
+    if not step.quiet:
+        print(f"pencilbot demo: {image.source} → {out}/")
+
+    started = time.perf_counter()
+    page = page_size(args.page or style.page, style.orientation, image.shape, style.margin)
+    drawing, plan = sketch_and_plan(image, page=page, style=style)
+    write_image(drawing.result, out / "sketch.png")
+    step.done("sketch.png: GMED pencil sketch", started)
+
+    started = time.perf_counter()
+    write_svg(plan, out / "plan.svg")
+    preview = Canvas(page.width, page.height, dpi=PREVIEW_DPI, pen_width=style.pen_width)
+    preview.draw_paths(plan.all_paths())
+    preview.save_png(out / "preview.png")
+    faithful = fidelity(plan, drawing) if style.hatch else None
+    step.done("plan.svg, preview.png: pen strokes on the page", started)
+
+    started = time.perf_counter()
+    gcode_path = out / "drawing.gcode"
+    write_gcode(plan, profile, gcode_path, source=image.source)
+    stats = estimate(plan, profile.motion_settings()).total
+    step.done(f"drawing.gcode: {profile.name}", started)
+
+    started = time.perf_counter()
+    placement = Placement.on_bed(page, profile.bed)
+    simulated, agreement = _stream(args, gcode_path, placement, preview, out)
+    step.done("plot.png: what the virtual plotter drew" if args.port is None
+              else f"streamed to {args.port}", started)
+
+    summary = {
+        "source": image.source,
+        "outputs": sorted(p.name for p in out.iterdir() if p.is_file()),
+        "paths": stats.paths,
+        "segments": stats.segments,
+        "pen_down_m": round(stats.pen_down_mm / 1000, 2),
+        "pen_up_m": round(stats.pen_up_mm / 1000, 2),
+        "lifts": stats.lifts,
+        "estimated_s": round(stats.seconds, 1),
+        "simulated_s": None if simulated is None else round(simulated, 1),
+        "plot_vs_preview_r": None if agreement is None else round(agreement, 4),
+        "line_fidelity_r": None if faithful is None else round(faithful.line_r, 3),
+        "tone_fidelity_r": None if faithful is None else round(faithful.tone_r, 3),
+        "tone_fidelity_mae": None if faithful is None else round(faithful.tone_mae, 3),
+    }
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    elif not args.quiet:
+        print(_summary_text(summary, duration_text))
+    return 0
+
+
+def _photo(path: str | None, load_image, image_from_array):
+    if path is not None:
+        return load_image(path)
+    from skimage import data
+
+    return image_from_array(getattr(data, DEFAULT_PHOTO)(), source=f"skimage.data.{DEFAULT_PHOTO}")
+
+
+def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float | None, float | None]:
+    """Stream the G-code; on the virtual plotter also save plot.png and compare it with the preview.
+
+    Returns the simulated seconds and the correlation of the plot with the preview (both None
+    on a real port).
+    """
+    from pencilbot.driver import draw
+
+    progress = "quiet" if args.quiet or args.json else "bar"
+    if args.port is not None:
+        draw(gcode_path, args.port, profile=args.profile, progress=progress)
+        return None, None
+
+    from sim import protocol_sim
+    from sim.canvas import Canvas
+
+    name = f"demo-{os.getpid()}"
+    query = urllib.parse.urlencode({"profile": args.profile})
+    try:
+        draw(gcode_path, f"sim://{name}?{query}", profile=args.profile, progress=progress)
+        plotter = protocol_sim.plotter(name)
+        plotter.firmware.finish()
+        # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
+        drawn = [placement.to_page(stroke[:, :2]) for stroke in plotter.machine.strokes]
+        seconds = plotter.seconds
+    finally:
+        protocol_sim.forget(name)
+    plot = Canvas(preview.width_mm, preview.height_mm, dpi=PREVIEW_DPI, pen_width=preview.pen_width)
+    plot.draw_paths(drawn)
+    plot.save_png(out / "plot.png")
+    agreement = float(np.corrcoef(plot.darkness.ravel(), preview.darkness.ravel())[0, 1])
+    return seconds, agreement
+
+
+def _summary_text(s: dict, duration_text) -> str:
+    lines = [
+        f"strokes: {s['paths']} pen paths, {s['segments']} segments, {s['lifts']} pen lifts",
+        f"pen down {s['pen_down_m']} m, pen up {s['pen_up_m']} m",
+        f"plot time: estimated {duration_text(s['estimated_s'])}"
+        + ("" if s["simulated_s"] is None else f", simulated {duration_text(s['simulated_s'])}"),
+    ]
+    if s["line_fidelity_r"] is not None:
+        lines.append(f"fidelity to the sketch: lines r = {s['line_fidelity_r']}, "
+                     f"tone r = {s['tone_fidelity_r']} (mean difference {s['tone_fidelity_mae']})")
+    if s["plot_vs_preview_r"] is not None:
+        lines.append(f"simulated plot vs plan preview: r = {s['plot_vs_preview_r']}")
+    return "\n".join(lines)

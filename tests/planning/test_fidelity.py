@@ -1,0 +1,34 @@
+"""Fidelity figures fall when the plan stops drawing its sketch."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+from skimage import data
+
+from pencilbot.imaging.io import image_from_array
+from pencilbot.planning.build import sketch_and_plan
+from pencilbot.planning.fidelity import fidelity
+
+
+@pytest.fixture(scope="module")
+def planned():
+    return sketch_and_plan(image_from_array(data.camera()[::2, ::2]), style="default")
+
+
+def test_a_plan_is_faithful_to_its_own_sketch(planned):
+    drawing, plan = planned
+    faithful = fidelity(plan, drawing)
+    assert faithful.line_r > 0.8 and faithful.tone_r > 0.85 and faithful.tone_mae < 0.1
+
+
+def test_shifted_edges_and_missing_hatching_lower_the_figures(planned):
+    drawing, plan = planned
+    good = fidelity(plan, drawing)
+    shifted = dataclasses.replace(plan, layers=[
+        dataclasses.replace(layer, paths=[p + (4.0, -3.0) for p in layer.paths]) for layer in plan.layers
+    ])
+    edges_only = dataclasses.replace(plan, layers=[plan.layer("edges")])
+    assert fidelity(shifted, drawing).line_r < good.line_r - 0.3
+    assert fidelity(edges_only, drawing).tone_mae > good.tone_mae + 0.05
