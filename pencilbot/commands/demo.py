@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
 
@@ -43,9 +43,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                         help="plotter port or pyserial URL (default: the built-in virtual plotter)")
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
                         help=f"plotter profile (default {DEFAULT_PROFILE})")
-    parser.add_argument("--style", metavar="NAME|FILE.toml", help="drawing style (default: default)")
-    parser.add_argument("--page", metavar="A4|WxH", help="paper size, overrides the style's")
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
+    add_photo_options(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -70,13 +69,12 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.planning.fidelity import fidelity
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.motion import estimate
-    from pencilbot.planning.style import load_style
     from pencilbot.planning.svg import write_svg
     from sim.canvas import Canvas
 
-    profile = load_profile(args.profile)  # a bad profile fails before any slow work
-    style = load_style(args.style or "default")
-    image = _photo(args.input, load_image, image_from_array)
+    profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
+    style = photo_style(args)
+    image = _photo(args, load_image, image_from_array)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -87,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"pencilbot demo: {image.source} → {out}/")
 
     started = time.perf_counter()
-    page = page_size(args.page or style.page, style.orientation, image.shape, style.margin)
+    page = page_size(style.page, style.orientation, image.shape, style.margin)
     drawing, plan = sketch_and_plan(image, page=page, style=style)
     write_image(drawing.result, out / "sketch.png")
     step.done("sketch.png: GMED pencil sketch", started)
@@ -134,9 +132,9 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _photo(path: str | None, load_image, image_from_array):
-    if path is not None:
-        return load_image(path)
+def _photo(args: argparse.Namespace, load_image, image_from_array):
+    if args.input is not None:
+        return load_image(args.input, max_pixels=args.max_pixels, downscale=args.downscale)
     from skimage import data
 
     return image_from_array(getattr(data, DEFAULT_PHOTO)(), source=f"skimage.data.{DEFAULT_PHOTO}")
