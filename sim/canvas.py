@@ -35,8 +35,9 @@ import numpy as np
 from pencilbot.errors import PencilbotError
 
 MM_PER_INCH = 25.4
-# Candidates per chunk: its inked pixels (~30 bytes each) stay below ~100 MB.
-_CHUNK_CANDIDATES = 3_000_000
+# Candidates per chunk: its inked pixels (~30 bytes each) stay near 50 MB; larger chunks measured
+# slower (temporaries fall out of cache), much smaller ones pay per-chunk overhead.
+_CHUNK_CANDIDATES = 1_500_000
 # Candidates per block of coverage arithmetic: a dozen float32 temporaries stay in the CPU cache.
 _BATCH_CANDIDATES = 32_768
 # Coverage is clipped below 1 so log(1 − c) stays finite; 1e-9 is far below 8-bit resolution.
@@ -261,14 +262,17 @@ def _chunk_coverage(frames: _Frames, lo: int, hi: int, grid: _Grid):
         u_size, v_size = (h, w) if steep else (w, h)
         col = _Columns(frames, segs[group == key], u_size)
         j = np.arange(k, dtype=np.float32)[:, None]
-        jv = np.arange(k, dtype=np.int64)[:, None]
+        jv = np.arange(k)[:, None]
+        pixel_step = 1 if steep else w  # flat-index step from one candidate of a column to the next
         step = max(1, _BATCH_CANDIDATES // k)
         for s in range(0, len(col.segment), step):
             c = col.block(s, s + step)
             cover = _capsule_coverage(j, c, frames.radius)
-            v = c["v"] + jv
-            inked = (cover > 0) & (v >= 0) & (v < v_size)
-            pixel = c["u"] * w + v if steep else v * w + c["u"]
+            inked = cover > 0
+            if c["v"].min() < 0 or c["v"].max() + k > v_size:  # columns cut by the page's edge
+                v = c["v"] + jv
+                inked &= (v >= 0) & (v < v_size)
+            pixel = (c["u"] * w if steep else c["u"]) + (c["v"] + jv) * pixel_step
             pixels.append(pixel[inked])
             covers.append(np.minimum(cover[inked], _MAX_COVERAGE, dtype=np.float64))
             segments.append(np.broadcast_to(c["segment"], inked.shape)[inked])
