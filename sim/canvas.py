@@ -355,7 +355,7 @@ class _Paper:
         ``path + 1 + coverage`` finds each pixel's highest-numbered path and its maximum coverage
         there. Entries of other paths at the same pixels (overlapping paths) are reduced by sorting.
         """
-        packed = path + 1.0 + cover
+        packed = path + 1.0 + cover  # cover ≤ 1 − 1e-9 stays below the next integer (chunks hold < 1e6 paths)
         np.maximum.at(self.best, pixel, packed)
         best = self.best[pixel]
         top = packed == best
