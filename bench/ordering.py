@@ -12,20 +12,14 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import sys
 import time
 
-# Python puts this script's folder first on sys.path, where bench/sim.py would shadow the `sim`
-# package the planner imports; this script needs nothing from bench/.
-sys.path = [p for p in sys.path if os.path.abspath(p or ".") != os.path.dirname(os.path.abspath(__file__))]
+import numpy as np
+from skimage import data
 
-import numpy as np  # noqa: E402
-from skimage import data  # noqa: E402
-
-from pencilbot.imaging.io import image_from_array  # noqa: E402
-from pencilbot.planning.build import make_plan  # noqa: E402
-from pencilbot.planning.ordering import DEFAULT_ROUNDS, greedy_order, order_paths, travel_length  # noqa: E402
+from pencilbot.imaging.io import image_from_array
+from pencilbot.planning.build import make_plan
+from pencilbot.planning.ordering import DEFAULT_ROUNDS, greedy_order, order_paths, travel_length
 
 
 def synthetic_uniform(n: int, rng) -> list[np.ndarray]:

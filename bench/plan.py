@@ -21,26 +21,20 @@ Usage: ``python bench/plan.py``.
 from __future__ import annotations
 
 import json
-import sys
 import time
-from pathlib import Path
 
-# Run as a script, this folder comes first on sys.path, where bench/sim.py would shadow the
-# `sim` package that the planner's rasteriser lives in.
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+import cv2
+from skimage import data
 
-import cv2  # noqa: E402
-from skimage import data  # noqa: E402
-
-from pencilbot.gcode.profiles import load_profile  # noqa: E402
-from pencilbot.imaging.io import image_from_array  # noqa: E402
-from pencilbot.imaging.pencil import sketch  # noqa: E402
-from pencilbot.planning.build import HOME, ink_on_image_grid, plan_from_sketch  # noqa: E402
-from pencilbot.planning.fidelity import fidelity  # noqa: E402
-from pencilbot.planning.layout import Layout, page_size  # noqa: E402
-from pencilbot.planning.motion import estimate  # noqa: E402
-from pencilbot.planning.ordering import greedy_order, travel_length  # noqa: E402
-from pencilbot.planning.style import load_style  # noqa: E402
+from pencilbot.gcode.profiles import load_profile
+from pencilbot.imaging.io import image_from_array
+from pencilbot.imaging.pencil import sketch
+from pencilbot.planning.build import HOME, ink_on_image_grid, plan_from_sketch
+from pencilbot.planning.fidelity import fidelity
+from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.motion import estimate
+from pencilbot.planning.ordering import greedy_order, travel_length
+from pencilbot.planning.style import load_style
 
 PROFILE = "grbl-servo-a4"
 TARGETS = {

@@ -15,19 +15,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-# Run as a script, this folder comes first on sys.path, where bench/sim.py would shadow the
-# simulator package that pyserial's sim:// handler lives in.
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
-
-from pencilbot.driver import draw  # noqa: E402
-from pencilbot.gcode.profiles import load_profile  # noqa: E402
+from pencilbot.driver import draw
+from pencilbot.gcode.profiles import load_profile
 
 PROFILE = "grbl-servo-a4"
 

@@ -26,13 +26,13 @@ memory; a path longer than a chunk keeps its per-pixel maximum open until it end
 from __future__ import annotations
 
 import os
-import tempfile
 from collections.abc import Sequence
 
 import cv2
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.fileio import write_atomic
 
 MM_PER_INCH = 25.4
 # Candidates per chunk: its inked pixels (~30 bytes each) stay near 50 MB; larger chunks measured
@@ -146,22 +146,6 @@ def render_paths(
     canvas = Canvas(width_mm, height_mm, dpi=dpi, pen_width=pen_width, origin=origin)
     canvas.draw_paths(paths)
     return canvas.darkness
-
-
-def write_atomic(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
-    folder = os.path.dirname(os.path.abspath(path))
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
-    except OSError as exc:
-        raise PencilbotError(f"cannot write {path}: {exc.strerror}; check the folder exists") from exc
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(tmp, path)
-    except OSError as exc:
-        os.unlink(tmp)
-        raise PencilbotError(f"cannot write {path}: {exc.strerror}") from exc
 
 
 class _Grid:

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import argparse
-import os
-import tempfile
+import io
 from pathlib import Path
 
 import numpy as np
@@ -12,6 +11,7 @@ from PIL import Image
 
 from pencilbot.commands.common import add_verbosity
 from pencilbot.errors import PencilbotError
+from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.imaging.pencil import sketch
@@ -103,17 +103,9 @@ def write_image(array: np.ndarray, path: Path) -> None:
     """Write a float [0, 1] grey or RGB image atomically (temp file in the same folder + rename)."""
     pixels = np.round(np.clip(array, 0.0, 1.0) * 255.0).astype(np.uint8)
     image_format = Image.registered_extensions()[path.suffix.lower()]
-    try:
-        fd, temp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                Image.fromarray(pixels).save(handle, format=image_format)
-            os.replace(temp, path)
-        except BaseException:
-            os.unlink(temp)
-            raise
-    except OSError as err:
-        raise PencilbotError(f"cannot write {path}: {err.strerror or err}. Check the folder's permissions and free space.") from None
+    encoded = io.BytesIO()
+    Image.fromarray(pixels).save(encoded, format=image_format)
+    write_atomic(path, encoded.getvalue())
 
 
 def _check_output(output: Path) -> None:

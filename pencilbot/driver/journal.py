@@ -11,11 +11,11 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 from pencilbot.errors import PlotError
+from pencilbot.fileio import write_atomic
 
 SUFFIX = ".job.json"
 FORMAT = 1
@@ -64,14 +64,7 @@ class Journal:
         data = {k: v for k, v in asdict(self).items() if k != "path"}
         data["format"] = FORMAT
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=self.path.name, suffix=".tmp", dir=self.path.parent)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as f:
-                json.dump(data, f, indent=1)
-            os.replace(tmp, self.path)
-        except BaseException:
-            Path(tmp).unlink(missing_ok=True)
-            raise
+        write_atomic(self.path, json.dumps(data, indent=1).encode("utf-8"))
 
 
 def file_sha256(path: Path) -> str:

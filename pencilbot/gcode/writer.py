@@ -20,8 +20,6 @@ drawing order, without its NULs; 100 000 strokes take well under a second.
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from functools import cache
 from itertools import compress
@@ -30,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.errors import OutOfBedError, PencilbotError
+from pencilbot.fileio import write_atomic
 from pencilbot.gcode.profiles import MAX_BED, MAX_LINE, Bed, Profile
 from pencilbot.planning.motion import PlanStats, estimate
 from pencilbot.planning.plan import Page, Plan
@@ -148,7 +147,7 @@ def write_gcode(plan: Plan, profile: Profile, path: str | Path, *, source: str =
     """
     program, stats, placement, paths = _program(plan, profile, source)
     target = Path(path)
-    _write_atomically(target, program)
+    write_atomic(target, program)
     return GcodeSummary(
         path=str(target),
         lines=program.count(b"\n"),
@@ -452,23 +451,3 @@ def _gather(table: np.ndarray, order: np.ndarray, *, cuts: np.ndarray, inserts: 
 
 def _text(lines: list[str]) -> bytes:
     return "".join(f"{line}\n" for line in lines).encode("ascii")
-
-
-# --- output ------------------------------------------------------------------------------------
-
-
-def _write_atomically(target: Path, data: bytes) -> None:
-    folder = target.parent if str(target.parent) else Path(".")
-    if not folder.is_dir():
-        raise PencilbotError(f"cannot write {target}: folder {folder} does not exist; create it first")
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
-        try:
-            with os.fdopen(fd, "wb") as handle:
-                handle.write(data)
-            os.replace(tmp, target)
-        except BaseException:  # also Ctrl-C: never leave the temporary file behind
-            Path(tmp).unlink(missing_ok=True)
-            raise
-    except OSError as exc:
-        raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the path and free space") from None

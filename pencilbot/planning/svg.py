@@ -19,7 +19,7 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.plan import Layer, Page, Plan
-from sim.canvas import write_atomic
+from pencilbot.fileio import write_atomic
 
 SVG_NS = "http://www.w3.org/2000/svg"
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"

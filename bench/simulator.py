@@ -9,22 +9,16 @@ does not have to wait for a core).
 from __future__ import annotations
 
 import json
-import sys
 import time
-from pathlib import Path
 
-# Run as a script, this file's folder comes first on sys.path and its name would shadow the
-# `sim` package it measures.
-sys.path = [p for p in sys.path if Path(p or ".").resolve() != Path(__file__).resolve().parent]
+import numpy as np
+import serial
 
-import numpy as np  # noqa: E402
-import serial  # noqa: E402
-
-from firmware_protocol import grbl  # noqa: E402
-from sim import protocol_sim  # noqa: E402
-from sim.canvas import Canvas  # noqa: E402
-from sim.firmware import Firmware  # noqa: E402
-from sim.machine import Machine, MachineConfig  # noqa: E402
+from firmware_protocol import grbl
+from sim import protocol_sim
+from sim.canvas import Canvas
+from sim.firmware import Firmware
+from sim.machine import Machine, MachineConfig
 
 
 def program(n: int, seed: int = 0) -> list[str]:

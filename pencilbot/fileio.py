@@ -1,0 +1,51 @@
+"""Writing output files so that a failure never leaves a half-written file behind."""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+from pencilbot.errors import PencilbotError
+
+
+def _file_mode() -> int:
+    """The permissions an ordinary new file gets here (0666 less the umask)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
+
+
+_MODE = _file_mode()
+
+
+def write_atomic(path: str | os.PathLike, data: bytes) -> None:
+    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename.
+
+    Readers see either the old file or the whole new one. On any failure, Ctrl-C included,
+    the temporary file is removed. The file gets the usual permissions (umask), not the
+    private ones of a temporary file.
+
+    Raises
+    ------
+    PencilbotError
+        The folder does not exist or cannot be written.
+    """
+    target = Path(path)
+    folder = target.parent
+    if not folder.is_dir():
+        raise PencilbotError(f"cannot write {target}: folder {folder} does not exist; create it first")
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
+    except OSError as exc:
+        raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the folder's permissions") from None
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+            os.fchmod(handle.fileno(), _MODE)
+        os.replace(tmp, target)
+    except BaseException as exc:
+        Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError):
+            raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the path and free space") from None
+        raise
