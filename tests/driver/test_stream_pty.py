@@ -4,25 +4,15 @@ import json
 
 import numpy as np
 import pytest
-from test_stream_sim import PROFILE, assert_same_drawing, drawing
+from test_stream_sim import PROFILE, assert_same_drawing, job  # noqa: F401 (job: a shared fixture)
 
 from pencilbot.cli import main
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 
-pytest.importorskip("sim.pty_server")
-from sim.firmware import Faults  # noqa: E402
-from sim.protocol_sim import VirtualPlotter  # noqa: E402
-from sim.pty_server import PtyServer  # noqa: E402
-
-
-@pytest.fixture
-def job(tmp_path):
-    lines = drawing()
-    path = tmp_path / "plot.gcode"
-    path.write_text("\n".join(lines) + "\n")
-    return path, [clean_line(line) for line in lines]
+from sim.firmware import Faults
+from sim.protocol_sim import VirtualPlotter
+from sim.pty_server import PtyServer
 
 
 def accepted(plotter):

@@ -19,7 +19,7 @@ from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.gcode.profiles import load_profile
 
-protocol_sim = pytest.importorskip("sim.protocol_sim")
+from sim import protocol_sim
 
 PROFILE = "grbl-servo-a4"
 _names = itertools.count()
