@@ -32,6 +32,9 @@ _NEIGHBOURS = 10  # nearby ends per end: enough candidate moves, cheap to comput
 _MAX_RUN = 3  # Or-opt moves runs of up to this many paths
 _EPS = 1e-9  # mm: gains below this are float noise
 DEFAULT_ROUNDS = 40  # reaches ~0.75 of greedy's pen-up travel on photo plans (bench/ordering.py)
+# A round costs about one pass over the paths: cap rounds × paths so that 100 000 strokes order
+# in seconds (4 rounds there) while photo layers of a few thousand paths get all their rounds.
+ROUND_WORK = 400_000
 
 
 def order_paths(
@@ -57,8 +60,9 @@ def order_paths(
     pen_width : float, optional
         Pen width in mm, the default join tolerance.
     rounds : int, optional
-        Improvement rounds after the greedy tour (each costs about one pass over the paths);
-        0 keeps the greedy tour. The result depends only on the paths and this number.
+        Improvement rounds after the greedy tour (each costs about one pass over the paths),
+        at most ``ROUND_WORK / len(paths)`` (but at least 4); 0 keeps the greedy tour. The
+        result depends only on the paths and this number.
     time_budget : float, optional
         Wall-clock cap in seconds on the improvement; when it binds the result depends on the
         machine's speed. Default: no cap.
@@ -106,7 +110,7 @@ def improve_order(
         return np.zeros(0, np.int64), np.zeros(0, bool)
     neighbours = ends.neighbours()
     order, reverse = _greedy(ends, neighbours)
-    budget = _Budget(rounds, time_budget)
+    budget = _Budget(min(rounds, max(4, ROUND_WORK // ends.n)), time_budget)
     tour = _Tour(ends, neighbours, order, reverse)
     _descend(tour, budget)
     # Iterated local search with the rounds left: a local optimum is kicked (double bridge
