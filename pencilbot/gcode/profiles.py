@@ -1,4 +1,4 @@
-"""Plotter profiles: what a machine is like, as TOML data in ``configs/plotters/*.toml``.
+"""Plotter profiles: what a machine is like, as TOML data in ``pencilbot/configs/plotters/*.toml``.
 
 A profile names the firmware dialect, the bed and how its coordinates run, the feeds and
 acceleration (for G-code and for the time estimate), how the pen goes up and down, and how G-code
@@ -273,7 +273,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
 
 
 def list_profiles() -> list[str]:
-    """Names of the profiles shipped in ``configs/plotters``, sorted."""
+    """Names of the profiles shipped in ``pencilbot/configs/plotters``, sorted."""
     folder = resources.files("pencilbot.configs").joinpath("plotters")
     return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 

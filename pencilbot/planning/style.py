@@ -1,4 +1,4 @@
-"""Drawing styles: the artistic parameters of a plan, kept as data in ``configs/styles/*.toml``.
+"""Drawing styles: the artistic parameters of a plan, kept as data in ``pencilbot/configs/styles/*.toml``.
 
 A style says how a photo becomes strokes (line length, edge threshold, hatch angles, pen width)
 and where it goes on paper (page, orientation, margin). Shipped styles live in the package
@@ -105,7 +105,7 @@ def load_style(name_or_path: str | Path = "default") -> Style:
     Parameters
     ----------
     name_or_path : str or Path
-        A name of a file in ``configs/styles`` without ``.toml``, or a path to a TOML file.
+        A name of a file in ``pencilbot/configs/styles`` without ``.toml``, or a path to a TOML file.
 
     Returns
     -------
@@ -125,7 +125,7 @@ def load_style(name_or_path: str | Path = "default") -> Style:
 
 
 def list_styles() -> list[str]:
-    """Names of the styles shipped in ``configs/styles``."""
+    """Names of the styles shipped in ``pencilbot/configs/styles``."""
     folder = resources.files("pencilbot.configs").joinpath("styles")
     return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
 
