@@ -12,6 +12,7 @@ nothing.
 from __future__ import annotations
 
 import dataclasses
+import math
 import tomllib
 from dataclasses import dataclass
 from importlib import resources
@@ -19,6 +20,11 @@ from pathlib import Path
 
 from pencilbot.errors import ProfileError
 from pencilbot.planning.layout import ORIENTATIONS
+
+# Thinnest pen accepted, mm (fineliners go down to about this). Hatch spacing and the planning
+# grid follow the pen width: a 0.01 mm pen on A4 would mean tens of thousands of hatch lines per
+# layer and gigabytes of memory, for detail no plotter can draw.
+MIN_PEN_WIDTH = 0.05
 
 
 @dataclass(frozen=True)
@@ -36,7 +42,7 @@ class Style:
     margin : float
         Blank border on every side, mm.
     pen_width : float
-        Width of the line the pen draws, mm. Sets hatch spacing and how close two parallel
+        Width of the line the pen draws, mm, at least ``MIN_PEN_WIDTH``. Sets hatch spacing and how close two parallel
         edge strokes may be before they merge.
     line_length : int or None
         Stroke length ℓ of the line drawing in image pixels; None picks it from the image size.
@@ -178,7 +184,8 @@ def _check_value(key: str, value, where: str):
         return ProfileError(f"{where}: {key} = {value!r} is invalid; expected {expected}")
 
     def number(v) -> bool:
-        return isinstance(v, int | float) and not isinstance(v, bool)
+        # TOML and float() on the command line both accept nan and inf: neither is a size.
+        return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
     if key in ("page", "orientation"):
         if not isinstance(value, str):
@@ -207,9 +214,9 @@ def _check_value(key: str, value, where: str):
         if not number(value) or not 0 < value < 1:
             raise bad("a number strictly between 0 and 1")
         return float(value)
-    if key in ("pen_width",):
-        if not number(value) or value <= 0:
-            raise bad("a positive number of millimetres")
+    if key == "pen_width":
+        if not number(value) or value < MIN_PEN_WIDTH:
+            raise bad(f"a pen width of at least {MIN_PEN_WIDTH:g} mm")
         return float(value)
     if key == "hatch_blank_below":
         if not number(value) or not 0 <= value < 1:

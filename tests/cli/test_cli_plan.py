@@ -70,6 +70,9 @@ def test_a_style_file_is_accepted(photo, tmp_path):
     [
         (["--style", "nope"], "no style named 'nope'"),
         (["--pen-width", "-1"], "pen_width"),
+        (["--pen-width", "nan"], "pen_width"),
+        (["--pen-width", "inf"], "pen_width"),
+        (["--margin", "nan"], "margin"),
         (["--page", "B7"], "unknown page size"),
         (["--margin", "200"], "margin"),
     ],

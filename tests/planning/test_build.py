@@ -167,6 +167,10 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("orientation = 'sideways'\n", ["bad.toml", "orientation"]),
         ("hatch_coverage = 1.0\n", ["bad.toml", "hatch_coverage"]),
         ("pen_width = \n", ["bad.toml", "TOML"]),
+        ("pen_width = nan\n", ["bad.toml", "pen_width"]),
+        ("pen_width = 0.001\n", ["bad.toml", "pen_width", "0.05 mm"]),
+        ("margin = inf\n", ["bad.toml", "margin"]),
+        ("hatch_blur = nan\n", ["bad.toml", "hatch_blur"]),
     ],
 )
 def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
