@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
     try:
-        draw(lines, f"sim://{name}?{query}", profile=args.profile,
+        draw(lines, f"sim://{name}?{query}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")
         plotter = protocol_sim.plotter(name)
         canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)

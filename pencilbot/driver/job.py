@@ -88,6 +88,7 @@ def draw(
     progress: str = "quiet",
     timeout: float = 10.0,
     wake_wait: float = 2.5,
+    source: str | None = None,
 ) -> DrawResult:
     """Stream a G-code file (or lines) to a plotter and wait until it has drawn everything.
 
@@ -120,6 +121,9 @@ def draw(
         Seconds of silence from the board before the job is declared stuck.
     wake_wait : float
         Seconds to wait for the start-up banner.
+    source : str, optional
+        What fault messages call ``gcode`` when it is a list of lines (e.g. the file they were
+        read from); a file is named by its path.
 
     Raises
     ------
@@ -146,7 +150,7 @@ def draw(
         job = load_job(raw, prof, str(path))
         total_lines = len(raw)
     else:
-        path, job, total_lines = None, load_job(list(gcode), prof), len(gcode)
+        path, job, total_lines = None, load_job(list(gcode), prof, source or "<lines>"), len(gcode)
     if not job.lines:
         raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
     try:
@@ -319,10 +323,11 @@ class _Runner:
         index, stop_xy = locate_stop(self.job.states, self.acked, position) or (self.acked + 1, None)
         line_no = self.job.numbers[min(fault.index, len(self.job.lines) - 1)] if fault.index >= 0 else None
         where = f"at line {line_no} of {self.job.source} ({self.job.lines[fault.index]!r})" if line_no else ""
-        resume_cmd = self._resume_command(index, stop_xy, fault)
-        message = f"{fault} {where}. Stopped; {pen_note}. Resume with: {resume_cmd}"
+        message = f"{fault} {where}. Stopped; {pen_note}. {self._resume_advice(index, stop_xy, fault)}"
         if fault.kind == "error" and line_no:
-            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and use --start-line)"
+            # Lines without a journal have no command line to resume them: say it in plain words.
+            fix = "use --start-line" if self.journal is not None else "start from it"
+            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
         return message
 
     def _halt_and_lift(self, session, fault):
@@ -358,16 +363,17 @@ class _Runner:
             position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
         return position
 
-    def _resume_command(self, index, stop_xy, fault) -> str:
+    def _resume_advice(self, index, stop_xy, fault) -> str:
+        """Record where to resume in the journal and say how: the command, or the line."""
         unlock = " --unlock" if fault.kind in ("alarm", "reset") else ""
         port = shlex.quote(self.port)
-        if self.journal is None:
-            line = self.job.numbers[index] if index < len(self.job.lines) else self.job.numbers[-1] + 1
-            return f"draw(..., start_line={line})"
-        self.journal.next_line = self.job.numbers[index] if index < len(self.job.lines) else self.job.numbers[-1] + 1
+        line = self.job.numbers[index] if index < len(self.job.lines) else self.job.numbers[-1] + 1
+        if self.journal is None:  # lines from a program (simulate, the library): no command to give
+            return f"Resume from line {line} of {self.job.source}"
+        self.journal.next_line = line
         self.journal.acked_line = self.job.numbers[self.acked] if self.acked >= 0 else 0
         self.journal.stop_xy = list(stop_xy) if stop_xy is not None else None
         self.journal.status = "stopped"
         self.journal.message = str(fault)
         self.journal.save()
-        return f"pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {port}{unlock}"
+        return f"Resume with: pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {port}{unlock}"

@@ -96,6 +96,15 @@ def test_simulate_gcode_outside_the_bed_fails_with_the_alarm(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_simulate_fault_names_the_file_and_line_not_a_library_call(tmp_path, capsys):
+    src = tmp_path / "arc.gcode"
+    src.write_text("G21\nG90\nG0 X10 Y10\nG2 X1\n")
+    assert main(["simulate", str(src), "-o", str(tmp_path / "plot.png"), "-q"]) != 0
+    err = capsys.readouterr().err
+    assert f"at line 4 of {src} ('G2X1')" in err and f"Resume from line 3 of {src}" in err
+    assert "<lines>" not in err and "draw(" not in err and "--start-line" not in err
+
+
 def test_simulate_a_photo(tmp_path):
     from skimage import data
 
@@ -148,3 +157,4 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     assert proc.returncode == 0, stderr
     assert "12 lines accepted" in stdout
     assert ink(out).max() > 0.5
+
