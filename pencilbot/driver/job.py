@@ -199,7 +199,7 @@ def _check_unchanged(journal, gcode: Path) -> None:
         raise PlotError(
             f"{gcode} changed since the job stopped, so the journal no longer matches it; check the "
             f"file and continue with: pencilbot draw {shlex.quote(str(gcode))} --port "
-            f"{shlex.quote(journal.port)} --start-line {journal.next_line}"
+            f"{shlex.quote(journal.port)} --profile {shlex.quote(journal.profile)} --start-line {journal.next_line}"
         )
 
 

@@ -212,6 +212,17 @@ def test_check_mode_then_draw(job):
     assert protocol_sim.plotter(name).machine.strokes
 
 
+def test_resume_of_a_changed_file_keeps_the_job_s_profile_in_the_advice(job):
+    path, _ = job
+    url, _ = fresh("faults=error@30")
+    with pytest.raises(PlotError):
+        draw(path, url, profile="grbl-z-a3", wake_wait=0.2)
+    with open(path, "a") as f:
+        f.write("G0 X0 Y0\n")
+    with pytest.raises(PlotError, match=r"changed since.*--profile grbl-z-a3 --start-line \d+"):
+        draw(path, url, resume=f"{path}.job.json", wake_wait=0.2)
+
+
 def test_alarm_lock_at_start_needs_unlock(job, tmp_path):
     path, lines = job
     url, name = fresh("faults=alarm@5")
