@@ -138,6 +138,11 @@ def draw(
         _check_unchanged(journal, gcode)
     profile = profile or (journal.profile if journal else "grbl-servo-a4")
     prof = load_profile(profile)
+    if check and prof.dialect != "grbl":
+        raise PlotError(
+            f"--check runs the file through GRBL's $C check mode, and profile {prof.name} is for "
+            f"{prof.dialect}, which has none; draw without --check"
+        )
     if isinstance(gcode, (str, Path)):
         path = Path(gcode)
         try:

@@ -212,6 +212,12 @@ def test_check_mode_then_draw(job):
     assert protocol_sim.plotter(name).machine.strokes
 
 
+def test_check_mode_with_a_marlin_profile_is_refused_not_skipped(job):
+    path, _ = job
+    with pytest.raises(PlotError, match=r"--check .*\$C check mode.*marlin"):
+        draw(path, "sim://", profile="marlin-servo-a4", check=True, wake_wait=0.2, timeout=1)
+
+
 def test_resume_of_a_changed_file_keeps_the_job_s_profile_in_the_advice(job):
     path, _ = job
     url, _ = fresh("faults=error@30")
