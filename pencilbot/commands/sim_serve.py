@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from pencilbot.commands.common import add_verbosity
 from pencilbot.errors import PencilbotError
@@ -39,8 +40,13 @@ def run(args: argparse.Namespace) -> int:
     from sim.protocol_sim import plotter_from_options
     from sim.pty_server import PtyServer
 
+    # Checked now, not on Ctrl-C: a session's drawing must not be lost to a typo in -o.
     if args.output and not args.output.lower().endswith(".png"):
         raise PencilbotError(f"name the output {args.output} with .png")
+    if args.output and not Path(args.output).resolve().parent.is_dir():
+        raise PencilbotError(f"cannot save to {args.output}: its folder does not exist; create it first")
+    if args.dpi <= 0:
+        raise PencilbotError(f"--dpi must be positive, not {args.dpi:g}")
     options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
                "faults": args.faults}
     try:

@@ -158,3 +158,16 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     assert "12 lines accepted" in stdout
     assert ink(out).max() > 0.5
 
+
+@pytest.mark.parametrize("argv, message", [
+    (["--dpi", "0", "-o", "x.png"], "--dpi must be positive"),
+    (["-o", "no/such/folder/x.png"], "folder does not exist"),
+])
+def test_sim_serve_refuses_a_bad_output_before_serving(tmp_path, argv, message):
+    # Without the check these would serve until Ctrl-C and only then fail to save.
+    proc = subprocess.run(
+        [sys.executable, "-m", "pencilbot.cli", "sim-serve", *argv],
+        cwd=tmp_path, capture_output=True, text=True, timeout=60,
+    )
+    assert proc.returncode != 0 and proc.stdout == ""
+    assert proc.stderr.startswith("pencilbot: error:") and message in proc.stderr
