@@ -384,8 +384,3 @@ def encode_line(line: str) -> bytes:
             "fewer decimals."
         )
     return text.encode("ascii") + b"\n"
-
-
-def is_response(message: Message) -> bool:
-    """True for the messages that answer one sent line: ``ok`` and ``error:N``."""
-    return isinstance(message, (Ok, Error))
