@@ -50,8 +50,6 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"--line-length must be at least 1 pixel, got {args.line_length}.")
     if args.texture_seed < 0:
         raise PencilbotError(f"--texture-seed must be 0 or more, got {args.texture_seed}.")
-    if args.max_pixels < 1:
-        raise PencilbotError(f"--max-pixels must be positive, got {args.max_pixels}.")
     if args.lines_only and args.color:
         raise PencilbotError("--color needs the tone layer; drop --lines-only or --color.")
     image = load_image(args.input, max_pixels=args.max_pixels, downscale=args.downscale)

@@ -72,9 +72,13 @@ def load_image(
     Raises
     ------
     ImageLoadError
-        The file is missing, unreadable, empty, not an image, truncated, or too large.
+        The file is missing, unreadable, empty, not an image, truncated, or too large, or
+        ``max_pixels`` is below 1.
     """
     name = os.fspath(path)
+    if max_pixels < 1:
+        # Checked first: with downscale, 0 would shrink every photo to one pixel without a word.
+        raise ImageLoadError(f"--max-pixels must be at least 1, got {max_pixels}.")
     if not os.path.exists(name):
         raise ImageLoadError(f"{name}: no such file. Check the path.")
     if os.path.isdir(name):

@@ -95,6 +95,13 @@ def test_too_large_refused_before_decoding(tmp_path):
         load_image(path, max_pixels=5000)
 
 
+@pytest.mark.parametrize("limit", [0, -5])
+def test_a_pixel_limit_below_one_is_refused_not_a_one_pixel_photo(tmp_path, limit):
+    path = save(tmp_path, Image.new("L", (100, 60)), "photo.png")
+    with pytest.raises(ImageLoadError, match=f"--max-pixels must be at least 1, got {limit}"):
+        load_image(path, max_pixels=limit, downscale=True)
+
+
 @pytest.mark.parametrize("suffix", ["png", "jpg"])
 def test_downscale_fits_limit_and_keeps_aspect(tmp_path, suffix):
     img = np.zeros((600, 900, 3), dtype=np.uint8)
