@@ -185,8 +185,11 @@ def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_ru
     t0 = np.where(backwards, along_t[stop], along_t[start])
     t1 = np.where(backwards, along_t[start], along_t[stop])
     base = base_mm[line_s]
-    p0 = base + t0[:, None] * direction
-    p1 = base + t1[:, None] * direction
+    # Samples are placed in float32 pixels: a run's end can lie a few µm past the picture's
+    # edge, which a bed check or a clip test counts as outside. Pull the ends back onto it.
+    box = np.asarray(layout.drawing_box, np.float64)
+    p0 = np.clip(base + t0[:, None] * direction, box[:2], box[2:])
+    p1 = np.clip(base + t1[:, None] * direction, box[:2], box[2:])
     return list(np.stack([p0, p1], axis=1))
 
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from pencilbot.planning.hatching import hatch_coverage, hatch_layers
@@ -92,6 +92,7 @@ def test_jitter_moves_lines_but_keeps_the_tone():
     assert _rendered_coverage(wobbly, layout) == pytest.approx(_rendered_coverage(ruled, layout), abs=0.04)
 
 
+@example(seed=0, shape=(19, 19), rotate=90, angles=[0.2], pen=0.2)  # float32 sampling overshot by 3 µm
 @settings(max_examples=20, deadline=None)
 @given(
     seed=st.integers(0, 2**32 - 1),
