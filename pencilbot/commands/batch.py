@@ -81,12 +81,16 @@ def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[s
     Raises
     ------
     PencilbotError
-        A single file for a batch, a wrong suffix, or two inputs that would write the same file.
+        A single file for a batch, a wrong suffix, a file in a folder that does not exist, or two
+        inputs that would write the same file.
     """
     out = Path(output)
     if not out.is_dir() and not inputs.batch:
         if out.suffix.lower() not in suffixes:
             raise PencilbotError(f"name the {what} {out} with {' or '.join(suffixes)}")
+        if not out.parent.is_dir():
+            # Now, not after minutes of planning, and before a plan is written without its preview.
+            raise PencilbotError(f"cannot write the {what} {out}: folder {out.parent} does not exist; create it first")
         return [out]
     if not out.is_dir():
         if out.suffix.lower() in suffixes:

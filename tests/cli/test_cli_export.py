@@ -176,3 +176,11 @@ def test_large_photo_is_refused_or_downscaled_as_asked(photo, tmp_path, capsys):
     assert "--downscale" in capsys.readouterr().err and not out.exists()
     assert main(["export", str(photo), "-o", str(out), "--max-pixels", "10000", "--downscale", "-q"]) == 0
     assert out.is_file()
+
+
+def test_an_output_in_a_missing_folder_is_refused_before_the_input_is_read(tmp_path, capsys):
+    broken = tmp_path / "broken.png"
+    broken.write_bytes(b"not a picture")  # were it read first, this would be the error
+    assert main(["export", str(broken), "-o", str(tmp_path / "nope" / "x.gcode")]) == 2
+    err = capsys.readouterr().err
+    assert "folder" in err and "nope" in err and "does not exist" in err and err.count("\n") == 1

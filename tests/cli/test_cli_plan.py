@@ -73,6 +73,7 @@ def test_a_style_file_is_accepted(photo, tmp_path):
         (["--pen-width", "nan"], "pen_width"),
         (["--pen-width", "inf"], "pen_width"),
         (["--margin", "nan"], "margin"),
+        (["--max-pixels", "0", "--downscale"], "--max-pixels must be at least 1"),
         (["--page", "B7"], "unknown page size"),
         (["--margin", "200"], "margin"),
     ],
@@ -107,3 +108,11 @@ def test_the_console_script_runs(photo, tmp_path):
     )
     assert done.returncode == 0, done.stderr
     assert out.stat().st_size > 0
+
+
+def test_a_preview_in_a_missing_folder_is_refused_before_the_plan_is_written(photo, tmp_path, capsys):
+    out = tmp_path / "plan.svg"
+    assert main(["plan", str(photo), "-o", str(out), "--preview", str(tmp_path / "nope" / "p.png")]) == 2
+    err = capsys.readouterr().err
+    assert "folder" in err and "nope" in err and "does not exist" in err and err.count("\n") == 1
+    assert not out.exists()
