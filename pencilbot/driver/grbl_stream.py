@@ -58,6 +58,7 @@ class GrblSession:
         self.wco: tuple[float, ...] = (0.0, 0.0, 0.0)
         self._last_poll = 0.0
         self.reports = 0  # status reports received so far
+        self._query_unanswered = False  # a "?" was sent and no report has come since
 
     # --- messages ------------------------------------------------------------------------
 
@@ -68,6 +69,7 @@ class GrblSession:
             if isinstance(message, grbl.Status):
                 self.status = message
                 self.reports += 1
+                self._query_unanswered = False
                 if message.wco is not None:
                     self.wco = message.wco
                 continue
@@ -80,6 +82,7 @@ class GrblSession:
         if force or now - self._last_poll >= POLL_INTERVAL:
             self._last_poll = now
             self.reader.write(grbl.STATUS_QUERY)
+            self._query_unanswered = True
 
     def _check_alive(self, index: int) -> None:
         if time.monotonic() - self.reader.last_rx > self.timeout:
@@ -257,7 +260,10 @@ class GrblSession:
                             continue
                         index, size = pending.popleft()
                         in_flight -= size
-                        answered_at = self.reports
+                        # A "?" that reached the board while it parsed this line is answered
+                        # right after the ok but before GRBL starts the cycle: that report can
+                        # say Idle with the line's move still queued. Only the next one counts.
+                        answered_at = self.reports + int(self._query_unanswered)
                         if isinstance(message, grbl.Error):
                             detail = f"error:{message.code} {message.text}: {message.explanation}"
                             if on_error == "stop":
