@@ -105,8 +105,8 @@ def load_journal(path: str | Path) -> Journal:
         path = journal_path(path)
     try:
         data = json.loads(path.read_text(encoding="utf-8"))
-        if data.pop("format", None) != FORMAT:
-            raise ValueError("unknown journal format")
+        if not isinstance(data, dict) or data.pop("format", None) != FORMAT:
+            raise ValueError("not a pencilbot job journal")
         journal = Journal(**data)
     except FileNotFoundError:
         raise PlotError(

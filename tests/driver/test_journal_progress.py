@@ -44,6 +44,13 @@ def test_missing_or_broken_journal_is_a_plain_error(tmp_path):
         load_journal(tmp_path / "bad.gcode.job.json")
 
 
+@pytest.mark.parametrize("text", ['"a string"', "[1, 2]", "3", "null", '{"format": 1, "gcode": 5}'])
+def test_json_that_is_not_a_journal_is_a_plain_error(tmp_path, text):
+    (tmp_path / "odd.gcode.job.json").write_text(text)
+    with pytest.raises(PlotError, match="unreadable.*--start-line"):
+        load_journal(tmp_path / "odd.gcode.job.json")
+
+
 def test_json_lines_progress_reports_lines_percent_state_and_end():
     out = io.StringIO()
     progress = Progress("json", total_lines=4, total_seconds=10.0, out=out)
