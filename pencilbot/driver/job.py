@@ -293,7 +293,18 @@ class _Runner:
     def _check_mode(self, session) -> None:
         """Run every line through ``$C`` (parse only, no motion) and refuse the job on any error."""
         self._setup_command(session, "$C", "entering check mode")
-        rejected = session.stream(self.job.lines, 0, lambda i, s: None, on_error="continue")
+        try:
+            rejected = session.stream(self.job.lines, 0, lambda i, s: None, on_error="continue")
+        except StreamFault as fault:
+            if fault.kind != "alarm" or fault.index >= len(self.job.lines):
+                raise
+            session.reset()  # soft limits still alarm in check mode, and lock until a reset
+            raise PlotError(
+                f"GRBL check mode ($C) stopped at line {self.job.numbers[fault.index]} of "
+                f"{self.job.source} ({self.job.lines[fault.index]!r}): {fault}; nothing was drawn. "
+                "Fix the G-code (pencilbot export keeps every move on the bed), then run again "
+                "with --unlock"
+            ) from None
         session.command("$C")  # leaving check mode soft-resets GRBL
         session.reset()
         if rejected:

@@ -229,6 +229,17 @@ def test_resume_of_a_changed_file_keeps_the_job_s_profile_in_the_advice(job):
         draw(path, url, resume=f"{path}.job.json", wake_wait=0.2)
 
 
+def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
+    lines = drawing(strokes=3)
+    lines.insert(12, "G1 X900 Y10 F3000")  # soft limits still alarm in check mode
+    path = tmp_path / "far.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    url, name = fresh()
+    with pytest.raises(PlotError, match=r"check mode \(\$C\) stopped at line 13 of .*'G1X900Y10F3000'.*ALARM:2.*nothing was drawn"):
+        draw(path, url, profile=PROFILE, check=True, wake_wait=0.2)
+    assert protocol_sim.plotter(name).machine.strokes == []
+
+
 def test_alarm_lock_at_start_needs_unlock(job, tmp_path):
     path, lines = job
     url, name = fresh("faults=alarm@5")
