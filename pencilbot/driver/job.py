@@ -135,6 +135,12 @@ def draw(
     if resume is not None:
         journal = journal_mod.load_journal(resume)
         gcode = Path(journal.gcode)
+        if journal.status == "done":
+            raise PlotError(
+                f"the job of {gcode} finished; there is nothing to resume. To draw it again: "
+                f"pencilbot draw {shlex.quote(str(gcode))} --port {shlex.quote(port)} --profile "
+                f"{shlex.quote(profile or journal.profile)}"
+            )
         _check_unchanged(journal, gcode)
     profile = profile or (journal.profile if journal else "grbl-servo-a4")
     prof = load_profile(profile)

@@ -240,6 +240,16 @@ def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
     assert protocol_sim.plotter(name).machine.strokes == []
 
 
+def test_resuming_a_finished_job_says_so_and_sends_nothing(job):
+    path, lines = job
+    url, name = fresh()
+    draw(path, url, profile=PROFILE, wake_wait=0.2)
+    sent = len(protocol_sim.plotter(name).firmware.log)
+    with pytest.raises(PlotError, match=r"finished; there is nothing to resume.*pencilbot draw .*plot.gcode --port"):
+        draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2)
+    assert len(protocol_sim.plotter(name).firmware.log) == sent
+
+
 def test_alarm_lock_at_start_needs_unlock(job, tmp_path):
     path, lines = job
     url, name = fresh("faults=alarm@5")
