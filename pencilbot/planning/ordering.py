@@ -12,7 +12,7 @@ A path may be drawn in either direction. The pen starts at its home position. Th
    once with numpy and a set of non-conflicting improving moves is applied per round. Rounds left
    at a local optimum go to iterated local search (double-bridge kicks, keep improvements).
    The budget is counted in rounds, not seconds, so the same paths always give the same order
-   (a plan, and its G-code, are reproducible); a wall-clock cap is available on top.
+   (a plan, and its G-code, are reproducible on any machine).
 3. **Joining**: consecutive paths whose ends meet within ``join_tolerance`` (the pen width) become
    one path, so the pen stays down across the gap.
 
@@ -22,7 +22,6 @@ The tour is open: it starts at home and ends wherever the last path ends.
 from __future__ import annotations
 
 import bisect
-import time
 from collections.abc import Sequence
 
 import numpy as np
@@ -44,7 +43,6 @@ def order_paths(
     join_tolerance: float | None = None,
     pen_width: float = 0.5,
     rounds: int = DEFAULT_ROUNDS,
-    time_budget: float | None = None,
 ) -> list[np.ndarray]:
     """Reorder and reverse paths to shorten pen-up travel, then join paths that touch.
 
@@ -63,9 +61,6 @@ def order_paths(
         Improvement rounds after the greedy tour (each costs about one pass over the paths),
         at most ``ROUND_WORK / len(paths)`` (but at least 4); 0 keeps the greedy tour. The
         result depends only on the paths and this number.
-    time_budget : float, optional
-        Wall-clock cap in seconds on the improvement; when it binds the result depends on the
-        machine's speed. Default: no cap.
 
     Returns
     -------
@@ -73,7 +68,7 @@ def order_paths(
         The same strokes, each possibly reversed, in drawing order, some joined.
     """
     arrays = _nonempty(paths)
-    order, reverse = improve_order(arrays, start, rounds=rounds, time_budget=time_budget)
+    order, reverse = improve_order(arrays, start, rounds=rounds)
     ordered = _apply(arrays, order, reverse)
     tolerance = pen_width if join_tolerance is None else join_tolerance
     return join_touching(ordered, tolerance) if tolerance >= 0 else ordered
@@ -102,7 +97,6 @@ def improve_order(
     start: tuple[float, float],
     *,
     rounds: int = DEFAULT_ROUNDS,
-    time_budget: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Greedy tour then local improvement: ``(order, reverse)`` indices into ``paths`` and flags."""
     ends = _Ends(paths, start)
@@ -110,7 +104,7 @@ def improve_order(
         return np.zeros(0, np.int64), np.zeros(0, bool)
     neighbours = ends.neighbours()
     order, reverse = _greedy(ends, neighbours)
-    budget = _Budget(min(rounds, max(4, ROUND_WORK // ends.n)), time_budget)
+    budget = _Budget(min(rounds, max(4, ROUND_WORK // ends.n)))
     tour = _Tour(ends, neighbours, order, reverse)
     _descend(tour, budget)
     # Iterated local search with the rounds left: a local optimum is kicked (double bridge
@@ -129,15 +123,14 @@ def improve_order(
 
 
 class _Budget:
-    """Improvement rounds left, with an optional wall-clock deadline on top."""
+    """Improvement rounds left."""
 
-    def __init__(self, rounds: int, seconds: float | None) -> None:
+    def __init__(self, rounds: int) -> None:
         self.rounds = int(rounds)
-        self.deadline = None if seconds is None else time.perf_counter() + seconds
 
     def take(self) -> bool:
-        """Spend one round if any is left (and the deadline, if any, has not passed)."""
-        if self.rounds <= 0 or (self.deadline is not None and time.perf_counter() >= self.deadline):
+        """Spend one round if any is left."""
+        if self.rounds <= 0:
             return False
         self.rounds -= 1
         return True
