@@ -6,7 +6,7 @@ import argparse
 import json
 
 from pencilbot.commands.common import add_verbosity
-from pencilbot.planning.motion import MotionSettings, PlanStats, Stats, estimate
+from pencilbot.planning.motion import MotionSettings, PlanStats, Stats, duration_text, estimate
 from pencilbot.planning.svg import read_svg
 
 
@@ -65,10 +65,5 @@ def _row(name: str, s: Stats) -> list[str]:
         str(s.lifts),
         str(s.paths),
         str(s.segments),
-        _clock(s.seconds),
+        duration_text(s.seconds),
     ]
-
-
-def _clock(seconds: float) -> str:
-    whole = round(seconds)
-    return f"{whole // 3600}:{whole % 3600 // 60:02d}:{whole % 60:02d}"

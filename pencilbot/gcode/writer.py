@@ -30,7 +30,7 @@ import numpy as np
 from pencilbot.errors import OutOfBedError, PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.gcode.profiles import MAX_BED, MAX_LINE, Bed, Profile
-from pencilbot.planning.motion import PlanStats, estimate
+from pencilbot.planning.motion import PlanStats, duration_text, estimate
 from pencilbot.planning.plan import Page, Plan
 
 _INT_DIGITS = len(str(MAX_BED))  # the bed check keeps |coordinate| ≤ MAX_BED mm
@@ -359,12 +359,6 @@ def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: 
         _comment(f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
                  f"{total.paths} paths, {total.lifts} lifts"),
     ]
-
-
-def duration_text(seconds: float) -> str:
-    """``H:MM:SS`` for a duration in seconds."""
-    hours, rest = divmod(round(seconds), 3600)
-    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}"
 
 
 def _comment(text: str) -> str:

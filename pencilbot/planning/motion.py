@@ -167,6 +167,12 @@ def _draw(paths: list[np.ndarray], s: MotionSettings) -> tuple[float, int, float
     return float(length.sum()), count, float(seconds)
 
 
+def duration_text(seconds: float) -> str:
+    """``H:MM:SS`` for a duration in seconds (how plot times are shown everywhere)."""
+    hours, rest = divmod(round(seconds), 3600)
+    return f"{hours}:{rest // 60:02d}:{rest % 60:02d}"
+
+
 def move_times(length, v_in, v_out, v_max: float, accel: float) -> np.ndarray:
     """Seconds for moves of ``length`` mm entered at ``v_in`` and left at ``v_out`` mm/s.
 
