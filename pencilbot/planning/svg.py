@@ -64,7 +64,8 @@ def read_svg(path: str | os.PathLike) -> Plan:
 
     Straight-line SVGs from other tools load too when their size is in mm (or has a viewBox)
     and their drawing is in ``path`` (M/L/H/V/Z), ``polyline``, ``polygon`` or ``line`` elements;
-    top-level groups become layers. Curves are refused with a hint to flatten them first.
+    top-level groups become layers. Curves and ``transform`` attributes are refused with a hint
+    to flatten them first.
     """
     try:
         root = ET.parse(path).getroot()
@@ -75,6 +76,14 @@ def read_svg(path: str | os.PathLike) -> Plan:
     if root.tag != f"{{{SVG_NS}}}svg":
         raise PencilbotError(f"{path} is not an SVG file (root element {root.tag!r})")
     width, height, scale = _page_size(root, path)
+    moved = next((el for el in root.iter() if el.get("transform")), None)
+    if moved is not None:
+        # Coordinates under a transform are not where they read; drawing them as read would put
+        # the pen somewhere else on the paper without a word.
+        raise PencilbotError(
+            f"{path}: <{moved.tag.rsplit('}', 1)[-1]}> has transform={moved.get('transform')!r}, "
+            "which is not applied; bake transforms into the coordinates first (e.g. vpype read … write)"
+        )
     page = Page(
         width=width,
         height=height,

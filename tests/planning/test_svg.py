@@ -121,6 +121,10 @@ def test_straight_line_svg_from_elsewhere_loads(tmp_path):
         (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><circle r="3"/></svg>', "circle"),
         (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><path d="M 0 0 L 1"/></svg>', "malformed"),
         ('<html xmlns="http://www.w3.org/1999/xhtml"/>', "not an SVG"),
+        (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><g transform="translate(5,0)">'
+         '<path d="M 0 0 L 1 1"/></g></svg>', "transform"),
+        (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><path transform="scale(2)" d="M 0 0 L 1 1"/></svg>',
+         "transform"),
     ],
 )
 def test_bad_svgs_are_user_errors(tmp_path, content, message):
