@@ -164,6 +164,11 @@ def draw(
         path, job, total_lines = None, load_job(list(gcode), prof, source or "<lines>"), len(gcode)
     if not job.lines:
         raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
+    if any("\x00" in line for line in job.lines):
+        raise PlotError(
+            f"{job.source} is not G-code text (it holds NUL bytes, as binary files do); give the "
+            ".gcode file that pencilbot export wrote"
+        )
     try:
         encode_lines(job.lines) if prof.dialect == "grbl" else check_lines(job.lines)
     except BadLine as bad:

@@ -59,3 +59,10 @@ def test_a_photo_input_gets_the_export_command_to_run_first(capsys, tmp_path):
     code, err = run(capsys, str(tmp_path / "cat.jpg"), "--port", "/dev/ttyUSB0", "--profile", "grbl-z-a3")
     assert code == 3 and "is a picture, not G-code" in err
     assert f"pencilbot export {tmp_path / 'cat.jpg'} -o {tmp_path / 'cat.gcode'} --profile grbl-z-a3" in err
+
+
+def test_a_binary_file_is_named_as_not_gcode_before_the_port_is_opened(capsys, tmp_path):
+    path = tmp_path / "photo.gcode"
+    path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))
+    code, err = run(capsys, str(path), "--port", "/dev/no-such-port")
+    assert code == 3 and "is not G-code text" in err and "Traceback" not in err
