@@ -56,10 +56,9 @@ def run(args: argparse.Namespace) -> int:
         raise PlotError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
     if port is None:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
-    profile = args.profile or (journal.profile if journal else "grbl-servo-a4")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
     result = draw(
-        gcode, port, profile=profile, baud=args.baud, unlock=args.unlock, check=args.check,
+        gcode, port, profile=args.profile, baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
         resume=args.resume, progress=progress, timeout=args.timeout,
     )
