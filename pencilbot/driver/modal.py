@@ -138,8 +138,8 @@ def advance(state: ModalState, line: str, pen: PenModel) -> ModalState:
 def _pen_down(state: ModalState, pen: PenModel) -> bool:
     if pen.kind == "spindle":
         return state.spindle_on and pen.is_down(state.s)
-    if pen.kind == "z":
-        return pen.is_down(state.z)
+    if pen.kind == "z":  # the profile's heights are mm; an inch job's Z is not
+        return pen.is_down(state.z * MM_PER_INCH if state.inches else state.z)
     return state.servo is not None and pen.is_down(state.servo)
 
 

@@ -46,10 +46,11 @@ def resume_preamble(
     """
     x, y = stop_xy if (stop_xy is not None and not state.relative) else (state.x, state.y)
     fmt = f"{{:.{decimals}f}}"
-    lines = ["G20" if state.inches else "G21", "G90", *pen.up_lines]
-    lines.append(f"G0X{fmt.format(x)}Y{fmt.format(y)}")
+    # The profile's pen commands are in mm (a Z pen's heights); the job's coordinates may be inches.
+    job_units = ["G20"] if state.inches else []
+    lines = ["G21", "G90", *pen.up_lines, *job_units, f"G0X{fmt.format(x)}Y{fmt.format(y)}"]
     if state.pen_down:
-        lines.extend(pen.down_lines)
+        lines.extend(["G21", *pen.down_lines, *job_units] if state.inches else pen.down_lines)
     mode = f"G{state.motion}"
     lines.append(mode + (f"F{fmt.format(state.feed)}" if state.feed else ""))
     if state.relative:

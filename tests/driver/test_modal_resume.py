@@ -45,6 +45,24 @@ def test_pen_state_follows_the_pen_model(pen, down, up):
     assert not run(down + up, pen).pen_down
 
 
+def test_z_pen_heights_are_mm_in_an_inch_job():
+    job = ["G20", "G90", "G0 Z0.157", "G0 X1 Y1", "G1 Z0 F20", "G1 X2 Y2"]  # 0.157 in = 4 mm: up
+    assert not state_before([clean_line(line) for line in job], 4, ZPEN).pen_down
+    assert state_before([clean_line(line) for line in job], 5, ZPEN).pen_down
+
+
+@pytest.mark.parametrize("index", [4, 5])
+def test_preamble_sends_the_profile_s_pen_commands_in_mm_in_an_inch_job(index):
+    job = [clean_line(line) for line in ["G20", "G90", "G0 Z0.157", "G0 X1 Y1", "G1 Z0 F20", "G1 X2 Y2"]]
+    before = state_before(job, index, ZPEN)
+    state = ModalState(z=5.0)
+    for line in resume_preamble(before, ZPEN):
+        if line in ZPEN.up_lines + ZPEN.down_lines:
+            assert not state.inches, line
+        state = advance(state, line, ZPEN)
+    assert (state.inches, state.x, state.y, state.pen_down) == (True, 1.0, 1.0, before.pen_down)
+
+
 def test_dwell_units_follow_dialect():
     s = ModalState()
     assert line_seconds(s, s, "G4P0.5", 3000, "grbl") == 0.5
