@@ -15,7 +15,7 @@ from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.imaging.pencil import sketch
-from pencilbot.imaging.strokes import line_drawing
+from pencilbot.imaging.strokes import LONGEST_LENGTH, line_drawing
 
 OUTPUT_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
@@ -32,7 +32,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
     parser.add_argument("--color", action="store_true", help="colour pencil drawing")
     parser.add_argument(
-        "--line-length", type=int, metavar="N", help="stroke length in pixels (default: by image size, 6-13)"
+        "--line-length", type=int, metavar="N", help="stroke length in pixels, 1-100 (default: by image size, 6-13)"
     )
     parser.add_argument("--texture-seed", type=int, default=0, metavar="S", help="pencil texture seed")
     parser.add_argument(
@@ -46,8 +46,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     output = Path(args.output)
     _check_output(output)
-    if args.line_length is not None and args.line_length < 1:
-        raise PencilbotError(f"--line-length must be at least 1 pixel, got {args.line_length}.")
+    if args.line_length is not None and not 1 <= args.line_length <= LONGEST_LENGTH:
+        raise PencilbotError(f"--line-length must be 1 to {LONGEST_LENGTH} pixels, got {args.line_length}.")
     if args.texture_seed < 0:
         raise PencilbotError(f"--texture-seed must be 0 or more, got {args.texture_seed}.")
     if args.lines_only and args.color:

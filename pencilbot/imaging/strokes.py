@@ -29,8 +29,13 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from pencilbot.errors import PencilbotError
+
 N_DIRECTIONS = 8
-MIN_LENGTH, MAX_LENGTH = 6, 13
+MIN_LENGTH, MAX_LENGTH = 6, 13  # range of the default ℓ
+# Longest ℓ accepted, px. Far beyond any useful stroke, and the supersampled kernel grids grow
+# as ℓ²: ℓ = 1000 would need gigabytes before drawing anything.
+LONGEST_LENGTH = 100
 _SUPERSAMPLE = 8
 
 
@@ -126,7 +131,7 @@ def line_drawing(
     E : ndarray of float32, shape (H, W)
         Edge map in [0, 1] (e.g. :func:`pencilbot.imaging.gmed.edge_map`).
     length : int, optional
-        Stroke length ℓ in pixels; default :func:`default_line_length`.
+        Stroke length ℓ in pixels, 1 to ``LONGEST_LENGTH``; default :func:`default_line_length`.
     width : float
         Stroke thickness in pixels.
     gamma : float
@@ -136,6 +141,11 @@ def line_drawing(
     Returns
     -------
     LineDrawing
+
+    Raises
+    ------
+    PencilbotError
+        ``length`` outside 1..``LONGEST_LENGTH``.
     """
     E = np.ascontiguousarray(E, dtype=np.float32)  # noqa: N806
     if E.ndim != 2:
@@ -143,6 +153,8 @@ def line_drawing(
     if gamma <= 0:
         raise ValueError(f"gamma must be positive, got {gamma}")
     length = default_line_length(E.shape) if length is None else int(length)
+    if not 1 <= length <= LONGEST_LENGTH:
+        raise PencilbotError(f"stroke length {length} px is not in 1..{LONGEST_LENGTH} px; choose a length in that range")
     kernels = [_trim(kernel) for kernel in line_kernels(length, width)]
 
     best = cv2.filter2D(E, -1, kernels[0], borderType=cv2.BORDER_REFLECT)

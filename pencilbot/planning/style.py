@@ -19,6 +19,7 @@ from importlib import resources
 from pathlib import Path
 
 from pencilbot.errors import ProfileError
+from pencilbot.imaging.strokes import LONGEST_LENGTH
 from pencilbot.planning.layout import ORIENTATIONS
 
 # Thinnest pen accepted, mm (fineliners go down to about this). Hatch spacing and the planning
@@ -45,7 +46,8 @@ class Style:
         Width of the line the pen draws, mm, at least ``MIN_PEN_WIDTH``. Sets hatch spacing and how close two parallel
         edge strokes may be before they merge.
     line_length : int or None
-        Stroke length ℓ of the line drawing in image pixels; None picks it from the image size.
+        Stroke length ℓ of the line drawing in image pixels (2 to ``LONGEST_LENGTH``); None picks
+        it from the image size.
     edge_threshold : float or None
         Edge strength (E in [0, 1]) below which no edge stroke is drawn; None chooses it
         automatically from the edge map.
@@ -201,10 +203,13 @@ def _check_value(key: str, value, where: str):
         if not isinstance(value, list) or not value or not all(number(v) for v in value):
             raise bad("a non-empty list of angles in degrees")
         return tuple(float(v) for v in value)
-    if key in ("line_length", "min_edge_pixels", "seed", "order_rounds"):
-        smallest = 2 if key == "line_length" else 0
-        if not isinstance(value, int) or isinstance(value, bool) or value < smallest:
-            raise bad(f"a whole number ≥ {smallest}")
+    if key == "line_length":
+        if not isinstance(value, int) or isinstance(value, bool) or not 2 <= value <= LONGEST_LENGTH:
+            raise bad(f"a whole number of pixels from 2 to {LONGEST_LENGTH}")
+        return value
+    if key in ("min_edge_pixels", "seed", "order_rounds"):
+        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
+            raise bad("a whole number ≥ 0")
         return value
     if key == "edge_threshold":
         if not number(value) or not 0 <= value <= 1:

@@ -49,6 +49,7 @@ def test_quiet_and_default_length(photo, tmp_path, capsys):
     [
         (["--max-pixels", "1000"], "--downscale"),
         (["--line-length", "0"], "--line-length"),
+        (["--line-length", "100000"], "--line-length"),  # was a MemoryError traceback
         (["--color"], "--color"),
     ],
 )

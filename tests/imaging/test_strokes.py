@@ -8,8 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pencilbot.errors import PencilbotError
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.strokes import (
+    LONGEST_LENGTH,
     LineDrawing,
     default_line_length,
     line_drawing,
@@ -144,3 +146,10 @@ def test_default_line_length_in_range_and_monotonic(h1, w1, h2, w2):
     assert 6 <= l1 <= 13
     if h1 * w1 <= h2 * w2:
         assert l1 <= l2
+
+
+@pytest.mark.parametrize("length", [0, LONGEST_LENGTH + 1, 100_000])
+def test_a_stroke_length_out_of_range_is_a_user_error(length):
+    # 100 000 px used to try allocating terabytes for the kernels.
+    with pytest.raises(PencilbotError, match=f"stroke length {length} px"):
+        line_drawing(np.zeros((20, 20), np.float32), length=length)

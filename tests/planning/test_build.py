@@ -171,6 +171,7 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("pen_width = 0.001\n", ["bad.toml", "pen_width", "0.05 mm"]),
         ("margin = inf\n", ["bad.toml", "margin"]),
         ("hatch_blur = nan\n", ["bad.toml", "hatch_blur"]),
+        ("line_length = 100000\n", ["bad.toml", "line_length"]),
     ],
 )
 def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
