@@ -81,9 +81,10 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[list[str], 
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
     if source.suffix.lower() in GCODE_SUFFIXES:
         try:
-            lines = source.read_text(encoding="ascii").splitlines()
-        except (UnicodeDecodeError, OSError) as exc:
-            raise PencilbotError(f"cannot read G-code file {source} ({exc}); G-code must be plain ASCII text") from None
+            # As for draw: comments may hold any text; the driver refuses a command that is not ASCII.
+            lines = source.read_text(encoding="utf-8", errors="replace").splitlines()
+        except OSError as exc:
+            raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
         return lines, args.pen_width or 0.5
     plan = plan_for_input(source, args)
     widths = [layer.pen_width for layer in plan.layers]

@@ -105,6 +105,23 @@ def test_simulate_fault_names_the_file_and_line_not_a_library_call(tmp_path, cap
     assert "<lines>" not in err and "draw(" not in err and "--start-line" not in err
 
 
+def test_simulate_takes_gcode_with_utf8_comments_as_draw_does(tmp_path, capsys):
+    src = tmp_path / "caf\u00e9.gcode"
+    src.write_text("; made by some tool \u2014 caf\u00e9\n" + SQUARE, encoding="utf-8")
+    out = tmp_path / "plot.png"
+    assert main(["simulate", str(src), "-o", str(out), "--dpi", str(DPI), "-q"]) == 0
+    dark = ink(out)
+    assert dark[px(dark.shape[0], 40, 20)] > 0.5  # on the square's bottom edge
+
+
+def test_simulate_refuses_a_command_that_is_not_ascii_naming_the_line(tmp_path, capsys):
+    src = tmp_path / "odd.gcode"
+    src.write_text("G21\nG90\nG0 X1\u00b2 Y1\n", encoding="utf-8")
+    assert main(["simulate", str(src), "-o", str(tmp_path / "plot.png"), "-q"]) != 0
+    err = capsys.readouterr().err
+    assert f"line 3 of {src}" in err and "non-ASCII" in err and "Traceback" not in err
+
+
 def test_simulate_a_photo(tmp_path):
     from skimage import data
 
