@@ -84,10 +84,13 @@ def read_svg(path: str | os.PathLike) -> Plan:
             f"{path}: <{moved.tag.rsplit('}', 1)[-1]}> has transform={moved.get('transform')!r}, "
             "which is not applied; bake transforms into the coordinates first (e.g. vpype read … write)"
         )
+    margin = root.get(f"{{{PENCILBOT_NS}}}margin", "0")
+    if not re.fullmatch(_NUMBER.pattern, margin.strip()):
+        raise PencilbotError(f"{path}: pencilbot:margin {margin!r} is not a number of mm; fix or remove it")
     page = Page(
         width=width,
         height=height,
-        margin=float(root.get(f"{{{PENCILBOT_NS}}}margin", 0.0)),
+        margin=float(margin),
         name=root.get(f"{{{PENCILBOT_NS}}}page", "custom"),
     )
     meta = {m.get("name", ""): m.text or "" for m in root.iter(f"{{{PENCILBOT_NS}}}meta")}
@@ -143,7 +146,7 @@ def _page_size(root: ET.Element, path) -> tuple[float, float, float]:
     sizes = []
     for attr in ("width", "height"):
         match = re.fullmatch(rf"\s*({_NUMBER.pattern})\s*([a-z]*)\s*", root.get(attr, ""))
-        if not match or match[2] not in units_to_mm:
+        if not match or match[2] not in units_to_mm or not 0 < float(match[1]) < float("inf"):
             raise PencilbotError(
                 f"{path}: the SVG's {attr} {root.get(attr)!r} has no physical size; "
                 "give width and height in mm"

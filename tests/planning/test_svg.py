@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.svg import INKSCAPE_NS, SVG_NS, read_svg, write_svg
+from pencilbot.planning.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, read_svg, write_svg
 
 NS = {"svg": SVG_NS, "inkscape": INKSCAPE_NS}
 
@@ -117,6 +117,9 @@ def test_straight_line_svg_from_elsewhere_loads(tmp_path):
     [
         ("not xml at all", "cannot read"),
         (f'<svg xmlns="{SVG_NS}" width="100" height="100%"/>', "physical size"),
+        (f'<svg xmlns="{SVG_NS}" width="1e999mm" height="10mm"/>', "physical size"),
+        (f'<svg xmlns="{SVG_NS}" width="0mm" height="10mm"/>', "physical size"),
+        (f'<svg xmlns="{SVG_NS}" xmlns:p="{PENCILBOT_NS}" width="10mm" height="10mm" p:margin="wide"/>', "margin"),
         (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><path d="M 0 0 C 1 1 2 2 3 3"/></svg>', "curves"),
         (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><circle r="3"/></svg>', "circle"),
         (f'<svg xmlns="{SVG_NS}" width="10mm" height="10mm"><path d="M 0 0 L 1"/></svg>', "malformed"),
