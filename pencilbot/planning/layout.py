@@ -12,7 +12,6 @@ import re
 from dataclasses import dataclass
 
 import numpy as np
-import shapely
 
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.plan import Page
@@ -148,20 +147,6 @@ class Layout:
         h, w = self.image_shape
         local = (pts - self._box_centre()) @ self._rotation() / self.mm_per_px
         return np.column_stack([local[:, 0] + (w - 1) / 2, (h - 1) / 2 - local[:, 1]])
-
-    def clip(self, paths: list[np.ndarray], box: tuple[float, float, float, float] | None = None) -> list[np.ndarray]:
-        """Cut paths (mm) to ``box`` (default: the drawing box); outside pieces vanish, crossings split."""
-        paths = [np.asarray(p, np.float64).reshape(-1, 2) for p in paths]
-        keep = [p for p in paths if len(p) >= 2]
-        if not keep:
-            return []
-        owner = np.repeat(np.arange(len(keep)), [len(p) for p in keep])
-        lines = shapely.linestrings(np.concatenate(keep), indices=owner)
-        parts = shapely.get_parts(shapely.clip_by_rect(lines, *(box or self.drawing_box)))
-        parts = parts[shapely.get_type_id(parts) == shapely.GeometryType.LINESTRING]
-        parts = parts[~shapely.is_empty(parts)]
-        coords, index = shapely.get_coordinates(parts, return_index=True)
-        return np.split(coords, np.flatnonzero(np.diff(index)) + 1) if len(coords) else []
 
     def _rotation(self) -> np.ndarray:
         theta = np.deg2rad(self.rotate)

@@ -127,18 +127,6 @@ def test_mapping_round_trips_and_stays_inside_the_margins(h, w, rotate, align, n
     assert max((x1 - x0) / free[0], (y1 - y0) / free[1]) == pytest.approx(1.0)
 
 
-def test_clip_keeps_what_is_inside_and_splits_crossings():
-    layout = Layout.fit((100, 100), Page(100, 100, margin=10))  # box (10, 10, 90, 90)
-    inside = np.array([[20.0, 20.0], [30.0, 40.0]])
-    outside = np.array([[0.0, 0.0], [5.0, 95.0]])
-    crossing = np.array([[50.0, 50.0], [50.0, 120.0], [60.0, 120.0], [60.0, 50.0]])
-    out = layout.clip([inside, outside, crossing, np.zeros((1, 2))])
-    assert len(out) == 3
-    np.testing.assert_allclose(out[0], inside)
-    np.testing.assert_allclose(out[1], [[50, 50], [50, 90]])
-    np.testing.assert_allclose(out[2], [[60, 90], [60, 50]])
-
-
 @pytest.mark.parametrize("kwargs, message", [(dict(rotate=45), "rotation 45"), (dict(align="diagonal"), "alignment")])
 def test_bad_fit_options_are_user_errors(kwargs, message):
     with pytest.raises(PencilbotError, match=message):
