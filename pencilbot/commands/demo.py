@@ -120,16 +120,21 @@ def run(args: argparse.Namespace) -> int:
         "lifts": stats.lifts,
         "estimated_s": round(stats.seconds, 1),
         "simulated_s": None if simulated is None else round(simulated, 1),
-        "plot_vs_preview_r": None if agreement is None else round(agreement, 4),
-        "line_fidelity_r": None if faithful is None else round(faithful.line_r, 3),
-        "tone_fidelity_r": None if faithful is None else round(faithful.tone_r, 3),
-        "tone_fidelity_mae": None if faithful is None else round(faithful.tone_mae, 3),
+        "plot_vs_preview_r": _figure(agreement, 4),
+        "line_fidelity_r": _figure(None if faithful is None else faithful.line_r, 3),
+        "tone_fidelity_r": _figure(None if faithful is None else faithful.tone_r, 3),
+        "tone_fidelity_mae": _figure(None if faithful is None else faithful.tone_mae, 3),
     }
     if args.json:
         print(json.dumps(summary, indent=2))
     elif not args.quiet:
         print(_summary_text(summary, duration_text))
     return 0
+
+
+def _figure(value: float | None, digits: int) -> float | None:
+    """A summary figure rounded, or None when there is none (JSON has no NaN: r of a blank page)."""
+    return None if value is None or not np.isfinite(value) else round(value, digits)
 
 
 def _photo(args: argparse.Namespace, load_image, image_from_array):
@@ -153,6 +158,7 @@ def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[floa
         draw(gcode_path, args.port, profile=args.profile, progress=progress)
         return None, None
 
+    from pencilbot.planning.fidelity import pearson
     from sim import protocol_sim
     from sim.canvas import Canvas
 
@@ -170,8 +176,7 @@ def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[floa
     plot = Canvas(preview.width_mm, preview.height_mm, dpi=PREVIEW_DPI, pen_width=preview.pen_width)
     plot.draw_paths(drawn)
     plot.save_png(out / "plot.png")
-    agreement = float(np.corrcoef(plot.darkness.ravel(), preview.darkness.ravel())[0, 1])
-    return seconds, agreement
+    return seconds, pearson(plot.darkness, preview.darkness)
 
 
 def _summary_text(s: dict, duration_text) -> str:
@@ -181,9 +186,13 @@ def _summary_text(s: dict, duration_text) -> str:
         f"plot time: estimated {duration_text(s['estimated_s'])}"
         + ("" if s["simulated_s"] is None else f", simulated {duration_text(s['simulated_s'])}"),
     ]
-    if s["line_fidelity_r"] is not None:
-        lines.append(f"fidelity to the sketch: lines r = {s['line_fidelity_r']}, "
-                     f"tone r = {s['tone_fidelity_r']} (mean difference {s['tone_fidelity_mae']})")
-    if s["plot_vs_preview_r"] is not None:
-        lines.append(f"simulated plot vs plan preview: r = {s['plot_vs_preview_r']}")
+    if s["tone_fidelity_mae"] is not None:
+        lines.append(f"fidelity to the sketch: lines r = {_or_none(s['line_fidelity_r'])}, "
+                     f"tone r = {_or_none(s['tone_fidelity_r'])} (mean difference {s['tone_fidelity_mae']})")
+    if s["simulated_s"] is not None:
+        lines.append(f"simulated plot vs plan preview: r = {_or_none(s['plot_vs_preview_r'])}")
     return "\n".join(lines)
+
+
+def _or_none(figure: float | None) -> str:
+    return "none (nothing to compare on a blank page)" if figure is None else str(figure)

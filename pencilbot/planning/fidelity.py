@@ -6,6 +6,9 @@
 * **Tone fidelity**: Pearson r and mean absolute difference between the darkness of the whole
   plan and of the raster pencil drawing 1 − R, both blurred with σ = 3 mm at plot scale (the
   distance at which a viewer judges shading rather than single lines).
+
+A correlation is NaN where it is undefined: one of the two pictures is flat (a blank photo has
+no edges to draw, an outline plan of it draws nothing).
 """
 
 from __future__ import annotations
@@ -50,7 +53,7 @@ def fidelity(plan: Plan, drawing: Sketch) -> Fidelity:
     layout = Layout.fit(drawing.line.edges.shape, plan.page)
     pen_width = plan.layer("edges").pen_width
     edges = ink_on_image_grid(plan.layer("edges").paths, layout, pen_width=pen_width)
-    line_r = _pearson(
+    line_r = pearson(
         ndi.gaussian_filter(edges, LINE_SIGMA_PX),
         ndi.gaussian_filter(1.0 - drawing.line.drawing, LINE_SIGMA_PX),
     )
@@ -58,8 +61,12 @@ def fidelity(plan: Plan, drawing: Sketch) -> Fidelity:
     sigma = TONE_SIGMA_MM / layout.mm_per_px
     plotted = ndi.gaussian_filter(ink, sigma)
     raster = ndi.gaussian_filter(1.0 - drawing.result, sigma)
-    return Fidelity(line_r, _pearson(plotted, raster), float(np.abs(plotted - raster).mean()))
+    return Fidelity(line_r, pearson(plotted, raster), float(np.abs(plotted - raster).mean()))
 
 
-def _pearson(a: np.ndarray, b: np.ndarray) -> float:
-    return float(np.corrcoef(a.ravel(), b.ravel())[0, 1])
+def pearson(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation of two same-sized pictures; NaN (without a warning) if either is flat."""
+    a, b = np.ravel(a), np.ravel(b)
+    if np.ptp(a) == 0 or np.ptp(b) == 0:
+        return float("nan")
+    return float(np.corrcoef(a, b)[0, 1])

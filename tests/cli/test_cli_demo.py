@@ -95,3 +95,15 @@ def test_demo_refuses_an_unknown_profile_before_any_work(tmp_path, capsys):
     assert main(["demo", "--profile", "no-such-plotter", "--out", str(tmp_path / "o")]) == 2
     assert "no-such-plotter" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_a_blank_photo_gives_valid_json_and_no_warning(tmp_path, capsys):
+    # Nothing to draw: the correlations are undefined and must come out as null, not NaN
+    # (which is not JSON), and without numpy's divide warning on stderr.
+    blank = tmp_path / "blank.png"
+    skio.imsave(blank, np.full((32, 48), 255, np.uint8), check_contrast=False)
+    assert main(["demo", "--input", str(blank), "--style", "outline", "--out", str(tmp_path / "o"), "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out, parse_constant=lambda name: pytest.fail(f"{name} in JSON"))
+    assert summary["paths"] == 0 and summary["plot_vs_preview_r"] is None
+    assert "Warning" not in captured.err

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import dataclasses
+import math
+import warnings
 
+import numpy as np
 import pytest
 from skimage import data
 
@@ -32,3 +35,12 @@ def test_shifted_edges_and_missing_hatching_lower_the_figures(planned):
     edges_only = dataclasses.replace(plan, layers=[plan.layer("edges")])
     assert fidelity(shifted, drawing).line_r < good.line_r - 0.3
     assert fidelity(edges_only, drawing).tone_mae > good.tone_mae + 0.05
+
+
+def test_a_blank_photo_has_no_line_figure_and_no_warning():
+    # A white page has no edges: r is undefined, said as NaN instead of numpy's divide warning.
+    drawing, plan = sketch_and_plan(image_from_array(np.ones((40, 40), np.float32)), style="default")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        faithful = fidelity(plan, drawing)
+    assert math.isnan(faithful.line_r) and math.isfinite(faithful.tone_mae)
