@@ -47,6 +47,8 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"cannot save to {args.output}: its folder does not exist; create it first")
     if args.dpi <= 0:
         raise PencilbotError(f"--dpi must be positive, not {args.dpi:g}")
+    if args.realtime < 0 or args.baud < 0:
+        raise PencilbotError("--realtime and --baud must be 0 (instant, unlimited) or positive")
     options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
                "faults": args.faults}
     try:

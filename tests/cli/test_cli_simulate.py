@@ -179,8 +179,10 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
 @pytest.mark.parametrize("argv, message", [
     (["--dpi", "0", "-o", "x.png"], "--dpi must be positive"),
     (["-o", "no/such/folder/x.png"], "folder does not exist"),
+    (["--realtime", "-1"], "--realtime and --baud must be 0"),
+    (["--baud", "-9600"], "--realtime and --baud must be 0"),
 ])
-def test_sim_serve_refuses_a_bad_output_before_serving(tmp_path, argv, message):
+def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
     # Without the check these would serve until Ctrl-C and only then fail to save.
     proc = subprocess.run(
         [sys.executable, "-m", "pencilbot.cli", "sim-serve", *argv],
