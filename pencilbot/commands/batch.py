@@ -93,7 +93,7 @@ def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[s
             raise PencilbotError(f"cannot write the {what} {out}: folder {out.parent} does not exist; create it first")
         return [out]
     if not out.is_dir():
-        if out.suffix.lower() in suffixes:
+        if out.suffix.lower() in suffixes or out.exists():
             raise PencilbotError(f"{len(inputs.paths)} inputs need a folder for the {what}, not the file {out}")
         if not out.parent.is_dir():
             raise PencilbotError(f"cannot create the {what} folder {out}: {out.parent} does not exist")
@@ -103,7 +103,10 @@ def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[s
 def make_folders(paths: Sequence[Path | None]) -> None:
     """Create the folders :func:`output_paths` named but that do not exist yet."""
     for folder in {p.parent for p in paths if p is not None}:
-        folder.mkdir(exist_ok=True)
+        try:
+            folder.mkdir(exist_ok=True)
+        except OSError as err:
+            raise PencilbotError(f"cannot create the folder {folder} ({err.strerror}); choose another -o") from None
 
 
 def distinct(targets: list[Path], sources: Sequence[Path]) -> list[Path]:

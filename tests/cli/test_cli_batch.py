@@ -101,6 +101,9 @@ def test_one_input_still_writes_the_file_named(photos, tmp_path, capsys):
         (["plan", "{a}", "{b}", "-o", "{tmp}/plans.svg"], "2 inputs need a folder for the plan, not the file"),
         (["export", "{a}", "{b}", "-o", "{tmp}/x.gcode"], "2 inputs need a folder for the output"),
         (["plan", "{a}", "{b}", "-o", "{tmp}/missing/plans"], "missing does not exist"),
+        # an existing file, whatever its name, is no folder (this was a FileExistsError traceback)
+        (["plan", "{a}", "{b}", "-o", "{tmp}/other/camera.png"], "need a folder for the plan, not the file"),
+        (["export", "{a}", "{b}", "-o", "{tmp}/other/camera.png"], "need a folder for the output, not the file"),
         (["plan", "{a}", "{b}", "-o", "{tmp}/plans", "--preview", "{tmp}/p.png"], "need a folder for the preview"),
         (["export", "{a}", "{tmp}/other/camera.png", "-o", "{tmp}/out"], "would both be written to"),
         (["export", "{tmp}/empty", "-o", "{tmp}/out"], "holds no photo"),
