@@ -15,6 +15,7 @@ shift hue and darken the drawing's tone, so instead the chroma is scaled down ju
 
 from __future__ import annotations
 
+import logging
 import time
 from dataclasses import dataclass, field
 
@@ -26,6 +27,8 @@ from pencilbot.imaging.io import LUMA_601, LoadedImage
 from pencilbot.imaging.strokes import LineDrawing, line_drawing
 from pencilbot.imaging.texture import TextureResult, pencil_texture, texture_map
 from pencilbot.imaging.tone import tone_target
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -119,6 +122,10 @@ def sketch(
         luma = line.drawing * fit.T
     result = with_luma(image.rgb, luma) if color else luma
     lap("compose")
+    log.debug(
+        "sketch of %s (%d×%d px, ℓ = %d px): %s", image.source, image.shape[1], image.shape[0], line.length,
+        ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
+    )
     return Sketch(result=result, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
 
 

@@ -9,6 +9,8 @@ layer ended; the first starts at the plotter's home, the page origin.
 
 from __future__ import annotations
 
+import logging
+import time
 from pathlib import Path
 
 import cv2
@@ -25,6 +27,7 @@ from pencilbot.planning.vectorize import edge_strokes, edge_threshold
 from sim.canvas import MM_PER_INCH, render_paths
 
 HOME = (0.0, 0.0)
+log = logging.getLogger(__name__)
 
 
 def make_plan(
@@ -136,6 +139,7 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
 
     position = HOME
     for layer in layers:
+        started = time.perf_counter()
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
         # lifting. Edge strokes overlap their neighbours along a contour by ℓ/4, so joining
         # ends within ℓ/2 retraces ink already there and saves a lift per stroke.
@@ -144,6 +148,7 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         layer.paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
         if layer.paths:
             position = tuple(layer.paths[-1][-1])
+        log.debug("layer %s: %d paths, ordered in %.2f s", layer.name, len(layer.paths), time.perf_counter() - started)
 
     meta = {
         "source": source,
@@ -159,7 +164,6 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "texture_seed": str(style.seed),
     }
     return Plan(page=page, layers=layers, meta=meta)
-
 
 
 def hatch_darkness(

@@ -116,3 +116,10 @@ def test_a_preview_in_a_missing_folder_is_refused_before_the_plan_is_written(pho
     err = capsys.readouterr().err
     assert "folder" in err and "nope" in err and "does not exist" in err and err.count("\n") == 1
     assert not out.exists()
+
+
+def test_verbose_tells_where_the_time_goes(photo, tmp_path, caplog):
+    assert main(["plan", str(photo), "-o", str(tmp_path / "plan.svg"), "-v"]) == 0
+    said = [r.getMessage() for r in caplog.records if r.name.startswith("pencilbot")]
+    assert any(m.startswith("sketch of") and "edges" in m and "beta" in m for m in said)
+    assert any(m.startswith("layer edges:") and "paths, ordered in" in m for m in said)
