@@ -230,7 +230,9 @@ class Firmware:
                 self.machine.finish()
             self._emit(self.status_report())
         elif byte == ord("!"):
-            if self.machine.planner.busy and not self._alarm:
+            # GRBL 1.1 holds from Idle too (Hold:0 at once; what arrives next waits for ~),
+            # but never in Alarm or check mode.
+            if not self._alarm and not self.machine.check_mode:
                 self._hold = True
         elif byte == ord("~"):
             if self._hold:

@@ -172,6 +172,24 @@ def test_dwell_and_pen_changes_wait_for_motion_in_realtime_mode():
     assert fw.take_output() == b"ok\r\n"
 
 
+def test_feed_hold_from_idle_holds_what_comes_next_until_resume():
+    fw = board()
+    assert exchange(fw, b"!?") == "<Hold:0|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
+    assert exchange(fw, b"G0 X10\n") == "ok\r\n"
+    assert exchange(fw, b"?").startswith("<Hold:0|MPos:0.000,0.000,0.000|")
+    exchange(fw, b"~")
+    assert exchange(fw, b"?").startswith("<Idle|MPos:10.000,0.000,0.000|")
+
+
+def test_feed_hold_is_ignored_in_alarm_and_check_mode():
+    fw = board()
+    exchange(fw, b"$C\n")
+    assert exchange(fw, b"!?").startswith("<Check|")
+    fw = board(faults="alarm@1")
+    exchange(fw, b"G0 X1\n")
+    assert exchange(fw, b"!?").startswith("<Alarm|")
+
+
 def test_hold_stops_the_machine_clock_until_resume():
     fw = board(instant=False)
     exchange(fw, b"G1 X50 F3000\n!")
