@@ -151,20 +151,20 @@ def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_ru
     base_px = layout.mm_to_px(base_mm).astype(np.float32)
     step_px = (layout.mm_to_px(centre + direction) - layout.mm_to_px(centre))[0].astype(np.float32)
     t = along_t.astype(np.float32)
-    on = np.empty((len(offsets), t.size), dtype=bool)
-    # Whole lines at a time, in blocks, so a fine pen on a big sheet stays within memory.
+    # Whole lines at a time, in blocks, keeping only each block's runs: the full (lines ×
+    # samples) mask of a fine pen on a big sheet would take gigabytes.
     block = max(1, _SAMPLES_PER_BLOCK // t.size)
+    runs = [np.zeros((3, 0), dtype=np.intp)]
     for first in range(0, len(offsets), block):
         lines = slice(first, first + block)
-        values = _sample(dark, base_px[lines], step_px, t)
-        on[lines] = values > threshold[lines, None]
-
-    padded = np.zeros((on.shape[0], on.shape[1] + 2), dtype=np.int8)
-    padded[:, 1:-1] = on
-    change = np.diff(padded, axis=1)
-    line_s, start = np.nonzero(change == 1)
-    _, stop = np.nonzero(change == -1)  # same row order as the starts: runs alternate
-    stop = stop - 1
+        on = _sample(dark, base_px[lines], step_px, t) > threshold[lines, None]
+        padded = np.zeros((on.shape[0], on.shape[1] + 2), dtype=np.int8)
+        padded[:, 1:-1] = on
+        change = np.diff(padded, axis=1)
+        line_s, start = np.nonzero(change == 1)
+        _, stop = np.nonzero(change == -1)  # same row order as the starts: runs alternate
+        runs.append(np.stack([line_s + first, start, stop - 1]))
+    line_s, start, stop = np.concatenate(runs, axis=1)
     if start.size == 0:
         return []
     step = along_t[1] - along_t[0]

@@ -5,6 +5,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
+from pencilbot.planning import hatching
 from pencilbot.planning.hatching import hatch_coverage, hatch_layers
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
@@ -129,3 +130,17 @@ def test_the_lightest_tones_stay_paper():
     assert any(layer.paths for layer in hatch_layers(faint, layout, blank_below=0.0))
     assert not any(layer.paths for layer in hatch_layers(faint, layout, blank_below=0.06))
     assert any(layer.paths for layer in hatch_layers(faint + 0.04, layout, blank_below=0.06))
+
+
+def test_runs_found_block_by_block_are_those_of_the_whole_sheet(monkeypatch):
+    # Runs are extracted per block of lines (memory); block edges must not move or drop any.
+    rng = np.random.default_rng(1)
+    darkness = rng.random((80, 120)).astype(np.float32)
+    layout = Layout.fit(darkness.shape, Page(200, 150, margin=10), rotate=90)
+    whole = hatch_layers(darkness, layout, pen_width=0.3, jitter=0.3, seed=2)
+    monkeypatch.setattr(hatching, "_SAMPLES_PER_BLOCK", 5_000)  # a few lines per block
+    blocks = hatch_layers(darkness, layout, pen_width=0.3, jitter=0.3, seed=2)
+    assert sum(len(layer.paths) for layer in whole) > 100
+    for a, b in zip(whole, blocks, strict=True):
+        for p, q in zip(a.paths, b.paths, strict=True):
+            np.testing.assert_array_equal(p, q)
