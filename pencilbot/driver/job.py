@@ -293,6 +293,12 @@ class _Runner:
                     "then run the same command with --unlock (sends $X), or home the machine"
                 )
             self._setup_command(session, "$X", "unlocking")
+        elif status.state in ("Hold", "Door"):
+            # A held board queues what it gets and runs none of it: the job would wait forever.
+            raise PlotError(
+                f"the plotter on {self.port} is paused ({status.state}: a feed hold or an open door). "
+                "Close the door, or press resume (cycle start, '~') or reset on the machine, then run again"
+            )
         if check:
             self._check_mode(session)
 

@@ -11,6 +11,7 @@ import threading
 
 import numpy as np
 import pytest
+import serial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -248,6 +249,28 @@ def test_resuming_a_finished_job_says_so_and_sends_nothing(job):
     with pytest.raises(PlotError, match=r"finished; there is nothing to resume.*pencilbot draw .*plot.gcode --port"):
         draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2)
     assert len(protocol_sim.plotter(name).firmware.log) == sent
+
+
+def test_a_board_left_in_feed_hold_is_refused_instead_of_waited_on_forever(job):
+    path, _ = job
+    url, name = fresh()
+    protocol_sim.register()
+    with serial.serial_for_url(url) as port:
+        port.write(b"!")  # another sender paused the board; it has no auto-reset
+    outcome = []
+
+    def run():
+        try:
+            draw(path, f"sim://{name}?reset=0", profile=PROFILE, wake_wait=0.2)
+            outcome.append("drawn")
+        except PlotError as exc:
+            outcome.append(str(exc))
+
+    worker = threading.Thread(target=run, daemon=True)
+    worker.start()
+    worker.join(30)  # without the check the stream waits on the held board for good
+    assert outcome and "is paused (Hold" in outcome[0] and "resume" in outcome[0]
+    assert accepted(name) == []
 
 
 def test_alarm_lock_at_start_needs_unlock(job, tmp_path):
