@@ -1,7 +1,7 @@
 """Many inputs at once: expand folders, name the outputs, run the files on every core.
 
 ``pencilbot plan`` and ``pencilbot export`` share this. One input behaves like a single command
-(an error is the command's error). Several inputs, or a folder, run in a process pool: each file
+(an error is the command's error; a terminal shows the time spent while it works). Several inputs, or a folder, run in a process pool: each file
 that fails is reported on one line naming it while the others carry on, a progress bar counts the
 files, and a summary line ends the run.
 """
@@ -12,10 +12,12 @@ import argparse
 import multiprocessing
 import os
 import sys
+import threading
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from concurrent.futures.process import BrokenProcessPool
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -153,7 +155,8 @@ def run_batch(
         0 if every file was written, else the highest exit code of the failures.
     """
     if len(jobs) == 1:
-        report = work(*jobs[0])
+        with _elapsed(f"{jobs[0][0].name}", quiet):
+            report = work(*jobs[0])
         if not quiet:
             print(report)
         return 0
@@ -169,6 +172,27 @@ def run_batch(
     if not quiet:
         print(f"{len(jobs) - len(failures)} written, {len(failures)} failed")
     return max((failure.exit_code for failure in failures), default=0)
+
+
+@contextmanager
+def _elapsed(what: str, quiet: bool) -> Iterator[None]:
+    """A live 'working on X: 3s' line on a terminal's stderr while one file is worked on."""
+    bar = tqdm(total=None, desc=f"working on {what}", bar_format="{desc}: {elapsed}",
+               file=sys.stderr, disable=True if quiet else None, leave=False)
+    done = threading.Event()
+
+    def tick() -> None:
+        while not done.wait(0.5):
+            bar.refresh()
+
+    ticker = threading.Thread(target=tick, daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        done.set()
+        ticker.join()
+        bar.close()
 
 
 def _outcomes(
