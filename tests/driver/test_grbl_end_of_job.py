@@ -9,8 +9,8 @@ small scripted GRBL on a real pty that always answers the last line that way.
 
 import os
 import select
-import threading
-import tty
+
+from pty_board import PtyBoard
 
 from pencilbot.driver import draw
 
@@ -19,33 +19,18 @@ IDLE = "<Idle|MPos:{0},{0},0.000|FS:0,0>"
 RUN = "<Run|MPos:20.000,20.000,0.000|FS:1000,0>"
 
 
-class LateCycleStartBoard:
+class LateCycleStartBoard(PtyBoard):
     """Answers ``ok`` per line; holds the last line's ``ok`` until a ``?`` comes, then sends the
     ``ok`` and a stale Idle report together, then reports Run twice, then Idle (drawn)."""
 
+    newline = "\r\n"
+
     def __init__(self):
-        self.master, self._slave = os.openpty()
-        tty.setraw(self._slave)
-        self.path = os.ttyname(self._slave)
+        super().__init__()
         self.holding_last = False
         self.runs_left = 0
         self.started = False  # the last line has arrived
         self.drawn_reported = False  # the board said Idle after running the last move
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._serve, daemon=True)
-
-    def __enter__(self):
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        self._stop.set()
-        self._thread.join(timeout=5)
-        os.close(self.master)
-        os.close(self._slave)
-
-    def _say(self, *lines):
-        os.write(self.master, "".join(line + "\r\n" for line in lines).encode())
 
     def _status(self):
         if self.holding_last:  # the "?" arrived while the last line was being parsed

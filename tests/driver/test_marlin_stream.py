@@ -9,11 +9,10 @@ line, and ``echo:busy: processing`` while a slow command runs.
 
 import os
 import select
-import threading
 import time
-import tty
 
 import pytest
+from pty_board import PtyBoard
 
 from firmware_protocol import marlin
 from pencilbot.driver import draw
@@ -23,14 +22,11 @@ from pencilbot.errors import PlotError
 PROFILE = "marlin-servo-a4"
 
 
-class MarlinBoard:
+class MarlinBoard(PtyBoard):
     """Marlin's serial line protocol on a pty; ``noise_on`` = frame numbers to corrupt once."""
 
     def __init__(self, noise_on=(), busy_seconds=0.0, slow=("G4",)):
-        self.master, slave = os.openpty()
-        tty.setraw(slave)
-        self.path = os.ttyname(slave)
-        self._slave = slave
+        super().__init__()
         self.noise_on = set(noise_on)
         self.busy_seconds = busy_seconds
         self.slow = slow  # command prefixes that keep the board busy for busy_seconds
@@ -39,21 +35,6 @@ class MarlinBoard:
         self.commands: list[str] = []  # executed, in order
         self.resends: list[int] = []
         self.expected = 1
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._serve, daemon=True)
-
-    def __enter__(self):
-        self._thread.start()
-        return self
-
-    def __exit__(self, *exc):
-        self._stop.set()
-        self._thread.join(timeout=5)
-        os.close(self.master)
-        os.close(self._slave)
-
-    def _say(self, *lines):
-        os.write(self.master, "".join(line + "\n" for line in lines).encode())
 
     def _serve(self):
         self._say("start", "echo:Marlin 2.1.2")

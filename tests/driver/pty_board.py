@@ -1,0 +1,36 @@
+"""A scripted serial board on a real pseudo-terminal, for protocols the virtual plotter lacks.
+
+Subclasses implement ``_serve`` (run in a thread until ``_stop`` is set) and answer with
+``_say``; the driver opens ``path`` like a USB serial port.
+"""
+
+import os
+import threading
+import tty
+
+
+class PtyBoard:
+    newline = "\n"
+
+    def __init__(self):
+        self.master, self._slave = os.openpty()
+        tty.setraw(self._slave)
+        self.path = os.ttyname(self._slave)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+
+    def __enter__(self):
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self._stop.set()
+        self._thread.join(timeout=5)
+        os.close(self.master)
+        os.close(self._slave)
+
+    def _say(self, *lines):
+        os.write(self.master, "".join(line + self.newline for line in lines).encode())
+
+    def _serve(self):
+        raise NotImplementedError
