@@ -51,10 +51,10 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
+from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
 from pencilbot.gcode.templates import TemplateError, check_template, fill_template
 
@@ -264,7 +264,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
         The profile does not exist, is not TOML, or has an unknown key, a missing key, a value
         of the wrong type or range, or a template that uses anything but plain named fields.
     """
-    text, where, stem = _read_profile_text(str(name_or_path))
+    text, where, stem = read_config_text("plotters", str(name_or_path), kind="plotter profile", file_kind="plotter profile")
     try:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -274,8 +274,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
 
 def list_profiles() -> list[str]:
     """Names of the profiles shipped in ``pencilbot/configs/plotters``, sorted."""
-    folder = resources.files("pencilbot.configs").joinpath("plotters")
-    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
+    return shipped_names("plotters")
 
 
 def profile_from_mapping(table: dict, *, where: str = "<profile>", default_name: str = "custom") -> Profile:
@@ -385,20 +384,3 @@ def _check_consistency(profile: Profile, where: str) -> None:
 
 def _label(section: str, key: str) -> str:
     return f"[{section}] {key}" if section else key
-
-
-def _read_profile_text(name_or_path: str) -> tuple[str, str, str]:
-    path = Path(name_or_path)
-    if path.suffix == ".toml" or path.parent != Path("."):
-        try:
-            return path.read_text(encoding="utf-8"), str(path), path.stem
-        except (OSError, UnicodeDecodeError) as exc:
-            reason = getattr(exc, "strerror", None) or str(exc)
-            raise ProfileError(f"cannot read plotter profile {path} ({reason}); check the path") from None
-    shipped = resources.files("pencilbot.configs").joinpath("plotters", f"{name_or_path}.toml")
-    if not shipped.is_file():
-        raise ProfileError(
-            f"no plotter profile named {name_or_path!r}; choose one of {', '.join(list_profiles())} "
-            "or give a path to a .toml file"
-        )
-    return shipped.read_text(encoding="utf-8"), f"plotters/{name_or_path}.toml", name_or_path

@@ -15,9 +15,9 @@ import dataclasses
 import math
 import tomllib
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
+from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.strokes import LONGEST_LENGTH
 from pencilbot.planning.layout import ORIENTATIONS
@@ -124,7 +124,7 @@ def load_style(name_or_path: str | Path = "default") -> Style:
     ProfileError
         The style does not exist, is not valid TOML, has an unknown key or a bad value.
     """
-    text, where, stem = _read_style_text(str(name_or_path))
+    text, where, stem = read_config_text("styles", str(name_or_path), kind="style", file_kind="style file")
     try:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
@@ -134,8 +134,7 @@ def load_style(name_or_path: str | Path = "default") -> Style:
 
 def list_styles() -> list[str]:
     """Names of the styles shipped in ``pencilbot/configs/styles``."""
-    folder = resources.files("pencilbot.configs").joinpath("styles")
-    return sorted(p.name[: -len(".toml")] for p in folder.iterdir() if p.name.endswith(".toml"))
+    return shipped_names("styles")
 
 
 def with_overrides(style: Style, values: dict, *, where: str = "command line") -> Style:
@@ -161,24 +160,6 @@ def with_overrides(style: Style, values: dict, *, where: str = "command line") -
             raise ProfileError(f"{where} has unknown key {key!r}; the known keys are: {', '.join(known)}")
         checked[key] = _check_value(key, value, where)
     return dataclasses.replace(style, **checked)
-
-
-def _read_style_text(name_or_path: str) -> tuple[str, str, str]:
-    path = Path(name_or_path)
-    if path.suffix == ".toml" or path.parent != Path("."):
-        try:
-            return path.read_text(encoding="utf-8"), str(path), path.stem
-        except OSError as exc:
-            raise ProfileError(
-                f"cannot read style file {path} ({exc.strerror}); check the path"
-            ) from None
-    shipped = resources.files("pencilbot.configs").joinpath("styles", f"{name_or_path}.toml")
-    if not shipped.is_file():
-        raise ProfileError(
-            f"no style named {name_or_path!r}; choose one of {', '.join(list_styles())} "
-            "or give a path to a .toml file"
-        )
-    return shipped.read_text(encoding="utf-8"), f"styles/{name_or_path}.toml", name_or_path
 
 
 def _check_value(key: str, value, where: str):
