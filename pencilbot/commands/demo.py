@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.motion import estimate
     from pencilbot.planning.svg import write_svg
-    from sim.canvas import Canvas
+    from pencilbot.render import Canvas
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
@@ -160,7 +160,7 @@ def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[floa
 
     from pencilbot.planning.fidelity import pearson
     from sim import protocol_sim
-    from sim.canvas import Canvas
+    from pencilbot.render import Canvas
 
     name = f"demo-{os.getpid()}"
     query = urllib.parse.urlencode({"profile": args.profile})

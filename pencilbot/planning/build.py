@@ -24,7 +24,7 @@ from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.style import Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
-from sim.canvas import MM_PER_INCH, render_paths
+from pencilbot.render import MM_PER_INCH, render_paths
 
 HOME = (0.0, 0.0)
 log = logging.getLogger(__name__)

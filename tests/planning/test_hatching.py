@@ -9,7 +9,7 @@ from pencilbot.planning import hatching
 from pencilbot.planning.hatching import hatch_coverage, hatch_layers
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
-from sim.canvas import render_paths
+from pencilbot.render import render_paths
 
 PEN = 0.5
 
