@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     write_svg(plan, out / "plan.svg")
     preview = Canvas(page.width, page.height, dpi=PREVIEW_DPI, pen_width=style.pen_width)
-    preview.draw_paths(plan.all_paths())
+    preview.draw_paths(plan.paths())
     preview.save_png(out / "preview.png")
     faithful = fidelity(plan, drawing) if style.hatch else None
     step.done("plan.svg, preview.png: pen strokes on the page", started)

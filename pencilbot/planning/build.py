@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -18,6 +19,7 @@ import numpy as np
 
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
+from pencilbot.paths import Paths
 from pencilbot.planning.hatching import hatch_layers
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
@@ -135,20 +137,21 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
             seed=style.seed,
         )
         layers += [layer for layer in hatches if layer.paths]
-    layers.append(Layer("edges", strokes, pen_width=style.pen_width))
+    layers.append(Layer("edges", strokes, pen_width=style.pen_width, role="edges"))
 
-    position = HOME
+    ordered, position = [], HOME
     for layer in layers:
         started = time.perf_counter()
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
         # lifting. Edge strokes overlap their neighbours along a contour by ℓ/4, so joining
         # ends within ℓ/2 retraces ink already there and saves a lift per stroke.
         edge_join = max(style.pen_width, style.edge_join * line.length * layout.mm_per_px)
-        join = style.hatch_join if layer.name != "edges" else edge_join
-        layer.paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
-        if layer.paths:
-            position = tuple(layer.paths[-1][-1])
-        log.debug("layer %s: %d paths, ordered in %.2f s", layer.name, len(layer.paths), time.perf_counter() - started)
+        join = edge_join if layer.role == "edges" else style.hatch_join
+        paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
+        ordered.append(replace(layer, paths=paths))
+        if paths:
+            position = tuple(paths[-1][-1])
+        log.debug("layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started)
 
     meta = {
         "source": source,
@@ -163,7 +166,7 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "hatch_coverage": f"{style.hatch_coverage:g}",
         "texture_seed": str(style.seed),
     }
-    return Plan(page=page, layers=layers, meta=meta)
+    return Plan(page=page, layers=ordered, meta=meta)
 
 
 def hatch_darkness(
@@ -224,13 +227,13 @@ def _gaussian(image: np.ndarray, sigma: float) -> np.ndarray:
 
 
 def ink_on_image_grid(
-    paths: list[np.ndarray], layout: Layout, *, pen_width: float, coarsen: int = 1
+    paths: Paths | list[np.ndarray], layout: Layout, *, pen_width: float, coarsen: int = 1
 ) -> np.ndarray:
     """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
 
     Parameters
     ----------
-    paths : list of (N, 2) arrays
+    paths : Paths or list of (N, 2) arrays
         Paths in page mm, Y up.
     layout : Layout
         The placement that produced them.
@@ -247,11 +250,12 @@ def ink_on_image_grid(
         Ink per image pixel (or block), as the plotter's pen would lay it at plot scale.
     """
     height, width = layout.image_shape
+    paths = Paths.of(paths)
     # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
-    points = layout.mm_to_px(np.concatenate(paths)) if paths else np.zeros((0, 2))
+    points = layout.mm_to_px(paths.points)
     points[:, 1] = height - 0.5 - points[:, 1]
     points[:, 0] += 0.5
-    in_px = np.split(points, np.cumsum([len(p) for p in paths])[:-1])
     return render_paths(
-        in_px, width, height, dpi=MM_PER_INCH / coarsen, pen_width=pen_width / layout.mm_per_px
+        paths.with_points(points), width, height, dpi=MM_PER_INCH / coarsen,
+        pen_width=pen_width / layout.mm_per_px,
     )

@@ -100,7 +100,7 @@ def hatch_layers(
         rank = (_bit_reverse(np.arange(n_lines) % DITHER_PERIOD) + 0.5) / DITHER_PERIOD
         threshold = 1 - (1 - coverage) ** k * (1 - coverage * rank)
         paths = _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_run)
-        layers.append(Layer(f"hatch{k + 1}-{angle % 180:g}", paths, pen_width=pen_width))
+        layers.append(Layer(f"hatch{k + 1}-{angle % 180:g}", paths, pen_width=pen_width, role="hatch"))
     return layers
 
 

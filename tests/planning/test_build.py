@@ -49,12 +49,13 @@ def test_layers_go_light_hatching_first_edges_last(camera_plan):
     assert names[:-1] and all(name.startswith("hatch") for name in names[:-1])
     assert names[:-1] == sorted(names[:-1])  # hatch1 (lightest tones) before hatch2 ...
     assert all(layer.paths for layer in camera_plan.layers)
+    assert [layer.role for layer in camera_plan.layers] == ["hatch"] * (len(names) - 1) + ["edges"]
 
 
 def test_everything_lies_inside_the_page_margins(camera_plan):
     page = camera_plan.page
     assert (page.width, page.height, page.margin) == (210, 297, 15)
-    pts = np.concatenate(camera_plan.all_paths())
+    pts = np.concatenate(camera_plan.paths())
     assert pts[:, 0].min() >= page.margin - 1e-9 and pts[:, 0].max() <= page.width - page.margin + 1e-9
     assert pts[:, 1].min() >= page.margin - 1e-9 and pts[:, 1].max() <= page.height - page.margin + 1e-9
 
