@@ -27,7 +27,7 @@ from pencilbot.imaging.pencil import sketch as _sketch
 from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
-from pencilbot.planning.style import Style, load_style, with_overrides
+from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
 from pencilbot.planning.svg import read_svg, write_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
@@ -56,7 +56,7 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
 
     Unset options come from the style (``"default"`` unless given).
     """
-    chosen = style if isinstance(style, Style) else load_style(style or "default")
+    chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
     if pen_width is not None:
         chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
     loaded = as_image(image)

@@ -24,7 +24,7 @@ from pencilbot.planning.hatching import hatch_layers
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.style import Style, load_style
+from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
 from pencilbot.render import MM_PER_INCH, render_paths
 
@@ -63,7 +63,7 @@ def sketch_and_plan(
     The sketch is of the image at plot resolution (see :func:`at_plot_resolution`), the grid
     the plan was laid out on.
     """
-    style = style if isinstance(style, Style) else load_style(style or "default")
+    style = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
     if page is None:
         page = page_size(style.page, style.orientation, image.shape, style.margin)
     image = at_plot_resolution(image, page, style.pen_width)

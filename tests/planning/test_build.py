@@ -254,3 +254,16 @@ def test_a_huge_photo_is_planned_at_what_the_pen_can_draw():
     assert at_plot_resolution(small, page, pen_width=0.5) is small
     plan = make_plan(big, page=page, style=Style(order_rounds=0))
     assert plan.meta["image_px"] == f"{small.shape[1]}x{small.shape[0]}"
+
+
+def test_every_style_key_has_one_rule_and_the_defaults_obey_it():
+    from pencilbot.planning.style import STYLE_SCHEMA
+
+    fields = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
+    assert list(STYLE_SCHEMA) == fields
+    for key, rule in STYLE_SCHEMA.items():
+        default = getattr(Style(), key)
+        if default is not None:  # None: chosen automatically, by leaving the key out
+            value = list(default) if isinstance(default, tuple) else default
+            assert rule.accepts(value), (key, default, rule.expected)
+            assert with_overrides(Style(), {key: value}) == Style()
