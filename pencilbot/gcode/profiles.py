@@ -1,9 +1,9 @@
-"""Plotter profiles: what a machine is like, as TOML data in ``pencilbot/configs/plotters/*.toml``.
+"""Plotter profiles: what a machine is like, as TOML data in ``configs/plotters/*.toml``.
 
 A profile names the firmware dialect, the bed and how its coordinates run, the feeds and
 acceleration (for G-code and for the time estimate), how the pen goes up and down, and how G-code
-is formatted. Shipped profiles live in the package ``pencilbot.configs`` (``plotters/<name>.toml``,
-read with :mod:`importlib.resources`); any TOML file with the same schema works by path::
+is formatted. Shipped profiles live in ``configs/plotters/<name>.toml`` (found by :mod:`pencilbot.configs_io`
+in a wheel and in a source checkout); any TOML file with the same schema works by path::
 
     name = "grbl-servo-a4"          # optional, defaults to the file name
     dialect = "grbl"                # "grbl" or "marlin"
@@ -227,7 +227,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
 
 
 def list_profiles() -> list[str]:
-    """Names of the profiles shipped in ``pencilbot/configs/plotters``, sorted."""
+    """Names of the profiles shipped in ``configs/plotters``, sorted."""
     return shipped_names("plotters")
 
 

@@ -1,9 +1,9 @@
-"""Drawing styles: the artistic parameters of a plan, kept as data in ``pencilbot/configs/styles/*.toml``.
+"""Drawing styles: the artistic parameters of a plan, kept as data in ``configs/styles/*.toml``.
 
 A style says how a photo becomes strokes (line length, edge threshold, hatch angles, pen width)
-and where it goes on paper (page, orientation, margin). Shipped styles live in the package
-``pencilbot.configs`` (``styles/<name>.toml``) and are read with :mod:`importlib.resources`, so an
-installed wheel finds them; a path to any TOML file works too. Every key is optional (missing keys
+and where it goes on paper (page, orientation, margin). Shipped styles live in ``configs/styles/<name>.toml``
+(found by :mod:`pencilbot.configs_io` in a wheel and in a source checkout); a path to any TOML file
+works too. Every key is optional (missing keys
 keep the defaults below); an unknown key or a wrongly typed value is a
 :class:`~pencilbot.errors.ProfileError` naming the file and the key, so a typo never silently does
 nothing. The rules are one table, :data:`STYLE_SCHEMA`, as for plotter profiles.
@@ -117,7 +117,7 @@ def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
     Parameters
     ----------
     name_or_path : str or Path
-        A name of a file in ``pencilbot/configs/styles`` without ``.toml``, or a path to a TOML file.
+        A name of a file in ``configs/styles`` without ``.toml``, or a path to a TOML file.
 
     Returns
     -------
@@ -137,7 +137,7 @@ def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
 
 
 def list_styles() -> list[str]:
-    """Names of the styles shipped in ``pencilbot/configs/styles``."""
+    """Names of the styles shipped in ``configs/styles``."""
     return shipped_names("styles")
 
 

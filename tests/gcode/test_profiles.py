@@ -6,12 +6,12 @@ import copy
 import json
 import string
 import tomllib
-from importlib import resources
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from pencilbot.configs_io import config_folder
 from pencilbot.errors import ProfileError
 from pencilbot.gcode.profiles import TEMPLATE_FIELDS, list_profiles, load_profile
 from pencilbot.gcode.templates import TemplateError, check_template, fill_template
@@ -20,7 +20,7 @@ SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4"]
 
 
 def shipped_table(name: str = "grbl-servo-a4") -> dict:
-    text = resources.files("pencilbot.configs").joinpath("plotters", f"{name}.toml").read_text()
+    text = (config_folder("plotters") / f"{name}.toml").read_text(encoding="utf-8")
     return tomllib.loads(text)
 
 
