@@ -22,7 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.driver import draw
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import load_profile
 
 PROFILE = "grbl-servo-a4"
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from pencilbot.errors import PlotError
+from firmware_protocol import ProtocolError
 
 #: Serial receive buffer of the board, in bytes. A character-counting sender keeps the sum of
 #: the encoded lengths of its unacknowledged lines at or below this.
@@ -364,21 +364,21 @@ def encode_line(line: str) -> bytes:
 
     Raises
     ------
-    PlotError
+    ProtocolError
         If the line is not ASCII, contains a line break or a realtime byte, or holds more
         significant characters than GRBL's line buffer takes (the board would reject it).
     """
     text = line.strip()
     if not text.isascii():
-        raise PlotError(f"G-code line {text!r} contains non-ASCII characters; GRBL takes ASCII only.")
+        raise ProtocolError(f"G-code line {text!r} contains non-ASCII characters; GRBL takes ASCII only.")
     bad = [ch for ch in text if ch in "\r\n" or ord(ch) in REALTIME_BYTES]
     if bad:
-        raise PlotError(
+        raise ProtocolError(
             f"G-code line {text!r} contains {bad[0]!r}, which GRBL treats as a line end or a "
             "realtime command; remove it from the G-code."
         )
     if significant_length(text) >= LINE_BUFFER_SIZE:
-        raise PlotError(
+        raise ProtocolError(
             f"G-code line is {significant_length(text)} characters long (without spaces and "
             f"comments); GRBL accepts at most {LINE_BUFFER_SIZE - 1}. Split the move or use "
             "fewer decimals."

@@ -19,8 +19,8 @@ import numpy as np
 
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
-from pencilbot.gcode.profiles import Profile, load_profile
-from pencilbot.gcode.writer import GcodeSummary, gcode_lines, write_gcode
+from pencilbot.machine.profile import Profile, load_profile
+from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
@@ -28,7 +28,7 @@ from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
-from pencilbot.planning.svg import read_svg, write_svg  # noqa: F401 (the library API)
+from pencilbot.export.svg import read_svg, write_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
 
@@ -73,7 +73,7 @@ def export_gcode(
     """G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded ``Profile``).
 
     With ``path``, writes the file atomically and returns its
-    :class:`~pencilbot.gcode.writer.GcodeSummary`; without, returns the lines.
+    :class:`~pencilbot.export.gcode.GcodeSummary`; without, returns the lines.
     """
     profile = profile if isinstance(profile, Profile) else load_profile(profile)
     if path is None:

@@ -101,7 +101,7 @@ class MachineConfig:
 
     @classmethod
     def from_profile(cls, profile) -> MachineConfig:
-        """From a :class:`pencilbot.gcode.profiles.Profile` (its bed, pen and motion tables)."""
+        """From a :class:`pencilbot.machine.profile.Profile` (its bed, pen and motion tables)."""
         bed, motion, pen = profile.bed, profile.motion, profile.pen
         return cls(
             width=bed.width, height=bed.height, origin=bed.origin,

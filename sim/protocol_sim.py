@@ -77,7 +77,7 @@ def grbl_profile(name: str):
     ProfileError
         Unknown or invalid profile, or one for another firmware dialect.
     """
-    from pencilbot.gcode.profiles import load_profile
+    from pencilbot.machine.profile import load_profile
 
     profile = load_profile(name)
     if profile.dialect != "grbl":
@@ -94,7 +94,7 @@ class VirtualPlotter:
     Parameters
     ----------
     profile : str
-        Profile name or path (see :func:`pencilbot.gcode.profiles.load_profile`).
+        Profile name or path (see :func:`pencilbot.machine.profile.load_profile`).
     baud : int
         Emulated bit/s, 0 for unlimited.
     realtime : float

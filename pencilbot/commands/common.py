@@ -11,7 +11,7 @@ from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
-from pencilbot.planning.svg import read_svg
+from pencilbot.export.svg import read_svg
 
 # Style keys a command-line option may override, by option name.
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}

@@ -21,9 +21,9 @@ import numpy as np
 from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
+from pencilbot.machine.profile import DEFAULT_PROFILE
 
 DEFAULT_PHOTO = "coffee"
-DEFAULT_PROFILE = "grbl-servo-a4"
 PREVIEW_DPI = 150.0
 
 
@@ -62,15 +62,16 @@ class _Step:
 
 def run(args: argparse.Namespace) -> int:
     # Heavy imports here, so `pencilbot --help` stays quick.
-    from pencilbot.gcode.profiles import load_profile
-    from pencilbot.gcode.writer import Placement, duration_text, write_gcode
+    from pencilbot.export.gcode import write_gcode
+    from pencilbot.export.svg import write_svg
+    from pencilbot.machine.bed import Placement
+    from pencilbot.machine.profile import load_profile
     from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.planning.build import sketch_and_plan
     from pencilbot.planning.fidelity import fidelity
     from pencilbot.planning.layout import page_size
-    from pencilbot.planning.motion import estimate
-    from pencilbot.planning.svg import write_svg
-    from pencilbot.render import Canvas
+    from pencilbot.planning.preview import preview as plan_preview
+    from pencilbot.planning.stats import duration_text
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
@@ -92,16 +93,14 @@ def run(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     write_svg(plan, out / "plan.svg")
-    preview = Canvas(page.width, page.height, dpi=PREVIEW_DPI, pen_width=style.pen_width)
-    preview.draw_paths(plan.paths())
+    preview = plan_preview(plan, PREVIEW_DPI)
     preview.save_png(out / "preview.png")
     faithful = fidelity(plan, drawing) if style.hatch else None
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
     gcode_path = out / "drawing.gcode"
-    write_gcode(plan, profile, gcode_path, source=image.source)
-    stats = estimate(plan, profile.motion_settings()).total
+    stats = write_gcode(plan, profile, gcode_path, source=image.source).stats.total  # what its header says
     step.done(f"drawing.gcode: {profile.name}", started)
 
     started = time.perf_counter()

@@ -9,6 +9,7 @@ from pencilbot.commands.common import add_verbosity
 from pencilbot.driver import draw
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
+from pencilbot.machine.profile import DEFAULT_PROFILE
 
 
 def add_parser(subparsers) -> None:
@@ -20,7 +21,7 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
-    p.add_argument("--profile", help="plotter profile name or TOML file (default grbl-servo-a4)")
+    p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {DEFAULT_PROFILE})")
     p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through GRBL's $C check mode first")

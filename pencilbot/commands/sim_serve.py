@@ -7,8 +7,7 @@ from pathlib import Path
 
 from pencilbot.commands.common import add_verbosity
 from pencilbot.errors import PencilbotError
-
-DEFAULT_PROFILE = "grbl-servo-a4"
+from pencilbot.machine.profile import DEFAULT_PROFILE
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

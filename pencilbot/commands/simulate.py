@@ -16,10 +16,9 @@ from pathlib import Path
 from pencilbot.commands.common import add_photo_options, add_verbosity, plan_for_input
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
-from pencilbot.gcode.writer import duration_text, gcode_lines
-
-DEFAULT_PROFILE = "grbl-servo-a4"
-GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
+from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_lines
+from pencilbot.machine.profile import DEFAULT_PROFILE
+from pencilbot.planning.stats import duration_text
 _RUNS = itertools.count(1)
 
 

@@ -13,7 +13,7 @@ import time
 from collections import deque
 from collections.abc import Callable, Sequence
 
-from firmware_protocol import grbl
+from firmware_protocol import ProtocolError, grbl
 from pencilbot.driver.faults import BadLine, StreamFault
 from pencilbot.driver.port import LineReader, PortLost
 from pencilbot.errors import PlotError
@@ -30,7 +30,7 @@ def encode_lines(lines: Sequence[str]) -> list[bytes]:
     for index, line in enumerate(lines):
         try:
             encoded.append(grbl.encode_line(line))
-        except PlotError as exc:
+        except ProtocolError as exc:
             raise BadLine(index, str(exc)) from None
     return encoded
 

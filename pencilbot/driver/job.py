@@ -21,7 +21,7 @@ from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import locate_stop, pen_model, resume_preamble
 from pencilbot.errors import PlotError
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import load_profile
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
 
@@ -144,7 +144,7 @@ def draw(
         _check_unchanged(journal, gcode)
     profile = profile or (journal.profile if journal else "grbl-servo-a4")
     prof = load_profile(profile)
-    if check and prof.dialect != "grbl":
+    if check and not prof.firmware.capabilities.check_mode:
         raise PlotError(
             f"--check runs the file through GRBL's $C check mode, and profile {prof.name} is for "
             f"{prof.dialect}, which has none; draw without --check"
@@ -193,7 +193,7 @@ def draw(
     reader = LineReader(open_port(port, baudrate=baud))
     try:
         session = (
-            GrblSession(reader, budget=prof.gcode.receive_buffer, timeout=timeout)
+            GrblSession(reader, budget=prof.receive_buffer, timeout=timeout)
             if prof.dialect == "grbl"
             else MarlinSession(reader, timeout=timeout)
         )

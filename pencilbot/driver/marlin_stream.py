@@ -12,7 +12,7 @@ import re
 import time
 from collections.abc import Callable, Sequence
 
-from firmware_protocol import marlin
+from firmware_protocol import ProtocolError, marlin
 from pencilbot.driver.faults import BadLine, StreamFault
 from pencilbot.driver.port import LineReader, PortLost
 from pencilbot.errors import PlotError
@@ -39,7 +39,7 @@ def check_lines(lines: Sequence[str]) -> None:
     for index, line in enumerate(lines):
         try:
             marlin.frame_line(widest, command_of(line))
-        except PlotError as exc:
+        except ProtocolError as exc:
             raise BadLine(index, str(exc)) from None
 
 

@@ -59,7 +59,7 @@ def resume_preamble(
 
 
 def pen_model(profile) -> PenModel:
-    """The :class:`PenModel` of a :class:`pencilbot.gcode.profiles.Profile`."""
+    """The :class:`PenModel` of a :class:`pencilbot.machine.profile.Profile`."""
     pen = profile.pen
     return PenModel(
         kind=pen.kind,

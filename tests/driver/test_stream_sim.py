@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import load_profile
 
 from sim import protocol_sim
 

@@ -150,7 +150,7 @@ def test_machine_to_bed_mapping(origin, invert_x, invert_y, machine_xy, bed_xy):
 
 
 def test_from_profile_reads_bed_pen_and_motion():
-    from pencilbot.gcode.profiles import load_profile
+    from pencilbot.machine.profile import load_profile
 
     config = MachineConfig.from_profile(load_profile("grbl-z-a3"))
     assert (config.width, config.height, config.invert_x) == (310.0, 430.0, True)

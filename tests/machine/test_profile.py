@@ -13,8 +13,8 @@ from hypothesis import strategies as st
 
 from pencilbot.configs_io import config_folder
 from pencilbot.errors import ProfileError
-from pencilbot.gcode.profiles import TEMPLATE_FIELDS, list_profiles, load_profile
-from pencilbot.gcode.templates import TemplateError, check_template, fill_template
+from pencilbot.machine.profile import TEMPLATE_FIELDS, list_profiles, load_profile
+from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
 SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4"]
 
@@ -56,7 +56,7 @@ def test_shipped_profiles_are_listed_and_load():
     for name in list_profiles():
         profile = load_profile(name)
         assert profile.name == name  # the file name is the name users type
-        assert profile.dialect in ("grbl", "marlin")
+        assert profile.firmware.name == profile.dialect
         assert profile.description
 
 
@@ -87,14 +87,16 @@ def test_name_defaults_to_the_file_name(tmp_path):
     assert load_profile(write_profile(tmp_path, table, "studio.toml")).name == "studio"
 
 
-def test_motion_settings_are_in_mm_per_second():
+def test_motion_is_in_mm_per_second_and_the_pen_model_has_its_commands():
     profile = load_profile("grbl-servo-a4")
-    motion = profile.motion_settings()
-    assert motion.draw_speed == pytest.approx(3000.0 / 60)
-    assert motion.travel_speed == pytest.approx(6000.0 / 60)
-    assert motion.acceleration == 800.0
-    assert motion.junction_deviation == 0.01
-    assert (motion.pen_up_delay, motion.pen_down_delay) == (0.15, 0.2)
+    assert profile.motion.draw_speed == pytest.approx(3000.0 / 60)
+    assert profile.motion.travel_speed == pytest.approx(6000.0 / 60)
+    assert (profile.motion.acceleration, profile.motion.junction_deviation) == (800.0, 0.01)
+    pen = profile.pen_model
+    assert (pen.kind, pen.up, pen.down, pen.up_lines, pen.down_lines) == ("spindle", 30, 90, ("M3 S30",), ("M3 S90",))
+    assert (pen.up_delay, pen.down_delay) == (0.15, 0.2)
+    assert pen.change_seconds(profile.motion) == (0.15, 0.2)
+    assert profile.firmware.title == "GRBL" and profile.receive_buffer == 128
 
 
 def _set(section, key, value):
