@@ -21,10 +21,12 @@ from pathlib import Path
 
 import numpy as np
 
+import sim
 from pencilbot.driver import draw
 from pencilbot.machine.profile import load_profile
 
 PROFILE = "grbl-servo-a4"
+sim.register()
 
 
 def drawing_lines(segments: int, per_path: int = 20, seed: int = 0) -> list[str]:

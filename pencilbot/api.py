@@ -82,5 +82,9 @@ def export_gcode(
 
 
 def draw(gcode: str | Path | list[str], port: str, **options) -> DrawResult:
-    """Stream G-code to a plotter; see :func:`pencilbot.driver.draw` for the options."""
+    """Stream G-code to a plotter (``port="sim://"`` for the virtual one); see
+    :func:`pencilbot.driver.draw` for the options."""
+    import sim
+
+    sim.register()
     return _draw(gcode, port, **options)

@@ -29,7 +29,7 @@ import re
 from dataclasses import dataclass, field
 
 from firmware_protocol import grbl
-from sim.machine import Machine, MachineAlarm, Parsed
+from sim.machine import Machine, MachineAlarm, Parsed, grbl_settings
 
 _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
@@ -398,7 +398,7 @@ class Firmware:
             self._emit("$N0=")
             self._emit("$N1=")
         elif line == "$RST=$":
-            m.settings = m.config.settings()
+            m.settings = grbl_settings(m.profile)
         elif match := _SETTING.match(line):
             return self._reply(index, text, self._store_setting(int(match.group(1)), match.group(2)))
         else:

@@ -7,9 +7,10 @@ way GRBL 1.1's ``gc_execute_line`` does and returns GRBL's status code (0 = ok).
 ``M280 P S`` (servo angle — a sim extension for servo pens), words ``F N P S T X Y Z``. Other
 G/M codes (arcs, probing, G53, G55–G59, inverse time) answer ``error:20``.
 
-The pen is a :class:`PenModel`: a *spindle* pen is down while M3/M4 is on with S closer to the
-profile's ``down`` than ``up``; a *z* pen while Z is closer to ``down``; a *servo* pen while
-the last ``M280`` angle is. Moves are planned (:mod:`sim.planner`) and, as they complete,
+The machine is a profile (:mod:`pencilbot.machine`, the neutral description) and its pen is the
+profile's :class:`~pencilbot.machine.pen.PenModel`: a *spindle* pen is down while M3/M4 is on
+with S closer to the profile's ``down`` than ``up``; a *z* pen while Z is closer to ``down``; a
+*servo* pen while the last ``M280`` angle is. Moves are planned (:mod:`sim.planner`) and, as they complete,
 pen-down moves become :attr:`Machine.strokes` (polylines, machine mm) and pen-up moves
 :attr:`Machine.travel`.
 
@@ -26,6 +27,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pencilbot.machine.motion import axis_limited
+from pencilbot.machine.profile import Profile
 from sim.planner import Block, Planner
 
 # GRBL 1.1 status codes used here (texts in firmware_protocol.grbl.ERRORS).
@@ -69,70 +72,21 @@ class MachineAlarm(Exception):
         self.code = code
 
 
-@dataclass(frozen=True)
-class PenModel:
-    """How the profile moves the pen: ``kind`` and the ``up``/``down`` values."""
-
-    kind: str = "spindle"
-    up: float = 30.0
-    down: float = 90.0
-
-    def is_down(self, value: float) -> bool:
-        return abs(value - self.down) < abs(value - self.up)
-
-
-@dataclass(frozen=True)
-class MachineConfig:
-    """Bed (mm), axis directions, pen, and motion limits that seed GRBL's settings.
-
-    ``origin`` is the bed corner where machine (0, 0) is, seen from above; ``invert_x`` /
-    ``invert_y`` mean machine coordinates run negative into the bed.
-    """
-
-    width: float = 220.0
-    height: float = 310.0
-    origin: str = "bottom-left"
-    invert_x: bool = False
-    invert_y: bool = False
-    pen: PenModel = field(default_factory=PenModel)
-    max_rate: float = 6000.0  # mm/min, $110/$111
-    acceleration: float = 800.0  # mm/s², $120/$121
-    junction_deviation: float = 0.01  # mm, $11
-
-    @classmethod
-    def from_profile(cls, profile) -> MachineConfig:
-        """From a :class:`pencilbot.machine.profile.Profile` (its bed, pen and motion tables)."""
-        bed, motion, pen = profile.bed, profile.motion, profile.pen
-        return cls(
-            width=bed.width, height=bed.height, origin=bed.origin,
-            invert_x=bed.invert_x, invert_y=bed.invert_y,
-            pen=PenModel(pen.kind, float(pen.up), float(pen.down)),
-            max_rate=max(motion.travel_feed, motion.draw_feed),
-            acceleration=motion.acceleration, junction_deviation=motion.junction_deviation,
-        )
-
-    def settings(self) -> dict[int, float]:
-        """GRBL settings for this machine: soft limits and homing on, rates, travel."""
-        s = dict(DEFAULT_SETTINGS)
-        s.update({
-            11: self.junction_deviation, 20: 1, 22: 1,
-            110: self.max_rate, 111: self.max_rate, 112: self.max_rate,
-            120: self.acceleration, 121: self.acceleration, 122: self.acceleration,
-            130: self.width, 131: self.height,
-        })
-        s[23] = (1 if self.invert_x else 0) | (2 if self.invert_y else 0)
-        if self.pen.kind == "spindle":
-            s[30] = max(s[30], self.pen.up, self.pen.down)
-        return s
-
-    def to_bed(self, points: np.ndarray) -> np.ndarray:
-        """Machine XY (mm) → bed mm with origin at the bed's bottom-left, Y up."""
-        pts = np.asarray(points, dtype=np.float64)[:, :2]
-        into_x = -pts[:, 0] if self.invert_x else pts[:, 0]
-        into_y = -pts[:, 1] if self.invert_y else pts[:, 1]
-        x = into_x if self.origin.endswith("left") else self.width - into_x
-        y = into_y if self.origin.startswith("bottom") else self.height - into_y
-        return np.column_stack([x, y])
+def grbl_settings(profile: Profile) -> dict[int, float]:
+    """GRBL settings for the machine ``profile`` describes: soft limits and homing on, its rates,
+    acceleration, junction deviation, travel and homing directions."""
+    motion, bed, pen = profile.motion, profile.bed, profile.pen_model
+    s = dict(DEFAULT_SETTINGS)
+    s.update({
+        11: motion.junction_deviation, 20: 1, 22: 1,
+        110: motion.axis_rate, 111: motion.axis_rate, 112: motion.axis_rate,
+        120: motion.acceleration, 121: motion.acceleration, 122: motion.acceleration,
+        130: bed.width, 131: bed.height,
+    })
+    s[23] = (1 if bed.invert_x else 0) | (2 if bed.invert_y else 0)
+    if pen.kind == "spindle":
+        s[30] = max(s[30], pen.up, pen.down)
+    return s
 
 
 @dataclass
@@ -150,19 +104,20 @@ class Machine:
 
     Parameters
     ----------
-    config : MachineConfig
-        Bed, pen and motion limits.
+    profile : pencilbot.machine.profile.Profile
+        The machine: bed, pen model and motion limits (which seed GRBL's settings).
     instant : bool
         True: whenever the machine has to wait for motion (planner full, a pen change, a
         dwell) the clock jumps ahead at once. False: the caller advances the clock with
         :meth:`advance` and applies a line only when :meth:`must_wait` says it can.
     """
 
-    def __init__(self, config: MachineConfig | None = None, *, instant: bool = True):
-        self.config = config or MachineConfig()
+    def __init__(self, profile: Profile, *, instant: bool = True):
+        self.profile = profile
+        self.pen = profile.pen_model
         self.instant = instant
-        self.settings = self.config.settings()
-        self.planner = Planner()
+        self.settings = grbl_settings(profile)
+        self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
         self._strokes: list[np.ndarray] = []  # finished pen-down polylines, machine mm
         self.travel: list[np.ndarray] = []  # pen-up moves, machine mm
         self.messages: list[str] = []  # push messages for the firmware to print
@@ -185,14 +140,14 @@ class Machine:
         self.coolant = 9
         self.s = 0.0
         self.tool = 0
-        self.servo_angle = self.config.pen.up
+        self.servo_angle = self.pen.up
         self.line_number = 0
         self.g92 = (0.0, 0.0, 0.0)
         self.check_mode = False
 
     @property
     def pen_down(self) -> bool:
-        pen = self.config.pen
+        pen = self.pen
         if pen.kind == "z":
             return pen.is_down(self.position[2])
         if pen.kind == "servo":
@@ -428,8 +383,8 @@ class Machine:
             return False
         eps = 1e-6
         for value, travel, inverted in (
-            (target[0], self.settings[130], self.config.invert_x),
-            (target[1], self.settings[131], self.config.invert_y),
+            (target[0], self.settings[130], self.profile.bed.invert_x),
+            (target[1], self.settings[131], self.profile.bed.invert_y),
         ):
             lo, hi = (-travel, 0.0) if inverted else (0.0, travel)
             if not lo - eps <= value <= hi + eps:
@@ -448,19 +403,12 @@ class Machine:
         if length < 1e-9 or self.check_mode:
             return
         unit = (delta[0] / length, delta[1] / length, delta[2] / length)
-        # Per-axis limits along the move, as GRBL's limit_value_by_axis_maximum.
-        rate = accel = math.inf
         settings = self.settings
-        for i, u in enumerate(unit):
-            if u:
-                u = abs(u)
-                if settings[110 + i] < rate * u:
-                    rate = settings[110 + i] / u
-                if settings[120 + i] < accel * u:
-                    accel = settings[120 + i] / u
+        rate, accel = axis_limited(unit, (settings[110], settings[111], settings[112]),
+                                   (settings[120], settings[121], settings[122]))
         rate /= 60.0
         nominal = rate if rapid else min((feed or self.feed) / 60.0, rate)
-        pen = pen_before and (self.config.pen.kind != "z" or self.pen_down)
+        pen = pen_before and (self.pen.kind != "z" or self.pen_down)
         if self.instant and self.planner.free_blocks == 0:
             self._complete([self.planner.finish_one()])
         self.planner.add(Block(start, target, length, unit, nominal, accel, pen), settings[11])
@@ -545,7 +493,7 @@ class Machine:
 
     def bed_strokes(self) -> list[np.ndarray]:
         """Pen-down polylines in bed mm (bottom-left origin, Y up) for :class:`pencilbot.render.Canvas`."""
-        return [self.config.to_bed(s) for s in self.strokes]
+        return [self.profile.bed.to_view(s) for s in self.strokes]
 
     def bed_travel(self) -> list[np.ndarray]:
-        return [self.config.to_bed(s) for s in self.travel]
+        return [self.profile.bed.to_view(s) for s in self.travel]

@@ -104,10 +104,19 @@ def run(args: argparse.Namespace) -> int:
     step.done(f"drawing.gcode: {profile.name}", started)
 
     started = time.perf_counter()
-    placement = Placement.on_bed(page, profile.bed)
-    simulated, agreement = _stream(args, gcode_path, placement, preview, out)
-    step.done("plot.png: what the virtual plotter drew" if args.port is None
-              else f"streamed to {args.port}", started)
+    simulated = agreement = None
+    if args.port is not None:
+        from pencilbot.driver import draw
+
+        draw(gcode_path, args.port, profile=args.profile, progress=_progress(args))
+        step.done(f"streamed to {args.port}", started)
+    elif profile.firmware.capabilities.realtime_protocol:
+        placement = Placement.on_bed(page, profile.bed)
+        simulated, agreement = _simulate(args, gcode_path, placement, preview, out)
+        step.done("plot.png: what the virtual plotter drew", started)
+    elif not step.quiet:
+        print(f"  plot.png: skipped; the virtual plotter speaks GRBL's protocol, not "
+              f"{profile.firmware.title}'s (draw drawing.gcode with --port)")
 
     summary = {
         "source": image.source,
@@ -144,27 +153,26 @@ def _photo(args: argparse.Namespace, load_image, image_from_array):
     return image_from_array(getattr(data, DEFAULT_PHOTO)(), source=f"skimage.data.{DEFAULT_PHOTO}")
 
 
-def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float | None, float | None]:
-    """Stream the G-code; on the virtual plotter also save plot.png and compare it with the preview.
+def _progress(args: argparse.Namespace) -> str:
+    return "quiet" if args.quiet or args.json else "bar"
 
-    Returns the simulated seconds and the correlation of the plot with the preview (both None
-    on a real port).
+
+def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float, float]:
+    """Stream the G-code to the virtual plotter, save plot.png and compare it with the preview.
+
+    Returns the simulated seconds and the correlation of the plot with the preview.
     """
+    import sim
     from pencilbot.driver import draw
-
-    progress = "quiet" if args.quiet or args.json else "bar"
-    if args.port is not None:
-        draw(gcode_path, args.port, profile=args.profile, progress=progress)
-        return None, None
-
     from pencilbot.planning.fidelity import pearson
-    from sim import protocol_sim
     from pencilbot.render import Canvas
+    from sim import protocol_sim
 
+    sim.register()
     name = f"demo-{os.getpid()}"
     query = urllib.parse.urlencode({"profile": args.profile})
     try:
-        draw(gcode_path, f"sim://{name}?{query}", profile=args.profile, progress=progress)
+        draw(gcode_path, f"sim://{name}?{query}", profile=args.profile, progress=_progress(args))
         plotter = protocol_sim.plotter(name)
         plotter.firmware.finish()
         # What the pen drew, carried back from machine to page coordinates: same frame as the preview.

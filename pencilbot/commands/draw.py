@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import sim
+
 from pencilbot.commands.common import add_verbosity
 from pencilbot.driver import draw
 from pencilbot.driver.journal import load_journal
@@ -58,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
     if port is None:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
+    sim.register()  # --port sim://… reaches the virtual plotter
     result = draw(
         gcode, port, profile=args.profile, baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,

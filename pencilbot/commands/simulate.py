@@ -52,9 +52,11 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"name the output {output} with .png")
     if args.dpi <= 0 or args.realtime < 0 or (args.pen_width is not None and args.pen_width <= 0):
         raise PencilbotError("--dpi and --pen-width must be positive and --realtime 0 or more")
+    import sim
     from sim import protocol_sim
 
-    profile = protocol_sim.grbl_profile(args.profile)  # fails before any slow planning
+    sim.register()
+    profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
     lines, pen_width = _gcode(source, profile, args)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"

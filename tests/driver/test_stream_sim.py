@@ -20,7 +20,10 @@ from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 
+import sim
 from sim import protocol_sim
+
+sim.register()
 
 PROFILE = "grbl-servo-a4"
 _names = itertools.count()
@@ -254,7 +257,6 @@ def test_resuming_a_finished_job_says_so_and_sends_nothing(job):
 def test_a_board_left_in_feed_hold_is_refused_instead_of_waited_on_forever(job):
     path, _ = job
     url, name = fresh()
-    protocol_sim.register()
     with serial.serial_for_url(url) as port:
         port.write(b"!")  # another sender paused the board; it has no auto-reset
     outcome = []

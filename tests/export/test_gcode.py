@@ -373,13 +373,13 @@ def test_a_path_ending_at_home_needs_no_return_move():
 @pytest.mark.parametrize("name", ["grbl-servo-a4", "grbl-z-a3"])
 def test_virtual_grbl_accepts_every_line_and_draws_the_plan(name):
     from sim.firmware import Firmware
-    from sim.machine import Machine, MachineConfig
+    from sim.machine import Machine
 
     profile = load_profile(name)
     rng = np.random.default_rng(7)
     paths = [rng.uniform([20, 20], [190, 277], (rng.integers(2, 6), 2)) for _ in range(40)]
     plan = plan_of(paths)
-    board = Firmware(Machine(MachineConfig.from_profile(profile)))
+    board = Firmware(Machine(profile))
     board.take_output()  # banner
     for line in gcode_lines(plan, profile):
         board.receive(line.encode("ascii") + b"\n")

@@ -5,15 +5,18 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_protocol import grbl
+from machines import description
+
+from pencilbot.machine.pen import PenModel
 from sim.firmware import GARBAGE, Faults, Firmware, filter_line
-from sim.machine import Machine, MachineConfig, PenModel
+from sim.machine import Machine
 
 BANNER = "\r\nGrbl 1.1h ['$' for help]\r\n"
 IDLE0 = "<Idle|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
 
 
 def board(*, instant=True, faults="", **config):
-    fw = Firmware(Machine(MachineConfig(**config), instant=instant), Faults.parse(faults))
+    fw = Firmware(Machine(description(**config), instant=instant), Faults.parse(faults))
     assert fw.take_output().decode() == BANNER
     return fw
 

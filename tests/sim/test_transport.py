@@ -8,11 +8,13 @@ import serial
 
 from firmware_protocol import grbl
 from pencilbot.errors import ProfileError
+import sim
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from sim import protocol_sim
 from sim.protocol_sim import VirtualPlotter, plotter
 from sim.pty_server import PtyServer
 
-protocol_sim.register()
+sim.register()
 DPI = 150
 
 SQUARE = ["G21", "G90", "M3 S30", "G0 X20 Y20", "M3 S90", "G1 X60 F3000", "G1 Y60", "G1 X20", "G1 Y20",
@@ -66,7 +68,7 @@ def test_square_through_sim_url_and_through_a_pty_gives_the_same_image():
     via_url = drawing(plotter("square-url"))
     check_square(via_url)
 
-    served = VirtualPlotter()
+    served = VirtualPlotter(load_profile(DEFAULT_PROFILE))
     with PtyServer(served) as server, serial.Serial(server.path, 115200, timeout=0.05) as port:
         send_and_wait(port, SQUARE)
     via_pty = drawing(served)
