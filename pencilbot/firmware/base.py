@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from types import ModuleType
 
+from firmware_protocol import ProtocolError
+
 #: What a reply from the board means to a sender.
 OK = "ok"  # a line was taken (GRBL: parsed and queued; Marlin: executed)
 ERROR = "error"  # a line was refused (``detail`` says why)
@@ -169,9 +171,29 @@ class Firmware:
         """
         raise NotImplementedError
 
-    def command_of(self, line: str) -> str:
-        """The command a cleaned job line sends (a numbering framework may strip its own)."""
-        return line
+    def commands(self, cleaned: bytes) -> bytes:
+        """Cleaned lines (one per line of the buffer) as this firmware's sender sends them:
+        unchanged, unless the sender numbers lines itself (then numbers written in a file go)."""
+        return cleaned
+
+    def check_lines(self, job) -> tuple[int, str] | None:
+        """The first line of ``job`` this firmware cannot take, and why; None if all are fine.
+
+        ``job`` has ``len()``, ``line(i)``, ``frames`` and ``offsets`` (a
+        :class:`pencilbot.driver.job.Job`). Firmware modules check the whole buffer with numpy and
+        frame only the suspects; this fallback frames every line.
+        """
+        return self._first_refused(job, range(len(job)))
+
+    def _first_refused(self, job, suspects, number: int | None = None) -> tuple[int, str] | None:
+        """Frame each suspect line (numbered ``number``, else its position); the first refusal."""
+        for index in suspects:
+            text = job.frames[job.offsets[index] : job.offsets[index + 1] - 1].decode("utf-8", errors="replace")
+            try:
+                self.frame(text, index + 1 if number is None else number)
+            except ProtocolError as exc:
+                return index, str(exc)
+        return None
 
     def renumber(self) -> tuple[str, int] | None:
         """The command (and its number) that restarts line numbering, or None."""

@@ -2,12 +2,21 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from firmware_protocol import grbl as protocol
 from pencilbot.firmware.base import (
     ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply,
 )
 
 _STILL = ("Idle", "Alarm", "Check", "Sleep")  # states in which nothing moves
+# Byte tables: what GRBL's line buffer drops (whitespace, control characters, block delete), and
+# what a line may not hold at all (non-ASCII, realtime commands).
+_DROPPED = np.zeros(256, dtype=bool)
+_DROPPED[: ord(" ") + 1] = _DROPPED[ord("/")] = True
+_ODD = np.zeros(256, dtype=bool)
+_ODD[128:] = True
+_ODD[list(protocol.REALTIME_BYTES)] = True
 
 
 class Grbl(Firmware):
@@ -36,6 +45,17 @@ class Grbl(Firmware):
 
     def frame(self, command: str, number: int = 0) -> bytes:
         return self.protocol.encode_line(command)
+
+    def check_lines(self, job) -> tuple[int, str] | None:
+        a = np.frombuffer(job.frames, dtype=np.uint8)
+        line_of = lambda at: np.searchsorted(job.offsets, at, side="right") - 1  # noqa: E731
+        # What the line buffer keeps: no whitespace, control characters or block delete (the
+        # newline of each line is one of those).
+        dropped = np.bincount(line_of(np.flatnonzero(_DROPPED[a])), minlength=len(job))
+        significant = np.diff(job.offsets) - dropped
+        odd = np.flatnonzero(_ODD[a])
+        suspects = np.union1d(np.flatnonzero(significant > self.line_limit), line_of(odd))
+        return self._first_refused(job, suspects.tolist())
 
     def parse(self, text: str) -> Reply:
         message = self.protocol.parse_line(text)

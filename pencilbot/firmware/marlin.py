@@ -13,7 +13,9 @@ from pencilbot.firmware.base import (
 
 #: ``Error:`` texts that announce a ``Resend`` (a line lost to noise) rather than a refused command.
 _TRANSMISSION_ERRORS = ("checksum", "line number", "no line number", "no checksum")
-_FRAMED = re.compile(r"N\d+(.*?)(?:\*\d+)?")
+_FRAMED = re.compile(rb"(?m)^N\d+(.*?)(?:\*\d+)?$")
+_ODD = np.zeros(256, dtype=bool)  # bytes a framed line may not hold: non-ASCII, '*'
+_ODD[128:] = _ODD[ord("*")] = True
 
 
 class Marlin(Firmware):
@@ -35,11 +37,19 @@ class Marlin(Firmware):
     def frame(self, command: str, number: int) -> bytes:
         return self.protocol.frame_line(number, command)
 
-    def command_of(self, line: str) -> str:
-        """A cleaned line without the ``N…`` / ``*checksum`` a profile with line numbers wrote
-        into the file: the sender numbers lines itself, continuing where the board expects."""
-        framed = _FRAMED.fullmatch(line)
-        return framed.group(1) if framed else line
+    def commands(self, cleaned: bytes) -> bytes:
+        """The lines without the ``N…`` / ``*checksum`` a profile with line numbers wrote into the
+        file: the sender numbers lines itself, continuing where the board expects."""
+        return _FRAMED.sub(rb"\1", cleaned)
+
+    def check_lines(self, job) -> tuple[int, str] | None:
+        widest = len(job) + 10  # line numbers grow with resends and set-up commands
+        a = np.frombuffer(job.frames, dtype=np.uint8)
+        lengths = np.diff(job.offsets) - 1
+        room = self.protocol.MAX_CMD_SIZE - len(f"N{widest} *0")  # the shortest checksum
+        odd = np.flatnonzero(_ODD[a])
+        suspects = np.union1d(np.flatnonzero(lengths >= room), np.searchsorted(job.offsets, odd, side="right") - 1)
+        return self._first_refused(job, suspects.tolist(), number=widest)
 
     def renumber(self) -> tuple[str, int]:
         return "M110 N0", 0  # the next line is N1
