@@ -38,6 +38,9 @@ JOG_CANCEL = b"\x85"
 VERSION = "1.1h"
 BUILD_DATE = "20190825"
 BANNER = f"Grbl {VERSION} ['$' for help]"
+#: What ``$`` prints, and ``$I`` (build info: version, options, planner blocks, receive buffer).
+HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
+BUILD_INFO = (f"[VER:{VERSION}.{BUILD_DATE}:]", f"[OPT:V,{BLOCK_BUFFER_SIZE - 1},{RX_BUFFER_SIZE}]")
 
 #: ``error:N`` → (short name, explanation), GRBL 1.1.
 ERRORS: dict[int, tuple[str, str]] = {
@@ -357,30 +360,32 @@ def significant_length(line: str) -> int:
     return count
 
 
-def encode_line(line: str) -> bytes:
+def encode_line(line: str, *, line_buffer: int = LINE_BUFFER_SIZE, firmware: str = "GRBL") -> bytes:
     """Frame one G-code line for sending: ASCII, stripped, terminated by a single ``\\n``.
 
     A sender must count ``len(encode_line(line))`` bytes against :data:`RX_BUFFER_SIZE`.
+    ``line_buffer`` and ``firmware`` let a firmware with GRBL's protocol and a longer line
+    buffer (grblHAL) frame by the same rules.
 
     Raises
     ------
     ProtocolError
         If the line is not ASCII, contains a line break or a realtime byte, or holds more
-        significant characters than GRBL's line buffer takes (the board would reject it).
+        significant characters than the line buffer takes (the board would reject it).
     """
     text = line.strip()
     if not text.isascii():
-        raise ProtocolError(f"G-code line {text!r} contains non-ASCII characters; GRBL takes ASCII only.")
+        raise ProtocolError(f"G-code line {text!r} contains non-ASCII characters; {firmware} takes ASCII only.")
     bad = [ch for ch in text if ch in "\r\n" or ord(ch) in REALTIME_BYTES]
     if bad:
         raise ProtocolError(
-            f"G-code line {text!r} contains {bad[0]!r}, which GRBL treats as a line end or a "
+            f"G-code line {text!r} contains {bad[0]!r}, which {firmware} treats as a line end or a "
             "realtime command; remove it from the G-code."
         )
-    if significant_length(text) >= LINE_BUFFER_SIZE:
+    if significant_length(text) >= line_buffer:
         raise ProtocolError(
             f"G-code line is {significant_length(text)} characters long (without spaces and "
-            f"comments); GRBL accepts at most {LINE_BUFFER_SIZE - 1}. Split the move or use "
+            f"comments); {firmware} accepts at most {line_buffer - 1}. Split the move or use "
             "fewer decimals."
         )
     return text.encode("ascii") + b"\n"

@@ -1,5 +1,8 @@
 """The virtual plotter's GRBL 1.1 serial front end: bytes in, bytes out.
 
+A firmware that speaks GRBL's protocol with other limits (grblHAL) gets its own banner, receive
+buffer, line buffer, planner depth and build info, from its :mod:`firmware_protocol` module.
+
 :class:`Firmware` behaves like GRBL's serial ISR + protocol loop in front of a
 :class:`sim.machine.Machine`:
 
@@ -35,8 +38,6 @@ _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
 _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
 _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block delete
-_RING = grbl.RX_BUFFER_SIZE - 1  # one slot of the ring stays empty
-_HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
 _SETTING = re.compile(r"^\$(\d+)=(.*)$")
 _FLOAT = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)$")
 FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "garbage")
@@ -81,12 +82,12 @@ class LoggedLine:
     reply: str
 
 
-def filter_line(raw: bytes) -> str | None:
+def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | None:
     """GRBL's protocol-loop filter: the significant characters, or ``None`` on overflow."""
     if b"(" in raw or b";" in raw:
         raw = re.sub(rb"\([^)]*\)?|;.*", b"", raw)
     text = raw.translate(None, _DROPPED).upper()
-    if len(text) >= grbl.LINE_BUFFER_SIZE:
+    if len(text) >= line_buffer:
         return None
     return text.decode("latin-1")
 
@@ -104,6 +105,9 @@ class Firmware:
 
     def __init__(self, machine: Machine, faults: Faults | None = None):
         self.machine = machine
+        # The protocol's limits and texts: GRBL 1.1's, or a firmware's that speaks it (grblHAL).
+        self.protocol = machine.profile.firmware.protocol
+        self._ring_size = self.protocol.RX_BUFFER_SIZE - 1  # one slot of the ring stays empty
         self.faults = faults or Faults()
         self.out = bytearray()
         self.log: list[LoggedLine] = []
@@ -121,7 +125,7 @@ class Firmware:
         self._jog = False  # the planner holds a $J= move
         self._wco_counter = 0
         self._ovr_counter = 0
-        self._emit("\r\n" + grbl.BANNER)
+        self._emit("\r\n" + self.protocol.BANNER)
 
     # --- bytes in / out ---------------------------------------------------------------------
 
@@ -159,7 +163,7 @@ class Firmware:
             elif b >= 0x80:
                 continue  # other extended realtime commands (overrides) are not emulated
             elif self._blocked:
-                if len(self._ring) < _RING:
+                if len(self._ring) < self._ring_size:
                     self._ring.append(b)
                 else:
                     self.lost_bytes += 1
@@ -255,7 +259,7 @@ class Firmware:
         self._pending = None
         self._critical = self._hold = False
         self._wco_counter = self._ovr_counter = 0
-        self._emit("\r\n" + grbl.BANNER)
+        self._emit("\r\n" + self.protocol.BANNER)
         if self._alarm:
             self._emit("[MSG:'$H'|'$X' to unlock]")
 
@@ -284,7 +288,7 @@ class Firmware:
         elif kind == "reset":
             self._reply(index, text, "-", emit=False)
             return self.reset(reboot=True)
-        line = filter_line(raw)
+        line = filter_line(raw, self.protocol.LINE_BUFFER_SIZE)
         if line is None:
             self._reply(index, text, "error:11")
         elif not line:
@@ -381,7 +385,7 @@ class Firmware:
         elif not idle:
             return self._reply(index, text, "error:8")
         elif line == "$":
-            self._emit(_HELP)
+            self._emit(self.protocol.HELP)
         elif line == "$$":
             for number, value in m.settings.items():
                 self._emit(grbl.format_message(grbl.Setting(number, value)))
@@ -392,8 +396,8 @@ class Firmware:
             self._emit("[TLO:0.000]")
             self._emit("[PRB:0.000,0.000,0.000:0]")
         elif line == "$I":
-            self._emit(f"[VER:{grbl.VERSION}.{grbl.BUILD_DATE}:]")
-            self._emit(f"[OPT:V,{grbl.BLOCK_BUFFER_SIZE - 1},{grbl.RX_BUFFER_SIZE}]")
+            for info in self.protocol.BUILD_INFO:
+                self._emit(info)
         elif line == "$N":
             self._emit("$N0=")
             self._emit("$N1=")
@@ -448,7 +452,7 @@ class Firmware:
         fields = dict(
             mpos=pos if mask & 1 else None,
             wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, m.g92)),
-            buffer=(m.planner.free_blocks, grbl.RX_BUFFER_SIZE - len(self._ring)) if mask & 2 else None,
+            buffer=(m.planner.free_blocks, self.protocol.RX_BUFFER_SIZE - len(self._ring)) if mask & 2 else None,
             feed=feed,
             spindle=m.s if m.spindle != 5 else 0.0,
         )

@@ -18,7 +18,7 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "draw",
         help="stream G-code to a pen plotter over serial",
-        description="Stream a G-code file to a GRBL or Marlin plotter. If the job stops (error, alarm, "
+        description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter. If the job stops (error, alarm, "
         "reset, lost port, Ctrl-C) the message gives the exact command to resume it.",
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
@@ -26,7 +26,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {DEFAULT_PROFILE})")
     p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
-    p.add_argument("--check", action="store_true", help="run the file through GRBL's $C check mode first")
+    p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
     p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
     p.add_argument("--on-error", choices=("stop", "continue"), default="stop",
                    help="on error:N stop (feed hold, pen up; default) or log it and continue")

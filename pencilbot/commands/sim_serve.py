@@ -15,13 +15,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "sim-serve",
         help="serve the virtual GRBL plotter on a pseudo-terminal",
         description=(
-            "Start a virtual GRBL 1.1 plotter on a new pseudo-terminal and print its device path; "
+            "Start a virtual GRBL 1.1 (or grblHAL, with such a profile) plotter on a new pseudo-terminal "
+            "and print its device path; "
             "open that path with any sender (pencilbot draw --port PATH, Universal G-code Sender, "
             "a terminal). Runs until Ctrl-C, then saves what was drawn if -o is given."
         ),
     )
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
+                        help=f"GRBL or grblHAL plotter profile (default {DEFAULT_PROFILE})")
     parser.add_argument("--realtime", type=float, default=1.0, metavar="R",
                         help="move R times faster than real time; 0 = instant (default %(default)g)")
     parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default %(default)s: unlimited)")

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 from pencilbot.firmware.base import Firmware
 from pencilbot.firmware.grbl import GRBL
+from pencilbot.firmware.grblhal import GRBLHAL
 from pencilbot.firmware.marlin import MARLIN
 
-REGISTRY: dict[str, Firmware] = {firmware.name: firmware for firmware in (GRBL, MARLIN)}
+REGISTRY: dict[str, Firmware] = {firmware.name: firmware for firmware in (GRBL, GRBLHAL, MARLIN)}
 
 
 def names() -> tuple[str, ...]:

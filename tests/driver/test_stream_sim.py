@@ -35,10 +35,10 @@ def fresh(options: str = "") -> tuple[str, str]:
     return f"sim://{name}" + (f"?{options}" if options else ""), name
 
 
-def drawing(strokes: int = 12, per_stroke: int = 6, seed: int = 1) -> list[str]:
+def drawing(strokes: int = 12, per_stroke: int = 6, seed: int = 1, profile: str = PROFILE) -> list[str]:
     """A small plot: short random-walk strokes, pen commands from the profile, a comment or two."""
-    profile = load_profile(PROFILE)
-    up, down = profile.render(profile.pen.up_command), profile.render(profile.pen.down_command)
+    pen = load_profile(profile).pen_model
+    up, down = list(pen.up_lines), list(pen.down_lines)
     rng = np.random.default_rng(seed)
     lines = ["G21 ; mm", "G90", *up]
     x, y = 60.0, 80.0
@@ -66,6 +66,7 @@ def accepted(name: str) -> list[str]:
 
 
 def darkness(name: str) -> np.ndarray:
+    """What the plotter behind ``sim://name`` has drawn, coarsely."""
     return protocol_sim.plotter(name).canvas(dpi=40).darkness
 
 
@@ -130,6 +131,7 @@ def test_fault_stops_with_one_message_naming_line_and_resume_command(job, kind, 
 
 
 def resume(path, name):
+    """Clear the glitch and resume the stopped job of ``path`` on the same plotter."""
     plotter = protocol_sim.plotter(name)
     plotter.firmware.faults.at.clear()  # the glitch is over
     plotter.firmware.silent = False

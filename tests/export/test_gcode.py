@@ -24,9 +24,10 @@ from pencilbot.machine.bed import Placement
 from pencilbot.planning.plan import Layer, Page, Plan
 
 A4 = Page(210.0, 297.0, margin=15.0, name="A4")
-PROFILES = ["grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4"]
+PROFILES = ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4"]
 ALLOWED = {
     "grbl": {"G0", "G1", "G4", "G21", "G90", "G94", "M3"},
+    "grblhal": {"G0", "G1", "G4", "G21", "G90", "G94", "M3"},
     "marlin": {"G0", "G1", "G4", "G21", "G90", "M280", "M400", "M84", "M110"},
 }
 
@@ -370,7 +371,7 @@ def test_a_path_ending_at_home_needs_no_return_move():
 # --- the virtual GRBL runs it --------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["grbl-servo-a4", "grbl-z-a3"])
+@pytest.mark.parametrize("name", ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3"])
 def test_virtual_grbl_accepts_every_line_and_draws_the_plan(name):
     from sim.firmware import Firmware
     from sim.machine import Machine

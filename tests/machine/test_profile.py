@@ -16,7 +16,7 @@ from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import TEMPLATE_FIELDS, list_profiles, load_profile
 from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
-SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4"]
+SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4"]
 
 
 def shipped_table(name: str = "grbl-servo-a4") -> dict:
@@ -121,7 +121,7 @@ BAD = {
     "wrong type (number for flag)": (_set("bed", "invert_y", 1), ["[bed] invert_y", "true or false"]),
     "wrong type (number for template)": (_set("pen", "up_command", 3), ["[pen] up_command", "string"]),
     "missing key": (_drop("motion", "draw_feed"), ["missing key [motion] draw_feed", "mm/min"]),
-    "missing dialect": (_drop("", "dialect"), ["missing key dialect", '"grbl" or "marlin"']),
+    "missing dialect": (_drop("", "dialect"), ["missing key dialect", '"grbl" or "grblhal" or "marlin"']),
     "missing table": (_drop("", "pen"), ["missing table [pen]", "kind"]),
     "not a table": (_set("", "bed", 5), ["bed = 5", "table [bed]"]),
     "negative feed": (_set("motion", "travel_feed", -100), ["[motion] travel_feed = -100", "> 0 and ≤ 1000000 mm/min"]),
