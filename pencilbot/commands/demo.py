@@ -104,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
     step.done(f"drawing.gcode: {profile.name}", started)
 
     started = time.perf_counter()
-    simulated = agreement = None
+    simulated = agreement = simulated_up = None
     if args.port is not None:
         from pencilbot.driver import draw
 
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         step.done(f"streamed to {args.port}", started)
     elif profile.firmware.capabilities.realtime_protocol:
         placement = Placement.on_bed(page, profile.bed)
-        simulated, agreement = _simulate(args, gcode_path, placement, preview, out)
+        simulated, simulated_up, agreement = _simulate(args, gcode_path, placement, preview, out)
         step.done("plot.png: what the virtual plotter drew", started)
     elif not step.quiet:
         print(f"  plot.png: skipped; the virtual plotter speaks GRBL's protocol, not "
@@ -128,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
         "lifts": stats.lifts,
         "estimated_s": round(stats.seconds, 1),
         "simulated_s": None if simulated is None else round(simulated, 1),
+        "simulated_pen_up_m": None if simulated_up is None else round(simulated_up / 1000, 2),
         "plot_vs_preview_r": _figure(agreement, 4),
         "line_fidelity_r": _figure(None if faithful is None else faithful.line_r, 3),
         "tone_fidelity_r": _figure(None if faithful is None else faithful.tone_r, 3),
@@ -157,10 +158,11 @@ def _progress(args: argparse.Namespace) -> str:
     return "quiet" if args.quiet or args.json else "bar"
 
 
-def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float, float]:
+def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float, float, float]:
     """Stream the G-code to the virtual plotter, save plot.png and compare it with the preview.
 
-    Returns the simulated seconds and the correlation of the plot with the preview.
+    Returns the simulated seconds, the pen-up travel it made (mm) and the correlation of the
+    plot with the preview.
     """
     import sim
     from pencilbot.driver import draw
@@ -178,12 +180,13 @@ def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[fl
         # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
         drawn = [placement.to_page(stroke[:, :2]) for stroke in plotter.machine.strokes]
         seconds = plotter.seconds
+        pen_up = sum(float(np.hypot(*np.diff(move, axis=0).T).sum()) for move in plotter.machine.travel)
     finally:
         protocol_sim.forget(name)
     plot = Canvas(preview.width_mm, preview.height_mm, dpi=PREVIEW_DPI, pen_width=preview.pen_width)
     plot.draw_paths(drawn)
     plot.save_png(out / "plot.png")
-    return seconds, pearson(plot.darkness, preview.darkness)
+    return seconds, pen_up, pearson(plot.darkness, preview.darkness)
 
 
 def _summary_text(s: dict, duration_text) -> str:

@@ -135,7 +135,7 @@ def axis_scale(units: np.ndarray) -> np.ndarray:
     return 1.0 / np.maximum(np.abs(units).max(axis=1), 1e-12)
 
 
-def path_speeds(lengths: np.ndarray, units: np.ndarray, joined: np.ndarray, speed: float,
+def path_speeds(lengths: np.ndarray, units: np.ndarray, joined: np.ndarray, speed,
                 accel, deviation: float) -> np.ndarray:
     """Speed (mm/s) at every vertex of a run of moves, planned with unlimited look-ahead.
 
@@ -147,8 +147,8 @@ def path_speeds(lengths: np.ndarray, units: np.ndarray, joined: np.ndarray, spee
         Their unit directions.
     joined : (M − 1,) bool array
         Whether move ``k + 1`` follows move ``k`` without a stop (same path); a stop otherwise.
-    speed : float
-        Nominal speed of every move, mm/s.
+    speed : float or (M,) array
+        Nominal speed of each move, mm/s (a corner is taken at most at the slower one's).
     accel : float or (M,) array
         Acceleration of each move, mm/s² (a corner is planned with the next move's).
     deviation : float
@@ -168,10 +168,11 @@ def path_speeds(lengths: np.ndarray, units: np.ndarray, joined: np.ndarray, spee
     """
     count = len(lengths)
     accel = np.broadcast_to(np.asarray(accel, np.float64), lengths.shape)
+    speed = np.broadcast_to(np.asarray(speed, np.float64), lengths.shape)
     cos_theta = -np.einsum("ij,ij->i", units[:-1], units[1:])  # GRBL's junction_cos_theta
     corner = junction_speeds_squared(cos_theta, accel[1:], deviation)
     cap = np.zeros(count + 1)  # v² limit at each vertex
-    cap[1:-1] = np.where(joined, np.minimum(corner, speed**2), 0.0)
+    cap[1:-1] = np.where(joined, np.minimum(corner, np.minimum(speed[:-1], speed[1:]) ** 2), 0.0)
     along = np.concatenate([[0.0], np.cumsum(2.0 * accel * lengths)])
     ahead = np.minimum.accumulate((cap + along)[::-1])[::-1] - along
     behind = np.minimum.accumulate(cap - along) + along

@@ -1,9 +1,9 @@
 """The pen model: how a plotter lifts and lowers its pen, and what that costs in time.
 
-One model serves every side: the G-code writer and the time estimate ask it how long a lift or
-a drop takes, the driver asks it whether a tracked machine state has the pen down and which
-lines raise it, and the virtual plotter asks it whether what it executed put the pen on the
-paper. It is built from a profile's ``[pen]`` table by
+One model serves every side: the G-code writer takes its commands and dwells, the time estimate
+asks whether lifting is a move of the axes (a Z pen) or a pause (a servo), and how fast, the
+driver asks whether a tracked machine state has the pen down and which lines raise it, and the
+virtual plotter asks whether what it executed put the pen on the paper. It is built from a profile's ``[pen]`` table by
 :meth:`pencilbot.machine.profile.Profile.pen_model`.
 """
 
@@ -12,7 +12,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from pencilbot.machine.motion import Motion, move_times
+from pencilbot.machine.motion import Motion
 
 #: How the pen moves: ``spindle`` (a servo on the spindle PWM: ``M3 S…`` down/up, ``M5`` up),
 #: ``z`` (the Z axis), ``servo`` (``M280 … S<angle>``).
@@ -50,26 +50,17 @@ class PenModel:
         closer to ``down`` than to ``up``)."""
         return abs(value - self.down) < abs(value - self.up)
 
-    def change_seconds(self, motion: Motion) -> tuple[float, float]:
-        """Seconds a lift and a drop take: the dwell, plus the Z travel for a Z pen.
+    @property
+    def moves_with_the_axes(self) -> bool:
+        """Whether lifting and lowering are planner moves (a Z pen): they join the drawing's
+        motion at corners instead of stopping it, as a spindle or servo change does."""
+        return self.kind == "z"
 
-        A Z pen's move runs from rest to rest (GRBL stops at the pen's corner only to within
-        the junction speed, a few mm/s: negligible) at its own line's ``G1 F`` feed, else at the
-        axis's rapid rate.
-        """
-        lift, drop = self.up_delay, self.down_delay
-        if self.kind == "z":
-            travel = abs(self.up - self.down)
-            lift += float(move_times(travel, 0.0, 0.0, self._z_speed(self.up_lines, motion), motion.acceleration))
-            drop += float(move_times(travel, 0.0, 0.0, self._z_speed(self.down_lines, motion), motion.acceleration))
-        return lift, drop
-
-    @staticmethod
-    def _z_speed(lines: tuple[str, ...], motion: Motion) -> float:
-        """mm/s of the Z move in ``lines``: a ``G1 … F`` feed, else the rapid rate."""
-        for line in lines:
+    def z_speed(self, motion: Motion, *, lifting: bool) -> float:
+        """mm/s of a Z pen's lift (or drop): its line's ``G1 … F`` feed, else the axis's rapid rate."""
+        for line in self.up_lines if lifting else self.down_lines:
             code = line.split(";")[0]
-            feed = _FEED_WORD.search(code)
             if _FEED_MOVE.search(code):
+                feed = _FEED_WORD.search(code)
                 return min(float(feed.group(1)) if feed else motion.draw_feed, motion.axis_rate) / 60.0
         return motion.axis_rate / 60.0

@@ -64,75 +64,100 @@ def estimate(plan: Plan, profile: Profile) -> PlanStats:
     ----------
     plan : Plan
     profile : Profile
-        The plotter: bed (where home is on the page), motion limits, pen.
+        The plotter: bed (where home is on the page), motion limits, pen, firmware.
 
     Returns
     -------
     PlanStats
     """
-    home = Placement.on_bed(plan.page, profile.bed).home()
-    lift, drop = profile.pen_model.change_seconds(profile.motion)
-    position = home
+    moves = _Program(plan, profile)
+    motion = profile.motion
+    seconds = np.zeros(0)
+    if len(moves.length):
+        v = path_speeds(moves.length, moves.unit, moves.joined, moves.nominal, moves.accel, motion.junction_deviation)
+        seconds = move_times(moves.length, v[:-1], v[1:], moves.nominal, moves.accel)
+    pen, n_layers = profile.pen_model, max(len(plan.layers), 1)
+    per_layer = lambda values: np.bincount(moves.layer, weights=values, minlength=n_layers)  # noqa: E731
+    drawn, travelled = moves.kind == _DRAW, moves.kind == _TRAVEL
+    paths = np.array([len(layer.paths) for layer in plan.layers] or [0])
+    time = per_layer(seconds) + paths * (pen.up_delay + pen.down_delay)
+    time[0] += pen.up_delay  # the first lift
+    columns = (per_layer(moves.length * drawn), per_layer(moves.length * travelled), paths, paths,
+               np.bincount(moves.layer[drawn], minlength=n_layers), time)
     layers: dict[str, Stats] = {}
     for index, layer in enumerate(plan.layers):
-        stats = _layer_stats(layer.paths, position, profile, lift, drop)
-        if index == 0:
-            stats += Stats(seconds=lift)  # the pen is lifted before the first move
-        if len(layer.paths):
-            position = layer.paths.lasts[-1]
-        if index == len(plan.layers) - 1:
-            back = _travel(np.array([position]), np.array([home]), profile)
-            stats += Stats(pen_up_mm=float(back[0].sum()), seconds=float(back[1].sum()))
-        layers[layer.name] = layers.get(layer.name, Stats()) + stats
-    total = sum(layers.values(), Stats()) if layers else Stats(seconds=lift)
+        row = Stats(*(float(c[index]) if f.type == "float" else int(c[index]) for c, f in zip(columns, fields(Stats))))
+        layers[layer.name] = layers.get(layer.name, Stats()) + row
+    total = sum(layers.values(), Stats()) if layers else Stats(seconds=float(time[0]))
     return PlanStats(layers, total)
 
 
-def _layer_stats(paths: Paths, position: np.ndarray, profile: Profile, lift: float, drop: float) -> Stats:
-    if not len(paths):
-        return Stats()
-    hops, travel_seconds = _travel(np.vstack([position, paths.lasts[:-1]]), paths.firsts, profile)
-    drawn_mm, segments, draw_seconds = _draw(paths, profile)
-    return Stats(
-        pen_down_mm=float(drawn_mm),
-        pen_up_mm=float(hops.sum()),
-        lifts=len(paths),
-        paths=len(paths),
-        segments=segments,
-        seconds=float(travel_seconds.sum() + draw_seconds + len(paths) * (lift + drop)),
-    )
+_TRAVEL, _PEN, _DRAW = 0, 1, 2
 
 
-def _travel(tails: np.ndarray, heads: np.ndarray, profile: Profile) -> tuple[np.ndarray, np.ndarray]:
-    """Length (mm) and seconds of the pen-up moves ``tails[i] → heads[i]``, each from rest to rest."""
-    step = heads - tails
-    length = np.hypot(*step.T)
-    motion, firmware = profile.motion, profile.firmware
-    moving = length > 0
-    scale = np.ones(len(length))
-    scale[moving] = axis_scale(step[moving] / length[moving, None])
-    # GRBL runs G0 at every axis's top rate (so a diagonal is faster); Marlin at the F it is given.
-    rate = motion.travel_speed if firmware.rapids_take_feed else motion.axis_rate / 60.0 * scale
-    return length, move_times(length, 0.0, 0.0, rate, motion.acceleration * scale)
+class _Program:
+    """Every move the G-code program of a plan makes, in order, as arrays (machine-neutral:
+    page mm, Z in the pen's heights).
 
+    Per path: a pen-up travel, the drop, the drawn segments, the lift; then the travel home.
+    A Z pen's drops and lifts are moves of the axes and join the motion at corners; a spindle or
+    servo pen change, and any dwell, stops it (``joined`` is False across it).
+    """
 
-def _draw(paths: Paths, profile: Profile) -> tuple[float, int, float]:
-    """Pen-down length (mm), segment count and seconds of all paths, vectorised over segments."""
-    owner = paths.owners()
-    step = np.diff(paths.points, axis=0)
-    length = np.hypot(*step.T)
-    # Real segments: consecutive points of one path that are not the same point.
-    real = (owner[1:] == owner[:-1]) & (length > 0)
-    step, length, owner = step[real], length[real], owner[1:][real]
-    if len(length) == 0:
-        return 0.0, 0, 0.0
-    unit = step / length[:, None]
-    motion = profile.motion
-    accel = motion.acceleration * axis_scale(unit)  # GRBL limits acceleration axis by axis
-    # A vertex that starts or ends a path is a stop; between segments of one path, a corner.
-    v = path_speeds(length, unit, owner[1:] == owner[:-1], motion.draw_speed, accel, motion.junction_deviation)
-    seconds = move_times(length, v[:-1], v[1:], motion.draw_speed, accel).sum()
-    return float(length.sum()), len(length), float(seconds)
+    def __init__(self, plan: Plan, profile: Profile) -> None:
+        pen, motion, firmware = profile.pen_model, profile.motion, profile.firmware
+        paths = plan.paths()
+        count = len(paths)
+        layer_of_path = np.repeat(np.arange(len(plan.layers)), [len(layer.paths) for layer in plan.layers])
+        home = Placement.on_bed(plan.page, profile.bed).home()
+        z_pen = pen.moves_with_the_axes
+        up, down = (pen.up, pen.down) if z_pen else (0.0, 0.0)
+        stride = float(paths.lengths.max() + 4) if count else 4.0  # sort keys: path·stride + slot
+
+        owner = paths.owners()
+        step = np.diff(paths.points, axis=0)
+        within = (owner[1:] == owner[:-1]) & (np.hypot(*step.T) > 0)
+        draw_path = owner[1:][within]
+        local = (np.arange(1, len(paths.points)) - paths.offsets[owner[1:]])[within]
+        tails = np.vstack([home, paths.lasts]) if count else home[None]
+        heads = np.vstack([paths.firsts, home]) if count else home[None]
+        hop = np.column_stack([heads - tails, np.zeros(count + 1)])
+        pieces = [  # (vectors, sort keys, kind, path)
+            (hop, np.arange(count + 1) * stride, _TRAVEL, np.append(np.arange(count), max(count - 1, 0))),
+            (np.column_stack([step[within], np.zeros(len(draw_path))]), draw_path * stride + 1.5 + local, _DRAW, draw_path),
+        ]
+        syncs = []
+        if z_pen:
+            each = np.arange(count)
+            pieces += [
+                (np.tile([0.0, 0.0, down - up], (count, 1)), each * stride + 1, _PEN, each),
+                (np.tile([0.0, 0.0, up - down], (count, 1)), each * stride + stride - 1, _PEN, each),
+                (np.array([[0.0, 0.0, up]]), np.array([-1.0]), _PEN, np.zeros(1, np.int64)),  # the first lift
+            ]
+            # A dwell after a pen move (G4) stops the motion; the moves themselves do not.
+            if pen.down_delay:
+                syncs.append(np.arange(count) * stride + 1.25)
+            if pen.up_delay:
+                syncs += [np.arange(count) * stride + stride - 0.5, np.array([-0.5])]
+        else:  # a spindle or servo change waits for the motion to end, before and after
+            syncs += [np.arange(count) * stride + 1, np.arange(count) * stride + stride - 1]
+        vectors = np.concatenate([v for v, _, _, _ in pieces])
+        keys = np.concatenate([k for _, k, _, _ in pieces])
+        kind = np.concatenate([np.full(len(k), t) for _, k, t, _ in pieces])
+        path = np.concatenate([p for _, _, _, p in pieces]).astype(np.int64)
+        length = np.sqrt((vectors**2).sum(axis=1))
+        order = np.argsort(keys, kind="stable")
+        order = order[length[order] > 0]  # a move to where the pen already is, is none
+        self.length, self.kind = length[order], kind[order]
+        self.unit = vectors[order] / self.length[:, None] if len(order) else np.zeros((0, 3))
+        run = np.searchsorted(np.sort(np.concatenate(syncs)) if syncs else np.zeros(0), keys[order])
+        self.joined = run[1:] == run[:-1]
+        self.layer = layer_of_path[path[order]] if count else np.zeros(len(order), np.int64)
+        scale = axis_scale(self.unit) if len(order) else np.zeros(0)  # GRBL limits each axis
+        self.accel = motion.acceleration * scale
+        rapid = motion.travel_speed if firmware.rapids_take_feed else motion.axis_rate / 60.0 * scale
+        pen_speed = np.where(self.unit[:, 2] > 0, pen.z_speed(motion, lifting=True), pen.z_speed(motion, lifting=False))
+        self.nominal = np.select([self.kind == _TRAVEL, self.kind == _DRAW], [rapid, motion.draw_speed], pen_speed)
 
 
 def duration_text(seconds: float) -> str:

@@ -55,28 +55,29 @@ def test_trapezoid_and_triangle_profiles():
 
 
 def sequential_plan(lengths, units, joined, speed, accel, deviation):
-    """A planner written the long way: corner caps with the scalar junction rule, then a backward
-    and a forward pass, then every move's trapezoid with the scalar duration."""
+    """A planner written the long way, as the simulator's: a corner is capped by the scalar junction
+    rule and both moves' nominal speeds, then a backward and a forward pass, then every move's
+    trapezoid with the scalar duration."""
     cap = [0.0]
     for k in range(1, len(lengths)):
         corner = junction_speed(tuple(units[k - 1]) + (0.0,), tuple(units[k]) + (0.0,), accel[k], deviation)
-        cap.append(min(corner, speed) ** 2 if joined[k - 1] else 0.0)
+        cap.append(min(corner, speed[k - 1], speed[k]) ** 2 if joined[k - 1] else 0.0)
     cap.append(0.0)
     for k in range(len(lengths) - 1, -1, -1):  # backward: able to brake
         cap[k] = min(cap[k], cap[k + 1] + 2 * accel[k] * lengths[k])
     for k in range(len(lengths)):  # forward: able to accelerate
         cap[k + 1] = min(cap[k + 1], cap[k] + 2 * accel[k] * lengths[k])
     v = [math.sqrt(c) for c in cap]
-    return v, sum(block_duration(lengths[k], accel[k], v[k], v[k + 1], speed) for k in range(len(lengths)))
+    return v, sum(block_duration(lengths[k], accel[k], v[k], v[k + 1], speed[k]) for k in range(len(lengths)))
 
 
 @settings(max_examples=80, deadline=None)
 @given(
     st.lists(st.tuples(st.floats(0, 50), st.floats(0, 50)), min_size=2, max_size=14),
     st.lists(st.booleans(), min_size=13, max_size=13),
-    st.floats(5, 80), st.floats(50, 3000), st.floats(0.001, 0.2),
+    st.lists(st.floats(5, 80), min_size=13, max_size=13), st.floats(50, 3000), st.floats(0.001, 0.2),
 )
-def test_closed_form_speeds_equal_a_sequential_planner(points, joins, speed, accel, deviation):
+def test_closed_form_speeds_equal_a_sequential_planner(points, joins, speeds, accel, deviation):
     step = np.diff(np.array(points), axis=0)
     lengths = np.hypot(*step.T)
     keep = lengths > 1e-6
@@ -86,6 +87,7 @@ def test_closed_form_speeds_equal_a_sequential_planner(points, joins, speed, acc
     units = step / lengths[:, None]
     accels = accel * axis_scale(units)
     joined = np.array(joins[: len(lengths) - 1], dtype=bool)
+    speed = np.array(speeds[: len(lengths)])
     v = path_speeds(lengths, units, joined, speed, accels, deviation)
     want_v, want_seconds = sequential_plan(lengths, units, joined, speed, accels, deviation)
     np.testing.assert_allclose(v, want_v, rtol=1e-9, atol=1e-9)

@@ -95,7 +95,7 @@ def test_motion_is_in_mm_per_second_and_the_pen_model_has_its_commands():
     pen = profile.pen_model
     assert (pen.kind, pen.up, pen.down, pen.up_lines, pen.down_lines) == ("spindle", 30, 90, ("M3 S30",), ("M3 S90",))
     assert (pen.up_delay, pen.down_delay) == (0.15, 0.2)
-    assert pen.change_seconds(profile.motion) == (0.15, 0.2)
+    assert not pen.moves_with_the_axes and load_profile("grbl-z-a3").pen_model.moves_with_the_axes
     assert profile.firmware.title == "GRBL" and profile.receive_buffer == 128
 
 

@@ -90,9 +90,11 @@ def test_a_z_pen_spends_its_z_travel_on_every_lift_and_drop():
     z = load_profile("grbl-z-a3")
     plan = plan_of(("a", [np.array([[100.0, 100.0], [120.0, 100.0]])]))
     lift = move_times(np.array([z.pen.up - z.pen.down]), 0, 0, z.motion.axis_rate / 60, z.motion.acceleration)[0]
-    with_z = estimate(plan, z).total.seconds
     no_z = estimate(plan, dataclasses.replace(z, pen=dataclasses.replace(z.pen, up=0.0, down=0.0))).total.seconds
-    assert with_z - no_z == pytest.approx(3 * lift)  # the first lift, the drop, the lift
+    # Three Z moves (the first lift, the drop, the lift); GRBL takes the corners between them and
+    # the XY moves without stopping, so each costs a little less than a move from rest to rest.
+    # (tests/test_agreement.py holds the estimate to the virtual plotter's planner.)
+    assert no_z + 2 * lift < estimate(plan, z).total.seconds < no_z + 3 * lift
 
 
 def test_empty_plan_costs_the_first_lift_only():
