@@ -13,6 +13,9 @@ from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
 from pencilbot.export.svg import read_svg
 
+#: Image files the commands read as photos and write as pictures (the first is the default).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
 # Style keys a command-line option may override, by option name.
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
 

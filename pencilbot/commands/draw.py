@@ -7,7 +7,7 @@ from pathlib import Path
 
 import sim
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
 from pencilbot.driver import draw
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
@@ -40,7 +40,7 @@ def add_parser(subparsers) -> None:
 
 
 #: Inputs that are pictures or plans, not G-code: `pencilbot export` turns them into G-code.
-NOT_GCODE = {".svg", ".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".gif"}
+NOT_GCODE = {*IMAGE_SUFFIXES, ".gif", ".svg"}
 
 
 def run(args: argparse.Namespace) -> int:

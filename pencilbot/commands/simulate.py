@@ -16,8 +16,9 @@ from pathlib import Path
 from pencilbot.commands.common import add_photo_options, add_verbosity, plan_for_input
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
-from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_lines
+from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
 from pencilbot.machine.profile import DEFAULT_PROFILE
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.stats import duration_text
 _RUNS = itertools.count(1)
 
@@ -30,7 +31,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "Stream INPUT (G-code, a plan SVG, or a photo, which is planned first) through the "
             "serial driver into the virtual GRBL plotter, save the drawing as a PNG of the whole "
             "bed and print the simulated drawing time. --pen-width also sets the line width a "
-            "G-code input is rendered with (default: the plan's, else 0.5 mm)."
+            f"G-code input is rendered with (default: the plan's, else {DEFAULT_PEN_WIDTH:g} mm)."
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, plan .svg, or photo")
@@ -57,12 +58,12 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
-    lines, pen_width = _gcode(source, profile, args)
+    program, pen_width = _gcode(source, profile, args)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
     try:
-        draw(lines, f"sim://{name}?{query}", profile=args.profile, source=str(source),
+        draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")
         plotter = protocol_sim.plotter(name)
         canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)
@@ -76,17 +77,17 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[list[str], float]:
-    """G-code lines for ``source`` and the pen width (mm) to render them with."""
+def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float]:
+    """The G-code program for ``source`` and the pen width (mm) to render it with."""
     if not source.is_file():
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
     if source.suffix.lower() in GCODE_SUFFIXES:
         try:
-            # As for draw: comments may hold any text; the driver refuses a command that is not ASCII.
-            lines = source.read_text(encoding="utf-8", errors="replace").splitlines()
+            # Read as draw reads it (any text in comments; a command that is not ASCII is refused
+            # by line), but as a program: a simulation keeps no job journal beside the file.
+            program = source.read_bytes()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return lines, args.pen_width or 0.5
+        return program, args.pen_width or DEFAULT_PEN_WIDTH
     plan = plan_for_input(source, args)
-    widths = [layer.pen_width for layer in plan.layers]
-    return gcode_lines(plan, profile, source=str(source)), args.pen_width or (widths[0] if widths else 0.5)
+    return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width

@@ -92,9 +92,14 @@ def write_gcode(plan: Plan, profile: Profile, path: str | Path, *, source: str =
     )
 
 
+def gcode_program(plan: Plan, profile: Profile, *, source: str = "") -> bytes:
+    """The G-code :func:`write_gcode` would write, as one ASCII text (what a sender streams)."""
+    return _program(plan, profile, source)[0]
+
+
 def gcode_lines(plan: Plan, profile: Profile, *, source: str = "") -> list[str]:
     """The G-code :func:`write_gcode` would write, as a list of lines without newlines."""
-    return _program(plan, profile, source)[0].decode("ascii").splitlines()
+    return gcode_program(plan, profile, source=source).decode("ascii").splitlines()
 
 
 # --- building the program ----------------------------------------------------------------------
