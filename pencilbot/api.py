@@ -19,7 +19,7 @@ import numpy as np
 
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
-from pencilbot.machine.profile import Profile, load_profile
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
@@ -67,7 +67,7 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
 
 
 def export_gcode(
-    plan: Plan, profile: str | Path | Profile = "grbl-servo-a4", path: str | Path | None = None, *,
+    plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
     source: str = "",
 ) -> list[str] | GcodeSummary:
     """G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded ``Profile``).

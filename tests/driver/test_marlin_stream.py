@@ -62,11 +62,18 @@ class MarlinBoard(PtyBoard):
         number, command = framed
         if command.startswith("M110"):
             self.expected = int(command.split("N")[1]) + 1
-            return self._say("ok")
+            return self._say(self._ok(number))
         if number != self.expected:
             self._say(f"Error:Line Number is not Last Line Number+1, Last Line: {self.expected - 1}")
             return self._request_resend()
         self.expected += 1
+        self._run(number, command)
+
+    def _ok(self, number):
+        return "ok"
+
+    def _run(self, number, command):
+        """Execute one good frame and answer it."""
         self.commands.append(command)
         if command.startswith(self.slow) and self.busy_seconds:
             end = time.monotonic() + self.busy_seconds
@@ -148,28 +155,14 @@ class AdvancedOkMarlinBoard(MarlinBoard):
             if self.queue and time.monotonic() >= next_run:
                 number, command = self.queue.pop(0)
                 self.commands.append(command)
-                self._say(f"ok N{number} P15 B{self.slots - len(self.queue)}")
+                self._say(self._ok(number))
                 next_run = time.monotonic() + self.step
 
-    def _line(self, text):
-        if not text:
-            return
-        framed = marlin.unframe_line(text)
-        number = int(text[1:].split(" ", 1)[0]) if text.startswith("N") else None
-        if number in self.noise_on:
-            self.noise_on.discard(number)
-            framed = None
-        if framed is None:
-            self._say(f"Error:checksum mismatch, Last Line: {self.expected - 1}")
-            return self._request_resend()
-        number, command = framed
-        if command.startswith("M110"):
-            self.expected = int(command.split("N")[1]) + 1
-            return self._say(f"ok N{number} P15 B{self.slots - len(self.queue)}")
-        if number != self.expected:
-            self._say(f"Error:Line Number is not Last Line Number+1, Last Line: {self.expected - 1}")
-            return self._request_resend()
-        self.expected += 1
+    def _ok(self, number):
+        return f"ok N{number} P15 B{self.slots - len(self.queue)}"
+
+    def _run(self, number, command):
+        """Queue the frame: it runs, and is answered, in its turn."""
         if len(self.queue) >= self.slots:
             self.overflows += 1
             return

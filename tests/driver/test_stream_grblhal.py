@@ -31,33 +31,36 @@ def reference():
     return darkness(name)
 
 
-def test_a_drawing_streams_in_grblhal_s_dialect_filling_its_big_buffer(job, monkeypatch):
-    path, lines = job
-    most = []
+@pytest.fixture
+def in_flight(monkeypatch):
+    """The bytes character counting has in flight after each write, as the stream counts them."""
+    seen = []
     write = Stream._write
 
     def counting(stream, entries, data):
         write(stream, entries, data)
-        most.append(stream._in_flight)  # noqa: SLF001 -- what character counting has in flight
+        seen.append(stream._in_flight)  # noqa: SLF001
 
     monkeypatch.setattr(Stream, "_write", counting)
+    return seen
+
+
+def test_a_drawing_streams_in_grblhal_s_dialect_filling_its_big_buffer(job, in_flight):
+    path, lines = job
     url, name = fresh(f"profile={PROFILE}&realtime=50&baud=115200")
     result = draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=3.0)
     plotter = protocol_sim.plotter(name)
     assert plotter.firmware.protocol.BANNER.startswith("GrblHAL")
     assert accepted(name) == lines and result.rejected == [] and plotter.firmware.lost_bytes == 0
-    assert 128 < max(most) <= 1024  # more than GRBL 1.1 could hold, never more than grblHAL's
+    assert 128 < max(in_flight) <= 1024  # more than GRBL 1.1 could hold, never more than grblHAL's
     assert json.loads(result.journal.read_text())["status"] == "done"
 
 
-def test_a_grbl_profile_never_sends_a_grblhal_board_more_than_grbl_s_128_bytes(job, monkeypatch):
+def test_a_grbl_profile_never_sends_a_grblhal_board_more_than_grbl_s_128_bytes(job, in_flight):
     path, _ = job
-    most = []
-    write = Stream._write
-    monkeypatch.setattr(Stream, "_write", lambda s, e, d: (write(s, e, d), most.append(s._in_flight)))
     url, _ = fresh(f"profile={PROFILE}&realtime=50")
     draw(path, url, profile="grbl-servo-a4", wake_wait=0.2, timeout=3.0)  # its banner is not GRBL's:
-    assert max(most) <= 128  # woken by a status report, then streamed with GRBL's budget
+    assert max(in_flight) <= 128  # woken by a status report, then streamed with GRBL's budget
 
 
 @pytest.mark.parametrize("kind", ["error", "alarm", "reset", "silent", "drop"])
