@@ -1,5 +1,6 @@
 """The virtual GRBL's serial behaviour: byte sequences in → the exact bytes GRBL 1.1 prints."""
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -263,3 +264,126 @@ def test_jog_runs_as_jog_and_cancel_stops_it_where_it_is():
     assert grbl.parse_line(exchange(fw, b"?").strip()).state == "Idle"
     assert fw.machine.machine_position()[0] == x
     assert exchange(fw, b"G1 X0 F600\n$J=X5 F100\n") == "ok\r\nerror:8\r\n"  # not while running G-code
+
+
+# --- reset, power and homing: where the pen really is ------------------------------------------
+
+
+def cruising(fw, line=b"M3 S90\nG1 X100 F3000\n", seconds=1.0):
+    """A real-time board drawing a 100 mm line at 50 mm/s, ``seconds`` in (past its ramp)."""
+    exchange(fw, line)
+    fw.poll(0.5)  # the pen change waits for motion; nothing moves before it
+    fw.poll(seconds)
+    return fw
+
+
+@pytest.mark.parametrize("loses", [False, True])
+def test_reset_in_motion_alarms_and_a_real_board_loses_the_position(loses):
+    fw = Firmware(Machine(instant=False), abort_loses=loses)
+    fw.take_output()
+    cruising(fw)
+    reported = fw.machine.machine_position()
+    assert exchange(fw, b"\x18").startswith("ALARM:3\r\n")
+    assert fw.machine.machine_position() == reported  # GRBL keeps its step count...
+    coast = 50.0**2 / (2 * 800.0)  # ...but the carriage ran on for v²/2a at 50 mm/s, 800 mm/s²
+    assert fw.machine.carriage_position()[0] - reported[0] == pytest.approx(coast if loses else 0.0)
+    exchange(fw, b"$X\nM3 S90\nG1 X150 F3000\n")
+    fw.poll(10.0)
+    end = fw.machine.strokes[-1][-1]
+    assert end[0] == pytest.approx(150 + (coast if loses else 0.0))  # drawn off by the slip
+
+
+def test_reset_after_a_completed_hold_keeps_the_position_without_alarm():
+    fw = Firmware(Machine(instant=False), abort_loses=True)
+    fw.take_output()
+    cruising(fw)
+    exchange(fw, b"!")
+    held = fw.machine.machine_position()
+    assert exchange(fw, b"\x18") == BANNER  # no ALARM:3: motion had stopped
+    assert fw.machine.carriage_position() == held
+
+
+@pytest.mark.parametrize("zero", [False, True])
+def test_power_cycle_restarts_the_count_at_zero_where_the_carriage_stands(zero):
+    fw = Firmware(Machine(), power_zero=zero)
+    fw.take_output()
+    exchange(fw, b"G0 X50 Y40\n?")
+    fw.power_cycle()
+    mpos = grbl.parse_line(exchange(fw, b"?").split("\r\n")[-2]).mpos
+    assert mpos == ((0.0, 0.0, 0.0) if zero else (50.0, 40.0, 0.0))
+    exchange(fw, b"G90 M3 S90\nG1 X10 F1000\nM5\n")
+    fw.finish()
+    start, end = fw.machine.strokes[-1][[0, -1]]
+    # The board thinks it draws from 0 to 10; on the paper the line starts where the pen was.
+    assert start.tolist() == [50.0, 40.0]
+    assert end.tolist() == ([60.0, 40.0] if zero else [10.0, 40.0])
+
+
+def test_a_power_cycle_forgets_an_alarm_only_on_a_real_board():
+    for zero, state in [(True, "Idle"), (False, "Alarm")]:
+        fw = Firmware(Machine(), power_zero=zero)
+        exchange(fw, b"G0 X10\n\x18")  # ALARM:3
+        fw.power_cycle()
+        fw.take_output()
+        assert grbl.parse_line(exchange(fw, b"?").strip()).state == state
+
+
+@pytest.mark.parametrize(
+    "origin, invert, mpos, corner",
+    [("bottom-left", False, (0.0, 0.0), (0.0, 0.0)),  # homes to negative: HOMING_FORCE_SET_ORIGIN space
+     ("top-right", True, (-1.0, -1.0), (100.0, 50.0))],  # homes to positive: GRBL's negative space, -$27
+)
+def test_homing_finds_the_origin_corner_and_trusts_the_position_again(origin, invert, mpos, corner):
+    config = MachineConfig(width=100, height=50, origin=origin, invert_x=invert, invert_y=invert,
+                           homing=True, soft_limits=True)
+    fw = Firmware(Machine(config), power_zero=True)
+    assert fw.take_output().decode() == BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"  # HOMING_INIT_LOCK
+    assert exchange(fw, b"G0 X1\n") == "error:9\r\n"
+    assert exchange(fw, b"$X\n$20=0\nG0 X-30 Y-20\n") == "[MSG:Caution: Unlocked]\r\nok\r\nok\r\nok\r\n"
+    fw.power_cycle()  # lost: the count restarts where the carriage is
+    exchange(fw, b"$H\n")
+    status = grbl.parse_line(exchange(fw, b"?").strip())
+    assert status.state == "Idle" and status.mpos[:2] == mpos
+    bed = config.to_bed(np.array([fw.machine.carriage_position()]))[0]
+    pulloff = 1.0 if invert else 0.0
+    assert np.allclose(np.abs(bed - corner), pulloff)  # $27 off the corner's switches, or on the corner
+
+
+def test_homing_with_the_pen_down_drags_a_line_to_the_corner():
+    fw = Firmware(Machine(MachineConfig(homing=True)), power_zero=True)
+    exchange(fw, b"$X\nG0 X30 Y20\nM3 S90\n$H\n")
+    assert [s.tolist() for s in fw.machine.strokes] == [[[30.0, 20.0], [0.0, 0.0]]]
+
+
+def test_startup_lines_run_after_every_reset_and_after_homing():
+    fw = Firmware(Machine(MachineConfig(homing=True)))
+    fw.take_output()
+    assert exchange(fw, b"$X\n$N0=G91\n$N1=G20\n") == "[MSG:Caution: Unlocked]\r\nok\r\nok\r\nok\r\n"
+    assert exchange(fw, b"$H\n") == ">G91:ok\r\n>G20:ok\r\nok\r\n"
+    assert exchange(fw, b"\x18") == BANNER + ">G91:ok\r\n>G20:ok\r\n"
+    assert "G20 G91" in exchange(fw, b"$G\n")
+
+
+def test_hold_fault_is_the_machine_s_hold_button():
+    fw = board(faults="hold@2")
+    assert exchange(fw, b"G0 X1\nG0 X2\nG0 X3\n") == "ok\r\n"
+    assert grbl.parse_line(exchange(fw, b"?").strip()).state == "Hold"
+    assert exchange(fw, b"~") == "ok\r\nok\r\n"
+    assert fw.accepted_lines() == ["G0 X1", "G0 X2", "G0 X3"]
+
+
+def test_a_critical_alarm_answers_nothing_until_reset():
+    fw = board(faults="alarm@1")
+    assert exchange(fw, b"G0 X1\n?$X\n!~") == "ALARM:1\r\n[MSG:Reset to continue]\r\n"
+    assert exchange(fw, b"\x18") == BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"
+    assert exchange(fw, b"$X\n") == "[MSG:Caution: Unlocked]\r\nok\r\n"  # the $X sent before was lost
+
+
+def test_dollar_dollar_is_answered_while_jogging_but_not_while_running():
+    fw = board(instant=False)
+    exchange(fw, b"$J=X100 F600\n")
+    fw.poll(0.5)
+    assert exchange(fw, b"$$\n").endswith("$132=200.000\r\nok\r\n")
+    exchange(fw, grbl.JOG_CANCEL + b"G1 X0 F600\n")
+    fw.poll(0.5)
+    assert exchange(fw, b"$$\n") == "error:8\r\n"
