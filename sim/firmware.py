@@ -295,8 +295,8 @@ class Firmware:
 
     def _cancel_jog(self) -> None:
         self.machine.stop()
-        self._jog = False
-        self._task = None
+        # A $J= still waiting for planner room goes on to plan its move, as in GRBL.
+        self._jog = self._task is not None
 
     def reset(self) -> None:
         """Ctrl-X soft reset: GRBL's mc_reset, then its re-initialisation."""
@@ -379,8 +379,9 @@ class Firmware:
             else:
                 self._start(self.machine.execute(block), self._answer(index, text), (index, text))
 
-    def _answer(self, index: int, text: str, reply: str = "ok") -> Callable[[], None]:
-        return lambda: self._reply(index, text, reply)
+    def _answer(self, index: int, text: str) -> Callable[[], None]:
+        """The ``ok`` a line gets once its steps are done."""
+        return lambda: self._reply(index, text, "ok")
 
     def _start(self, steps: Iterator, finish: Callable[[], None], line: tuple[int, str] | None) -> None:
         """Run a line's steps now; if they block, the line stays in progress (see :meth:`_step`)."""
@@ -453,50 +454,64 @@ class Firmware:
     # --- $ commands -------------------------------------------------------------------------
 
     def _system(self, index: int, text: str, line: str) -> None:
-        m = self.machine
-        if m.instant and not self._hold:
-            m.finish()
-        state = self.state()
-        answer = self._answer(index, text)
+        """A ``$`` line, under GRBL's state rules (system.c's system_execute_line)."""
+        if self.machine.instant and not self._hold:
+            self.machine.finish()
         kind = line[1:2]
         if kind == "J":
-            if state not in ("Idle", "Jog"):
+            self._jog_line(index, text, line)
+        elif kind in ("", "$", "G", "C", "X"):
+            self._report_or_toggle(index, text, line)
+        else:
+            self._settings_or_homing(index, text, line)
+
+    def _jog_line(self, index: int, text: str, line: str) -> None:
+        """``$J=``: Idle or jogging only; checked as a jog block, refused past the soft limits."""
+        m = self.machine
+        if self.state() not in ("Idle", "Jog"):
+            return self._status(index, text, 8)
+        if line[2:3] != "=":
+            return self._status(index, text, 3)
+        block = m.parse(line[3:], jog=True)
+        code = block if isinstance(block, int) else m.jog_target_allowed(block)
+        if code:
+            return self._status(index, text, code)
+        self._jog = True
+        self._start(m.jog(block), self._answer(index, text), (index, text))
+
+    def _report_or_toggle(self, index: int, text: str, line: str) -> None:
+        """``$``, ``$$``, ``$G``, ``$C``, ``$X``: answered in any state but these few."""
+        m, kind, state = self.machine, line[1:2], self.state()
+        if len(line) > 2:
+            return self._status(index, text, 3)
+        if kind == "":
+            self._emit(_HELP)
+        elif kind == "$":
+            if state in ("Run", "Hold:0"):
+                return self._status(index, text, 8)  # takes too long to print mid-cycle
+            for number, value in m.settings.items():
+                self._emit(grbl.format_message(grbl.Setting(number, value)))
+        elif kind == "G":
+            self._emit(f"[GC:{m.gcode_state(inches=bool(m.settings[13]))}]")
+        elif kind == "C":
+            if m.check_mode:
+                self._emit("[MSG:Disabled]")
+                self._reply(index, text, "ok")
+                return self.reset()
+            if state != "Idle":
                 return self._status(index, text, 8)
-            if line[2:3] != "=":
-                return self._status(index, text, 3)
-            block = m.parse(line[3:], jog=True)
-            code = block if isinstance(block, int) else m.jog_target_allowed(block)
-            if code:
-                return self._status(index, text, code)
-            self._jog = True
-            return self._start(m.jog(block), answer, (index, text))
-        if kind in ("", "$", "G", "C", "X"):
-            if len(line) > 2:
-                return self._status(index, text, 3)
-            if kind == "":
-                self._emit(_HELP)
-            elif kind == "$":
-                if state in ("Run", "Hold:0"):
-                    return self._status(index, text, 8)  # takes too long to print mid-cycle
-                for number, value in m.settings.items():
-                    self._emit(grbl.format_message(grbl.Setting(number, value)))
-            elif kind == "G":
-                self._emit(f"[GC:{m.gcode_state(inches=bool(m.settings[13]))}]")
-            elif kind == "C":
-                if m.check_mode:
-                    self._emit("[MSG:Disabled]")
-                    answer()
-                    return self.reset()
-                if state != "Idle":
-                    return self._status(index, text, 8)
-                m.check_mode = True
-                self._emit("[MSG:Enabled]")
-            elif self._locked:  # $X
-                self._emit("[MSG:Caution: Unlocked]")
-                self._locked = False
-            return answer()
+            m.check_mode = True
+            self._emit("[MSG:Enabled]")
+        elif self._locked:  # $X
+            self._emit("[MSG:Caution: Unlocked]")
+            self._locked = False
+        self._reply(index, text, "ok")
+
+    def _settings_or_homing(self, index: int, text: str, line: str) -> None:
+        """``$#``, ``$H``, ``$SLP``, ``$I``, ``$RST=``, ``$N``, ``$x=``: Idle or Alarm only."""
+        m, kind, state = self.machine, line[1:2], self.state()
         if state not in ("Idle", "Alarm"):
-            return self._status(index, text, 8)  # EEPROM and homing: Idle or Alarm only
+            return self._status(index, text, 8)
         if kind == "#":
             if len(line) > 2:
                 return self._status(index, text, 3)
@@ -507,11 +522,11 @@ class Firmware:
             if len(line) > 2:
                 return self._status(index, text, 3)
             self._homing = True
-            return self._start(self._homing_steps(), answer, (index, text))
+            return self._start(self._homing_steps(), self._answer(index, text), (index, text))
         elif kind == "S":
             if line != "$SLP":
                 return self._status(index, text, 3)
-            answer()
+            self._reply(index, text, "ok")
             self._emit("[MSG:Sleeping]")
             self._sleep = True
             return
@@ -535,7 +550,7 @@ class Firmware:
             return self._store_startup_line(index, text, line)
         else:
             return self._status(index, text, self._store_setting(line))
-        answer()
+        self._reply(index, text, "ok")
 
     def _homing_steps(self):
         yield from self.machine.home()

@@ -27,8 +27,9 @@ URL parts (all optional):
     auto-reset.
 ``power``
     What a power-up (DTR reset on open, the ``reset`` fault) does to the position. ``zero``: the
-    controller counts from 0, 0, 0 again wherever the carriage stands, as a real GRBL board
-    does. ``keep`` (default for now): the position survives, a forgiving board.
+    controller counts from 0, 0, 0 again wherever the carriage stands and forgets any alarm,
+    as a real GRBL board does. ``keep`` (default for now): position and alarm lock survive, a
+    forgiving board.
 ``abort``
     What a reset in motion (``ALARM:3``) or a hard-limit alarm does. ``lose``: the motors stop
     dead and the carriage coasts on (v²/2a), so the reported position is no longer where the

@@ -245,6 +245,14 @@ def stream(path, lines):
             assert port.readline() == b"ok\r\n"
 
 
+def test_sim_serve_plays_a_real_board_unless_told_otherwise():
+    from pencilbot.cli import build_parser
+    from sim.protocol_sim import REAL_BOARD
+
+    args = build_parser().parse_args(["sim-serve"])
+    assert {key: getattr(args, key) for key in REAL_BOARD} == REAL_BOARD and not args.no_reset
+
+
 def test_sim_serve_saves_its_drawing_on_sigterm(tmp_path):
     out = tmp_path / "served.png"
     proc, path = serve(tmp_path, "-o", str(out))

@@ -7,17 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from test_machine import run
+
 from sim.arcs import arc_chords
 from sim.machine import Machine, MachineConfig
-
-
-def run(machine, *lines):
-    for line in lines:
-        block = machine.parse(line.replace(" ", "").upper())
-        assert not isinstance(block, int), (line, block)
-        machine.apply(block)
-    machine.finish()
-    return machine
 
 
 def drawn(*lines, **config):
