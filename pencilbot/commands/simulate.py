@@ -9,16 +9,18 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import math
 import os
 import urllib.parse
 from pathlib import Path
 
-from pencilbot.commands.common import add_photo_options, add_verbosity, plan_for_input
+from pencilbot.commands.common import add_photo_options, add_verbosity, check_render, plan_for_input
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
 from pencilbot.gcode.writer import duration_text, gcode_lines
 
 DEFAULT_PROFILE = "grbl-servo-a4"
+DEFAULT_PEN_WIDTH = 0.5  # mm, for G-code, which says nothing of its pen
 GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
 _RUNS = itertools.count(1)
 
@@ -51,12 +53,16 @@ def run(args: argparse.Namespace) -> int:
     source, output = Path(args.input), Path(args.output)
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
-    if args.dpi <= 0 or args.realtime < 0 or (args.pen_width is not None and args.pen_width <= 0):
-        raise PencilbotError("--dpi and --pen-width must be positive and --realtime 0 or more")
+    if not (math.isfinite(args.realtime) and args.realtime >= 0):
+        raise PencilbotError(f"--realtime must be 0 (instant) or a positive speed-up, not {args.realtime:g}")
     from sim import protocol_sim
 
     profile = protocol_sim.grbl_profile(args.profile)  # fails before any slow planning
+    # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
+    check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
+                 travel=args.travel)
     lines, pen_width = _gcode(source, profile, args)
+    check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
@@ -82,10 +88,21 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[list[str], 
     if source.suffix.lower() in GCODE_SUFFIXES:
         try:
             # As for draw: comments may hold any text; the driver refuses a command that is not ASCII.
-            lines = source.read_text(encoding="utf-8", errors="replace").splitlines()
+            # A UTF-8 byte-order mark is not text (GRBL drops its bytes too).
+            lines = source.read_text(encoding="utf-8-sig", errors="replace").splitlines()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return lines, args.pen_width or 0.5
+        return [_without_program_marker(line) for line in lines], args.pen_width or DEFAULT_PEN_WIDTH
     plan = plan_for_input(source, args)
     widths = [layer.pen_width for layer in plan.layers]
-    return gcode_lines(plan, profile, source=str(source)), args.pen_width or (widths[0] if widths else 0.5)
+    return gcode_lines(plan, profile, source=str(source)), args.pen_width or (widths[0] if widths else DEFAULT_PEN_WIDTH)
+
+
+def _without_program_marker(line: str) -> str:
+    """A ``%`` line (the tape start/end marker CAM and Inkscape programs carry) as an empty one.
+
+    GRBL answers a ``%`` with error:1 (its protocol loop has the feature commented out); a
+    preview of a program written for controllers that read it leaves the marker out. The line
+    stays, empty, so messages keep the file's line numbers.
+    """
+    return "" if line.split(";", 1)[0].strip() == "%" else line

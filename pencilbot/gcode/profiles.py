@@ -15,6 +15,8 @@ read with :mod:`importlib.resources`); any TOML file with the same schema works 
     origin = "bottom-left"          # corner of the bed where machine (0, 0) is, seen from above
     invert_x = false                # true: machine X runs negative into the bed (homed at +X)
     invert_y = false
+    homing = false                  # limit switches at the origin corner, GRBL $22=1 (optional)
+    soft_limits = false             # refuse moves off the bed, GRBL $20=1; needs homing (optional)
 
     [motion]
     draw_feed = 3000.0              # mm/min, pen down (G1 F)
@@ -69,13 +71,16 @@ MAX_BED = 10_000  # mm; keeps every coordinate within five integer digits
 
 @dataclass(frozen=True)
 class Bed:
-    """Drawable area: ``width`` × ``height`` mm from the ``origin`` corner, axis directions."""
+    """Drawable area: ``width`` × ``height`` mm from the ``origin`` corner, axis directions, and
+    whether the firmware homes there and enforces the bed as soft limits."""
 
     width: float
     height: float
     origin: str = "bottom-left"
     invert_x: bool = False
     invert_y: bool = False
+    homing: bool = False
+    soft_limits: bool = False
 
 
 @dataclass(frozen=True)
@@ -219,6 +224,8 @@ _SCHEMA: dict[str, dict[str, tuple[Any, Any]]] = {
         "origin": (_choice(ORIGINS), _REQUIRED),
         "invert_x": (_FLAG, False),
         "invert_y": (_FLAG, False),
+        "homing": (_FLAG, False),
+        "soft_limits": (_FLAG, False),
     },
     "motion": {
         "draw_feed": (_FEED, _REQUIRED),
@@ -339,7 +346,12 @@ def _section(table: dict, section: str, where: str) -> dict:
 
 
 def _check_consistency(profile: Profile, where: str) -> None:
-    """Rules that involve more than one key: templates, line numbers, pen direction."""
+    """Rules that involve more than one key: templates, line numbers, pen direction, limits."""
+    if profile.bed.soft_limits and not profile.bed.homing:
+        raise ProfileError(
+            f"plotter profile {where}: [bed] soft_limits = true is invalid without homing = true; "
+            "soft limits need a homed machine (GRBL refuses $20=1 while $22=0)"
+        )
     if profile.gcode.line_numbers and profile.dialect != "marlin":
         raise ProfileError(
             f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "
