@@ -109,9 +109,19 @@ def sml_lut(source_hist: np.ndarray, target_hist: np.ndarray) -> np.ndarray:
 
 
 def tone_target(
-    gray: np.ndarray, *, weights: tuple[float, float, float] | None = None, method: str = "gml"
+    gray: np.ndarray,
+    *,
+    weights: tuple[float, float, float] | None = None,
+    method: str = "gml",
+    never_darker: bool = True,
 ) -> np.ndarray:
     """The tone target J: ``gray`` histogram-specified onto the pencil tone model.
+
+    Histogram specification spreads *any* histogram over the whole model, so on its own it draws
+    a white sheet in the model's median grey and a pale, low-contrast photo (a blank page, a
+    vignetted wall) in dark tones. A pencil drawing lightens a photo, it never darkens it: with
+    ``never_darker`` each level is mapped to the lighter of its specified tone and itself, which
+    leaves every photo with real shadows as GML maps it and keeps paper white as paper.
 
     Parameters
     ----------
@@ -121,6 +131,9 @@ def tone_target(
         (bright, middle, dark) layer shares, see :func:`pencil_histogram`.
     method : {"gml", "sml"}
         Group mapping law (default) or single mapping law.
+    never_darker : bool
+        Never map a level darker than it is in ``gray`` (see above); False gives the plain
+        histogram specification of the paper.
 
     Returns
     -------
@@ -139,6 +152,8 @@ def tone_target(
     # fancy indexing would first widen it to 8-byte indices (100 MB at 12 MP).
     source_hist = cv2.calcHist([levels], [0], None, [LEVELS], [0, LEVELS]).ravel()
     mapping = (gml_lut if method == "gml" else sml_lut)(source_hist, pencil_histogram(weights))
+    if never_darker:
+        mapping = np.maximum(mapping, np.arange(LEVELS))
     lut = (mapping / (LEVELS - 1)).astype(np.float32)
     return cv2.LUT(levels, lut)
 

@@ -18,10 +18,10 @@ import numpy as np
 
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
-from pencilbot.planning.hatching import hatch_layers
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.shading import shade
 from pencilbot.planning.style import Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
 from sim.canvas import MM_PER_INCH, render_paths
@@ -122,16 +122,18 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     )
     layers = []
     if style.hatch:
-        hatches = hatch_layers(
-            hatch_darkness(drawing, strokes, layout, pen_width=style.pen_width, blur=style.hatch_blur),
+        hatches = shade(
+            1.0 - drawing.tone,
             layout,
+            strokes,
             pen_width=style.pen_width,
             angles=style.hatch_angles,
             coverage=style.hatch_coverage,
-            blur=0.0,  # hatch_darkness is already smoothed at this scale
+            form_scale=style.hatch_form,
             min_run=style.min_hatch_run,
             blank_below=style.hatch_blank_below,
-            jitter=style.hatch_jitter,
+            wobble=style.hatch_jitter,
+            blur=style.hatch_blur,
             seed=style.seed,
         )
         layers += [layer for layer in hatches if layer.paths]

@@ -96,12 +96,13 @@ class Style:
     min_edge_pixels: int = 3
     edge_join: float = 0.5
     hatch: bool = True
-    hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
-    hatch_coverage: float = 0.5
-    hatch_blur: float = 1.5
+    hatch_angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0)
+    hatch_coverage: float = 0.6
+    hatch_form: float = 8.0
+    hatch_blur: float = 1.0
     min_hatch_run: float = 3.0
     hatch_join: float = 2.0
-    hatch_blank_below: float = 0.06
+    hatch_blank_below: float = 0.02
     hatch_jitter: float = 0.0
     order_rounds: int = 40
     seed: int = 0

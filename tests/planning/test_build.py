@@ -14,6 +14,7 @@ from skimage.transform import resize
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
+from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.build import (
     at_plot_resolution,
     hatch_darkness,
@@ -210,7 +211,8 @@ def test_neighbouring_hatch_runs_are_joined_pen_down():
     assert names
     for name in names:  # hatch1 covers the disc; the few runs of later layers rarely meet
         before, after = apart.layer(name).paths, joined.layer(name).paths
-        assert all(len(p) == 2 for p in before)  # one straight run per path when not joined
+        # Not joined, a path is one hatch run: points a sample spacing apart, no hop.
+        assert all(np.linalg.norm(np.diff(p, axis=0), axis=1).max() <= POINT_SPACING + 0.05 for p in before)
         if name == names[0]:
             assert len(after) <= 0.9 * len(before)  # lifts saved
         # Each join adds one connecting move no longer than the tolerance.
