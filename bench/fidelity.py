@@ -110,11 +110,18 @@ def write_montage(path: Path, image: LoadedImage, result: np.ndarray, plotted: n
 
 
 def blank_pictures() -> dict[str, np.ndarray]:
-    """Pictures a plotter should leave (almost) blank."""
+    """Pictures a plotter should leave (almost) blank.
+
+    * ``flat_ramp``: a smooth ramp over the paper's lightest tones, 0.96 to 1.0 (vignetting on a
+      blank sheet), quantised to 8 bits so its ten grey levels show as bands;
+    * ``blank_page_noise``: paper at 0.97 with ±2 grey levels of noise;
+    * ``white``: a white image.
+    """
     rng = np.random.default_rng(0)
-    ramp = np.tile(np.linspace(0.55, 0.75, 600, dtype=np.float32), (400, 1))
-    noise = np.clip(0.97 + rng.integers(-2, 3, (400, 600)) / 255, 0, 1).astype(np.float32)
-    return {"flat_ramp": ramp, "blank_page_noise": noise, "white": np.ones((400, 600), np.float32)}
+    ramp = np.rint(np.tile(np.linspace(0.96, 1.0, 600), (400, 1)) * 255) / 255
+    noise = np.clip(0.97 + rng.integers(-2, 3, (400, 600)) / 255, 0, 1)
+    white = np.ones((400, 600))
+    return {name: a.astype(np.float32) for name, a in (("flat_ramp", ramp), ("blank_page_noise", noise), ("white", white))}
 
 
 def pen_down_m(gray: np.ndarray, name: str) -> float:

@@ -195,7 +195,7 @@ def family_lines(
 
 
 def hatch_strokes(
-    lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 3.0, offset: float = 0.0
+    lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 2.0, offset: float = 0.0
 ) -> list[np.ndarray]:
     """The pen strokes of one family for a per-sample coverage request.
 
@@ -264,7 +264,7 @@ def hatch_layers(
     angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
     coverage: float = 0.6,
     overlap: float = 0.5,
-    min_run: float = 3.0,
+    min_run: float = 2.0,
     wobble: float = 0.0,
     seed: int = 0,
     lines: list[HatchLines] | None = None,
