@@ -73,7 +73,7 @@ def plan_photo(image: LoadedImage):
 
 def measure(image: LoadedImage, montage: Path | None = None, name: str = "") -> dict:
     plan, drawing, layout, planning_s = plan_photo(image)
-    paths = plan.all_paths()
+    paths = plan.paths()
     pen_width = plan.layers[-1].pen_width
     plotted = plotted_darkness(paths, layout.drawing_box, pen_width=pen_width)
     vs_photo = likeness(plotted, 1.0 - image.gray)

@@ -15,7 +15,7 @@ from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.imaging.pencil import sketch
-from pencilbot.imaging.strokes import LONGEST_LENGTH, line_drawing
+from pencilbot.imaging.strokes import LONGEST_LENGTH, MAX_LENGTH, MIN_LENGTH, line_drawing
 
 OUTPUT_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
@@ -32,7 +32,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
     parser.add_argument("--color", action="store_true", help="colour pencil drawing")
     parser.add_argument(
-        "--line-length", type=int, metavar="N", help="stroke length in pixels, 1-100 (default: by image size, 6-13)"
+        "--line-length", type=int, metavar="N",
+        help=f"stroke length in pixels, 1-{LONGEST_LENGTH} (default: by image size, {MIN_LENGTH}-{MAX_LENGTH})",
     )
     parser.add_argument("--texture-seed", type=int, default=0, metavar="S", help="pencil texture seed")
     parser.add_argument(

@@ -42,7 +42,7 @@ def fidelity(plan: Plan, drawing: Sketch) -> Fidelity:
     Parameters
     ----------
     plan : Plan
-        With an ``"edges"`` layer, planned from ``drawing`` on ``plan.page``.
+        With a layer of role ``"edges"``, planned from ``drawing`` on ``plan.page``.
     drawing : Sketch
         A full (not lines-only) sketch; its image grid is the one the plan was laid out on.
 
@@ -51,13 +51,13 @@ def fidelity(plan: Plan, drawing: Sketch) -> Fidelity:
     Fidelity
     """
     layout = Layout.fit(drawing.line.edges.shape, plan.page)
-    pen_width = plan.layer("edges").pen_width
-    edges = ink_on_image_grid(plan.layer("edges").paths, layout, pen_width=pen_width)
+    pen_width = plan.pen_width
+    edges = ink_on_image_grid(plan.paths("edges"), layout, pen_width=pen_width)
     line_r = pearson(
         ndi.gaussian_filter(edges, LINE_SIGMA_PX),
         ndi.gaussian_filter(1.0 - drawing.line.drawing, LINE_SIGMA_PX),
     )
-    ink = ink_on_image_grid(plan.all_paths(), layout, pen_width=pen_width)
+    ink = ink_on_image_grid(plan.paths(), layout, pen_width=pen_width)
     sigma = TONE_SIGMA_MM / layout.mm_per_px
     plotted = ndi.gaussian_filter(ink, sigma)
     raster = ndi.gaussian_filter(1.0 - drawing.result, sigma)
@@ -94,7 +94,7 @@ class Likeness:
 
 def plotted_darkness(paths, box, *, pen_width: float, px_per_mm: float = YARDSTICK_PX_PER_MM) -> np.ndarray:
     """Ink of pen ``paths`` (page mm, Y up) over the drawing ``box`` ``(x0, y0, x1, y1)``, row 0 at the top."""
-    from sim.canvas import MM_PER_INCH, render_paths
+    from pencilbot.render import MM_PER_INCH, render_paths
 
     x0, y0, x1, y1 = box
     return render_paths(

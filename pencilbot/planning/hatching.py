@@ -311,7 +311,7 @@ def hatch_layers(
         wanted = grid.sample(darkness, family.points)
         request = family_coverage(wanted, onset)[j]
         strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=min_run, offset=j * GOLDEN / 3)
-        layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width))
+        layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
 
 

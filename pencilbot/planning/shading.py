@@ -18,7 +18,7 @@ import numpy as np
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import hatch_layers, trace_families
 from pencilbot.planning.plan import Layer
-from sim.canvas import MM_PER_INCH, render_paths
+from pencilbot.render import MM_PER_INCH, render_paths
 
 #: Cell (mm) on which the loop compares tone: fine enough for a 1 mm blur, coarse enough to be quick.
 TONE_CELL = 0.5

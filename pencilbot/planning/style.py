@@ -1,31 +1,35 @@
-"""Drawing styles: the artistic parameters of a plan, kept as data in ``pencilbot/configs/styles/*.toml``.
+"""Drawing styles: the artistic parameters of a plan, kept as data in ``configs/styles/*.toml``.
 
 A style says how a photo becomes strokes (line length, edge threshold, hatch angles, pen width)
-and where it goes on paper (page, orientation, margin). Shipped styles live in the package
-``pencilbot.configs`` (``styles/<name>.toml``) and are read with :mod:`importlib.resources`, so an
-installed wheel finds them; a path to any TOML file works too. Every key is optional (missing keys
+and where it goes on paper (page, orientation, margin). Shipped styles live in ``configs/styles/<name>.toml``
+(found by :mod:`pencilbot.configs_io` in a wheel and in a source checkout); a path to any TOML file
+works too. Every key is optional (missing keys
 keep the defaults below); an unknown key or a wrongly typed value is a
 :class:`~pencilbot.errors.ProfileError` naming the file and the key, so a typo never silently does
-nothing.
+nothing. The rules are one table, :data:`STYLE_SCHEMA`, as for plotter profiles.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from pencilbot import schema
 from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.strokes import LONGEST_LENGTH
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS
+from pencilbot.planning.plan import DEFAULT_MARGIN
 
 # Thinnest pen accepted, mm (fineliners go down to about this). Hatch spacing and the planning
 # grid follow the pen width: a 0.01 mm pen on A4 would mean tens of thousands of hatch lines per
 # layer and gigabytes of memory, for detail no plotter can draw.
 MIN_PEN_WIDTH = 0.05
+#: The style a plan uses when none is named.
+DEFAULT_STYLE = "default"
 
 
 @dataclass(frozen=True)
@@ -60,14 +64,16 @@ class Style:
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
-        Angle of each hatch layer in degrees, counter-clockwise from the page's +x axis. The first
-        layer covers the lightest tones, later layers add darkness on top.
+        Angle of each hatch family to the form, degrees (0: along the isophotes); the first
+        family covers the lightest tones, later ones cross-hatch darker ones.
     hatch_coverage : float
-        Fraction of paper (0, 1) one hatch layer covers at its densest; spacing = pen_width /
+        Fraction of paper (0, 1) one hatch family covers at its densest; spacing = pen_width /
         hatch_coverage.
+    hatch_form : float
+        Size (mm) of the forms the hatching follows (the structure tensor's scale); 0 hatches
+        straight lines at ``hatch_angles`` to the page's 45°.
     hatch_blur : float
-        Gaussian blur (mm) applied to the darkness before hatching, so hatch runs follow regions
-        of tone instead of pixel noise.
+        The scale (Gaussian sigma, mm) at which the plot's tone is matched to the picture's.
     min_hatch_run : float
         Shortest hatch line kept, mm; shorter pieces would be dots.
     hatch_join : float
@@ -86,11 +92,11 @@ class Style:
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """
 
-    name: str = "default"
+    name: str = DEFAULT_STYLE
     page: str = "A4"
     orientation: str = "auto"
-    margin: float = 15.0
-    pen_width: float = 0.5
+    margin: float = DEFAULT_MARGIN
+    pen_width: float = DEFAULT_PEN_WIDTH
     line_length: int | None = None
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
@@ -108,13 +114,13 @@ class Style:
     seed: int = 0
 
 
-def load_style(name_or_path: str | Path = "default") -> Style:
-    """Read a style by shipped name (``"default"``) or from a TOML file path.
+def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
+    """Read a style by shipped name (e.g. ``"default"``) or from a TOML file path.
 
     Parameters
     ----------
     name_or_path : str or Path
-        A name of a file in ``pencilbot/configs/styles`` without ``.toml``, or a path to a TOML file.
+        A name of a file in ``configs/styles`` without ``.toml``, or a path to a TOML file.
 
     Returns
     -------
@@ -134,7 +140,7 @@ def load_style(name_or_path: str | Path = "default") -> Style:
 
 
 def list_styles() -> list[str]:
-    """Names of the styles shipped in ``pencilbot/configs/styles``."""
+    """Names of the styles shipped in ``configs/styles``."""
     return shipped_names("styles")
 
 
@@ -154,66 +160,39 @@ def with_overrides(style: Style, values: dict, *, where: str = "command line") -
     ProfileError
         An unknown parameter or a bad value.
     """
-    known = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
     checked = {}
     for key, value in values.items():
-        if key not in known:
-            raise ProfileError(f"{where} has unknown key {key!r}; the known keys are: {', '.join(known)}")
-        checked[key] = _check_value(key, value, where)
+        if key not in STYLE_SCHEMA:
+            raise ProfileError(
+                f"{where} has unknown key {key!r}; the known keys are: {', '.join(STYLE_SCHEMA)}"
+            )
+        checked[key] = STYLE_SCHEMA[key].apply(value, key, where)
     return dataclasses.replace(style, **checked)
 
 
-def _check_value(key: str, value, where: str):
-    def bad(expected: str) -> ProfileError:
-        return ProfileError(f"{where}: {key} = {value!r} is invalid; expected {expected}")
-
-    def number(v) -> bool:
-        # TOML and float() on the command line both accept nan and inf: neither is a size.
-        return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-    if key in ("page", "orientation"):
-        if not isinstance(value, str):
-            raise bad("a string")
-        if key == "orientation" and value not in ORIENTATIONS:
-            raise bad(" or ".join(ORIENTATIONS))
-        return value
-    if key == "hatch":
-        if not isinstance(value, bool):
-            raise bad("true or false")
-        return value
-    if key == "hatch_angles":
-        if not isinstance(value, list) or not value or not all(number(v) for v in value):
-            raise bad("a non-empty list of angles in degrees")
-        return tuple(float(v) for v in value)
-    if key == "line_length":
-        if not isinstance(value, int) or isinstance(value, bool) or not 2 <= value <= LONGEST_LENGTH:
-            raise bad(f"a whole number of pixels from 2 to {LONGEST_LENGTH}")
-        return value
-    if key in ("min_edge_pixels", "seed", "order_rounds"):
-        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            raise bad("a whole number ≥ 0")
-        return value
-    if key == "edge_threshold":
-        if not number(value) or not 0 <= value <= 1:
-            raise bad("a number in [0, 1] (or leave it out for automatic)")
-        return float(value)
-    if key == "hatch_coverage":
-        if not number(value) or not 0 < value < 1:
-            raise bad("a number strictly between 0 and 1")
-        return float(value)
-    if key == "pen_width":
-        if not number(value) or value < MIN_PEN_WIDTH:
-            raise bad(f"a pen width of at least {MIN_PEN_WIDTH:g} mm")
-        return float(value)
-    if key == "hatch_blank_below":
-        if not number(value) or not 0 <= value < 1:
-            raise bad("a darkness in [0, 1)")
-        return float(value)
-    if key == "hatch_jitter":
-        if not number(value) or not 0 <= value <= 1:
-            raise bad("a fraction of the hatch spacing in [0, 1]")
-        return float(value)
-    # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ)
-    if not number(value) or value < 0:
-        raise bad("a number ≥ 0")
-    return float(value)
+# What each style key must be. The defaults are the Style fields'; a new key is a field there
+# and a rule here (the check below keeps the two in step).
+STYLE_SCHEMA: dict[str, schema.Rule] = {
+    "page": schema.TEXT,
+    "orientation": schema.choice(ORIENTATIONS),
+    "margin": schema.number(0, unit="mm"),
+    "pen_width": schema.number(MIN_PEN_WIDTH, unit="mm"),
+    "line_length": schema.whole(2, LONGEST_LENGTH, "pixels"),
+    "edge_threshold": schema.number(0, 1, unit="(or leave it out for automatic)"),
+    "min_edge_pixels": schema.whole(0, unit="pixels"),
+    "edge_join": schema.number(0, unit="stroke lengths"),
+    "hatch": schema.FLAG,
+    "hatch_angles": schema.ANGLES,
+    "hatch_coverage": schema.number(0, 1, above=True, below=True),
+    "hatch_form": schema.number(0, unit="mm"),
+    "hatch_blur": schema.number(0, unit="mm"),
+    "min_hatch_run": schema.number(0, unit="mm"),
+    "hatch_join": schema.number(0, unit="mm"),
+    "hatch_blank_below": schema.number(0, 1, below=True, unit="(darkness)"),
+    "hatch_jitter": schema.number(0, 1, unit="(fraction of the hatch spacing)"),
+    "order_rounds": schema.whole(0),
+    "seed": schema.whole(0),
+}
+_FIELDS = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
+if list(STYLE_SCHEMA) != _FIELDS:  # pragma: no cover - a programming error, caught on import
+    raise AssertionError(f"STYLE_SCHEMA keys {list(STYLE_SCHEMA)} must be the Style fields {_FIELDS}")

@@ -1,4 +1,4 @@
-"""The library API a script uses: sketch, plan, Plan.to_gcode, draw."""
+"""The library API a script uses: sketch, plan, export_gcode, draw."""
 
 from __future__ import annotations
 
@@ -29,22 +29,22 @@ def test_plan_honours_page_and_pen_width(camera_small):
     plan = pencilbot.plan(camera_small, page="A5", orientation="landscape", pen_width=0.3)
     assert (plan.page.width, plan.page.height) == (210.0, 148.0)
     assert {layer.pen_width for layer in plan.layers} == {0.3}
-    points = np.concatenate(plan.all_paths())
+    points = np.concatenate(plan.paths())
     assert points.min() >= plan.page.margin - 1e-6
     assert points[:, 0].max() <= plan.page.width - plan.page.margin + 1e-6
 
 
-def test_to_gcode_lines_equal_the_written_file(camera_small, tmp_path):
+def test_export_gcode_lines_equal_the_written_file(camera_small, tmp_path):
     plan = pencilbot.plan(camera_small, page="A5")
-    lines = plan.to_gcode("grbl-servo-a4")
-    summary = plan.to_gcode("grbl-servo-a4", tmp_path / "out.gcode")
+    lines = pencilbot.export_gcode(plan, "grbl-servo-a4")
+    summary = pencilbot.export_gcode(plan, "grbl-servo-a4", tmp_path / "out.gcode")
     assert (tmp_path / "out.gcode").read_text().splitlines() == lines
-    assert summary.paths == len(plan.all_paths())
+    assert summary.paths == len(plan.paths())
     assert any(line.startswith("G1") for line in lines)
 
 
 def test_draw_delivers_every_line_once_to_the_virtual_plotter(camera_small):
-    lines = pencilbot.plan(camera_small, page="A5").to_gcode("grbl-servo-a4")
+    lines = pencilbot.export_gcode(pencilbot.plan(camera_small, page="A5"), "grbl-servo-a4")
     result = pencilbot.draw(lines, "sim://api-test")
     try:
         accepted = protocol_sim.plotter("api-test").firmware.accepted_lines()

@@ -10,7 +10,7 @@ from pencilbot.planning.hatching import Onset, family_coverage, hatch_layers, tr
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
 from pencilbot.planning.shading import shade
-from sim.canvas import render_paths
+from pencilbot.render import render_paths
 
 
 def _layout(shape=(100, 100), mm_per_px=0.5):
