@@ -46,7 +46,7 @@ def test_sketch_reads_as_pencil(coffee, coffee_grey):
     bright = gray >= np.quantile(gray, 0.9)
     dark = gray <= np.quantile(gray, 0.1)
     # Paper-white highlights, graphite (not black) in the shadows, textured mid-tones.
-    assert R[bright].mean() > 0.93
+    assert np.median(R[bright]) > 0.95  # the contours drawn across them aside
     assert 0.1 < R[dark].mean() < 0.5
     mid = (gray > np.quantile(gray, 0.4)) & (gray < np.quantile(gray, 0.6))
     assert R[mid].std() > 0.05

@@ -81,12 +81,14 @@ def test_pencil_histogram_layers():
     dark = pencil_histogram((0, 0, 1))
     assert (dark * levels).sum() == pytest.approx(90, abs=0.01)
     assert np.sqrt((dark * (levels - 90) ** 2).sum()) == pytest.approx(11, abs=0.1)
-    default = pencil_histogram()
-    assert default.sum() == pytest.approx(1)
+    lu = pencil_histogram((52, 37, 11))
+    assert lu.sum() == pytest.approx(1)
     # 52:37:11 — the weights are the layers' pixel shares.
-    assert default[206:].sum() == pytest.approx(0.52, abs=0.01)
+    assert lu[206:].sum() == pytest.approx(0.52, abs=0.01)
     # The dark layer's Gaussian reaches past 104: 0.11 · Φ((104.5 − 90) / 11) ≈ 0.0997.
-    assert default[:105].sum() == pytest.approx(0.0997, abs=0.002)
+    assert lu[:105].sum() == pytest.approx(0.0997, abs=0.002)
+    default = pencil_histogram()
+    assert default[206:].sum() == pytest.approx(0.40, abs=0.01)  # 40:45:15 by default
     # Negligible tails are empty, so GML never sends a dark photo level to near-black.
     assert default[:40].sum() == 0
     np.testing.assert_allclose(pencil_histogram((2, 1, 1)), pencil_histogram((50, 25, 25)))
@@ -119,8 +121,9 @@ def test_tone_target_follows_the_model_and_keeps_order(method):
 def test_tone_target_on_a_ramp_hits_the_layers():
     ramp = np.tile(np.linspace(0, 1, 1000, dtype=np.float32), (20, 1))
     J = tone_target(ramp)
-    # Over half the drawing is near paper white, the darkest accents sit near 90/255, not black.
-    assert np.mean(J >= 206 / 255) == pytest.approx(0.52, abs=0.02)
+    # The bright layer's share of the drawing is near paper white (40 % by default), the darkest
+    # accents sit near 90/255, not black.
+    assert np.mean(J >= 206 / 255) == pytest.approx(0.40, abs=0.02)
     assert 0.15 < J.min() < 0.3 and J.max() == 1.0
 
 
