@@ -1,10 +1,13 @@
 """Shading that closes the loop: hatch, render what the pen lays down, correct, hatch again.
 
-The goal is the picture a viewer sees at arm's length: the tone target with the contours drawn
-over it, ``1 − (1 − e)(1 − d)`` for edge ink e and tone darkness d, blurred by ``blur`` mm (the
-1–3 mm scale at which shading is judged). The hatching's request starts at d. Each round hatches
-the request, renders edges and hatching with the exact-area rasteriser the previews and the
-simulator use, blurs that the same way and adds the difference to the request. What the ideal
+The goal is the picture a viewer sees at arm's length: the tone darkness d blurred by ``blur``
+mm (the 1–3 mm scale at which shading is judged), with the contours counted *in* it: where an
+edge stroke lays ink, the hatching beside it lays less, so a contour is part of the tone instead
+of a dark rim on top of it (measured: drawing the tone under the contours, 1 − (1 − e)(1 − d),
+followed the photo worse, Spearman rho coffee 0.809 against 0.826, rocket 0.744 against 0.764,
+at the same fidelity to the raster sketch). The hatching's request starts at d. Each round
+hatches the request, renders edges and hatching with the exact-area rasteriser the previews and
+the simulator use, blurs that the same way and adds the difference to the request. What the ideal
 dither model cannot know — strokes dropped as too short, gaps bridged, lines that crowd or spread
 where they bend, ink already laid by a contour — is measured instead of modelled, so dark tones
 reach full coverage, mid-tones get their share and the tone around contours is kept.
@@ -94,7 +97,7 @@ def shade(
     field = direction_field(sample_image(darkness, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
     lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
     edge_ink = ink_on_grid(edges, grid, pen_width)
-    goal = 1.0 - (1.0 - _blur(edge_ink, sigma)) * (1.0 - tone)
+    goal = tone
     paper = tone == 0.0
     request = tone.copy()
     best, best_error = [], np.inf
