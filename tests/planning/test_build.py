@@ -274,3 +274,9 @@ def test_every_style_key_has_one_rule_and_the_defaults_obey_it():
             value = list(default) if isinstance(default, tuple) else default
             assert rule.accepts(value), (key, default, rule.expected)
             assert with_overrides(Style(), {key: value}) == Style()
+
+
+def test_a_white_photo_plans_no_strokes():
+    white = image_from_array(np.ones((120, 160), np.float32), source="white")
+    plan = make_plan(white, style=FAST)
+    assert plan.paths().points.size == 0
