@@ -39,6 +39,8 @@ class Sketch:
     ----------
     result : ndarray of float32, shape (H, W) or (H, W, 3)
         The drawing in [0, 1], 1 = paper; RGB when made with ``color=True``.
+    gray : ndarray of float32, shape (H, W)
+        The photo's luma the drawing was made from (1 = white).
     line : LineDrawing
         The line drawing L and its labels and edge map.
     tone : ndarray of float32, shape (H, W), or None
@@ -53,6 +55,7 @@ class Sketch:
     """
 
     result: np.ndarray
+    gray: np.ndarray
     line: LineDrawing
     tone: np.ndarray | None = None
     texture: np.ndarray | None = None
@@ -126,7 +129,7 @@ def sketch(
         "sketch of %s (%d×%d px, ℓ = %d px): %s", image.source, image.shape[1], image.shape[0], line.length,
         ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
     )
-    return Sketch(result=result, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:

@@ -128,6 +128,7 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
             1.0 - drawing.tone,
             layout,
             strokes,
+            paper=1.0 - drawing.gray,
             pen_width=style.pen_width,
             angles=style.hatch_angles,
             coverage=style.hatch_coverage,

@@ -38,6 +38,7 @@ def shade(
     layout,
     edges: list[np.ndarray],
     *,
+    paper: np.ndarray | None = None,
     pen_width: float = 0.5,
     angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
     coverage: float = 0.6,
@@ -60,6 +61,11 @@ def shade(
         Placement of the image on the page.
     edges : list of (N, 2) arrays
         The edge strokes (page mm) that will be drawn over the hatching.
+    paper : (H, W) float array in [0, 1], optional
+        How dark the *photo* is on the image grid (1 − luma). Where it is below ``blank_below``
+        (after the blur) the paper stays blank whatever the tone asks. Judging paper by the
+        photo, not the tone, keeps a white sheet white and still shades a light face that the
+        pencil tone model maps close to paper. Default: ``darkness``.
     pen_width : float
         Pen width, mm.
     angles : tuple of float
@@ -74,7 +80,7 @@ def shade(
     min_run : float
         Shortest hatch stroke, mm.
     blank_below : float
-        Tone darkness (after the blur) below which the paper stays blank.
+        Photo darkness (see ``paper``) below which the paper stays blank.
     wobble : float
         Smooth random bend of the lines, fraction of the spacing.
     blur : float
@@ -92,7 +98,8 @@ def shade(
     grid = Grid(box, TONE_CELL)
     sigma = blur / TONE_CELL
     tone = _blur(np.clip(sample_image(darkness, layout, grid), 0.0, 1.0), sigma)
-    tone[tone < blank_below] = 0.0
+    photo = tone if paper is None else _blur(sample_image(paper, layout, grid), sigma)
+    tone[photo < blank_below] = 0.0
     field_grid = Grid(box, FIELD_CELL)
     field = direction_field(sample_image(darkness, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
     lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
