@@ -113,18 +113,28 @@ class DirectionField:
 
 
 def bilinear(values: np.ndarray, rc: np.ndarray) -> np.ndarray:
-    """Bilinear interpolation of a 2-D array at fractional (row, col) points (N, 2), clamped."""
-    values = np.asarray(values)
-    rows, cols = values.shape
-    r = np.clip(rc[:, 0], 0, rows - 1)
-    c = np.clip(rc[:, 1], 0, cols - 1)
-    r0 = np.minimum(r.astype(np.intp), max(rows - 2, 0))
-    c0 = np.minimum(c.astype(np.intp), max(cols - 2, 0))
-    fr, fc = r - r0, c - c0
-    r1, c1 = np.minimum(r0 + 1, rows - 1), np.minimum(c0 + 1, cols - 1)
-    top = values[r0, c0] * (1 - fc) + values[r0, c1] * fc
-    bottom = values[r1, c0] * (1 - fc) + values[r1, c1] * fc
-    return top * (1 - fr) + bottom * fr
+    """Bilinear interpolation of a 2-D array at fractional (row, col) points (N, 2), clamped.
+
+    OpenCV's remap in float32 (its weights are quantised to 1/32 of a cell: a few µm on these
+    grids), ten times faster than gathering the four neighbours in NumPy.
+    """
+    values = np.asarray(values, np.float32)
+    rc = np.asarray(rc, np.float32).reshape(-1, 2)
+    n = len(rc)
+    if n == 0:
+        return np.zeros(0)
+    if max(values.shape) >= _REMAP_LIMIT:  # pragma: no cover - grids over 32 767 cells a side
+        return ndi.map_coordinates(values, [rc[:, 0], rc[:, 1]], order=1, mode="nearest")
+    # remap wants a 2-D map under 32 767 a side: fold the points into rows.
+    pad = (-n) % _REMAP_ROW
+    cols = np.pad(rc[:, 1], (0, pad)).reshape(-1, _REMAP_ROW)
+    rows = np.pad(rc[:, 0], (0, pad)).reshape(-1, _REMAP_ROW)
+    out = cv2.remap(values, cols, rows, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    return out.ravel()[:n].astype(np.float64)
+
+
+_REMAP_ROW = 4096
+_REMAP_LIMIT = 32767
 
 
 def direction_field(
