@@ -28,8 +28,12 @@ full-strength strokes. Here E has an absolute scale instead:
   at 12 MP, and pixel noise, which averaging shrinks, does not grow with the resolution.
 * ``E = clip((g − floor) / (full − floor), 0, 1)`` for the dilated gradient g: below ``floor``
   (``EDGE_FLOOR`` = 0.03, about 8 grey levels per reference pixel, above ±2-level noise and the
-  steps of a smooth 8-bit ramp) nothing is an edge; from ``full`` (``EDGE_FULL`` = 0.4, a
-  clear-cut contour) up the edge is full strength.
+  steps of a smooth 8-bit ramp) nothing is an edge, whatever the picture; from ``full`` up the
+  edge is full strength. ``full`` follows the photo within bounds: 1.5 × its 99th-percentile
+  gradient, clipped to [``EDGE_FULL_MIN``, ``EDGE_FULL``] = [0.12, 0.4]. A crisp photo's clear-cut
+  contours (0.4 and up) are black; a soft one (a cat's fur, a hazy landscape) still gets dark
+  outlines, with at most 0.4 / 0.12 ≈ 3.3 times the gain; a flat or noisy picture gets nothing,
+  since the floor does not move.
 
 The structuring element
 -----------------------
@@ -66,9 +70,9 @@ L_ELEMENTS: dict[str, np.ndarray] = {
 DEFAULT_ELEMENT = "down-right"
 DENOISERS = ("median", "gaussian", "none")
 MAGNITUDES = ("l2", "l1")
-#: Gradient (luma per reference pixel) below which nothing is an edge, and from which an edge is
-#: full strength (E = 1). See the module docstring.
-EDGE_FLOOR, EDGE_FULL = 0.03, 0.4
+#: Gradient (luma per reference pixel) below which nothing is an edge, and the range of the
+#: gradient from which an edge is full strength (E = 1). See the module docstring.
+EDGE_FLOOR, EDGE_FULL_MIN, EDGE_FULL = 0.03, 0.12, 0.4
 
 
 def edge_map(
@@ -81,7 +85,7 @@ def edge_map(
     anchor: tuple[int, int] | None = None,
     scale: float | None = None,
     floor: float = EDGE_FLOOR,
-    full: float = EDGE_FULL,
+    full: float | None = None,
 ) -> np.ndarray:
     """The GMED edge map E of a grey image.
 
@@ -101,9 +105,10 @@ def edge_map(
         Anchor pixel inside ``element``; None = the element pixel nearest its centroid.
     scale : float, optional
         Size of a reference pixel in pixels (≥ 1); default :func:`reference_scale` of the image.
-    floor, full : float
-        Gradient, in luma per reference pixel, at which E starts above 0 and reaches 1
-        (0 ≤ floor < full).
+    floor : float
+        Gradient, in luma per reference pixel, at and below which E is 0.
+    full : float, optional
+        Gradient at which E reaches 1 (> floor); default :func:`full_strength` of the image.
 
     Returns
     -------
@@ -134,7 +139,7 @@ def gmed_stages(
     anchor: tuple[int, int] | None = None,
     scale: float | None = None,
     floor: float = EDGE_FLOOR,
-    full: float = EDGE_FULL,
+    full: float | None = None,
 ) -> dict[str, np.ndarray]:
     """All GMED stages; parameters as :func:`edge_map`.
 
@@ -152,11 +157,12 @@ def gmed_stages(
     scale = reference_scale(gray.shape) if scale is None else float(scale)
     if not scale >= 1:
         raise ValueError(f"scale must be at least 1 pixel, got {scale}")
-    if not 0 <= floor < full:
-        raise ValueError(f"need 0 <= floor < full, got floor={floor}, full={full}")
     denoised = reference_smoothing(denoise_image(gray, denoise, denoise_size), scale)
     gradient = gradient_magnitude(denoised, magnitude)
     gradient *= np.float32(scale)
+    full = full_strength(gradient) if full is None else float(full)
+    if not 0 <= floor < full:
+        raise ValueError(f"need 0 <= floor < full, got floor={floor}, full={full}")
     edges = dilate(gradient, element, anchor)
     edges -= np.float32(floor)
     edges *= np.float32(1.0 / (full - floor))
@@ -177,6 +183,25 @@ def denoise_image(gray: np.ndarray, method: str = "median", size: int = 3) -> np
     if size <= 5:
         return cv2.medianBlur(gray, size)  # OpenCV takes float32 only for 3 and 5
     return ndi.median_filter(gray, size=size, mode="reflect")
+
+
+def full_strength(gradient: np.ndarray) -> float:
+    """The gradient at which an edge of this picture is full strength (see the module docstring).
+
+    Parameters
+    ----------
+    gradient : ndarray, shape (H, W)
+        Gradient magnitude in luma per reference pixel.
+
+    Returns
+    -------
+    float
+        1.5 × the 99th percentile of ``gradient``, clipped to [EDGE_FULL_MIN, EDGE_FULL].
+    """
+    # Every 4th pixel each way is plenty for a percentile and keeps 12 MP cheap.
+    sample = gradient[::4, ::4] if gradient.size > 1_000_000 else gradient
+    q99 = float(np.percentile(sample, 99)) if sample.size else 0.0
+    return min(EDGE_FULL, max(EDGE_FULL_MIN, 1.5 * q99))
 
 
 def reference_smoothing(gray: np.ndarray, scale: float) -> np.ndarray:

@@ -71,14 +71,22 @@ class LineDrawing:
     gamma: float = 1.0
     floor: float = STROKE_FLOOR
 
-    def edge_strength(self, darkness: float) -> float:
-        """The edge strength E in [0, 1] whose stroke the drawing shows ``darkness`` dark (0..1).
+    def stroke_darkness(self, strength: float) -> float:
+        """How dark (0..1) the drawing shows the stroke of an edge of ``strength`` E in [0, 1].
 
-        The inverse of the tone curve along a contour (where S ≈ E): strokes at least this
-        strong are at least this dark, whatever γ and floor the drawing was made with.
+        The tone curve along a contour, where S ≈ E: ``1 − (1 − clip((E − floor) / (1 − floor)))^γ``.
         """
-        strength = 1.0 - (1.0 - float(darkness)) ** (1.0 / self.gamma)
-        return self.floor + (1.0 - self.floor) * strength
+        ink = min(max((float(strength) - self.floor) / (1.0 - self.floor), 0.0), 1.0)
+        return 1.0 - (1.0 - ink) ** self.gamma
+
+    def edge_strength(self, darkness: float) -> float:
+        """The edge strength E whose stroke is ``darkness`` dark: the inverse of :meth:`stroke_darkness`.
+
+        Strokes at least this strong are at least this dark, whatever γ and floor the drawing
+        was made with.
+        """
+        ink = 1.0 - (1.0 - min(max(float(darkness), 0.0), 1.0)) ** (1.0 / self.gamma)
+        return self.floor + (1.0 - self.floor) * ink
 
     def B(self, i: int) -> np.ndarray:  # noqa: N802 - the paper's name
         """Bᵢ: the edge map where the label is ``i``, 0 elsewhere; (H, W) float32."""

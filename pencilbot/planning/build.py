@@ -116,9 +116,15 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     """
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
-    threshold = edge_threshold(line.edges) if style.edge_threshold is None else style.edge_threshold
+    threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
     strokes = edge_strokes(
-        line, layout, pen_width=style.pen_width, threshold=threshold, min_pixels=style.min_edge_pixels
+        line,
+        layout,
+        pen_width=style.pen_width,
+        threshold=threshold,
+        min_pixels=style.min_edge_pixels,
+        join=style.edge_join,
+        clutter=style.edge_clutter,
     )
     layers = []
     if style.hatch:
@@ -141,10 +147,9 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     for layer in layers:
         started = time.perf_counter()
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
-        # lifting. Edge strokes overlap their neighbours along a contour by ℓ/4, so joining
-        # ends within ℓ/2 retraces ink already there and saves a lift per stroke.
-        edge_join = max(style.pen_width, style.edge_join * line.length * layout.mm_per_px)
-        join = style.hatch_join if layer.name != "edges" else edge_join
+        # lifting. Edge strokes already come chained along their contours (edge_strokes):
+        # joining more than touching ends would draw chords between unrelated strokes.
+        join = style.hatch_join if layer.name != "edges" else style.pen_width
         layer.paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
         if layer.paths:
             position = tuple(layer.paths[-1][-1])

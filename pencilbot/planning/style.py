@@ -54,9 +54,14 @@ class Style:
     min_edge_pixels : int
         Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
     edge_join : float
-        Edge strokes whose ends lie within this many ℓ (at plot scale, at least a pen width)
-        are drawn in one pen-down path; consecutive strokes of a contour overlap by ℓ/4, so
-        this retraces ink already there and saves a pen lift each.
+        Consecutive strokes of a contour whose ends lie within this many ℓ are chained into one
+        pen-down path through their crossing point (the pen retraces its own overshoot, it
+        draws no chord), saving a pen lift each.
+    edge_clutter : float
+        Clutter (contours crossing a window of σ = 1.5 ℓ, times the incoherence of their
+        directions; about 0.1 along contours, 2–3 in dense texture) above which a region is
+        texture, not contour: there only long chains of strokes are drawn, and the hatching
+        carries the texture's darkness. Larger keeps more detail; ``inf`` keeps every stroke.
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
@@ -95,6 +100,7 @@ class Style:
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
     edge_join: float = 0.5
+    edge_clutter: float = 2.0
     hatch: bool = True
     hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
     hatch_coverage: float = 0.5
@@ -211,6 +217,10 @@ def _check_value(key: str, value, where: str):
     if key == "hatch_jitter":
         if not number(value) or not 0 <= value <= 1:
             raise bad("a fraction of the hatch spacing in [0, 1]")
+        return float(value)
+    if key == "edge_clutter":
+        if not isinstance(value, int | float) or isinstance(value, bool) or not value > 0:
+            raise bad("a clutter > 0 (inf keeps every stroke)")
         return float(value)
     # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ)
     if not number(value) or value < 0:

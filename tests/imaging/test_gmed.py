@@ -9,10 +9,12 @@ from hypothesis.extra.numpy import arrays
 from pencilbot.imaging.gmed import (
     EDGE_FLOOR,
     EDGE_FULL,
+    EDGE_FULL_MIN,
     L_ELEMENTS,
     dilate,
     edge_map,
     element_offsets,
+    full_strength,
     gmed_stages,
     gradient_magnitude,
 )
@@ -128,7 +130,7 @@ def test_edge_strength_is_absolute_and_floored():
     def step(contrast):
         f = np.full((20, 40), 0.5, np.float32)
         f[:, 20:] += contrast
-        return edge_map(f, scale=1.0).max()
+        return edge_map(f, scale=1.0, full=EDGE_FULL).max()
 
     assert step(EDGE_FLOOR * 0.9) == 0  # below the floor: nothing
     assert step(EDGE_FULL) == pytest.approx(1.0)  # at full: black, whatever else is in the picture
@@ -138,8 +140,23 @@ def test_edge_strength_is_absolute_and_floored():
     f = np.full((20, 80), 0.5, np.float32)
     f[:, 20:40] += half
     f[:, 60:] = 0.0
-    E = edge_map(f, scale=1.0)
+    E = edge_map(f, scale=1.0, full=EDGE_FULL)
     assert E[:, 19:21].max() == pytest.approx(0.5, abs=1e-5) and E[:, 59:61].max() == 1.0
+
+
+def test_full_strength_follows_the_photo_within_bounds():
+    rng = np.random.default_rng(3)
+    assert full_strength(np.zeros((50, 50), np.float32)) == EDGE_FULL_MIN  # most gain, bounded
+    assert full_strength(np.ones((50, 50), np.float32)) == EDGE_FULL  # crisp: no less than 0.4
+    soft = rng.uniform(0, 0.1, (200, 200)).astype(np.float32)
+    assert full_strength(soft) == pytest.approx(1.5 * np.percentile(soft, 99), rel=1e-5)
+    # A soft photo's contour (a 0.1 step) is drawn darker than on the absolute scale alone ...
+    f = np.full((40, 40), 0.5, np.float32)
+    f[:, 20:] += 0.1
+    assert edge_map(f, scale=1.0).max() > 2 * edge_map(f, scale=1.0, full=EDGE_FULL).max()
+    # ... but the floor stays: the same page at a contrast under the floor is still paper.
+    f[:, 20:] -= 0.1 - 0.9 * EDGE_FLOOR
+    assert not edge_map(f, scale=1.0).any()
 
 
 def test_a_blurred_contour_keeps_its_strength_at_higher_resolution():
@@ -177,7 +194,7 @@ def test_median_removes_salt_but_none_keeps_it():
 def test_stages_chain():
     rng = np.random.default_rng(2)
     gray = rng.random((30, 30), dtype=np.float32) * 0.3
-    st_ = gmed_stages(gray, denoise="gaussian", denoise_size=5, magnitude="l1", scale=1.0)
+    st_ = gmed_stages(gray, denoise="gaussian", denoise_size=5, magnitude="l1", scale=1.0, full=EDGE_FULL)
     np.testing.assert_array_equal(st_["gradient"], gradient_magnitude(st_["denoised"], "l1"))
     expected = np.clip((dilate(st_["gradient"]) - EDGE_FLOOR) / (EDGE_FULL - EDGE_FLOOR), 0, 1)
     np.testing.assert_allclose(st_["edges"], expected, rtol=1e-5, atol=1e-6)

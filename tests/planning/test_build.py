@@ -20,6 +20,7 @@ from pencilbot.planning.build import (
     ink_on_image_grid,
     make_plan,
     plan_from_sketch,
+    sketch_and_plan,
 )
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
@@ -77,9 +78,9 @@ def test_ordering_keeps_every_edge_stroke(camera):
     raw = edge_strokes(drawing.line, layout, threshold=float(plan.meta["edge_threshold"]))
     ordered = plan.layer("edges").paths
     # Ordering only reverses and joins: ink length is kept up to the joins' short bridges
-    # (each at most edge_join · ℓ at plot scale).
+    # (each at most a pen width).
     assert len(ordered) < len(raw)
-    bridge = max(FAST.pen_width, FAST.edge_join * drawing.line.length * layout.mm_per_px)
+    bridge = FAST.pen_width  # edges are chained already; ordering joins only touching ends
     bridges = (len(raw) - len(ordered)) * bridge
     assert _length(raw) - 1e-6 <= _length(ordered) <= _length(raw) + bridges + 1e-6
     assert _segments(raw) <= _segments(ordered)  # every stroke is still drawn, maybe reversed
@@ -253,3 +254,22 @@ def test_a_huge_photo_is_planned_at_what_the_pen_can_draw():
     assert at_plot_resolution(small, page, pen_width=0.5) is small
     plan = make_plan(big, page=page, style=Style(order_rounds=0))
     assert plan.meta["image_px"] == f"{small.shape[1]}x{small.shape[0]}"
+
+
+@pytest.mark.parametrize(
+    "gray",
+    [
+        np.tile(np.linspace(0.55, 0.75, 600), (400, 1)),
+        np.round(np.tile(np.linspace(0.2, 0.9, 600), (400, 1)) * 255) / 255,
+        np.clip(0.97 + np.random.default_rng(0).integers(-2, 3, (400, 600)) / 255, 0, 1),
+        np.ones((400, 600)),
+    ],
+    ids=["smooth-ramp", "8-bit-ramp", "noisy-blank-page", "white"],
+)
+def test_paper_that_should_stay_paper_plans_no_edge_strokes(gray):
+    # The edge map used to be divided by its own maximum: banding and ±2 grey levels of
+    # noise became full-strength strokes, metres of them on A4.
+    image = image_from_array(gray.astype(np.float32), source="blank")
+    drawing, plan = sketch_and_plan(image, style=FAST)
+    assert plan.layer("edges").paths == []
+    assert np.all(drawing.line.drawing == 1.0)  # and the raster line drawing is paper too
