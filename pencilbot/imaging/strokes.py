@@ -44,6 +44,9 @@ LONGEST_LENGTH = 100
 _SUPERSAMPLE = 8
 #: Stroke strength (S, in E's units) below which the line drawing stays paper.
 STROKE_FLOOR = 0.1
+#: Accepted stroke γ and width (px): beyond them a drawing is blank, black or all kernel.
+GAMMA_RANGE = (0.1, 10.0)
+WIDTH_RANGE = (0.5, 20.0)
 
 
 @dataclass(frozen=True)

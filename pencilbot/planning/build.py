@@ -66,7 +66,13 @@ def sketch_and_plan(
         page = page_size(style.page, style.orientation, image.shape, style.margin)
     image = at_plot_resolution(image, page, style.pen_width)
     drawing = sketch(
-        image, line_length=style.line_length, texture_seed=style.seed, lines_only=not style.hatch
+        image,
+        line_length=style.line_length,
+        stroke_gamma=style.stroke_gamma,
+        stroke_width=style.stroke_width,
+        texture=style.texture,
+        texture_seed=style.seed,
+        lines_only=not style.hatch,
     )
     return drawing, plan_from_sketch(drawing, page, style, source=image.source)
 
@@ -163,9 +169,12 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "mm_per_px": f"{layout.mm_per_px:.6g}",
         "pen_width_mm": f"{style.pen_width:g}",
         "line_length_px": str(line.length),
+        "stroke_gamma": f"{style.stroke_gamma:g}",
+        "stroke_width_px": f"{style.stroke_width:g}",
         "edge_threshold": f"{threshold:.4g}",
         "hatch_angles_deg": " ".join(f"{a:g}" for a in style.hatch_angles) if style.hatch else "",
         "hatch_coverage": f"{style.hatch_coverage:g}",
+        "texture": style.texture or "synthesised",
         "texture_seed": str(style.seed),
     }
     return Plan(page=page, layers=layers, meta=meta)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
-from pencilbot.imaging.strokes import LONGEST_LENGTH
+from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, WIDTH_RANGE
 from pencilbot.planning.layout import ORIENTATIONS
 
 # Thinnest pen accepted, mm (fineliners go down to about this). Hatch spacing and the planning
@@ -48,9 +48,18 @@ class Style:
     line_length : int or None
         Stroke length ℓ of the line drawing in image pixels (2 to ``LONGEST_LENGTH``); None picks
         it from the image size.
+    stroke_gamma : float
+        Tone curve γ of the line drawing (0.1 to 10): > 1 darkens its strokes, so fainter
+        contours are drawn with the pen too; < 1 lightens them.
+    stroke_width : float
+        Width of the line drawing's strokes, image pixels (0.5 to 20): a wider raster stroke
+        is drawn with more touching pen lines.
+    texture : str or None
+        A hand-drawn pencil texture image for the tone (the paper's H), a path; relative paths
+        in a style file are relative to that file. None synthesises one.
     edge_threshold : float or None
-        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None chooses it
-        automatically from the edge map.
+        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None: where the line
+        drawing's stroke is 0.45 dark (which follows stroke_gamma).
     min_edge_pixels : int
         Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
     edge_join : float
@@ -97,6 +106,9 @@ class Style:
     margin: float = 15.0
     pen_width: float = 0.5
     line_length: int | None = None
+    stroke_gamma: float = 1.0
+    stroke_width: float = 1.0
+    texture: str | None = None
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
     edge_join: float = 0.5
@@ -135,7 +147,11 @@ def load_style(name_or_path: str | Path = "default") -> Style:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
-    return with_overrides(Style(name=stem), table, where=f"style file {where}")
+    style = with_overrides(Style(name=stem), table, where=f"style file {where}")
+    source = Path(name_or_path)
+    if style.texture is not None and source.is_file():  # a file of the user's, not a shipped style
+        style = dataclasses.replace(style, texture=str(source.parent / Path(style.texture).expanduser()))
+    return style
 
 
 def list_styles() -> list[str]:
@@ -176,6 +192,15 @@ def _check_value(key: str, value, where: str):
         # TOML and float() on the command line both accept nan and inf: neither is a size.
         return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
 
+    if key == "texture":
+        if not isinstance(value, str) or not value.strip():
+            raise bad("the path of a pencil texture image")
+        return value
+    if key in ("stroke_gamma", "stroke_width"):
+        low, high = GAMMA_RANGE if key == "stroke_gamma" else WIDTH_RANGE
+        if not number(value) or not low <= value <= high:
+            raise bad(f"a number from {low:g} to {high:g}")
+        return float(value)
     if key in ("page", "orientation"):
         if not isinstance(value, str):
             raise bad("a string")

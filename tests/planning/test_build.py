@@ -173,6 +173,12 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("margin = inf\n", ["bad.toml", "margin"]),
         ("hatch_blur = nan\n", ["bad.toml", "hatch_blur"]),
         ("line_length = 100000\n", ["bad.toml", "line_length"]),
+        ("stroke_gamma = 0\n", ["bad.toml", "stroke_gamma", "0.1 to 10"]),
+        ("stroke_width = 50\n", ["bad.toml", "stroke_width", "0.5 to 20"]),
+        ("texture = 3\n", ["bad.toml", "texture", "path"]),
+        ("texture = ''\n", ["bad.toml", "texture"]),
+        ("edge_clutter = 0\n", ["bad.toml", "edge_clutter"]),
+        ("edge_clutter = nan\n", ["bad.toml", "edge_clutter"]),
     ],
 )
 def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
@@ -182,6 +188,27 @@ def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
         load_style(path)
     assert all(word in str(err.value) for word in words)
     assert "\n" not in str(err.value)
+
+
+def test_style_stroke_and_texture_keys_reach_the_drawing(camera, tmp_path):
+    from PIL import Image
+
+    folder = tmp_path / "styles"
+    folder.mkdir()
+    paper = np.full((64, 64), 230, np.uint8)
+    paper[::5] = 90  # a ruled "hatching" scan
+    Image.fromarray(paper).save(folder / "ruled.png")
+    (folder / "mine.toml").write_text('texture = "ruled.png"\nstroke_gamma = 3.0\nstroke_width = 2.0\norder_rounds = 4\n')
+    style = load_style(folder / "mine.toml")
+    assert style.texture == str(folder / "ruled.png")  # relative to the style file, not the cwd
+    assert (style.stroke_gamma, style.stroke_width) == (3.0, 2.0)
+    drawing, plan = sketch_and_plan(camera, style=style)
+    plain_drawing, plain = sketch_and_plan(camera, style=FAST)
+    assert (drawing.line.gamma, plan.meta["texture"], plan.meta["stroke_gamma"]) == (3.0, style.texture, "3")
+    assert np.abs(drawing.texture - plain_drawing.texture).mean() > 0.02
+    # Darker, wider raster strokes: the pen draws fainter contours too, with more ink.
+    assert float(plan.meta["edge_threshold"]) < float(plain.meta["edge_threshold"])
+    assert _length(plan.layer("edges").paths) > 1.1 * _length(plain.layer("edges").paths)
 
 
 def test_unknown_style_names_the_choices():
