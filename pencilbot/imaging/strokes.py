@@ -9,11 +9,11 @@ An edge map E becomes a pencil line drawing in two convolution passes:
    paints a short straight stroke of length ℓ in its own direction, so a curved contour turns
    into short straight strokes whose ends overshoot and cross, as a hand draws.
 
-The drawing is ``(1 − clip((S − floor) / (1 − floor), 0, 1)) ** gamma``, 1 = paper. Each kernel
-sums to its width in pixels, so along a contour S ≈ E (for the default 1-pixel width): a stroke
-is as dark as its edge is strong on E's absolute scale (:mod:`pencilbot.imaging.gmed`), a wider
-stroke is wider but not paler, and ``floor`` (``STROKE_FLOOR``) drops the faint flanks and tails
-where a stroke's paint thins out. Lu divides S by its maximum instead, which makes the strongest
+The drawing is ``(1 − clip((w · S − floor) / (1 − floor), 0, 1)) ** gamma``, 1 = paper, for the
+stroke width w in pixels. Each kernel sums to 1, so along a contour S ≈ E: a stroke is as dark as
+its edge is strong on E's absolute scale (:mod:`pencilbot.imaging.gmed`); a w-pixel stroke lays w
+times the graphite, so it is wider but not paler; and ``floor`` (``STROKE_FLOOR``) drops the faint
+flanks and tails where a stroke's paint thins out. Lu divides S by its maximum instead, which makes the strongest
 stroke of any picture black: on a flat one, noise. γ is the tone curve of the strokes.
 
 Direction k ∈ 0..7 is the angle θ = k·22.5° counter-clockwise from the image +x axis as seen on

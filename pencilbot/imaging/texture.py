@@ -32,7 +32,7 @@ problem on reference-sized pixels — and interpolated bilinearly. That keeps th
 of resolution and makes a 12 MP solve cost what a 0.25 MP one does.
 
 The paper fills with a hand-drawn texture; :func:`user_texture` takes one (a scan or photo of
-pencil hatching), mirrored and tiled to the image. By default the texture is synthesised
+pencil hatching), made seamless and tiled to the image. By default the texture is synthesised
 (:func:`pencil_texture`): graphite marks — thin, tapered, of random pressure, hatched at two
 nearby angles as a right hand does — scattered over the sheet, broken up by the paper's grain.
 Both are normalised to the same graphite density, so that β, the number of passes, means the
@@ -171,10 +171,10 @@ def user_texture(source: str | os.PathLike | np.ndarray, shape: tuple[int, int],
     Returns
     -------
     ndarray of float32, shape (H, W)
-        Strictly inside (0, 1): the texture enlarged, mirrored and tiled over the image (so
-        tiles meet without a jump), its graphite density −ln H scaled to the synthetic
-        texture's mean, and lifted by a faint haze where it is more contrasted than
-        ``DENSITY_CV`` (paper-white gaps would otherwise never take tone).
+        Strictly inside (0, 1): the texture enlarged and, if smaller than the image, made
+        seamless (:func:`_seamless`) and tiled over it; its graphite density −ln H scaled to
+        the synthetic texture's mean and lifted by a faint haze where it is more contrasted
+        than ``DENSITY_CV`` (paper-white gaps would otherwise never take tone).
 
     Raises
     ------
@@ -197,16 +197,36 @@ def user_texture(source: str | os.PathLike | np.ndarray, shape: tuple[int, int],
     if scale > 1:
         size = (max(1, round(gray.shape[1] * scale)), max(1, round(gray.shape[0] * scale)))
         gray = cv2.resize(gray, size, interpolation=cv2.INTER_LINEAR)
-    tile = np.block([[gray, gray[:, ::-1]], [gray[::-1], gray[::-1, ::-1]]])
-    reps = (-(-h // tile.shape[0]), -(-w // tile.shape[1]))
-    covered = np.tile(tile, reps)[:h, :w]
-    density = -np.log(np.clip(covered, 1.0 / 255.0, 1.0))
+    density = -np.log(np.clip(gray, 1.0 / 255.0, 1.0))
+    if density.shape[0] < h or density.shape[1] < w:
+        density = _seamless(density)
+        reps = (-(-h // density.shape[0]), -(-w // density.shape[1]))
+        density = np.tile(density, reps)
+    density = np.ascontiguousarray(density[:h, :w])
     mean, std = _mean_std(density)
     if mean > 0:
         density = _with_haze(density, min(std / mean, DENSITY_CV))
     else:  # a blank sheet: even graphite, no texture
         density = np.ones_like(density)
     return _from_density(density)
+
+
+def _seamless(density: np.ndarray) -> np.ndarray:
+    """``density`` made periodic, so that tiles of it meet without a seam, strokes unturned.
+
+    Blended with itself shifted by half its size, under a weight w that is 0 on its edges and 1
+    in its middle; the blend w·d + (1 − w)·d_shifted is divided by √(w² + (1 − w)²) about the
+    mean so that the marks keep their contrast where the two overlap. (Mirrored tiles would be
+    seamless too, but they turn diagonal hatching into herringbone.)
+    """
+    h, w = density.shape
+    wy = np.sin(np.pi * (np.arange(h) + 0.5) / h) ** 2
+    wx = np.sin(np.pi * (np.arange(w) + 0.5) / w) ** 2
+    weight = np.outer(wy, wx)
+    mean = float(density.mean())
+    shifted = np.roll(density, (h // 2, w // 2), axis=(0, 1))
+    blend = (weight * (density - mean) + (1 - weight) * (shifted - mean)) / np.hypot(weight, 1 - weight)
+    return np.maximum(blend + mean, 0.0).astype(np.float32)
 
 
 def _paper_grain(shape: tuple[int, int], rng: np.random.Generator, size: float) -> np.ndarray:

@@ -61,7 +61,7 @@ class Style:
         Edge strength (E in [0, 1]) below which no edge stroke is drawn; None: where the line
         drawing's stroke is 0.45 dark (which follows stroke_gamma).
     min_edge_pixels : int
-        Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
+        Fewest skeleton pixels a chain of contour strokes needs to be drawn; smaller ones are speckle.
     edge_join : float
         Consecutive strokes of a contour whose ends lie within this many ℓ are chained into one
         pen-down path through their crossing point (the pen retraces its own overshoot, it
