@@ -10,6 +10,7 @@ from pencilbot.imaging.gmed import (
     EDGE_FLOOR,
     EDGE_FULL,
     EDGE_FULL_MIN,
+    EDGE_FULL_OVER_P99,
     L_ELEMENTS,
     dilate,
     edge_map,
@@ -149,7 +150,7 @@ def test_full_strength_follows_the_photo_within_bounds():
     assert full_strength(np.zeros((50, 50), np.float32)) == EDGE_FULL_MIN  # most gain, bounded
     assert full_strength(np.ones((50, 50), np.float32)) == EDGE_FULL  # crisp: no less than 0.4
     soft = rng.uniform(0, 0.1, (200, 200)).astype(np.float32)
-    assert full_strength(soft) == pytest.approx(1.5 * np.percentile(soft, 99), rel=1e-5)
+    assert full_strength(soft) == pytest.approx(EDGE_FULL_OVER_P99 * np.percentile(soft, 99), rel=1e-5)
     # A soft photo's contour (a 0.1 step) is drawn darker than on the absolute scale alone ...
     f = np.full((40, 40), 0.5, np.float32)
     f[:, 20:] += 0.1
