@@ -42,7 +42,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "--stroke-width", type=float, default=1.0, metavar="PX", help="stroke width in pixels (0.5-20, default 1)"
     )
     parser.add_argument(
-        "--texture", metavar="FILE", help="hand-drawn pencil texture image, tiled over the drawing (default: synthesised)"
+        "--texture", metavar="FILE",
+        help="hand-drawn pencil texture image, tiled over the drawing (default: synthesised)",
     )
     parser.add_argument("--texture-seed", type=int, default=0, metavar="S", help="pencil texture seed")
     parser.add_argument(

@@ -154,7 +154,9 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
     return _from_density(density)
 
 
-def user_texture(source: str | os.PathLike | np.ndarray, shape: tuple[int, int], *, scale: float | None = None) -> np.ndarray:
+def user_texture(
+    source: str | os.PathLike | np.ndarray, shape: tuple[int, int], *, scale: float | None = None
+) -> np.ndarray:
     """A hand-drawn pencil texture, as the paper uses, prepared for an image of ``shape``.
 
     Parameters

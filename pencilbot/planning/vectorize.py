@@ -235,7 +235,9 @@ def _clutter(skeleton, direction, rows, cols, ell) -> np.ndarray:
     planes[0, rows, cols] = 1.0
     planes[1, rows, cols] = np.cos(theta2)
     planes[2, rows, cols] = np.sin(theta2)
-    count, c, s = (cv2.GaussianBlur(plane, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)[rows, cols] for plane in planes)
+    count, c, s = (
+        cv2.GaussianBlur(plane, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)[rows, cols] for plane in planes
+    )
     coherence = np.hypot(c, s) / np.maximum(count, 1e-9)
     return count * (math.sqrt(2 * math.pi) * sigma) * np.clip(1.0 - coherence, 0.0, 1.0)
 
@@ -247,8 +249,9 @@ def _raster_width(drawing, skeleton, comp, rows, cols, ell):
     component's pixels: the graphite the raster lays per pixel of contour.
     """
     size = max(3, int(round(ell)) | 1)
-    ink = cv2.boxFilter(1.0 - drawing, -1, (size, size), normalize=False, borderType=cv2.BORDER_CONSTANT)
-    count = cv2.boxFilter(skeleton.astype(np.float32), -1, (size, size), normalize=False, borderType=cv2.BORDER_CONSTANT)
+    window = {"ksize": (size, size), "normalize": False, "borderType": cv2.BORDER_CONSTANT}
+    ink = cv2.boxFilter(1.0 - drawing, -1, **window)
+    count = cv2.boxFilter(skeleton.astype(np.float32), -1, **window)
     width = ink[rows, cols] / np.maximum(count[rows, cols], 1.0)
     return np.bincount(comp, weights=width) / np.bincount(comp)
 
@@ -362,8 +365,8 @@ def _contours(strokes, links, pixels, texture, ell, min_pixels, clutter) -> np.n
 
     A chain (components linked along one contour) of fewer than ``min_pixels`` skeleton pixels
     is speckle. One whose mean clutter c (``texture`` per component) exceeds ``clutter`` is kept
-    only if it is at least ℓ · (c / ``clutter``)^CLUTTER_POWER long. Judging chains, not components, keeps
-    the short strokes that turn a corner or close a small circle.
+    only if it is at least ℓ · (c / ``clutter``)^CLUTTER_POWER long. Judging chains, not
+    components, keeps the short strokes that turn a corner or close a small circle.
     """
     chain = _chain_ids(strokes.n, links)
     length = np.bincount(chain, weights=strokes.extent)
@@ -387,7 +390,6 @@ def _relinked(links: np.ndarray, keep: np.ndarray) -> np.ndarray:
     both = keep[ends[:, 0] // 2] & keep[ends[:, 1] // 2]
     ends = 2 * new[ends[both] // 2] + ends[both] % 2
     return np.column_stack([ends, links[both, 2:]])
-
 
 
 def _links(strokes: _Strokes, reach: float) -> np.ndarray:

@@ -98,7 +98,7 @@ def hand_texture(tmp_path_factory):
 
     rng = np.random.default_rng(7)
     paper = np.full((180, 240), 235, np.uint8)
-    for x, y, pressure in zip(rng.uniform(-60, 240, 220), rng.uniform(0, 180, 220), rng.uniform(60, 160, 220), strict=True):
+    for x, y, pressure in rng.uniform((-60, 0, 60), (240, 180, 160), (220, 3)):
         cv2.line(paper, (int(x), int(y + 40)), (int(x + 40), int(y)), int(pressure), 1, cv2.LINE_AA)
     path = tmp_path_factory.mktemp("tex") / "hatching.png"
     Image.fromarray(paper).save(path)

@@ -139,9 +139,8 @@ def test_a_texture_file_is_read_as_its_luma_and_a_bad_one_is_a_user_error(tmp_pa
     tile = _hatching()
     path = tmp_path / "hatching.png"
     Image.fromarray(np.rint(tile * 255).astype(np.uint8)).save(path)
-    np.testing.assert_allclose(
-        user_texture(path, (100, 100), scale=1.0), user_texture(np.rint(tile * 255) / 255, (100, 100), scale=1.0), rtol=1e-5
-    )
+    from_file = user_texture(path, (100, 100), scale=1.0)
+    np.testing.assert_allclose(from_file, user_texture(np.rint(tile * 255) / 255, (100, 100), scale=1.0), rtol=1e-5)
     with pytest.raises(ImageLoadError, match="pencil texture: .*no such file"):
         user_texture(tmp_path / "missing.png", (10, 10))
 
