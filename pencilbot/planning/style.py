@@ -70,7 +70,7 @@ class Style:
         Clutter (contours crossing a window of σ = 1.5 ℓ, times the incoherence of their
         directions; about 0.1 along contours, 2–3 in dense texture) above which a region is
         texture, not contour: there only long chains of strokes are drawn, and the hatching
-        carries the texture's darkness. Larger keeps more detail; ``inf`` keeps every stroke.
+        carries the texture's darkness. Larger keeps more detail (100 keeps every stroke).
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
@@ -244,8 +244,8 @@ def _check_value(key: str, value, where: str):
             raise bad("a fraction of the hatch spacing in [0, 1]")
         return float(value)
     if key == "edge_clutter":
-        if not isinstance(value, int | float) or isinstance(value, bool) or not value > 0:
-            raise bad("a clutter > 0 (inf keeps every stroke)")
+        if not number(value) or not value > 0:
+            raise bad("a number > 0")
         return float(value)
     # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ)
     if not number(value) or value < 0:

@@ -179,6 +179,7 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("texture = ''\n", ["bad.toml", "texture"]),
         ("edge_clutter = 0\n", ["bad.toml", "edge_clutter"]),
         ("edge_clutter = nan\n", ["bad.toml", "edge_clutter"]),
+        ("edge_clutter = inf\n", ["bad.toml", "edge_clutter"]),
     ],
 )
 def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
