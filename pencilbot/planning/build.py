@@ -68,7 +68,13 @@ def sketch_and_plan(
         page = page_size(style.page, style.orientation, image.shape, style.margin)
     image = at_plot_resolution(image, page, style.pen_width)
     drawing = sketch(
-        image, line_length=style.line_length, texture_seed=style.seed, lines_only=not style.hatch
+        image,
+        line_length=style.line_length,
+        stroke_gamma=style.stroke_gamma,
+        stroke_width=style.stroke_width,
+        texture=style.texture,
+        texture_seed=style.seed,
+        lines_only=not style.hatch,
     )
     return drawing, plan_from_sketch(drawing, page, style, source=image.source)
 
@@ -118,9 +124,15 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     """
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
-    threshold = edge_threshold(line.edges) if style.edge_threshold is None else style.edge_threshold
+    threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
     strokes = edge_strokes(
-        line, layout, pen_width=style.pen_width, threshold=threshold, min_pixels=style.min_edge_pixels
+        line,
+        layout,
+        pen_width=style.pen_width,
+        threshold=threshold,
+        min_pixels=style.min_edge_pixels,
+        join=style.edge_join,
+        clutter=style.edge_clutter,
     )
     layers = []
     if style.hatch:
@@ -146,10 +158,9 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     for layer in layers:
         started = time.perf_counter()
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
-        # lifting. Edge strokes overlap their neighbours along a contour by ℓ/4, so joining
-        # ends within ℓ/2 retraces ink already there and saves a lift per stroke.
-        edge_join = max(style.pen_width, style.edge_join * line.length * layout.mm_per_px)
-        join = edge_join if layer.role == "edges" else style.hatch_join
+        # lifting. Edge strokes already come chained along their contours (edge_strokes):
+        # joining more than touching ends would draw chords between unrelated strokes.
+        join = style.pen_width if layer.role == "edges" else style.hatch_join
         paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
         ordered.append(replace(layer, paths=paths))
         if paths:
@@ -164,9 +175,12 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "mm_per_px": f"{layout.mm_per_px:.6g}",
         "pen_width_mm": f"{style.pen_width:g}",
         "line_length_px": str(line.length),
+        "stroke_gamma": f"{style.stroke_gamma:g}",
+        "stroke_width_px": f"{style.stroke_width:g}",
         "edge_threshold": f"{threshold:.4g}",
         "hatch_angles_deg": " ".join(f"{a:g}" for a in style.hatch_angles) if style.hatch else "",
         "hatch_coverage": f"{style.hatch_coverage:g}",
+        "texture": style.texture or "synthesised",
         "texture_seed": str(style.seed),
     }
     return Plan(page=page, layers=ordered, meta=meta)

@@ -20,6 +20,7 @@ from pencilbot.planning.build import (
     ink_on_image_grid,
     make_plan,
     plan_from_sketch,
+    sketch_and_plan,
 )
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
@@ -78,9 +79,9 @@ def test_ordering_keeps_every_edge_stroke(camera):
     raw = edge_strokes(drawing.line, layout, threshold=float(plan.meta["edge_threshold"]))
     ordered = plan.layer("edges").paths
     # Ordering only reverses and joins: ink length is kept up to the joins' short bridges
-    # (each at most edge_join · ℓ at plot scale).
+    # (each at most a pen width).
     assert len(ordered) < len(raw)
-    bridge = max(FAST.pen_width, FAST.edge_join * drawing.line.length * layout.mm_per_px)
+    bridge = FAST.pen_width  # edges are chained already; ordering joins only touching ends
     bridges = (len(raw) - len(ordered)) * bridge
     assert _length(raw) - 1e-6 <= _length(ordered) <= _length(raw) + bridges + 1e-6
     assert _segments(raw) <= _segments(ordered)  # every stroke is still drawn, maybe reversed
@@ -179,6 +180,13 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("margin = inf\n", ["bad.toml", "margin"]),
         ("hatch_blur = nan\n", ["bad.toml", "hatch_blur"]),
         ("line_length = 100000\n", ["bad.toml", "line_length"]),
+        ("stroke_gamma = 0\n", ["bad.toml", "stroke_gamma", "0.1", "10"]),
+        ("stroke_width = 50\n", ["bad.toml", "stroke_width", "0.5", "20"]),
+        ("texture = 3\n", ["bad.toml", "texture", "path"]),
+        ("texture = ''\n", ["bad.toml", "texture"]),
+        ("edge_clutter = 0\n", ["bad.toml", "edge_clutter"]),
+        ("edge_clutter = nan\n", ["bad.toml", "edge_clutter"]),
+        ("edge_clutter = inf\n", ["bad.toml", "edge_clutter"]),
     ],
 )
 def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
@@ -188,6 +196,27 @@ def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
         load_style(path)
     assert all(word in str(err.value) for word in words)
     assert "\n" not in str(err.value)
+
+
+def test_style_stroke_and_texture_keys_reach_the_drawing(camera, tmp_path):
+    from PIL import Image
+
+    folder = tmp_path / "styles"
+    folder.mkdir()
+    paper = np.full((64, 64), 230, np.uint8)
+    paper[::5] = 90  # a ruled "hatching" scan
+    Image.fromarray(paper).save(folder / "ruled.png")
+    (folder / "mine.toml").write_text('texture = "ruled.png"\nstroke_gamma = 3.0\nstroke_width = 2.0\norder_rounds = 4\n')
+    style = load_style(folder / "mine.toml")
+    assert style.texture == str(folder / "ruled.png")  # relative to the style file, not the cwd
+    assert (style.stroke_gamma, style.stroke_width) == (3.0, 2.0)
+    drawing, plan = sketch_and_plan(camera, style=style)
+    plain_drawing, plain = sketch_and_plan(camera, style=FAST)
+    assert (drawing.line.gamma, plan.meta["texture"], plan.meta["stroke_gamma"]) == (3.0, style.texture, "3")
+    assert np.abs(drawing.texture - plain_drawing.texture).mean() > 0.02
+    # Darker, wider raster strokes: the pen draws fainter contours too, with more ink.
+    assert float(plan.meta["edge_threshold"]) < float(plain.meta["edge_threshold"])
+    assert _length(plan.layer("edges").paths) > 1.1 * _length(plain.layer("edges").paths)
 
 
 def test_unknown_style_names_the_choices():
@@ -280,3 +309,22 @@ def test_a_white_photo_plans_no_strokes():
     white = image_from_array(np.ones((120, 160), np.float32), source="white")
     plan = make_plan(white, style=FAST)
     assert plan.paths().points.size == 0
+
+
+@pytest.mark.parametrize(
+    "gray",
+    [
+        np.tile(np.linspace(0.55, 0.75, 600), (400, 1)),
+        np.round(np.tile(np.linspace(0.2, 0.9, 600), (400, 1)) * 255) / 255,
+        np.clip(0.97 + np.random.default_rng(0).integers(-2, 3, (400, 600)) / 255, 0, 1),
+        np.ones((400, 600)),
+    ],
+    ids=["smooth-ramp", "8-bit-ramp", "noisy-blank-page", "white"],
+)
+def test_paper_that_should_stay_paper_plans_no_edge_strokes(gray):
+    # The edge map used to be divided by its own maximum: banding and ±2 grey levels of
+    # noise became full-strength strokes, metres of them on A4.
+    image = image_from_array(gray.astype(np.float32), source="blank")
+    drawing, plan = sketch_and_plan(image, style=FAST)
+    assert len(plan.layer("edges").paths) == 0
+    assert np.all(drawing.line.drawing == 1.0)  # and the raster line drawing is paper too
