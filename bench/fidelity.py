@@ -22,7 +22,9 @@ Usage: ``python bench/fidelity.py [--photos coffee,astronaut] [--peers] [--monta
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -149,8 +151,11 @@ def hatched_peer(image: LoadedImage, name: str) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         file = Path(tmp) / f"{name}.png"
         cv2.imwrite(str(file), np.rint(image.gray * 255).astype(np.uint8))
-        lines = hatched.hatch(str(file), hatch_pitch=1.0 / layout.mm_per_px, show_plot=False, save_svg=False)
+        with contextlib.redirect_stdout(sys.stderr):  # hatched prints its errors
+            lines = hatched.hatch(str(file), hatch_pitch=1.0 / layout.mm_per_px, show_plot=False, save_svg=False)
     paths = [layout.px_to_mm(np.asarray(line.coords)) for line in lines.geoms]
+    if not paths:
+        return {"error": "hatched drew nothing (it failed on this photo; see stderr)"}
     plotted = plotted_darkness(paths, layout.drawing_box, pen_width=0.5)
     vs_photo = likeness(plotted, 1.0 - image.gray)
     return {

@@ -31,6 +31,9 @@ from scipy import ndimage as ndi
 from scipy import sparse
 from scipy.sparse import csgraph
 
+#: Coherence of the structure tensor below which texture follows the default direction, and
+#: above which the form is followed exactly (linear in between).
+COHERENCE_RANGE = (0.35, 0.7)
 #: Hatch lines run at this angle (degrees from the page's +x) where the tone is flat: the
 #: natural stroke of a right hand.
 DEFAULT_ANGLE = 45.0
@@ -175,16 +178,22 @@ def direction_field(
     jxx = ndi.gaussian_filter(gx * gx, sigma, mode="nearest")
     jxy = ndi.gaussian_filter(gx * gy, sigma, mode="nearest")
     jyy = ndi.gaussian_filter(gy * gy, sigma, mode="nearest")
-    # The default: a weak tensor whose isophote runs at default_angle (its gradient across it).
-    across = np.deg2rad(default_angle + 90.0)
-    ux, uy = np.cos(across), np.sin(across)
-    weight = calm**2
-    jxx, jxy, jyy = jxx + weight * ux * ux, jxy + weight * ux * uy, jyy + weight * uy * uy
-    # Major eigenvector angle of [[jxx, jxy], [jxy, jyy]] is the gradient's; isophotes run across it.
-    gradient_angle = 0.5 * np.arctan2(2 * jxy, jxx - jyy)
-    theta = gradient_angle + np.pi / 2
-    spread = np.sqrt((jxx - jyy) ** 2 + 4 * jxy**2)
-    coherence = spread / np.maximum(jxx + jyy, 1e-12)
+    # In the doubled-angle representation an orientation is a vector: the tensor's is
+    # (jxx − jyy, 2 jxy), as long as its anisotropy. Where the tone is flat (below ``calm``) or
+    # its texture has no direction of its own (grass, fabric: low coherence), the default
+    # direction takes over smoothly, so such areas get calm parallel hatching instead of
+    # whorls that trace noise; where the form is clear it is followed exactly.
+    form = np.stack([jxx - jyy, 2 * jxy], axis=-1)
+    spread = np.linalg.norm(form, axis=-1)
+    trace = jxx + jyy
+    coherence = spread / np.maximum(trace, 1e-12)
+    strength = np.clip(trace / calm**2, 0.0, 1.0) if np.isfinite(calm) and calm > 0 else np.zeros_like(trace)
+    follow = strength * np.clip((coherence - COHERENCE_RANGE[0]) / (COHERENCE_RANGE[1] - COHERENCE_RANGE[0]), 0, 1)
+    across = np.deg2rad(2 * (default_angle + 90.0))  # the default's gradient, doubled
+    default = np.array([np.cos(across), np.sin(across)])
+    blend = follow[..., None] * form / np.maximum(spread, 1e-12)[..., None] + (1 - follow[..., None]) * default
+    # The blend's angle halved is the gradient's orientation; isophotes run across it.
+    theta = 0.5 * np.arctan2(blend[..., 1], blend[..., 0]) + np.pi / 2
     axial = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
     return DirectionField(grid, orient(axial), np.clip(coherence, 0, 1))
 

@@ -42,7 +42,7 @@ def shade(
     pen_width: float = 0.5,
     angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
     coverage: float = 0.6,
-    overlap: float = 0.5,
+    overlap: float = 0.25,
     form_scale: float = 8.0,
     min_run: float = 2.0,
     blank_below: float = 0.04,
