@@ -87,6 +87,30 @@ class Onset:
         return np.interp(np.clip(darkness, 0.0, self.darkest), self.darkness(u), u)
 
 
+    def allocate(self, darkness: np.ndarray, capacity: np.ndarray) -> np.ndarray:
+        """(families, N) coverage of each family for ``darkness`` (N,) when family j can cover
+        at most ``capacity[j]`` there (its lines spread where the field fans out).
+
+        The amount u is raised until the capped families together reach the darkness (or all
+        are full), so what one family cannot lay down the next ones do. Bisection on u,
+        whole-array.
+        """
+        d = np.ravel(np.asarray(darkness, np.float64))
+        cap = np.asarray(capacity, np.float64).reshape(self.families, -1)
+        u = self.amount(d)
+        # Where no family's capacity binds, the uncapped amount is exact; elsewhere bisect.
+        bound = np.flatnonzero(np.any(self.coverages(u) > cap, axis=0))
+        lo, hi = u[bound], np.ones(bound.size)
+        for _ in range(14):  # u to 6e-5
+            mid = 0.5 * (lo + hi)
+            reached = 1.0 - np.prod(1.0 - np.minimum(self.coverages(mid), cap[:, bound]), axis=0)
+            short = reached < d[bound]
+            lo, hi = np.where(short, mid, lo), np.where(short, hi, mid)
+        u[bound] = hi
+        u[d <= 0] = 0.0
+        return np.minimum(self.coverages(u), cap)
+
+
 def family_coverage(darkness: np.ndarray, onset: Onset) -> np.ndarray:
     """(families, N) coverage each family must lay down for the total ``darkness`` (N,)."""
     return onset.coverages(onset.amount(np.ravel(darkness)))
@@ -108,6 +132,8 @@ class HatchLines:
         Arc length (mm) from the start of the sample's traced line.
     full : (N,) float array
         Paper fraction the family covers at that sample with every line on (w · |∇φ| / s, ≤ 1).
+    capacity : (rows, cols) float array
+        The same on the field's grid, everywhere (0 where no line of the family passes).
     """
 
     points: np.ndarray
@@ -115,6 +141,7 @@ class HatchLines:
     level: np.ndarray
     along: np.ndarray
     full: np.ndarray
+    capacity: np.ndarray
 
 
 def family_lines(
@@ -154,7 +181,7 @@ def family_lines(
     stripes = (np.sin(np.pi * phi / spacing) > 0).astype(np.uint8)
     contours, _ = cv2.findContours(stripes, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
     if not contours:
-        return _no_lines()
+        return _no_lines(coarse.shape)
     lengths = np.array([len(c) for c in contours])
     rc = np.concatenate(contours).reshape(-1, 2)[:, ::-1].astype(np.float64)  # (row, col)
     chain = np.repeat(np.arange(len(contours)), lengths)
@@ -165,7 +192,7 @@ def family_lines(
     inner[1::2] = False
     rc, chain = rc[inner], chain[inner]
     if rc.size == 0:
-        return _no_lines()
+        return _no_lines(coarse.shape)
     # A Newton step onto the nearest level φ = k·s (φ is nearly linear across a cell).
     d_r, d_c = np.gradient(phi)
     value = _bilinear(phi, rc)
@@ -188,10 +215,11 @@ def family_lines(
     line = np.cumsum(restart)[inside] - 1
     points, owner, along = points[inside], owner[inside], along[inside]
     if points.size == 0:
-        return _no_lines()
+        return _no_lines(coarse.shape)
     piece_level = level[np.searchsorted(piece, np.arange(piece[-1] + 1))]
-    full = np.minimum(1.0, pen_width * coarse.sample(slope, points) / spacing)
-    return HatchLines(points, line, piece_level[owner], along, full)
+    capacity = np.minimum(1.0, pen_width * slope / spacing)
+    full = coarse.sample(capacity, points)
+    return HatchLines(points, line, piece_level[owner], along, full, capacity)
 
 
 def hatch_strokes(
@@ -306,10 +334,11 @@ def hatch_layers(
     if lines is None:
         lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
     onset = Onset.spread(len(angles), coverage, overlap)
+    capacity = np.stack([field.grid.resample(family.capacity, grid) for family in lines])
+    shares = onset.allocate(darkness, capacity).reshape(len(lines), *grid.shape)
     layers = []
     for j, (family, angle) in enumerate(zip(lines, angles, strict=True)):
-        wanted = grid.sample(darkness, family.points)
-        request = family_coverage(wanted, onset)[j]
+        request = grid.sample(shares[j], family.points)
         strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=min_run, offset=j * GOLDEN / 3)
         layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
@@ -378,5 +407,6 @@ def _runs(on: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return starts, stops
 
 
-def _no_lines() -> HatchLines:
-    return HatchLines(np.zeros((0, 2)), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0))
+def _no_lines(shape: tuple[int, int]) -> HatchLines:
+    empty = np.zeros(0)
+    return HatchLines(np.zeros((0, 2)), empty.astype(np.int64), empty.astype(np.int64), empty, empty, np.zeros(shape))

@@ -92,7 +92,7 @@ def shade(
     Returns
     -------
     list of Layer
-        One per family, lightest first, of the round whose rendered tone was closest to the goal.
+        One per family, lightest first, from the last round.
     """
     box = layout.drawing_box
     grid = Grid(box, TONE_CELL)
@@ -106,25 +106,27 @@ def shade(
     edge_ink = ink_on_grid(edges, grid, pen_width)
     goal = tone
     paper = tone == 0.0
-    request = tone.copy()
-    best, best_error = [], np.inf
-    for _ in range(max(1, rounds)):
+    # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
+    # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
+    # would spread a contour's share into a pale band beside it.
+    local_edges = _blur(edge_ink, 0.5 / TONE_CELL)
+    request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
+    request[paper] = 0.0
+    for round_ in range(max(1, rounds)):
         layers = hatch_layers(
             request, grid, field, pen_width=pen_width, angles=angles, coverage=coverage,
             overlap=overlap, min_run=min_run, lines=lines,
         )
+        if round_ == rounds - 1:
+            break
         hatch_ink = ink_on_grid([p for layer in layers for p in layer.paths], grid, pen_width)
         seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
-        error = goal - seen
-        score = float(np.abs(error).mean())
         # Correct at the scale of the hatch pattern itself (light tones are dashes millimetres
         # apart): a correction finer than that only moves dashes about.
-        error = _blur(error, CORRECTION_BLUR / TONE_CELL)
-        if score < best_error:
-            best, best_error = layers, score
+        error = _blur(goal - seen, CORRECTION_BLUR / TONE_CELL)
         request = np.clip(request + GAIN * error, 0.0, 1.0)
         request[paper] = 0.0
-    return best
+    return layers
 
 
 def ink_on_grid(paths: list[np.ndarray], grid: Grid, pen_width: float) -> np.ndarray:

@@ -125,7 +125,7 @@ class Style:
     hatch_form: float = 8.0
     hatch_blur: float = 1.0
     min_hatch_run: float = 2.0
-    hatch_join: float = 2.0
+    hatch_join: float = 2.5
     hatch_blank_below: float = 0.04
     hatch_jitter: float = 0.0
     order_rounds: int = 40

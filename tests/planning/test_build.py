@@ -2,6 +2,7 @@
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -22,6 +23,7 @@ from pencilbot.planning.build import (
     plan_from_sketch,
     sketch_and_plan,
 )
+from pencilbot.planning.fidelity import plotted_darkness
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes
@@ -127,17 +129,18 @@ def test_the_tone_is_kept_up_to_the_contours():
     # outline instead of leaving a pale halo where edge ink was counted as tone.
     gray = np.full((160, 160), 0.85, np.float32)
     gray[disk((80, 80), 55)] = 0.3
-    image = image_from_array(gray, source="disc")
-    plan = make_plan(image, style=FAST)
-    layout = Layout.fit(image.shape, plan.page)
-    ink = ndi.gaussian_filter(ink_on_image_grid(plan.paths(), layout, pen_width=FAST.pen_width), 1.0 / layout.mm_per_px)
-    rows, cols = np.mgrid[0:160, 0:160]
-    radius = np.hypot(rows - 80, cols - 80)
-    mm = layout.mm_per_px
-    rim = (radius < 55 - 1.0 / mm) & (radius > 55 - 3.0 / mm)
-    core = radius < 30
+    drawing, plan = sketch_and_plan(image_from_array(gray, source="disc"), style=FAST)
+    layout = Layout.fit(drawing.tone.shape, plan.page)
+    px_per_mm = 5.0  # finer than the pen: the image grid (1.1 mm) would merge neighbouring lines
+    ink = plotted_darkness(plan.paths(), layout.drawing_box, pen_width=FAST.pen_width, px_per_mm=px_per_mm)
+    tone = cv2.resize(1.0 - drawing.tone, ink.shape[::-1], interpolation=cv2.INTER_NEAREST)
+    ink, tone = (ndi.gaussian_filter(a, px_per_mm) for a in (ink, tone))  # σ = 1 mm
+    rows, cols = np.mgrid[0 : ink.shape[0], 0 : ink.shape[1]]
+    depth = 55 * layout.mm_per_px - np.hypot(rows - ink.shape[0] / 2, cols - ink.shape[1] / 2) / px_per_mm
+    rim, core = (depth > 1) & (depth < 3), depth > 15  # mm inside the outline
     assert plan.paths("edges").points.size
-    assert ink[rim].mean() >= 0.85 * ink[core].mean()
+    assert ink[core].mean() == pytest.approx(tone[core].mean(), abs=0.03)
+    assert ink[rim].mean() == pytest.approx(tone[rim].mean(), abs=0.05)
 
 
 def test_outline_style_draws_edges_only(camera):

@@ -158,3 +158,17 @@ def test_strokes_stay_in_the_picture_and_are_never_crumbs(seed, pen, angles, min
             assert np.all(p[:, 0] >= x0 - 1e-6) and np.all(p[:, 0] <= x1 + 1e-6)
             assert np.all(p[:, 1] >= y0 - 1e-6) and np.all(p[:, 1] <= y1 + 1e-6)
             assert np.linalg.norm(np.diff(p, axis=0), axis=1).sum() >= min_run - 0.5
+
+
+def test_what_a_capped_family_cannot_lay_down_the_others_do():
+    onset = Onset.spread(4, 0.6, overlap=0.25)
+    darkness = np.array([0.2, 0.5, 0.8, 0.0])
+    free = onset.allocate(darkness, np.ones((4, 4)))
+    np.testing.assert_allclose(free, family_coverage(darkness, onset), atol=1e-3)
+    capped = np.ones((4, 4))
+    capped[0] = 0.3  # the first family's lines spread out: it covers at most 0.3
+    shares = onset.allocate(darkness, capped)
+    assert np.all(shares[0] <= 0.3 + 1e-12)
+    total = 1 - np.prod(1 - shares, axis=0)
+    np.testing.assert_allclose(total, darkness, atol=1e-3)
+    assert np.all(shares[:, 3] == 0)
