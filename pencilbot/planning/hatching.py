@@ -290,7 +290,7 @@ def hatch_layers(
     *,
     pen_width: float = 0.5,
     angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
-    coverage: float = 0.6,
+    coverage: float = 0.7,
     overlap: float = 0.25,
     min_run: float = 2.0,
     wobble: float = 0.0,

@@ -41,7 +41,7 @@ def shade(
     paper: np.ndarray | None = None,
     pen_width: float = 0.5,
     angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
-    coverage: float = 0.6,
+    coverage: float = 0.7,
     overlap: float = 0.25,
     form_scale: float = 8.0,
     min_run: float = 2.0,

@@ -121,7 +121,7 @@ class Style:
     edge_clutter: float = 2.0
     hatch: bool = True
     hatch_angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0)
-    hatch_coverage: float = 0.6
+    hatch_coverage: float = 0.7
     hatch_form: float = 8.0
     hatch_blur: float = 1.0
     min_hatch_run: float = 2.0
