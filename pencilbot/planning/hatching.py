@@ -101,7 +101,7 @@ class Onset:
         # Where no family's capacity binds, the uncapped amount is exact; elsewhere bisect.
         bound = np.flatnonzero(np.any(self.coverages(u) > cap, axis=0))
         lo, hi = u[bound], np.ones(bound.size)
-        for _ in range(14):  # u to 6e-5
+        for _ in range(10):  # u to 1e-3
             mid = 0.5 * (lo + hi)
             reached = 1.0 - np.prod(1.0 - np.minimum(self.coverages(mid), cap[:, bound]), axis=0)
             short = reached < d[bound]
@@ -296,6 +296,7 @@ def hatch_layers(
     wobble: float = 0.0,
     seed: int = 0,
     lines: list[HatchLines] | None = None,
+    capacity: np.ndarray | None = None,
 ) -> list[Layer]:
     """Hatch layers whose ink follows ``darkness`` (one layer per family).
 
@@ -323,6 +324,8 @@ def hatch_layers(
     seed : int
     lines : list of HatchLines, optional
         Lines traced before by :func:`trace_families` for the same field and parameters.
+    capacity : (families, rows, cols) array, optional
+        :func:`family_capacity` of ``lines`` on ``grid``, when it was computed before.
 
     Returns
     -------
@@ -334,7 +337,8 @@ def hatch_layers(
     if lines is None:
         lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
     onset = Onset.spread(len(angles), coverage, overlap)
-    capacity = np.stack([field.grid.resample(family.capacity, grid) for family in lines])
+    if capacity is None:
+        capacity = family_capacity(lines, field, grid)
     shares = onset.allocate(darkness, capacity).reshape(len(lines), *grid.shape)
     layers = []
     for j, (family, angle) in enumerate(zip(lines, angles, strict=True)):
@@ -342,6 +346,11 @@ def hatch_layers(
         strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=min_run, offset=j * GOLDEN / 3)
         layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
+
+
+def family_capacity(lines: list[HatchLines], field: DirectionField, grid: Grid) -> np.ndarray:
+    """(families, rows, cols): what each family covers with every line on, on ``grid``."""
+    return np.stack([field.grid.resample(family.capacity, grid) for family in lines])
 
 
 def trace_families(

@@ -19,11 +19,11 @@ import cv2
 import numpy as np
 
 from pencilbot.planning.flow import Grid, direction_field, sample_image
-from pencilbot.planning.hatching import hatch_layers, trace_families
+from pencilbot.planning.hatching import family_capacity, hatch_layers, trace_families
 from pencilbot.planning.plan import Layer
 from pencilbot.render import MM_PER_INCH, render_paths
 
-#: Cell (mm) on which the loop compares tone: fine enough for a 1 mm blur, coarse enough to be quick.
+#: Largest cell (mm) on which the loop compares tone: fine enough for a 1 mm blur, coarse enough to be quick.
 TONE_CELL = 0.5
 #: Share of the measured error corrected per round: below 1, as switching lines is not smooth.
 GAIN = 0.8
@@ -48,7 +48,7 @@ def shade(
     blank_below: float = 0.04,
     wobble: float = 0.0,
     blur: float = 1.0,
-    rounds: int = 3,
+    rounds: int = 2,
     seed: int = 0,
 ) -> list[Layer]:
     """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
@@ -95,27 +95,31 @@ def shade(
         One per family, lightest first, from the last round.
     """
     box = layout.drawing_box
-    grid = Grid(box, TONE_CELL)
-    sigma = blur / TONE_CELL
+    # Neighbouring lines must not share a cell: ink of separate paths in one cell stacks as
+    # 1 − Π(1 − c), which undercounts lines that lie side by side, and the loop would overshoot.
+    cell = min(TONE_CELL, pen_width / coverage / 2)
+    grid = Grid(box, cell)
+    sigma = blur / cell
     tone = _blur(np.clip(sample_image(darkness, layout, grid), 0.0, 1.0), sigma)
     photo = tone if paper is None else _blur(sample_image(paper, layout, grid), sigma)
     tone[photo < blank_below] = 0.0
     field_grid = Grid(box, FIELD_CELL)
     field = direction_field(sample_image(darkness, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
     lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
+    capacity = family_capacity(lines, field, grid)
     edge_ink = ink_on_grid(edges, grid, pen_width)
     goal = tone
     paper = tone == 0.0
     # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
     # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
     # would spread a contour's share into a pale band beside it.
-    local_edges = _blur(edge_ink, 0.5 / TONE_CELL)
+    local_edges = _blur(edge_ink, 0.5 / cell)
     request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
     request[paper] = 0.0
     for round_ in range(max(1, rounds)):
         layers = hatch_layers(
             request, grid, field, pen_width=pen_width, angles=angles, coverage=coverage,
-            overlap=overlap, min_run=min_run, lines=lines,
+            overlap=overlap, min_run=min_run, lines=lines, capacity=capacity,
         )
         if round_ == rounds - 1:
             break
@@ -123,7 +127,7 @@ def shade(
         seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
         # Correct at the scale of the hatch pattern itself (light tones are dashes millimetres
         # apart): a correction finer than that only moves dashes about.
-        error = _blur(goal - seen, CORRECTION_BLUR / TONE_CELL)
+        error = _blur(goal - seen, CORRECTION_BLUR / cell)
         request = np.clip(request + GAIN * error, 0.0, 1.0)
         request[paper] = 0.0
     return layers
