@@ -70,10 +70,10 @@ def measure(name: str, rgb) -> dict:
 
     stats = estimate(plan, load_profile(PROFILE).motion_settings())
     total = stats.total
-    pen_up = travel_length(plan.all_paths(), HOME)
+    pen_up = travel_length(plan.paths(), HOME)
 
     layout = Layout.fit(image.shape, page)
-    ink = ink_on_image_grid(plan.all_paths(), layout, pen_width=style.pen_width)
+    ink = ink_on_image_grid(plan.paths(), layout, pen_width=style.pen_width)
     faithful = fidelity(plan, drawing)
     return {
         "image_px": list(image.shape),

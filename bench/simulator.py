@@ -16,7 +16,7 @@ import serial
 
 from firmware_protocol import grbl
 from sim import protocol_sim
-from sim.canvas import Canvas
+from pencilbot.render import Canvas
 from sim.firmware import Firmware
 from sim.machine import Machine, MachineConfig
 

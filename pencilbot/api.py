@@ -3,7 +3,7 @@
 >>> import pencilbot
 >>> drawing = pencilbot.sketch("photo.jpg")              # raster pencil drawing (Sketch)
 >>> plan = pencilbot.plan("photo.jpg", page="A4")        # pen strokes on a page (Plan)
->>> plan.to_gcode("grbl-servo-a4", "drawing.gcode")      # G-code file for a plotter profile
+>>> pencilbot.export_gcode(plan, "grbl-servo-a4", "drawing.gcode")  # G-code for a plotter
 >>> pencilbot.draw("drawing.gcode", "/dev/ttyUSB0")      # stream it (or port="sim://")
 
 Images may be a path, a numpy array (grey or RGB, uint8 or float in [0, 1]) or a
@@ -19,13 +19,16 @@ import numpy as np
 
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
+from pencilbot.gcode.profiles import Profile, load_profile
+from pencilbot.gcode.writer import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
 from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
-from pencilbot.planning.style import Style, load_style, with_overrides
+from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
+from pencilbot.planning.svg import read_svg, write_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
 
@@ -40,10 +43,17 @@ def as_image(image: ImageLike) -> LoadedImage:
 
 
 def sketch(image: ImageLike, *, color: bool = False, line_length: int | None = None,
-           texture_seed: int = 0, lines_only: bool = False) -> Sketch:
-    """The GMED pencil drawing of an image; ``.result`` is the picture in [0, 1]."""
-    return _sketch(as_image(image), color=color, line_length=line_length,
-                   texture_seed=texture_seed, lines_only=lines_only)
+           stroke_gamma: float = 1.0, stroke_width: float = 1.0,
+           texture: str | Path | np.ndarray | None = None, texture_seed: int = 0,
+           lines_only: bool = False) -> Sketch:
+    """The GMED pencil drawing of an image; ``.result`` is the picture in [0, 1].
+
+    ``texture`` is a hand-drawn pencil texture (image file or grey array), default synthesised;
+    see :func:`pencilbot.imaging.pencil.sketch` for the other options.
+    """
+    return _sketch(as_image(image), color=color, line_length=line_length, stroke_gamma=stroke_gamma,
+                   stroke_width=stroke_width, texture=texture, texture_seed=texture_seed,
+                   lines_only=lines_only)
 
 
 def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,
@@ -53,7 +63,7 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
 
     Unset options come from the style (``"default"`` unless given).
     """
-    chosen = style if isinstance(style, Style) else load_style(style or "default")
+    chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
     if pen_width is not None:
         chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
     loaded = as_image(image)
@@ -61,6 +71,21 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
         page = page_size(page or chosen.page, orientation or chosen.orientation, loaded.shape,
                          chosen.margin if margin is None else margin)
     return make_plan(loaded, page=page, style=chosen)
+
+
+def export_gcode(
+    plan: Plan, profile: str | Path | Profile = "grbl-servo-a4", path: str | Path | None = None, *,
+    source: str = "",
+) -> list[str] | GcodeSummary:
+    """G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded ``Profile``).
+
+    With ``path``, writes the file atomically and returns its
+    :class:`~pencilbot.gcode.writer.GcodeSummary`; without, returns the lines.
+    """
+    profile = profile if isinstance(profile, Profile) else load_profile(profile)
+    if path is None:
+        return gcode_lines(plan, profile, source=source)
+    return write_gcode(plan, profile, path, source=source)
 
 
 def draw(gcode: str | Path | list[str], port: str, **options) -> DrawResult:

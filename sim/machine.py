@@ -601,7 +601,7 @@ class Machine:
         return self.planner.clock
 
     def bed_strokes(self) -> list[np.ndarray]:
-        """Pen-down polylines in bed mm (bottom-left origin, Y up) for :class:`sim.canvas.Canvas`."""
+        """Pen-down polylines in bed mm (bottom-left origin, Y up) for :class:`pencilbot.render.Canvas`."""
         return [self.config.to_bed(s) for s in self.strokes]
 
     def bed_travel(self) -> list[np.ndarray]:

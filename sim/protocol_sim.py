@@ -55,7 +55,7 @@ import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
 from pencilbot.errors import ProfileError
-from sim.canvas import Canvas
+from pencilbot.render import Canvas
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine, MachineConfig
 

@@ -12,7 +12,7 @@ from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
-from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
+from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
 from pencilbot.planning.svg import read_svg
 
 #: The widest pen a preview renders (mm): a broad marker, not a roller.
@@ -42,21 +42,26 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
     photo = parser.add_argument_group("photo inputs")
     photo.add_argument(
         "--style", metavar="NAME|FILE.toml",
-        help=f"drawing style: {', '.join(list_styles())} or a .toml file (default: default)",
+        help=f"drawing style: {', '.join(list_styles())} or a .toml file (default: {DEFAULT_STYLE})",
     )
     photo.add_argument(
-        "--page", metavar="A4|WxH", help="paper: A5, A4, A3, Letter or WxH in mm (default: the style's, A4)"
+        "--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm ({_style_default('page')})"
     )
     photo.add_argument(
         "--orientation", choices=ORIENTATIONS,
-        help="auto turns the sheet to suit the photo (default: the style's)",
+        help=f"auto turns the sheet to suit the photo ({_style_default('orientation')})",
     )
-    photo.add_argument("--margin", type=float, metavar="MM", help="blank border in mm (default: the style's, 15)")
-    photo.add_argument("--pen-width", type=float, metavar="MM", help="pen line width in mm (default: the style's, 0.5)")
+    photo.add_argument("--margin", type=float, metavar="MM", help=f"blank border in mm ({_style_default('margin')})")
+    photo.add_argument("--pen-width", type=float, metavar="MM", help=f"pen line width in mm ({_style_default('pen_width')})")
     photo.add_argument(
         "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
+
+
+def _style_default(key: str) -> str:
+    """Help words for an option that overrides a style key, with the built-in default."""
+    return f"default: the style's, {getattr(Style, key)} in the {DEFAULT_STYLE} style"
 
 
 def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
@@ -102,7 +107,7 @@ def photo_style(args: argparse.Namespace) -> Style:
         No such style, or an option value the style does not accept.
     """
     options = {_STYLE_OPTIONS[flag]: value for flag, value in _overrides(args).items() if value is not None}
-    return with_overrides(load_style(args.style or "default"), options, where="command line")
+    return with_overrides(load_style(args.style or DEFAULT_STYLE), options, where="command line")
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:

@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.motion import estimate
     from pencilbot.planning.svg import write_svg
-    from sim.canvas import Canvas
+    from pencilbot.render import Canvas
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     write_svg(plan, out / "plan.svg")
     preview = Canvas(page.width, page.height, dpi=PREVIEW_DPI, pen_width=style.pen_width)
-    preview.draw_paths(plan.all_paths())
+    preview.draw_paths(plan.paths())
     preview.save_png(out / "preview.png")
     faithful = fidelity(plan, drawing) if style.hatch else None
     step.done("plan.svg, preview.png: pen strokes on the page", started)
@@ -160,7 +160,7 @@ def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[floa
 
     from pencilbot.planning.fidelity import pearson
     from sim import protocol_sim
-    from sim.canvas import Canvas
+    from pencilbot.render import Canvas
 
     name = f"demo-{os.getpid()}"
     query = urllib.parse.urlencode({"profile": args.profile})

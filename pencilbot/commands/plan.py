@@ -9,7 +9,7 @@ from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folde
 from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.svg import write_svg
-from sim.canvas import Canvas
+from pencilbot.render import Canvas
 
 PREVIEW_DPI = 100
 

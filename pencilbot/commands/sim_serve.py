@@ -30,8 +30,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
                         help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
     parser.add_argument("--realtime", type=float, default=1.0, metavar="R",
-                        help="move R times faster than real time; 0 = instant (default 1)")
-    parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default 0: unlimited)")
+                        help="move R times faster than real time; 0 = instant (default %(default)g)")
+    parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
                         help="inject faults: error@K[:N], alarm@K, silent@K, drop@K, reset@K, garbage@K")
     # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
@@ -45,7 +45,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-reset", action="store_true",
                         help="a board without auto-reset: opening the port does not reset it")
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
-    parser.add_argument("--dpi", type=float, default=150.0, help="resolution of the saved drawing")
+    parser.add_argument("--dpi", type=float, default=150.0, help="resolution of the saved drawing in dots per inch (default %(default)g)")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 

@@ -40,10 +40,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
                         help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
-    parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default 150)")
+    parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
-                        help="move R times faster than real time (default 0: instant)")
+                        help="move R times faster than real time (default %(default)g: instant)")
     add_photo_options(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)

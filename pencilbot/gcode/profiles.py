@@ -1,9 +1,9 @@
-"""Plotter profiles: what a machine is like, as TOML data in ``pencilbot/configs/plotters/*.toml``.
+"""Plotter profiles: what a machine is like, as TOML data in ``configs/plotters/*.toml``.
 
 A profile names the firmware dialect, the bed and how its coordinates run, the feeds and
 acceleration (for G-code and for the time estimate), how the pen goes up and down, and how G-code
-is formatted. Shipped profiles live in the package ``pencilbot.configs`` (``plotters/<name>.toml``,
-read with :mod:`importlib.resources`); any TOML file with the same schema works by path::
+is formatted. Shipped profiles live in ``configs/plotters/<name>.toml`` (found by :mod:`pencilbot.configs_io`
+in a wheel and in a source checkout); any TOML file with the same schema works by path::
 
     name = "grbl-servo-a4"          # optional, defaults to the file name
     dialect = "grbl"                # "grbl" or "marlin"
@@ -54,8 +54,8 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
+from pencilbot import schema
 from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
 from pencilbot.gcode.templates import TemplateError, check_template, fill_template
@@ -76,7 +76,7 @@ class Bed:
 
     width: float
     height: float
-    origin: str = "bottom-left"
+    origin: str
     invert_x: bool = False
     invert_y: bool = False
     homing: bool = False
@@ -160,96 +160,50 @@ class Profile:
         return [line.strip() for line in text.splitlines() if line.strip()]
 
 
-# --- schema: (table, key) -> (check, default or _REQUIRED) -------------------------------------
-_REQUIRED = object()
+# --- schema: what every key must be; defaults are the dataclasses' -----------------------------
 
-
-def _number(low: float, high: float = float("inf"), *, open_low: bool, unit: str):
-    bound = f"> {low:g}" if open_low else f"≥ {low:g}"
-    upper = f" and ≤ {high:.10g}" if high != float("inf") else ""
-    expected = f"a number {bound}{upper} ({unit})"
-
-    def check(value):
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            return None, expected
-        ok = (value > low if open_low else value >= low) and value <= high
-        return (value if ok else None), expected
-
-    return check
-
-
-def _choice(options: tuple[str, ...]):
-    expected = " or ".join(f'"{o}"' for o in options)
-    return lambda v: (v if v in options else None, expected)
-
-
-def _kind(typ: type, expected: str):
-    return lambda v: (v if isinstance(v, typ) else None, expected)
-
-
-def _whole(low: int, high: int, unit: str):
-    expected = f"a whole number from {low} to {high} ({unit})"
-
-    def check(value):
-        ok = isinstance(value, int) and not isinstance(value, bool) and low <= value <= high
-        return (value if ok else None), expected
-
-    return check
-
-
-def _any_number(unit: str):
-    expected = f"a number ({unit})"
-    # ints stay ints so a template prints "S30", not "S30.0"
-    return lambda v: (v if isinstance(v, int | float) and not isinstance(v, bool) else None, expected)
-
-
-_TEXT = _kind(str, "a string")
-_TEMPLATE = _kind(str, "a string of G-code (a template using " + ", ".join(
+_TEMPLATE = schema.kind(str, "a string of G-code (a template using " + ", ".join(
     f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")")
-_FLAG = _kind(bool, "true or false")
 # Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
-_FEED = _number(0, 1e6, open_low=True, unit="mm/min")
-_SECONDS = _number(0, 60, open_low=False, unit="seconds")
-_BED = _number(0, MAX_BED, open_low=True, unit="mm")
+_FEED = schema.number(0, 1e6, above=True, unit="mm/min", as_given=True)
+_SECONDS = schema.number(0, 60, unit="seconds", as_given=True)
+_BED = schema.number(0, MAX_BED, above=True, unit="mm", as_given=True)
+_PEN_VALUE = schema.any_number("S value, Z mm or servo degrees")
 
-_SCHEMA: dict[str, dict[str, tuple[Any, Any]]] = {
-    "": {
-        "name": (_TEXT, None),  # None: the file name
-        "dialect": (_choice(DIALECTS), _REQUIRED),
-        "description": (_TEXT, ""),
-    },
-    "bed": {
-        "width": (_BED, _REQUIRED),
-        "height": (_BED, _REQUIRED),
-        "origin": (_choice(ORIGINS), _REQUIRED),
-        "invert_x": (_FLAG, False),
-        "invert_y": (_FLAG, False),
-        "homing": (_FLAG, False),
-        "soft_limits": (_FLAG, False),
-    },
-    "motion": {
-        "draw_feed": (_FEED, _REQUIRED),
-        "travel_feed": (_FEED, _REQUIRED),
-        "acceleration": (_number(0, open_low=True, unit="mm/s²"), _REQUIRED),
-        "junction_deviation": (_number(0, open_low=False, unit="mm"), _REQUIRED),
-    },
-    "pen": {
-        "kind": (_choice(PEN_KINDS), _REQUIRED),
-        "up": (_any_number("S value, Z mm or servo degrees"), _REQUIRED),
-        "down": (_any_number("S value, Z mm or servo degrees"), _REQUIRED),
-        "up_command": (_TEMPLATE, _REQUIRED),
-        "down_command": (_TEMPLATE, _REQUIRED),
-        "up_delay": (_SECONDS, 0.0),
-        "down_delay": (_SECONDS, 0.0),
-    },
-    "gcode": {
-        "decimals": (_whole(0, 6, "digits after the decimal point"), 3),
-        "line_numbers": (_FLAG, False),
+_TOP: dict[str, schema.Rule] = {"name": schema.TEXT, "dialect": schema.choice(DIALECTS), "description": schema.TEXT}
+_TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
+    "bed": (Bed, {
+        "width": _BED,
+        "height": _BED,
+        "origin": schema.choice(ORIGINS),
+        "invert_x": schema.FLAG,
+        "invert_y": schema.FLAG,
+        "homing": schema.FLAG,
+        "soft_limits": schema.FLAG,
+    }),
+    "motion": (Motion, {
+        "draw_feed": _FEED,
+        "travel_feed": _FEED,
+        "acceleration": schema.number(0, above=True, unit="mm/s²", as_given=True),
+        "junction_deviation": schema.number(0, unit="mm", as_given=True),
+    }),
+    "pen": (Pen, {
+        "kind": schema.choice(PEN_KINDS),
+        "up": _PEN_VALUE,
+        "down": _PEN_VALUE,
+        "up_command": _TEMPLATE,
+        "down_command": _TEMPLATE,
+        "up_delay": _SECONDS,
+        "down_delay": _SECONDS,
+    }),
+    "gcode": (GcodeFormat, {
+        "decimals": schema.whole(0, 6, "digits after the decimal point"),
+        "line_numbers": schema.FLAG,
         # one whole line (80 characters + newline) must fit, or a sender could never send it
-        "receive_buffer": (_whole(MAX_LINE + 1, 1 << 20, "bytes"), 128),
-        "header": (_TEMPLATE, ""),
-        "footer": (_TEMPLATE, ""),
-    },
+        "receive_buffer": schema.whole(MAX_LINE + 1, 1 << 20, "bytes"),
+        "header": _TEMPLATE,
+        "footer": _TEMPLATE,
+    }),
 }
 
 
@@ -280,69 +234,51 @@ def load_profile(name_or_path: str | Path) -> Profile:
 
 
 def list_profiles() -> list[str]:
-    """Names of the profiles shipped in ``pencilbot/configs/plotters``, sorted."""
+    """Names of the profiles shipped in ``configs/plotters``, sorted."""
     return shipped_names("plotters")
 
 
 def profile_from_mapping(table: dict, *, where: str = "<profile>", default_name: str = "custom") -> Profile:
     """Validate a parsed TOML table into a :class:`Profile` (``where`` names it in errors)."""
-    values = {section: _section(table, section, where) for section in _SCHEMA}
-    top = values[""]
+    context = f"plotter profile {where}"
+    top = {k: v for k, v in table.items() if k not in _TABLES}
+    for key in top:
+        if key not in _TOP:
+            raise ProfileError(
+                f"{context}: unknown key {key}; expected one of: {', '.join(_TOP)} "
+                "(or the tables " + ", ".join(f"[{s}]" for s in _TABLES) + ")"
+            )
+    if "dialect" not in top:
+        raise ProfileError(f"{context}: missing key dialect; expected {_TOP['dialect'].expected}")
+    values = {key: rule.apply(top[key], key, context) for key, rule in _TOP.items() if key in top}
+    sections = {name: _section(table, name, cls, rules, context) for name, (cls, rules) in _TABLES.items()}
     profile = Profile(
-        name=top["name"] or default_name,
-        dialect=top["dialect"],
-        description=top["description"],
-        bed=Bed(**values["bed"]),
-        motion=Motion(**values["motion"]),
-        pen=Pen(**values["pen"]),
-        gcode=GcodeFormat(**values["gcode"]),
+        name=values.get("name") or default_name,
+        dialect=values["dialect"],
+        description=values.get("description", ""),
+        **sections,
         source=where,
     )
     _check_consistency(profile, where)
     return profile
 
 
-def _section(table: dict, section: str, where: str) -> dict:
-    schema = _SCHEMA[section]
-    if section:
-        if section not in table:
-            raise ProfileError(
-                f"plotter profile {where}: missing table [{section}]; expected keys "
-                f"{', '.join(schema)}"
-            )
-        found = table[section]
-        if not isinstance(found, dict):
-            raise ProfileError(
-                f"plotter profile {where}: {section} = {found!r} is invalid; expected a table "
-                f"[{section}] with keys {', '.join(schema)}"
-            )
-    else:
-        found = {k: v for k, v in table.items() if k not in _SCHEMA}
+def _section(table: dict, name: str, cls: type, rules: dict[str, schema.Rule], context: str):
+    """Table ``[name]`` of the profile validated into a ``cls``."""
+    if name not in table:
+        raise ProfileError(f"{context}: missing table [{name}]; expected keys {', '.join(rules)}")
+    found = table[name]
+    if not isinstance(found, dict):
+        raise ProfileError(
+            f"{context}: {name} = {found!r} is invalid; expected a table [{name}] with keys {', '.join(rules)}"
+        )
     for key in found:
-        if key not in schema:
-            raise ProfileError(
-                f"plotter profile {where}: unknown key {_label(section, key)}; "
-                f"expected one of: {', '.join(schema)}"
-                + ("" if section else " (or the tables " + ", ".join(f"[{s}]" for s in _SCHEMA if s) + ")")
-            )
-    values = {}
-    for key, (check, default) in schema.items():
-        if key not in found:
-            if default is _REQUIRED:
-                raise ProfileError(
-                    f"plotter profile {where}: missing key {_label(section, key)}; "
-                    f"expected {check(None)[1]}"
-                )
-            values[key] = default
-            continue
-        value, expected = check(found[key])
-        if value is None:
-            raise ProfileError(
-                f"plotter profile {where}: {_label(section, key)} = {found[key]!r} is invalid; "
-                f"expected {expected}"
-            )
-        values[key] = value
-    return values
+        if key not in rules:
+            raise ProfileError(f"{context}: unknown key [{name}] {key}; expected one of: {', '.join(rules)}")
+    for key, rule in rules.items():
+        if key not in found and not schema.has_default(cls, key):
+            raise ProfileError(f"{context}: missing key [{name}] {key}; expected {rule.expected}")
+    return cls(**{key: rule.apply(found[key], f"[{name}] {key}", context) for key, rule in rules.items() if key in found})
 
 
 def _check_consistency(profile: Profile, where: str) -> None:

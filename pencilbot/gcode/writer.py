@@ -22,7 +22,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cache
-from itertools import compress
 from pathlib import Path
 
 import numpy as np
@@ -115,7 +114,7 @@ class GcodeSummary:
     path: str
     lines: int
     bytes: int
-    paths: int  # paths drawn (empty ones draw nothing)
+    paths: int  # paths drawn
     stats: PlanStats
     placement: Placement
 
@@ -169,8 +168,9 @@ def gcode_lines(plan: Plan, profile: Profile, *, source: str = "") -> list[str]:
 def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStats, Placement, int]:
     """The whole file, the plan's motion statistics, the placement, and the paths drawn."""
     placement = Placement.on_bed(plan.page, profile.bed)
-    paths, layer_sizes = _drawn_paths(plan)
-    points = np.concatenate(paths) if paths else np.zeros((0, 2))
+    paths = plan.paths()
+    layer_sizes = np.array([len(layer.paths) for layer in plan.layers], dtype=np.int64)
+    points = paths.points
     if not np.isfinite(points).all():
         raise PencilbotError(
             "the plan has coordinates that are not numbers (NaN or infinity); "
@@ -181,7 +181,7 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
 
     home = placement.to_page(np.zeros((1, 2)))[0]  # machine X0 Y0, where the plot starts
     stats = estimate(plan, profile.motion_settings(), start=tuple(home))
-    moves = _Moves.of(machine, np.fromiter(map(len, paths), np.int64, len(paths)), profile)
+    moves = _Moves.of(machine, paths.lengths, profile)
     notes = [_comment(f"layer {layer.name}: {n} paths") for layer, n in zip(plan.layers, layer_sizes) if n]
     head = _header_comments(plan, profile, placement, stats, source) + profile.render(profile.gcode.header)
     program = b"".join([
@@ -192,15 +192,6 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
     if profile.gcode.line_numbers:
         program = b"\n".join(_numbered(program.split(b"\n")[:-1])) + b"\n"
     return program, stats, placement, len(paths)
-
-
-def _drawn_paths(plan: Plan) -> tuple[list[np.ndarray], np.ndarray]:
-    """The plan's non-empty paths in drawing order, and how many each layer has."""
-    every_path = plan.all_paths()
-    drawn = np.fromiter(map(len, every_path), dtype=np.int64, count=len(every_path)) > 0
-    drawn_before = np.concatenate([[0], np.cumsum(drawn)])  # drawn paths before path i
-    layer_bounds = np.cumsum([0] + [len(layer.paths) for layer in plan.layers])
-    return list(compress(every_path, drawn)), np.diff(drawn_before[layer_bounds])
 
 
 def _body(moves: _Moves, profile: Profile, *, first_paths: np.ndarray, notes: list[str]) -> bytes:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.plan import Page
+from pencilbot.planning.plan import DEFAULT_MARGIN, Page
 
 # Portrait sizes in mm (ISO 216 and US Letter).
 PAGE_SIZES: dict[str, tuple[float, float]] = {
@@ -33,7 +33,7 @@ def page_size(
     name: str,
     orientation: str | None = None,
     image_shape: tuple[int, int] | None = None,
-    margin: float = 15.0,
+    margin: float = DEFAULT_MARGIN,
 ) -> Page:
     """A page by name (``"A5"``, ``"A4"``, ``"A3"``, ``"Letter"``) or custom ``"WxH"`` in mm.
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.paths import Paths
 from pencilbot.planning.plan import Plan
 
 
@@ -105,20 +106,19 @@ def estimate(plan: Plan, settings: MotionSettings | None = None, *, start=(0.0, 
     position = np.asarray(start, np.float64)
     layers: dict[str, Stats] = {}
     for layer in plan.layers:
-        paths = [p for p in layer.paths if len(p)]
-        stats = _layer_stats(paths, position, settings)
+        stats = _layer_stats(layer.paths, position, settings)
         layers[layer.name] = layers.get(layer.name, Stats()) + stats
-        if paths:
-            position = paths[-1][-1]
+        if len(layer.paths):
+            position = layer.paths.lasts[-1]
     total = sum(layers.values(), Stats())
     return PlanStats(layers, total)
 
 
-def _layer_stats(paths: list[np.ndarray], position: np.ndarray, s: MotionSettings) -> Stats:
-    if not paths:
+def _layer_stats(paths: Paths, position: np.ndarray, s: MotionSettings) -> Stats:
+    if not len(paths):
         return Stats()
-    heads = np.array([p[0] for p in paths])
-    tails = np.array([position] + [p[-1] for p in paths[:-1]])
+    heads = paths.firsts
+    tails = np.vstack([position, paths.lasts[:-1]])
     hops = np.hypot(*(heads - tails).T)
     travel_seconds = move_times(hops, 0.0, 0.0, s.travel_speed, s.acceleration).sum()
     drawn_mm, segments, draw_seconds = _draw(paths, s)
@@ -133,10 +133,10 @@ def _layer_stats(paths: list[np.ndarray], position: np.ndarray, s: MotionSetting
     )
 
 
-def _draw(paths: list[np.ndarray], s: MotionSettings) -> tuple[float, int, float]:
+def _draw(paths: Paths, s: MotionSettings) -> tuple[float, int, float]:
     """Pen-down length (mm), segment count and seconds of all paths, vectorised over segments."""
-    pts = np.concatenate(paths)
-    owner = np.repeat(np.arange(len(paths)), [len(p) for p in paths])
+    pts = paths.points
+    owner = paths.owners()
     step = np.diff(pts, axis=0)
     length = np.hypot(*step.T)
     # Real segments: consecutive points of one path that are not the same point.

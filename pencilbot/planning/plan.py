@@ -1,17 +1,30 @@
 """The plan: what the plotter will draw, as data.
 
-A :class:`Plan` is a page plus an ordered list of :class:`Layer`. A layer is an ordered list of
-paths; each path is a float64 ``(N, 2)`` array of points in **millimetres on the page**, with the
-origin at the page's bottom-left corner and Y growing upward (the plotter convention; the flip
-from image rows is done once, in :mod:`pencilbot.planning.layout`). Paths are drawn in list order,
-pen down along each path, pen up between paths. No per-stroke objects: 100 000 strokes stay cheap.
+A :class:`Plan` is a page plus an ordered tuple of :class:`Layer`. A layer is one pen pass:
+:class:`~pencilbot.paths.Paths` in **millimetres on the page**, with the origin at the page's
+bottom-left corner and Y growing upward (the plotter convention; the flip from image rows is
+done once, in :mod:`pencilbot.planning.layout`), a pen width, and a role saying what the layer
+draws. Paths are drawn in order, pen down along each path, pen up between paths. Plans and
+layers are frozen values: a step that changes a plan makes a new one.
+
+The plan knows nothing of G-code or the simulator: :func:`pencilbot.export_gcode` and
+:func:`pencilbot.write_svg` turn it into files.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
+from types import MappingProxyType
 
-import numpy as np
+from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+
+#: Blank border on every side of a page, mm, when nothing says otherwise (the default style's).
+DEFAULT_MARGIN = 15.0
+
+#: What a layer draws: ``hatch`` is tone (hatching), ``edges`` the line drawing, ``other``
+#: anything else (a layer read from another tool's SVG).
+ROLES = ("hatch", "edges", "other")
 
 
 @dataclass(frozen=True)
@@ -20,50 +33,60 @@ class Page:
 
     width: float
     height: float
-    margin: float = 15.0
+    margin: float = DEFAULT_MARGIN
     name: str = "custom"
 
 
-@dataclass
+@dataclass(frozen=True)
 class Layer:
-    """One pen pass of the drawing: e.g. ``"edges"`` or ``"hatch-45"``."""
+    """One pen pass of the drawing, e.g. ``Layer("hatch1-45", paths, role="hatch")``.
+
+    ``paths`` may be given as any iterable of ``(k, 2)`` arrays; it is stored as
+    :class:`~pencilbot.paths.Paths` (paths without points dropped).
+    """
 
     name: str
-    paths: list[np.ndarray] = field(default_factory=list)
-    pen_width: float = 0.5  # mm
+    paths: Paths = field(default_factory=Paths.empty)
+    pen_width: float = DEFAULT_PEN_WIDTH  # mm
+    role: str = "other"
 
     def __post_init__(self) -> None:
-        self.paths = [np.asarray(p, dtype=np.float64).reshape(-1, 2) for p in self.paths]
+        if self.role not in ROLES:
+            raise ValueError(f"layer role {self.role!r} is not one of {', '.join(ROLES)}")
+        object.__setattr__(self, "paths", Paths.of(self.paths))
 
 
-@dataclass
+@dataclass(frozen=True)
 class Plan:
     """A page and its layers, in drawing order; ``meta`` holds free-form provenance strings."""
 
     page: Page
-    layers: list[Layer] = field(default_factory=list)
-    meta: dict[str, str] = field(default_factory=dict)
+    layers: tuple[Layer, ...] = ()
+    meta: Mapping[str, str] = field(default_factory=dict)
 
-    def all_paths(self) -> list[np.ndarray]:
-        """Every path of every layer, in drawing order."""
-        return [p for layer in self.layers for p in layer.paths]
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "layers", tuple(self.layers))
+        object.__setattr__(self, "meta", MappingProxyType(dict(self.meta)))
 
-    def to_gcode(self, profile="grbl-servo-a4", path=None, *, source: str = ""):
-        """G-code for a plotter profile (a name, a TOML path or a loaded ``Profile``).
+    def __reduce__(self):  # a mapping proxy does not pickle; the plan does (worker processes)
+        return Plan, (self.page, self.layers, dict(self.meta))
 
-        With ``path``, writes the file atomically and returns its
-        :class:`~pencilbot.gcode.writer.GcodeSummary`; without, returns the lines.
-        """
-        from pencilbot.gcode.profiles import Profile, load_profile
-        from pencilbot.gcode.writer import gcode_lines, write_gcode
-
-        profile = profile if isinstance(profile, Profile) else load_profile(profile)
-        if path is None:
-            return gcode_lines(self, profile, source=source)
-        return write_gcode(self, profile, path, source=source)
+    def paths(self, role: str | None = None) -> Paths:
+        """Every path in drawing order, or those of the layers with ``role``."""
+        return Paths.concat(layer.paths for layer in self.layers if role in (None, layer.role))
 
     def layer(self, name: str) -> Layer:
+        """The first layer called ``name`` (``KeyError`` if there is none)."""
         for layer in self.layers:
             if layer.name == name:
                 return layer
         raise KeyError(name)
+
+    def with_layers(self, layers: Iterable[Layer]) -> Plan:
+        """The same page and metadata with other layers."""
+        return Plan(self.page, tuple(layers), self.meta)
+
+    @property
+    def pen_width(self) -> float:
+        """The pen a plotter draws this plan with (it holds one): the widest layer's, mm."""
+        return max((layer.pen_width for layer in self.layers), default=DEFAULT_PEN_WIDTH)

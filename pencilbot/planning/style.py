@@ -1,31 +1,35 @@
-"""Drawing styles: the artistic parameters of a plan, kept as data in ``pencilbot/configs/styles/*.toml``.
+"""Drawing styles: the artistic parameters of a plan, kept as data in ``configs/styles/*.toml``.
 
 A style says how a photo becomes strokes (line length, edge threshold, hatch angles, pen width)
-and where it goes on paper (page, orientation, margin). Shipped styles live in the package
-``pencilbot.configs`` (``styles/<name>.toml``) and are read with :mod:`importlib.resources`, so an
-installed wheel finds them; a path to any TOML file works too. Every key is optional (missing keys
+and where it goes on paper (page, orientation, margin). Shipped styles live in ``configs/styles/<name>.toml``
+(found by :mod:`pencilbot.configs_io` in a wheel and in a source checkout); a path to any TOML file
+works too. Every key is optional (missing keys
 keep the defaults below); an unknown key or a wrongly typed value is a
 :class:`~pencilbot.errors.ProfileError` naming the file and the key, so a typo never silently does
-nothing.
+nothing. The rules are one table, :data:`STYLE_SCHEMA`, as for plotter profiles.
 """
 
 from __future__ import annotations
 
 import dataclasses
-import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from pencilbot import schema
 from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
-from pencilbot.imaging.strokes import LONGEST_LENGTH
+from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, WIDTH_RANGE
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS
+from pencilbot.planning.plan import DEFAULT_MARGIN
 
 # Thinnest pen accepted, mm (fineliners go down to about this). Hatch spacing and the planning
 # grid follow the pen width: a 0.01 mm pen on A4 would mean tens of thousands of hatch lines per
 # layer and gigabytes of memory, for detail no plotter can draw.
 MIN_PEN_WIDTH = 0.05
+#: The style a plan uses when none is named.
+DEFAULT_STYLE = "default"
 
 
 @dataclass(frozen=True)
@@ -48,26 +52,42 @@ class Style:
     line_length : int or None
         Stroke length ℓ of the line drawing in image pixels (2 to ``LONGEST_LENGTH``); None picks
         it from the image size.
+    stroke_gamma : float
+        Tone curve γ of the line drawing (0.1 to 10): > 1 darkens its strokes, so fainter
+        contours are drawn with the pen too; < 1 lightens them.
+    stroke_width : float
+        Width of the line drawing's strokes, image pixels (0.5 to 20): a wider raster stroke
+        is drawn with more touching pen lines.
+    texture : str or None
+        A hand-drawn pencil texture image for the tone (the paper's H), a path; relative paths
+        in a style file are relative to that file. None synthesises one.
     edge_threshold : float or None
-        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None chooses it
-        automatically from the edge map.
+        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None: where the line
+        drawing's stroke is 0.45 dark (which follows stroke_gamma).
     min_edge_pixels : int
-        Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
+        Fewest skeleton pixels a chain of contour strokes needs to be drawn; smaller ones are speckle.
     edge_join : float
-        Edge strokes whose ends lie within this many ℓ (at plot scale, at least a pen width)
-        are drawn in one pen-down path; consecutive strokes of a contour overlap by ℓ/4, so
-        this retraces ink already there and saves a pen lift each.
+        Consecutive strokes of a contour whose ends lie within this many ℓ are chained into one
+        pen-down path through their crossing point (the pen retraces its own overshoot, it
+        draws no chord), saving a pen lift each.
+    edge_clutter : float
+        Clutter (contours crossing a window of σ = 1.5 ℓ, times the incoherence of their
+        directions; about 0.1 along contours, 2–3 in dense texture) above which a region is
+        texture, not contour: there only long chains of strokes are drawn, and the hatching
+        carries the texture's darkness. Larger keeps more detail (100 keeps every stroke).
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
-        Angle of each hatch layer in degrees, counter-clockwise from the page's +x axis. The first
-        layer covers the lightest tones, later layers add darkness on top.
+        Angle of each hatch family to the form, degrees (0: along the isophotes); the first
+        family covers the lightest tones, later ones cross-hatch darker ones.
     hatch_coverage : float
-        Fraction of paper (0, 1) one hatch layer covers at its densest; spacing = pen_width /
+        Fraction of paper (0, 1) one hatch family covers at its densest; spacing = pen_width /
         hatch_coverage.
+    hatch_form : float
+        Size (mm) of the forms the hatching follows (the structure tensor's scale); 0 hatches
+        straight lines at ``hatch_angles`` to the page's 45°.
     hatch_blur : float
-        Gaussian blur (mm) applied to the darkness before hatching, so hatch runs follow regions
-        of tone instead of pixel noise.
+        The scale (Gaussian sigma, mm) at which the plot's tone is matched to the picture's.
     min_hatch_run : float
         Shortest hatch line kept, mm; shorter pieces would be dots.
     hatch_join : float
@@ -86,34 +106,39 @@ class Style:
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """
 
-    name: str = "default"
+    name: str = DEFAULT_STYLE
     page: str = "A4"
     orientation: str = "auto"
-    margin: float = 15.0
-    pen_width: float = 0.5
+    margin: float = DEFAULT_MARGIN
+    pen_width: float = DEFAULT_PEN_WIDTH
     line_length: int | None = None
+    stroke_gamma: float = 1.0
+    stroke_width: float = 1.0
+    texture: str | None = None
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
     edge_join: float = 0.5
+    edge_clutter: float = 2.0
     hatch: bool = True
-    hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
-    hatch_coverage: float = 0.5
-    hatch_blur: float = 1.5
-    min_hatch_run: float = 3.0
-    hatch_join: float = 2.0
-    hatch_blank_below: float = 0.06
+    hatch_angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0)
+    hatch_coverage: float = 0.7
+    hatch_form: float = 8.0
+    hatch_blur: float = 1.0
+    min_hatch_run: float = 2.0
+    hatch_join: float = 2.5
+    hatch_blank_below: float = 0.04
     hatch_jitter: float = 0.0
     order_rounds: int = 40
     seed: int = 0
 
 
-def load_style(name_or_path: str | Path = "default") -> Style:
-    """Read a style by shipped name (``"default"``) or from a TOML file path.
+def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
+    """Read a style by shipped name (e.g. ``"default"``) or from a TOML file path.
 
     Parameters
     ----------
     name_or_path : str or Path
-        A name of a file in ``pencilbot/configs/styles`` without ``.toml``, or a path to a TOML file.
+        A name of a file in ``configs/styles`` without ``.toml``, or a path to a TOML file.
 
     Returns
     -------
@@ -129,11 +154,15 @@ def load_style(name_or_path: str | Path = "default") -> Style:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
-    return with_overrides(Style(name=stem), table, where=f"style file {where}")
+    style = with_overrides(Style(name=stem), table, where=f"style file {where}")
+    source = Path(name_or_path)
+    if style.texture is not None and source.is_file():  # a file of the user's, not a shipped style
+        style = dataclasses.replace(style, texture=str(source.parent / Path(style.texture).expanduser()))
+    return style
 
 
 def list_styles() -> list[str]:
-    """Names of the styles shipped in ``pencilbot/configs/styles``."""
+    """Names of the styles shipped in ``configs/styles``."""
     return shipped_names("styles")
 
 
@@ -153,66 +182,43 @@ def with_overrides(style: Style, values: dict, *, where: str = "command line") -
     ProfileError
         An unknown parameter or a bad value.
     """
-    known = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
     checked = {}
     for key, value in values.items():
-        if key not in known:
-            raise ProfileError(f"{where} has unknown key {key!r}; the known keys are: {', '.join(known)}")
-        checked[key] = _check_value(key, value, where)
+        if key not in STYLE_SCHEMA:
+            raise ProfileError(
+                f"{where} has unknown key {key!r}; the known keys are: {', '.join(STYLE_SCHEMA)}"
+            )
+        checked[key] = STYLE_SCHEMA[key].apply(value, key, where)
     return dataclasses.replace(style, **checked)
 
 
-def _check_value(key: str, value, where: str):
-    def bad(expected: str) -> ProfileError:
-        return ProfileError(f"{where}: {key} = {value!r} is invalid; expected {expected}")
-
-    def number(v) -> bool:
-        # TOML and float() on the command line both accept nan and inf: neither is a size.
-        return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-
-    if key in ("page", "orientation"):
-        if not isinstance(value, str):
-            raise bad("a string")
-        if key == "orientation" and value not in ORIENTATIONS:
-            raise bad(" or ".join(ORIENTATIONS))
-        return value
-    if key == "hatch":
-        if not isinstance(value, bool):
-            raise bad("true or false")
-        return value
-    if key == "hatch_angles":
-        if not isinstance(value, list) or not value or not all(number(v) for v in value):
-            raise bad("a non-empty list of angles in degrees")
-        return tuple(float(v) for v in value)
-    if key == "line_length":
-        if not isinstance(value, int) or isinstance(value, bool) or not 2 <= value <= LONGEST_LENGTH:
-            raise bad(f"a whole number of pixels from 2 to {LONGEST_LENGTH}")
-        return value
-    if key in ("min_edge_pixels", "seed", "order_rounds"):
-        if not isinstance(value, int) or isinstance(value, bool) or value < 0:
-            raise bad("a whole number ≥ 0")
-        return value
-    if key == "edge_threshold":
-        if not number(value) or not 0 <= value <= 1:
-            raise bad("a number in [0, 1] (or leave it out for automatic)")
-        return float(value)
-    if key == "hatch_coverage":
-        if not number(value) or not 0 < value < 1:
-            raise bad("a number strictly between 0 and 1")
-        return float(value)
-    if key == "pen_width":
-        if not number(value) or value < MIN_PEN_WIDTH:
-            raise bad(f"a pen width of at least {MIN_PEN_WIDTH:g} mm")
-        return float(value)
-    if key == "hatch_blank_below":
-        if not number(value) or not 0 <= value < 1:
-            raise bad("a darkness in [0, 1)")
-        return float(value)
-    if key == "hatch_jitter":
-        if not number(value) or not 0 <= value <= 1:
-            raise bad("a fraction of the hatch spacing in [0, 1]")
-        return float(value)
-    # margin, hatch_blur, min_hatch_run, hatch_join (mm), edge_join (ℓ)
-    if not number(value) or value < 0:
-        raise bad("a number ≥ 0")
-    return float(value)
+# What each style key must be. The defaults are the Style fields'; a new key is a field there
+# and a rule here (the check below keeps the two in step).
+STYLE_SCHEMA: dict[str, schema.Rule] = {
+    "page": schema.TEXT,
+    "orientation": schema.choice(ORIENTATIONS),
+    "margin": schema.number(0, unit="mm"),
+    "pen_width": schema.number(MIN_PEN_WIDTH, unit="mm"),
+    "line_length": schema.whole(2, LONGEST_LENGTH, "pixels"),
+    "stroke_gamma": schema.number(*GAMMA_RANGE),
+    "stroke_width": schema.number(*WIDTH_RANGE, unit="pixels"),
+    "texture": schema.Rule("the path of a pencil texture image", lambda value: isinstance(value, str) and bool(value.strip())),
+    "edge_threshold": schema.number(0, 1, unit="(or leave it out for automatic)"),
+    "min_edge_pixels": schema.whole(0, unit="pixels"),
+    "edge_join": schema.number(0, unit="stroke lengths"),
+    "edge_clutter": schema.number(0, above=True),
+    "hatch": schema.FLAG,
+    "hatch_angles": schema.ANGLES,
+    "hatch_coverage": schema.number(0, 1, above=True, below=True),
+    "hatch_form": schema.number(0, unit="mm"),
+    "hatch_blur": schema.number(0, unit="mm"),
+    "min_hatch_run": schema.number(0, unit="mm"),
+    "hatch_join": schema.number(0, unit="mm"),
+    "hatch_blank_below": schema.number(0, 1, below=True, unit="(darkness)"),
+    "hatch_jitter": schema.number(0, 1, unit="(fraction of the hatch spacing)"),
+    "order_rounds": schema.whole(0),
+    "seed": schema.whole(0),
+}
+_FIELDS = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
+if list(STYLE_SCHEMA) != _FIELDS:  # pragma: no cover - a programming error, caught on import
+    raise AssertionError(f"STYLE_SCHEMA keys {list(STYLE_SCHEMA)} must be the Style fields {_FIELDS}")

@@ -3,8 +3,8 @@
 The file is what vpype, Inkscape, saxi and AxiDraw expect of a plotter drawing: ``width`` and
 ``height`` in mm with a matching ``viewBox`` (1 user unit = 1 mm), each layer a top-level
 ``<g inkscape:groupmode="layer" inkscape:label=NAME id="layerN">`` whose stroke width is the pen
-width, each path a ``<path d="M … L …">`` of straight segments. SVG's Y axis points down, the
-plan's up: the flip ``y_svg = page height − y`` happens here, on the way out and on the way in.
+width (its ``pencilbot:role`` says what it draws), each path a ``<path d="M … L …">`` of straight
+segments. SVG's Y axis points down, the plan's up: the flip ``y_svg = page height − y`` happens here, on the way out and on the way in.
 Page name, margin and the plan's ``meta`` ride along in a ``pencilbot`` namespace that other
 tools ignore.
 """
@@ -18,8 +18,9 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.fileio import write_atomic
+from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.planning.plan import ROLES, Layer, Page, Plan
 
 SVG_NS = "http://www.w3.org/2000/svg"
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
@@ -50,7 +51,7 @@ def svg_text(plan: Plan) -> str:
     for number, layer in enumerate(plan.layers, start=1):
         out.append(
             f'<g inkscape:groupmode="layer" inkscape:label="{_escape(layer.name)}" id="layer{number}"'
-            f' fill="none" stroke="black" stroke-width="{_fmt(layer.pen_width)}"'
+            f' pencilbot:role="{layer.role}" fill="none" stroke="black" stroke-width="{_fmt(layer.pen_width)}"'
             ' stroke-linecap="round" stroke-linejoin="round">'
         )
         out.extend(f'<path d="{d}"/>' for d in _path_data(layer.paths, page.height))
@@ -100,9 +101,11 @@ def read_svg(path: str | os.PathLike) -> Plan:
         if child.tag == f"{{{SVG_NS}}}g":
             name = child.get(f"{{{INKSCAPE_NS}}}label") or child.get("id") or f"layer{len(layers) + 1}"
             stroke = _NUMBER.match(_stroke_width(child) or "")
-            pen = float(stroke[0]) * scale if stroke else Layer.pen_width
+            pen = float(stroke[0]) * scale if stroke else DEFAULT_PEN_WIDTH
+            role = child.get(f"{{{PENCILBOT_NS}}}role")
             paths = [p for el in child.iter() for p in _element_paths(el, path)]
-            layers.append(Layer(name, [_to_page(p, scale, height) for p in paths], pen_width=pen))
+            layers.append(Layer(name, [_to_page(p, scale, height) for p in paths], pen_width=pen,
+                                role=role if role in ROLES else "other"))
         else:
             loose.extend(_element_paths(child, path))
     if loose:
@@ -110,12 +113,10 @@ def read_svg(path: str | os.PathLike) -> Plan:
     return Plan(page=page, layers=layers, meta=meta)
 
 
-def _path_data(paths: list[np.ndarray], page_height: float) -> list[str]:
+def _path_data(paths: Paths, page_height: float) -> list[str]:
     """``M x y L x y …`` strings with Y flipped to SVG's downward axis."""
-    if not paths:
-        return []
-    lengths = [len(p) for p in paths]
-    pts = np.concatenate(paths)
+    lengths = paths.lengths.tolist()
+    pts = paths.points
     xs = [_fmt(v) for v in pts[:, 0].tolist()]
     ys = [_fmt(v) for v in (page_height - pts[:, 1]).tolist()]
     coords = [f"{x} {y}" for x, y in zip(xs, ys)]

@@ -61,7 +61,7 @@ def test_demo_writes_valid_outputs_that_agree(tmp_path, capsys):
     profile = load_profile(PROFILE)
     placement = Placement.on_bed(plan.page, profile.bed)
     drawn = pen_down_paths((tmp_path / "drawing.gcode").read_text(), profile)
-    planned = plan.all_paths()
+    planned = plan.paths()
     assert len(drawn) == len(planned) == summary["paths"]
     on_page = [placement.to_page(p) for p in drawn]
     starts = np.array([p[0] for p in on_page]), np.array([p[0] for p in planned])

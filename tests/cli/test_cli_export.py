@@ -3,7 +3,6 @@ virtual GRBL accept out; every user mistake one message, exit 2, no file."""
 
 import subprocess
 import sys
-from importlib import resources
 
 import numpy as np
 import pytest
@@ -13,6 +12,7 @@ from PIL import Image
 from skimage.transform import resize
 
 from pencilbot.cli import main
+from pencilbot.configs_io import config_folder
 from pencilbot.gcode.profiles import list_profiles, load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.svg import write_svg
@@ -114,7 +114,7 @@ def test_profile_by_file_path(plan_svg, tmp_path):
 
 
 def open_shipped(name: str) -> str:
-    return resources.files("pencilbot.configs").joinpath(name).read_text(encoding="utf-8")
+    return (config_folder("plotters").parent / name).read_text(encoding="utf-8")
 
 
 def test_list_profiles(capsys):

@@ -53,7 +53,7 @@ def test_page_orientation_margin_and_pen_reach_the_plan(photo, tmp_path):
     assert _svg_size(out) == (210.0, 148.0)  # the photo is wide: landscape A5
     plan = read_svg(out)
     assert [layer.name for layer in plan.layers] == ["edges"]
-    pts = np.concatenate(plan.all_paths())
+    pts = np.concatenate(plan.paths())
     assert pts.min() >= 10 - 1e-6 and pts[:, 0].max() <= 200 + 1e-6 and pts[:, 1].max() <= 138 + 1e-6
 
 

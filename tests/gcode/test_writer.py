@@ -109,7 +109,7 @@ def expected_strokes(plan: Plan, profile) -> list[tuple[np.ndarray, np.ndarray]]
     """(rounded machine polyline, kept original page points) for every non-empty path."""
     placement = Placement.on_bed(plan.page, profile.bed)
     out = []
-    for path in plan.all_paths():
+    for path in plan.paths():
         if not len(path):
             continue
         machine = np.round(placement.to_machine(path), profile.gcode.decimals)

@@ -18,8 +18,9 @@ def sample_plan():
     return Plan(
         Page(210, 297, margin=15, name="A4"),
         [
-            Layer("hatch-45", [np.array([[20.0, 20.0], [100.0, 100.0]])], pen_width=0.3),
-            Layer("edges", [np.array([[15.0, 290.0], [195.0, 290.0], [195.0, 15.0]]), np.array([[50.0, 60.0]])]),
+            Layer("hatch-45", [np.array([[20.0, 20.0], [100.0, 100.0]])], pen_width=0.3, role="hatch"),
+            Layer("edges", [np.array([[15.0, 290.0], [195.0, 290.0], [195.0, 15.0]]), np.array([[50.0, 60.0]])],
+                  role="edges"),
         ],
         meta={"source": "coffee <test> & \"more\""},
     )
@@ -55,9 +56,18 @@ def test_round_trip_keeps_page_layers_paths_and_meta(tmp_path):
     back = read_svg(tmp_path / "p.svg")
     assert back.page == plan.page
     assert back.meta == plan.meta
-    assert [(l.name, l.pen_width) for l in back.layers] == [(l.name, l.pen_width) for l in plan.layers]
-    for a, b in zip(back.all_paths(), plan.all_paths()):
+    assert [(l.name, l.pen_width, l.role) for l in back.layers] == [
+        (l.name, l.pen_width, l.role) for l in plan.layers]
+    assert [l.role for l in back.layers] == ["hatch", "edges"]
+    for a, b in zip(back.paths(), plan.paths()):
         np.testing.assert_allclose(a, b)
+
+
+def test_a_foreign_or_unknown_role_reads_as_other(tmp_path):
+    write_svg(sample_plan(), tmp_path / "p.svg")
+    text = (tmp_path / "p.svg").read_text().replace('pencilbot:role="hatch"', 'pencilbot:role="magic"')
+    (tmp_path / "q.svg").write_text(text.replace(' pencilbot:role="edges"', ""))
+    assert [l.role for l in read_svg(tmp_path / "q.svg").layers] == ["other", "other"]
 
 
 coord = st.floats(0, 400, allow_nan=False)
@@ -76,7 +86,7 @@ def test_round_trip_any_plan(tmp_path_factory, layers, width, height):
     assert back.page == plan.page
     assert [l.name for l in back.layers] == [l.name for l in plan.layers]
     assert [len(l.paths) for l in back.layers] == [len(l.paths) for l in plan.layers]
-    for a, b in zip(back.all_paths(), plan.all_paths()):
+    for a, b in zip(back.paths(), plan.paths()):
         if len(b) == 2 and np.array_equal(np.round(b[0], 3), np.round(b[1], 3)):
             b = b[:1]  # a zero-length segment is written like a dot, and is one: reads back as a dot
         assert a.shape == b.shape

@@ -33,6 +33,7 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
+from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
 
 MM_PER_INCH = 25.4
 # Candidates per chunk: its inked pixels (~30 bytes each) stay near 50 MB; larger chunks measured
@@ -72,7 +73,7 @@ class Canvas:
         height_mm: float,
         *,
         dpi: float = 100,
-        pen_width: float = 0.5,
+        pen_width: float = DEFAULT_PEN_WIDTH,
         origin: tuple[float, float] = (0.0, 0.0),
     ) -> None:
         if not (width_mm > 0 and height_mm > 0 and dpi > 0 and pen_width > 0):
@@ -98,16 +99,16 @@ class Canvas:
     def darkness(self) -> np.ndarray:
         return np.abs(np.expm1(self._log_paper)).astype(np.float32)  # abs: no -0.0 on paper
 
-    def draw_paths(self, paths: Sequence[np.ndarray], pen_width: float | None = None) -> None:
-        """Ink pen-down paths (each an ``(N, 2)`` array of mm, Y up) with the canvas's pen."""
-        _accumulate(self._log_paper, paths, self._grid(pen_width))
+    def draw_paths(self, paths: Paths | Sequence[np.ndarray], pen_width: float | None = None) -> None:
+        """Ink pen-down paths (mm, Y up) with the canvas's pen or ``pen_width`` mm."""
+        _accumulate(self._log_paper, Paths.of(paths), self._grid(pen_width))
 
-    def draw_travel(self, paths: Sequence[np.ndarray]) -> None:
+    def draw_travel(self, paths: Paths | Sequence[np.ndarray]) -> None:
         """Overlay pen-up moves (thin, coloured in :meth:`to_image`); they never touch ``darkness``."""
         if self._log_travel is None:
             self._log_travel = np.zeros(self.shape, np.float64)
         # Half the pen width, but at least a pixel so the overlay shows in coarse previews.
-        _accumulate(self._log_travel, paths, self._grid(max(self.pen_width / 2, self.mm_per_px)))
+        _accumulate(self._log_travel, Paths.of(paths), self._grid(max(self.pen_width / 2, self.mm_per_px)))
 
     def to_image(self) -> np.ndarray:
         """The sheet as uint8 (255 = paper): gray (H, W), or RGB (H, W, 3) with a travel overlay."""
@@ -134,12 +135,12 @@ class Canvas:
 
 
 def render_paths(
-    paths: Sequence[np.ndarray],
+    paths: Paths | Sequence[np.ndarray],
     width_mm: float,
     height_mm: float,
     *,
     dpi: float = 100,
-    pen_width: float = 0.5,
+    pen_width: float = DEFAULT_PEN_WIDTH,
     origin: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:
     """Darkness (H, W) float32 in [0, 1] of ``paths`` drawn on a fresh canvas (see :class:`Canvas`)."""
@@ -165,13 +166,11 @@ class _Grid:
         return np.column_stack([col, row])
 
 
-def _accumulate(log_paper: np.ndarray, paths: Sequence[np.ndarray], grid: _Grid) -> None:
+def _accumulate(log_paper: np.ndarray, paths: Paths, grid: _Grid) -> None:
     """Add ``Σ log(1 − coverage)`` of every path to ``log_paper`` (in place)."""
-    arrays = [np.asarray(p, np.float64).reshape(-1, 2) for p in paths]
-    arrays = [p for p in arrays if len(p)]
-    if not arrays:
+    if not len(paths):
         return
-    a, b, seg_path = _segments(arrays)
+    a, b, seg_path = _segments(paths)
     frames = _Frames(grid.to_px(a), grid.to_px(b), grid.radius)
     # Chunks of about _CHUNK_CANDIDATES candidates (at least one segment each) bound memory.
     cum = np.cumsum(frames.candidates)
@@ -374,12 +373,12 @@ def _max_per_key(key: np.ndarray, cover: np.ndarray) -> tuple[np.ndarray, np.nda
     return key[first], np.maximum.reduceat(cover, first)
 
 
-def _segments(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _segments(paths: Paths) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Segment start points, end points and owning path index; a 1-point path is a dot."""
-    lengths = np.array([len(p) for p in arrays])
-    pts = np.concatenate(arrays)
-    owner = np.repeat(np.arange(len(arrays)), lengths)
-    last = np.cumsum(lengths) - 1
+    lengths = paths.lengths
+    pts = paths.points
+    owner = paths.owners()
+    last = paths.offsets[1:] - 1
     is_last = np.zeros(len(pts), bool)
     is_last[last] = True
     is_first = np.zeros(len(pts), bool)

@@ -9,9 +9,9 @@ import shapely
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-import sim.canvas as canvas_module
+import pencilbot.render as canvas_module
 from pencilbot.errors import PencilbotError
-from sim.canvas import Canvas, render_paths
+from pencilbot.render import Canvas, render_paths
 
 
 def area_in_band(dist, r, wide, narrow, samples=32):
