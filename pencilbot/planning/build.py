@@ -161,7 +161,12 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         # lifting. Edge strokes already come chained along their contours (edge_strokes):
         # joining more than touching ends would draw chords between unrelated strokes.
         join = style.pen_width if layer.role == "edges" else style.hatch_join
-        paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
+        # Only hatch runs of a few shortest strokes are zig-zagged: joined dashes of a light
+        # tone would read as a staircase.
+        zigzag = 0.0 if layer.role == "edges" else 3.0 * style.min_hatch_run
+        paths = order_paths(
+            layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=style.order_rounds
+        )
         ordered.append(replace(layer, paths=paths))
         if paths:
             position = tuple(paths[-1][-1])

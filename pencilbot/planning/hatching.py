@@ -42,6 +42,8 @@ from pencilbot.planning.plan import Layer
 GOLDEN = 0.6180339887498949
 # Widest gap (mm) between neighbouring drawn lines of a family; lighter tones are dashed.
 MAX_GAP = 3.0
+# Shortest stroke of a cross-hatching family, in shortest strokes of the first family.
+CROSS_RUN = 2.5
 # Step (mm) at which hatch lines are sampled for switching on and off.
 SAMPLE_STEP = 0.4
 # Points of an output stroke are kept about this far apart (mm): the lines are smooth curves.
@@ -343,7 +345,10 @@ def hatch_layers(
     layers = []
     for j, (family, angle) in enumerate(zip(lines, angles, strict=True)):
         request = grid.sample(shares[j], family.points)
-        strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=min_run, offset=j * GOLDEN / 3)
+        # Cross-hatching in a narrow band would be a comb of short ticks: later families need
+        # longer strokes, and the loop hands what they leave to the first.
+        shortest = min_run * (1.0 if j == 0 else CROSS_RUN)
+        strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=shortest, offset=j * GOLDEN / 3)
         layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
 

@@ -252,7 +252,7 @@ def test_neighbouring_hatch_runs_are_joined_pen_down():
         # Not joined, a path is one hatch run: points a sample spacing apart, no hop.
         assert all(np.linalg.norm(np.diff(p, axis=0), axis=1).max() <= POINT_SPACING + 0.05 for p in before)
         if name == names[0]:
-            assert len(after) <= 0.9 * len(before)  # lifts saved
+            assert len(after) <= 0.95 * len(before)  # lifts saved (long runs only: dashes stay apart)
         # Each join adds one connecting move no longer than the tolerance.
         added = _length(after) - _length(before)
         assert -1e-6 <= added <= (len(before) - len(after)) * 2.0 + 1e-6
