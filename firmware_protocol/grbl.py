@@ -38,9 +38,14 @@ JOG_CANCEL = b"\x85"
 VERSION = "1.1h"
 BUILD_DATE = "20190825"
 BANNER = f"Grbl {VERSION} ['$' for help]"
-#: What ``$`` prints, and ``$I`` (build info: version, options, planner blocks, receive buffer).
+#: What ``$`` prints.
 HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
-BUILD_INFO = (f"[VER:{VERSION}.{BUILD_DATE}:]", f"[OPT:V,{BLOCK_BUFFER_SIZE - 1},{RX_BUFFER_SIZE}]")
+
+
+def build_report(info: str = "", options: str = "V") -> tuple[str, ...]:
+    """What ``$I`` prints: version and the stored build info, then the compile options, free
+    planner blocks and receive buffer."""
+    return f"[VER:{VERSION}.{BUILD_DATE}:{info}]", f"[OPT:{options},{BLOCK_BUFFER_SIZE - 1},{RX_BUFFER_SIZE}]"
 
 #: ``error:N`` → (short name, explanation), GRBL 1.1.
 ERRORS: dict[int, tuple[str, str]] = {
@@ -274,35 +279,42 @@ def parse_line(line: str | bytes) -> Message:
 # --- formatting (the board's side) ----------------------------------------------------------
 
 
-def _coords(values: tuple[float, ...]) -> str:
-    return ",".join(f"{v:.3f}" for v in values)
+MM_PER_INCH = 25.4
 
 
-def _number(value: float) -> str:
-    """GRBL prints rates and spindle speeds with no decimals in mm mode."""
-    return f"{value:.0f}"
+def format_coords(values, *, inches: bool = False) -> str:
+    """Positions (mm) as GRBL prints them: 3 decimals, or inches with 4 when ``$13=1``."""
+    if inches:
+        return ",".join(f"{v / MM_PER_INCH + 0.0:.4f}" for v in values)
+    return ",".join(f"{v + 0.0:.3f}" for v in values)  # + 0.0: GRBL never prints -0.000 for zero
 
 
-def format_status(status: Status) -> str:
-    """The ``<…>`` line for ``status``, fields in GRBL's order (no line ending)."""
+def _rate(value: float, inches: bool) -> str:
+    """GRBL prints rates with no decimals in mm/min, one in in/min."""
+    return f"{value / MM_PER_INCH:.1f}" if inches else f"{value:.0f}"
+
+
+def format_status(status: Status, *, inches: bool = False) -> str:
+    """The ``<…>`` line for ``status``, fields in GRBL's order (no line ending); ``inches``:
+    positions and feed printed in inches, as with GRBL's ``$13=1`` (values are given in mm)."""
     parts = [status.state if status.substate is None else f"{status.state}:{status.substate}"]
     if status.mpos is not None:
-        parts.append(f"MPos:{_coords(status.mpos)}")
+        parts.append(f"MPos:{format_coords(status.mpos, inches=inches)}")
     if status.wpos is not None:
-        parts.append(f"WPos:{_coords(status.wpos)}")
+        parts.append(f"WPos:{format_coords(status.wpos, inches=inches)}")
     if status.buffer is not None:
         parts.append(f"Bf:{status.buffer[0]},{status.buffer[1]}")
     if status.line_number is not None:
         parts.append(f"Ln:{status.line_number}")
     if status.feed is not None:
         if status.spindle is None:
-            parts.append(f"F:{_number(status.feed)}")
+            parts.append(f"F:{_rate(status.feed, inches)}")
         else:
-            parts.append(f"FS:{_number(status.feed)},{_number(status.spindle)}")
+            parts.append(f"FS:{_rate(status.feed, inches)},{status.spindle:.0f}")
     if status.pins:
         parts.append(f"Pn:{status.pins}")
     if status.wco is not None:
-        parts.append(f"WCO:{_coords(status.wco)}")
+        parts.append(f"WCO:{format_coords(status.wco, inches=inches)}")
     if status.overrides is not None:
         parts.append("Ov:" + ",".join(str(v) for v in status.overrides))
     if status.accessories:

@@ -25,14 +25,20 @@ VERSION = "1.1f"
 BUILD_DATE = "20240101"
 BANNER = f"GrblHAL {VERSION} ['$' or '$HELP' for help]"
 HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H $B ~ ! ? ctrl-x]"
-BUILD_INFO = (
-    f"[VER:{VERSION}.{BUILD_DATE}:]",
-    f"[OPT:VNMSL,{BLOCK_BUFFER_SIZE - 1},{RX_BUFFER_SIZE},3,0]",
-    "[AXS:3:XYZ]",
-    "[NEWOPT:ENUMS,RT+]",
-    "[FIRMWARE:grblHAL]",
-)
 _BANNER = re.compile(r"^GrblHAL (\S+) \['\$' or '\$HELP' for help\]$")
+
+
+def build_report(info: str = "", options: str = "V") -> tuple[str, ...]:
+    """What ``$I`` prints: GRBL's two lines with grblHAL's options, buffers and axis count, then its
+    own (axes, extended options, firmware name)."""
+    letters = options[:1] + "NMS" + options[1:]  # GRBL's letters, and line numbers, mist, spindle
+    return (
+        f"[VER:{VERSION}.{BUILD_DATE}:{info}]",
+        f"[OPT:{letters},{BLOCK_BUFFER_SIZE - 1},{RX_BUFFER_SIZE},3,0]",
+        "[AXS:3:XYZ]",
+        "[NEWOPT:ENUMS,RT+]",
+        "[FIRMWARE:grblHAL]",
+    )
 
 
 def parse_line(line: str | bytes) -> grbl.Message:

@@ -43,10 +43,17 @@ def as_image(image: ImageLike) -> LoadedImage:
 
 
 def sketch(image: ImageLike, *, color: bool = False, line_length: int | None = None,
-           texture_seed: int = 0, lines_only: bool = False) -> Sketch:
-    """The GMED pencil drawing of an image; ``.result`` is the picture in [0, 1]."""
-    return _sketch(as_image(image), color=color, line_length=line_length,
-                   texture_seed=texture_seed, lines_only=lines_only)
+           stroke_gamma: float = 1.0, stroke_width: float = 1.0,
+           texture: str | Path | np.ndarray | None = None, texture_seed: int = 0,
+           lines_only: bool = False) -> Sketch:
+    """The GMED pencil drawing of an image; ``.result`` is the picture in [0, 1].
+
+    ``texture`` is a hand-drawn pencil texture (image file or grey array), default synthesised;
+    see :func:`pencilbot.imaging.pencil.sketch` for the other options.
+    """
+    return _sketch(as_image(image), color=color, line_length=line_length, stroke_gamma=stroke_gamma,
+                   stroke_width=stroke_width, texture=texture, texture_seed=texture_seed,
+                   lines_only=lines_only)
 
 
 def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,

@@ -1,25 +1,38 @@
-"""The virtual plotter's GRBL 1.1 serial front end: bytes in, bytes out.
+"""The virtual plotter's GRBL 1.1h serial front end: bytes in, bytes out.
 
 A firmware that speaks GRBL's protocol with other limits (grblHAL) gets its own banner, receive
-buffer, line buffer, planner depth and build info, from its :mod:`firmware_protocol` module.
+buffer, line buffer, planner depth, help and build report, from its :mod:`firmware_protocol`
+module (the profile's firmware says which).
 
-:class:`Firmware` behaves like GRBL's serial ISR + protocol loop in front of a
+:class:`Firmware` behaves like GRBL's serial interrupt, protocol loop and system commands
+(``serial.c``, ``protocol.c``, ``system.c``, ``settings.c``, ``report.c``) in front of a
 :class:`sim.machine.Machine`:
 
-* realtime bytes ``?`` ``!`` ``~`` 0x18 and jog cancel 0x85 act the moment they arrive, even
-  when everything else is stuck; other bytes ≥ 0x80 (overrides) are discarded;
-* other bytes go to the line being read; while the protocol loop is blocked (planner full in
-  real-time mode, feed hold, a pen change waiting for motion to end, a critical alarm) they
-  wait in a 128-byte receive ring, and bytes that arrive when it is full are **lost**, as on
-  a real board — a sender that does not count characters corrupts its stream;
-* each complete line gets exactly one ``ok`` or ``error:N`` (GRBL's filtering: whitespace and
-  comments dropped, upper-cased, 79 significant characters at most, ``\\r`` and ``\\n`` both
-  end a line), except when it raises an alarm;
-* ``$`` system commands ``$ $$ $# $G $I $N $C $X $H $J= $RST=$ $N=V`` (a jog moves at its own
-  F without touching the parser's modes; G-code is locked out while it runs);
-* soft-limit breach → ``ALARM:2`` + ``[MSG:Reset to continue]`` and nothing is read until a
-  reset; reset while moving → ``ALARM:3``; after a reset the banner, and in alarm
-  ``[MSG:'$H'|'$X' to unlock]``.
+* realtime bytes ``?`` ``!`` ``~`` 0x18 and jog cancel 0x85 act the moment they arrive; other
+  bytes ≥ 0x80 (overrides, a UTF-8 BOM) never reach a line, as GRBL's interrupt drops them;
+* other bytes go to the line being read; while the protocol loop is blocked (a line still
+  executing: planner full, a pen change or dwell waiting for motion, an ``M0``; a feed hold;
+  a critical alarm; sleep) they wait in a 128-byte receive ring, and bytes that arrive when it
+  is full are **lost**, as on a real board — a sender that does not count characters corrupts
+  its stream;
+* each complete line gets exactly one ``ok`` or ``error:N`` when GRBL would send it (GRBL's
+  filtering: whitespace and comments dropped, upper-cased, 79 significant characters at most,
+  ``\\r`` and ``\\n`` both end a line; a ``%`` is not special and fails as error 1), except
+  when it raises an alarm; ``M0`` answers after the cycle start that ends its pause;
+* ``$`` system commands with GRBL's state rules (``$$`` refused in Run and Hold, settings,
+  ``$#``, ``$I``, ``$N``, ``$H`` only when Idle or in Alarm, ``$J=`` only Idle or jogging):
+  ``$ $$ $# $G $I $I= $N $Nx= $C $X $H $J= $SLP $RST=$ $RST=# $RST=* $x=val``;
+* states Idle, Run, Hold:0, Jog, Home, Alarm, Check, Sleep. A feed hold stops motion at once
+  (the sim does not decelerate) and nothing is read until ``~``;
+* a soft- or hard-limit alarm prints ``ALARM:N`` + ``[MSG:Reset to continue]`` and the board
+  then answers nothing, not even ``?``, until a reset;
+* a soft reset keeps the machine position when idle or held; in motion it raises ``ALARM:3``
+  (``ALARM:6`` while homing) and locks G-code until ``$X`` or ``$H`` — and with
+  ``abort_loses`` the carriage coasts on, so the position GRBL reports is no longer where it
+  is. A power cycle (:meth:`Firmware.power_cycle`: a DTR reset or the ``reset`` fault) zeroes
+  the position with ``power_zero``, as an Arduino does, and with homing enabled starts in
+  Alarm (GRBL's HOMING_INIT_LOCK) unless ``init_lock`` is off. After every reset the banner,
+  then ``[MSG:'$H'|'$X' to unlock]`` in Alarm, else the ``$N`` startup lines (``>line:ok``).
 
 Every complete line received is logged with its 1-based index and the reply (``ok``,
 ``error:N``, ``ALARM:N`` or ``-`` when a fault swallowed it), so tests can prove exactly-once
@@ -29,19 +42,23 @@ delivery. :class:`Faults` injects failures keyed by that index.
 from __future__ import annotations
 
 import re
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
 from firmware_protocol import grbl
-from sim.machine import Machine, MachineAlarm, Parsed, grbl_settings
+from sim import gcode_parser as gp
+from sim.machine import DEFAULT_SETTINGS, PAUSE, Machine, MachineAlarm
 
 _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
 _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
 _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block delete
-_SETTING = re.compile(r"^\$(\d+)=(.*)$")
-_FLOAT = re.compile(r"^[+-]?(?:\d+\.?\d*|\.\d+)$")
-FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "garbage")
+_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
+_UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
+_FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
+FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "garbage", "hold")
 GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
+HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
 
 
 @dataclass(frozen=True)
@@ -53,7 +70,8 @@ class Faults:
     ``alarm@k`` raises ALARM:1 (hard limit) instead of running line k; ``silent@k`` stops
     answering anything from line k on (a hung board); ``drop@k`` drops the link when line k
     arrives (the port raises, the board keeps its state); ``reset@k`` reboots the board instead
-    of running line k; ``garbage@k`` sends a line of noise before the reply to line k.
+    of running line k; ``garbage@k`` sends a line of noise before the reply to line k;
+    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``).
     """
 
     at: dict[int, tuple[str, int]] = field(default_factory=dict)
@@ -82,6 +100,16 @@ class LoggedLine:
     reply: str
 
 
+@dataclass
+class _Task:
+    """A line GRBL's main loop is inside of: its steps run until done, then ``finish`` answers.
+    ``line`` is its (log index, text), or ``None`` for a startup line."""
+
+    steps: Iterator
+    finish: Callable[[], None]
+    line: tuple[int, str] | None
+
+
 def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | None:
     """GRBL's protocol-loop filter: the significant characters, or ``None`` on overflow."""
     if b"(" in raw or b";" in raw:
@@ -93,7 +121,7 @@ def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | N
 
 
 class Firmware:
-    """GRBL 1.1 protocol front end of a virtual plotter.
+    """GRBL 1.1h protocol front end of a virtual plotter.
 
     Parameters
     ----------
@@ -101,31 +129,47 @@ class Firmware:
         The interpreter behind it (its ``instant`` flag decides the clock mode).
     faults : Faults
         Failures to inject.
+    power_zero : bool
+        A power cycle restarts the position count at 0, 0, 0 (a real board); False keeps it.
+    abort_loses : bool
+        A reset or hard-limit alarm in motion lets the carriage coast on (a real board);
+        False keeps the reported position true.
+    init_lock : bool
+        GRBL's HOMING_INIT_LOCK build option: with homing enabled, power up in Alarm.
     """
 
-    def __init__(self, machine: Machine, faults: Faults | None = None):
+    def __init__(self, machine: Machine, faults: Faults | None = None, *, power_zero: bool = False,
+                 abort_loses: bool = False, init_lock: bool = True):
         self.machine = machine
         # The protocol's limits and texts: GRBL 1.1's, or a firmware's that speaks it (grblHAL).
         self.protocol = machine.profile.firmware.protocol
-        self._ring_size = self.protocol.RX_BUFFER_SIZE - 1  # one slot of the ring stays empty
+        # GRBL's ring has RX_BUFFER_SIZE + 1 slots, one always kept free
+        self._ring_size = self.protocol.RX_BUFFER_SIZE
         self.faults = faults or Faults()
+        self.power_zero, self.abort_loses, self.init_lock = power_zero, abort_loses, init_lock
         self.out = bytearray()
         self.log: list[LoggedLine] = []
         self.lost_bytes = 0  # bytes dropped because the receive ring was full
-        self._rebooting = False
         self.link_dropped = False
         self.silent = False
+        self.startup_lines = ["", ""]  # $N0, $N1 (EEPROM)
+        self.build_info = ""  # $I= (EEPROM)
+        self._rebooting = False
         self._ring = bytearray()
         self._line = bytearray()
-        # A line waiting to run, or (parsed None) run and waiting for its dwell to end.
-        self._pending: tuple[int, str, Parsed | None] | None = None
-        self._alarm = 0  # alarm code while in Alarm state
-        self._critical = False  # soft/hard limit: nothing is read until reset
+        self._task: _Task | None = None
+        self._held_line: bytes | None = None  # a line the hold button stopped before it ran
+        self._held_index = 0
+        self._critical = False  # soft/hard limit: nothing is read or reported until reset
         self._hold = False
         self._jog = False  # the planner holds a $J= move
+        self._homing = False
+        self._sleep = False
+        self._report_due = False  # a ? that arrived while GRBL could not answer
         self._wco_counter = 0
         self._ovr_counter = 0
-        self._emit("\r\n" + self.protocol.BANNER)
+        self._locked = bool(machine.settings[22]) and init_lock  # Alarm: G-code refused until $X / $H
+        self._restart()
 
     # --- bytes in / out ---------------------------------------------------------------------
 
@@ -146,8 +190,11 @@ class Firmware:
             else:
                 self._receive_bytes(chunk)
             pos = end + 1
-            if m and not self._blocked and not self._deaf:
-                self._end_of_line()
+            if m and not self._deaf:
+                if self._blocked:  # a realtime byte in the chunk blocked reading: the end waits too
+                    self._receive_bytes(data[end:pos])
+                else:
+                    self._end_of_line()
 
     def _receive_bytes(self, data: bytes) -> None:
         """Byte by byte, as GRBL's serial interrupt sees them."""
@@ -158,10 +205,9 @@ class Firmware:
                 self._realtime(b)
             elif b == grbl.JOG_CANCEL[0]:
                 if self._jogging:
-                    self.machine.stop()
-                    self._jog = False
+                    self._cancel_jog()
             elif b >= 0x80:
-                continue  # other extended realtime commands (overrides) are not emulated
+                continue  # other extended realtime commands (overrides, door) are not emulated
             elif self._blocked:
                 if len(self._ring) < self._ring_size:
                     self._ring.append(b)
@@ -183,13 +229,13 @@ class Firmware:
         reason for blocking has gone."""
         if self.silent:
             return
-        if seconds > 0 and not self._hold and not self._critical:
+        if seconds > 0 and not (self._hold or self._critical or self._sleep):
             self.machine.advance(seconds)
         self._resume()
 
     def finish(self) -> None:
         """Instant mode: run all queued motion now (as if the host waited for it)."""
-        if not self._hold and not self._critical and self._pending is None:
+        if not (self._hold or self._critical) and self._task is None:
             self.machine.finish()
 
     @property
@@ -206,20 +252,20 @@ class Firmware:
 
     @property
     def _blocked(self) -> bool:
-        return self._pending is not None or self._critical
+        return (self._task is not None or self._held_line is not None or self._critical
+                or self._hold or self._sleep)
 
     def _emit(self, text: str) -> None:
         self.out += text.encode("ascii") + b"\r\n"
 
     def _resume(self) -> None:
-        if self._pending is not None:
-            index, text, parsed = self._pending
-            if parsed is None and not self.machine.dwelling:
-                self._pending = None
-                self._reply(index, text, "ok")
-            elif parsed is not None and not self._must_wait(parsed):
-                self._pending = None
-                self._run_gcode(index, text, parsed)
+        if self._critical or self._hold or self._sleep:
+            return
+        if self._task is not None and not self._step():
+            return
+        if self._held_line is not None:
+            self._line, self._held_line = bytearray(self._held_line), None
+            self._end_of_line()
         while not self._blocked and self._ring and not self._deaf:
             ring, self._ring = self._ring, bytearray()
             self.receive(bytes(ring))
@@ -230,38 +276,70 @@ class Firmware:
         if byte == 0x18:
             self.reset()
         elif byte == ord("?"):
-            if self.machine.instant and not self._blocked and not self._hold:
-                self.machine.finish()
-            self._emit(self.status_report())
+            self._status_query()
         elif byte == ord("!"):
-            # GRBL 1.1 holds from Idle too (Hold:0 at once; what arrives next waits for ~),
-            # but never in Alarm or check mode.
-            if not self._alarm and not self.machine.check_mode:
+            # GRBL holds from Idle too (Hold:0 at once; nothing more is read until ~), but
+            # never in Alarm, check mode or sleep; a hold while jogging cancels the jog.
+            if self._jogging:
+                self._cancel_jog()
+            elif not (self._locked or self._sleep or self._homing or self.machine.check_mode):
                 self._hold = True
         elif byte == ord("~"):
             if self._hold:
                 self._hold = False
                 self._resume()
 
-    def reset(self, *, reboot: bool = False) -> None:
-        """Ctrl-X soft reset (``reboot``: a power cycle or DTR reset — no ALARM:3, and a hung
-        board comes back)."""
-        moving = self.machine.stop()
-        if reboot:
-            self.silent = False
-            self._rebooting = True  # the rest of what is arriving now is lost
-        if moving and not reboot:
-            self._emit("ALARM:3")
-            self._alarm = 3
+    def _status_query(self) -> None:
+        if self._critical:
+            return  # GRBL's critical-alarm loop services nothing but reset
+        if self._homing:
+            self._report_due = True  # the homing cycle does not stop to report
+            return
+        if self.machine.instant and not self._blocked:
+            self.machine.finish()
+        self._emit(self.status_report())
+
+    def _cancel_jog(self) -> None:
+        self.machine.stop()
+        # A $J= still waiting for planner room goes on to plan its move, as in GRBL.
+        self._jog = self._task is not None
+
+    def reset(self) -> None:
+        """Ctrl-X soft reset: GRBL's mc_reset, then its re-initialisation."""
+        m = self.machine
+        moving = self._homing or (m.planner.busy and not self._hold)
+        m.stop(lose=moving and self.abort_loses)
+        if moving:
+            code = HOMING_RESET_ALARM if self._homing else ABORT_ALARM
+            self._emit(f"ALARM:{code}")
+            self._locked = True
+        self._locked = self._locked or self._sleep  # position not guaranteed after sleep
+        self._restart()
+
+    def power_cycle(self) -> None:
+        """Power or DTR reset: the controller restarts; settings and offsets (EEPROM) stay,
+        a hung board comes back, and what is arriving right now is lost. A real board
+        (``power_zero``) forgets its position and any alarm; the forgiving one keeps both."""
+        self.machine.power_on(zero=self.power_zero)
+        self.silent = False
+        self._rebooting = True
+        init_locked = bool(self.machine.settings[22]) and self.init_lock
+        self._locked = init_locked or (self._locked and not self.power_zero)
+        self._restart()
+
+    def _restart(self) -> None:
         self.machine.reset_modes()
         self._ring.clear()
         self._line.clear()
-        self._pending = None
-        self._critical = self._hold = False
+        self._task = self._held_line = None
+        self._critical = self._hold = self._jog = self._homing = self._sleep = False
+        self._report_due = False
         self._wco_counter = self._ovr_counter = 0
         self._emit("\r\n" + self.protocol.BANNER)
-        if self._alarm:
+        if self._locked:
             self._emit("[MSG:'$H'|'$X' to unlock]")
+        elif any(self.startup_lines):
+            self._start(self._startup_steps(), lambda: None, None)
 
     # --- lines ------------------------------------------------------------------------------
 
@@ -276,9 +354,9 @@ class Firmware:
         elif kind == "error":
             return self._reply(index, text, f"error:{code}")
         elif kind == "alarm":
-            self.machine.stop()
-            self._raise_alarm(1)
-            return self._reply(index, text, "ALARM:1", emit=False)
+            self.machine.stop(lose=self.abort_loses)
+            self._raise_alarm(HARD_LIMIT_ALARM)
+            return self._reply(index, text, f"ALARM:{HARD_LIMIT_ALARM}", emit=False)
         elif kind == "silent":
             self.silent = True
             return self._reply(index, text, "-", emit=False)
@@ -287,7 +365,10 @@ class Firmware:
             return self._reply(index, text, "-", emit=False)
         elif kind == "reset":
             self._reply(index, text, "-", emit=False)
-            return self.reset(reboot=True)
+            return self.power_cycle()
+        elif kind == "hold" and self._held_index != index:
+            self._held_index, self._held_line, self._hold = index, raw, True
+            return
         line = filter_line(raw, self.protocol.LINE_BUFFER_SIZE)
         if line is None:
             self._reply(index, text, "error:11")
@@ -295,43 +376,65 @@ class Firmware:
             self._reply(index, text, "ok")
         elif line[0] == "$":
             self._system(index, text, line)
-        elif self._alarm or self._jogging:
+        elif self._locked or self._jogging:
             self._reply(index, text, "error:9")  # G-code is locked out in alarm and jog
         else:
-            parsed = self.machine.parse(line)
-            if isinstance(parsed, int):
-                self._reply(index, text, f"error:{parsed}")
-            elif self._must_wait(parsed):
-                self._pending = (index, text, parsed)
+            block = self.machine.parse(line)
+            if isinstance(block, int):
+                self._reply(index, text, f"error:{block}")
             else:
-                self._run_gcode(index, text, parsed)
+                self._start(self.machine.execute(block), self._answer(index, text), (index, text))
 
-    def _must_wait(self, parsed: Parsed) -> bool:
-        return (self._hold or not self.machine.instant) and self.machine.must_wait(parsed)
+    def _answer(self, index: int, text: str) -> Callable[[], None]:
+        """The ``ok`` a line gets once its steps are done."""
+        return lambda: self._reply(index, text, "ok")
 
-    def _run_gcode(self, index: int, text: str, parsed: Parsed) -> None:
+    def _start(self, steps: Iterator, finish: Callable[[], None], line: tuple[int, str] | None) -> None:
+        """Run a line's steps now; if they block, the line stays in progress (see :meth:`_step`)."""
+        self._task = _Task(steps, finish, line)
+        self._step()
+
+    def _step(self) -> bool:
+        """Advance the line in progress; True when it has finished (or failed)."""
+        task = self._task
         try:
-            self.machine.apply(parsed)
+            for signal in task.steps:
+                self._machine_output()
+                if signal == PAUSE:
+                    self._hold = True  # M0: a feed hold; the line answers after ~
+                return False
         except MachineAlarm as alarm:
+            self._task = None
+            self._machine_output()
             self._raise_alarm(alarm.code)
-            return self._reply(index, text, f"ALARM:{alarm.code}", emit=False)
-        for message in self.machine.messages:
+            if task.line is not None:
+                self._reply(*task.line, f"ALARM:{alarm.code}", emit=False)
+            return True
+        self._task = None
+        self._machine_output()
+        task.finish()
+        return True
+
+    def _machine_output(self) -> None:
+        m = self.machine
+        for message in m.messages:
             self._emit(message)
-        self.machine.messages.clear()
-        if self.machine.pause_requested:  # M0: ok now, then a feed hold until ~
-            self.machine.pause_requested = False
-            self._hold = True
-        if self.machine.dwelling:
-            self._pending = (index, text, None)  # GRBL answers a dwell when it has ended
-        else:
-            self._reply(index, text, "ok")
+        m.messages.clear()
+        if m.alarm:  # a probe alarm: G-code locked, the line itself still answers
+            m.alarm = 0
+            self._locked = True
 
     def _raise_alarm(self, code: int) -> None:
-        self._alarm = code
-        self._critical = True
+        """A critical alarm (hard or soft limit): nothing more until reset."""
+        self._locked = self._critical = True
         self._hold = False
+        self.machine.check_mode = False
         self._emit(f"ALARM:{code}")
         self._emit("[MSG:Reset to continue]")
+
+    def _status(self, index: int, text: str, code: int) -> None:
+        """Answer a line with ``ok`` (0) or ``error:code``."""
+        self._reply(index, text, "ok" if code == 0 else f"error:{code}")
 
     def _reply(self, index: int, text: str, reply: str, *, emit: bool = True) -> None:
         self.log.append(LoggedLine(index, text, reply))
@@ -343,130 +446,262 @@ class Firmware:
         blank lines, such as a sender's wake-up line ends, carry nothing to deliver)."""
         return [entry.text for entry in self.log if entry.reply == "ok" and entry.text]
 
+    def _startup_steps(self):
+        """The ``$N`` lines, run after a reset or homing; each reports ``>line:status``."""
+        m = self.machine
+        for stored in self.startup_lines:
+            if stored:
+                block = m.parse(stored)
+                if not isinstance(block, int):
+                    yield from m.execute(block)
+                self._machine_output()
+                self._emit(f">{stored}:" + (f"error:{block}" if isinstance(block, int) else "ok"))
+
     # --- $ commands -------------------------------------------------------------------------
 
     def _system(self, index: int, text: str, line: str) -> None:
+        """A ``$`` line, under GRBL's state rules (system.c's system_execute_line)."""
+        if self.machine.instant and not self._hold:
+            self.machine.finish()
+        kind = line[1:2]
+        if kind == "J":
+            self._jog_line(index, text, line)
+        elif kind in ("", "$", "G", "C", "X"):
+            self._report_or_toggle(index, text, line)
+        else:
+            self._settings_or_homing(index, text, line)
+
+    def _jog_line(self, index: int, text: str, line: str) -> None:
+        """``$J=``: Idle or jogging only; checked as a jog block, refused past the soft limits."""
         m = self.machine
-        if m.instant and not self._hold:
-            m.finish()
-        idle = not m.planner.busy and not self._hold
-        if line == "$G":
-            self._emit(f"[GC:{m.gcode_state()}]")
-        elif line == "$X":
-            if self._alarm:
-                self._emit("[MSG:Caution: Unlocked]")
-                self._alarm = 0
-        elif line == "$C":
+        if self.state() not in ("Idle", "Jog"):
+            return self._status(index, text, 8)
+        if line[2:3] != "=":
+            return self._status(index, text, 3)
+        block = m.parse(line[3:], jog=True)
+        code = block if isinstance(block, int) else m.jog_target_allowed(block)
+        if code:
+            return self._status(index, text, code)
+        self._jog = True
+        self._start(m.jog(block), self._answer(index, text), (index, text))
+
+    def _report_or_toggle(self, index: int, text: str, line: str) -> None:
+        """``$``, ``$$``, ``$G``, ``$C``, ``$X``: answered in any state but these few."""
+        m, kind, state = self.machine, line[1:2], self.state()
+        if len(line) > 2:
+            return self._status(index, text, 3)
+        if kind == "":
+            self._emit(self.protocol.HELP)
+        elif kind == "$":
+            if state in ("Run", "Hold:0"):
+                return self._status(index, text, 8)  # takes too long to print mid-cycle
+            for number, value in m.settings.items():
+                self._emit(grbl.format_message(grbl.Setting(number, value)))
+        elif kind == "G":
+            self._emit(f"[GC:{m.gcode_state(inches=bool(m.settings[13]))}]")
+        elif kind == "C":
             if m.check_mode:
-                m.check_mode = False
                 self._emit("[MSG:Disabled]")
                 self._reply(index, text, "ok")
                 return self.reset()
-            if self._alarm or not idle:
-                return self._reply(index, text, "error:8")
+            if state != "Idle":
+                return self._status(index, text, 8)
             m.check_mode = True
             self._emit("[MSG:Enabled]")
-        elif line.startswith("$J"):
-            if self._alarm or self._hold or (m.planner.busy and not self._jogging):
-                return self._reply(index, text, "error:8")
-            if not line.startswith("$J="):
-                return self._reply(index, text, "error:3")
-            code = m.jog(line[3:])
-            if code:
-                return self._reply(index, text, f"error:{code}")
-            self._jog = True
-        elif line == "$H":
-            if not m.settings[22]:
-                return self._reply(index, text, "error:5")
-            if not idle:
-                return self._reply(index, text, "error:8")
-            m.home()
-            self._alarm = 0
-        elif not idle:
-            return self._reply(index, text, "error:8")
-        elif line == "$":
-            self._emit(self.protocol.HELP)
-        elif line == "$$":
-            for number, value in m.settings.items():
-                self._emit(grbl.format_message(grbl.Setting(number, value)))
-        elif line == "$#":
-            for name in ("G54", "G55", "G56", "G57", "G58", "G59", "G28", "G30"):
-                self._emit(f"[{name}:0.000,0.000,0.000]")
-            self._emit("[G92:" + ",".join(f"{v:.3f}" for v in m.g92) + "]")
-            self._emit("[TLO:0.000]")
-            self._emit("[PRB:0.000,0.000,0.000:0]")
-        elif line == "$I":
-            for info in self.protocol.BUILD_INFO:
-                self._emit(info)
-        elif line == "$N":
-            self._emit("$N0=")
-            self._emit("$N1=")
-        elif line == "$RST=$":
-            m.settings = grbl_settings(m.profile)
-        elif match := _SETTING.match(line):
-            return self._reply(index, text, self._store_setting(int(match.group(1)), match.group(2)))
-        else:
-            return self._reply(index, text, "error:3")
+        elif self._locked:  # $X
+            self._emit("[MSG:Caution: Unlocked]")
+            self._locked = False
         self._reply(index, text, "ok")
 
-    def _store_setting(self, number: int, value_text: str) -> str:
+    def _settings_or_homing(self, index: int, text: str, line: str) -> None:
+        """``$#``, ``$H``, ``$SLP``, ``$I``, ``$RST=``, ``$N``, ``$x=``: Idle or Alarm only."""
+        m, kind, state = self.machine, line[1:2], self.state()
+        if state not in ("Idle", "Alarm"):
+            return self._status(index, text, 8)
+        if kind == "#":
+            if len(line) > 2:
+                return self._status(index, text, 3)
+            self._report_parameters()
+        elif kind == "H":
+            if not m.settings[22]:
+                return self._status(index, text, 5)
+            if len(line) > 2:
+                return self._status(index, text, 3)
+            self._homing = True
+            return self._start(self._homing_steps(), self._answer(index, text), (index, text))
+        elif kind == "S":
+            if line != "$SLP":
+                return self._status(index, text, 3)
+            self._reply(index, text, "ok")
+            self._emit("[MSG:Sleeping]")
+            self._sleep = True
+            return
+        elif kind == "I":
+            if len(line) == 2:
+                for report in self.protocol.build_report(self.build_info, "V" + ("" if self.init_lock else "L")):
+                    self._emit(report)
+            elif line[2] != "=":
+                return self._status(index, text, 3)
+            else:
+                self.build_info = line[3:]
+        elif kind == "R":
+            return self._restore(index, text, line)
+        elif kind == "N" and len(line) == 2:
+            for n, stored in enumerate(self.startup_lines):
+                self._emit(f"$N{n}={stored}")
+        elif kind == "N":
+            if state != "Idle":
+                return self._status(index, text, 8)
+            return self._store_startup_line(index, text, line)
+        else:
+            return self._status(index, text, self._store_setting(line))
+        self._reply(index, text, "ok")
+
+    def _homing_steps(self):
+        yield from self.machine.home()
+        self._homing = self._locked = False
+        if self._report_due:
+            self._report_due = False
+            self._emit(self.status_report())
+        yield from self._startup_steps()
+
+    def _restore(self, index: int, text: str, line: str) -> None:
+        """``$RST=$`` settings, ``$RST=#`` offsets, ``$RST=*`` everything back to GRBL's defaults."""
+        m = self.machine
+        if line[2:5] != "ST=" or len(line) != 6 or line[5] not in "$#*":
+            return self._status(index, text, 3)
+        if line[5] in "$*":
+            m.settings = dict(DEFAULT_SETTINGS)
+        if line[5] in "#*":
+            m.coord_data[:] = [(0.0, 0.0, 0.0)] * len(m.coord_data)
+        if line[5] == "*":
+            self.startup_lines = ["", ""]
+            self.build_info = ""
+        self._emit("[MSG:Restoring defaults]")
+        self._reply(index, text, "ok")
+        self.reset()
+
+    def _store_startup_line(self, index: int, text: str, line: str) -> None:
+        """``$Nx=line``: the line is run now (to check it), then stored for every reset."""
+        number = _NUMBER.match(line, 2)
+        if number is None:
+            return self._status(index, text, 2)
+        if line[number.end():number.end() + 1] != "=":
+            return self._status(index, text, 3)
+        stored = line[number.end() + 1:]
+        block = self.machine.parse(stored)
+        if isinstance(block, int):
+            return self._status(index, text, block)
+        slot = int(float(number.group()))
+
+        def store() -> None:
+            if slot < len(self.startup_lines):  # GRBL writes past its two slots; not emulated
+                self.startup_lines[slot] = stored
+            self._reply(index, text, "ok")
+
+        self._start(self.machine.execute(block), store, (index, text))
+
+    def _store_setting(self, line: str) -> int:
+        """``$x=val`` as GRBL's settings_store_global_setting; the status code."""
         settings = self.machine.settings
-        if not _FLOAT.match(value_text):
-            return "error:2"
-        value = float(value_text)
-        if number not in settings:
-            return "error:3"
+        key = _NUMBER.match(line, 1)
+        if key is None:
+            return 2
+        if line[key.end():key.end() + 1] != "=":
+            return 3
+        value_match = _NUMBER.match(line, key.end() + 1)
+        if value_match is None:
+            return 2
+        number, value = float(key.group()), float(value_match.group())
+        if value_match.end() != len(line) or number > 255:
+            return 3
+        number = int(number) % 256
         if value < 0:
-            return "error:4"
-        if number == 0 and value < 3:
-            return "error:6"
-        if number == 20 and value and not settings[22]:
-            return "error:10"
-        settings[number] = int(value) if number in grbl.INTEGER_SETTINGS else value
-        return "ok"
+            return 4
+        if number not in settings:
+            return 3
+        whole = int(value) % 256
+        if number == 0 and whole < 3:
+            return 6
+        if number == 20 and whole and not settings[22]:
+            return 10
+        if number in _FLAG_SETTINGS:
+            settings[number] = 1 if whole else 0
+            if number == 22 and not whole:
+                settings[20] = 0  # no soft limits without homing
+        elif number in _UINT8_SETTINGS:
+            settings[number] = whole
+        else:
+            settings[number] = value
+        if number == 13:
+            self.machine.offsets_changed = True
+        return 0
+
+    def _report_parameters(self) -> None:
+        """``$#``: G54–G59, G28, G30 (EEPROM), G92, tool length offset, last probe."""
+        m = self.machine
+        inches = bool(m.settings[13])
+        names = [f"G{54 + i}" for i in range(gp.COORD_SYSTEMS)] + ["G28", "G30"]
+        for name, values in zip(names, m.coord_data):
+            self._emit(f"[{name}:{grbl.format_coords(values, inches=inches)}]")
+        self._emit(f"[G92:{grbl.format_coords(m.state.coord_offset, inches=inches)}]")
+        self._emit(f"[TLO:{grbl.format_coords((m.state.tool_length_offset,), inches=inches)}]")
+        self._emit(f"[PRB:{grbl.format_coords(m.probe_position, inches=inches)}:{int(m.probe_succeeded)}]")
 
     # --- status -----------------------------------------------------------------------------
 
     def state(self) -> str:
         """GRBL's state word for the status report."""
         m = self.machine
-        if self._alarm:
+        if self._sleep:
+            return "Sleep"
+        if self._locked:
             return "Alarm"
+        if self._homing:
+            return "Home"
         if self._hold:
             return "Hold:0"
         if m.check_mode:
             return "Check"
-        if m.planner.busy or m.dwelling:
+        if m.planner.busy:
             return "Jog" if self._jogging else "Run"
-        return "Idle"
+        return "Idle"  # also during a dwell: GRBL's cycle has ended by then
 
     def status_report(self) -> str:
-        """The ``<…>`` line GRBL prints for ``?``, honouring ``$10`` and the WCO/Ov cadence."""
+        """The ``<…>`` line GRBL prints for ``?``, honouring ``$10``, ``$13`` and the WCO/Ov cadence."""
         m = self.machine
         state = self.state()
-        busy = state not in ("Idle", "Alarm", "Check")
+        busy = state in ("Run", "Hold:0", "Jog", "Home")
         mask = int(m.settings[10])
         pos = m.machine_position()
-        executing = m.planner.executing or (m.planner.queue[0] if m.planner.queue else None)
-        feed = executing.nominal * 60.0 if executing is not None and state == "Run" else 0.0
+        wco = m.work_offset()
+        spindle = m.state.modal.spindle
+        speed = m.spindle_output() if spindle != 5 else 0.0
         fields = dict(
             mpos=pos if mask & 1 else None,
-            wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, m.g92)),
-            buffer=(m.planner.free_blocks, self.protocol.RX_BUFFER_SIZE - len(self._ring)) if mask & 2 else None,
-            feed=feed,
-            spindle=m.s if m.spindle != 5 else 0.0,
+            wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, wco)),
+            buffer=(m.planner.free_blocks, self._ring_size - len(self._ring)) if mask & 2 else None,
+            feed=m.current_speed() * 60.0 if state in ("Run", "Jog") else 0.0,
+            spindle=speed,
+            pins=m.limit_pins() or None,
         )
+        if m.offsets_changed:
+            m.offsets_changed = False
+            self._wco_counter = 0
         if self._wco_counter > 0:
             self._wco_counter -= 1
         else:
             self._wco_counter = (30 if busy else 10) - 1
             self._ovr_counter = self._ovr_counter or 1  # overrides on the next report
-            fields["wco"] = m.g92
+            fields["wco"] = wco
         if self._ovr_counter > 0:
             self._ovr_counter -= 1
         else:
             self._ovr_counter = (20 if busy else 10) - 1
             fields["overrides"] = (100, 100, 100)
-            fields["accessories"] = {3: "S", 4: "C"}.get(m.spindle)
+            lit = {3: "S", 4: "C"}.get(spindle, "") if speed > 0 else ""
+            fields["accessories"] = (lit + ("F" if m.state.modal.coolant == 8 else "")) or None
         name, _, sub = state.partition(":")
-        return grbl.format_status(grbl.Status(name, int(sub) if sub else None, **fields))
+        return grbl.format_status(grbl.Status(name, int(sub) if sub else None, **fields),
+                                  inches=bool(m.settings[13]))
+

@@ -1,67 +1,60 @@
-"""The virtual plotter's G-code interpreter: modal state, soft limits, pen, planner, clock.
+"""The virtual plotter's G-code interpreter: modal state, offsets, pen, planner, clock.
 
 :class:`Machine` takes one *filtered* line at a time (what GRBL's protocol loop stores: no
-whitespace, no comments, upper case — see :func:`sim.firmware.filter_line`), validates it the
-way GRBL 1.1's ``gc_execute_line`` does and returns GRBL's status code (0 = ok). Supported:
-``G0 G1 G4 G17 G20 G21 G28 G54 G80 G90 G91 G92 G92.1 G94``, ``M0 M1 M2 M3 M4 M5 M7 M8 M9 M30``,
-``M280 P S`` (servo angle — a sim extension for servo pens), words ``F N P S T X Y Z``. Other
-G/M codes (arcs, probing, G53, G55–G59, inverse time) answer ``error:20``.
+whitespace, no comments, upper case — see :func:`sim.firmware.filter_line`). :meth:`Machine.parse`
+checks it as GRBL 1.1h's parser does (:mod:`sim.gcode_parser`: the status code of the first
+failing check, or a :class:`~sim.gcode_parser.Block`); :meth:`Machine.execute` carries a block
+out in GRBL's order of execution (feed, spindle, coolant, dwell, plane, units, tool length,
+coordinate system, distance, G10/G28/G30/G92, motion, program flow). Execution is a generator
+that yields :data:`WAIT` wherever GRBL's main loop would block (planner full, a buffer
+synchronise for a pen change, dwell, offset change or program stop) and :data:`PAUSE` for an
+``M0``, so the firmware answers ``ok`` when GRBL would.
+
+Motion: G0/G1, G2/G3 arcs cut into chords by ``$12`` (:mod:`sim.arcs`), G38.2–G38.5 probes
+(this plotter has no probe: G38.2/G38.3 run to the target without contact, G38.4/G38.5 fail at
+once), G28/G30 via a point to the stored positions, G53 machine moves, G93 inverse time.
+G54–G59, G28 and G30 positions live in :attr:`Machine.coord_data` (the board's EEPROM: kept
+through resets and power cycles); G92 and G43.1 are cleared by a reset.
 
 The machine is a profile (:mod:`pencilbot.machine`, the neutral description) and its pen is the
 profile's :class:`~pencilbot.machine.pen.PenModel`: a *spindle* pen is down while M3/M4 is on
 with S closer to the profile's ``down`` than ``up``; a *z* pen while Z is closer to ``down``; a
-*servo* pen while the last ``M280`` angle is. Moves are planned (:mod:`sim.planner`) and, as they complete,
-pen-down moves become :attr:`Machine.strokes` (polylines, machine mm) and pen-up moves
-:attr:`Machine.travel`.
+*servo* pen while the last ``M280`` angle is (``M280`` is refused as by real GRBL unless the machine is made with
+``servo=True``). Moves are planned (:mod:`sim.planner`) and, as they complete, pen-down moves
+become :attr:`Machine.strokes` and pen-up moves :attr:`Machine.travel`.
 
-Machine coordinates run from 0 to the bed size (negative if the profile inverts an axis);
-with soft limits on (``$20=1``, the default here) a target outside raises :class:`MachineAlarm`.
-The machine starts as if it had been homed at (0, 0, 0).
+Machine coordinates run from 0 to the bed size (negative if the profile inverts an axis) when
+the machine's position is true. Where the carriage really is differs by :attr:`Machine.slip`
+once the position is lost: a power cycle restarts the count at 0, 0, 0 wherever the carriage
+stands (:meth:`power_on`), a stop in motion lets it coast on (:meth:`stop` with ``lose``);
+homing (``$H``) makes the two agree again. Strokes are recorded where the pen really went.
+With soft limits on (``$20=1``) a target outside the travel raises :class:`MachineAlarm`.
 """
 
 from __future__ import annotations
 
 import math
-import re
-from dataclasses import dataclass, field
 
 import numpy as np
 
+from firmware_protocol import grbl
 from pencilbot.machine.motion import axis_limited
 from pencilbot.machine.profile import Profile
+from sim import gcode_parser as gp
+from sim.arcs import arc_chords
 from sim.planner import Block, Planner
 
-# GRBL 1.1 status codes used here (texts in firmware_protocol.grbl.ERRORS).
-OK = 0
-EXPECTED_LETTER, BAD_NUMBER, NEGATIVE = 1, 2, 4
-UNSUPPORTED, MODAL_GROUP, UNDEFINED_FEED, NOT_INTEGER = 20, 21, 22, 23
-AXIS_CONFLICT, REPEATED_WORD, NO_AXIS_WORDS, BAD_LINE_NUMBER = 24, 25, 26, 27
-VALUE_MISSING, AXIS_WORDS_UNUSED, UNUSED_WORDS, TOOL_TOO_BIG = 28, 31, 36, 38
-TRAVEL_EXCEEDED, INVALID_JOG = 15, 16
-SOFT_LIMIT_ALARM = 2
-_JOG_MODES = {(20, 0), (21, 0), (90, 0), (91, 0)}  # all a $J= line may set, for itself only
+SOFT_LIMIT_ALARM, PROBE_INITIAL_ALARM, PROBE_CONTACT_ALARM = 2, 4, 5
+TRAVEL_EXCEEDED = 15
+WAIT, PAUSE = "wait", "pause"  # what an execution yields: blocked on the machine, or M0
 
-#: GRBL 1.1 factory settings; a profile overrides the machine-specific ones.
+#: GRBL 1.1 factory settings (defaults.h, DEFAULTS_GENERIC); a profile overrides the machine's.
 DEFAULT_SETTINGS: dict[int, float] = {
     0: 10, 1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 1, 11: 0.010, 12: 0.002, 13: 0,
     20: 0, 21: 0, 22: 0, 23: 0, 24: 25.0, 25: 500.0, 26: 250, 27: 1.0, 30: 1000, 31: 0, 32: 0,
     100: 250.0, 101: 250.0, 102: 250.0, 110: 500.0, 111: 500.0, 112: 500.0,
     120: 10.0, 121: 10.0, 122: 10.0, 130: 200.0, 131: 200.0, 132: 200.0,
 }
-
-# (G number, hundredths as GRBL's mantissa) → modal group; GRBL's groups 0 (non-modal), 1 motion, 2 plane, 3
-# distance, 5 feed mode, 6 units, 12 coordinate system.
-_G_GROUPS = {
-    (0, 0): 1, (1, 0): 1, (80, 0): 1, (4, 0): 0, (28, 0): 0, (92, 0): 0, (92, 10): 0,
-    (17, 0): 2, (90, 0): 3, (91, 0): 3, (94, 0): 5, (20, 0): 6, (21, 0): 6, (54, 0): 12,
-}
-_G_KNOWN = {g for g, _ in _G_GROUPS}
-_M_GROUPS = {0: 4, 1: 4, 2: 4, 30: 4, 3: 7, 4: 7, 5: 7, 7: 8, 8: 8, 9: 8, 280: 100}
-_VALUE_WORDS = frozenset("FIJKLNPRSTXYZ")
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
-_WORD = re.compile(r"([A-Z])([+-]?(?:\d+\.?\d*|\.\d+))")
-_WELL_FORMED = re.compile(r"(?:[A-Z][+-]?(?:\d+\.?\d*|\.\d+))*")
-_AXES = "XYZ"
 
 
 class MachineAlarm(Exception):
@@ -73,104 +66,132 @@ class MachineAlarm(Exception):
 
 
 def grbl_settings(profile: Profile) -> dict[int, float]:
-    """GRBL settings for the machine ``profile`` describes: soft limits and homing on, its rates,
-    acceleration, junction deviation, travel and homing directions."""
+    """GRBL settings for the machine ``profile`` describes: homing and soft limits as its bed
+    says, its rates, acceleration, junction deviation, travel and homing directions."""
     motion, bed, pen = profile.motion, profile.bed, profile.pen_model
     s = dict(DEFAULT_SETTINGS)
     s.update({
-        11: motion.junction_deviation, 20: 1, 22: 1,
+        11: motion.junction_deviation, 20: int(bed.soft_limits), 22: int(bed.homing),
         110: motion.axis_rate, 111: motion.axis_rate, 112: motion.axis_rate,
         120: motion.acceleration, 121: motion.acceleration, 122: motion.acceleration,
         130: bed.width, 131: bed.height,
     })
-    s[23] = (1 if bed.invert_x else 0) | (2 if bed.invert_y else 0)
+    # $23 set bits home towards negative: the axes whose machine coordinates grow into the bed.
+    s[23] = (0 if bed.invert_x else 1) | (0 if bed.invert_y else 2)
     if pen.kind == "spindle":
         s[30] = max(s[30], pen.up, pen.down)
     return s
 
 
-@dataclass
-class Parsed:
-    """One validated block: the commands and words it holds (values in the block's units)."""
-
-    g: dict[int, tuple[int, int]] = field(default_factory=dict)  # modal group → (G, mantissa)
-    m: dict[int, int] = field(default_factory=dict)  # modal group → M number
-    words: dict[str, float] = field(default_factory=dict)
-    axes: dict[str, float] = field(default_factory=dict)  # the X, Y, Z words
-
-
 class Machine:
-    """A GRBL 1.1-like G-code interpreter driving a planner and a virtual clock.
+    """A GRBL 1.1h interpreter driving a planner and a virtual clock.
 
     Parameters
     ----------
     profile : pencilbot.machine.profile.Profile
-        The machine: bed, pen model and motion limits (which seed GRBL's settings).
+        The machine: bed and switches, pen model and motion limits (which seed GRBL's settings).
     instant : bool
         True: whenever the machine has to wait for motion (planner full, a pen change, a
         dwell) the clock jumps ahead at once. False: the caller advances the clock with
-        :meth:`advance` and applies a line only when :meth:`must_wait` says it can.
+        :meth:`advance` and resumes an execution that yielded :data:`WAIT`.
+    servo : bool
+        Accept ``M280 P S`` servo-angle commands (a servo-pen extension; GRBL answers error 23).
     """
 
-    def __init__(self, profile: Profile, *, instant: bool = True):
+    def __init__(self, profile: Profile, *, instant: bool = True, servo: bool = False):
         self.profile = profile
         self.pen = profile.pen_model
         self.instant = instant
+        self.servo = servo
         self.settings = grbl_settings(profile)
+        self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
-        self._strokes: list[np.ndarray] = []  # finished pen-down polylines, machine mm
-        self.travel: list[np.ndarray] = []  # pen-up moves, machine mm
-        self.messages: list[str] = []  # push messages for the firmware to print
+        self._strokes: list[np.ndarray] = []  # finished pen-down polylines, bed-frame machine mm
+        self.travel: list[np.ndarray] = []  # pen-up moves, same frame
+        self.messages: list[str] = []  # lines for the firmware to print, in order
+        self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
+        self.offsets_changed = False  # a WCO change the next status report must show
         self.dwell_until = 0.0
-        self.pause_requested = False  # M0 asks the firmware for a feed hold
+        self.slip = (0.0, 0.0, 0.0)  # where the carriage is minus where GRBL counts it (mm)
+        self.probe_position = (0.0, 0.0, 0.0)
+        self.probe_succeeded = False
+        self.servo_angle = self.pen.up
+        self.check_mode = False
         self._stroke: list[tuple[float, float]] = []
-        self.position = (0.0, 0.0, 0.0)  # machine mm, where the parser believes the tool is
+        self.state = gp.ParserState(self.coord_data)
         self.reset_modes()
 
     # --- modal state ------------------------------------------------------------------------
 
     def reset_modes(self) -> None:
-        """Power-on / soft-reset modal state: GRBL 1.1 keeps the machine position and clears
-        the G92 offset; the pen ends up lifted (spindle off, servo at ``up``)."""
-        self.motion = 0
-        self.units_mm = True
-        self.absolute = True
-        self.feed = 0.0  # mm/min
-        self.spindle = 5  # M3/M4/M5
-        self.coolant = 9
-        self.s = 0.0
-        self.tool = 0
-        self.servo_angle = self.pen.up
-        self.line_number = 0
-        self.g92 = (0.0, 0.0, 0.0)
+        """A reset's parser state (GRBL's gc_init): default modes, G54 loaded, G92, tool length
+        and probe cleared, the parser's position synced to the machine's."""
+        here = self.machine_position()
+        self.state = gp.ParserState(self.coord_data, position=here, coord_system=self.coord_data[0])
+        self.probe_position, self.probe_succeeded = (0.0, 0.0, 0.0), False
         self.check_mode = False
+        self.offsets_changed = True
+
+    def power_on(self, *, zero: bool) -> None:
+        """The board restarts (power or DTR reset): motion gone, modes reset; ``zero``: its
+        position count restarts at 0, 0, 0 wherever the carriage is, as an AVR's RAM does."""
+        self.stop()
+        if zero:
+            here = self.machine_position()
+            self.slip = tuple(s + h for s, h in zip(self.slip, here))
+            self.state.position = (0.0, 0.0, 0.0)
+        self.servo_angle = self.pen.up  # the servo signal stops; the pen lifts
+        self.reset_modes()
+
+    @property
+    def position(self) -> tuple[float, float, float]:
+        """Where the parser believes the tool is (machine mm)."""
+        return self.state.position
+
+    @position.setter
+    def position(self, value) -> None:
+        self.state.position = tuple(value)
 
     @property
     def pen_down(self) -> bool:
         pen = self.pen
         if pen.kind == "z":
-            return pen.is_down(self.position[2])
+            return pen.is_down(self.position[2] + self.slip[2])
         if pen.kind == "servo":
             return pen.is_down(self.servo_angle)
-        return self.spindle in (3, 4) and pen.is_down(self._spindle_output())
+        return self.state.modal.spindle in (3, 4) and pen.is_down(self.spindle_output())
 
-    def _spindle_output(self) -> float:
-        """S as the PWM delivers it: clamped to $31..$30."""
-        return min(max(self.s, self.settings[31]), self.settings[30])
+    def spindle_output(self) -> float:
+        """The speed the PWM delivers for S (GRBL's spindle_compute_pwm_value): 0 for S0,
+        else clamped to ``$31``..``$30``."""
+        s, low, high = self.state.spindle_speed, self.settings[31], self.settings[30]
+        if low >= high or s >= high:
+            return high
+        if s <= low:
+            return 0.0 if s == 0 else low
+        return s
 
-    def gcode_state(self) -> str:
+    def gcode_state(self, inches: bool = False) -> str:
         """The ``$G`` text: ``G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0``."""
+        m, s = self.state.modal, self.state
+        motion = f"{m.motion:.1f}" if m.motion in gp.PROBES else f"{m.motion:.0f}"
+        feed = f"{s.feed / gp.MM_PER_INCH:.1f}" if inches else f"{s.feed:.0f}"
         return (
-            f"G{self.motion} G54 G17 G{21 if self.units_mm else 20} G{90 if self.absolute else 91} "
-            f"G94 M{self.spindle} M{self.coolant} T{self.tool} F{self.feed:.0f} S{self.s:.0f}"
+            f"G{motion} G{54 + m.coord_select} G{17 + m.plane} G{21 if m.units_mm else 20} "
+            f"G{90 if m.absolute else 91} G{93 if m.inverse_time else 94} M{m.spindle} M{m.coolant} "
+            f"T{s.tool} F{feed} S{s.spindle_speed:.0f}"
         )
 
+    def work_offset(self) -> tuple[float, float, float]:
+        """WCO (mm): the active coordinate system + G92 + tool length offset."""
+        return self.state.work_offset()
+
     def work_position(self) -> tuple[float, float, float]:
-        """Machine position minus the G92 offset (mm)."""
-        return tuple(m - o for m, o in zip(self.machine_position(), self.g92))
+        """Machine position minus the work offset (mm)."""
+        return tuple(m - o for m, o in zip(self.machine_position(), self.work_offset()))
 
     def machine_position(self) -> tuple[float, float, float]:
-        """Where the tool physically is now (mid-move in real-time mode)."""
+        """Where GRBL counts the tool now (mid-move in real-time mode)."""
         p = self.planner
         if p.executing is not None:
             return p.executing.point_at(p.elapsed)
@@ -178,205 +199,207 @@ class Machine:
             return p.queue[0].start
         return self.position
 
-    # --- parsing ----------------------------------------------------------------------------
+    def carriage_position(self) -> tuple[float, float, float]:
+        """Where the carriage really is: the machine position plus :attr:`slip`."""
+        return tuple(m + s for m, s in zip(self.machine_position(), self.slip))
 
-    def parse(self, line: str) -> Parsed | int:
-        """Validate one filtered line; return the block or GRBL's error code."""
-        block = Parsed()
-        if _WELL_FORMED.fullmatch(line):
-            words = _WORD.findall(line)
-        else:
-            words = self._scan_words(line)
-            if isinstance(words, int):
-                return words
-        for letter, number in words:
-            value = float(number)
-            int_value = math.trunc(value)
-            mantissa = round(100 * abs(value - int_value))
-            if letter == "G":
-                if (int_value, 0) not in _G_GROUPS or value < 0:
-                    return UNSUPPORTED
-                if (int_value, mantissa) not in _G_GROUPS:
-                    return NOT_INTEGER
-                group = _G_GROUPS[(int_value, mantissa)]
-                if group in block.g:
-                    return MODAL_GROUP
-                block.g[group] = (int_value, mantissa)
-            elif letter == "M":
-                if value != int_value:
-                    return NOT_INTEGER
-                if int_value not in _M_GROUPS:
-                    return UNSUPPORTED
-                group = _M_GROUPS[int_value]
-                if group in block.m:
-                    return MODAL_GROUP
-                block.m[group] = int_value
-            else:
-                if letter not in _VALUE_WORDS:
-                    return UNSUPPORTED
-                if letter in block.words:
-                    return REPEATED_WORD
-                if letter in "FNPTS" and value < 0:
-                    return NEGATIVE
-                block.words[letter] = value
-                if letter in _AXES:
-                    block.axes[letter] = value
-        return self._check(block)
+    def limit_pins(self) -> str:
+        """Limit switches pressed (``Pn:`` letters): with homing, a switch sits just outside the
+        origin corner's edges (where ``$H`` pulls off from) and closes when the carriage is
+        pushed past it."""
+        if not self.profile.bed.homing:
+            return ""
+        pulloff = self.settings[27]
+        here = self.carriage_position()
+        pressed = ""
+        for axis, inverted in (("X", self.profile.bed.invert_x), ("Y", self.profile.bed.invert_y)):
+            value = here["XY".index(axis)]
+            if (value > 1e-9) if inverted else (value < -pulloff - 1e-9):
+                pressed += axis
+        return pressed
 
-    @staticmethod
-    def _scan_words(line: str) -> list[tuple[str, str]] | int:
-        """Word by word, to find the first malformed one as GRBL does (error 1 or 2)."""
-        words, pos = [], 0
-        while pos < len(line):
-            letter = line[pos]
-            if not "A" <= letter <= "Z":
-                return EXPECTED_LETTER
-            m = _NUMBER.match(line, pos + 1)
-            if m is None:
-                return BAD_NUMBER
-            words.append((letter, m.group()))
-            pos = m.end()
-        return words
+    def current_speed(self) -> float:
+        """Speed along the executing move (mm/s), 0 at rest."""
+        p = self.planner
+        return _speed_at(p.executing, p.elapsed) if p.executing is not None else 0.0
 
-    def _check(self, block: Parsed) -> Parsed | int:
-        words, g = block.words, block.g
-        if words.get("N", 0) > 9_999_999:
-            return BAD_LINE_NUMBER
-        if words.get("T", 0) > 255:
-            return TOOL_TOO_BIG
-        non_modal = g.get(0)
-        axes = block.axes
-        if non_modal in ((28, 0), (92, 0)) and 1 in g and g[1] != (80, 0):
-            return AXIS_CONFLICT
-        if non_modal == (4, 0) and "P" not in words:
-            return VALUE_MISSING
-        if non_modal == (92, 0) and not axes:
-            return NO_AXIS_WORDS
-        if 100 in block.m and "S" not in words:
-            return VALUE_MISSING
-        motion = g[1][0] if 1 in g else self.motion
-        if axes and non_modal not in ((28, 0), (92, 0)):
-            if motion == 80:
-                return AXIS_WORDS_UNUSED
-            if motion == 1 and not words.get("F", self.feed):
-                return UNDEFINED_FEED
-        if "P" in words and non_modal != (4, 0) and 100 not in block.m:
-            return UNUSED_WORDS
-        if any(w in words for w in "IJKLR"):
-            return UNUSED_WORDS
-        return block
+    # --- parsing and execution --------------------------------------------------------------
 
-    # --- execution --------------------------------------------------------------------------
+    def parse(self, line: str, *, jog: bool = False) -> gp.Block | int:
+        """Check one filtered line against the current state (see :func:`sim.gcode_parser.parse_block`)."""
+        return gp.parse_block(line, self.state, jog=jog, servo=self.servo)
 
-    def must_wait(self, block: Parsed) -> bool:
-        """True if ``block`` cannot run yet: it needs the planner empty (pen change, dwell,
-        program end) or a free planner slot (a move), or a dwell is still running."""
-        if self.dwelling:
-            return True
-        if self._synchronizes(block):
-            return self.planner.busy
-        needed = 2 if block.g.get(0) == (28, 0) and block.axes else 1
-        return self._moves(block) and self.planner.free_blocks < needed
-
-    def _synchronizes(self, block: Parsed) -> bool:
-        spindle = block.m.get(7, self.spindle)
-        s_changes = "S" in block.words and block.words["S"] != self.s and spindle != 5 and 100 not in block.m
-        # Spindle (pen) changes, servo moves, dwells and program stops wait for motion to end.
-        return spindle != self.spindle or s_changes or 100 in block.m or 4 in block.m or block.g.get(0) == (4, 0)
-
-    def _moves(self, block: Parsed) -> bool:
-        return bool(block.axes) or block.g.get(0) == (28, 0)
-
-    def apply(self, block: Parsed) -> None:
-        """Carry out a validated block in GRBL's order of execution.
+    def execute(self, block: gp.Block):
+        """Carry out a checked block in GRBL's order; a generator (see the module docstring).
 
         Raises
         ------
         MachineAlarm
             A target lies outside the soft limits; the planner has been stopped.
         """
-        w = block.words
+        s, m = self.state, block.modal
         was_down = self.pen_down
-        if "N" in w:
-            self.line_number = int(w["N"])
-        units = block.g.get(6)  # G20/G21 apply to this block's own words already
-        units_mm = self.units_mm if units is None else units[0] == 21
-        scale = 1.0 if units_mm else 25.4
-        if "F" in w:
-            self.feed = w["F"] * scale
-        if "T" in w:
-            self.tool = int(w["T"])
-        if self._synchronizes(block):
-            self.synchronize()
-        if 100 in block.m:
-            self.servo_angle = w["S"]  # M280's S is an angle, not the spindle speed
-        elif "S" in w:
-            self.s = w["S"]
-        self.spindle = block.m.get(7, self.spindle)
-        self.coolant = block.m.get(8, self.coolant)
-        if block.g.get(0) == (4, 0):
-            self._dwell(w["P"])
-        self.units_mm = units_mm
-        if 3 in block.g:
-            self.absolute = block.g[3][0] == 90
-        if 1 in block.g:
-            self.motion = block.g[1][0]
-        non_modal = block.g.get(0)
-        if non_modal == (92, 0):
-            self.g92 = tuple(
-                self.position[i] - w[a] * scale if a in w else self.g92[i] for i, a in enumerate(_AXES)
-            )
-        elif non_modal == (92, 10):
-            self.g92 = (0.0, 0.0, 0.0)
-        elif non_modal == (28, 0):
-            if block.axes:
-                self._line(self._target(block.axes, scale), rapid=True)
-            self._line((0.0, 0.0, 0.0), rapid=True)
-        elif block.axes and self.motion in (0, 1):
-            self._line(self._target(block.axes, scale), rapid=self.motion == 0)
-        stop = block.m.get(4)
-        if stop == 0 and not self.check_mode:
-            self.pause_requested = True
-        if stop in (2, 30):
-            self.synchronize()
-            # GRBL's program-end reset: G1 G17 G90 G94 G54 M5 M9 (units and offsets stay).
-            self.motion, self.absolute = 1, True
-            self.spindle, self.coolant = 5, 9
-            self.messages.append("[MSG:Pgm End]")
+        s.line_number = block.line_number
+        s.modal.inverse_time = m.inverse_time
+        s.feed = block.feed
+        if block.spindle_speed != s.spindle_speed:
+            if s.modal.spindle != 5:
+                yield from self._synchronize()  # GRBL's spindle_sync: the pen moves when motion ends
+            s.spindle_speed = block.spindle_speed
+        s.tool = block.tool
+        if m.spindle != s.modal.spindle:
+            yield from self._synchronize()
+            s.modal.spindle = m.spindle
+        if m.coolant != s.modal.coolant:
+            yield from self._synchronize()
+            s.modal.coolant = m.coolant
+        if block.servo_angle is not None:
+            yield from self._synchronize()
+            self.servo_angle = block.servo_angle
+        if block.non_modal == 4:
+            yield from self._dwell(block.dwell)
+        s.modal.plane, s.modal.units_mm = m.plane, m.units_mm
+        if block.axis_command == gp.TOOL_LENGTH_AXES:
+            s.modal.tool_length = m.tool_length
+            if block.tool_length_offset != s.tool_length_offset:
+                s.tool_length_offset = block.tool_length_offset
+                yield from self._offsets_changed()
+        if m.coord_select != s.modal.coord_select:
+            s.modal.coord_select, s.coord_system = m.coord_select, block.coord_system
+            yield from self._offsets_changed()
+        s.modal.absolute = m.absolute
+        yield from self._non_modal(block)
+        s.modal.motion = m.motion
+        if m.motion != gp.NO_MOTION and block.axis_command == gp.MOTION_AXES:
+            yield from self._motion(block)
         if was_down and not self.pen_down and not self.planner.busy:
             self._close_stroke()  # lifted in place: a later pen-down starts a new stroke
+        if m.program_flow:
+            yield from self._synchronize()
+            if m.program_flow == gp.PAUSE:
+                if not self.check_mode:
+                    yield PAUSE
+            else:
+                self._program_end()
 
-    def _target(self, axes: dict[str, float], scale: float, absolute: bool | None = None):
-        """Machine target (mm) of axis words in the block's units and distance mode."""
-        absolute = self.absolute if absolute is None else absolute
-        target = list(self.position)
-        for i, a in enumerate(_AXES):
-            if a in axes:
-                v = axes[a] * scale
-                target[i] = v + self.g92[i] if absolute else target[i] + v
-        return tuple(target)
+    def apply(self, block: gp.Block) -> None:
+        """Execute ``block`` to its end with no firmware in front: where GRBL would wait, the
+        clock runs on (real-time mode); an ``M0`` pause is passed at once."""
+        for signal in self.execute(block):
+            if signal == WAIT:
+                self.advance(0.001)
 
-    def jog(self, line: str) -> int:
-        """``$J=`` body: a move at its own F that leaves the parser's modes untouched.
+    def _non_modal(self, block: gp.Block):
+        s, code = self.state, block.non_modal
+        if code == 10:
+            index, offset = block.coord_write
+            yield from self._synchronize()  # an EEPROM write
+            self.coord_data[index] = offset
+            if s.modal.coord_select == index:
+                s.coord_system = offset
+                yield from self._offsets_changed()
+        elif code in (28, 30):
+            if block.axis_command:
+                yield from self._queue_line(block.target, rapid=True)
+            yield from self._queue_line(block.home, rapid=True)
+        elif code in (28.1, 30.1):
+            yield from self._synchronize()
+            self.coord_data[gp.G28_INDEX if code == 28.1 else gp.G30_INDEX] = s.position
+        elif code == 92:
+            s.coord_offset = block.coord_offset
+            yield from self._offsets_changed()
+        elif code == 92.1:
+            s.coord_offset = (0.0, 0.0, 0.0)
+            yield from self._offsets_changed()
 
-        Returns GRBL's status code: 16 for words a jog may not hold, 22 without F, 15 when
-        the target is outside the soft limits (a jog is refused, not an alarm).
+    def _motion(self, block: gp.Block):
+        motion, target = block.modal.motion, block.target
+        if motion in (gp.SEEK, gp.LINEAR):
+            feed = block.feed
+            if block.modal.inverse_time and motion == gp.LINEAR:
+                feed *= math.dist(self.position, target)  # F is 1/minutes for the whole move
+            yield from self._queue_line(target, rapid=motion == gp.SEEK, feed=feed)
+        elif motion in (gp.CW_ARC, gp.CCW_ARC):
+            offset, radius, clockwise = block.arc
+            chords, count = arc_chords(self.position, target, offset, radius, block.axes, clockwise,
+                                       self.settings[12])
+            feed = block.feed
+            if block.modal.inverse_time:
+                # As GRBL's mc_arc: F times the chord count, then taken as mm/min for each chord
+                # (an arc too small for a chord stays one inverse-time move).
+                feed *= count if count else math.dist(self.position, target)
+            for point in chords:
+                yield from self._queue_line(tuple(point), rapid=False, feed=feed)
+        else:
+            yield from self._probe(block)
+
+    def _probe(self, block: gp.Block):
+        """G38.x on a plotter without a probe input: nothing ever touches."""
+        if self.check_mode:
+            self.position = block.target
+            return
+        yield from self._synchronize()
+        away, no_error = block.modal.motion in (38.4, 38.5), block.modal.motion in (38.3, 38.5)
+        self.probe_succeeded = False
+        if away:  # "away" needs the probe touching at the start
+            self._raise(PROBE_INITIAL_ALARM)
+            return
+        yield from self._queue_line(block.target, rapid=False, feed=block.feed)
+        yield from self._synchronize()
+        if no_error:
+            self.probe_position = self.machine_position()
+        else:
+            self._raise(PROBE_CONTACT_ALARM)
+        coords = grbl.format_coords(self.probe_position, inches=bool(self.settings[13]))
+        self.messages.append(f"[PRB:{coords}:0]")
+
+    def _raise(self, code: int) -> None:
+        """A non-critical alarm: the firmware prints it and locks G-code; the line still ends ``ok``."""
+        self.alarm = code
+        self.messages.append(f"ALARM:{code}")
+
+    def _program_end(self) -> None:
+        """M2 / M30: GRBL resets G1 G17 G90 G94 G54 M5 M9 (units, tool length, G92, F S T stay)."""
+        s = self.state
+        m = s.modal
+        m.motion, m.plane, m.absolute, m.inverse_time = gp.LINEAR, 0, True, False
+        m.coord_select, m.spindle, m.coolant = 0, 5, 9
+        if not self.check_mode:
+            s.coord_system = self.coord_data[0]
+            self.offsets_changed = True
+        self.messages.append("[MSG:Pgm End]")
+
+    def _offsets_changed(self):
+        """A WCO change: GRBL (FORCE_BUFFER_SYNC_DURING_WCO_CHANGE) waits for motion to end."""
+        self.offsets_changed = True
+        yield from self._synchronize()
+
+    def jog_target_allowed(self, block: gp.Block) -> int:
+        """0, or 15 when soft limits are on and a jog's target is outside the travel."""
+        return TRAVEL_EXCEEDED if self._soft_limit_exceeded(block.target) else 0
+
+    def jog(self, block: gp.Block):
+        """A ``$J=`` move at its own F that leaves the parser's modes untouched (a generator)."""
+        yield from self._queue_line(block.target, rapid=False, feed=block.feed, checked=True)
+
+    def home(self):
+        """``$H``: seek the switches at ``$25``, locate at ``$24``, pull off ``$27`` (a generator).
+
+        The carriage ends at the origin corner (X and Y; a pen plotter homes no Z) and GRBL's
+        count agrees with it again. Non-inverted axes read 0 there (a positive work space needs
+        HOMING_FORCE_SET_ORIGIN), inverted ones −``$27`` (GRBL's negative space).
         """
-        block = self.parse(line)
-        if isinstance(block, int):
-            return block
-        if block.m or set(block.g.values()) - _JOG_MODES or set(block.words) - set("XYZF"):
-            return INVALID_JOG
-        if "F" not in block.words:
-            return UNDEFINED_FEED
-        units, distance = block.g.get(6), block.g.get(3)
-        scale = 25.4 if (units or (21 if self.units_mm else 20, 0))[0] == 20 else 1.0
-        absolute = self.absolute if distance is None else distance[0] == 90
-        target = self._target(block.axes, scale, absolute)
-        if self._soft_limit_exceeded(target):
-            return TRAVEL_EXCEEDED
-        self._line(target, rapid=False, feed=block.words["F"] * scale)
-        return OK
+        pulloff, seek, feed = self.settings[27], self.settings[25], self.settings[24]
+        start = self.carriage_position()
+        bed = self.profile.bed
+        home = (-pulloff if bed.invert_x else 0.0, -pulloff if bed.invert_y else 0.0, start[2])
+        distance = math.dist(start[:2], home[:2])
+        seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
+        yield from self._dwell(seconds)
+        self._record(start, home, self.pen_down)
+        self._close_stroke()
+        self.slip = (0.0, 0.0, self.slip[2])
+        self.position = (home[0], home[1], start[2] - self.slip[2])
 
     def _soft_limit_exceeded(self, target) -> bool:
         if not self.settings[20]:
@@ -391,52 +414,60 @@ class Machine:
                 return True
         return False
 
-    def _line(self, target: tuple[float, float, float], *, rapid: bool, feed: float | None = None) -> None:
-        if self._soft_limit_exceeded(target):
+    def _queue_line(self, target, *, rapid: bool, feed: float | None = None, checked: bool = False):
+        """GRBL's mc_line: soft limits, check mode, wait for a planner slot, plan the move."""
+        if not checked and self._soft_limit_exceeded(target):
             self.stop()
             raise MachineAlarm(SOFT_LIMIT_ALARM)
+        if self.check_mode:
+            self.position = target
+            return
+        while self.planner.free_blocks == 0:
+            if self.instant:
+                self._complete([self.planner.finish_one()])
+            else:
+                yield WAIT
+        self._line(target, rapid=rapid, feed=feed)
+
+    def _line(self, target: tuple[float, float, float], *, rapid: bool, feed: float | None = None) -> None:
         start = self.position
         delta = (target[0] - start[0], target[1] - start[1], target[2] - start[2])
         length = math.hypot(*delta)
         pen_before = self.pen_down
         self.position = target
-        if length < 1e-9 or self.check_mode:
+        if length < 1e-9:
             return
         unit = (delta[0] / length, delta[1] / length, delta[2] / length)
         settings = self.settings
         rate, accel = axis_limited(unit, (settings[110], settings[111], settings[112]),
                                    (settings[120], settings[121], settings[122]))
         rate /= 60.0
-        nominal = rate if rapid else min((feed or self.feed) / 60.0, rate)
+        nominal = rate if rapid else min((self.state.feed if feed is None else feed) / 60.0, rate)
         pen = pen_before and (self.pen.kind != "z" or self.pen_down)
-        if self.instant and self.planner.free_blocks == 0:
-            self._complete([self.planner.finish_one()])
         self.planner.add(Block(start, target, length, unit, nominal, accel, pen), settings[11])
 
     @property
     def dwelling(self) -> bool:
-        """Real-time mode: a G4 is still counting down."""
+        """Real-time mode: a G4 (or a homing cycle) is still counting down."""
         return self.planner.clock < self.dwell_until
 
-    def _dwell(self, seconds: float) -> None:
+    def _dwell(self, seconds: float):
         if self.check_mode:
             return
+        yield from self._synchronize()
         if self.instant:
             self.planner.clock += seconds
-        else:
-            self.dwell_until = self.planner.clock + seconds
+            return
+        self.dwell_until = self.planner.clock + seconds
+        while self.dwelling:
+            yield WAIT
 
-    def synchronize(self) -> None:
-        """Instant mode: finish every queued move now (GRBL's buffer synchronize)."""
-        if self.instant and not self.check_mode:
+    def _synchronize(self):
+        """GRBL's protocol_buffer_synchronize: wait until every queued move has run."""
+        if self.instant:
             self._complete(self.planner.finish_all())
-
-    def home(self) -> None:
-        """``$H``: seek the home switches at ``$25`` and set machine (0, 0, 0) there."""
-        self.synchronize()
-        distance = math.dist(self.position, (0.0, 0.0, 0.0))
-        self.planner.clock += distance / (self.settings[25] / 60.0)
-        self.position = (0.0, 0.0, 0.0)
+        while self.planner.busy:
+            yield WAIT
 
     def advance(self, seconds: float) -> None:
         """Real-time mode: let ``seconds`` of machine time pass."""
@@ -444,30 +475,51 @@ class Machine:
         if not self.planner.busy and self.planner.clock < self.dwell_until:
             self.planner.clock = min(self.dwell_until, self.planner.clock + seconds)
 
-    def stop(self) -> bool:
-        """Halt at once (reset, alarm): drop planned moves. True if the machine was moving."""
-        moving = self.planner.busy
+    def stop(self, *, lose: bool = False) -> bool:
+        """Halt at once (reset, alarm): drop planned moves. True if the machine was moving.
+
+        ``lose``: the motors stop dead but the carriage coasts on for its stopping distance
+        (v²/2a along the move), so GRBL's count no longer says where it is.
+        """
+        p = self.planner
+        moving = p.busy
+        first = p.executing or (p.queue[0] if p.queue else None)
+        # In instant mode a queued move is taken to be under way at its cruising speed.
+        speed = self.current_speed() if p.executing is not None else (first.nominal if first else 0.0)
         here = self.machine_position()  # moves not yet started are dropped, not reached
-        cut = self.planner.discard()
+        cut = p.discard()
         if cut is not None:
             self._complete([cut])
         self.position = here
-        self.dwell_until = self.planner.clock
+        self.dwell_until = p.clock
+        if lose and first is not None and speed > 0:
+            coast = speed * speed / (2.0 * first.accel)
+            start = self.carriage_position()
+            self.slip = tuple(s + u * coast for s, u in zip(self.slip, first.unit))
+            self._record(start, self.carriage_position(), first.pen_down)
         self._close_stroke()
         return moving
 
     # --- what was drawn -------------------------------------------------------------------
 
     def _complete(self, blocks: list[Block]) -> None:
+        slip = self.slip
         for b in blocks:
-            if b.pen_down:
-                if not self._stroke or self._stroke[-1] != b.start[:2]:
-                    self._close_stroke()
-                    self._stroke.append(b.start[:2])
-                self._stroke.append(b.end[:2])
-            else:
+            start = (b.start[0] + slip[0], b.start[1] + slip[1])
+            end = (b.end[0] + slip[0], b.end[1] + slip[1])
+            self._record(start, end, b.pen_down)
+
+    def _record(self, start, end, pen_down: bool) -> None:
+        """A stretch the carriage really moved (mm, machine frame of a homed machine)."""
+        start, end = (start[0], start[1]), (end[0], end[1])
+        if pen_down:
+            if not self._stroke or self._stroke[-1] != start:
                 self._close_stroke()
-                self.travel.append(np.array([b.start[:2], b.end[:2]]))
+                self._stroke.append(start)
+            self._stroke.append(end)
+        else:
+            self._close_stroke()
+            self.travel.append(np.array([start, end]))
 
     def _close_stroke(self) -> None:
         """The pen has left the paper: the polyline being drawn is finished."""
@@ -477,7 +529,8 @@ class Machine:
 
     def finish(self) -> None:
         """Complete all queued motion (instant mode)."""
-        self.synchronize()
+        if self.instant and not self.check_mode:
+            self._complete(self.planner.finish_all())
 
     @property
     def strokes(self) -> list[np.ndarray]:
@@ -497,3 +550,11 @@ class Machine:
 
     def bed_travel(self) -> list[np.ndarray]:
         return [self.profile.bed.to_view(s) for s in self.travel]
+
+
+def _speed_at(block: Block, t: float) -> float:
+    """Speed (mm/s) ``t`` s into an executing block, from its distance profile."""
+    dt = 1e-4
+    lo, hi = max(t - dt, 0.0), min(t + dt, block.duration)
+    return (block.distance_at(hi) - block.distance_at(lo)) / (hi - lo) if hi > lo else block.entry
+

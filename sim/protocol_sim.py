@@ -24,14 +24,32 @@ URL parts (all optional):
 ``faults``
     Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.firmware.Faults`.
 ``reset``
-    ``1`` (default): opening the port resets the board like an Arduino's DTR line does (banner,
-    motion stopped). ``0``: a board without auto-reset.
+    ``1`` (default): opening the port resets the board like an Arduino's DTR line does (a
+    power-up: banner, motion stopped, modes reset; see ``power``). ``0``: a board without
+    auto-reset.
+``power``
+    What a power-up (DTR reset on open, the ``reset`` fault) does to the position. ``zero``: the
+    controller counts from 0, 0, 0 again wherever the carriage stands and forgets any alarm,
+    as a real GRBL board does. ``keep`` (default for now): position and alarm lock survive, a
+    forgiving board.
+``abort``
+    What a reset in motion (``ALARM:3``) or a hard-limit alarm does. ``lose``: the motors stop
+    dead and the carriage coasts on (v²/2a), so the reported position is no longer where the
+    pen is, as on a real board; ``keep`` (default for now): the position stays true.
+``limits``
+    ``profile``: the profile's own settings (GRBL's factory defaults: no homing, no soft limits,
+    unless ``[bed] homing`` / ``soft_limits`` say so) in a standard build, which powers up in
+    Alarm when homing is on. ``bed`` (default for now): homing and soft limits on at the bed's
+    edges, in a build without HOMING_INIT_LOCK (``$I`` shows ``OPT:VL``), so the board trusts
+    the position it powers up with.
 
 ``port.plotter`` is the :class:`VirtualPlotter` behind an open port.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
 import time
 import urllib.parse
 
@@ -44,7 +62,11 @@ from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.render import Canvas
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
-_OPTIONS = ("profile", "baud", "realtime", "faults", "reset")
+_OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits")
+#: Option values a real GRBL board has; the defaults are kinder until the driver copes (issue 12).
+REAL_BOARD = {"power": "zero", "abort": "lose", "limits": "profile"}
+DEFAULT_BOARD = {"power": "keep", "abort": "keep", "limits": "bed"}
+_CHOICES = {"power": ("zero", "keep"), "abort": ("lose", "keep"), "limits": ("profile", "bed")}
 _PLOTTERS: dict[str, VirtualPlotter] = {}
 _SLICE = 0.001  # s between polls while a read waits
 
@@ -106,14 +128,20 @@ class VirtualPlotter:
         0 for instant motion, else the speed-up over real time.
     faults : Faults
         Failures to inject.
+    power, abort, limits : str
+        How real the board is: see the ``sim://`` options of the same names (module docstring).
     """
 
     def __init__(self, profile: Profile, *, baud: int = 0, realtime: float = 0.0,
-                 faults: Faults | None = None):
+                 faults: Faults | None = None, power: str = DEFAULT_BOARD["power"],
+                 abort: str = DEFAULT_BOARD["abort"], limits: str = DEFAULT_BOARD["limits"]):
         check_simulated(profile)
         self.profile = profile
+        if limits == "bed":
+            profile = dataclasses.replace(profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True))
         self.machine = Machine(profile, instant=realtime == 0)
-        self.firmware = Firmware(self.machine, faults)
+        self.firmware = Firmware(self.machine, faults, power_zero=power == "zero", abort_loses=abort == "lose",
+                                 init_lock=limits != "bed")
         self.realtime = realtime
         self._to_board = _Wire(baud)
         self._to_host = _Wire(baud)
@@ -184,10 +212,15 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
         faults = Faults.parse(options.get("faults", ""))
     except ValueError as exc:
         raise SerialException(f"bad sim:// option: {exc}") from None
-    if baud < 0 or realtime < 0:
-        raise SerialException("sim:// baud and realtime must be 0 or positive")
+    if baud < 0 or not 0 <= realtime < math.inf:
+        raise SerialException("sim:// baud and realtime must be 0 or positive (and realtime finite)")
+    board = {}
+    for key, choices in _CHOICES.items():
+        board[key] = options.get(key, DEFAULT_BOARD[key])
+        if board[key] not in choices:
+            raise SerialException(f"sim:// option {key}={board[key]!r}: use {' or '.join(choices)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
-    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults)
+    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, **board)
 
 
 class Serial(SerialBase):
@@ -206,7 +239,7 @@ class Serial(SerialBase):
         firmware = self.plotter.firmware
         firmware.link_dropped = False  # plugged back in
         if not fresh and options.get("reset", "1") != "0":
-            firmware.reset(reboot=True)
+            firmware.power_cycle()
         self._rx = bytearray()
         self.is_open = True
 

@@ -3,18 +3,66 @@
 The pty is put in raw mode (no echo, no line editing) before the device path is handed out;
 the server keeps its own handle on the device side open, so senders can connect, disconnect and
 reconnect without the pty hanging up.
+
+Like an Arduino whose DTR line resets the controller, the board power-cycles when a sender
+opens the device (``reset_on_open``; seen through Linux inotify, so elsewhere it does not).
+A ``drop`` fault is a pulled cable: the pty goes away under the sender, the board keeps
+running, and the server plugs it back in on a new pty — the way a USB adapter comes back,
+often under another name — and reports the new path through ``on_new_path``.
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import os
 import select
+import struct
 import threading
 import tty
+from collections.abc import Callable
 
 from sim.protocol_sim import VirtualPlotter
 
 POLL = 0.002  # s: how often the machine clock advances while nobody talks
+_IN_OPEN = 0x20
+_EVENT = struct.Struct("iIII")  # inotify_event: wd, mask, cookie, len (then the name)
+
+
+class _OpenWatch:
+    """Tells when some process opens a path (inotify IN_OPEN); inert where inotify is missing."""
+
+    def __init__(self, path: str):
+        self.fd = -1
+        try:
+            libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+            fd = libc.inotify_init1(os.O_NONBLOCK | os.O_CLOEXEC)
+            if fd >= 0 and libc.inotify_add_watch(fd, os.fsencode(path), _IN_OPEN) >= 0:
+                self.fd = fd
+            elif fd >= 0:
+                os.close(fd)
+        except (OSError, AttributeError):
+            pass  # not Linux: no DTR emulation
+
+    def opened(self) -> bool:
+        """True if the path was opened since the last call."""
+        if self.fd < 0:
+            return False
+        try:
+            data = os.read(self.fd, 4096)
+        except BlockingIOError:
+            return False
+        offset, seen = 0, False
+        while offset + _EVENT.size <= len(data):
+            _, mask, _, length = _EVENT.unpack_from(data, offset)
+            seen = seen or bool(mask & _IN_OPEN)
+            offset += _EVENT.size + length
+        return seen
+
+    def close(self) -> None:
+        if self.fd >= 0:
+            os.close(self.fd)
+            self.fd = -1
 
 
 class PtyServer:
@@ -22,25 +70,49 @@ class PtyServer:
 
     Use :meth:`serve_forever` (blocking, until :meth:`stop` or Ctrl-C) or as a context manager
     that serves in a background thread.
+
+    Parameters
+    ----------
+    plotter : VirtualPlotter
+        The board behind the pty.
+    reset_on_open : bool
+        Power-cycle the board whenever a sender opens the device (an Arduino's auto-reset).
+    on_new_path : callable, optional
+        Called with the new device path after a dropped link was plugged back in.
     """
 
-    def __init__(self, plotter: VirtualPlotter):
+    def __init__(self, plotter: VirtualPlotter, *, reset_on_open: bool = True,
+                 on_new_path: Callable[[str], None] | None = None):
         self.plotter = plotter
+        self.reset_on_open = reset_on_open
+        self.on_new_path = on_new_path
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._open_pty()
+
+    def _open_pty(self) -> None:
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)
         os.set_blocking(self._master, False)
         self.path = os.ttyname(self._slave)
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._watch = _OpenWatch(self.path)  # after our own open: only senders' opens count
 
     def serve_forever(self) -> None:
-        """Shuttle bytes between the pty and the plotter until stopped or the link drops."""
+        """Shuttle bytes between the pty and the plotter until stopped."""
         out = b""
         try:
-            while not self._stop.is_set() and not self.plotter.firmware.link_dropped:
+            while not self._stop.is_set():
+                if self.plotter.firmware.link_dropped:
+                    self._replug()
+                    out = b""  # what was on its way to the old cable is gone
+                if self._watch.opened() and self.reset_on_open:
+                    self.plotter.firmware.power_cycle()
                 readable, _, _ = select.select([self._master], [], [], POLL)
                 if readable:
-                    self.plotter.write(os.read(self._master, 4096))
+                    try:
+                        self.plotter.write(os.read(self._master, 4096))
+                    except OSError:  # no sender has the device open right now
+                        pass
                 out += self.plotter.read()
                 if out:
                     try:  # a full pty takes part of it; the rest waits, nothing is lost
@@ -50,10 +122,19 @@ class PtyServer:
         finally:
             self.close()
 
+    def _replug(self) -> None:
+        """The cable was pulled: the sender's device dies; a new one appears."""
+        self.close()
+        self._open_pty()
+        self.plotter.firmware.link_dropped = False
+        if self.on_new_path is not None:
+            self.on_new_path(self.path)
+
     def stop(self) -> None:
         self._stop.set()
 
     def close(self) -> None:
+        self._watch.close()
         for fd in (self._master, self._slave):
             try:
                 os.close(fd)

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import math
+import os
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError
@@ -15,6 +17,15 @@ from pencilbot.export.svg import read_svg
 
 #: Image files the commands read as photos and write as pictures (the first is the default).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
+
+#: The widest pen a preview renders (mm): a broad marker, not a roller.
+MAX_RENDER_PEN_WIDTH = 50.0
+# Peak bytes per pixel of a bed render, measured with /usr/bin/time (A4 bed at 600 dpi): the
+# float64 ink sums, the per-path maxima and the PNG conversion; about three times more with travel.
+_RENDER_BYTES_PER_PIXEL = 24
+_RENDER_BYTES_PER_PIXEL_TRAVEL = 80
+_MEMORY_SHARE = 0.75  # of the memory the system says is available
+_MM_PER_INCH = 25.4
 
 # Style keys a command-line option may override, by option name.
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
@@ -105,3 +116,46 @@ def photo_style(args: argparse.Namespace) -> Style:
 def _overrides(args: argparse.Namespace) -> dict[str, object]:
     """Value of each style-overriding option by flag, in the order --help shows them."""
     return {flag: getattr(args, key) for flag, key in _STYLE_OPTIONS.items()}
+
+
+def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False) -> None:
+    """Refuse a render of a ``width_mm`` × ``height_mm`` bed before anything is allocated.
+
+    Raises
+    ------
+    PencilbotError
+        ``dpi`` or ``pen_width`` is not a positive finite number, the pen is wider than
+        :data:`MAX_RENDER_PEN_WIDTH`, or the image would need more memory than is available
+        (the message names the largest ``--dpi`` that fits).
+    """
+    for option, value in (("--dpi", dpi), ("--pen-width", pen_width)):
+        if not (math.isfinite(value) and value > 0):
+            raise PencilbotError(f"{option} must be positive and finite, not {value:g}")
+    if pen_width > MAX_RENDER_PEN_WIDTH:
+        raise PencilbotError(
+            f"--pen-width {pen_width:g} mm is wider than any pen; give at most {MAX_RENDER_PEN_WIDTH:g} mm")
+    cols, rows = (math.ceil(size / _MM_PER_INCH * dpi) for size in (width_mm, height_mm))
+    need = cols * rows * (_RENDER_BYTES_PER_PIXEL_TRAVEL if travel else _RENDER_BYTES_PER_PIXEL)
+    budget = _MEMORY_SHARE * available_memory()
+    if need > budget:
+        fits = max(1, math.floor(dpi * math.sqrt(budget / need)))
+        raise PencilbotError(
+            f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels, about "
+            f"{need / 1e9:.1f} GB to render, more than this machine has free ({budget / _MEMORY_SHARE / 1e9:.1f} GB); "
+            f"use --dpi {fits} or less"
+        )
+
+
+def available_memory() -> int:
+    """Bytes of memory the system can give a new allocation now (MemAvailable on Linux)."""
+    try:
+        with open("/proc/meminfo", encoding="ascii") as meminfo:
+            for line in meminfo:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    except (ValueError, OSError, AttributeError):
+        return 4 << 30  # unknown: assume a small machine

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import math
+import signal
 from pathlib import Path
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.common import add_verbosity, check_render
 from pencilbot.errors import PencilbotError
 from pencilbot.machine.profile import DEFAULT_PROFILE
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -18,7 +21,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "Start a virtual GRBL 1.1 (or grblHAL, with such a profile) plotter on a new pseudo-terminal "
             "and print its device path; "
             "open that path with any sender (pencilbot draw --port PATH, Universal G-code Sender, "
-            "a terminal). Runs until Ctrl-C, then saves what was drawn if -o is given."
+            "a terminal). The board behaves like a real GRBL board on an Arduino: opening the port "
+            "resets it, and its position restarts at 0,0,0 (--power keep and --abort keep make it "
+            "forgiving). After a dropped link (the drop fault) it comes back on a new pty, whose path "
+            "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
         ),
     )
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
@@ -28,6 +34,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
                         help="inject faults: error@K[:N], alarm@K, silent@K, drop@K, reset@K, garbage@K")
+    # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
+    parser.add_argument("--power", choices=("zero", "keep"), default="zero",
+                        help="what a power-up or port-open reset does to the position (default zero)")
+    parser.add_argument("--abort", choices=("lose", "keep"), default="lose",
+                        help="whether a reset in motion or a hard limit loses the position (default lose)")
+    parser.add_argument("--limits", choices=("profile", "bed"), default="profile",
+                        help="profile: the profile's homing and soft limits (default); bed: soft limits "
+                             "at the bed's edges, trusted from power-up")
+    parser.add_argument("--no-reset", action="store_true",
+                        help="a board without auto-reset: opening the port does not reset it")
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
     parser.add_argument("--dpi", type=float, default=150.0, help="resolution of the saved drawing in dots per inch (default %(default)g)")
     add_verbosity(parser)
@@ -45,18 +61,22 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"name the output {args.output} with .png")
     if args.output and not Path(args.output).resolve().parent.is_dir():
         raise PencilbotError(f"cannot save to {args.output}: its folder does not exist; create it first")
-    if args.dpi <= 0:
-        raise PencilbotError(f"--dpi must be positive, not {args.dpi:g}")
-    if args.realtime < 0 or args.baud < 0:
+    if args.realtime < 0 or args.baud < 0 or not math.isfinite(args.realtime):
         raise PencilbotError("--realtime and --baud must be 0 (instant, unlimited) or positive")
     options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
-               "faults": args.faults}
+               "faults": args.faults, "power": args.power, "abort": args.abort, "limits": args.limits}
     try:
         plotter = plotter_from_options(options)
     except SerialException as exc:
         raise PencilbotError(f"{exc}; see pencilbot sim-serve --help") from None
-    server = PtyServer(plotter)
+    if args.output:  # checked now, not on exit: a session's drawing must not be lost to a typo
+        check_render(plotter.profile.bed.width, plotter.profile.bed.height, args.dpi, DEFAULT_PEN_WIDTH)
+    server = PtyServer(plotter, reset_on_open=not args.no_reset,
+                       on_new_path=lambda path: print(path, flush=True))
     print(server.path, flush=True)
+    # A closed terminal or a kill ends the session like Ctrl-C does: the drawing is saved.
+    for signum in (signal.SIGTERM, signal.SIGHUP):
+        signal.signal(signum, lambda *_: server.stop())
     try:
         server.serve_forever()
     except KeyboardInterrupt:
@@ -65,5 +85,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"simulated drawing time {plotter.seconds:.1f} s; "
               f"{len(plotter.firmware.accepted_lines())} lines accepted")
     if args.output:
-        plotter.canvas(dpi=args.dpi).save_png(args.output)
+        plotter.canvas(dpi=args.dpi, pen_width=DEFAULT_PEN_WIDTH).save_png(args.output)
     return 0

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import math
 import os
+import re
 import urllib.parse
 from pathlib import Path
 
-from pencilbot.commands.common import add_photo_options, add_verbosity, plan_for_input
+from pencilbot.commands.common import add_photo_options, add_verbosity, check_render, plan_for_input
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
@@ -51,14 +53,18 @@ def run(args: argparse.Namespace) -> int:
     source, output = Path(args.input), Path(args.output)
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
-    if args.dpi <= 0 or args.realtime < 0 or (args.pen_width is not None and args.pen_width <= 0):
-        raise PencilbotError("--dpi and --pen-width must be positive and --realtime 0 or more")
+    if not (math.isfinite(args.realtime) and args.realtime >= 0):
+        raise PencilbotError(f"--realtime must be 0 (instant) or a positive speed-up, not {args.realtime:g}")
     import sim
     from sim import protocol_sim
 
     sim.register()
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
+    # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
+    check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
+                 travel=args.travel)
     program, pen_width = _gcode(source, profile, args)
+    check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
@@ -88,6 +94,21 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
             program = source.read_bytes()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return program, args.pen_width or DEFAULT_PEN_WIDTH
+        return _without_program_markers(program), args.pen_width or DEFAULT_PEN_WIDTH
     plan = plan_for_input(source, args)
     return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
+
+
+_BOM = b"\xef\xbb\xbf"
+_PROGRAM_MARKER = re.compile(rb"(?m)^[ \t]*%[ \t]*(?:;[^\r\n]*)?(?=\r?$)")
+
+
+def _without_program_markers(program: bytes) -> bytes:
+    """The program without a UTF-8 byte-order mark (not text: GRBL drops its bytes too), and its
+    ``%`` lines (the tape start/end marker CAM and Inkscape programs carry) left empty.
+
+    GRBL answers a ``%`` with error:1 (its protocol loop has the feature commented out); a
+    preview of a program written for controllers that read it leaves the marker out. The lines
+    stay, empty, so messages keep the file's line numbers.
+    """
+    return _PROGRAM_MARKER.sub(b"", program.removeprefix(_BOM))

@@ -15,7 +15,7 @@ from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.imaging.pencil import sketch
-from pencilbot.imaging.strokes import LONGEST_LENGTH, MAX_LENGTH, MIN_LENGTH, line_drawing
+from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, MAX_LENGTH, MIN_LENGTH, WIDTH_RANGE, line_drawing
 
 
 
@@ -34,6 +34,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "--line-length", type=int, metavar="N",
         help=f"stroke length in pixels, 1-{LONGEST_LENGTH} (default: by image size, {MIN_LENGTH}-{MAX_LENGTH})",
     )
+    parser.add_argument(
+        "--stroke-gamma", type=float, default=1.0, metavar="G",
+        help="tone curve of the line drawing: >1 darker strokes, <1 lighter (0.1-10, default 1)",
+    )
+    parser.add_argument(
+        "--stroke-width", type=float, default=1.0, metavar="PX", help="stroke width in pixels (0.5-20, default 1)"
+    )
+    parser.add_argument(
+        "--texture", metavar="FILE",
+        help="hand-drawn pencil texture image, tiled over the drawing (default: synthesised)",
+    )
     parser.add_argument("--texture-seed", type=int, default=0, metavar="S", help="pencil texture seed")
     parser.add_argument(
         "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
@@ -50,19 +61,29 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"--line-length must be 1 to {LONGEST_LENGTH} pixels, got {args.line_length}.")
     if args.texture_seed < 0:
         raise PencilbotError(f"--texture-seed must be 0 or more, got {args.texture_seed}.")
-    if args.lines_only and args.color:
-        raise PencilbotError("--color needs the tone layer; drop --lines-only or --color.")
+    for flag, value, (low, high) in (
+        ("--stroke-gamma", args.stroke_gamma, GAMMA_RANGE),
+        ("--stroke-width", args.stroke_width, WIDTH_RANGE),
+    ):
+        if not low <= value <= high:
+            raise PencilbotError(f"{flag} must be {low:g} to {high:g}, got {value:g}.")
+    if args.lines_only and (args.color or args.texture):
+        flag = "--color" if args.color else "--texture"
+        raise PencilbotError(f"{flag} needs the tone layer; drop --lines-only or {flag}.")
     image = load_image(args.input, max_pixels=args.max_pixels, downscale=args.downscale)
 
     if args.lines_only:
         stages = gmed_stages(image.gray)
-        line = line_drawing(stages["edges"], length=args.line_length)
+        line = line_drawing(stages["edges"], length=args.line_length, width=args.stroke_width, gamma=args.stroke_gamma)
         result = line.drawing
     else:
         drawn = sketch(
             image,
             color=args.color,
             line_length=args.line_length,
+            stroke_gamma=args.stroke_gamma,
+            stroke_width=args.stroke_width,
+            texture=args.texture,
             texture_seed=args.texture_seed,
             lines_only=False,
         )

@@ -16,16 +16,18 @@ shift hue and darken the drawing's tone, so instead the chroma is scaled down ju
 from __future__ import annotations
 
 import logging
+import os
 import time
 from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
+from pencilbot.errors import PencilbotError
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.io import LUMA_601, LoadedImage
-from pencilbot.imaging.strokes import LineDrawing, line_drawing
-from pencilbot.imaging.texture import TextureResult, pencil_texture, texture_map
+from pencilbot.imaging.strokes import GAMMA_RANGE, WIDTH_RANGE, LineDrawing, line_drawing
+from pencilbot.imaging.texture import TextureResult, pencil_texture, texture_map, user_texture
 from pencilbot.imaging.tone import tone_target
 
 log = logging.getLogger(__name__)
@@ -39,6 +41,8 @@ class Sketch:
     ----------
     result : ndarray of float32, shape (H, W) or (H, W, 3)
         The drawing in [0, 1], 1 = paper; RGB when made with ``color=True``.
+    gray : ndarray of float32, shape (H, W)
+        The photo's luma the drawing was made from (1 = white).
     line : LineDrawing
         The line drawing L and its labels and edge map.
     tone : ndarray of float32, shape (H, W), or None
@@ -53,6 +57,7 @@ class Sketch:
     """
 
     result: np.ndarray
+    gray: np.ndarray
     line: LineDrawing
     tone: np.ndarray | None = None
     texture: np.ndarray | None = None
@@ -75,6 +80,9 @@ def sketch(
     *,
     color: bool = False,
     line_length: int | None = None,
+    stroke_gamma: float = 1.0,
+    stroke_width: float = 1.0,
+    texture: str | os.PathLike | np.ndarray | None = None,
     texture_seed: int = 0,
     lines_only: bool = False,
 ) -> Sketch:
@@ -88,6 +96,14 @@ def sketch(
         Keep the photo's chroma (Rec. 601 YUV) instead of returning grey.
     line_length : int, optional
         Stroke length ℓ in pixels; default from the image size (6–13 px).
+    stroke_gamma : float
+        Tone curve of the line drawing, γ in ``GAMMA_RANGE``: > 1 darkens the strokes (faint
+        contours show more), < 1 lightens them.
+    stroke_width : float
+        Width of the line drawing's strokes in pixels, in ``WIDTH_RANGE``.
+    texture : path or ndarray, optional
+        A hand-drawn pencil texture (image file or grey array, see
+        :func:`~pencilbot.imaging.texture.user_texture`); default: synthesised.
     texture_seed : int
         Seed of the synthesised pencil texture.
     lines_only : bool
@@ -96,7 +112,14 @@ def sketch(
     Returns
     -------
     Sketch
+
+    Raises
+    ------
+    PencilbotError
+        ``stroke_gamma`` or ``stroke_width`` out of range, or an unreadable texture file.
     """
+    _check_range("stroke_gamma", stroke_gamma, GAMMA_RANGE)
+    _check_range("stroke_width", stroke_width, WIDTH_RANGE)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
@@ -108,14 +131,17 @@ def sketch(
 
     edges = edge_map(image.gray)
     lap("edges")
-    line = line_drawing(edges, length=line_length)
+    line = line_drawing(edges, length=line_length, width=stroke_width, gamma=stroke_gamma)
     lap("lines")
     if lines_only:
         luma, tone, texture, fit = line.drawing.copy(), None, None, None
     else:
         tone = tone_target(image.gray)
         lap("tone")
-        texture = pencil_texture(image.shape, seed=texture_seed)
+        if texture is None:
+            texture = pencil_texture(image.shape, seed=texture_seed)
+        else:
+            texture = user_texture(texture, image.shape)
         lap("texture")
         fit = texture_map(tone, texture)
         lap("beta")
@@ -126,7 +152,13 @@ def sketch(
         "sketch of %s (%d×%d px, ℓ = %d px): %s", image.source, image.shape[1], image.shape[0], line.length,
         ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
     )
-    return Sketch(result=result, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+
+
+def _check_range(name: str, value: float, bounds: tuple[float, float]) -> None:
+    low, high = bounds
+    if not (isinstance(value, int | float) and not isinstance(value, bool) and low <= value <= high):
+        raise PencilbotError(f"{name} must be a number from {low:g} to {high:g}, got {value!r}")
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:

@@ -9,7 +9,12 @@ An edge map E becomes a pencil line drawing in two convolution passes:
    paints a short straight stroke of length ℓ in its own direction, so a curved contour turns
    into short straight strokes whose ends overshoot and cross, as a hand draws.
 
-The drawing is ``(1 − S / max S) ** gamma`` (Lu's normalisation), 1 = paper.
+The drawing is ``(1 − clip((w · S − floor) / (1 − floor), 0, 1)) ** gamma``, 1 = paper, for the
+stroke width w in pixels. Each kernel sums to 1, so along a contour S ≈ E: a stroke is as dark as
+its edge is strong on E's absolute scale (:mod:`pencilbot.imaging.gmed`); a w-pixel stroke lays w
+times the graphite, so it is wider but not paler; and ``floor`` (``STROKE_FLOOR``) drops the faint
+flanks and tails where a stroke's paint thins out. Lu divides S by its maximum instead, which makes the strongest
+stroke of any picture black: on a flat one, noise. γ is the tone curve of the strokes.
 
 Direction k ∈ 0..7 is the angle θ = k·22.5° counter-clockwise from the image +x axis as seen on
 screen: unit vector (cos θ, −sin θ) in (col, row). k = 0 is horizontal, k = 4 vertical.
@@ -37,6 +42,11 @@ MIN_LENGTH, MAX_LENGTH = 6, 13  # range of the default ℓ
 # as ℓ²: ℓ = 1000 would need gigabytes before drawing anything.
 LONGEST_LENGTH = 100
 _SUPERSAMPLE = 8
+#: Stroke strength (S, in E's units) below which the line drawing stays paper.
+STROKE_FLOOR = 0.1
+#: Accepted stroke γ and width (px): beyond them a drawing is blank, black or all kernel.
+GAMMA_RANGE = (0.1, 10.0)
+WIDTH_RANGE = (0.5, 20.0)
 
 
 @dataclass(frozen=True)
@@ -53,12 +63,33 @@ class LineDrawing:
         The edge map E the drawing was made from.
     length : int
         Stroke length ℓ in pixels.
+    gamma, floor : float
+        The tone curve the drawing was made with (see :func:`line_drawing`).
     """
 
     drawing: np.ndarray
     labels: np.ndarray
     edges: np.ndarray
     length: int
+    gamma: float = 1.0
+    floor: float = STROKE_FLOOR
+
+    def stroke_darkness(self, strength: float) -> float:
+        """How dark (0..1) the drawing shows the stroke of an edge of ``strength`` E in [0, 1].
+
+        The tone curve along a contour, where S ≈ E: ``1 − (1 − clip((E − floor) / (1 − floor)))^γ``.
+        """
+        ink = min(max((float(strength) - self.floor) / (1.0 - self.floor), 0.0), 1.0)
+        return 1.0 - (1.0 - ink) ** self.gamma
+
+    def edge_strength(self, darkness: float) -> float:
+        """The edge strength E whose stroke is ``darkness`` dark: the inverse of :meth:`stroke_darkness`.
+
+        Strokes at least this strong are at least this dark, whatever γ and floor the drawing
+        was made with.
+        """
+        ink = 1.0 - (1.0 - min(max(float(darkness), 0.0), 1.0)) ** (1.0 / self.gamma)
+        return self.floor + (1.0 - self.floor) * ink
 
     def B(self, i: int) -> np.ndarray:  # noqa: N802 - the paper's name
         """Bᵢ: the edge map where the label is ``i``, 0 elsewhere; (H, W) float32."""
@@ -123,6 +154,7 @@ def line_drawing(
     length: int | None = None,
     width: float = 1.0,
     gamma: float = 1.0,
+    floor: float = STROKE_FLOOR,
 ) -> LineDrawing:
     """Pencil line drawing from an edge map.
 
@@ -133,10 +165,13 @@ def line_drawing(
     length : int, optional
         Stroke length ℓ in pixels, 1 to ``LONGEST_LENGTH``; default :func:`default_line_length`.
     width : float
-        Stroke thickness in pixels.
+        Stroke thickness in pixels (≥ 0.5); a wider stroke paints more graphite, so it is as
+        dark as a 1-pixel one, not the same ink spread thinner.
     gamma : float
         Exponent on the drawing, Lu's γ: > 1 darkens every stroke (faint ones show more),
         < 1 lightens them.
+    floor : float
+        Stroke strength in [0, 1) below which the drawing stays paper.
 
     Returns
     -------
@@ -152,6 +187,8 @@ def line_drawing(
         raise ValueError(f"E must be a 2-D array, got shape {E.shape}")
     if gamma <= 0:
         raise ValueError(f"gamma must be positive, got {gamma}")
+    if not 0 <= floor < 1:
+        raise ValueError(f"floor must be in [0, 1), got {floor}")
     length = default_line_length(E.shape) if length is None else int(length)
     if not 1 <= length <= LONGEST_LENGTH:
         raise PencilbotError(f"stroke length {length} px is not in 1..{LONGEST_LENGTH} px; choose a length in that range")
@@ -173,14 +210,14 @@ def line_drawing(
         np.equal(labels, k, out=better)
         np.multiply(E, better, out=B_k)
         strokes += cv2.filter2D(B_k, -1, kernels[k], borderType=cv2.BORDER_CONSTANT)
-    peak = float(strokes.max(initial=0.0))
-    if peak > 0:
-        strokes *= np.float32(1.0 / peak)
+    strokes *= np.float32(width)  # the kernels sum to 1: a w-pixel line carries w times the ink
+    strokes -= np.float32(floor)
+    strokes *= np.float32(1.0 / (1.0 - floor))
+    np.clip(strokes, 0.0, 1.0, out=strokes)
     drawing = np.subtract(np.float32(1.0), strokes, out=strokes)
-    np.clip(drawing, 0.0, 1.0, out=drawing)
     if gamma != 1.0:
         drawing **= np.float32(gamma)
-    return LineDrawing(drawing=drawing, labels=labels, edges=E, length=length)
+    return LineDrawing(drawing=drawing, labels=labels, edges=E, length=length, gamma=gamma, floor=floor)
 
 
 def _trim(kernel: np.ndarray) -> np.ndarray:

@@ -22,17 +22,21 @@ coarse-to-fine start (the same problem on 2×2 blocks, recursively) cut that to 
 as much time as it saved on the grids solved here (≤ 0.6 MP, see below), so it is not used.
 
 λ is per pixel of a reference-sized image (about 500 × 500, coffee's size). On a larger image
-the texture's strokes span proportionally more pixels (see :func:`texture_scale`); solved per
-pixel, β would follow them and flatten the texture (the relative spread of ln T falls from 0.25
-at 512² to 0.06 at 12 MP). So β is solved constant on blocks of ``round(texture_scale)`` pixels
+the texture's strokes span proportionally more pixels (see
+:func:`~pencilbot.imaging.scale.reference_scale`); solved per pixel, β would follow them and
+flatten the texture (the relative spread of ln T falls from 0.25 at 512² to 0.06 at 12 MP). So
+β is solved constant on blocks of ``round(reference_scale)`` pixels
 — the exact minimiser of the same energy over such β: block sums of a² and a·b on the diagonal
 and right-hand side, λ·block per block edge (that many pixel edges cross it), i.e. the paper's
 problem on reference-sized pixels — and interpolated bilinearly. That keeps the look independent
 of resolution and makes a 12 MP solve cost what a 0.25 MP one does.
 
-The texture itself is synthesised, not scanned: a periodic Gaussian random field whose spectrum
-is concentrated in long thin diagonal streaks (two stroke directions, as a right hand hatches)
-plus fine isotropic grain for the paper's tooth.
+The paper fills with a hand-drawn texture; :func:`user_texture` takes one (a scan or photo of
+pencil hatching), made seamless and tiled to the image. By default the texture is synthesised
+(:func:`pencil_texture`): graphite marks — thin, tapered, of random pressure, hatched at two
+nearby angles as a right hand does — scattered over the sheet, broken up by the paper's grain.
+Both are normalised to the same graphite density, so that β, the number of passes, means the
+same with either.
 """
 
 from __future__ import annotations
@@ -40,25 +44,32 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import os
+
 import cv2
 import numpy as np
 import scipy.fft
 
-#: Pixels across a "reference" image (about coffee's size); bigger images get proportionally
-#: wider and longer strokes, and a β solved on proportionally larger blocks, so the drawing
-#: looks the same at the same print size.
-REFERENCE_SIDE = 500.0
-#: Stroke shape at the reference size, in pixels: Gaussian std along and across the stroke.
-STROKE_LENGTH, STROKE_WIDTH = 30.0, 0.7
-#: Main hatching direction (degrees counter-clockwise from +x, as seen on screen) and a second,
-#: weaker direction a little steeper, so the hatching looks hand-made rather than ruled.
-STROKE_ANGLES = (40.0, 55.0)
-STROKE_WEIGHTS = (1.0, 0.6)
-GRAIN_WEIGHT = 0.5
-#: Graphite density −ln H = MEAN_DENSITY · exp(CONTRAST · field) / mean: H ≈ e^−0.3 ≈ 0.74 on
-#: average, a one-σ stroke 57 % denser than the ground (chosen by eye on coffee and camera:
-#: 0.35 looks washed out, 0.6 turns dark areas into white rain).
-MEAN_DENSITY, CONTRAST = 0.3, 0.45
+from pencilbot.errors import ImageLoadError
+from pencilbot.imaging.scale import reference_scale
+
+#: A graphite mark at the reference size, px: Gaussian std along it (about 4 std visible: a
+#: hatching stroke of ~60 px on coffee) and across it (a fine pencil line).
+STROKE_LENGTH, STROKE_WIDTH = 16.0, 0.55
+#: Hatching directions, degrees counter-clockwise from +x as seen on screen, and each one's share
+#: of the marks: a main direction and a weaker, steeper one, as a right hand hatches.
+STROKE_ANGLES = (42.0, 58.0)
+STROKE_WEIGHTS = (0.75, 0.25)
+#: Marks per reference pixel²: they overlap (each covers about 60 px²) but stay countable.
+MARKS_PER_PIXEL = 1 / 90
+#: Paper grain: std of its bumps at the reference size, px, and how much it modulates the graphite.
+GRAIN_SIZE, GRAIN_CONTRAST = 0.5, 0.18
+#: Graphite density −ln H: its mean (H ≈ e^−0.3 ≈ 0.74), and its coefficient of variation. A
+#: graphite haze between the marks sets the latter: a sparser, more contrasted texture reads as
+#: crisper marks but T = H^β then falls short of dark tones (the fit is in ln H: the mean of H^β
+#: over a region exceeds e^(β · mean ln H)); at 0.5 dark tones come out 0.06 light on coffee and
+#: astronaut (σ = 3 px), at 0.7 0.09, at 1 0.18.
+MEAN_DENSITY, DENSITY_CV = 0.3, 0.5
 
 #: ln J is floored here: J = 0 would ask for infinitely many passes.
 J_FLOOR = 1.0 / 255.0
@@ -91,17 +102,18 @@ class TextureResult:
 
 
 def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None = None) -> np.ndarray:
-    """Synthesise a graphite hatching texture.
+    """Synthesise a texture of graphite hatching marks on grained paper.
 
     Parameters
     ----------
     shape : (int, int)
         ``(H, W)`` in pixels.
     seed : int
-        Seed of the random field; the same ``(shape, seed, scale)`` gives the same texture.
+        Seed of the marks and the grain; the same ``(shape, seed, scale)`` gives the same texture.
     scale : float, optional
-        Stroke size multiplier. Default :func:`texture_scale`, so strokes are about 0.7 px wide
-        and 30 px long on a coffee-sized image and proportionally larger on bigger ones.
+        Mark size multiplier. Default :func:`~pencilbot.imaging.scale.reference_scale`, so marks
+        are about 1 px wide and 60 px long on a coffee-sized image and proportionally larger
+        on bigger ones.
 
     Returns
     -------
@@ -113,37 +125,142 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
     if h < 1 or w < 1:
         raise ValueError(f"shape must be positive, got {shape!r}")
     if scale is None:
-        scale = texture_scale((h, w))
-    # White noise through a filter: a circular convolution, hence periodic. Arithmetic is in
-    # place where it can be, since at 12 MP each fresh temporary costs 0.1 s or more.
-    noise = np.random.default_rng(seed).standard_normal((h, w), dtype=np.float32)
-    spectrum = scipy.fft.rfft2(noise, workers=-1)
-    del noise
+        scale = reference_scale((h, w))
+    rng = np.random.default_rng(seed)
+    # Marks: impulses of random pressure through an oriented Gaussian, one direction at a
+    # time; the convolution is circular (FFT), hence periodic.
     fy = scipy.fft.fftfreq(h).astype(np.float32)  # cycles per pixel
     fx = scipy.fft.rfftfreq(w).astype(np.float32)
-    gain = GRAIN_WEIGHT * _unit_power(_gaussian_spectrum(fx, fy, 0.0, 0.5 * scale, 0.5 * scale))
-    for angle, weight in zip(STROKE_ANGLES, STROKE_WEIGHTS):
-        blob = _gaussian_spectrum(fx, fy, angle, STROKE_LENGTH * scale, STROKE_WIDTH * scale)
-        blob = _unit_power(blob)
-        blob *= weight
-        gain += blob
-    spectrum *= gain
-    del gain
-    field = scipy.fft.irfft2(spectrum, s=(h, w), workers=-1)
+    spectrum = None
+    for angle, share in zip(STROKE_ANGLES, STROKE_WEIGHTS):
+        count = rng.poisson(share * h * w * MARKS_PER_PIXEL / scale**2)
+        impulses = np.zeros(h * w, np.float32)
+        np.add.at(impulses, rng.integers(0, h * w, count), rng.uniform(0.3, 1.0, count).astype(np.float32))
+        part = scipy.fft.rfft2(impulses.reshape(h, w), workers=-1)
+        part *= _gaussian_spectrum(fx, fy, angle, STROKE_LENGTH * scale, STROKE_WIDTH * scale)
+        if spectrum is None:
+            spectrum = part
+        else:
+            spectrum += part
+    marks = scipy.fft.irfft2(spectrum, s=(h, w), workers=-1)
     del spectrum
-    field -= field.mean()
-    field *= CONTRAST / max(float(field.std()), 1e-12)
-    # Log-normal graphite density: sparse thin dark strokes over a lighter ground (a symmetric
-    # field would draw white streaks as boldly as dark ones, which reads as rain, not pencil).
-    # It is positive, so ln H < 0: H strictly inside (0, 1).
-    density = np.exp(field, out=field)
-    density *= -MEAN_DENSITY / density.mean()
-    return np.exp(density, out=density)
+    grain = _paper_grain((h, w), rng, GRAIN_SIZE * scale)
+    # Haze under the marks so that the density (marks + haze) · grain has DENSITY_CV:
+    # CV² = CV_marks² (1 + var g) + var g for grain g of mean 1, independent of the marks.
+    var_grain = _mean_std(grain)[1] ** 2
+    marks_cv = math.sqrt(max(DENSITY_CV**2 - var_grain, 1e-6) / (1.0 + var_grain))
+    density = _with_haze(marks, marks_cv)
+    density *= grain
+    return _from_density(density)
 
 
-def texture_scale(shape: tuple[int, ...]) -> float:
-    """Texture size multiplier for an image of ``shape`` (H, W[, C]): ``max(1, √(H·W) / 500)``."""
-    return max(1.0, math.sqrt(shape[0] * shape[1]) / REFERENCE_SIDE)
+def user_texture(
+    source: str | os.PathLike | np.ndarray, shape: tuple[int, int], *, scale: float | None = None
+) -> np.ndarray:
+    """A hand-drawn pencil texture, as the paper uses, prepared for an image of ``shape``.
+
+    Parameters
+    ----------
+    source : path or ndarray
+        An image file (any format :func:`~pencilbot.imaging.io.load_image` reads; colour is
+        taken as luma) or a grey array in [0, 1], 1 = paper.
+    shape : (int, int)
+        ``(H, W)`` of the image to texture, pixels.
+    scale : float, optional
+        The texture's pixels are taken as drawn for a reference-sized picture and enlarged by
+        this factor; default :func:`~pencilbot.imaging.scale.reference_scale` of ``shape``.
+
+    Returns
+    -------
+    ndarray of float32, shape (H, W)
+        Strictly inside (0, 1): the texture enlarged and, if smaller than the image, made
+        seamless (:func:`_seamless`) and tiled over it; its graphite density −ln H scaled to
+        the synthetic texture's mean and lifted by a faint haze where it is more contrasted
+        than ``DENSITY_CV`` (paper-white gaps would otherwise never take tone).
+
+    Raises
+    ------
+    ImageLoadError
+        ``source`` is a file that cannot be read as an image.
+    """
+    if isinstance(source, np.ndarray):
+        gray = np.asarray(source, np.float32)
+        if gray.ndim != 2 or gray.size == 0 or not np.all(np.isfinite(gray)):
+            raise ValueError(f"a texture array must be a finite grey (H, W) array, got shape {gray.shape}")
+    else:
+        from pencilbot.imaging.io import load_image  # imported here: io is heavier than this module
+
+        try:
+            gray = load_image(source).gray
+        except ImageLoadError as err:
+            raise ImageLoadError(f"pencil texture: {err}") from None
+    h, w = int(shape[0]), int(shape[1])
+    scale = reference_scale((h, w)) if scale is None else float(scale)
+    if scale > 1:
+        size = (max(1, round(gray.shape[1] * scale)), max(1, round(gray.shape[0] * scale)))
+        gray = cv2.resize(gray, size, interpolation=cv2.INTER_LINEAR)
+    density = -np.log(np.clip(gray, 1.0 / 255.0, 1.0))
+    if density.shape[0] < h or density.shape[1] < w:
+        density = _seamless(density)
+        reps = (-(-h // density.shape[0]), -(-w // density.shape[1]))
+        density = np.tile(density, reps)
+    density = np.ascontiguousarray(density[:h, :w])
+    mean, std = _mean_std(density)
+    if mean > 0:
+        density = _with_haze(density, min(std / mean, DENSITY_CV))
+    else:  # a blank sheet: even graphite, no texture
+        density = np.ones_like(density)
+    return _from_density(density)
+
+
+def _seamless(density: np.ndarray) -> np.ndarray:
+    """``density`` made periodic, so that tiles of it meet without a seam, strokes unturned.
+
+    Blended with itself shifted by half its size, under a weight w that is 0 on its edges and 1
+    in its middle; the blend w·d + (1 − w)·d_shifted is divided by √(w² + (1 − w)²) about the
+    mean so that the marks keep their contrast where the two overlap. (Mirrored tiles would be
+    seamless too, but they turn diagonal hatching into herringbone.)
+    """
+    h, w = density.shape
+    wy = np.sin(np.pi * (np.arange(h) + 0.5) / h) ** 2
+    wx = np.sin(np.pi * (np.arange(w) + 0.5) / w) ** 2
+    weight = np.outer(wy, wx)
+    mean = float(density.mean())
+    shifted = np.roll(density, (h // 2, w // 2), axis=(0, 1))
+    blend = (weight * (density - mean) + (1 - weight) * (shifted - mean)) / np.hypot(weight, 1 - weight)
+    return np.maximum(blend + mean, 0.0).astype(np.float32)
+
+
+def _paper_grain(shape: tuple[int, int], rng: np.random.Generator, size: float) -> np.ndarray:
+    """Periodic fine noise of mean 1 and std GRAIN_CONTRAST (bumps of std ``size`` px), ≥ 0.05."""
+    noise = rng.standard_normal(shape, dtype=np.float32)
+    pad = int(math.ceil(4 * size)) + 1
+    wrapped = cv2.copyMakeBorder(noise, pad, pad, pad, pad, cv2.BORDER_WRAP)  # circular blur
+    grain = cv2.GaussianBlur(wrapped, (0, 0), size)[pad:-pad, pad:-pad]
+    grain *= GRAIN_CONTRAST / max(_mean_std(grain)[1], 1e-12)
+    grain += 1.0
+    return np.maximum(grain, 0.05, out=grain)
+
+
+def _with_haze(density: np.ndarray, cv: float) -> np.ndarray:
+    """``density`` plus (in place) the constant that brings its coefficient of variation down to ``cv``."""
+    mean, std = _mean_std(density)
+    density += max(std / max(cv, 1e-6) - mean, 0.0)
+    return density
+
+
+def _mean_std(x: np.ndarray) -> tuple[float, float]:
+    """Mean and standard deviation in one pass (NumPy's var makes 12 MP temporaries)."""
+    mean, std = cv2.meanStdDev(np.ascontiguousarray(x, np.float32))
+    return float(mean[0, 0]), float(std[0, 0])
+
+
+def _from_density(density: np.ndarray) -> np.ndarray:
+    """H = exp(−density), the density scaled to MEAN_DENSITY; float32 strictly inside (0, 1)."""
+    density = np.asarray(density, np.float32)
+    density *= np.float32(MEAN_DENSITY / max(_mean_std(density)[0], 1e-12))
+    np.maximum(density, np.float32(1e-4), out=density)  # H < 1: every pixel takes some graphite
+    return np.exp(-density, out=density)
 
 
 def texture_map(
@@ -167,7 +284,7 @@ def texture_map(
         Smoothness weight λ per (block) pixel. The paper's 0.2 is the default.
     block : int, optional
         Solve β constant on ``block`` × ``block`` pixel blocks, then interpolate. Default
-        ``round(texture_scale(J.shape))``: 1 (per pixel) up to about 750 × 750.
+        ``round(reference_scale(J.shape))``: 1 (per pixel) up to about 750 × 750.
     tol : float
         Relative residual at which CG stops, on the normal equations of the solved grid. The solver
         works in float32 (half the memory and time at 12 MP); its floor is about 2e-6, so ask
@@ -187,7 +304,7 @@ def texture_map(
         raise ValueError("H must lie strictly inside (0, 1) so that ln H is finite and negative")
     if lam < 0:
         raise ValueError(f"lam must be >= 0, got {lam}")
-    block = round(texture_scale(J.shape)) if block is None else int(block)
+    block = round(reference_scale(J.shape)) if block is None else int(block)
     if block < 1:
         raise ValueError(f"block must be at least 1 pixel, got {block}")
     a = np.log(H)
@@ -222,13 +339,6 @@ def _gaussian_spectrum(fx, fy, angle_deg: float, sigma_along: float, sigma_acros
     exponent = np.add.outer((k * C) * fy * fy, (k * A) * fx * fx)
     exponent += np.multiply.outer((k * B) * fy, fx)
     return np.exp(exponent, out=exponent)
-
-
-def _unit_power(spectrum: np.ndarray) -> np.ndarray:
-    """Scale a filter so white noise through it has unit variance (Parseval), so the weights
-    above compare components of equal strength whatever their bandwidth."""
-    spectrum *= 1.0 / math.sqrt(float(np.vdot(spectrum, spectrum)) / spectrum.size)
-    return spectrum
 
 
 _LAPLACIAN = np.array([[0, -1, 0], [-1, 4, -1], [0, -1, 0]], dtype=np.float32)

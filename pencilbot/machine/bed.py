@@ -28,13 +28,16 @@ class Sheet(Protocol):
 @dataclass(frozen=True)
 class Bed:
     """Drawable area: ``width`` × ``height`` mm from the ``origin`` corner (where machine (0, 0)
-    is), and whether machine X / Y run negative into the bed (e.g. homed at +X)."""
+    is), whether machine X / Y run negative into the bed (e.g. homed at +X), and whether the
+    firmware homes there and enforces the bed as soft limits."""
 
     width: float
     height: float
     origin: str
     invert_x: bool = False
     invert_y: bool = False
+    homing: bool = False
+    soft_limits: bool = False
 
     def machine_range(self) -> tuple[tuple[float, float], tuple[float, float]]:
         """Allowed machine ``(min, max)`` for X and for Y, mm."""

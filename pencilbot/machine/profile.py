@@ -15,6 +15,8 @@ in a wheel and in a source checkout); any TOML file with the same schema works b
     origin = "bottom-left"          # corner of the bed where machine (0, 0) is, seen from above
     invert_x = false                # true: machine X runs negative into the bed (homed at +X)
     invert_y = false
+    homing = false                  # limit switches at the origin corner, GRBL $22=1 (optional)
+    soft_limits = false             # refuse moves off the bed, GRBL $20=1; needs homing (optional)
 
     [motion]
     draw_feed = 3000.0              # mm/min, pen down (G1 F)
@@ -167,6 +169,8 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         "origin": schema.choice(ORIGINS),
         "invert_x": schema.FLAG,
         "invert_y": schema.FLAG,
+        "homing": schema.FLAG,
+        "soft_limits": schema.FLAG,
     }),
     "motion": (Motion, {
         "draw_feed": _FEED,
@@ -269,7 +273,12 @@ def _section(table: dict, name: str, cls: type, rules: dict[str, schema.Rule], c
 
 
 def _check_consistency(profile: Profile, where: str) -> None:
-    """Rules that involve more than one key: templates, line numbers, pen direction."""
+    """Rules that involve more than one key: templates, line numbers, pen direction, limits."""
+    if profile.bed.soft_limits and not profile.bed.homing:
+        raise ProfileError(
+            f"plotter profile {where}: [bed] soft_limits = true is invalid without homing = true; "
+            "soft limits need a homed machine (GRBL refuses $20=1 while $22=0)"
+        )
     if profile.gcode.line_numbers and not profile.firmware.capabilities.line_numbers:
         raise ProfileError(
             f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "

@@ -20,10 +20,10 @@ import numpy as np
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.paths import Paths
-from pencilbot.planning.hatching import hatch_layers
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.shading import shade
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
 from pencilbot.render import render_paths
@@ -69,7 +69,13 @@ def sketch_and_plan(
         page = page_size(style.page, style.orientation, image.shape, style.margin)
     image = at_plot_resolution(image, page, style.pen_width)
     drawing = sketch(
-        image, line_length=style.line_length, texture_seed=style.seed, lines_only=not style.hatch
+        image,
+        line_length=style.line_length,
+        stroke_gamma=style.stroke_gamma,
+        stroke_width=style.stroke_width,
+        texture=style.texture,
+        texture_seed=style.seed,
+        lines_only=not style.hatch,
     )
     return drawing, plan_from_sketch(drawing, page, style, source=image.source)
 
@@ -119,22 +125,31 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     """
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
-    threshold = edge_threshold(line.edges) if style.edge_threshold is None else style.edge_threshold
+    threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
     strokes = edge_strokes(
-        line, layout, pen_width=style.pen_width, threshold=threshold, min_pixels=style.min_edge_pixels
+        line,
+        layout,
+        pen_width=style.pen_width,
+        threshold=threshold,
+        min_pixels=style.min_edge_pixels,
+        join=style.edge_join,
+        clutter=style.edge_clutter,
     )
     layers = []
     if style.hatch:
-        hatches = hatch_layers(
-            hatch_darkness(drawing, strokes, layout, pen_width=style.pen_width, blur=style.hatch_blur),
+        hatches = shade(
+            1.0 - drawing.tone,
             layout,
+            strokes,
+            paper=1.0 - drawing.gray,
             pen_width=style.pen_width,
             angles=style.hatch_angles,
             coverage=style.hatch_coverage,
-            blur=0.0,  # hatch_darkness is already smoothed at this scale
+            form_scale=style.hatch_form,
             min_run=style.min_hatch_run,
             blank_below=style.hatch_blank_below,
-            jitter=style.hatch_jitter,
+            wobble=style.hatch_jitter,
+            blur=style.hatch_blur,
             seed=style.seed,
         )
         layers += [layer for layer in hatches if layer.paths]
@@ -144,11 +159,15 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
     for layer in layers:
         started = time.perf_counter()
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without
-        # lifting. Edge strokes overlap their neighbours along a contour by ℓ/4, so joining
-        # ends within ℓ/2 retraces ink already there and saves a lift per stroke.
-        edge_join = max(style.pen_width, style.edge_join * line.length * layout.mm_per_px)
-        join = edge_join if layer.role == "edges" else style.hatch_join
-        paths = order_paths(layer.paths, start=position, join_tolerance=join, rounds=style.order_rounds)
+        # lifting. Edge strokes already come chained along their contours (edge_strokes):
+        # joining more than touching ends would draw chords between unrelated strokes.
+        join = style.pen_width if layer.role == "edges" else style.hatch_join
+        # Only hatch runs of a few shortest strokes are zig-zagged: joined dashes of a light
+        # tone would read as a staircase.
+        zigzag = 0.0 if layer.role == "edges" else 3.0 * style.min_hatch_run
+        paths = order_paths(
+            layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=style.order_rounds
+        )
         ordered.append(replace(layer, paths=paths))
         if paths:
             position = tuple(paths[-1][-1])
@@ -162,69 +181,15 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "mm_per_px": f"{layout.mm_per_px:.6g}",
         "pen_width_mm": f"{style.pen_width:g}",
         "line_length_px": str(line.length),
+        "stroke_gamma": f"{style.stroke_gamma:g}",
+        "stroke_width_px": f"{style.stroke_width:g}",
         "edge_threshold": f"{threshold:.4g}",
         "hatch_angles_deg": " ".join(f"{a:g}" for a in style.hatch_angles) if style.hatch else "",
         "hatch_coverage": f"{style.hatch_coverage:g}",
+        "texture": style.texture or "synthesised",
         "texture_seed": str(style.seed),
     }
     return Plan(page=page, layers=ordered, meta=meta)
-
-
-def hatch_darkness(
-    drawing: Sketch, strokes: list[np.ndarray], layout: Layout, *, pen_width: float, blur: float
-) -> np.ndarray:
-    """The darkness the hatching must add so that edges plus hatching match the pencil sketch.
-
-    The sketch's darkness is 1 − R with R = L·T. The pen draws its edge strokes solid, darker
-    than the grey raster lines, so shading with the plain tone 1 − T would overshoot near
-    contours. Ink stacks as 1 − (1 − e)(1 − h), hence the hatching supplies
-    h = 1 − (1 − D) / (1 − e), with D the sketch's and e the edge strokes' darkness, both
-    Gaussian-blurred by ``blur`` mm (the scale at which tone is judged).
-
-    Parameters
-    ----------
-    drawing : Sketch
-        A full (not lines-only) pencil sketch.
-    strokes : list of (N, 2) arrays
-        The edge strokes in page mm.
-    layout : Layout
-    pen_width : float
-        Pen width, mm.
-    blur : float
-        Gaussian sigma, mm.
-
-    Returns
-    -------
-    (H, W) float32 in [0, 1]
-    """
-    sigma = blur / layout.mm_per_px
-    # Tone is judged at the scale of the blur: blocks of about a third of it lose nothing and
-    # keep 12 MP photos fast (the blur then runs on a small grid).
-    block = max(1, round(sigma / 3))
-    height, width = layout.image_shape
-    edge_ink = ink_on_image_grid(strokes, layout, pen_width=pen_width, coarsen=block)
-    paper = _block_mean(drawing.line.drawing * drawing.T, block)
-    edge_paper = 1.0 - _gaussian(edge_ink, sigma / block)
-    need = 1.0 - _gaussian(paper, sigma / block) / np.maximum(edge_paper, 1e-3)
-    need = np.clip(need, 0.0, 1.0).astype(np.float32)
-    if block > 1:
-        grown = (need.shape[1] * block, need.shape[0] * block)
-        need = cv2.resize(need, grown, interpolation=cv2.INTER_LINEAR)[:height, :width]
-    return need
-
-
-def _block_mean(image: np.ndarray, block: int) -> np.ndarray:
-    """Mean of each ``block`` × ``block`` tile (edge-padded), tiles aligned at the top-left."""
-    height, width = image.shape
-    rows, cols = -(-height // block), -(-width // block)
-    padded = np.pad(image, ((0, rows * block - height), (0, cols * block - width)), mode="edge")
-    return padded.reshape(rows, block, cols, block).mean(axis=(1, 3), dtype=np.float32)
-
-
-def _gaussian(image: np.ndarray, sigma: float) -> np.ndarray:
-    if sigma <= 0:
-        return image
-    return cv2.GaussianBlur(image.astype(np.float32), (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
 
 
 def ink_on_image_grid(

@@ -70,3 +70,72 @@ def pearson(a: np.ndarray, b: np.ndarray) -> float:
     if np.ptp(a) == 0 or np.ptp(b) == 0:
         return float("nan")
     return float(np.corrcoef(a, b)[0, 1])
+
+
+# The yardstick of issue 11: the plot against the photo itself, as a viewer at arm's length sees it.
+YARDSTICK_PX_PER_MM = 10.0
+YARDSTICK_SIGMA_MM = 1.0
+SSIM_SIGMA_MM = 3.0
+
+
+@dataclass(frozen=True)
+class Likeness:
+    """How well a plotted picture follows a reference picture over the drawing box.
+
+    ``rho`` is Spearman's rank correlation (blind to any monotone tone curve, such as the pencil
+    tone model), ``r`` Pearson's, both after a Gaussian blur of ``YARDSTICK_SIGMA_MM``; ``ssim``
+    is the structural similarity at the ``SSIM_SIGMA_MM`` scale.
+    """
+
+    rho: float
+    r: float
+    ssim: float
+
+
+def plotted_darkness(paths, box, *, pen_width: float, px_per_mm: float = YARDSTICK_PX_PER_MM) -> np.ndarray:
+    """Ink of pen ``paths`` (page mm, Y up) over the drawing ``box`` ``(x0, y0, x1, y1)``, row 0 at the top."""
+    from pencilbot.render import MM_PER_INCH, render_paths
+
+    x0, y0, x1, y1 = box
+    return render_paths(
+        paths, x1 - x0, y1 - y0, dpi=px_per_mm * MM_PER_INCH, pen_width=pen_width, origin=(x0, y0)
+    )
+
+
+def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = YARDSTICK_PX_PER_MM) -> Likeness:
+    """Compare a plotted darkness with a reference darkness (any size; resampled onto the plot's grid).
+
+    Parameters
+    ----------
+    plotted : (H, W) float array in [0, 1]
+        Ink over the drawing box at ``px_per_mm``, e.g. from :func:`plotted_darkness`.
+    reference : (h, w) float array in [0, 1]
+        The picture it should look like, covering the same box (e.g. 1 − luma of the photo).
+    px_per_mm : float
+        Resolution of ``plotted``.
+
+    Returns
+    -------
+    Likeness
+    """
+    import cv2
+    from scipy.stats import spearmanr
+    from skimage.metrics import structural_similarity
+
+    height, width = plotted.shape
+    ref = cv2.resize(np.asarray(reference, np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    sigma = YARDSTICK_SIGMA_MM * px_per_mm
+    a = ndi.gaussian_filter(np.asarray(plotted, np.float32), sigma)
+    b = ndi.gaussian_filter(ref, sigma)
+    # The blurred pictures vary on the scale of sigma: every third pixel loses nothing.
+    stride = max(1, int(sigma // 3))
+    sa, sb = a[::stride, ::stride].ravel(), b[::stride, ::stride].ravel()
+    flat = np.ptp(sa) == 0 or np.ptp(sb) == 0
+    rho = float("nan") if flat else float(spearmanr(sa, sb).statistic)
+    # SSIM on a 1 px/mm grid with a Gaussian window of SSIM_SIGMA_MM.
+    step = max(1, round(px_per_mm))
+    small = (max(7, width // step), max(7, height // step))
+    ca = cv2.resize(np.asarray(plotted, np.float32), small, interpolation=cv2.INTER_AREA)
+    cb = cv2.resize(ref, small, interpolation=cv2.INTER_AREA)
+    ssim = float(structural_similarity(ca, cb, data_range=1.0, gaussian_weights=True, sigma=SSIM_SIGMA_MM))
+    return Likeness(rho=rho, r=pearson(sa, sb), ssim=ssim)

@@ -1,204 +1,426 @@
-"""Tone as hatching: layers of parallel pen lines whose density follows the darkness of the image.
+"""Tone as hatching: families of pen lines that follow the form, dense where the picture is dark.
 
-Parallel lines of pen width w at spacing s cover w/s of the paper; layers at different angles
-combine as 1 − Π(1 − w/sₖ). Each layer has ruled lines at the densest spacing s = w / f (f = the
-``coverage`` of one full layer), and every line j of layer k has its own darkness threshold: line
-j is drawn where the darkness exceeds it. The thresholds of neighbouring lines follow a 1-D ordered
-dither (bit-reversed index), so at any darkness the lines that are drawn are spread evenly and the
-layer's local coverage is the fraction of lines switched on. Layer k starts where the k layers
-before it are full, so the total coverage 1 − (1 − f)ᵏ (1 − f·φ) tracks darkness continuously
-instead of in K steps.
+A family is the set of level lines φ = k·s of a stripe phase φ (:mod:`pencilbot.planning.flow`):
+smooth, evenly spaced curves that run along the picture's isophotes (the first family) or at a
+fixed angle to them (the cross-hatching families). s is the densest spacing, w / f for a pen of
+width w and a family coverage of f at most.
 
-Clipping is raster work, not geometry: every hatch line is sampled at sub-pixel steps, the samples
-look up the (slightly blurred) darkness, and the runs of samples above the line's threshold become
-pen strokes, found with one ``diff`` over the whole (lines × samples) boolean array. Short gaps
-are bridged and short runs dropped, so tone never turns into speckle.
+Which lines are drawn where is an ordered dither: line k carries a rank τ_k = frac(k/γ) in
+(0, 1), γ the golden ratio, and is drawn wherever the share of the family the tone asks for
+exceeds τ_k. By the three-gap theorem the lines that are on at *any* share are spread evenly
+(at most three gap lengths, within a factor γ of each other). Light tones would switch on lines
+centimetres apart, which read as scratches: below a share that keeps lines ``MAX_GAP`` apart,
+the lines stay at that spacing and are dashed instead, each dash cell of 2 · ``min_run`` drawn when
+its own golden rank along the line is below the duty the tone needs (a cell is two shortest
+strokes long, so a lone dash is never dropped as a crumb). The share is the family's coverage request
+divided by what all its lines would cover there (w · |∇φ| / s: lines crowd where |∇φ| > 1), so a
+family's ink follows its request however the level lines bend.
+
+The families share the darkness with overlapping ramps: family j starts before family j − 1 is
+full, so cross-hatching fades in continuously instead of appearing as a band. Parallel lines
+cover w/s each; families stack as 1 − Π(1 − cⱼ); :func:`family_coverage` inverts that stack, so
+a darkness request becomes each family's coverage.
+
+Clipping is sampling, not geometry: every level line is traced once (``cv2.findContours`` on the
+stripes, then a Newton step onto the exact level), resampled at a fixed step, and its samples are
+switched on or off by the request; runs of "on" samples become pen strokes. Short gaps are
+bridged and short runs dropped, so tone never turns into speckle. All of it is whole-array numpy.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import cv2
 import numpy as np
 from scipy import ndimage as ndi
 
+from pencilbot.planning.flow import DirectionField, Grid, bilinear, stripe_phase
 from pencilbot.planning.plan import Layer
 
-# Lines per dither period: a layer's coverage moves in steps of 1/16 of its maximum.
-DITHER_PERIOD = 16
-# Hatch samples looked up at once: ~2 M keeps the temporary index arrays near 50 MB.
-_SAMPLES_PER_BLOCK = 2_000_000
+# Golden-ratio conjugate: ranks frac(k·GOLDEN) are as evenly spread as any sequence can be.
+GOLDEN = 0.6180339887498949
+# Widest gap (mm) between neighbouring drawn lines of a family; lighter tones are dashed.
+MAX_GAP = 3.0
+# Shortest stroke of a cross-hatching family, in shortest strokes of the first family.
+CROSS_RUN = 2.5
+# Step (mm) at which hatch lines are sampled for switching on and off.
+SAMPLE_STEP = 0.4
+# Points of an output stroke are kept about this far apart (mm): the lines are smooth curves.
+POINT_SPACING = 1.6
+
+
+@dataclass(frozen=True)
+class Onset:
+    """How the families share the darkness: each one's coverage as the tone darkens.
+
+    Family j's coverage is ``coverage · clip((u − j·stagger) / ramp, 0, 1)`` for an amount u in
+    [0, 1]; :meth:`amount` finds the u that gives a wanted total darkness.
+    """
+
+    families: int
+    coverage: float
+    stagger: float
+    ramp: float
+
+    @classmethod
+    def spread(cls, families: int, coverage: float, overlap: float = 0.5) -> Onset:
+        """Ramps of equal length, each starting when the one before is ``1 − overlap`` on."""
+        ramp = 1.0 / (1.0 + (families - 1) * (1.0 - overlap))
+        return cls(families, coverage, ramp * (1.0 - overlap), ramp)
+
+    def coverages(self, amount: np.ndarray) -> np.ndarray:
+        """(families, N) coverage of each family for amounts u."""
+        u = np.asarray(amount, np.float64)
+        starts = np.arange(self.families)[:, None] * self.stagger
+        return self.coverage * np.clip((u[None, :] - starts) / self.ramp, 0.0, 1.0)
+
+    def darkness(self, amount: np.ndarray) -> np.ndarray:
+        """Total darkness 1 − Π(1 − cⱼ) for amounts u."""
+        return 1.0 - np.prod(1.0 - self.coverages(np.ravel(amount)), axis=0).reshape(np.shape(amount))
+
+    @property
+    def darkest(self) -> float:
+        return float(1.0 - (1.0 - self.coverage) ** self.families)
+
+    def amount(self, darkness: np.ndarray) -> np.ndarray:
+        """The amount u in [0, 1] whose total darkness is ``darkness`` (clipped to what is reachable)."""
+        u = np.linspace(0.0, 1.0, 1025)
+        return np.interp(np.clip(darkness, 0.0, self.darkest), self.darkness(u), u)
+
+
+    def allocate(self, darkness: np.ndarray, capacity: np.ndarray) -> np.ndarray:
+        """(families, N) coverage of each family for ``darkness`` (N,) when family j can cover
+        at most ``capacity[j]`` there (its lines spread where the field fans out).
+
+        The amount u is raised until the capped families together reach the darkness (or all
+        are full), so what one family cannot lay down the next ones do. Bisection on u,
+        whole-array.
+        """
+        d = np.ravel(np.asarray(darkness, np.float64))
+        cap = np.asarray(capacity, np.float64).reshape(self.families, -1)
+        u = self.amount(d)
+        # Where no family's capacity binds, the uncapped amount is exact; elsewhere bisect.
+        bound = np.flatnonzero(np.any(self.coverages(u) > cap, axis=0))
+        lo, hi = u[bound], np.ones(bound.size)
+        for _ in range(10):  # u to 1e-3
+            mid = 0.5 * (lo + hi)
+            reached = 1.0 - np.prod(1.0 - np.minimum(self.coverages(mid), cap[:, bound]), axis=0)
+            short = reached < d[bound]
+            lo, hi = np.where(short, mid, lo), np.where(short, hi, mid)
+        u[bound] = hi
+        u[d <= 0] = 0.0
+        return np.minimum(self.coverages(u), cap)
+
+
+def family_coverage(darkness: np.ndarray, onset: Onset) -> np.ndarray:
+    """(families, N) coverage each family must lay down for the total ``darkness`` (N,)."""
+    return onset.coverages(onset.amount(np.ravel(darkness)))
+
+
+@dataclass(frozen=True)
+class HatchLines:
+    """All candidate lines of one family, sampled every ``SAMPLE_STEP`` mm.
+
+    Attributes
+    ----------
+    points : (N, 2) float array
+        Samples in page mm; the samples of one line are consecutive.
+    line : (N,) int array
+        Which traced line each sample lies on (non-decreasing).
+    level : (N,) int array
+        The level k (φ = k·s) of the sample's line.
+    along : (N,) float array
+        Arc length (mm) from the start of the sample's traced line.
+    full : (N,) float array
+        Paper fraction the family covers at that sample with every line on (w · |∇φ| / s, ≤ 1).
+    capacity : (rows, cols) float array
+        The same on the field's grid, everywhere (0 where no line of the family passes).
+    """
+
+    points: np.ndarray
+    line: np.ndarray
+    level: np.ndarray
+    along: np.ndarray
+    full: np.ndarray
+    capacity: np.ndarray
+
+
+def family_lines(
+    field: DirectionField, *, pen_width: float, coverage: float, wobble: float = 0.0, seed: int = 0
+) -> HatchLines:
+    """Trace the level lines of the stripe phase of ``field`` at spacing ``pen_width / coverage``.
+
+    Parameters
+    ----------
+    field : DirectionField
+        Directions the lines follow.
+    pen_width : float
+        Pen width w, mm.
+    coverage : float
+        Densest family coverage f in (0, 1); spacing s = w / f.
+    wobble : float
+        Amplitude of a smooth random bend of the lines, as a fraction of the spacing.
+    seed : int
+        Seed of the wobble.
+
+    Returns
+    -------
+    HatchLines
+    """
+    spacing = pen_width / coverage
+    coarse = field.grid
+    phase = stripe_phase(field)
+    if wobble > 0:
+        rng = np.random.default_rng(seed)
+        noise = ndi.gaussian_filter(rng.standard_normal(phase.shape), 6.0 / coarse.cell, mode="wrap")
+        phase = phase + wobble * spacing * noise / max(noise.std(), 1e-12)
+    grad_r, grad_c = np.gradient(phase, coarse.cell)
+    slope = np.hypot(grad_r, grad_c)  # |∇φ|: 1 where the field is curl-free
+    # A fine grid of three cells per spacing resolves every stripe of width s.
+    fine = Grid(coarse.box, spacing / 3.0)
+    phi = coarse.resample(phase, fine, cubic=True).astype(np.float64)
+    stripes = (np.sin(np.pi * phi / spacing) > 0).astype(np.uint8)
+    contours, _ = cv2.findContours(stripes, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return _no_lines(coarse.shape)
+    lengths = np.array([len(c) for c in contours])
+    rc = np.concatenate(contours).reshape(-1, 2)[:, ::-1].astype(np.float64)  # (row, col)
+    chain = np.repeat(np.arange(len(contours)), lengths)
+    rows, cols = fine.shape
+    # Contour pixels on the grid's border trace the picture's edge, not a level line.
+    inner = (rc[:, 0] > 0) & (rc[:, 0] < rows - 1) & (rc[:, 1] > 0) & (rc[:, 1] < cols - 1)
+    # Every other contour pixel is plenty for a smooth curve sampled every SAMPLE_STEP.
+    inner[1::2] = False
+    rc, chain = rc[inner], chain[inner]
+    if rc.size == 0:
+        return _no_lines(coarse.shape)
+    # A Newton step onto the nearest level φ = k·s (φ is nearly linear across a cell).
+    d_r, d_c = np.gradient(phi)
+    value = _bilinear(phi, rc)
+    level = np.rint(value / spacing)
+    g = np.stack([_bilinear(d_r, rc), _bilinear(d_c, rc)], axis=1)
+    rc = rc - ((value - level * spacing) / np.maximum((g**2).sum(axis=1), 1e-12))[:, None] * g
+    rc = np.clip(rc, 0, [rows - 1, cols - 1])
+    level = level.astype(np.int64)
+    mm = fine.to_mm(rc)
+    # A traced line ends where its contour leaves the picture, changes level or jumps.
+    step = np.linalg.norm(np.diff(mm, axis=0), axis=1)
+    cut = (chain[1:] != chain[:-1]) | (level[1:] != level[:-1]) | (step > 4.0 * fine.cell)
+    piece = np.concatenate([[0], np.cumsum(cut)])
+    points, owner, along = _resample(mm, piece, SAMPLE_STEP)
+    # The fine grid overhangs the drawing box by part of a cell: samples out there are dropped,
+    # and a line that leaves the box and comes back continues as a new line.
+    x0, y0, x1, y1 = coarse.box
+    inside = (points[:, 0] >= x0) & (points[:, 0] <= x1) & (points[:, 1] >= y0) & (points[:, 1] <= y1)
+    restart = np.append(True, (owner[1:] != owner[:-1]) | ~inside[:-1])
+    line = np.cumsum(restart)[inside] - 1
+    points, owner, along = points[inside], owner[inside], along[inside]
+    if points.size == 0:
+        return _no_lines(coarse.shape)
+    piece_level = level[np.searchsorted(piece, np.arange(piece[-1] + 1))]
+    capacity = np.minimum(1.0, pen_width * slope / spacing)
+    full = coarse.sample(capacity, points)
+    return HatchLines(points, line, piece_level[owner], along, full, capacity)
+
+
+def hatch_strokes(
+    lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 2.0, offset: float = 0.0
+) -> list[np.ndarray]:
+    """The pen strokes of one family for a per-sample coverage request.
+
+    Parameters
+    ----------
+    lines : HatchLines
+    request : (N,) float array
+        Paper fraction this family should cover around each sample.
+    pen_width : float
+        Pen width, mm.
+    min_run : float
+        Shortest stroke kept, mm; gaps shorter than half of it are bridged.
+    offset : float
+        Shift of the dither ranks in [0, 1), so families switch on different lines.
+
+    Returns
+    -------
+    list of (M, 2) float arrays
+        Polylines in page mm, one per run of switched-on samples.
+    """
+    if lines.points.size == 0:
+        return []
+    # The share of lines needed, smoothed along each line over a shortest stroke: a line
+    # switches on or off where the tone really changes, not at every ripple of the request.
+    share = _along_mean(np.asarray(request, np.float64) / np.maximum(lines.full, 1e-6), lines.line, min_run)
+    # Local line spacing w / full; lines may not be switched off below MAX_GAP apart.
+    least = np.minimum(1.0, pen_width / (np.maximum(lines.full, 1e-6) * MAX_GAP))
+    line_share = np.maximum(share, least)
+    level_rank = np.mod(lines.level * GOLDEN + offset, 1.0)
+    # Dash cells are all on or all off, by the cell's mean duty.
+    cell = np.floor(lines.along / (2.0 * min_run)).astype(np.int64)
+    key = np.cumsum(np.append(True, (cell[1:] != cell[:-1]) | (lines.line[1:] != lines.line[:-1]))) - 1
+    duty = np.bincount(key, weights=share / line_share) / np.bincount(key)
+    dash_rank = np.mod(cell * GOLDEN + lines.level * 0.7548776662 + offset, 1.0)
+    on = (level_rank < line_share) & (dash_rank < duty[key]) & (share > 0)
+    # Runs of "on" samples within a line.
+    starts, stops = _runs(on, lines.line)
+    if starts.size == 0:
+        return []
+    # Bridge gaps shorter than half a minimum run, then drop runs shorter than one.
+    gap = (starts[1:] - stops[:-1] - 1) * SAMPLE_STEP
+    same_line = lines.line[starts[1:]] == lines.line[stops[:-1]]
+    merged = np.append(False, same_line & (gap < min_run / 2))
+    keep_start = np.flatnonzero(~merged)
+    run_start = starts[keep_start]
+    run_stop = stops[np.append(keep_start[1:], starts.size) - 1]
+    long_enough = (run_stop - run_start) * SAMPLE_STEP >= min_run
+    run_start, run_stop = run_start[long_enough], run_stop[long_enough]
+    if run_start.size == 0:
+        return []
+    # Keep every few samples along a run, and always its last one.
+    keep_every = max(1, round(POINT_SPACING / SAMPLE_STEP))
+    counts = run_stop - run_start + 1
+    kept = (counts - 1) // keep_every + 1 + ((counts - 1) % keep_every > 0)
+    offsets = np.arange(kept.sum()) - np.repeat(np.cumsum(kept) - kept, kept)
+    index = np.minimum(np.repeat(run_start, kept) + offsets * keep_every, np.repeat(run_stop, kept))
+    return np.split(lines.points[index], np.cumsum(kept)[:-1])
 
 
 def hatch_layers(
     darkness: np.ndarray,
-    layout,
+    grid: Grid,
+    field: DirectionField,
     *,
     pen_width: float = 0.5,
-    angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0),
-    coverage: float = 0.5,
-    blur: float = 1.0,
+    angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
+    coverage: float = 0.7,
+    overlap: float = 0.25,
     min_run: float = 2.0,
-    blank_below: float = 0.0,
-    jitter: float = 0.0,
+    wobble: float = 0.0,
     seed: int = 0,
+    lines: list[HatchLines] | None = None,
+    capacity: np.ndarray | None = None,
 ) -> list[Layer]:
-    """Hatch layers whose pen coverage follows ``darkness``.
+    """Hatch layers whose ink follows ``darkness`` (one layer per family).
 
     Parameters
     ----------
-    darkness : (H, W) float array in [0, 1]
-        Fraction of paper to cover with ink, on the image's pixel grid (e.g. 1 − J).
-    layout : pencilbot.planning.layout.Layout
-        Placement of the image on the page (``drawing_box``, ``mm_per_px``, ``mm_to_px``).
+    darkness : (rows, cols) array
+        Darkness to cover in [0, 1] on ``grid``.
+    grid : Grid
+        The grid of ``darkness``.
+    field : DirectionField
+        The form the first family follows; family j runs at ``angles[j]`` degrees to it.
     pen_width : float
-        Pen line width w, mm.
+        Pen width, mm.
     angles : tuple of float
-        One hatch layer per angle, degrees counter-clockwise from the page's +x axis, in the
-        order the darkness fills them (the first covers the lightest tones).
+        Each family's angle to the field, degrees; the first covers the lightest tones.
     coverage : float
-        Paper fraction f in (0, 1) one layer covers at its densest; line spacing = w / f.
-    blur : float
-        Gaussian sigma in mm applied to ``darkness`` first, so runs follow regions, not noise.
+        Densest coverage of one family, in (0, 1); spacing = pen_width / coverage.
+    overlap : float
+        How much of a family's ramp the next one overlaps, in [0, 1): 0 starts a family only
+        when the one before is full (a visible band), 0.5 halfway.
     min_run : float
-        Shortest kept piece of hatch line, mm; gaps shorter than half of it are bridged.
-    blank_below : float
-        Darkness (after the blur) below which the paper is left blank.
-    jitter : float
-        Random offset of each line across its direction, as a fraction of the spacing in [0, 1].
+        Shortest stroke, mm.
+    wobble : float
+        Smooth random bend of the lines, fraction of the spacing.
     seed : int
-        Seed of the jitter.
+    lines : list of HatchLines, optional
+        Lines traced before by :func:`trace_families` for the same field and parameters.
+    capacity : (families, rows, cols) array, optional
+        :func:`family_capacity` of ``lines`` on ``grid``, when it was computed before.
 
     Returns
     -------
     list of Layer
-        One layer per angle, named ``hatch<k>-<angle mod 180>``, each a serpentine sequence of
-        two-point paths in mm (Y up). A layer the tone never needs has no paths.
+        Named ``hatch<j>-<angle to the form>``, lightest first; a family the tone never needs has no paths.
     """
     if not 0 < coverage < 1:
         raise ValueError(f"coverage must be in (0, 1), got {coverage}")
-    dark = np.clip(np.asarray(darkness, dtype=np.float32), 0.0, 1.0)
-    if blur > 0:
-        dark = ndi.gaussian_filter(dark, blur / layout.mm_per_px, mode="nearest")
-    # The lightest tones would get single ruled lines centimetres apart, which read as
-    # scratches, not tone: leave them as paper.
-    dark = np.where(dark < blank_below, 0.0, dark)
-    spacing = pen_width / coverage
-    # Run ends to a quarter pen width; the tone itself varies on the scale of millimetres.
-    step = pen_width / 4
-    x0, y0, x1, y1 = layout.drawing_box
-    centre = np.array([(x0 + x1) / 2, (y0 + y1) / 2])
-    radius = np.hypot(x1 - x0, y1 - y0) / 2
-    along_t = np.arange(-radius, radius + step, step)
-    n_lines = int(np.ceil(2 * radius / spacing)) + 1
-    rng = np.random.default_rng(seed)
-
+    if lines is None:
+        lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
+    onset = Onset.spread(len(angles), coverage, overlap)
+    if capacity is None:
+        capacity = family_capacity(lines, field, grid)
+    shares = onset.allocate(darkness, capacity).reshape(len(lines), *grid.shape)
     layers = []
-    for k, angle in enumerate(angles):
-        offsets = (np.arange(n_lines) - (n_lines - 1) / 2) * spacing
-        offsets += rng.uniform(-jitter / 2, jitter / 2, n_lines) * spacing
-        # Line j is drawn where darkness > 1 − (1 − f)^k (1 − f τ_j): layers before k are full,
-        # and τ_j (the dither rank of j) is the share of layer k that must be on for line j.
-        rank = (_bit_reverse(np.arange(n_lines) % DITHER_PERIOD) + 0.5) / DITHER_PERIOD
-        threshold = 1 - (1 - coverage) ** k * (1 - coverage * rank)
-        paths = _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_run)
-        layers.append(Layer(f"hatch{k + 1}-{angle % 180:g}", paths, pen_width=pen_width, role="hatch"))
+    for j, (family, angle) in enumerate(zip(lines, angles, strict=True)):
+        request = grid.sample(shares[j], family.points)
+        # Cross-hatching in a narrow band would be a comb of short ticks: later families need
+        # longer strokes, and the loop hands what they leave to the first.
+        shortest = min_run * (1.0 if j == 0 else CROSS_RUN)
+        strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=shortest, offset=j * GOLDEN / 3)
+        layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
 
 
-def hatch_coverage(darkness, *, coverage: float = 0.5, n_layers: int = 4) -> np.ndarray:
-    """Paper fraction the hatching puts ink on for a given darkness (the dither's ideal).
+def family_capacity(lines: list[HatchLines], field: DirectionField, grid: Grid) -> np.ndarray:
+    """(families, rows, cols): what each family covers with every line on, on ``grid``."""
+    return np.stack([field.grid.resample(family.capacity, grid) for family in lines])
 
-    Parameters
-    ----------
-    darkness : float or array in [0, 1]
-    coverage : float
-        Coverage f of one full layer.
-    n_layers : int
-        Number of hatch layers K.
 
-    Returns
-    -------
-    ndarray
-        1 − (1 − f)ᵏ (1 − f·φ) with φ the share of layer k switched on, rounded to the dither's
-        1/16 steps; saturates at 1 − (1 − f)ᴷ.
+def trace_families(
+    field: DirectionField, *, pen_width: float, angles: tuple[float, ...], coverage: float, wobble: float = 0.0, seed: int = 0
+) -> list[HatchLines]:
+    """:func:`family_lines` for every family angle (the part of hatching that does not depend on tone)."""
+    return [
+        family_lines(field.rotated(angle), pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed + j)
+        for j, angle in enumerate(angles)
+    ]
+
+
+def _bilinear(grid: np.ndarray, rc: np.ndarray) -> np.ndarray:
+    """Bilinear interpolation of ``grid`` at fractional (row, col), clamped to the grid."""
+    return bilinear(grid, rc)
+
+
+def _resample(points: np.ndarray, piece: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points every ``step`` mm along each piece (consecutive points with one ``piece`` id).
+
+    Returns the points, the piece of each and its arc length from the piece's start.
     """
-    d = np.clip(np.asarray(darkness, dtype=np.float64), 0, 1)
-    remaining = 1 - d
-    full = np.floor(np.log(np.maximum(remaining, 1e-12)) / np.log(1 - coverage))
-    full = np.minimum(full, n_layers)
-    base = (1 - coverage) ** full
-    share = np.where(full < n_layers, (1 - remaining / base) / coverage, 0.0)
-    share = np.floor(share * DITHER_PERIOD + 0.5) / DITHER_PERIOD
-    return 1 - base * (1 - coverage * share)
+    seg = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    seg[piece[1:] != piece[:-1]] = 0.0
+    along = np.concatenate([[0.0], np.cumsum(seg)])
+    first = np.flatnonzero(np.append(True, piece[1:] != piece[:-1]))
+    last = np.append(first[1:], len(points)) - 1
+    start, length = along[first], along[last] - along[first]
+    count = np.floor(length / step).astype(np.int64) + 1
+    count[length < step] = 0  # a piece shorter than one step is a crumb
+    owner = np.repeat(np.arange(first.size), count)
+    t = start[owner] + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) * step
+    # Pieces are separated in `along` only by zero-length joins: search within the piece.
+    seg_index = np.clip(np.searchsorted(along, t, side="right") - 1, 0, len(points) - 2)
+    seg_index = np.clip(seg_index, first[owner], np.maximum(last[owner] - 1, first[owner]))
+    a, b = points[seg_index], points[np.minimum(seg_index + 1, last[owner])]
+    span = np.maximum(along[np.minimum(seg_index + 1, last[owner])] - along[seg_index], 1e-12)
+    frac = np.clip((t - along[seg_index]) / span, 0.0, 1.0)
+    return a + (b - a) * frac[:, None], owner, t - start[owner]
 
 
-def _bit_reverse(index: np.ndarray) -> np.ndarray:
-    """Ordered-dither rank of each line: the bit-reversed index in 0..DITHER_PERIOD−1."""
-    bits = int(np.log2(DITHER_PERIOD))
-    out = np.zeros_like(index)
-    for b in range(bits):
-        out |= ((index >> b) & 1) << (bits - 1 - b)
-    return out
+def _along_mean(values: np.ndarray, line: np.ndarray, length: float) -> np.ndarray:
+    """Moving average of per-sample ``values`` over ``length`` mm along each line (not across lines)."""
+    half = max(0, int(round(length / (2 * SAMPLE_STEP))))
+    if half == 0 or values.size == 0:
+        return values
+    index = np.arange(values.size)
+    first = np.flatnonzero(np.append(True, line[1:] != line[:-1]))
+    last = np.append(first[1:], values.size) - 1
+    owner = np.cumsum(np.append(True, line[1:] != line[:-1])) - 1
+    lo = np.maximum(index - half, first[owner])
+    hi = np.minimum(index + half, last[owner])
+    total = np.concatenate([[0.0], np.cumsum(values)])
+    return (total[hi + 1] - total[lo]) / (hi - lo + 1)
 
 
-def _hatch_runs(dark, layout, centre, angle, along_t, offsets, threshold, min_run):
-    """Runs of every hatch line where the darkness exceeds that line's threshold, as paths."""
-    a = np.deg2rad(angle)
-    direction = np.array([np.cos(a), np.sin(a)])
-    normal = np.array([-np.sin(a), np.cos(a)])
-    # The page → pixel map is affine: map each line's centre and the unit step once, then
-    # every sample is a broadcast multiply-add (float32) instead of millions of mappings.
-    base_mm = centre + offsets[:, None] * normal
-    base_px = layout.mm_to_px(base_mm).astype(np.float32)
-    step_px = (layout.mm_to_px(centre + direction) - layout.mm_to_px(centre))[0].astype(np.float32)
-    t = along_t.astype(np.float32)
-    # Whole lines at a time, in blocks, keeping only each block's runs: the full (lines ×
-    # samples) mask of a fine pen on a big sheet would take gigabytes.
-    block = max(1, _SAMPLES_PER_BLOCK // t.size)
-    runs = [np.zeros((3, 0), dtype=np.intp)]
-    for first in range(0, len(offsets), block):
-        lines = slice(first, first + block)
-        on = _sample(dark, base_px[lines], step_px, t) > threshold[lines, None]
-        padded = np.zeros((on.shape[0], on.shape[1] + 2), dtype=np.int8)
-        padded[:, 1:-1] = on
-        change = np.diff(padded, axis=1)
-        line_s, start = np.nonzero(change == 1)
-        _, stop = np.nonzero(change == -1)  # same row order as the starts: runs alternate
-        runs.append(np.stack([line_s + first, start, stop - 1]))
-    line_s, start, stop = np.concatenate(runs, axis=1)
-    if start.size == 0:
-        return []
-    step = along_t[1] - along_t[0]
-    # Bridge gaps shorter than half a minimum run, then drop runs shorter than one.
-    bridged = np.zeros(start.size, dtype=bool)
-    bridged[1:] = (line_s[1:] == line_s[:-1]) & ((start[1:] - stop[:-1]) * step < min_run / 2)
-    first = np.flatnonzero(~bridged)
-    last = np.append(first[1:], start.size) - 1
-    line_s, start, stop = line_s[first], start[first], stop[last]
-    long_enough = (stop - start) * step >= min_run
-    line_s, start, stop = line_s[long_enough], start[long_enough], stop[long_enough]
-
-    # Serpentine: every other drawn line runs backwards, its runs in reverse order.
-    rank = np.cumsum(np.append(True, line_s[1:] != line_s[:-1])) - 1
-    backwards = rank % 2 == 1
-    order = np.lexsort((np.where(backwards, -start, start), line_s))
-    line_s, start, stop, backwards = line_s[order], start[order], stop[order], backwards[order]
-    t0 = np.where(backwards, along_t[stop], along_t[start])
-    t1 = np.where(backwards, along_t[start], along_t[stop])
-    base = base_mm[line_s]
-    # Samples are placed in float32 pixels: a run's end can lie a few µm past the picture's
-    # edge, which a bed check or a clip test counts as outside. Pull the ends back onto it.
-    box = np.asarray(layout.drawing_box, np.float64)
-    p0 = np.clip(base + t0[:, None] * direction, box[:2], box[2:])
-    p1 = np.clip(base + t1[:, None] * direction, box[:2], box[2:])
-    return list(np.stack([p0, p1], axis=1))
+def _runs(on: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First and last index of every run of True in ``on`` that stays within one ``line``."""
+    boundary = np.append(True, line[1:] != line[:-1])
+    starts = np.flatnonzero(on & (boundary | ~np.append(False, on[:-1])))
+    end = np.append(line[1:] != line[:-1], True)
+    stops = np.flatnonzero(on & (end | ~np.append(on[1:], False)))
+    return starts, stops
 
 
-def _sample(dark: np.ndarray, base_px: np.ndarray, step_px: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Darkness at ``base + t·step`` (pixels, nearest) for each line; 0 outside the image."""
-    height, width = dark.shape
-    col = np.rint(base_px[:, None, 0] + t[None, :] * step_px[0]).astype(np.intp)
-    row = np.rint(base_px[:, None, 1] + t[None, :] * step_px[1]).astype(np.intp)
-    inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
-    values = np.zeros(col.shape, dtype=np.float32)
-    values[inside] = dark[row[inside], col[inside]]
-    return values
+def _no_lines(shape: tuple[int, int]) -> HatchLines:
+    empty = np.zeros(0)
+    return HatchLines(np.zeros((0, 2)), empty.astype(np.int64), empty.astype(np.int64), empty, empty, np.zeros(shape))

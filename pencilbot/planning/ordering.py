@@ -41,6 +41,7 @@ def order_paths(
     *,
     start: tuple[float, float] = (0.0, 0.0),
     join_tolerance: float | None = None,
+    join_min_length: float = 0.0,
     pen_width: float = 0.5,
     rounds: int = DEFAULT_ROUNDS,
 ) -> list[np.ndarray]:
@@ -55,6 +56,9 @@ def order_paths(
     join_tolerance : float, optional
         Consecutive paths whose gap is at most this (mm) are joined into one; default
         ``pen_width``. 0 joins only paths that meet exactly; negative disables joining.
+    join_min_length : float, optional
+        Paths shorter than this (mm) are never joined: a zig-zag between long hatch runs reads
+        as one stroke of the hand, between short dashes as a staircase.
     pen_width : float, optional
         Pen width in mm, the default join tolerance.
     rounds : int, optional
@@ -71,7 +75,7 @@ def order_paths(
     order, reverse = improve_order(arrays, start, rounds=rounds)
     ordered = _apply(arrays, order, reverse)
     tolerance = pen_width if join_tolerance is None else join_tolerance
-    return join_touching(ordered, tolerance) if tolerance >= 0 else ordered
+    return join_touching(ordered, tolerance, min_length=join_min_length) if tolerance >= 0 else ordered
 
 
 def greedy_order(paths: Sequence[np.ndarray], start: tuple[float, float] = (0.0, 0.0)) -> list[np.ndarray]:
@@ -147,15 +151,20 @@ def _descend(tour: _Tour, budget: _Budget) -> None:
             break
 
 
-def join_touching(paths: Sequence[np.ndarray], tolerance: float) -> list[np.ndarray]:
-    """Join consecutive paths whose gap (end of one to start of the next) is ≤ ``tolerance`` mm."""
+def join_touching(paths: Sequence[np.ndarray], tolerance: float, *, min_length: float = 0.0) -> list[np.ndarray]:
+    """Join consecutive paths whose gap (end of one to start of the next) is ≤ ``tolerance`` mm,
+    unless one of them is shorter than ``min_length`` mm."""
     arrays = _nonempty(paths)
     if len(arrays) < 2:
         return arrays
     heads = np.array([p[0] for p in arrays[1:]])
     tails = np.array([p[-1] for p in arrays[:-1]])
     gap = np.hypot(*(heads - tails).T)
-    breaks = np.flatnonzero(gap > tolerance) + 1
+    apart = gap > tolerance
+    if min_length > 0:
+        short = np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() < min_length for p in arrays])
+        apart |= short[1:] | short[:-1]
+    breaks = np.flatnonzero(apart) + 1
     joined = []
     for group in np.split(np.arange(len(arrays)), breaks):
         if len(group) == 1:

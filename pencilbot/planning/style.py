@@ -19,7 +19,7 @@ from pathlib import Path
 from pencilbot import schema
 from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
-from pencilbot.imaging.strokes import LONGEST_LENGTH
+from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, WIDTH_RANGE
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import DEFAULT_MARGIN
@@ -52,26 +52,42 @@ class Style:
     line_length : int or None
         Stroke length ℓ of the line drawing in image pixels (2 to ``LONGEST_LENGTH``); None picks
         it from the image size.
+    stroke_gamma : float
+        Tone curve γ of the line drawing (0.1 to 10): > 1 darkens its strokes, so fainter
+        contours are drawn with the pen too; < 1 lightens them.
+    stroke_width : float
+        Width of the line drawing's strokes, image pixels (0.5 to 20): a wider raster stroke
+        is drawn with more touching pen lines.
+    texture : str or None
+        A hand-drawn pencil texture image for the tone (the paper's H), a path; relative paths
+        in a style file are relative to that file. None synthesises one.
     edge_threshold : float or None
-        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None chooses it
-        automatically from the edge map.
+        Edge strength (E in [0, 1]) below which no edge stroke is drawn; None: where the line
+        drawing's stroke is 0.45 dark (which follows stroke_gamma).
     min_edge_pixels : int
-        Shortest run of edge pixels (px) that becomes a stroke; shorter runs are speckle.
+        Fewest skeleton pixels a chain of contour strokes needs to be drawn; smaller ones are speckle.
     edge_join : float
-        Edge strokes whose ends lie within this many ℓ (at plot scale, at least a pen width)
-        are drawn in one pen-down path; consecutive strokes of a contour overlap by ℓ/4, so
-        this retraces ink already there and saves a pen lift each.
+        Consecutive strokes of a contour whose ends lie within this many ℓ are chained into one
+        pen-down path through their crossing point (the pen retraces its own overshoot, it
+        draws no chord), saving a pen lift each.
+    edge_clutter : float
+        Clutter (contours crossing a window of σ = 1.5 ℓ, times the incoherence of their
+        directions; about 0.1 along contours, 2–3 in dense texture) above which a region is
+        texture, not contour: there only long chains of strokes are drawn, and the hatching
+        carries the texture's darkness. Larger keeps more detail (100 keeps every stroke).
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
-        Angle of each hatch layer in degrees, counter-clockwise from the page's +x axis. The first
-        layer covers the lightest tones, later layers add darkness on top.
+        Angle of each hatch family to the form, degrees (0: along the isophotes); the first
+        family covers the lightest tones, later ones cross-hatch darker ones.
     hatch_coverage : float
-        Fraction of paper (0, 1) one hatch layer covers at its densest; spacing = pen_width /
+        Fraction of paper (0, 1) one hatch family covers at its densest; spacing = pen_width /
         hatch_coverage.
+    hatch_form : float
+        Size (mm) of the forms the hatching follows (the structure tensor's scale); 0 hatches
+        straight lines at ``hatch_angles`` to the page's 45°.
     hatch_blur : float
-        Gaussian blur (mm) applied to the darkness before hatching, so hatch runs follow regions
-        of tone instead of pixel noise.
+        The scale (Gaussian sigma, mm) at which the plot's tone is matched to the picture's.
     min_hatch_run : float
         Shortest hatch line kept, mm; shorter pieces would be dots.
     hatch_join : float
@@ -96,16 +112,21 @@ class Style:
     margin: float = DEFAULT_MARGIN
     pen_width: float = DEFAULT_PEN_WIDTH
     line_length: int | None = None
+    stroke_gamma: float = 1.0
+    stroke_width: float = 1.0
+    texture: str | None = None
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
     edge_join: float = 0.5
+    edge_clutter: float = 2.0
     hatch: bool = True
-    hatch_angles: tuple[float, ...] = (45.0, -45.0, 0.0, 90.0)
-    hatch_coverage: float = 0.5
-    hatch_blur: float = 1.5
-    min_hatch_run: float = 3.0
-    hatch_join: float = 2.0
-    hatch_blank_below: float = 0.06
+    hatch_angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0)
+    hatch_coverage: float = 0.7
+    hatch_form: float = 8.0
+    hatch_blur: float = 1.0
+    min_hatch_run: float = 2.0
+    hatch_join: float = 2.5
+    hatch_blank_below: float = 0.04
     hatch_jitter: float = 0.0
     order_rounds: int = 40
     seed: int = 0
@@ -133,7 +154,11 @@ def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
-    return with_overrides(Style(name=stem), table, where=f"style file {where}")
+    style = with_overrides(Style(name=stem), table, where=f"style file {where}")
+    source = Path(name_or_path)
+    if style.texture is not None and source.is_file():  # a file of the user's, not a shipped style
+        style = dataclasses.replace(style, texture=str(source.parent / Path(style.texture).expanduser()))
+    return style
 
 
 def list_styles() -> list[str]:
@@ -175,12 +200,17 @@ STYLE_SCHEMA: dict[str, schema.Rule] = {
     "margin": schema.number(0, unit="mm"),
     "pen_width": schema.number(MIN_PEN_WIDTH, unit="mm"),
     "line_length": schema.whole(2, LONGEST_LENGTH, "pixels"),
+    "stroke_gamma": schema.number(*GAMMA_RANGE),
+    "stroke_width": schema.number(*WIDTH_RANGE, unit="pixels"),
+    "texture": schema.Rule("the path of a pencil texture image", lambda value: isinstance(value, str) and bool(value.strip())),
     "edge_threshold": schema.number(0, 1, unit="(or leave it out for automatic)"),
     "min_edge_pixels": schema.whole(0, unit="pixels"),
     "edge_join": schema.number(0, unit="stroke lengths"),
+    "edge_clutter": schema.number(0, above=True),
     "hatch": schema.FLAG,
     "hatch_angles": schema.ANGLES,
     "hatch_coverage": schema.number(0, 1, above=True, below=True),
+    "hatch_form": schema.number(0, unit="mm"),
     "hatch_blur": schema.number(0, unit="mm"),
     "min_hatch_run": schema.number(0, unit="mm"),
     "hatch_join": schema.number(0, unit="mm"),

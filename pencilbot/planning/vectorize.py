@@ -1,49 +1,92 @@
-"""The GMED line drawing as pen strokes: short straight lines along the 8 stroke directions.
+"""The GMED line drawing as pen paths: chains of short directional strokes along each contour.
 
 The raster line drawing paints, for every edge pixel labelled with direction i, a line of length
-ℓ along direction i (L = Σ Lᵢ ⊗ Bᵢ). A pen reproduces that by drawing each straight stretch of
-such pixels once. Edge pixels (E above a threshold) that share a direction label and touch
-(8-connected) form a component: one straight piece of contour, however thick the dilated edge
-is, so a band of edge pixels is never drawn as several overlapping lines. In coordinates rotated
-so direction i is the u axis, a component spanning [u0, u1] becomes a stroke from u0 − ℓ/2 to
-u1 + ℓ/2 — the extent the kernel paints — cut into pieces of at most ``piece_length`` · ℓ that
-overlap by ℓ/4, so consecutive strokes of a contour cross at their ends as a hand-drawn line
-does. Each piece sits at the mean across-position v of its own pixels (following a gently
-curving contour), and a piece whose pixels span two pen widths across — a strong, wide edge,
-darker in the raster — becomes a bold stroke of two touching lines. Everything is whole-array
-numpy (connected components, one lexsort, bincounts); no loop per pixel or per stroke.
+ℓ along direction i (L = Σ Lᵢ ⊗ Bᵢ). A pen redraws it contour by contour:
+
+1. **Contour pixels.** Edge pixels at least as strong as the raster shows ``PEN_DARKNESS`` dark
+   (:func:`edge_threshold`, on the absolute scale of :mod:`pencilbot.imaging.gmed`), continued by
+   hysteresis through stretches half as dark, are thinned to their one-pixel skeleton (pinholes
+   filled first, so a textured band does not thin to little loops). A band of edge pixels —
+   what dilation makes of one contour, with labels that vary across its width — is drawn once,
+   not as parallel strokes of mixed directions.
+2. **Strokes.** Lu's labels, averaged as doubled angles over σ = ℓ/5 (the per-pixel argmax
+   flickers along a skeleton), group 8-connected skeleton pixels of one direction into a
+   stroke. It runs from its first to its last pixel, bending at the centre of each piece of
+   about ``piece_length`` · ℓ so that it follows a curving contour instead of cutting a chord,
+   and overshoots both ends by ℓ/4 (half its own length at most) as the kernel's paint does.
+3. **Texture is not contour.** Where many strokes of different directions crowd (spoon
+   reflections, badges, wood grain, hair), a draughtsman draws the few long lines and leaves the
+   rest to the shading. Around each skeleton pixel, in a Gaussian window of σ = ``CLUTTER_SIGMA``
+   · ℓ: the contours crossing it (the skeleton's density, 1 for a lone contour, 2 between the
+   two sides of a rim) times one minus the coherence of their directions (1 when they all run
+   alike). This *clutter* is about 0.1 along contours, even parallel ones, and 2–3 in dense
+   texture; averaged over a chain of strokes (step 4) it decides: a chain of clutter c above
+   ``clutter`` (2) must be at least ℓ · (c / ``clutter``)⁴ long to be drawn. Long coherent
+   contours through a textured region stay, its knots of short strokes go, and the hatching
+   carries its darkness.
+4. **Chains.** A stroke's end and the next stroke's along the same contour lie within a pixel
+   or two; mutual best pairs of such ends (continuing in direction, within ``join`` · ℓ) are
+   chained into one pen-down path that goes out to the first stroke's tip, back to the crossing
+   point of the two strokes and out along the second: the ends still cross, as in the raster and
+   as a hand draws, the pen retraces its own overshoot instead of drawing a chord, and it lifts
+   once per contour rather than once per stroke. Collinear pieces (a straight contour broken by a
+   weak spot or by label flicker) chain the same way into one longer stroke.
+5. **Bold.** A contour is drawn with as many touching pen lines (up to ``MAX_LINES``) as the
+   raster's width across it (its darkness per skeleton pixel over a window of ℓ) is pen widths.
+
+Everything is whole-array numpy, OpenCV and scipy (connected components, one lexsort, bincounts,
+a KD-tree, a depth-first order); no loop per pixel or per stroke.
 """
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from skimage.filters import threshold_otsu
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components, depth_first_order
+from scipy.spatial import cKDTree
+from skimage.filters import apply_hysteresis_threshold
+from skimage.morphology import skeletonize
 
 if TYPE_CHECKING:
     from pencilbot.imaging.strokes import LineDrawing
 
 N_DIRECTIONS = 8
+#: Darkness of the raster line drawing (0..1) from which the pen draws the stroke.
+PEN_DARKNESS = 0.45
+#: Clutter (crossing contours × incoherence of their directions) above which strokes are texture.
+CLUTTER = 2.0
+#: Gaussian σ of the clutter window, in stroke lengths ℓ.
+CLUTTER_SIGMA = 1.5
+#: How fast the length a cluttered chain needs grows with its clutter: ℓ · (c / clutter)^power.
+CLUTTER_POWER = 4
+#: Most touching pen lines one contour is drawn with, for the widest raster strokes.
+MAX_LINES = 3
+#: Largest turn between two chained strokes, degrees (two of the 22.5° direction steps).
+MAX_TURN = 50.0
+_NO_LINKS = np.zeros((0, 4))
 
 
-def edge_threshold(edges: np.ndarray) -> float:
-    """Automatic edge-strength threshold: Otsu's split of the edge map into edge and background.
+def edge_threshold(line: LineDrawing, darkness: float = PEN_DARKNESS) -> float:
+    """Edge strength from which a contour is drawn with the pen.
 
     Parameters
     ----------
-    edges : (H, W) float array in [0, 1]
-        The GMED edge map E.
+    line : LineDrawing
+        The raster line drawing (its tone curve: γ and floor).
+    darkness : float
+        Darkness in (0, 1) the raster shows a stroke at before the pen draws it.
 
     Returns
     -------
     float
-        Edge strength in [0, 1]; pixels above it carry a stroke (1.0 for an empty map).
+        E in [0, 1]; skeleton pixels stronger than this carry a stroke. Absolute: a blank or
+        flat picture has no edge this strong and plans no edge strokes.
     """
-    if not np.any(edges > edges.min()):
-        return 1.0
-    return float(threshold_otsu(edges))
+    return line.edge_strength(darkness)
 
 
 def edge_strokes(
@@ -54,8 +97,10 @@ def edge_strokes(
     threshold: float | None = None,
     min_pixels: int = 3,
     piece_length: float = 2.0,
+    join: float = 0.5,
+    clutter: float = CLUTTER,
 ) -> list[np.ndarray]:
-    """Straight pen strokes that redraw the GMED line drawing.
+    """Pen paths that redraw the GMED line drawing, one chain of strokes per contour.
 
     Parameters
     ----------
@@ -64,58 +109,81 @@ def edge_strokes(
     layout : pencilbot.planning.layout.Layout
         Maps image pixels to page millimetres (``mm_per_px``, ``px_to_mm``).
     pen_width : float
-        Pen line width, mm; a component two pen widths thick is drawn bold (two lines).
+        Pen line width, mm; a contour whose raster stroke is n pen widths wide is drawn with n
+        touching lines (at most ``MAX_LINES``).
     threshold : float or None
         Edge strength in [0, 1] below which pixels draw nothing; None uses :func:`edge_threshold`.
     min_pixels : int
-        Components of fewer edge pixels are dropped (speckle, not contour).
+        Chains of fewer skeleton pixels are dropped (speckle, not contour).
     piece_length : float
-        Longest stroke, in units of ℓ; longer components are cut into overlapping pieces.
+        Longest straight piece, in units of ℓ; a longer component bends between pieces.
+    join : float
+        Strokes whose core ends lie within this many ℓ (at least 2 px) and continue each other's
+        direction are chained into one path through their crossing point; negative: never.
+    clutter : float
+        Clutter above which short chains of strokes are dropped as texture (see the module
+        docstring); ``inf`` keeps every chain.
 
     Returns
     -------
-    list of (2, 2) float64 arrays
-        Each stroke's two end points in mm on the page (Y up), in no particular order.
+    list of (N, 2) float64 arrays
+        Pen-down paths in mm on the page (Y up), in no particular order; a lone stroke is a
+        (2, 2) array.
     """
     edges = np.asarray(line.edges, dtype=np.float32)
     ell = float(line.length)
-    thr = edge_threshold(edges) if threshold is None else float(threshold)
-    found = _component_pixels(edges > thr, line.labels, min_pixels)
+    thr = edge_threshold(line) if threshold is None else float(threshold)
+    # Hysteresis, as Canny: a contour goes on through stretches down to half the threshold
+    # (a rim where the light grazes it), while weak texture on its own draws nothing.
+    mask = apply_hysteresis_threshold(edges, _weaker(line, thr), thr)
+    skeleton = skeletonize(_without_pinholes(mask, ell * ell / 4))
+    # The frame's one-sided differences turn a contour's direction in its last pixel.
+    skeleton[[0, -1], :] = skeleton[:, [0, -1]] = False
+    found = _components(skeleton, _smoothed_labels(line))
     if found is None:
         return []
-    comp, direction, u, v = found
-    p0, p1, piece_v, piece_dir, piece_of_pixel = _pieces(comp, direction, u, v, ell, piece_length)
-
-    # A piece whose pixels span two pen widths across is a strong, wide edge (the raster
-    # draws it darker): draw it as two touching lines, a bold stroke, not one thin one.
-    v_min = np.full(p0.size, np.inf)
-    v_max = np.full(p0.size, -np.inf)
-    np.minimum.at(v_min, piece_of_pixel, v)
-    np.maximum.at(v_max, piece_of_pixel, v)
+    comp, direction, u, v, rows, cols = found
     pen_px = pen_width / layout.mm_per_px
-    bold = v_max - v_min + 1 >= 2 * pen_px
-    shift = np.where(bold, pen_px / 2, 0.0)
-    p0, p1, piece_dir = (np.concatenate([a, a[bold]]) for a in (p0, p1, piece_dir))
-    piece_v = np.concatenate([piece_v - shift, piece_v[bold] + pen_px / 2])
+    width = _raster_width(line.drawing, skeleton, comp, rows, cols, ell)
+    lines = np.clip(np.rint(width / pen_px), 1, MAX_LINES).astype(np.intp)
+    v = v - ((lines - 1) * pen_px / 2)[comp]  # the first of n touching lines; the rest follow
+    strokes = _strokes(comp, direction, u, v, ell, piece_length)
+    reach = max(2.0, join * ell)
+    links = _links(strokes, reach) if join >= 0 else _NO_LINKS
+    pixels = np.bincount(comp)
+    texture = np.bincount(comp, weights=_clutter(skeleton, direction, rows, cols, ell)) / pixels
+    keep = _contours(strokes, links, pixels, texture, ell, min_pixels, clutter)
+    strokes, links, lines = _select(strokes, keep), _relinked(links, keep), lines[keep]
+    paths_px = _chains(strokes, links, edges.shape)
+    for k in range(1, MAX_LINES):  # the further lines of bold contours, chained alike
+        extra = _select(strokes, lines > k, shift_px=k * pen_px)
+        paths_px += _chains(extra, _links(extra, reach) if join >= 0 else _NO_LINKS, edges.shape)
+    if not paths_px:
+        return []
+    sizes = [len(p) for p in paths_px]
+    points_mm = layout.px_to_mm(np.concatenate(paths_px))
+    return np.split(points_mm, np.cumsum(sizes)[:-1])
 
-    p0, p1 = _clip_to_image(p0, p1, piece_v, piece_dir, edges.shape)
-    inside = p1 - p0 > 1e-6
-    p0, p1, piece_v, piece_dir = p0[inside], p1[inside], piece_v[inside], piece_dir[inside]
-    theta = piece_dir * (np.pi / N_DIRECTIONS)
-    along = np.stack([np.cos(theta), -np.sin(theta)], axis=1)
-    across = np.stack([np.sin(theta), np.cos(theta)], axis=1)
-    start_px = p0[:, None] * along + piece_v[:, None] * across
-    end_px = p1[:, None] * along + piece_v[:, None] * across
-    ends_mm = layout.px_to_mm(np.concatenate([start_px, end_px])).reshape(2, -1, 2)
-    return list(np.stack([ends_mm[0], ends_mm[1]], axis=1))
 
+def _without_pinholes(mask: np.ndarray, largest: float) -> np.ndarray:
+    """``mask`` with its holes of at most ``largest`` pixels filled.
 
-def _component_pixels(mask, labels, min_pixels):
-    """Pixels of components with at least ``min_pixels``, sorted by (component, u).
-
-    Returns ``(component index 0..n−1, direction, u, v)`` per pixel, or None if nothing is left.
+    A pinhole in a band of edge pixels (texture, a glint) would thin to a little loop of
+    strokes, a knot; a hole the size of a pupil is kept.
     """
-    component = _direction_components(mask, labels)
+    count, hole, stats, _ = cv2.connectedComponentsWithStats((~mask).astype(np.uint8), connectivity=4)
+    small = stats[:, cv2.CC_STAT_AREA] <= largest
+    small[0] = False  # label 0: the mask itself
+    return mask | small[hole]
+
+
+def _components(skeleton, labels):
+    """Skeleton pixels, sorted by (component, u): 8-connected runs of one direction label.
+
+    Returns ``(component index 0..n−1, direction, u, v, row, col)`` per pixel, or None if
+    there are none.
+    """
+    component = _direction_components(skeleton, labels)
     rows, cols = np.nonzero(component)
     if rows.size == 0:
         return None
@@ -123,50 +191,355 @@ def _component_pixels(mask, labels, min_pixels):
     direction = labels[rows, cols].astype(np.intp)
     u, v = _rotate(cols, rows, direction)
     order = np.lexsort((u, ident))
-    ident, direction, u, v = ident[order], direction[order], u[order], v[order]
-    counts = np.diff(np.append(np.flatnonzero(np.append(True, ident[1:] != ident[:-1])), ident.size))
-    keep = np.repeat(counts >= min_pixels, counts)
-    if not keep.any():
-        return None
-    kept = ident[keep]
-    comp = np.cumsum(np.append(True, kept[1:] != kept[:-1])) - 1
-    return comp, direction[keep], u[keep], v[keep]
+    ident, direction, u, v, rows, cols = (a[order] for a in (ident, direction, u, v, rows, cols))
+    comp = np.cumsum(np.append(True, ident[1:] != ident[:-1])) - 1
+    return comp, direction, u, v, rows, cols
 
 
-def _pieces(comp, direction, u, v, ell, piece_length):
-    """Cut every component's stroke into overlapping pieces, each at its own pixels' mean v.
+def _weaker(line: LineDrawing, threshold: float) -> float:
+    """The hysteresis low threshold: the strength whose stroke is half as dark as ``threshold``'s."""
+    return min(threshold, line.edge_strength(line.stroke_darkness(threshold) / 2))
 
-    A component spanning [u0, u1] paints from u0 − ℓ/2 to u1 + ℓ/2, like the kernel; the
-    extent is split into equal pieces of at most ``piece_length`` · ℓ that overlap by ℓ/4.
-    Following the mean v piece by piece tracks a gently curving contour instead of one chord.
 
-    Returns
-    -------
-    p0, p1, v, direction : arrays, one entry per piece (u extent, across position, label)
-    piece_of_pixel : array mapping every pixel to its piece
+def _smoothed_labels(line: LineDrawing) -> np.ndarray:
+    """Direction labels averaged over a Gaussian of σ = ℓ/5, as doubled angles weighted by E.
+
+    Lu's per-pixel argmax flickers between distant directions along a skeleton where two
+    kernels answer alike (on coffee and astronaut a third of the skeleton pixels have a
+    neighbour labelled otherwise); the strokes would flicker with it. Averaging the axial
+    directions 2θ (so θ and θ + 180° agree) halves that, the rest being the boundaries between
+    neighbouring directions along curves. A wider average steadies the labels further but
+    follows curves less closely: σ = ℓ/3 drew the plan's edges 0.01–0.03 further from the raster
+    (line fidelity, ``bench/plan.py``).
+    """
+    theta2 = line.labels.astype(np.float32) * np.float32(2 * np.pi / N_DIRECTIONS)
+    sigma = line.length / 5
+    weight = np.asarray(line.edges, np.float32)
+    c = cv2.GaussianBlur(weight * np.cos(theta2), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    s = cv2.GaussianBlur(weight * np.sin(theta2), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+    step = np.arctan2(s, c) * np.float32(N_DIRECTIONS / (2 * np.pi))
+    return (np.rint(step).astype(np.intp) % N_DIRECTIONS).astype(np.uint8)
+
+
+def _clutter(skeleton, direction, rows, cols, ell) -> np.ndarray:
+    """Clutter at each skeleton pixel (see the module docstring).
+
+    The window is a Gaussian of σ = CLUTTER_SIGMA · ℓ. A straight line through its centre adds
+    1/(√(2π) σ) to the blurred skeleton, so scaling by √(2π) σ counts crossing contours. Their
+    coherence is the length of the mean doubled-angle vector of the skeleton's directions (so
+    that θ and θ + 180° agree): 1 when all run alike, about 0 when every direction is there.
+    """
+    sigma = CLUTTER_SIGMA * ell
+    theta2 = direction * (2 * np.pi / N_DIRECTIONS)
+    planes = np.zeros((3,) + skeleton.shape, np.float32)
+    planes[0, rows, cols] = 1.0
+    planes[1, rows, cols] = np.cos(theta2)
+    planes[2, rows, cols] = np.sin(theta2)
+    count, c, s = (
+        cv2.GaussianBlur(plane, (0, 0), sigma, borderType=cv2.BORDER_REFLECT)[rows, cols] for plane in planes
+    )
+    coherence = np.hypot(c, s) / np.maximum(count, 1e-9)
+    return count * (math.sqrt(2 * math.pi) * sigma) * np.clip(1.0 - coherence, 0.0, 1.0)
+
+
+def _raster_width(drawing, skeleton, comp, rows, cols, ell):
+    """Per component: the raster's width across it, in pixels of solid black.
+
+    Darkness summed over an ℓ × ℓ window per skeleton pixel in it, averaged over the
+    component's pixels: the graphite the raster lays per pixel of contour.
+    """
+    size = max(3, int(round(ell)) | 1)
+    window = {"ksize": (size, size), "normalize": False, "borderType": cv2.BORDER_CONSTANT}
+    ink = cv2.boxFilter(1.0 - drawing, -1, **window)
+    count = cv2.boxFilter(skeleton.astype(np.float32), -1, **window)
+    width = ink[rows, cols] / np.maximum(count[rows, cols], 1.0)
+    return np.bincount(comp, weights=width) / np.bincount(comp)
+
+
+class _Strokes:
+    """Per component: its polyline in pixels, its two core ends and its direction.
+
+    ``points`` (M, 2) (col, row) of all polylines back to back, ``offsets`` (n + 1) into it;
+    ``core`` (n, 2, 2) where each component's pixels start and stop (before the overshoot);
+    ``outward`` (n, 2, 2) the unit direction in which each end's tip leaves its core end;
+    ``unit`` (n, 2) the direction of its label in (col, row); ``extent`` (n,) its length
+    along that direction and ``overshoot`` (n,) how far its tips reach past the core, px.
+    """
+
+    def __init__(self, points, offsets, core, outward, unit, extent, overshoot):
+        self.points, self.offsets, self.core, self.outward = points, offsets, core, outward
+        self.unit, self.extent, self.overshoot = unit, extent, overshoot
+
+    @property
+    def n(self) -> int:
+        return len(self.unit)
+
+
+def _strokes(comp, direction, u, v, ell, piece_length) -> _Strokes:
+    """Each component's polyline: tip, core end, piece centres (if bent), core end, tip.
+
+    The core ends are where the component's pixels start and stop (at the mean across-position
+    of its pixels within a pixel of each end). A component longer than ``piece_length`` · ℓ
+    bends at the centre of each piece of about that length. The tips overshoot the core ends
+    along the end segments, by ℓ/4 or half the component's length if less, so that consecutive
+    strokes cross as the raster's do, and a small feature (an eye's lid, a pupil) is drawn with
+    small strokes; a straight (one-piece) stroke is just its two tips.
     """
     first = np.flatnonzero(np.append(True, comp[1:] != comp[:-1]))
     last = np.append(first[1:], u.size) - 1
-    start, stop = u[first] - ell / 2, u[last] + ell / 2
-    overlap = ell / 4
-    n_pieces = np.maximum(
-        1, np.ceil((stop - start - overlap) / max(piece_length * ell - overlap, 1e-9))
-    ).astype(np.intp)
-    piece = (stop - start + (n_pieces - 1) * overlap) / n_pieces
-    step = piece - overlap
-
-    index_in_comp = np.clip(np.floor((u - start[comp]) / step[comp]), 0, n_pieces[comp] - 1)
-    piece_base = np.cumsum(n_pieces) - n_pieces
-    piece_of_pixel = piece_base[comp] + index_in_comp.astype(np.intp)
+    n_comp = first.size
+    u0, u1 = u[first], u[last]
+    n_pieces = np.maximum(1, np.ceil((u1 - u0 + 1) / max(piece_length * ell, 1e-9))).astype(np.intp)
+    step = (u1 - u0 + 1) / n_pieces
+    index = np.clip(np.floor((u - u0[comp]) / step[comp]), 0, n_pieces[comp] - 1).astype(np.intp)
+    base = np.cumsum(n_pieces) - n_pieces
+    piece = base[comp] + index
     total = int(n_pieces.sum())
-    pixels = np.bincount(piece_of_pixel, minlength=total)
-    v_sum = np.bincount(piece_of_pixel, weights=v, minlength=total)
+    count = np.bincount(piece, minlength=total)
+    piece_u = np.bincount(piece, weights=u, minlength=total) / np.maximum(count, 1)
+    piece_v = np.bincount(piece, weights=v, minlength=total) / np.maximum(count, 1)
+    # A piece over a gap in its component has no pixels: it sits midway, on the mean v.
+    owner = np.repeat(np.arange(n_comp), n_pieces)
     comp_v = np.bincount(comp, weights=v) / np.bincount(comp)
-    owner = np.repeat(np.arange(first.size), n_pieces)
-    # A piece over a gap in its component has no pixels: it keeps the component's mean v.
-    piece_v = np.where(pixels > 0, v_sum / np.maximum(pixels, 1), comp_v[owner])
-    p0 = start[owner] + (np.arange(total) - piece_base[owner]) * step[owner]
-    return p0, p0 + piece[owner], piece_v, direction[first][owner], piece_of_pixel
+    piece_v = np.where(count == 0, comp_v[owner], piece_v)
+    piece_u = np.where(count == 0, u0[owner] + (np.arange(total) - base[owner] + 0.5) * step[owner], piece_u)
+    near0 = (u - u0[comp] <= 1.0).astype(np.float64)
+    near1 = (u1[comp] - u <= 1.0).astype(np.float64)
+    v0 = np.bincount(comp, weights=v * near0) / np.bincount(comp, weights=near0)
+    v1 = np.bincount(comp, weights=v * near1) / np.bincount(comp, weights=near1)
+
+    # Vertices in (u, v): core end, piece centres of bent components, core end.
+    bent = n_pieces > 1
+    n_inner = 2 + np.where(bent, n_pieces, 0)
+    starts = np.append(0, np.cumsum(n_inner))[:-1]
+    vu, vv = np.empty(int(n_inner.sum())), np.empty(int(n_inner.sum()))
+    vu[starts], vv[starts] = u0, v0
+    vu[starts + n_inner - 1], vv[starts + n_inner - 1] = u1, v1
+    slot = (starts[owner] + 1 + np.arange(total) - base[owner])[bent[owner]]
+    vu[slot], vv[slot] = piece_u[bent[owner]], piece_v[bent[owner]]
+    inner = np.column_stack(_unrotate(vu, vv, np.repeat(direction[first], n_inner)))
+    core = np.stack([inner[starts], inner[starts + n_inner - 1]], axis=1)
+    theta = direction[first] * (np.pi / N_DIRECTIONS)
+    unit = np.column_stack([np.cos(theta), -np.sin(theta)])
+    # Outward at each end: along the end segment, or the label's direction for a dot.
+    out0 = core[:, 0] - inner[starts + 1]
+    out1 = core[:, 1] - inner[starts + n_inner - 2]
+    outward = np.stack([_unit_or(out0, -unit), _unit_or(out1, unit)], axis=1)
+    overshoot = np.minimum(ell / 4, (u1 - u0 + 1) / 2)
+    tips = core + overshoot[:, None, None] * outward
+
+    # Polylines: tip, [core, centres, core,] tip — a one-piece stroke is its two tips.
+    n_vertices = np.where(bent, n_inner + 2, 2)
+    offsets = np.append(0, np.cumsum(n_vertices))
+    points = np.empty((int(offsets[-1]), 2))
+    points[offsets[:-1]] = tips[:, 0]
+    points[offsets[1:] - 1] = tips[:, 1]
+    keep_inner = np.repeat(bent, n_inner)
+    target = (np.repeat(offsets[:-1] + 1, n_inner) + _ramp(n_inner))[keep_inner]
+    points[target] = inner[keep_inner]
+    return _Strokes(points, offsets, core, outward, unit, u1 - u0 + 1, overshoot)
+
+
+def _unit_or(vectors: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """``vectors`` scaled to length 1; ``fallback`` where they are shorter than half a pixel."""
+    length = np.hypot(vectors[:, 0], vectors[:, 1])
+    return np.where((length >= 0.5)[:, None], vectors / np.maximum(length, 1e-12)[:, None], fallback)
+
+
+def _select(strokes: _Strokes, which: np.ndarray, shift_px: float = 0.0) -> _Strokes:
+    """The ``which`` components (boolean mask), moved ``shift_px`` across their direction."""
+    keep = np.flatnonzero(which)
+    sizes = np.diff(strokes.offsets)[keep]
+    index = np.repeat(strokes.offsets[keep], sizes) + _ramp(sizes)
+    across = np.column_stack([-strokes.unit[:, 1], strokes.unit[:, 0]])  # (sin θ, cos θ): +v
+    points = strokes.points[index] + shift_px * np.repeat(across[keep], sizes, axis=0)
+    offsets = np.append(0, np.cumsum(sizes))
+    core = strokes.core[keep] + shift_px * across[keep][:, None, :]
+    return _Strokes(
+        points, offsets, core, strokes.outward[keep], strokes.unit[keep], strokes.extent[keep], strokes.overshoot[keep]
+    )
+
+
+def _contours(strokes, links, pixels, texture, ell, min_pixels, clutter) -> np.ndarray:
+    """Which components to draw: those of chains that are contour, not speckle or texture.
+
+    A chain (components linked along one contour) of fewer than ``min_pixels`` skeleton pixels
+    is speckle. One whose mean clutter c (``texture`` per component) exceeds ``clutter`` is kept
+    only if it is at least ℓ · (c / ``clutter``)^CLUTTER_POWER long. Judging chains, not
+    components, keeps the short strokes that turn a corner or close a small circle.
+    """
+    chain = _chain_ids(strokes.n, links)
+    length = np.bincount(chain, weights=strokes.extent)
+    chain_clutter = np.bincount(chain, weights=texture * strokes.extent) / length
+    keep_chain = np.bincount(chain, weights=pixels) >= min_pixels
+    keep_chain &= (chain_clutter <= clutter) | (length >= ell * (chain_clutter / clutter) ** CLUTTER_POWER)
+    return keep_chain[chain]
+
+
+def _chain_ids(n: int, links: np.ndarray) -> np.ndarray:
+    """Index of the chain (connected component of the link graph) of each of ``n`` components."""
+    ca, cb = links[:, 0].astype(np.intp) // 2, links[:, 1].astype(np.intp) // 2
+    graph = coo_matrix((np.ones(len(ca)), (ca, cb)), shape=(n, n))
+    return connected_components(graph, directed=False)[1]
+
+
+def _relinked(links: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """``links`` between kept components only, their end ids renumbered for the kept ones."""
+    new = np.cumsum(keep) - 1
+    ends = links[:, :2].astype(np.intp)
+    both = keep[ends[:, 0] // 2] & keep[ends[:, 1] // 2]
+    ends = 2 * new[ends[both] // 2] + ends[both] % 2
+    return np.column_stack([ends, links[both, 2:]])
+
+
+def _links(strokes: _Strokes, reach: float) -> np.ndarray:
+    """Pairs of core ends that continue one contour: rows (end a, end b, X col, X row).
+
+    End id ``2 · component + side`` (side 0 = start, 1 = end). Candidates lie within ``reach`` px,
+    point away from each other within ``MAX_TURN``, and do not run back past each other; every
+    end keeps its best candidate (nearest, then straightest) and only mutual choices are linked,
+    for a few rounds so that an end whose choice went elsewhere can take its next best. X is the
+    crossing point of the two strokes' lines, or the middle of the two core ends where the lines
+    are (nearly) parallel or cross far away.
+    """
+    if strokes.n < 2:
+        return _NO_LINKS
+    ends = strokes.core.reshape(-1, 2)  # end id e: component e // 2, side e % 2
+    outward = strokes.outward.reshape(-1, 2)
+    pairs = cKDTree(ends).query_pairs(reach, output_type="ndarray")
+    pairs = pairs[pairs[:, 0] // 2 != pairs[:, 1] // 2]
+    if pairs.size == 0:
+        return _NO_LINKS
+    a, b = pairs[:, 0], pairs[:, 1]
+    gap = ends[b] - ends[a]
+    dist = np.hypot(gap[:, 0], gap[:, 1])
+    facing = np.einsum("ij,ij->i", outward[a], outward[b])
+    ahead_a = np.einsum("ij,ij->i", gap, outward[a])
+    ahead_b = -np.einsum("ij,ij->i", gap, outward[b])
+    lateral = np.abs(gap[:, 0] * outward[a, 1] - gap[:, 1] * outward[a, 0])
+    ok = (facing <= -math.cos(math.radians(MAX_TURN))) & (ahead_a >= -1.5) & (ahead_b >= -1.5)
+    ok &= lateral <= 1.5 + 0.5 * np.maximum(ahead_a, 0)
+    a, b, dist, facing = a[ok], b[ok], dist[ok], facing[ok]
+    cost = dist + 2.0 * (1.0 + facing)  # straighter continuations win near-ties
+    linked = np.zeros((0, 2), np.intp)
+    free = np.ones(len(ends), bool)
+    for _ in range(3):  # rounds of mutual-best matching (each a handful of array passes)
+        live = free[a] & free[b]
+        if not live.any():
+            break
+        la, lb, lc = a[live], b[live], cost[live]
+        both = np.concatenate([la, lb])
+        other = np.concatenate([lb, la])
+        order = np.lexsort((np.concatenate([lc, lc]), both))
+        both, other = both[order], other[order]
+        head = np.append(True, both[1:] != both[:-1])
+        best = np.full(len(ends), -1)
+        best[both[head]] = other[head]
+        mutual = np.flatnonzero((best >= 0) & (best[np.maximum(best, 0)] == np.arange(len(ends))))
+        mutual = mutual[mutual < best[mutual]]
+        if mutual.size == 0:
+            break
+        linked = np.concatenate([linked, np.column_stack([mutual, best[mutual]])])
+        free[mutual] = free[best[mutual]] = False
+    if linked.size == 0:
+        return _NO_LINKS
+    # Two strokes linked at both ends (a small closed curve) keep one link: a chain, not a loop
+    # whose pen order the depth-first walk could not tell.
+    pair = np.sort(linked // 2, axis=1)
+    _, once = np.unique(pair[:, 0] * (len(ends) // 2) + pair[:, 1], return_index=True)
+    linked = linked[np.sort(once)]
+    reach_past = np.repeat(strokes.overshoot, 2)
+    return np.column_stack([linked, _crossing(ends, outward, linked, reach_past)])
+
+
+def _crossing(ends, outward, linked, overshoot):
+    """Crossing point of each linked pair's lines; the middle of the core ends if none nearby.
+
+    ``overshoot`` per end: how far its tip reaches past it (the crossing must lie within that).
+    """
+    pa, pb = ends[linked[:, 0]], ends[linked[:, 1]]
+    da, db = outward[linked[:, 0]], outward[linked[:, 1]]
+    denom = da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0]
+    gap = pb - pa
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = (gap[:, 0] * db[:, 1] - gap[:, 1] * db[:, 0]) / denom
+        cross = pa + t[:, None] * da
+    middle = (pa + pb) / 2
+    near = (np.abs(denom) > 0.05) & (np.abs(t) <= overshoot[linked[:, 0]])
+    near &= np.hypot(*(cross - pb).T) <= overshoot[linked[:, 1]]
+    return np.where(near[:, None], cross, middle)
+
+
+def _chains(strokes: _Strokes, links: np.ndarray, shape) -> list[np.ndarray]:
+    """Polylines (px) of the strokes, linked ones joined through their crossing points.
+
+    The links make a graph of degree ≤ 2 on the components (each end has at most one partner):
+    paths and cycles. A virtual root joined to one end component of every chain (any member for
+    a cycle) makes one depth-first order in which every chain is a contiguous run, in order.
+    """
+    n = strokes.n
+    if n == 0:
+        return []
+    ca, cb = links[:, 0].astype(np.intp) // 2, links[:, 1].astype(np.intp) // 2
+    member = _chain_ids(n, links)
+    degree = np.bincount(np.concatenate([ca, cb]), minlength=n)
+    # Start each chain at its lowest-degree member (a path's end), lowest index on ties.
+    pick = np.lexsort((np.arange(n), degree, member))
+    starts = pick[np.append(True, member[pick][1:] != member[pick][:-1])]
+    root = np.full(starts.size, n)
+    rows = np.concatenate([ca, root])
+    cols = np.concatenate([cb, starts])
+    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n + 1, n + 1)).tocsr()
+    order, pred = depth_first_order(graph, n, directed=False, return_predecessors=True)
+    order = order[1:]  # drop the root
+    parent = pred[order]
+    new_chain = parent == n
+
+    # Which side of each component its predecessor is linked to (that is where the pen enters).
+    partner = np.full(2 * n, -1)
+    partner[links[:, 0].astype(np.intp)] = links[:, 1].astype(np.intp)
+    partner[links[:, 1].astype(np.intp)] = links[:, 0].astype(np.intp)
+    partner_comp = np.where(partner >= 0, partner // 2, -1)
+    enter_at_end = partner_comp[2 * order + 1] == parent
+    # A chain's first component leaves towards its successor; it enters at the other side.
+    nxt = np.append(order[1:], -1)
+    has_next = np.append(~new_chain[1:], False)
+    leave_at_start = partner_comp[2 * order] == nxt
+    enter_at_end = np.where(new_chain, has_next & leave_at_start, enter_at_end)
+    crossing = np.full((2 * n, 2), np.nan)
+    crossing[links[:, 0].astype(np.intp)] = links[:, 2:]
+    crossing[links[:, 1].astype(np.intp)] = links[:, 2:]
+
+    # Flat list of point indices: each component's polyline (reversed if entered at its end),
+    # then, if the chain goes on, the crossing point at the side the pen leaves by.
+    sizes = np.diff(strokes.offsets)[order]
+    ramp = _ramp(sizes)
+    index = np.repeat(strokes.offsets[order], sizes) + np.where(
+        np.repeat(enter_at_end, sizes), np.repeat(sizes - 1, sizes) - ramp, ramp
+    )
+    points = strokes.points[index]
+    leave_side = 2 * order + np.where(enter_at_end, 0, 1)
+    joint = crossing[leave_side]
+    has_joint = has_next
+    # Interleave: after the last point of component k comes its joint (when it has one).
+    ends_at = np.cumsum(sizes)
+    insert_at = ends_at[has_joint]
+    points = np.insert(points, insert_at, joint[has_joint], axis=0)
+    points = _clip_points(points, shape)
+    chain_sizes = np.bincount(np.cumsum(new_chain) - 1, weights=sizes + has_joint).astype(np.intp)
+    return np.split(points, np.cumsum(chain_sizes)[:-1])
+
+
+def _clip_points(points: np.ndarray, shape) -> np.ndarray:
+    """Points moved into the image rectangle (overshooting tips stop at the frame)."""
+    height, width = shape
+    return np.column_stack([np.clip(points[:, 0], 0, width - 1), np.clip(points[:, 1], 0, height - 1)])
+
+
+def _ramp(sizes: np.ndarray) -> np.ndarray:
+    """0, 1, …, s − 1 for every s in ``sizes``, back to back."""
+    sizes = np.asarray(sizes, np.intp)
+    return np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)
 
 
 def _direction_components(mask: np.ndarray, labels: np.ndarray) -> np.ndarray:
@@ -190,19 +563,7 @@ def _rotate(cols, rows, direction):
     return u, v
 
 
-def _clip_to_image(u0, u1, v, direction, shape):
-    """Shorten each stroke [u0, u1] on line v of direction k to the image rectangle (slab test)."""
-    height, width = shape
+def _unrotate(u, v, direction):
+    """(col, row) of rotated coordinates (the inverse of :func:`_rotate`)."""
     theta = direction * (np.pi / N_DIRECTIONS)
-    dc, dr = np.cos(theta), -np.sin(theta)
-    base_c, base_r = v * np.sin(theta), v * np.cos(theta)
-    lo, hi = u0.copy(), u1.copy()
-    for base, step, limit in ((base_c, dc, width - 1), (base_r, dr, height - 1)):
-        moving = np.abs(step) > 1e-12
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t_a = (0 - base) / step
-            t_b = (limit - base) / step
-        t_min = np.where(moving, np.minimum(t_a, t_b), -np.inf)
-        t_max = np.where(moving, np.maximum(t_a, t_b), np.inf)
-        lo, hi = np.maximum(lo, t_min), np.minimum(hi, t_max)
-    return lo, np.maximum(hi, lo)
+    return u * np.cos(theta) + v * np.sin(theta), -u * np.sin(theta) + v * np.cos(theta)

@@ -8,7 +8,7 @@ from skimage import data
 from skimage import io as skio
 
 import pencilbot
-from pencilbot.errors import ImageLoadError, ProfileError
+from pencilbot.errors import ImageLoadError, PencilbotError, ProfileError
 from sim import protocol_sim
 
 
@@ -23,6 +23,16 @@ def test_sketch_accepts_an_array_and_a_path_alike(camera_small, tmp_path):
     from_file = pencilbot.sketch(tmp_path / "cam.png")
     assert from_array.result.shape == camera_small.shape
     np.testing.assert_array_equal(from_array.result, from_file.result)
+
+
+def test_sketch_takes_stroke_options_and_a_texture(camera_small):
+    plain = pencilbot.sketch(camera_small)
+    bold = pencilbot.sketch(camera_small, stroke_gamma=2.5, stroke_width=2.0)
+    assert (bold.line.gamma, plain.line.gamma) == (2.5, 1.0)
+    assert bold.line.drawing.mean() < plain.line.drawing.mean()
+    stripes = np.tile(np.where(np.arange(12) % 4 == 0, 0.3, 0.95), (12, 1))
+    textured = pencilbot.sketch(camera_small, texture=stripes)
+    assert np.abs(textured.texture - plain.texture).mean() > 0.02
 
 
 def test_plan_honours_page_and_pen_width(camera_small):
@@ -61,3 +71,7 @@ def test_user_mistakes_raise_pencilbot_errors(tmp_path):
         pencilbot.sketch(tmp_path / "x.png")
     with pytest.raises(ProfileError, match="nope"):
         pencilbot.plan(data.camera()[::8, ::8], style="nope")
+    with pytest.raises(PencilbotError, match="stroke_gamma"):
+        pencilbot.sketch(data.camera()[::8, ::8], stroke_gamma=-1)
+    with pytest.raises(ImageLoadError, match="pencil texture: .*x.png"):
+        pencilbot.sketch(data.camera()[::8, ::8], texture=tmp_path / "x.png")

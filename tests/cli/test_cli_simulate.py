@@ -73,6 +73,12 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
         (["simulate", "{src}", "-o", "{out}", "--profile", "marlin-servo-a4"], "GRBL"),
         (["simulate", "{src}", "-o", "{out}", "--profile", "nope"], "nope"),
         (["simulate", "{src}", "-o", "{out}", "--dpi", "0"], "--dpi"),
+        # Without the bounds these grew to 22.5 GB, died in MemoryError / ZeroDivisionError, or hung.
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "5000"], "GB to render, more than this machine has free"),
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "30000"], "use --dpi"),
+        (["simulate", "{src}", "-o", "{out}", "--pen-width", "1e9"], "--pen-width 1e+09 mm is wider than any pen"),
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "inf"], "--dpi must be positive and finite"),
+        (["simulate", "{src}", "-o", "{out}", "--realtime", "nan"], "--realtime must be 0"),
     ],
 )
 def test_simulate_bad_input_is_one_clear_error_and_no_file(tmp_path, capsys, argv, message):
@@ -122,6 +128,49 @@ def test_simulate_refuses_a_command_that_is_not_ascii_naming_the_line(tmp_path, 
     assert f"line 3 of {src}" in err and "non-ASCII" in err and "Traceback" not in err
 
 
+FOREIGN = """%
+(a CAM program: arcs, inches, relative moves, a byte-order mark and % markers)
+G21 G90 G17
+G0 X60 Y60
+M3 S90
+G2 X60 Y60 I0 J-25 F2000
+M3 S30
+G0 X140 Y150
+M3 S90
+G91 G1 X20
+G3 X0 Y20 R-10
+G90 M3 S30
+G20 G0 X1 Y10
+M3 S90
+G2 X3 Y10 I1 J0 F80
+M3 S30
+M2
+%
+"""
+
+
+def test_simulate_foreign_gcode_draws_the_picture_it_describes(tmp_path):
+    src = tmp_path / "foreign.nc"
+    src.write_bytes(b"\xef\xbb\xbf" + FOREIGN.encode("ascii"))
+    out = tmp_path / "plot.png"
+    assert main(["simulate", str(src), "-o", str(out), "--dpi", str(DPI), "-q"]) == 0
+    dark = ink(out)
+    rows = dark.shape[0]
+
+    def inked(x, y):
+        r, c = px(rows, x, y)
+        return dark[r - 1:r + 2, c - 1:c + 2].max()
+
+    # the full circle: centre (60, 35), r = 25
+    for angle in np.radians([0, 45, 90, 135, 180, 225, 270, 315]):
+        assert inked(60 + 25 * np.cos(angle), 35 + 25 * np.sin(angle)) > 0.5
+    assert inked(60, 35) < 0.02
+    # relative line (140, 150) → (160, 150), then the half circle bulging right to x = 170
+    assert inked(150, 150) > 0.5 and inked(170, 160) > 0.5 and inked(150, 160) < 0.02
+    # the inch arc: centre (2, 10) in = (50.8, 254) mm, r = 25.4 mm, over the top
+    assert inked(50.8, 279.4) > 0.5 and inked(50.8, 228.6) < 0.02
+
+
 def test_simulate_a_photo(tmp_path):
     from skimage import data
 
@@ -159,6 +208,8 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/")
         with serial.Serial(path, 115200, timeout=0.1) as port:
+            time.sleep(0.2)  # opening resets the board like an Arduino's DTR: let it boot, drop its banner
+            port.reset_input_buffer()
             port.write(grbl.SOFT_RESET)
             seen = b""
             end = time.monotonic() + 10
@@ -176,8 +227,70 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     assert ink(out).max() > 0.5
 
 
+def serve(tmp_path, *argv):
+    """A running ``sim-serve`` and its first device path."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", *argv],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    return proc, proc.stdout.readline().strip()
+
+
+def stream(path, lines):
+    with serial.Serial(path, 115200, timeout=0.1) as port:
+        time.sleep(0.1)  # the open resets the board, like an Arduino
+        port.reset_input_buffer()
+        for line in lines:
+            port.write(grbl.encode_line(line))
+            assert port.readline() == b"ok\r\n"
+
+
+def test_sim_serve_plays_a_real_board_unless_told_otherwise():
+    from pencilbot.cli import build_parser
+    from sim.protocol_sim import REAL_BOARD
+
+    args = build_parser().parse_args(["sim-serve"])
+    assert {key: getattr(args, key) for key in REAL_BOARD} == REAL_BOARD and not args.no_reset
+
+
+def test_sim_serve_saves_its_drawing_on_sigterm(tmp_path):
+    out = tmp_path / "served.png"
+    proc, path = serve(tmp_path, "-o", str(out))
+    try:
+        stream(path, SQUARE.splitlines())
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == 0, stderr
+    assert "12 lines accepted" in stdout and ink(out).max() > 0.5
+
+
+def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
+    out = tmp_path / "served.png"
+    proc, path = serve(tmp_path, "--faults", "drop@3", "-o", str(out))
+    try:
+        with serial.Serial(path, 115200, timeout=0.1) as port:
+            time.sleep(0.1)
+            for line in SQUARE.splitlines()[:3]:
+                port.write(grbl.encode_line(line))
+            with pytest.raises(serial.SerialException):  # line 3 pulls the cable
+                end = time.monotonic() + 5
+                while time.monotonic() < end:
+                    port.read(100)
+        again = proc.stdout.readline().strip()  # the board is plugged back in elsewhere
+        assert again.startswith("/dev/")
+        stream(again, SQUARE.splitlines()[2:])
+    finally:
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == 0, stderr
+    assert "12 lines accepted" in stdout and ink(out).max() > 0.5
+
+
 @pytest.mark.parametrize("argv, message", [
     (["--dpi", "0", "-o", "x.png"], "--dpi must be positive"),
+    (["--dpi", "9e9", "-o", "x.png"], "use --dpi"),
+    (["--realtime", "nan"], "--realtime and --baud must be 0"),
     (["-o", "no/such/folder/x.png"], "folder does not exist"),
     (["--realtime", "-1"], "--realtime and --baud must be 0"),
     (["--baud", "-9600"], "--realtime and --baud must be 0"),

@@ -89,3 +89,72 @@ def test_negative_texture_seed_is_a_clear_error(photo, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith("pencilbot: error:") and "--texture-seed" in err and "Traceback" not in err
     assert not out.exists()
+
+
+@pytest.fixture(scope="module")
+def hand_texture(tmp_path_factory):
+    """A 'scanned' pencil texture: dark diagonal hatching strokes on off-white paper, as a PNG."""
+    import cv2
+
+    rng = np.random.default_rng(7)
+    paper = np.full((180, 240), 235, np.uint8)
+    for x, y, pressure in rng.uniform((-60, 0, 60), (240, 180, 160), (220, 3)):
+        cv2.line(paper, (int(x), int(y + 40)), (int(x + 40), int(y)), int(pressure), 1, cv2.LINE_AA)
+    path = tmp_path_factory.mktemp("tex") / "hatching.png"
+    Image.fromarray(paper).save(path)
+    return path
+
+
+def test_a_hand_drawn_texture_file_changes_the_sketch(photo, hand_texture, tmp_path, capsys):
+    plain, textured = tmp_path / "plain.png", tmp_path / "textured.png"
+    assert main(["sketch", str(photo), "-o", str(plain), "-q"]) == 0
+    assert main(["sketch", str(photo), "-o", str(textured), "--texture", str(hand_texture), "-q"]) == 0
+    a, b = (np.asarray(Image.open(p)).astype(float) for p in (plain, textured))
+    assert np.abs(a - b).mean() > 3
+    # The file is the library's result with that texture, and its tone stays the photo's.
+    expected = sketch(load_image(photo), texture=hand_texture).result
+    np.testing.assert_array_equal(b.astype(np.uint8), as_png_pixels(expected))
+    assert abs(a.mean() - b.mean()) < 15
+
+
+@pytest.mark.parametrize(
+    ("make_texture", "message"),
+    [
+        (lambda d: d / "missing.png", "no such file"),
+        (lambda d: (d / "notes.png").write_text("not an image") and d / "notes.png", "not an image file"),
+        (lambda d: (d / "empty.png").write_bytes(b"") or d / "empty.png", "empty"),
+    ],
+    ids=["missing", "not-an-image", "empty"],
+)
+def test_an_unreadable_texture_is_one_message(photo, tmp_path, capsys, make_texture, message):
+    texture, out = make_texture(tmp_path), tmp_path / "x.png"
+    assert main(["sketch", str(photo), "-o", str(out), "--texture", str(texture)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pencilbot: error: pencil texture:") and message in err
+    assert "Traceback" not in err and err.count("\n") == 1
+    assert not out.exists()
+
+
+def test_stroke_gamma_and_width_options(photo, tmp_path):
+    outputs = {}
+    for name, extra in {"plain": [], "gamma": ["--stroke-gamma", "3"], "wide": ["--stroke-width", "3"]}.items():
+        outputs[name] = tmp_path / f"{name}.png"
+        assert main(["sketch", str(photo), "-o", str(outputs[name]), "--lines-only", "-q", *extra]) == 0
+    plain, gamma, wide = (np.asarray(Image.open(outputs[n])).astype(float) for n in ("plain", "gamma", "wide"))
+    # γ > 1 darkens strokes without moving them; a wider stroke covers more paper.
+    assert gamma.mean() < plain.mean() - 1 and np.all(gamma <= plain + 1)
+    assert (wide < 128).sum() > 1.5 * (plain < 128).sum()
+
+
+@pytest.mark.parametrize(
+    "extra",
+    [["--stroke-gamma", "0"], ["--stroke-gamma", "nan"], ["--stroke-width", "0.1"], ["--stroke-width", "500"],
+     ["--lines-only", "--texture", "x.png"]],
+)
+def test_bad_stroke_and_texture_options_are_one_message(photo, tmp_path, capsys, extra):
+    out = tmp_path / "x.png"
+    assert main(["sketch", str(photo), "-o", str(out), *extra]) == 2
+    err = capsys.readouterr().err
+    flag = next(a for a in extra if a.startswith("--") and a != "--lines-only")
+    assert err.startswith("pencilbot: error:") and flag in err and "Traceback" not in err
+    assert not out.exists()

@@ -12,6 +12,7 @@ from pencilbot.errors import PencilbotError
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.strokes import (
     LONGEST_LENGTH,
+    STROKE_FLOOR,
     LineDrawing,
     default_line_length,
     line_drawing,
@@ -85,7 +86,7 @@ def test_drawing_darkest_along_edges_of_a_shape():
     dist = np.abs(np.hypot(yy - 60, xx - 60) - 35)
     assert line.drawing[dist < 1.5].mean() < 0.6
     assert np.all(line.drawing[dist > 12] == 1.0)  # far from the contour: clean paper
-    assert line.drawing.min() == 0.0  # Lu's normalisation: the strongest stroke is black
+    assert line.drawing.min() == 0.0  # a clear-cut contour (E = 1) is black
 
 
 @pytest.mark.parametrize("length", [6, 10, 13])
@@ -125,6 +126,58 @@ def test_deterministic_and_gamma():
     np.testing.assert_array_equal(a.drawing, b.drawing)
     np.testing.assert_array_equal(a.labels, b.labels)
     np.testing.assert_allclose(line_drawing(E, gamma=2.0).drawing, a.drawing**2, atol=1e-6)
+
+
+def _segment(strength, row=20, shape=(41, 101)):
+    E = np.zeros(shape, np.float32)
+    E[row, 30:71] = strength
+    return E
+
+
+def test_stroke_darkness_is_absolute_not_divided_by_the_strongest():
+    # Along a straight run S = E: a stroke is 1 − (E − floor) / (1 − floor) light, whether or not
+    # a stronger one is in the picture (Lu's S / max S made the weak one black when alone).
+    weak = line_drawing(_segment(0.55), length=9).drawing
+    expected = 1 - (0.55 - STROKE_FLOOR) / (1 - STROKE_FLOOR)
+    assert weak[20, 50] == pytest.approx(expected, abs=1e-4)
+    both = _segment(0.55)
+    both[10, 30:71] = 1.0
+    drawing = line_drawing(both, length=9).drawing
+    assert drawing[20, 50] == pytest.approx(expected, abs=1e-4) and drawing[10, 50] == 0.0
+    # Below the stroke floor: paper.
+    assert np.all(line_drawing(_segment(0.9 * STROKE_FLOOR), length=9).drawing == 1.0)
+
+
+def test_a_wider_stroke_is_wider_and_as_dark():
+    thin = line_drawing(_segment(1.0), length=9, width=1.0).drawing
+    wide = line_drawing(_segment(1.0), length=9, width=3.0).drawing
+    assert thin[:, 50].min() == 0.0 and wide[:, 50].min() == 0.0
+    assert np.count_nonzero(wide[:, 50] < 0.5) >= np.count_nonzero(thin[:, 50] < 0.5) + 2
+
+
+@pytest.mark.parametrize("gamma", [0.5, 1.0, 2.5])
+def test_edge_strength_inverts_the_tone_curve(gamma):
+    probe = line_drawing(np.zeros((5, 5), np.float32), gamma=gamma)
+    for darkness in (0.2, 0.5, 0.8):
+        strength = probe.edge_strength(darkness)
+        drawing = line_drawing(_segment(strength), length=9, gamma=gamma).drawing
+        assert 1 - drawing[20, 50] == pytest.approx(darkness, abs=1e-3)
+    # γ > 1 darkens: a fainter edge reaches the same darkness.
+    if gamma > 1:
+        assert probe.edge_strength(0.5) < line_drawing(np.zeros((5, 5), np.float32)).edge_strength(0.5)
+
+
+def test_contours_do_not_fade_with_resolution():
+    # The same photo at 0.26 MP and (upsampled) 2.4 MP: the line drawing is about as dark.
+    # Per-pixel differences divided by their maximum made it 34 % lighter at 2.4 MP.
+    import skimage.data
+
+    photo = skimage.data.astronaut().mean(axis=2).astype(np.float32) / 255
+    big = cv2.resize(photo, (1536, 1536), interpolation=cv2.INTER_CUBIC).clip(0, 1)
+    small_dark = 1 - line_drawing(edge_map(photo)).drawing.mean()
+    big_dark = 1 - line_drawing(edge_map(big)).drawing.mean()
+    assert small_dark > 0.03
+    assert big_dark == pytest.approx(small_dark, rel=0.15)
 
 
 def test_flat_edge_map_is_blank_paper():

@@ -7,7 +7,8 @@ import scipy.sparse.linalg as spla
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pencilbot.imaging.texture import pencil_texture, texture_map
+from pencilbot.errors import ImageLoadError
+from pencilbot.imaging.texture import MEAN_DENSITY, STROKE_ANGLES, pencil_texture, texture_map, user_texture
 
 
 def normal_equations(J, H, lam):
@@ -59,6 +60,89 @@ def test_texture_hatches_along_the_stroke_direction():
     # Strokes run at 40–55° counter-clockwise on screen: (col, row) direction (1, −1).
     along, across = correlation(6, -6), correlation(6, 6)
     assert along > 0.3 and across < 0.1
+
+
+def test_texture_is_thin_graphite_marks_not_smudge():
+    # Pencil marks: thin across (the density decorrelates within 2 px), long along (still
+    # correlated 10 px on) but finite (gone 60 px on). The former Gaussian streak field was
+    # smeared across (0.37 at 2 px).
+    d = -np.log(pencil_texture((512, 512), seed=2).astype(np.float64))
+    d -= d.mean()
+    theta = np.radians(STROKE_ANGLES[0])
+    along, across = np.array([np.cos(theta), -np.sin(theta)]), np.array([np.sin(theta), np.cos(theta)])
+
+    def correlation(direction, distance):
+        dcol, drow = np.rint(direction * distance).astype(int)
+        return (d * np.roll(d, (drow, dcol), axis=(0, 1))).mean() / d.var()
+
+    assert correlation(across, 2) < 0.25
+    assert correlation(along, 10) > 0.4
+    assert correlation(along, 60) < 0.1
+
+
+def _hatching(shape=(60, 80), seed=0):
+    rng = np.random.default_rng(seed)
+    paper = np.full(shape, 0.92, np.float32)
+    rows, cols = np.mgrid[: shape[0], : shape[1]]
+    for offset in rng.uniform(0, 140, 12):
+        paper[np.abs(rows + cols - offset) < 1] = rng.uniform(0.2, 0.6)
+    return paper
+
+
+def test_a_user_texture_is_tiled_over_the_image_seamlessly_and_normalised():
+    tile = _hatching()
+    H = user_texture(tile, (200, 300), scale=1.0)
+    assert H.shape == (200, 300) and H.dtype == np.float32
+    assert H.min() > 0 and H.max() < 1
+    # The graphite density is the synthetic texture's, whatever the scan's exposure.
+    d = -np.log(H.astype(np.float64))
+    assert d.mean() == pytest.approx(MEAN_DENSITY, rel=1e-3)
+    darker = user_texture(tile * 0.6, (200, 300), scale=1.0)
+    assert -np.log(darker.astype(np.float64)).mean() == pytest.approx(MEAN_DENSITY, rel=1e-3)
+    # Tiles repeat unturned (a 45° hatching stays 45°, no herringbone) ...
+    np.testing.assert_array_equal(H[:60, 80:160], H[:60, :80])
+    np.testing.assert_array_equal(H[60:120, :80], H[:60, :80])
+    # ... and meet without a seam: across a tile edge the texture steps like between neighbours,
+    # where plain tiles of the scan jump from its last column to its first.
+    def step(a, b):
+        return np.abs(a - b).mean()
+
+    inside = np.mean([step(d[:, c], d[:, c + 1]) for c in range(10, 70)])
+    assert step(d[:, 79], d[:, 80]) < 1.3 * inside and step(d[59], d[60]) < 1.3 * np.mean(
+        [step(d[r], d[r + 1]) for r in range(10, 50)]
+    )
+    raw = -np.log(tile.astype(np.float64))
+    assert step(raw[:, -1], raw[:, 0]) > 1.3 * np.mean([step(raw[:, c], raw[:, c + 1]) for c in range(10, 70)])
+    # Its marks are the scan's, where the blend leaves it alone (the middle of each tile) ...
+    centre = (slice(20, 40), slice(25, 55))
+    assert np.corrcoef(d[:60, :80][centre].ravel(), raw[centre].ravel())[0, 1] > 0.95
+    # ... and keep their contrast where it blends (the tile's corners), not averaged away.
+    corner = np.concatenate([d[:10, :10].ravel(), d[50:60, 70:80].ravel()])
+    assert corner.std() > 0.6 * d[:60, :80][centre].std()
+
+
+def test_a_user_texture_grows_with_the_picture_and_a_blank_one_is_even():
+    big = user_texture(_hatching(), (1500, 1500))  # reference scale 3: strokes 3× wider
+    assert big.shape == (1500, 1500)
+    small_marks = (user_texture(_hatching(), (400, 400)) < 0.6).mean()
+    assert (big < 0.6).mean() == pytest.approx(small_marks, rel=0.35)
+    row = big[700].astype(np.float64)
+    runs = np.diff(np.flatnonzero(np.diff(row < 0.6))).mean()
+    assert runs > 3  # marks several pixels wide, not the scan's 2 px
+    blank = user_texture(np.ones((20, 20), np.float32), (50, 60))
+    assert np.ptp(blank) == 0 and 0 < blank[0, 0] < 1
+
+
+def test_a_texture_file_is_read_as_its_luma_and_a_bad_one_is_a_user_error(tmp_path):
+    from PIL import Image
+
+    tile = _hatching()
+    path = tmp_path / "hatching.png"
+    Image.fromarray(np.rint(tile * 255).astype(np.uint8)).save(path)
+    from_file = user_texture(path, (100, 100), scale=1.0)
+    np.testing.assert_allclose(from_file, user_texture(np.rint(tile * 255) / 255, (100, 100), scale=1.0), rtol=1e-5)
+    with pytest.raises(ImageLoadError, match="pencil texture: .*no such file"):
+        user_texture(tmp_path / "missing.png", (10, 10))
 
 
 def test_texture_strokes_scale_with_image_size():

@@ -81,12 +81,14 @@ def test_pencil_histogram_layers():
     dark = pencil_histogram((0, 0, 1))
     assert (dark * levels).sum() == pytest.approx(90, abs=0.01)
     assert np.sqrt((dark * (levels - 90) ** 2).sum()) == pytest.approx(11, abs=0.1)
-    default = pencil_histogram()
-    assert default.sum() == pytest.approx(1)
+    lu = pencil_histogram((52, 37, 11))
+    assert lu.sum() == pytest.approx(1)
     # 52:37:11 — the weights are the layers' pixel shares.
-    assert default[206:].sum() == pytest.approx(0.52, abs=0.01)
+    assert lu[206:].sum() == pytest.approx(0.52, abs=0.01)
     # The dark layer's Gaussian reaches past 104: 0.11 · Φ((104.5 − 90) / 11) ≈ 0.0997.
-    assert default[:105].sum() == pytest.approx(0.0997, abs=0.002)
+    assert lu[:105].sum() == pytest.approx(0.0997, abs=0.002)
+    default = pencil_histogram()
+    assert default[206:].sum() == pytest.approx(0.40, abs=0.01)  # 40:45:15 by default
     # Negligible tails are empty, so GML never sends a dark photo level to near-black.
     assert default[:40].sum() == 0
     np.testing.assert_allclose(pencil_histogram((2, 1, 1)), pencil_histogram((50, 25, 25)))
@@ -107,20 +109,26 @@ def cdf_distance(tone, target_hist):
 @pytest.mark.parametrize("method", ["gml", "sml"])
 def test_tone_target_follows_the_model_and_keeps_order(method):
     gray = skimage.data.camera().astype(np.float32) / 255
-    J = tone_target(gray, method=method)
+    # The paper's specification: onto the model alone, darker than the photo where it says so.
+    J = tone_target(gray, method=method, photo_share=0.0, never_darker=False)
     assert J.dtype == np.float32 and J.shape == gray.shape
     # Monotone: a brighter photo pixel never gets a darker tone.
     order = np.argsort(gray.ravel(), kind="stable")
     assert np.all(np.diff(J.ravel()[order]) >= 0)
     assert cdf_distance(J, pencil_histogram()) < 0.01
     assert cdf_distance(gray, pencil_histogram()) > 0.05  # the photo itself is far from it
+    # By default a fifth of the photo's own histogram is mixed in: J lies between the two.
+    mixed = tone_target(gray, method=method, never_darker=False)
+    assert np.all(np.diff(mixed.ravel()[order]) >= 0)
+    assert cdf_distance(J, pencil_histogram()) < cdf_distance(mixed, pencil_histogram()) < cdf_distance(gray, pencil_histogram())
 
 
 def test_tone_target_on_a_ramp_hits_the_layers():
     ramp = np.tile(np.linspace(0, 1, 1000, dtype=np.float32), (20, 1))
-    J = tone_target(ramp)
-    # Over half the drawing is near paper white, the darkest accents sit near 90/255, not black.
-    assert np.mean(J >= 206 / 255) == pytest.approx(0.52, abs=0.02)
+    J = tone_target(ramp, photo_share=0.0)
+    # The bright layer's share of the drawing is near paper white (40 % by default), the darkest
+    # accents sit near 90/255, not black.
+    assert np.mean(J >= 206 / 255) == pytest.approx(0.40, abs=0.02)
     assert 0.15 < J.min() < 0.3 and J.max() == 1.0
 
 
@@ -129,3 +137,5 @@ def test_tone_target_rejects_bad_arguments():
         tone_target(np.zeros((4, 4)), method="zhang")
     with pytest.raises(ValueError, match="2-D"):
         tone_target(np.zeros((4, 4, 3)))
+    with pytest.raises(ValueError, match="photo_share"):
+        tone_target(np.zeros((4, 4)), photo_share=1.0)

@@ -148,7 +148,16 @@ BAD = {
     "empty pen command": (_set("pen", "down_command", " \n "), ["[pen] down_command is empty"]),
     "non-ASCII template": (_set("gcode", "header", "G21 ; millimètres"), ["[gcode] header", "ASCII"]),
     "line too long": (_set("gcode", "header", "G21 " + "G90 " * 25), ["[gcode] header", "at most 80"]),
+    "soft limits without homing": (_set("bed", "soft_limits", True), ["[bed] soft_limits", "homing = true"]),
 }
+
+
+def test_homing_and_soft_limits_are_off_unless_the_profile_says(tmp_path):
+    assert all(not (p.bed.homing or p.bed.soft_limits) for p in map(load_profile, SHIPPED))  # GRBL's factory state
+    table = shipped_table()
+    table["bed"].update(homing=True, soft_limits=True)
+    bed = load_profile(write_profile(tmp_path, table)).bed
+    assert bed.homing and bed.soft_limits
 
 
 @pytest.mark.parametrize("case", BAD, ids=list(BAD))

@@ -2,6 +2,7 @@
 
 import dataclasses
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,13 +15,15 @@ from skimage.transform import resize
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
+from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.build import (
     at_plot_resolution,
-    hatch_darkness,
     ink_on_image_grid,
     make_plan,
     plan_from_sketch,
+    sketch_and_plan,
 )
+from pencilbot.planning.fidelity import plotted_darkness
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes
@@ -78,9 +81,9 @@ def test_ordering_keeps_every_edge_stroke(camera):
     raw = edge_strokes(drawing.line, layout, threshold=float(plan.meta["edge_threshold"]))
     ordered = plan.layer("edges").paths
     # Ordering only reverses and joins: ink length is kept up to the joins' short bridges
-    # (each at most edge_join · ℓ at plot scale).
+    # (each at most a pen width).
     assert len(ordered) < len(raw)
-    bridge = max(FAST.pen_width, FAST.edge_join * drawing.line.length * layout.mm_per_px)
+    bridge = FAST.pen_width  # edges are chained already; ordering joins only touching ends
     bridges = (len(raw) - len(ordered)) * bridge
     assert _length(raw) - 1e-6 <= _length(ordered) <= _length(raw) + bridges + 1e-6
     assert _segments(raw) <= _segments(ordered)  # every stroke is still drawn, maybe reversed
@@ -111,7 +114,7 @@ def test_hatching_follows_the_tone():
     image = image_from_array((gray * 255).astype(np.uint8), source="disc")
     plan = make_plan(image, page=page_size("100x100", margin=5), style=FAST)
     layout = Layout.fit(image.shape, plan.page)
-    hatch = [p for layer in plan.layers if layer.name != "edges" for p in layer.paths]
+    hatch = [p for layer in plan.layers if layer.role != "edges" for p in layer.paths]
     ink = ink_on_image_grid(hatch, layout, pen_width=FAST.pen_width)
     inside = np.zeros(gray.shape, bool)
     inside[disk((60, 60), 28)] = True
@@ -121,16 +124,23 @@ def test_hatching_follows_the_tone():
     assert ink[inside].mean() > 4 * ink[outside].mean()
 
 
-def test_hatching_leaves_room_for_the_edges_ink(camera):
-    drawing = sketch(camera)
-    layout = Layout.fit(camera.shape, page_size("A4", "portrait"))
-    strokes = edge_strokes(drawing.line, layout)
-    plain = hatch_darkness(drawing, [], layout, pen_width=0.5, blur=1.0)
-    compensated = hatch_darkness(drawing, strokes, layout, pen_width=0.5, blur=1.0)
-    assert np.all(compensated <= plain + 1e-6)
-    near_edges = ink_on_image_grid(strokes, layout, pen_width=0.5) > 0.5
-    assert (plain - compensated)[near_edges].mean() > 0.1
-    assert 0 <= compensated.min() and compensated.max() <= 1
+def test_the_tone_is_kept_up_to_the_contours():
+    # A dark disc on a light ground: its outline is drawn, and the shading inside must reach the
+    # outline instead of leaving a pale halo where edge ink was counted as tone.
+    gray = np.full((160, 160), 0.85, np.float32)
+    gray[disk((80, 80), 55)] = 0.3
+    drawing, plan = sketch_and_plan(image_from_array(gray, source="disc"), style=FAST)
+    layout = Layout.fit(drawing.tone.shape, plan.page)
+    px_per_mm = 5.0  # finer than the pen: the image grid (1.1 mm) would merge neighbouring lines
+    ink = plotted_darkness(plan.paths(), layout.drawing_box, pen_width=FAST.pen_width, px_per_mm=px_per_mm)
+    tone = cv2.resize(1.0 - drawing.tone, ink.shape[::-1], interpolation=cv2.INTER_NEAREST)
+    ink, tone = (ndi.gaussian_filter(a, px_per_mm) for a in (ink, tone))  # σ = 1 mm
+    rows, cols = np.mgrid[0 : ink.shape[0], 0 : ink.shape[1]]
+    depth = 55 * layout.mm_per_px - np.hypot(rows - ink.shape[0] / 2, cols - ink.shape[1] / 2) / px_per_mm
+    rim, core = (depth > 1) & (depth < 3), depth > 15  # mm inside the outline
+    assert plan.paths("edges").points.size
+    assert ink[core].mean() == pytest.approx(tone[core].mean(), abs=0.03)
+    assert ink[rim].mean() == pytest.approx(tone[rim].mean(), abs=0.05)
 
 
 def test_outline_style_draws_edges_only(camera):
@@ -173,6 +183,13 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("margin = inf\n", ["bad.toml", "margin"]),
         ("hatch_blur = nan\n", ["bad.toml", "hatch_blur"]),
         ("line_length = 100000\n", ["bad.toml", "line_length"]),
+        ("stroke_gamma = 0\n", ["bad.toml", "stroke_gamma", "0.1", "10"]),
+        ("stroke_width = 50\n", ["bad.toml", "stroke_width", "0.5", "20"]),
+        ("texture = 3\n", ["bad.toml", "texture", "path"]),
+        ("texture = ''\n", ["bad.toml", "texture"]),
+        ("edge_clutter = 0\n", ["bad.toml", "edge_clutter"]),
+        ("edge_clutter = nan\n", ["bad.toml", "edge_clutter"]),
+        ("edge_clutter = inf\n", ["bad.toml", "edge_clutter"]),
     ],
 )
 def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
@@ -182,6 +199,27 @@ def test_a_bad_style_file_names_the_file_and_the_key(tmp_path, text, words):
         load_style(path)
     assert all(word in str(err.value) for word in words)
     assert "\n" not in str(err.value)
+
+
+def test_style_stroke_and_texture_keys_reach_the_drawing(camera, tmp_path):
+    from PIL import Image
+
+    folder = tmp_path / "styles"
+    folder.mkdir()
+    paper = np.full((64, 64), 230, np.uint8)
+    paper[::5] = 90  # a ruled "hatching" scan
+    Image.fromarray(paper).save(folder / "ruled.png")
+    (folder / "mine.toml").write_text('texture = "ruled.png"\nstroke_gamma = 3.0\nstroke_width = 2.0\norder_rounds = 4\n')
+    style = load_style(folder / "mine.toml")
+    assert style.texture == str(folder / "ruled.png")  # relative to the style file, not the cwd
+    assert (style.stroke_gamma, style.stroke_width) == (3.0, 2.0)
+    drawing, plan = sketch_and_plan(camera, style=style)
+    plain_drawing, plain = sketch_and_plan(camera, style=FAST)
+    assert (drawing.line.gamma, plan.meta["texture"], plan.meta["stroke_gamma"]) == (3.0, style.texture, "3")
+    assert np.abs(drawing.texture - plain_drawing.texture).mean() > 0.02
+    # Darker, wider raster strokes: the pen draws fainter contours too, with more ink.
+    assert float(plan.meta["edge_threshold"]) < float(plain.meta["edge_threshold"])
+    assert _length(plan.layer("edges").paths) > 1.1 * _length(plain.layer("edges").paths)
 
 
 def test_unknown_style_names_the_choices():
@@ -207,13 +245,14 @@ def test_neighbouring_hatch_runs_are_joined_pen_down():
     page = page_size("100x100", margin=5)
     apart = plan_from_sketch(drawing, page, Style(hatch_join=0.0, order_rounds=0))
     joined = plan_from_sketch(drawing, page, Style(hatch_join=2.0, order_rounds=0))
-    names = [layer.name for layer in apart.layers if layer.name != "edges"]
+    names = [layer.name for layer in apart.layers if layer.role != "edges"]
     assert names
     for name in names:  # hatch1 covers the disc; the few runs of later layers rarely meet
         before, after = apart.layer(name).paths, joined.layer(name).paths
-        assert all(len(p) == 2 for p in before)  # one straight run per path when not joined
+        # Not joined, a path is one hatch run: points a sample spacing apart, no hop.
+        assert all(np.linalg.norm(np.diff(p, axis=0), axis=1).max() <= POINT_SPACING + 0.05 for p in before)
         if name == names[0]:
-            assert len(after) <= 0.9 * len(before)  # lifts saved
+            assert len(after) <= 0.95 * len(before)  # lifts saved (long runs only: dashes stay apart)
         # Each join adds one connecting move no longer than the tolerance.
         added = _length(after) - _length(before)
         assert -1e-6 <= added <= (len(before) - len(after)) * 2.0 + 1e-6
@@ -267,3 +306,28 @@ def test_every_style_key_has_one_rule_and_the_defaults_obey_it():
             value = list(default) if isinstance(default, tuple) else default
             assert rule.accepts(value), (key, default, rule.expected)
             assert with_overrides(Style(), {key: value}) == Style()
+
+
+def test_a_white_photo_plans_no_strokes():
+    white = image_from_array(np.ones((120, 160), np.float32), source="white")
+    plan = make_plan(white, style=FAST)
+    assert plan.paths().points.size == 0
+
+
+@pytest.mark.parametrize(
+    "gray",
+    [
+        np.tile(np.linspace(0.55, 0.75, 600), (400, 1)),
+        np.round(np.tile(np.linspace(0.2, 0.9, 600), (400, 1)) * 255) / 255,
+        np.clip(0.97 + np.random.default_rng(0).integers(-2, 3, (400, 600)) / 255, 0, 1),
+        np.ones((400, 600)),
+    ],
+    ids=["smooth-ramp", "8-bit-ramp", "noisy-blank-page", "white"],
+)
+def test_paper_that_should_stay_paper_plans_no_edge_strokes(gray):
+    # The edge map used to be divided by its own maximum: banding and ±2 grey levels of
+    # noise became full-strength strokes, metres of them on A4.
+    image = image_from_array(gray.astype(np.float32), source="blank")
+    drawing, plan = sketch_and_plan(image, style=FAST)
+    assert len(plan.layer("edges").paths) == 0
+    assert np.all(drawing.line.drawing == 1.0)  # and the raster line drawing is paper too

@@ -156,3 +156,16 @@ def test_every_improvement_round_really_shortens_the_tour(seed, n):
         after = travel()
         assert after < before - 1e-9 if changed else after == pytest.approx(before)
         before = after
+
+
+def test_short_paths_are_never_joined_even_when_they_touch():
+    from pencilbot.planning.ordering import join_touching
+
+    dash_a = np.array([[0.0, 0.0], [2.0, 0.0]])
+    dash_b = np.array([[2.5, 0.0], [4.5, 0.0]])
+    run_a = np.array([[0.0, 5.0], [20.0, 5.0]])
+    run_b = np.array([[20.0, 6.0], [0.0, 6.0]])
+    joined = join_touching([run_a, run_b, dash_a, dash_b], tolerance=1.0, min_length=6.0)
+    assert len(joined) == 3  # the two runs zig-zag into one path, the dashes stay apart
+    assert len(joined[0]) == 4
+    assert len(join_touching([dash_a, dash_b], tolerance=1.0)) == 1  # without the rule they join

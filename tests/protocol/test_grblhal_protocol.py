@@ -22,4 +22,4 @@ def test_lines_may_be_256_characters_long():
     assert grblhal.encode_line("G1X" + "1" * 253) == b"G1X" + b"1" * 253 + b"\n"
     with pytest.raises(ProtocolError, match="257 characters long .*grblHAL accepts at most 256"):
         grblhal.encode_line("G1X" + "1" * 254)
-    assert "OPT:VNMSL,35,1024" in grblhal.BUILD_INFO[1]
+    assert grblhal.build_report("", "VL")[1] == "[OPT:VNMSL,35,1024,3,0]"

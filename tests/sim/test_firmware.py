@@ -1,12 +1,13 @@
 """The virtual GRBL's serial behaviour: byte sequences in → the exact bytes GRBL 1.1 prints."""
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_protocol import grbl
 from machines import description
 
+from firmware_protocol import grbl
 from pencilbot.machine.pen import PenModel
 from sim.firmware import GARBAGE, Faults, Firmware, filter_line
 from sim.machine import Machine
@@ -26,104 +27,15 @@ def exchange(fw, data: bytes) -> str:
     return fw.take_output().decode("latin-1")
 
 
-# (bytes sent to a fresh board, exact reply)
-CONFORMANCE = [
-    (b"G21\n", "ok\r\n"),
-    (b"\n", "ok\r\n"),
-    (b"(just a comment)\n", "ok\r\n"),
-    (b"G1 X1 F100 ; trailing\n", "ok\r\n"),
-    (b"g1 x1 f100\n", "ok\r\n"),
-    (b"G1 X1 F100\r\n", "ok\r\nok\r\n"),  # GRBL ends a line at \r and at \n
-    (b"G0 X1\nG0 Y1\n", "ok\r\nok\r\n"),
-    (b"?", IDLE0),
-    (b"G0 X1.2.3\n", "error:1\r\n"),
-    (b"#1\n", "error:1\r\n"),
-    (b"G0 X\n", "error:2\r\n"),
-    (b"G0 X-\n", "error:2\r\n"),
-    (b"$Q\n", "error:3\r\n"),
-    (b"$1=abc\n", "error:2\r\n"),
-    (b"$999=1\n", "error:3\r\n"),
-    (b"$1=-5\n", "error:4\r\n"),
-    (b"G4 P-1\n", "error:4\r\n"),
-    (b"G1 X1 F-10\n", "error:4\r\n"),
-    (b"$0=2\n", "error:6\r\n"),
-    (b"G1 X" + b"1" * 80 + b"\n", "error:11\r\n"),
-    (b"G1 X" + b"1" * 76 + b"\n", "error:22\r\n"),  # 79 significant characters still fit
-    (b"G1 X" + b"1 " * 76 + b"\n", "error:22\r\n"),  # spaces do not count
-    (b"G1 X" + b"1 " * 77 + b"\n", "error:11\r\n"),
-    (b"G2 X1 Y1 I1\n", "error:20\r\n"),
-    (b"G5\n", "error:20\r\n"),
-    (b"M6\n", "error:20\r\n"),
-    (b"G0 E5\n", "error:20\r\n"),
-    (b"G0 G1 X1\n", "error:21\r\n"),
-    (b"G20 G21\n", "error:21\r\n"),
-    (b"M3 M5\n", "error:21\r\n"),
-    (b"G1 X5\n", "error:22\r\n"),
-    (b"G1 X5 F0\n", "error:22\r\n"),
-    (b"G1.5 X1\n", "error:23\r\n"),
-    (b"M3.5\n", "error:23\r\n"),
-    (b"G0 G28 X1\n", "error:24\r\n"),
-    (b"G0 X1 X2\n", "error:25\r\n"),
-    (b"G1 F1 F2\n", "error:25\r\n"),
-    (b"G92\n", "error:26\r\n"),
-    (b"N99999999 G0 X1\n", "error:27\r\n"),
-    (b"G4\n", "error:28\r\n"),
-    (b"G80 X1\n", "error:31\r\n"),
-    (b"G0 X1 P1\n", "error:36\r\n"),
-    (b"G0 X1 R1\n", "error:36\r\n"),
-    (b"T300\n", "error:38\r\n"),
-    (b"G0 X500\n", "ALARM:2\r\n[MSG:Reset to continue]\r\n"),
-    (b"G91 G0 X-1\n", "ALARM:2\r\n[MSG:Reset to continue]\r\n"),
-    (b"$G\n", "[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]\r\nok\r\n"),
-    (b"G91 G20 G1 F10 M3 S90\n$G\n", "ok\r\n[GC:G1 G54 G17 G20 G91 G94 M3 M9 T0 F254 S90]\r\nok\r\n"),
-    (b"$I\n", "[VER:1.1h.20190825:]\r\n[OPT:V,15,128]\r\nok\r\n"),
-    (b"$N\n", "$N0=\r\n$N1=\r\nok\r\n"),
-    (b"$\n", "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]\r\nok\r\n"),
-    (b"$X\n", "ok\r\n"),
-    (b"$H\n", "ok\r\n"),
-    (b"$C\n", "[MSG:Enabled]\r\nok\r\n"),
-    (b"$C\nG0 X10\n$C\n", "[MSG:Enabled]\r\nok\r\nok\r\n[MSG:Disabled]\r\nok\r\n" + BANNER),
-    (b"$C\n?", "[MSG:Enabled]\r\nok\r\n<Check|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"),
-    (b"$10=3\n?", "ok\r\n<Idle|MPos:0.000,0.000,0.000|Bf:15,128|FS:0,0|WCO:0.000,0.000,0.000>\r\n"),
-    (b"$10=0\nG92 X5\n?", "ok\r\nok\r\n<Idle|WPos:5.000,0.000,0.000|FS:0,0|WCO:-5.000,0.000,0.000>\r\n"),
-    (b"$11=0.02\n", "ok\r\n"),
-    (b"$22=0\n$20=1\n", "ok\r\nerror:10\r\n"),
-    (b"$22=0\n$H\n", "ok\r\nerror:5\r\n"),
-    (b"M2\n", "[MSG:Pgm End]\r\nok\r\n"),
-    (b"G20 G91 M3 S90\nM30\n$G\n", "ok\r\n[MSG:Pgm End]\r\nok\r\n[GC:G1 G54 G17 G20 G90 G94 M5 M9 T0 F0 S90]\r\nok\r\n"),
-    (b"\x18", BANNER),
-    (b"G0 X10\n\x18", "ok\r\nALARM:3\r\n" + BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"),
-    (b"G0 X10\n\x18G0 X1\n$X\nG0 X1\n",
-     "ok\r\nALARM:3\r\n" + BANNER + "[MSG:'$H'|'$X' to unlock]\r\nerror:9\r\n[MSG:Caution: Unlocked]\r\nok\r\nok\r\n"),
-    (b"G0 X500\nG0 X1\n$X\n\x18$X\nG0 X1\n",
-     "ALARM:2\r\n[MSG:Reset to continue]\r\n" + BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"
-     "[MSG:Caution: Unlocked]\r\nok\r\nok\r\n"),
-    (b"G0 X10\n!?~?",
-     "ok\r\n<Hold:0|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
-     "<Idle|MPos:10.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"),
-    (b"!", ""),  # feed hold while idle does nothing
-    (b"$J=G91 X10 F1000\n$J=X5 F500\n?",  # the G91 was the first jog's only
-     "ok\r\nok\r\n<Idle|MPos:5.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"),
-    (b"$J=G91 G20 X1 F10\n$G\n", "ok\r\n[GC:G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0]\r\nok\r\n"),
-    (b"$J=X10\n", "error:22\r\n"),
-    (b"$J=G1 X10 F100\n", "error:16\r\n"),
-    (b"$J=X10 F100 M3\n", "error:16\r\n"),
-    (b"$J=X500 F100\n", "error:15\r\n"),
-    (b"$JX10\n", "error:3\r\n"),
-    (b"\xff\x85G0 X1\n", "ok\r\n"),  # extended-ASCII bytes never reach the line
-]
-
-
-@pytest.mark.parametrize("sent, reply", CONFORMANCE, ids=[repr(s)[:40] for s, _ in CONFORMANCE])
-def test_conformance(sent, reply):
-    assert exchange(board(), sent) == reply
-
-
-def test_settings_listing_is_grbl_formatted():
-    text = exchange(board(width=220, height=310, max_rate=6000, acceleration=800), b"$$\n")
-    lines = text.split("\r\n")
+@pytest.mark.parametrize("homing", [False, True])
+def test_settings_listing_is_grbl_formatted(homing):
+    fw = Firmware(Machine(description(width=220, height=310, max_rate=6000, acceleration=800, homing=homing,
+                                        soft_limits=homing)))
+    fw.take_output()
+    lines = exchange(fw, b"$$\n").split("\r\n")
     assert lines[0] == "$0=10" and lines[-2] == "ok"
-    assert "$11=0.010" in lines and "$20=1" in lines and "$22=1" in lines
+    assert "$11=0.010" in lines and f"$20={int(homing)}" in lines and f"$22={int(homing)}" in lines
+    assert "$23=3" in lines  # both axes grow into the bed from the origin corner: home towards negative
     assert "$110=6000.000" in lines and "$120=800.000" in lines
     assert "$130=220.000" in lines and "$131=310.000" in lines
     assert all(isinstance(grbl.parse_line(ln), grbl.Setting) for ln in lines[:-2])
@@ -157,8 +69,9 @@ def test_receive_ring_overflows_like_grbl_when_the_sender_does_not_count():
     exchange(fw, block)
     flood = b"G1 X10 Y10 F600\n" * 20  # 320 bytes while the board is not reading
     fw.receive(flood)
-    assert fw.lost_bytes == len(flood) - (grbl.RX_BUFFER_SIZE - 1) - 0
-    assert fw._ring  # noqa: SLF001 -- the ring holds 127 bytes waiting
+    # serial.c: a ring of RX_BUFFER_SIZE + 1 slots with one kept free holds 128 bytes
+    assert fw.lost_bytes == len(flood) - grbl.RX_BUFFER_SIZE
+    assert len(fw._ring) == grbl.RX_BUFFER_SIZE  # noqa: SLF001 -- the bytes waiting
 
 
 def test_dwell_and_pen_changes_wait_for_motion_in_realtime_mode():
@@ -176,11 +89,13 @@ def test_dwell_and_pen_changes_wait_for_motion_in_realtime_mode():
 
 
 def test_feed_hold_from_idle_holds_what_comes_next_until_resume():
+    # protocol.c: a hold suspends the main loop, so the next line is not even read (no ok)
+    # until cycle start; it waits in the receive buffer.
     fw = board()
     assert exchange(fw, b"!?") == "<Hold:0|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
-    assert exchange(fw, b"G0 X10\n") == "ok\r\n"
+    assert exchange(fw, b"G0 X10\n") == ""
     assert exchange(fw, b"?").startswith("<Hold:0|MPos:0.000,0.000,0.000|")
-    exchange(fw, b"~")
+    assert exchange(fw, b"~") == "ok\r\n"
     assert exchange(fw, b"?").startswith("<Idle|MPos:10.000,0.000,0.000|")
 
 
@@ -188,8 +103,8 @@ def test_feed_hold_is_ignored_in_alarm_and_check_mode():
     fw = board()
     exchange(fw, b"$C\n")
     assert exchange(fw, b"!?").startswith("<Check|")
-    fw = board(faults="alarm@1")
-    exchange(fw, b"G0 X1\n")
+    fw = board()
+    exchange(fw, b"G0 X1\n\x18")  # reset in motion: ALARM:3, locked
     assert exchange(fw, b"!?").startswith("<Alarm|")
 
 
@@ -286,25 +201,33 @@ def test_arbitrary_bytes_never_crash_and_every_line_is_answered_or_alarmed(data,
                for ln in out.split("\r\n") if ln)
 
 
-def test_pen_model_servo_m280():
+def test_m280_is_refused_as_real_grbl_does_unless_the_servo_extension_is_on():
     fw = board(pen=PenModel("servo", up=50, down=20))
+    assert exchange(fw, b"M280 P0 S20\n") == "error:23\r\n"
+
+
+def test_pen_model_servo_m280():
+    fw = Firmware(Machine(description(pen=PenModel("servo", up=50, down=20)), servo=True))
+    fw.take_output()
     exchange(fw, b"G0 X10 Y10\nM280 P0 S20\nG1 X20 F1000\nM280 P0 S50\nG0 X0 Y0\n")
     fw.finish()
     strokes = fw.machine.strokes
     assert len(strokes) == 1 and strokes[0].tolist() == [[10, 10], [20, 10]]
 
 
-def test_m0_pauses_after_its_ok_until_cycle_start():
+def test_m0_pauses_and_answers_after_cycle_start():
+    # gcode.c: M0 finishes the queued motion, then enters a feed hold inside the line; its ok
+    # (and everything after it) comes after ~.
     fw = board()
     assert exchange(fw, b"G0 X10\nM0\nG0 X20\n?") == (
-        "ok\r\nok\r\nok\r\n<Hold:0|MPos:10.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n")
-    assert exchange(fw, b"~?") == "<Idle|MPos:20.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"
+        "ok\r\n<Hold:0|MPos:10.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n")
+    assert exchange(fw, b"~?") == "ok\r\nok\r\n<Idle|MPos:20.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"
 
 
 def test_reboot_revives_a_hung_board():
     fw = board(faults="silent@1")
     assert exchange(fw, b"G0 X1\n?") == ""
-    fw.reset(reboot=True)
+    fw.power_cycle()
     assert exchange(fw, b"G0 X1\n") == BANNER + "ok\r\n"
 
 
@@ -344,3 +267,126 @@ def test_jog_runs_as_jog_and_cancel_stops_it_where_it_is():
     assert grbl.parse_line(exchange(fw, b"?").strip()).state == "Idle"
     assert fw.machine.machine_position()[0] == x
     assert exchange(fw, b"G1 X0 F600\n$J=X5 F100\n") == "ok\r\nerror:8\r\n"  # not while running G-code
+
+
+# --- reset, power and homing: where the pen really is ------------------------------------------
+
+
+def cruising(fw, line=b"M3 S90\nG1 X100 F3000\n", seconds=1.0):
+    """A real-time board drawing a 100 mm line at 50 mm/s, ``seconds`` in (past its ramp)."""
+    exchange(fw, line)
+    fw.poll(0.5)  # the pen change waits for motion; nothing moves before it
+    fw.poll(seconds)
+    return fw
+
+
+@pytest.mark.parametrize("loses", [False, True])
+def test_reset_in_motion_alarms_and_a_real_board_loses_the_position(loses):
+    fw = Firmware(Machine(description(), instant=False), abort_loses=loses)
+    fw.take_output()
+    cruising(fw)
+    reported = fw.machine.machine_position()
+    assert exchange(fw, b"\x18").startswith("ALARM:3\r\n")
+    assert fw.machine.machine_position() == reported  # GRBL keeps its step count...
+    coast = 50.0**2 / (2 * 800.0)  # ...but the carriage ran on for v²/2a at 50 mm/s, 800 mm/s²
+    assert fw.machine.carriage_position()[0] - reported[0] == pytest.approx(coast if loses else 0.0)
+    exchange(fw, b"$X\nM3 S90\nG1 X150 F3000\n")
+    fw.poll(10.0)
+    end = fw.machine.strokes[-1][-1]
+    assert end[0] == pytest.approx(150 + (coast if loses else 0.0))  # drawn off by the slip
+
+
+def test_reset_after_a_completed_hold_keeps_the_position_without_alarm():
+    fw = Firmware(Machine(description(), instant=False), abort_loses=True)
+    fw.take_output()
+    cruising(fw)
+    exchange(fw, b"!")
+    held = fw.machine.machine_position()
+    assert exchange(fw, b"\x18") == BANNER  # no ALARM:3: motion had stopped
+    assert fw.machine.carriage_position() == held
+
+
+@pytest.mark.parametrize("zero", [False, True])
+def test_power_cycle_restarts_the_count_at_zero_where_the_carriage_stands(zero):
+    fw = Firmware(Machine(description()), power_zero=zero)
+    fw.take_output()
+    exchange(fw, b"G0 X50 Y40\n?")
+    fw.power_cycle()
+    mpos = grbl.parse_line(exchange(fw, b"?").split("\r\n")[-2]).mpos
+    assert mpos == ((0.0, 0.0, 0.0) if zero else (50.0, 40.0, 0.0))
+    exchange(fw, b"G90 M3 S90\nG1 X10 F1000\nM5\n")
+    fw.finish()
+    start, end = fw.machine.strokes[-1][[0, -1]]
+    # The board thinks it draws from 0 to 10; on the paper the line starts where the pen was.
+    assert start.tolist() == [50.0, 40.0]
+    assert end.tolist() == ([60.0, 40.0] if zero else [10.0, 40.0])
+
+
+def test_a_power_cycle_forgets_an_alarm_only_on_a_real_board():
+    for zero, state in [(True, "Idle"), (False, "Alarm")]:
+        fw = Firmware(Machine(description()), power_zero=zero)
+        exchange(fw, b"G0 X10\n\x18")  # ALARM:3
+        fw.power_cycle()
+        fw.take_output()
+        assert grbl.parse_line(exchange(fw, b"?").strip()).state == state
+
+
+@pytest.mark.parametrize(
+    "origin, invert, mpos, corner",
+    [("bottom-left", False, (0.0, 0.0), (0.0, 0.0)),  # homes to negative: HOMING_FORCE_SET_ORIGIN space
+     ("top-right", True, (-1.0, -1.0), (100.0, 50.0))],  # homes to positive: GRBL's negative space, -$27
+)
+def test_homing_finds_the_origin_corner_and_trusts_the_position_again(origin, invert, mpos, corner):
+    config = description(width=100, height=50, origin=origin, invert_x=invert, invert_y=invert,
+                           homing=True, soft_limits=True)
+    fw = Firmware(Machine(config), power_zero=True)
+    assert fw.take_output().decode() == BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"  # HOMING_INIT_LOCK
+    assert exchange(fw, b"G0 X1\n") == "error:9\r\n"
+    assert exchange(fw, b"$X\n$20=0\nG0 X-30 Y-20\n") == "[MSG:Caution: Unlocked]\r\nok\r\nok\r\nok\r\n"
+    fw.power_cycle()  # lost: the count restarts where the carriage is
+    exchange(fw, b"$H\n")
+    status = grbl.parse_line(exchange(fw, b"?").strip())
+    assert status.state == "Idle" and status.mpos[:2] == mpos
+    bed = config.bed.to_view(np.array([fw.machine.carriage_position()]))[0]
+    pulloff = 1.0 if invert else 0.0
+    assert np.allclose(np.abs(bed - corner), pulloff)  # $27 off the corner's switches, or on the corner
+
+
+def test_homing_with_the_pen_down_drags_a_line_to_the_corner():
+    fw = Firmware(Machine(description(homing=True)), power_zero=True)
+    exchange(fw, b"$X\nG0 X30 Y20\nM3 S90\n$H\n")
+    assert [s.tolist() for s in fw.machine.strokes] == [[[30.0, 20.0], [0.0, 0.0]]]
+
+
+def test_startup_lines_run_after_every_reset_and_after_homing():
+    fw = Firmware(Machine(description(homing=True)))
+    fw.take_output()
+    assert exchange(fw, b"$X\n$N0=G91\n$N1=G20\n") == "[MSG:Caution: Unlocked]\r\nok\r\nok\r\nok\r\n"
+    assert exchange(fw, b"$H\n") == ">G91:ok\r\n>G20:ok\r\nok\r\n"
+    assert exchange(fw, b"\x18") == BANNER + ">G91:ok\r\n>G20:ok\r\n"
+    assert "G20 G91" in exchange(fw, b"$G\n")
+
+
+def test_hold_fault_is_the_machine_s_hold_button():
+    fw = board(faults="hold@2")
+    assert exchange(fw, b"G0 X1\nG0 X2\nG0 X3\n") == "ok\r\n"
+    assert grbl.parse_line(exchange(fw, b"?").strip()).state == "Hold"
+    assert exchange(fw, b"~") == "ok\r\nok\r\n"
+    assert fw.accepted_lines() == ["G0 X1", "G0 X2", "G0 X3"]
+
+
+def test_a_critical_alarm_answers_nothing_until_reset():
+    fw = board(faults="alarm@1")
+    assert exchange(fw, b"G0 X1\n?$X\n!~") == "ALARM:1\r\n[MSG:Reset to continue]\r\n"
+    assert exchange(fw, b"\x18") == BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"
+    assert exchange(fw, b"$X\n") == "[MSG:Caution: Unlocked]\r\nok\r\n"  # the $X sent before was lost
+
+
+def test_dollar_dollar_is_answered_while_jogging_but_not_while_running():
+    fw = board(instant=False)
+    exchange(fw, b"$J=X100 F600\n")
+    fw.poll(0.5)
+    assert exchange(fw, b"$$\n").endswith("$132=200.000\r\nok\r\n")
+    exchange(fw, grbl.JOG_CANCEL + b"G1 X0 F600\n")
+    fw.poll(0.5)
+    assert exchange(fw, b"$$\n") == "error:8\r\n"

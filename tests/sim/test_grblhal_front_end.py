@@ -21,7 +21,9 @@ def exchange(fw, data: bytes) -> str:
 
 def test_banner_build_info_and_help_are_grblhal_s():
     fw = board()
-    assert exchange(fw, b"$I\n") == "".join(f"{line}\r\n" for line in grblhal.BUILD_INFO) + "ok\r\n"
+    report = exchange(fw, b"$I\n").split("\r\n")
+    assert report[0] == f"[VER:{grblhal.VERSION}.{grblhal.BUILD_DATE}:]" and report[-2:] == ["ok", ""]
+    assert report[1].startswith("[OPT:VNMS") and report[1].endswith(",35,1024,3,0]") and "[FIRMWARE:grblHAL]" in report
     assert "$B" in exchange(fw, b"$\n")
     assert fw.machine.planner.capacity == 35
     fw.receive(b"\x18")
@@ -36,11 +38,11 @@ def test_lines_up_to_256_characters_run_and_longer_ones_overflow():
     assert exchange(fw, b"G1X1" + b"0" * 260 + b"\n") == "error:11\r\n"
 
 
-def test_the_receive_ring_holds_1023_bytes():
+def test_the_receive_ring_holds_1024_bytes():
     fw = board(instant=False)
     exchange(fw, b"$10=3\n")  # status reports show the buffers
     exchange(fw, b"G1 X50 F600\nG1 X0 F600\n" * 18)  # 36 moves fill the 35-block planner
     flood = b"G1 X10 Y10 F600\n" * 80  # 1280 bytes while the board is not reading
     fw.receive(flood)
-    assert fw.lost_bytes == len(flood) - (grblhal.RX_BUFFER_SIZE - 1)
-    assert "|Bf:0,1|" in exchange(fw, b"?")  # no planner block free, 1023 of 1024 bytes waiting
+    assert fw.lost_bytes == len(flood) - grblhal.RX_BUFFER_SIZE
+    assert "|Bf:0,0|" in exchange(fw, b"?")  # no planner block free, the ring full

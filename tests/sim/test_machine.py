@@ -78,8 +78,9 @@ def test_units_distance_modes_and_offsets():
     assert m.work_position()[0] == pytest.approx(5)
     m = run(Machine(description()), "G0 X10 Y10", "G28")
     assert m.position == (0, 0, 0)
+    # G28 Y20 goes via Y20 and then sends only the named axis home (GRBL's gc_execute_line).
     m = run(Machine(description()), "G0 X10", "G28 Y20")
-    assert [b.tolist() for b in m.travel] == [[[0, 0], [10, 0]], [[10, 0], [10, 20]], [[10, 20], [0, 0]]]
+    assert [b.tolist() for b in m.travel] == [[[0, 0], [10, 0]], [[10, 0], [10, 20]], [[10, 20], [10, 0]]]
 
 
 SQUARE = ["G0 X10 Y10", "{down}", "G1 X30 F2000", "G1 Y30", "G1 X10", "G1 Y10", "{up}", "G0 X0 Y0"]
@@ -97,7 +98,7 @@ SQUARE = ["G0 X10 Y10", "{down}", "G1 X30 F2000", "G1 Y30", "G1 X10", "G1 Y10", 
 )
 def test_pen_models_draw_only_pen_down_moves(pen, down, up):
     config = description(pen=pen)
-    m = Machine(config)
+    m = Machine(config, servo=pen.kind == "servo")  # M280 is an extension real GRBL refuses
     if pen.kind == "z":
         run(m, up)
     lines = [ln.format(down=down, up=up) for ln in SQUARE]
@@ -117,19 +118,26 @@ def test_separate_pen_downs_are_separate_strokes():
 
 
 def test_soft_limits_follow_the_bed_and_axis_direction():
-    m = Machine(description(width=100, height=50))
+    m = Machine(description(width=100, height=50, homing=True, soft_limits=True))
     run(m, "G0 X100 Y50")
     with pytest.raises(MachineAlarm) as alarm:
         m.apply(m.parse("G0X100.01"))
     assert alarm.value.code == 2
-    inverted = Machine(description(width=100, height=50, invert_x=True, invert_y=True))
+    inverted = Machine(description(width=100, height=50, invert_x=True, invert_y=True, homing=True, soft_limits=True))
     run(inverted, "G0 X-100 Y-50")
     with pytest.raises(MachineAlarm):
         inverted.apply(inverted.parse("G0X1"))
 
 
-def test_soft_limit_alarm_drops_queued_moves():
+def test_soft_limits_are_off_in_grbl_s_factory_settings():
     m = Machine(description())
+    assert (m.settings[20], m.settings[22]) == (0, 0)
+    run(m, "G0 X500 Y-20")
+    assert m.position[:2] == (500, -20)
+
+
+def test_soft_limit_alarm_drops_queued_moves():
+    m = Machine(description(homing=True, soft_limits=True))
     for line in ("M3S90", "G1X10F1000", "G1X20"):
         m.apply(m.parse(line))
     with pytest.raises(MachineAlarm):
@@ -156,7 +164,7 @@ def test_the_machine_takes_bed_pen_and_motion_from_its_description():
     from pencilbot.machine.profile import load_profile
 
     m = Machine(load_profile("grbl-z-a3"))
-    assert (m.settings[130], m.settings[131], m.settings[23]) == (310.0, 430.0, 3)  # both axes homed to +
+    assert (m.settings[130], m.settings[131], m.settings[23]) == (310.0, 430.0, 0)  # X, Y grow out of the bed
     assert (m.pen.kind, m.pen.up, m.pen.down) == ("z", 4.0, 0.0)
     assert m.settings[110] == 5000.0 and m.settings[120] == 500.0 and m.settings[11] == 0.01
 

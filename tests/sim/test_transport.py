@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 import serial
 
+import sim
 from firmware_protocol import grbl
 from pencilbot.errors import ProfileError
-import sim
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from sim import protocol_sim
+from sim.firmware import Faults
 from sim.protocol_sim import VirtualPlotter, plotter
 from sim.pty_server import PtyServer
 
@@ -132,8 +133,59 @@ def test_realtime_mode_takes_wall_time_scaled():
     "url, error",
     [("sim://?colour=red", serial.SerialException), ("sim://?baud=fast", serial.SerialException),
      ("sim://?faults=melt@3", serial.SerialException), ("sim://?realtime=-1", serial.SerialException),
+     ("sim://?realtime=nan", serial.SerialException), ("sim://?power=off", serial.SerialException),
+     ("sim://?abort=maybe", serial.SerialException), ("sim://?limits=none", serial.SerialException),
      ("sim://?profile=no-such-plotter", ProfileError)],
 )
 def test_bad_urls_say_what_is_wrong(url, error):
     with pytest.raises(error):
         serial.serial_for_url(url)
+
+
+def test_url_options_choose_a_real_board_or_the_forgiving_default():
+    protocol_sim.forget("real")
+    with serial.serial_for_url("sim://real?power=zero&abort=lose&limits=profile", timeout=0.05) as port:
+        send_and_wait(port, ["G0 X50"])
+        port.write(b"$$\n")
+        time.sleep(0.05)
+        listing = port.read(2000).decode()
+    assert "$20=0" in listing and "$22=0" in listing  # GRBL's factory settings
+    with serial.serial_for_url("sim://real", timeout=0.05) as port:  # reopening resets (DTR)...
+        port.write(b"?")
+        assert read_line(port) == ""
+        assert grbl.parse_line(read_line(port)) == grbl.Welcome("1.1h")
+        assert grbl.parse_line(read_line(port)).mpos == (0.0, 0.0, 0.0)  # ...and the count restarts
+    assert plotter("real").machine.carriage_position()[0] == 50.0
+    with serial.serial_for_url("sim://", timeout=0.05) as port:
+        port.write(b"$$\n$I\n")
+        time.sleep(0.05)
+        text = port.read(3000).decode()
+    assert "$20=1" in text and "$22=1" in text and "[OPT:VL," in text  # soft limits, no init lock
+
+
+def test_pty_open_resets_the_board_like_an_arduino_and_a_drop_comes_back_on_a_new_pty():
+    board = VirtualPlotter(load_profile(DEFAULT_PROFILE), power="zero", faults=Faults.parse("drop@2"))
+    paths = []
+    with PtyServer(board, on_new_path=paths.append) as server:
+        with serial.Serial(server.path, 115200, timeout=0.05) as port:
+            send_and_wait(port, ["G0 X40"])
+            port.write(b"?")
+            assert b"MPos:40.000" in read_line(port).encode()  # instant clock: the move has run
+        with serial.Serial(server.path, 115200, timeout=0.05) as port:
+            time.sleep(0.1)
+            port.write(b"?")
+            assert b"MPos:0.000,0.000,0.000" in port.read(500)  # the open reset the count
+            port.write(b"G0 X1\n")  # line 2 of the board's log: the cable is pulled
+            with pytest.raises(serial.SerialException):
+                end = time.monotonic() + 5
+                while time.monotonic() < end:
+                    port.read(10)
+        end = time.monotonic() + 5
+        while not paths and time.monotonic() < end:
+            time.sleep(0.01)
+        assert paths and paths[0] != "" and server.path == paths[0]
+        with serial.Serial(server.path, 115200, timeout=0.05) as port:
+            send_and_wait(port, ["G0 X5"])
+    assert board.firmware.accepted_lines() == ["G0 X40", "G0 X5"]
+    board.firmware.finish()
+    assert board.machine.carriage_position()[0] == 45.0  # 40 before the first reopen, then 5 more

@@ -1,0 +1,149 @@
+"""Shading that closes the loop: hatch, render what the pen lays down, correct, hatch again.
+
+The goal is the picture a viewer sees at arm's length: the tone darkness d blurred by ``blur``
+mm (the 1–3 mm scale at which shading is judged), with the contours counted *in* it: where an
+edge stroke lays ink, the hatching beside it lays less, so a contour is part of the tone instead
+of a dark rim on top of it (measured: drawing the tone under the contours, 1 − (1 − e)(1 − d),
+followed the photo worse, Spearman rho coffee 0.809 against 0.826, rocket 0.744 against 0.764,
+at the same fidelity to the raster sketch). The hatching's request starts at d. Each round
+hatches the request, renders edges and hatching with the exact-area rasteriser the previews and
+the simulator use, blurs that the same way and adds the difference to the request. What the ideal
+dither model cannot know — strokes dropped as too short, gaps bridged, lines that crowd or spread
+where they bend, ink already laid by a contour — is measured instead of modelled, so dark tones
+reach full coverage, mid-tones get their share and the tone around contours is kept.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from pencilbot.planning.flow import Grid, direction_field, sample_image
+from pencilbot.planning.hatching import family_capacity, hatch_layers, trace_families
+from pencilbot.planning.plan import Layer
+from pencilbot.render import MM_PER_INCH, render_paths
+
+#: Largest cell (mm) on which the loop compares tone: fine enough for a 1 mm blur, coarse enough to be quick.
+TONE_CELL = 0.5
+#: Share of the measured error corrected per round: below 1, as switching lines is not smooth.
+GAIN = 0.8
+#: Gaussian sigma (mm) over which the measured error is spread before it corrects the request.
+CORRECTION_BLUR = 2.0
+#: Cell (mm) of the direction field: forms vary over millimetres, not pen widths.
+FIELD_CELL = 2.0
+
+
+def shade(
+    darkness: np.ndarray,
+    layout,
+    edges: list[np.ndarray],
+    *,
+    paper: np.ndarray | None = None,
+    pen_width: float = 0.5,
+    angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
+    coverage: float = 0.7,
+    overlap: float = 0.25,
+    form_scale: float = 8.0,
+    min_run: float = 2.0,
+    blank_below: float = 0.04,
+    wobble: float = 0.0,
+    blur: float = 1.0,
+    rounds: int = 2,
+    seed: int = 0,
+) -> list[Layer]:
+    """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
+
+    Parameters
+    ----------
+    darkness : (H, W) float array in [0, 1]
+        Tone to reproduce on the layout's image grid (e.g. 1 − J).
+    layout : Layout
+        Placement of the image on the page.
+    edges : list of (N, 2) arrays
+        The edge strokes (page mm) that will be drawn over the hatching.
+    paper : (H, W) float array in [0, 1], optional
+        How dark the *photo* is on the image grid (1 − luma). Where it is below ``blank_below``
+        (after the blur) the paper stays blank whatever the tone asks. Judging paper by the
+        photo, not the tone, keeps a white sheet white and still shades a light face that the
+        pencil tone model maps close to paper. Default: ``darkness``.
+    pen_width : float
+        Pen width, mm.
+    angles : tuple of float
+        Angle of each hatch family to the form, degrees (see :func:`hatch_layers`).
+    coverage : float
+        Densest coverage of one family, in (0, 1).
+    overlap : float
+        Overlap of the families' onset ramps, in [0, 1).
+    form_scale : float
+        Size (mm) of the forms the hatching follows; 0 hatches in straight lines at ``angles``
+        to the page's 45°.
+    min_run : float
+        Shortest hatch stroke, mm.
+    blank_below : float
+        Photo darkness (see ``paper``) below which the paper stays blank.
+    wobble : float
+        Smooth random bend of the lines, fraction of the spacing.
+    blur : float
+        Gaussian sigma (mm) of the scale at which tone is matched.
+    rounds : int
+        Hatch–render–correct rounds (1 = no correction).
+    seed : int
+
+    Returns
+    -------
+    list of Layer
+        One per family, lightest first, from the last round.
+    """
+    box = layout.drawing_box
+    # Neighbouring lines must not share a cell: ink of separate paths in one cell stacks as
+    # 1 − Π(1 − c), which undercounts lines that lie side by side, and the loop would overshoot.
+    cell = min(TONE_CELL, pen_width / coverage / 2)
+    grid = Grid(box, cell)
+    sigma = blur / cell
+    tone = _blur(np.clip(sample_image(darkness, layout, grid), 0.0, 1.0), sigma)
+    photo = tone if paper is None else _blur(sample_image(paper, layout, grid), sigma)
+    tone[photo < blank_below] = 0.0
+    field_grid = Grid(box, FIELD_CELL)
+    field = direction_field(sample_image(darkness, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
+    lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
+    capacity = family_capacity(lines, field, grid)
+    edge_ink = ink_on_grid(edges, grid, pen_width)
+    goal = tone
+    paper = tone == 0.0
+    # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
+    # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
+    # would spread a contour's share into a pale band beside it.
+    local_edges = _blur(edge_ink, 0.5 / cell)
+    request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
+    request[paper] = 0.0
+    for round_ in range(max(1, rounds)):
+        layers = hatch_layers(
+            request, grid, field, pen_width=pen_width, angles=angles, coverage=coverage,
+            overlap=overlap, min_run=min_run, lines=lines, capacity=capacity,
+        )
+        if round_ == rounds - 1:
+            break
+        hatch_ink = ink_on_grid([p for layer in layers for p in layer.paths], grid, pen_width)
+        seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
+        # Correct at the scale of the hatch pattern itself (light tones are dashes millimetres
+        # apart): a correction finer than that only moves dashes about.
+        error = _blur(goal - seen, CORRECTION_BLUR / cell)
+        request = np.clip(request + GAIN * error, 0.0, 1.0)
+        request[paper] = 0.0
+    return layers
+
+
+def ink_on_grid(paths: list[np.ndarray], grid: Grid, pen_width: float) -> np.ndarray:
+    """Darkness of pen paths on a grid's cells (exact-area rasteriser)."""
+    rows, cols = grid.shape
+    x0, _, _, y1 = grid.box
+    height = rows * grid.cell
+    return render_paths(
+        paths, cols * grid.cell, height, dpi=MM_PER_INCH / grid.cell, pen_width=pen_width, origin=(x0, y1 - height)
+    )
+
+
+def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
+    if sigma <= 0:
+        return np.asarray(image, np.float32)
+    return cv2.GaussianBlur(np.asarray(image, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
