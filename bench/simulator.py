@@ -17,7 +17,6 @@ import serial
 import sim
 from firmware_protocol import grbl
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
-from sim import protocol_sim
 from pencilbot.render import Canvas
 from sim.firmware import Firmware
 from sim.machine import Machine

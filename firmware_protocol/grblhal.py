@@ -13,10 +13,7 @@ from __future__ import annotations
 import re
 
 from firmware_protocol import grbl
-from firmware_protocol.grbl import (  # noqa: F401 - the shared grammar, re-exported
-    CYCLE_START, FEED_HOLD, REALTIME_BYTES, SOFT_RESET, STATUS_QUERY, Alarm, Error, Feedback, Ok,
-    Setting, Status, Unknown, Welcome, format_message, format_status,
-)
+from firmware_protocol.grbl import Unknown, Welcome
 
 RX_BUFFER_SIZE = 1024
 LINE_BUFFER_SIZE = 257  # 256 characters and the terminator

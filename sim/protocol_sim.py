@@ -53,7 +53,6 @@ import math
 import time
 import urllib.parse
 
-import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
 from pencilbot.errors import ProfileError

@@ -151,10 +151,6 @@ class Firmware:
         text = f"{value:.3f}".rstrip("0").rstrip(".") if self.dwell_units == 1 else f"{value:.0f}"
         return f"G4 P{text}"
 
-    def dwell_seconds(self, p: float) -> float:
-        """Seconds a ``G4 P<p>`` waits."""
-        return p / self.dwell_units
-
     def number_lines(self, lines: list[bytes]) -> list[bytes]:
         """A program's lines with this firmware's line numbers (only with ``line_numbers``)."""
         raise NotImplementedError(f"{self.title} has no line numbers")

@@ -22,7 +22,6 @@ import numpy as np
 from pencilbot.machine.bed import Placement
 from pencilbot.machine.motion import axis_scale, move_times, path_speeds
 from pencilbot.machine.profile import Profile
-from pencilbot.paths import Paths
 from pencilbot.planning.plan import Plan
 
 

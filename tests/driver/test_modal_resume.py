@@ -1,7 +1,5 @@
 """Modal-state tracking and resume preambles: a resumed job leaves the machine exactly as the full job would."""
 
-from dataclasses import replace
-
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
