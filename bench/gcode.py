@@ -5,7 +5,7 @@ Run: ``python bench/gcode.py [--strokes N] [--profile NAME]``. Prints one JSON o
 fixed seed. ``write_seconds`` is the whole :func:`write_gcode` call (placement, bed check, time
 estimate, formatting, atomic write), wall clock; ``write_cpu_seconds`` the CPU time of the same
 call, which stays meaningful when other jobs share the machine; ``estimate_seconds`` is the part
-spent in :func:`pencilbot.planning.motion.estimate`. Target: ``write_seconds`` ≤ 1 s on the
+spent in :func:`pencilbot.planning.stats.estimate`. Target: ``write_seconds`` ≤ 1 s on the
 2-core reference machine (the best of ``--repeat`` runs is reported).
 """
 
@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.gcode.profiles import load_profile
-from pencilbot.gcode.writer import write_gcode
-from pencilbot.planning.motion import estimate
+from pencilbot.machine.profile import load_profile
+from pencilbot.export.gcode import write_gcode
+from pencilbot.planning.stats import estimate
 from pencilbot.planning.plan import Layer, Page, Plan
 
 
@@ -58,7 +58,7 @@ def main() -> None:
         seconds = best_of(args.repeat, lambda: write_gcode(plan, profile, out, source="bench"))
         cpu = best_of(args.repeat, lambda: write_gcode(plan, profile, out, source="bench"), time.process_time)
         summary = write_gcode(plan, profile, out, source="bench")
-    estimate_seconds = best_of(args.repeat, lambda: estimate(plan, profile.motion_settings()))
+    estimate_seconds = best_of(args.repeat, lambda: estimate(plan, profile))
     print(json.dumps({
         "profile": profile.name,
         "strokes": args.strokes,

@@ -5,7 +5,7 @@ on A4 portrait, 15 mm margins, 0.5 mm pen, the default style, and prints JSON:
 
 * paths (pen-down polylines: strokes joined where they meet), segments (straight strokes plus
   the short joins), pen-down / pen-up length, lifts and the estimated plot time on the
-  grbl-servo-a4 profile (acceleration-aware, ``planning.motion.estimate``);
+  grbl-servo-a4 profile (acceleration-aware, ``planning.stats.estimate``);
 * ``planning_s``: :func:`plan_from_sketch` alone (after imaging; imaging time listed apart);
 * ``pen_up_vs_greedy``: the plan's pen-up travel over that of plain nearest-neighbour ordering
   with reversal on the same paths, layer after layer from home, measured in the same run;
@@ -26,13 +26,13 @@ import time
 import cv2
 from skimage import data
 
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import load_profile
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.build import HOME, ink_on_image_grid, plan_from_sketch
 from pencilbot.planning.fidelity import fidelity
 from pencilbot.planning.layout import Layout, page_size
-from pencilbot.planning.motion import estimate
+from pencilbot.planning.stats import estimate
 from pencilbot.planning.ordering import greedy_order, travel_length
 from pencilbot.planning.style import load_style
 
@@ -68,7 +68,7 @@ def measure(name: str, rgb) -> dict:
     plan = plan_from_sketch(drawing, page, style, source=image.source)
     planning_s = time.perf_counter() - started
 
-    stats = estimate(plan, load_profile(PROFILE).motion_settings())
+    stats = estimate(plan, load_profile(PROFILE))
     total = stats.total
     pen_up = travel_length(plan.paths(), HOME)
 

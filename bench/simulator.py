@@ -14,11 +14,12 @@ import time
 import numpy as np
 import serial
 
+import sim
 from firmware_protocol import grbl
-from sim import protocol_sim
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.render import Canvas
 from sim.firmware import Firmware
-from sim.machine import Machine, MachineConfig
+from sim.machine import Machine
 
 
 def program(n: int, seed: int = 0) -> list[str]:
@@ -37,7 +38,7 @@ def timed(fn) -> tuple[float, float]:
 
 def firmware_run(lines: list[str]):
     """Feed the lines through the firmware's byte interface alone."""
-    fw = Firmware(Machine(MachineConfig()))
+    fw = Firmware(Machine(load_profile(DEFAULT_PROFILE)))
     data = b"".join(grbl.encode_line(ln) for ln in lines)
 
     def run():
@@ -50,7 +51,7 @@ def firmware_run(lines: list[str]):
 
 def port_run(lines: list[str]):
     """Send the lines through ``sim://`` with a character-counting sender (128-byte budget)."""
-    protocol_sim.register()
+    sim.register()
     port = serial.serial_for_url("sim://", timeout=0.5)
     port.read(len("\r\nGrbl 1.1h ['$' for help]\r\n"))
     encoded = [grbl.encode_line(ln) for ln in lines]

@@ -7,7 +7,18 @@ motion time is the simulator's planner clock for the same lines (target ≤ 1.05
 counting). ``cpu_ms_per_1000_lines``: process CPU time of the driver side per 1 000 lines with the
 simulator's clock instant (the simulator runs in-process, so this is an upper bound).
 
-Run: ``python bench/stream.py [--segments 2000]``. Timings on a shared 2-core machine are noisy.
+The large case (``--strokes``, 100 000 by default: bench/gcode.py's random strokes on A4, 600 014
+lines for grbl-servo-a4) measures what a big job costs before and while it streams:
+``prepare_s`` and ``prepare_peak_mb`` are the wall time and the traced memory peak from calling
+``draw()`` to the first byte written to the port (reading, cleaning, tracking and checking the
+file), ``held_bytes_per_line`` what the driver holds per G-code line at that moment (the job:
+its one buffer of lines and its arrays), for ``draw`` of the file and for ``simulate`` of a plan
+(the program text it streams plus the job); ``cpu_ms_per_1000_lines`` the process CPU time of
+streaming all of it to the instant virtual plotter (simulator included). Targets: preparation
+≤ 1 s and ≤ 60 MB; ≤ 120 bytes per line; CPU no worse than 65 ms per 1 000 lines.
+
+Run: ``python bench/stream.py [--segments 2000] [--strokes 100000]`` (0 skips a case). Timings on a
+shared 2-core machine are noisy.
 """
 
 from __future__ import annotations
@@ -17,14 +28,20 @@ import json
 import math
 import tempfile
 import time
+import tracemalloc
 from pathlib import Path
 
 import numpy as np
+from gcode import stroke_plan
 
+import sim
 from pencilbot.driver import draw
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.driver.port import LineReader
+from pencilbot.export.gcode import gcode_program, write_gcode
+from pencilbot.machine.profile import load_profile
 
 PROFILE = "grbl-servo-a4"
+sim.register()
 
 
 def drawing_lines(segments: int, per_path: int = 20, seed: int = 0) -> list[str]:
@@ -62,11 +79,84 @@ def stream_once(path: Path, options: str, send_and_wait: bool) -> dict:
             "cpu_s": round(cpu, 2)}
 
 
+def big_job(strokes: int) -> dict:
+    """Prepare, hold and stream a job of ``strokes`` random strokes (see the module docstring)."""
+    from sim import protocol_sim
+
+    plan = stroke_plan(strokes)
+    profile = load_profile(PROFILE)
+    figures = {"strokes": strokes}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "big.gcode"
+        lines = write_gcode(plan, profile, path, source="bench").lines
+        figures["lines"] = lines
+        # draw streams the file; simulate streams the program text it holds (counted as held).
+        for what, gcode in (("draw", path), ("simulate", gcode_program(plan, profile, source="bench"))):
+            seconds, _, _ = until_first_byte(gcode, traced=False)
+            _, current, peak = until_first_byte(gcode, traced=True)
+            text = len(gcode) if isinstance(gcode, bytes) else 0
+            figures[what] = {
+                "prepare_s": round(seconds, 3),
+                "prepare_peak_mb": round(peak / 1e6, 1),
+                "held_bytes_per_line": round((current + text) / lines, 1),
+            }
+        name = f"bench-big-{time.monotonic_ns()}"
+        cpu0 = time.process_time()
+        draw(path, f"sim://{name}?profile={PROFILE}", profile=PROFILE, progress="quiet", wake_wait=0.2)
+        figures["cpu_ms_per_1000_lines"] = round((time.process_time() - cpu0) / lines * 1e6, 1)
+        protocol_sim.forget(name)
+    figures["targets"] = {"prepare_s": 1.0, "prepare_peak_mb": 60, "held_bytes_per_line": 120,
+                          "cpu_ms_per_1000_lines": 65}
+    return figures
+
+
+class _FirstByte(Exception):
+    """Raised at the driver's first write to the port: the measurement ends there."""
+
+
+def until_first_byte(gcode, *, traced: bool) -> tuple[float, int, int]:
+    """Seconds from calling draw() to its first write to the port, and the memory traced then
+    (current and peak bytes; 0 unless ``traced``)."""
+    from sim import protocol_sim
+
+    name, write, seen = f"bench-first-{time.monotonic_ns()}", LineReader.write, {}
+    started = time.perf_counter()
+
+    def first(reader, data):
+        seen["seconds"] = time.perf_counter() - started
+        seen["memory"] = tracemalloc.get_traced_memory() if traced else (0, 0)
+        raise _FirstByte
+
+    LineReader.write = first
+    if traced:
+        tracemalloc.start()
+    try:
+        draw(gcode, f"sim://{name}?profile={PROFILE}", profile=PROFILE, progress="quiet", wake_wait=0.2)
+    except _FirstByte:
+        pass
+    finally:
+        LineReader.write = write
+        tracemalloc.stop()
+        protocol_sim.forget(name)
+    return seen["seconds"], *seen["memory"]
+
+
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--segments", type=int, default=2000)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--segments", type=int, default=2000, help="real-time streaming case (0: skip)")
+    parser.add_argument("--strokes", type=int, default=100_000, help="large job case (0: skip)")
     args = parser.parse_args()
-    lines = drawing_lines(args.segments)
+    report = {}
+    if args.segments:
+        report.update(realtime(args.segments))
+    if args.strokes:
+        report["large_job"] = big_job(args.strokes)
+    print(json.dumps(report, indent=1))
+
+
+def realtime(segments: int) -> dict:
+    """The 2 000-segment case: wall over motion time, and the driver's CPU per 1 000 lines."""
+    lines = drawing_lines(segments)
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "bench.gcode"
         path.write_text("\n".join(lines) + "\n")
@@ -77,15 +167,15 @@ def main() -> None:
     # A starved planner also slows the motion itself (more stops), so compare with the motion
     # time of a full planner too.
     waiting["ratio_to_counting_motion"] = round(waiting["wall_s"] / counting["motion_s"], 4)
-    print(json.dumps({
-        "segments": args.segments,
+    return {
+        "segments": segments,
         "lines": len(lines),
         "character_counting": counting,
         "send_and_wait": waiting,
         "cpu_ms_per_1000_lines": round(1000 * instant["cpu_s"] / len(lines) * 1000, 1),
         "note": "wall = whole draw() incl. wake; motion = the plotter's simulated clock; the simulator "
                 "runs in the same process, so CPU includes it (an upper bound); shared 2-core machine",
-    }, indent=1))
+    }
 
 
 if __name__ == "__main__":

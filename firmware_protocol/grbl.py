@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-from pencilbot.errors import PlotError
+from firmware_protocol import ProtocolError
 
 #: Serial receive buffer of the board, in bytes. A character-counting sender keeps the sum of
 #: the encoded lengths of its unacknowledged lines at or below this.
@@ -38,6 +38,14 @@ JOG_CANCEL = b"\x85"
 VERSION = "1.1h"
 BUILD_DATE = "20190825"
 BANNER = f"Grbl {VERSION} ['$' for help]"
+#: What ``$`` prints.
+HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
+
+
+def build_report(info: str = "", options: str = "V") -> tuple[str, ...]:
+    """What ``$I`` prints: version and the stored build info, then the compile options, free
+    planner blocks and receive buffer."""
+    return f"[VER:{VERSION}.{BUILD_DATE}:{info}]", f"[OPT:{options},{BLOCK_BUFFER_SIZE - 1},{RX_BUFFER_SIZE}]"
 
 #: ``error:N`` → (short name, explanation), GRBL 1.1.
 ERRORS: dict[int, tuple[str, str]] = {
@@ -364,30 +372,32 @@ def significant_length(line: str) -> int:
     return count
 
 
-def encode_line(line: str) -> bytes:
+def encode_line(line: str, *, line_buffer: int = LINE_BUFFER_SIZE, firmware: str = "GRBL") -> bytes:
     """Frame one G-code line for sending: ASCII, stripped, terminated by a single ``\\n``.
 
     A sender must count ``len(encode_line(line))`` bytes against :data:`RX_BUFFER_SIZE`.
+    ``line_buffer`` and ``firmware`` let a firmware with GRBL's protocol and a longer line
+    buffer (grblHAL) frame by the same rules.
 
     Raises
     ------
-    PlotError
+    ProtocolError
         If the line is not ASCII, contains a line break or a realtime byte, or holds more
-        significant characters than GRBL's line buffer takes (the board would reject it).
+        significant characters than the line buffer takes (the board would reject it).
     """
     text = line.strip()
     if not text.isascii():
-        raise PlotError(f"G-code line {text!r} contains non-ASCII characters; GRBL takes ASCII only.")
+        raise ProtocolError(f"G-code line {text!r} contains non-ASCII characters; {firmware} takes ASCII only.")
     bad = [ch for ch in text if ch in "\r\n" or ord(ch) in REALTIME_BYTES]
     if bad:
-        raise PlotError(
-            f"G-code line {text!r} contains {bad[0]!r}, which GRBL treats as a line end or a "
+        raise ProtocolError(
+            f"G-code line {text!r} contains {bad[0]!r}, which {firmware} treats as a line end or a "
             "realtime command; remove it from the G-code."
         )
-    if significant_length(text) >= LINE_BUFFER_SIZE:
-        raise PlotError(
+    if significant_length(text) >= line_buffer:
+        raise ProtocolError(
             f"G-code line is {significant_length(text)} characters long (without spaces and "
-            f"comments); GRBL accepts at most {LINE_BUFFER_SIZE - 1}. Split the move or use "
+            f"comments); {firmware} accepts at most {line_buffer - 1}. Split the move or use "
             "fewer decimals."
         )
     return text.encode("ascii") + b"\n"

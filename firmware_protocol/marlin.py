@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass
 from functools import reduce
 
-from pencilbot.errors import PlotError
+from firmware_protocol import ProtocolError
 
 #: Marlin's default command length limit (MAX_CMD_SIZE 96, including the terminator).
 MAX_CMD_SIZE = 96
@@ -108,15 +108,15 @@ def frame_line(number: int, command: str) -> bytes:
 
     Raises
     ------
-    PlotError
+    ProtocolError
         If ``command`` is not ASCII, holds a line break or ``*``, or is too long for Marlin.
     """
     body = f"N{number} {command.strip()}"
     if not body.isascii() or any(ch in body for ch in "\r\n*"):
-        raise PlotError(f"G-code line {command!r} cannot be framed for Marlin (non-ASCII, '*' or a line break).")
+        raise ProtocolError(f"G-code line {command!r} cannot be framed for Marlin (non-ASCII, '*' or a line break).")
     framed = f"{body}*{checksum(body)}"
     if len(framed) >= MAX_CMD_SIZE:
-        raise PlotError(
+        raise ProtocolError(
             f"G-code line {command!r} is too long for Marlin once numbered ({len(framed)} of "
             f"{MAX_CMD_SIZE - 1} characters); use fewer decimals."
         )

@@ -19,8 +19,8 @@ import numpy as np
 
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
-from pencilbot.gcode.profiles import Profile, load_profile
-from pencilbot.gcode.writer import GcodeSummary, gcode_lines, write_gcode
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
+from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
@@ -28,7 +28,7 @@ from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
-from pencilbot.planning.svg import read_svg, write_svg  # noqa: F401 (the library API)
+from pencilbot.export.svg import read_svg, write_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
 
@@ -74,13 +74,13 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
 
 
 def export_gcode(
-    plan: Plan, profile: str | Path | Profile = "grbl-servo-a4", path: str | Path | None = None, *,
+    plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
     source: str = "",
 ) -> list[str] | GcodeSummary:
     """G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded ``Profile``).
 
     With ``path``, writes the file atomically and returns its
-    :class:`~pencilbot.gcode.writer.GcodeSummary`; without, returns the lines.
+    :class:`~pencilbot.export.gcode.GcodeSummary`; without, returns the lines.
     """
     profile = profile if isinstance(profile, Profile) else load_profile(profile)
     if path is None:
@@ -89,5 +89,9 @@ def export_gcode(
 
 
 def draw(gcode: str | Path | list[str], port: str, **options) -> DrawResult:
-    """Stream G-code to a plotter; see :func:`pencilbot.driver.draw` for the options."""
+    """Stream G-code to a plotter (``port="sim://"`` for the virtual one); see
+    :func:`pencilbot.driver.draw` for the options."""
+    import sim
+
+    sim.register()
     return _draw(gcode, port, **options)

@@ -34,8 +34,8 @@ import numpy as np
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.units import MM_PER_INCH
 
-MM_PER_INCH = 25.4
 # Candidates per chunk: its inked pixels (~30 bytes each) stay near 50 MB; larger chunks measured
 # slower (temporaries fall out of cache), much smaller ones pay per-chunk overhead.
 _CHUNK_CANDIDATES = 1_500_000

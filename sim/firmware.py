@@ -1,5 +1,9 @@
 """The virtual plotter's GRBL 1.1h serial front end: bytes in, bytes out.
 
+A firmware that speaks GRBL's protocol with other limits (grblHAL) gets its own banner, receive
+buffer, line buffer, planner depth, help and build report, from its :mod:`firmware_protocol`
+module (the profile's firmware says which).
+
 :class:`Firmware` behaves like GRBL's serial interrupt, protocol loop and system commands
 (``serial.c``, ``protocol.c``, ``system.c``, ``settings.c``, ``report.c``) in front of a
 :class:`sim.machine.Machine`:
@@ -49,8 +53,6 @@ _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
 _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
 _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block delete
-_RING = grbl.RX_BUFFER_SIZE  # GRBL's ring has RX_BUFFER_SIZE + 1 slots, one always kept free
-_HELP = "[HLP:$$ $# $G $I $N $x=val $Nx=line $J=line $SLP $C $X $H ~ ! ? ctrl-x]"
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
 _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
@@ -108,12 +110,12 @@ class _Task:
     line: tuple[int, str] | None
 
 
-def filter_line(raw: bytes) -> str | None:
+def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | None:
     """GRBL's protocol-loop filter: the significant characters, or ``None`` on overflow."""
     if b"(" in raw or b";" in raw:
         raw = re.sub(rb"\([^)]*\)?|;.*", b"", raw)
     text = raw.translate(None, _DROPPED).upper()
-    if len(text) >= grbl.LINE_BUFFER_SIZE:
+    if len(text) >= line_buffer:
         return None
     return text.decode("latin-1")
 
@@ -139,6 +141,10 @@ class Firmware:
     def __init__(self, machine: Machine, faults: Faults | None = None, *, power_zero: bool = False,
                  abort_loses: bool = False, init_lock: bool = True):
         self.machine = machine
+        # The protocol's limits and texts: GRBL 1.1's, or a firmware's that speaks it (grblHAL).
+        self.protocol = machine.profile.firmware.protocol
+        # GRBL's ring has RX_BUFFER_SIZE + 1 slots, one always kept free
+        self._ring_size = self.protocol.RX_BUFFER_SIZE
         self.faults = faults or Faults()
         self.power_zero, self.abort_loses, self.init_lock = power_zero, abort_loses, init_lock
         self.out = bytearray()
@@ -203,7 +209,7 @@ class Firmware:
             elif b >= 0x80:
                 continue  # other extended realtime commands (overrides, door) are not emulated
             elif self._blocked:
-                if len(self._ring) < _RING:
+                if len(self._ring) < self._ring_size:
                     self._ring.append(b)
                 else:
                     self.lost_bytes += 1
@@ -329,7 +335,7 @@ class Firmware:
         self._critical = self._hold = self._jog = self._homing = self._sleep = False
         self._report_due = False
         self._wco_counter = self._ovr_counter = 0
-        self._emit("\r\n" + grbl.BANNER)
+        self._emit("\r\n" + self.protocol.BANNER)
         if self._locked:
             self._emit("[MSG:'$H'|'$X' to unlock]")
         elif any(self.startup_lines):
@@ -363,7 +369,7 @@ class Firmware:
         elif kind == "hold" and self._held_index != index:
             self._held_index, self._held_line, self._hold = index, raw, True
             return
-        line = filter_line(raw)
+        line = filter_line(raw, self.protocol.LINE_BUFFER_SIZE)
         if line is None:
             self._reply(index, text, "error:11")
         elif not line:
@@ -485,7 +491,7 @@ class Firmware:
         if len(line) > 2:
             return self._status(index, text, 3)
         if kind == "":
-            self._emit(_HELP)
+            self._emit(self.protocol.HELP)
         elif kind == "$":
             if state in ("Run", "Hold:0"):
                 return self._status(index, text, 8)  # takes too long to print mid-cycle
@@ -532,9 +538,8 @@ class Firmware:
             return
         elif kind == "I":
             if len(line) == 2:
-                self._emit(f"[VER:{grbl.VERSION}.{grbl.BUILD_DATE}:{self.build_info}]")
-                options = "V" + ("" if self.init_lock else "L")
-                self._emit(f"[OPT:{options},{grbl.BLOCK_BUFFER_SIZE - 1},{grbl.RX_BUFFER_SIZE}]")
+                for report in self.protocol.build_report(self.build_info, "V" + ("" if self.init_lock else "L")):
+                    self._emit(report)
             elif line[2] != "=":
                 return self._status(index, text, 3)
             else:
@@ -675,7 +680,7 @@ class Firmware:
         fields = dict(
             mpos=pos if mask & 1 else None,
             wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, wco)),
-            buffer=(m.planner.free_blocks, _RING - len(self._ring)) if mask & 2 else None,
+            buffer=(m.planner.free_blocks, self._ring_size - len(self._ring)) if mask & 2 else None,
             feed=m.current_speed() * 60.0 if state in ("Run", "Jog") else 0.0,
             spindle=speed,
             pins=m.limit_pins() or None,

@@ -24,6 +24,8 @@ import math
 import re
 from dataclasses import dataclass, field
 
+from pencilbot.units import MM_PER_INCH
+
 # GRBL 1.1 status codes (texts in firmware_protocol.grbl.ERRORS).
 OK = 0
 EXPECTED_LETTER, BAD_NUMBER, NEGATIVE = 1, 2, 4
@@ -34,7 +36,6 @@ VALUE_MISSING, UNSUPPORTED_COORD, G53_MOTION, AXIS_WORDS_UNUSED = 28, 29, 30, 31
 NO_AXIS_IN_PLANE, INVALID_TARGET, ARC_RADIUS, NO_OFFSETS_IN_PLANE = 32, 33, 34, 35
 UNUSED_WORDS, TOOL_LENGTH_AXIS, TOOL_TOO_BIG = 36, 37, 38
 
-MM_PER_INCH = 25.4
 MAX_LINE_NUMBER = 10_000_000
 MAX_TOOL = 255
 COORD_SYSTEMS = 6  # G54..G59; stored data also holds G28 (index 6) and G30 (index 7)

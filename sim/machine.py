@@ -16,9 +16,10 @@ once), G28/G30 via a point to the stored positions, G53 machine moves, G93 inver
 G54–G59, G28 and G30 positions live in :attr:`Machine.coord_data` (the board's EEPROM: kept
 through resets and power cycles); G92 and G43.1 are cleared by a reset.
 
-The pen is a :class:`PenModel`: a *spindle* pen is down while M3/M4 is on with S closer to the
-profile's ``down`` than ``up``; a *z* pen while Z is closer to ``down``; a *servo* pen while
-the last ``M280`` angle is (``M280`` is refused as by real GRBL unless the machine is made with
+The machine is a profile (:mod:`pencilbot.machine`, the neutral description) and its pen is the
+profile's :class:`~pencilbot.machine.pen.PenModel`: a *spindle* pen is down while M3/M4 is on
+with S closer to the profile's ``down`` than ``up``; a *z* pen while Z is closer to ``down``; a
+*servo* pen while the last ``M280`` angle is (``M280`` is refused as by real GRBL unless the machine is made with
 ``servo=True``). Moves are planned (:mod:`sim.planner`) and, as they complete, pen-down moves
 become :attr:`Machine.strokes` and pen-up moves :attr:`Machine.travel`.
 
@@ -33,11 +34,12 @@ With soft limits on (``$20=1``) a target outside the travel raises :class:`Machi
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
 from firmware_protocol import grbl
+from pencilbot.machine.motion import axis_limited
+from pencilbot.machine.profile import Profile
 from sim import gcode_parser as gp
 from sim.arcs import arc_chords
 from sim.planner import Block, Planner
@@ -63,75 +65,22 @@ class MachineAlarm(Exception):
         self.code = code
 
 
-@dataclass(frozen=True)
-class PenModel:
-    """How the profile moves the pen: ``kind`` and the ``up``/``down`` values."""
-
-    kind: str = "spindle"
-    up: float = 30.0
-    down: float = 90.0
-
-    def is_down(self, value: float) -> bool:
-        return abs(value - self.down) < abs(value - self.up)
-
-
-@dataclass(frozen=True)
-class MachineConfig:
-    """Bed (mm), axis directions, pen, motion limits and limit switches that seed GRBL's settings.
-
-    ``origin`` is the bed corner where machine (0, 0) is, seen from above; ``invert_x`` /
-    ``invert_y`` mean machine coordinates run negative into the bed. ``homing``: switches at
-    the origin corner and ``$22=1``; ``soft_limits``: ``$20=1`` (GRBL needs homing for it).
-    """
-
-    width: float = 220.0
-    height: float = 310.0
-    origin: str = "bottom-left"
-    invert_x: bool = False
-    invert_y: bool = False
-    pen: PenModel = field(default_factory=PenModel)
-    max_rate: float = 6000.0  # mm/min, $110/$111
-    acceleration: float = 800.0  # mm/s², $120/$121
-    junction_deviation: float = 0.01  # mm, $11
-    homing: bool = False
-    soft_limits: bool = False
-
-    @classmethod
-    def from_profile(cls, profile) -> MachineConfig:
-        """From a :class:`pencilbot.gcode.profiles.Profile` (its bed, pen and motion tables)."""
-        bed, motion, pen = profile.bed, profile.motion, profile.pen
-        return cls(
-            width=bed.width, height=bed.height, origin=bed.origin,
-            invert_x=bed.invert_x, invert_y=bed.invert_y,
-            pen=PenModel(pen.kind, float(pen.up), float(pen.down)),
-            max_rate=max(motion.travel_feed, motion.draw_feed),
-            acceleration=motion.acceleration, junction_deviation=motion.junction_deviation,
-            homing=bed.homing, soft_limits=bed.soft_limits,
-        )
-
-    def settings(self) -> dict[int, float]:
-        """GRBL settings for this machine: homing and soft limits as configured, rates, travel."""
-        s = dict(DEFAULT_SETTINGS)
-        s.update({
-            11: self.junction_deviation, 20: int(self.soft_limits), 22: int(self.homing),
-            110: self.max_rate, 111: self.max_rate, 112: self.max_rate,
-            120: self.acceleration, 121: self.acceleration, 122: self.acceleration,
-            130: self.width, 131: self.height,
-        })
-        # $23 set bits home towards negative: the axes whose machine coordinates grow into the bed.
-        s[23] = (0 if self.invert_x else 1) | (0 if self.invert_y else 2)
-        if self.pen.kind == "spindle":
-            s[30] = max(s[30], self.pen.up, self.pen.down)
-        return s
-
-    def to_bed(self, points: np.ndarray) -> np.ndarray:
-        """Machine XY (mm) → bed mm with origin at the bed's bottom-left, Y up."""
-        pts = np.asarray(points, dtype=np.float64)[:, :2]
-        into_x = -pts[:, 0] if self.invert_x else pts[:, 0]
-        into_y = -pts[:, 1] if self.invert_y else pts[:, 1]
-        x = into_x if self.origin.endswith("left") else self.width - into_x
-        y = into_y if self.origin.startswith("bottom") else self.height - into_y
-        return np.column_stack([x, y])
+def grbl_settings(profile: Profile) -> dict[int, float]:
+    """GRBL settings for the machine ``profile`` describes: homing and soft limits as its bed
+    says, its rates, acceleration, junction deviation, travel and homing directions."""
+    motion, bed, pen = profile.motion, profile.bed, profile.pen_model
+    s = dict(DEFAULT_SETTINGS)
+    s.update({
+        11: motion.junction_deviation, 20: int(bed.soft_limits), 22: int(bed.homing),
+        110: motion.axis_rate, 111: motion.axis_rate, 112: motion.axis_rate,
+        120: motion.acceleration, 121: motion.acceleration, 122: motion.acceleration,
+        130: bed.width, 131: bed.height,
+    })
+    # $23 set bits home towards negative: the axes whose machine coordinates grow into the bed.
+    s[23] = (0 if bed.invert_x else 1) | (0 if bed.invert_y else 2)
+    if pen.kind == "spindle":
+        s[30] = max(s[30], pen.up, pen.down)
+    return s
 
 
 class Machine:
@@ -139,8 +88,8 @@ class Machine:
 
     Parameters
     ----------
-    config : MachineConfig
-        Bed, pen, motion limits and switches.
+    profile : pencilbot.machine.profile.Profile
+        The machine: bed and switches, pen model and motion limits (which seed GRBL's settings).
     instant : bool
         True: whenever the machine has to wait for motion (planner full, a pen change, a
         dwell) the clock jumps ahead at once. False: the caller advances the clock with
@@ -149,13 +98,14 @@ class Machine:
         Accept ``M280 P S`` servo-angle commands (a servo-pen extension; GRBL answers error 23).
     """
 
-    def __init__(self, config: MachineConfig | None = None, *, instant: bool = True, servo: bool = False):
-        self.config = config or MachineConfig()
+    def __init__(self, profile: Profile, *, instant: bool = True, servo: bool = False):
+        self.profile = profile
+        self.pen = profile.pen_model
         self.instant = instant
         self.servo = servo
-        self.settings = self.config.settings()
+        self.settings = grbl_settings(profile)
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
-        self.planner = Planner()
+        self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
         self._strokes: list[np.ndarray] = []  # finished pen-down polylines, bed-frame machine mm
         self.travel: list[np.ndarray] = []  # pen-up moves, same frame
         self.messages: list[str] = []  # lines for the firmware to print, in order
@@ -165,7 +115,7 @@ class Machine:
         self.slip = (0.0, 0.0, 0.0)  # where the carriage is minus where GRBL counts it (mm)
         self.probe_position = (0.0, 0.0, 0.0)
         self.probe_succeeded = False
-        self.servo_angle = self.config.pen.up
+        self.servo_angle = self.pen.up
         self.check_mode = False
         self._stroke: list[tuple[float, float]] = []
         self.state = gp.ParserState(self.coord_data)
@@ -190,7 +140,7 @@ class Machine:
             here = self.machine_position()
             self.slip = tuple(s + h for s, h in zip(self.slip, here))
             self.state.position = (0.0, 0.0, 0.0)
-        self.servo_angle = self.config.pen.up  # the servo signal stops; the pen lifts
+        self.servo_angle = self.pen.up  # the servo signal stops; the pen lifts
         self.reset_modes()
 
     @property
@@ -204,7 +154,7 @@ class Machine:
 
     @property
     def pen_down(self) -> bool:
-        pen = self.config.pen
+        pen = self.pen
         if pen.kind == "z":
             return pen.is_down(self.position[2] + self.slip[2])
         if pen.kind == "servo":
@@ -257,12 +207,12 @@ class Machine:
         """Limit switches pressed (``Pn:`` letters): with homing, a switch sits just outside the
         origin corner's edges (where ``$H`` pulls off from) and closes when the carriage is
         pushed past it."""
-        if not self.config.homing:
+        if not self.profile.bed.homing:
             return ""
         pulloff = self.settings[27]
         here = self.carriage_position()
         pressed = ""
-        for axis, inverted in (("X", self.config.invert_x), ("Y", self.config.invert_y)):
+        for axis, inverted in (("X", self.profile.bed.invert_x), ("Y", self.profile.bed.invert_y)):
             value = here["XY".index(axis)]
             if (value > 1e-9) if inverted else (value < -pulloff - 1e-9):
                 pressed += axis
@@ -441,7 +391,8 @@ class Machine:
         """
         pulloff, seek, feed = self.settings[27], self.settings[25], self.settings[24]
         start = self.carriage_position()
-        home = (-pulloff if self.config.invert_x else 0.0, -pulloff if self.config.invert_y else 0.0, start[2])
+        bed = self.profile.bed
+        home = (-pulloff if bed.invert_x else 0.0, -pulloff if bed.invert_y else 0.0, start[2])
         distance = math.dist(start[:2], home[:2])
         seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
         yield from self._dwell(seconds)
@@ -455,8 +406,8 @@ class Machine:
             return False
         eps = 1e-6
         for value, travel, inverted in (
-            (target[0], self.settings[130], self.config.invert_x),
-            (target[1], self.settings[131], self.config.invert_y),
+            (target[0], self.settings[130], self.profile.bed.invert_x),
+            (target[1], self.settings[131], self.profile.bed.invert_y),
         ):
             lo, hi = (-travel, 0.0) if inverted else (0.0, travel)
             if not lo - eps <= value <= hi + eps:
@@ -487,19 +438,12 @@ class Machine:
         if length < 1e-9:
             return
         unit = (delta[0] / length, delta[1] / length, delta[2] / length)
-        # Per-axis limits along the move, as GRBL's limit_value_by_axis_maximum.
-        rate = accel = math.inf
         settings = self.settings
-        for i, u in enumerate(unit):
-            if u:
-                u = abs(u)
-                if settings[110 + i] < rate * u:
-                    rate = settings[110 + i] / u
-                if settings[120 + i] < accel * u:
-                    accel = settings[120 + i] / u
+        rate, accel = axis_limited(unit, (settings[110], settings[111], settings[112]),
+                                   (settings[120], settings[121], settings[122]))
         rate /= 60.0
         nominal = rate if rapid else min((self.state.feed if feed is None else feed) / 60.0, rate)
-        pen = pen_before and (self.config.pen.kind != "z" or self.pen_down)
+        pen = pen_before and (self.pen.kind != "z" or self.pen_down)
         self.planner.add(Block(start, target, length, unit, nominal, accel, pen), settings[11])
 
     @property
@@ -602,10 +546,10 @@ class Machine:
 
     def bed_strokes(self) -> list[np.ndarray]:
         """Pen-down polylines in bed mm (bottom-left origin, Y up) for :class:`pencilbot.render.Canvas`."""
-        return [self.config.to_bed(s) for s in self.strokes]
+        return [self.profile.bed.to_view(s) for s in self.strokes]
 
     def bed_travel(self) -> list[np.ndarray]:
-        return [self.config.to_bed(s) for s in self.travel]
+        return [self.profile.bed.to_view(s) for s in self.travel]
 
 
 def _speed_at(block: Block, t: float) -> float:

@@ -1,5 +1,8 @@
 """GRBL-style look-ahead motion planner and the virtual clock it drives.
 
+The maths (junction speed, trapezoids) is the one motion model of :mod:`pencilbot.machine.motion`,
+which the plot-time estimate uses too; this module keeps the queue, the passes and the clock.
+
 Moves queue as :class:`Block` (straight lines at a nominal speed). Each block's entry speed is
 bounded by the junction-deviation corner speed with the block before it (GRBL's formula) and by
 what the acceleration allows over the following blocks (backward pass) and from the preceding
@@ -12,6 +15,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+
+from pencilbot.machine.motion import block_duration, junction_speed, peak_speed
 
 #: Blocks the planner holds: GRBL's 16-slot ring keeps one slot empty.
 PLANNER_CAPACITY = 15
@@ -36,7 +41,7 @@ class Block:
     def distance_at(self, t: float) -> float:
         """Distance (mm) travelled ``t`` seconds into the block, following its fixed profile."""
         a, vi, vo = self.accel, self.entry, self.exit
-        peak = _peak_speed(self.length, a, vi, vo, self.nominal)
+        peak = peak_speed(self.length, a, vi, vo, self.nominal)
         t_acc = (peak - vi) / a
         t_dec = (peak - vo) / a
         t_cruise = max(self.duration - t_acc - t_dec, 0.0)
@@ -54,37 +59,12 @@ class Block:
         return tuple(s + u * d for s, u in zip(self.start, self.unit))
 
 
-def _peak_speed(length: float, accel: float, entry: float, exit_: float, nominal: float) -> float:
-    """Highest speed reached: nominal if there is room to cruise, else the triangle's apex."""
-    apex = math.sqrt(max((2.0 * accel * length + entry * entry + exit_ * exit_) / 2.0, 0.0))
-    return min(nominal, max(apex, entry, exit_))
-
-
-def block_duration(length: float, accel: float, entry: float, exit_: float, nominal: float) -> float:
-    """Seconds to cover ``length`` mm starting at ``entry`` and ending at ``exit_`` mm/s."""
-    peak = _peak_speed(length, accel, entry, exit_, nominal)
-    d_acc = (peak * peak - entry * entry) / (2.0 * accel)
-    d_dec = (peak * peak - exit_ * exit_) / (2.0 * accel)
-    cruise = max(length - d_acc - d_dec, 0.0)
-    return (peak - entry) / accel + (peak - exit_) / accel + cruise / peak if peak > 0 else 0.0
-
-
-def junction_speed(prev_unit, unit, accel: float, deviation: float) -> float:
-    """GRBL's junction-deviation corner speed (mm/s) between two unit directions."""
-    cos_theta = -(prev_unit[0] * unit[0] + prev_unit[1] * unit[1] + prev_unit[2] * unit[2])
-    if cos_theta > 0.999999:  # full reversal
-        return 0.0
-    if cos_theta < -0.999999:  # straight on
-        return math.inf
-    sin_half = math.sqrt(0.5 * (1.0 - cos_theta))
-    return math.sqrt(accel * deviation * sin_half / (1.0 - sin_half))
-
-
 class Planner:
     """The queue of planned blocks plus the one executing, and the clock they advance."""
 
-    def __init__(self):
-        self.queue: list[Block] = []  # at most PLANNER_CAPACITY, so list pops are cheap
+    def __init__(self, capacity: int = PLANNER_CAPACITY):
+        self.capacity = capacity
+        self.queue: list[Block] = []  # at most ``capacity``, so list pops are cheap
         self.executing: Block | None = None
         self.elapsed = 0.0  # s into the executing block
         self.clock = 0.0  # s of simulated motion and dwell since power-on
@@ -96,7 +76,7 @@ class Planner:
 
     @property
     def free_blocks(self) -> int:
-        return PLANNER_CAPACITY - len(self)
+        return self.capacity - len(self)
 
     @property
     def busy(self) -> bool:

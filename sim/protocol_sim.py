@@ -1,7 +1,7 @@
 """pyserial URL handler ``sim://``: a serial port wired to an in-process virtual GRBL plotter.
 
-Register the package once (``serial.protocol_handler_packages.append("sim")``; the driver's
-``open_port`` does it) and open ::
+Register the package once (:func:`sim.register`: whoever wants ``sim://`` ports does it; the
+driver knows nothing of the simulator) and open ::
 
     serial.serial_for_url("sim://NAME?profile=grbl-servo-a4&baud=115200&realtime=0&faults=error@5")
 
@@ -12,7 +12,9 @@ URL parts (all optional):
     at what a driver drew with :func:`plotter` and a sender can reconnect after a dropped
     link); without a name every open makes a fresh plotter.
 ``profile``
-    Plotter profile name or TOML path (bed, pen, motion); default ``grbl-servo-a4``.
+    Plotter profile name or TOML path (bed, pen, motion, firmware); default
+    :data:`~pencilbot.machine.profile.DEFAULT_PROFILE`. This adapter is the one place of the
+    simulator that knows profile names: everything behind it takes the loaded description.
 ``baud``
     Emulated line speed in bit/s (10 bits per byte, both directions); ``0`` (default): no limit.
 ``realtime``
@@ -51,15 +53,14 @@ import math
 import time
 import urllib.parse
 
-import serial
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
 from pencilbot.errors import ProfileError
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.render import Canvas
 from sim.firmware import Faults, Firmware
-from sim.machine import Machine, MachineConfig
-
-DEFAULT_PROFILE = "grbl-servo-a4"
+from sim.machine import Machine
 _OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits")
 #: Option values a real GRBL board has; the defaults are kinder until the driver copes (issue 12).
 REAL_BOARD = {"power": "zero", "abort": "lose", "limits": "profile"}
@@ -91,23 +92,26 @@ class _Wire:
         return chunk
 
 
-def grbl_profile(name: str):
-    """Load a plotter profile the virtual GRBL can play.
+def simulated_profile(name_or_path: str) -> Profile:
+    """Load a plotter profile the virtual plotter can play (GRBL's realtime protocol).
 
     Raises
     ------
     ProfileError
-        Unknown or invalid profile, or one for another firmware dialect.
+        Unknown or invalid profile, or one for firmware the simulator does not speak.
     """
-    from pencilbot.gcode.profiles import load_profile
-
-    profile = load_profile(name)
-    if profile.dialect != "grbl":
-        raise ProfileError(
-            f"profile {profile.name} is for {profile.dialect}; the virtual plotter speaks GRBL 1.1 "
-            "only — use a grbl profile (e.g. grbl-servo-a4)"
-        )
+    profile = load_profile(name_or_path)
+    check_simulated(profile)
     return profile
+
+
+def check_simulated(profile: Profile) -> None:
+    """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
+    if not profile.firmware.capabilities.realtime_protocol:
+        raise ProfileError(
+            f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
+            "GRBL's protocol only (GRBL 1.1, grblHAL): use such a profile (e.g. grbl-servo-a4)"
+        )
 
 
 class VirtualPlotter:
@@ -115,8 +119,8 @@ class VirtualPlotter:
 
     Parameters
     ----------
-    profile : str
-        Profile name or path (see :func:`pencilbot.gcode.profiles.load_profile`).
+    profile : Profile
+        The machine (see :func:`simulated_profile`).
     baud : int
         Emulated bit/s, 0 for unlimited.
     realtime : float
@@ -127,14 +131,14 @@ class VirtualPlotter:
         How real the board is: see the ``sim://`` options of the same names (module docstring).
     """
 
-    def __init__(self, profile: str = DEFAULT_PROFILE, *, baud: int = 0, realtime: float = 0.0,
+    def __init__(self, profile: Profile, *, baud: int = 0, realtime: float = 0.0,
                  faults: Faults | None = None, power: str = DEFAULT_BOARD["power"],
                  abort: str = DEFAULT_BOARD["abort"], limits: str = DEFAULT_BOARD["limits"]):
-        self.profile = grbl_profile(profile)
-        config = MachineConfig.from_profile(self.profile)
+        check_simulated(profile)
+        self.profile = profile
         if limits == "bed":
-            config = dataclasses.replace(config, homing=True, soft_limits=True)
-        self.machine = Machine(config, instant=realtime == 0)
+            profile = dataclasses.replace(profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True))
+        self.machine = Machine(profile, instant=realtime == 0)
         self.firmware = Firmware(self.machine, faults, power_zero=power == "zero", abort_loses=abort == "lose",
                                  init_lock=limits != "bed")
         self.realtime = realtime
@@ -160,7 +164,7 @@ class VirtualPlotter:
         self.pump()
         return self._to_host.take(time.monotonic())
 
-    def canvas(self, *, dpi: float = 100, pen_width: float = 0.5, travel: bool = False) -> Canvas:
+    def canvas(self, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
         """The bed as drawn so far (queued motion finished first in instant mode)."""
         self.firmware.finish()
         bed = self.profile.bed
@@ -214,8 +218,8 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
         board[key] = options.get(key, DEFAULT_BOARD[key])
         if board[key] not in choices:
             raise SerialException(f"sim:// option {key}={board[key]!r}: use {' or '.join(choices)}")
-    return VirtualPlotter(options.get("profile", DEFAULT_PROFILE), baud=baud, realtime=realtime, faults=faults,
-                          **board)
+    profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
+    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, **board)
 
 
 class Serial(SerialBase):
@@ -308,9 +312,3 @@ class Serial(SerialBase):
     @property
     def cd(self) -> bool:
         return True
-
-
-def register() -> None:
-    """Make ``serial.serial_for_url`` find this handler (idempotent)."""
-    if "sim" not in serial.protocol_handler_packages:
-        serial.protocol_handler_packages.append("sim")

@@ -23,9 +23,9 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from pencilbot.commands.common import IMAGE_SUFFIXES
 from pencilbot.errors import PencilbotError
 
-PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 
 def add_jobs_option(parser: argparse.ArgumentParser) -> None:
@@ -64,10 +64,10 @@ def collect_inputs(names: Sequence[str]) -> Inputs:
         if not name.is_dir():
             paths.append(name)
             continue
-        photos = sorted(p for p in name.iterdir() if p.is_file() and p.suffix.lower() in PHOTO_SUFFIXES)
+        photos = sorted(p for p in name.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_SUFFIXES)
         if not photos:
             raise PencilbotError(
-                f"folder {name} holds no photo ({', '.join(PHOTO_SUFFIXES)}); give files or another folder"
+                f"folder {name} holds no photo ({', '.join(IMAGE_SUFFIXES)}); give files or another folder"
             )
         paths.extend(photos)
     return Inputs(paths, batch=len(paths) > 1 or any(Path(n).is_dir() for n in names))

@@ -13,7 +13,11 @@ from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
-from pencilbot.planning.svg import read_svg
+from pencilbot.export.svg import read_svg
+from pencilbot.units import MM_PER_INCH
+
+#: Image files the commands read as photos and write as pictures (the first is the default).
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 #: The widest pen a preview renders (mm): a broad marker, not a roller.
 MAX_RENDER_PEN_WIDTH = 50.0
@@ -22,7 +26,6 @@ MAX_RENDER_PEN_WIDTH = 50.0
 _RENDER_BYTES_PER_PIXEL = 24
 _RENDER_BYTES_PER_PIXEL_TRAVEL = 80
 _MEMORY_SHARE = 0.75  # of the memory the system says is available
-_MM_PER_INCH = 25.4
 
 # Style keys a command-line option may override, by option name.
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
@@ -131,7 +134,7 @@ def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float
     if pen_width > MAX_RENDER_PEN_WIDTH:
         raise PencilbotError(
             f"--pen-width {pen_width:g} mm is wider than any pen; give at most {MAX_RENDER_PEN_WIDTH:g} mm")
-    cols, rows = (math.ceil(size / _MM_PER_INCH * dpi) for size in (width_mm, height_mm))
+    cols, rows = (math.ceil(size / MM_PER_INCH * dpi) for size in (width_mm, height_mm))
     need = cols * rows * (_RENDER_BYTES_PER_PIXEL_TRAVEL if travel else _RENDER_BYTES_PER_PIXEL)
     budget = _MEMORY_SHARE * available_memory()
     if need > budget:

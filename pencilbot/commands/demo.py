@@ -21,9 +21,9 @@ import numpy as np
 from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
+from pencilbot.machine.profile import DEFAULT_PROFILE
 
 DEFAULT_PHOTO = "coffee"
-DEFAULT_PROFILE = "grbl-servo-a4"
 PREVIEW_DPI = 150.0
 
 
@@ -62,15 +62,16 @@ class _Step:
 
 def run(args: argparse.Namespace) -> int:
     # Heavy imports here, so `pencilbot --help` stays quick.
-    from pencilbot.gcode.profiles import load_profile
-    from pencilbot.gcode.writer import Placement, duration_text, write_gcode
+    from pencilbot.export.gcode import write_gcode
+    from pencilbot.export.svg import write_svg
+    from pencilbot.machine.bed import Placement
+    from pencilbot.machine.profile import load_profile
     from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.planning.build import sketch_and_plan
     from pencilbot.planning.fidelity import fidelity
     from pencilbot.planning.layout import page_size
-    from pencilbot.planning.motion import estimate
-    from pencilbot.planning.svg import write_svg
-    from pencilbot.render import Canvas
+    from pencilbot.planning.preview import preview as plan_preview
+    from pencilbot.planning.stats import duration_text
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
@@ -92,23 +93,30 @@ def run(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     write_svg(plan, out / "plan.svg")
-    preview = Canvas(page.width, page.height, dpi=PREVIEW_DPI, pen_width=style.pen_width)
-    preview.draw_paths(plan.paths())
+    preview = plan_preview(plan, PREVIEW_DPI)
     preview.save_png(out / "preview.png")
     faithful = fidelity(plan, drawing) if style.hatch else None
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
     gcode_path = out / "drawing.gcode"
-    write_gcode(plan, profile, gcode_path, source=image.source)
-    stats = estimate(plan, profile.motion_settings()).total
+    stats = write_gcode(plan, profile, gcode_path, source=image.source).stats.total  # what its header says
     step.done(f"drawing.gcode: {profile.name}", started)
 
     started = time.perf_counter()
-    placement = Placement.on_bed(page, profile.bed)
-    simulated, agreement = _stream(args, gcode_path, placement, preview, out)
-    step.done("plot.png: what the virtual plotter drew" if args.port is None
-              else f"streamed to {args.port}", started)
+    simulated = agreement = simulated_up = None
+    if args.port is not None:
+        from pencilbot.driver import draw
+
+        draw(gcode_path, args.port, profile=args.profile, progress=_progress(args))
+        step.done(f"streamed to {args.port}", started)
+    elif profile.firmware.capabilities.realtime_protocol:
+        placement = Placement.on_bed(page, profile.bed)
+        simulated, simulated_up, agreement = _simulate(args, gcode_path, placement, preview, out)
+        step.done("plot.png: what the virtual plotter drew", started)
+    elif not step.quiet:
+        print(f"  plot.png: skipped; the virtual plotter speaks GRBL's protocol, not "
+              f"{profile.firmware.title}'s (draw drawing.gcode with --port)")
 
     summary = {
         "source": image.source,
@@ -120,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
         "lifts": stats.lifts,
         "estimated_s": round(stats.seconds, 1),
         "simulated_s": None if simulated is None else round(simulated, 1),
+        "simulated_pen_up_m": None if simulated_up is None else round(simulated_up / 1000, 2),
         "plot_vs_preview_r": _figure(agreement, 4),
         "line_fidelity_r": _figure(None if faithful is None else faithful.line_r, 3),
         "tone_fidelity_r": _figure(None if faithful is None else faithful.tone_r, 3),
@@ -145,38 +154,39 @@ def _photo(args: argparse.Namespace, load_image, image_from_array):
     return image_from_array(getattr(data, DEFAULT_PHOTO)(), source=f"skimage.data.{DEFAULT_PHOTO}")
 
 
-def _stream(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float | None, float | None]:
-    """Stream the G-code; on the virtual plotter also save plot.png and compare it with the preview.
+def _progress(args: argparse.Namespace) -> str:
+    return "quiet" if args.quiet or args.json else "bar"
 
-    Returns the simulated seconds and the correlation of the plot with the preview (both None
-    on a real port).
+
+def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[float, float, float]:
+    """Stream the G-code to the virtual plotter, save plot.png and compare it with the preview.
+
+    Returns the simulated seconds, the pen-up travel it made (mm) and the correlation of the
+    plot with the preview.
     """
+    import sim
     from pencilbot.driver import draw
-
-    progress = "quiet" if args.quiet or args.json else "bar"
-    if args.port is not None:
-        draw(gcode_path, args.port, profile=args.profile, progress=progress)
-        return None, None
-
     from pencilbot.planning.fidelity import pearson
-    from sim import protocol_sim
     from pencilbot.render import Canvas
+    from sim import protocol_sim
 
+    sim.register()
     name = f"demo-{os.getpid()}"
     query = urllib.parse.urlencode({"profile": args.profile})
     try:
-        draw(gcode_path, f"sim://{name}?{query}", profile=args.profile, progress=progress)
+        draw(gcode_path, f"sim://{name}?{query}", profile=args.profile, progress=_progress(args))
         plotter = protocol_sim.plotter(name)
         plotter.firmware.finish()
         # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
         drawn = [placement.to_page(stroke[:, :2]) for stroke in plotter.machine.strokes]
         seconds = plotter.seconds
+        pen_up = sum(float(np.hypot(*np.diff(move, axis=0).T).sum()) for move in plotter.machine.travel)
     finally:
         protocol_sim.forget(name)
     plot = Canvas(preview.width_mm, preview.height_mm, dpi=PREVIEW_DPI, pen_width=preview.pen_width)
     plot.draw_paths(drawn)
     plot.save_png(out / "plot.png")
-    return seconds, pearson(plot.darkness, preview.darkness)
+    return seconds, pen_up, pearson(plot.darkness, preview.darkness)
 
 
 def _summary_text(s: dict, duration_text) -> str:

@@ -5,25 +5,28 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pencilbot.commands.common import add_verbosity
+import sim
+
+from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
 from pencilbot.driver import draw
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
+from pencilbot.machine.profile import DEFAULT_PROFILE
 
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "draw",
         help="stream G-code to a pen plotter over serial",
-        description="Stream a G-code file to a GRBL or Marlin plotter. If the job stops (error, alarm, "
+        description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter. If the job stops (error, alarm, "
         "reset, lost port, Ctrl-C) the message gives the exact command to resume it.",
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
-    p.add_argument("--profile", help="plotter profile name or TOML file (default grbl-servo-a4)")
+    p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {DEFAULT_PROFILE})")
     p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
-    p.add_argument("--check", action="store_true", help="run the file through GRBL's $C check mode first")
+    p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
     p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
     p.add_argument("--on-error", choices=("stop", "continue"), default="stop",
                    help="on error:N stop (feed hold, pen up; default) or log it and continue")
@@ -37,7 +40,7 @@ def add_parser(subparsers) -> None:
 
 
 #: Inputs that are pictures or plans, not G-code: `pencilbot export` turns them into G-code.
-NOT_GCODE = {".svg", ".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp", ".gif"}
+NOT_GCODE = {*IMAGE_SUFFIXES, ".gif", ".svg"}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -57,6 +60,7 @@ def run(args: argparse.Namespace) -> int:
     if port is None:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
+    sim.register()  # --port sim://… reaches the virtual plotter
     result = draw(
         gcode, port, profile=args.profile, baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,

@@ -10,11 +10,9 @@ from pencilbot.commands.batch import (
 )
 from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
 from pencilbot.errors import PencilbotError
-from pencilbot.gcode.profiles import Profile, list_profiles, load_profile
-from pencilbot.gcode.writer import duration_text, write_gcode
-
-DEFAULT_PROFILE = "grbl-servo-a4"
-GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc")
+from pencilbot.export.gcode import GCODE_SUFFIXES, write_gcode
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, list_profiles, load_profile
+from pencilbot.planning.stats import duration_text
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

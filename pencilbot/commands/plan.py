@@ -8,8 +8,8 @@ from pathlib import Path
 from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folders, output_paths, run_batch
 from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.svg import write_svg
-from pencilbot.render import Canvas
+from pencilbot.export.svg import write_svg
+from pencilbot.planning.preview import preview as plan_preview
 
 PREVIEW_DPI = 100
 
@@ -58,10 +58,7 @@ def plan_one(source: Path, output: Path, preview: Path | None, args: argparse.Na
     plan = plan_for_input(source, args)
     write_svg(plan, output)
     if preview is not None:
-        canvas = Canvas(plan.page.width, plan.page.height, dpi=PREVIEW_DPI)
-        for layer in plan.layers:
-            canvas.draw_paths(layer.paths, pen_width=layer.pen_width)
-        canvas.save_png(preview)
+        plan_preview(plan, PREVIEW_DPI).save_png(preview)
     counts = ", ".join(f"{layer.name} {len(layer.paths)}" for layer in plan.layers)
     return (
         f"wrote {output} ({plan.page.width:g}×{plan.page.height:g} mm): "

@@ -9,9 +9,8 @@ from pathlib import Path
 
 from pencilbot.commands.common import add_verbosity, check_render
 from pencilbot.errors import PencilbotError
-
-DEFAULT_PROFILE = "grbl-servo-a4"
-PEN_WIDTH = 0.5  # mm, the line width of the saved drawing
+from pencilbot.machine.profile import DEFAULT_PROFILE
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -19,7 +18,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "sim-serve",
         help="serve the virtual GRBL plotter on a pseudo-terminal",
         description=(
-            "Start a virtual GRBL 1.1 plotter on a new pseudo-terminal and print its device path; "
+            "Start a virtual GRBL 1.1 (or grblHAL, with such a profile) plotter on a new pseudo-terminal "
+            "and print its device path; "
             "open that path with any sender (pencilbot draw --port PATH, Universal G-code Sender, "
             "a terminal). The board behaves like a real GRBL board on an Arduino: opening the port "
             "resets it, and its position restarts at 0,0,0 (--power keep and --abort keep make it "
@@ -28,7 +28,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
+                        help=f"GRBL or grblHAL plotter profile (default {DEFAULT_PROFILE})")
     parser.add_argument("--realtime", type=float, default=1.0, metavar="R",
                         help="move R times faster than real time; 0 = instant (default %(default)g)")
     parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default %(default)s: unlimited)")
@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     except SerialException as exc:
         raise PencilbotError(f"{exc}; see pencilbot sim-serve --help") from None
     if args.output:  # checked now, not on exit: a session's drawing must not be lost to a typo
-        check_render(plotter.profile.bed.width, plotter.profile.bed.height, args.dpi, PEN_WIDTH)
+        check_render(plotter.profile.bed.width, plotter.profile.bed.height, args.dpi, DEFAULT_PEN_WIDTH)
     server = PtyServer(plotter, reset_on_open=not args.no_reset,
                        on_new_path=lambda path: print(path, flush=True))
     print(server.path, flush=True)
@@ -85,5 +85,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"simulated drawing time {plotter.seconds:.1f} s; "
               f"{len(plotter.firmware.accepted_lines())} lines accepted")
     if args.output:
-        plotter.canvas(dpi=args.dpi, pen_width=PEN_WIDTH).save_png(args.output)
+        plotter.canvas(dpi=args.dpi, pen_width=DEFAULT_PEN_WIDTH).save_png(args.output)
     return 0

@@ -11,17 +11,17 @@ import argparse
 import itertools
 import math
 import os
+import re
 import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import add_photo_options, add_verbosity, check_render, plan_for_input
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
-from pencilbot.gcode.writer import duration_text, gcode_lines
-
-DEFAULT_PROFILE = "grbl-servo-a4"
-DEFAULT_PEN_WIDTH = 0.5  # mm, for G-code, which says nothing of its pen
-GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
+from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
+from pencilbot.machine.profile import DEFAULT_PROFILE
+from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.planning.stats import duration_text
 _RUNS = itertools.count(1)
 
 
@@ -33,13 +33,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "Stream INPUT (G-code, a plan SVG, or a photo, which is planned first) through the "
             "serial driver into the virtual GRBL plotter, save the drawing as a PNG of the whole "
             "bed and print the simulated drawing time. --pen-width also sets the line width a "
-            "G-code input is rendered with (default: the plan's, else 0.5 mm)."
+            f"G-code input is rendered with (default: the plan's, else {DEFAULT_PEN_WIDTH:g} mm)."
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, plan .svg, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"GRBL plotter profile (default {DEFAULT_PROFILE})")
+                        help=f"GRBL or grblHAL plotter profile (default {DEFAULT_PROFILE})")
     parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
@@ -55,19 +55,21 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"name the output {output} with .png")
     if not (math.isfinite(args.realtime) and args.realtime >= 0):
         raise PencilbotError(f"--realtime must be 0 (instant) or a positive speed-up, not {args.realtime:g}")
+    import sim
     from sim import protocol_sim
 
-    profile = protocol_sim.grbl_profile(args.profile)  # fails before any slow planning
+    sim.register()
+    profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
     check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
                  travel=args.travel)
-    lines, pen_width = _gcode(source, profile, args)
+    program, pen_width = _gcode(source, profile, args)
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
     try:
-        draw(lines, f"sim://{name}?{query}", profile=args.profile, source=str(source),
+        draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")
         plotter = protocol_sim.plotter(name)
         canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)
@@ -81,28 +83,32 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[list[str], float]:
-    """G-code lines for ``source`` and the pen width (mm) to render them with."""
+def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float]:
+    """The G-code program for ``source`` and the pen width (mm) to render it with."""
     if not source.is_file():
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
     if source.suffix.lower() in GCODE_SUFFIXES:
         try:
-            # As for draw: comments may hold any text; the driver refuses a command that is not ASCII.
-            # A UTF-8 byte-order mark is not text (GRBL drops its bytes too).
-            lines = source.read_text(encoding="utf-8-sig", errors="replace").splitlines()
+            # Read as draw reads it (any text in comments; a command that is not ASCII is refused
+            # by line), but as a program: a simulation keeps no job journal beside the file.
+            program = source.read_bytes()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return [_without_program_marker(line) for line in lines], args.pen_width or DEFAULT_PEN_WIDTH
+        return _without_program_markers(program), args.pen_width or DEFAULT_PEN_WIDTH
     plan = plan_for_input(source, args)
-    widths = [layer.pen_width for layer in plan.layers]
-    return gcode_lines(plan, profile, source=str(source)), args.pen_width or (widths[0] if widths else DEFAULT_PEN_WIDTH)
+    return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
 
 
-def _without_program_marker(line: str) -> str:
-    """A ``%`` line (the tape start/end marker CAM and Inkscape programs carry) as an empty one.
+_BOM = b"\xef\xbb\xbf"
+_PROGRAM_MARKER = re.compile(rb"(?m)^[ \t]*%[ \t]*(?:;[^\r\n]*)?(?=\r?$)")
+
+
+def _without_program_markers(program: bytes) -> bytes:
+    """The program without a UTF-8 byte-order mark (not text: GRBL drops its bytes too), and its
+    ``%`` lines (the tape start/end marker CAM and Inkscape programs carry) left empty.
 
     GRBL answers a ``%`` with error:1 (its protocol loop has the feature commented out); a
-    preview of a program written for controllers that read it leaves the marker out. The line
-    stays, empty, so messages keep the file's line numbers.
+    preview of a program written for controllers that read it leaves the marker out. The lines
+    stay, empty, so messages keep the file's line numbers.
     """
-    return "" if line.split(";", 1)[0].strip() == "%" else line
+    return _PROGRAM_MARKER.sub(b"", program.removeprefix(_BOM))

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 from PIL import Image
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
@@ -17,7 +17,6 @@ from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, MAX_LENGTH, MIN_LENGTH, WIDTH_RANGE, line_drawing
 
-OUTPUT_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -129,9 +128,9 @@ def write_image(array: np.ndarray, path: Path) -> None:
 
 
 def _check_output(output: Path) -> None:
-    if output.suffix.lower() not in OUTPUT_SUFFIXES:
+    if output.suffix.lower() not in IMAGE_SUFFIXES:
         raise PencilbotError(
-            f"cannot tell the image format of {output}: name it with one of {', '.join(OUTPUT_SUFFIXES)}."
+            f"cannot tell the image format of {output}: name it with one of {', '.join(IMAGE_SUFFIXES)}."
         )
     if not output.parent.is_dir():
         raise PencilbotError(

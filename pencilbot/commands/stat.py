@@ -6,8 +6,9 @@ import argparse
 import json
 
 from pencilbot.commands.common import add_verbosity
-from pencilbot.planning.motion import MotionSettings, PlanStats, Stats, duration_text, estimate
-from pencilbot.planning.svg import read_svg
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.planning.stats import PlanStats, Stats, duration_text, estimate
+from pencilbot.export.svg import read_svg
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -16,36 +17,27 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help="pen-down/up length, lifts and estimated plot time of a plan",
         description=(
             "Print pen-down length, pen-up length, lifts, paths, segments and the estimated "
-            "plot time of a plan SVG, per layer and in total. The time follows GRBL's motion "
-            "model (acceleration, junction deviation, pen delays) with the given plotter "
-            "profile's settings, or defaults."
+            "plot time of a plan SVG, per layer and in total: the program `pencilbot export` "
+            "writes for the plotter profile, with its acceleration, junction deviation, pen "
+            "delays and Z moves, from and back to its home (the G-code header says the same)."
         ),
     )
     parser.add_argument("plan", metavar="PLAN.svg", help="plan written by `pencilbot plan`")
-    parser.add_argument("--profile", metavar="NAME|FILE", help="plotter profile for speeds and delays")
+    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
+                        help="plotter profile for speeds, delays and where home is (default %(default)s)")
     parser.add_argument("--json", action="store_true", help="print JSON (lengths in mm, time in s)")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    plan = read_svg(args.plan)
-    settings = _settings(args.profile)
-    stats = estimate(plan, settings)
+    profile = load_profile(args.profile)
+    stats = estimate(read_svg(args.plan), profile)
     if args.json:
         print(json.dumps({"plan": args.plan, "profile": args.profile, **stats.as_dict()}, indent=2))
     elif not args.quiet:
         print(format_table(stats))
     return 0
-
-
-def _settings(profile: str | None) -> MotionSettings:
-    if profile is None:
-        return MotionSettings()
-    # Imported here: profiles are the G-code side's, and stat works without them.
-    from pencilbot.gcode.profiles import load_profile
-
-    return load_profile(profile).motion_settings()
 
 
 def format_table(stats: PlanStats) -> str:

@@ -1,10 +1,12 @@
 """Stream G-code to a pen plotter over serial and survive what real hardware does.
 
 ``draw(gcode, port, ...)`` is the one entry point for scripts; ``pencilbot draw`` is its CLI.
+The pieces: :mod:`~pencilbot.driver.job` (a file ready to stream), :mod:`~pencilbot.driver.stream`
+(the one streaming core, over any firmware of the registry), :mod:`~pencilbot.driver.plot` (a job
+from start to end, faults turned into messages), :mod:`~pencilbot.driver.resume` and
+:mod:`~pencilbot.driver.journal` (continuing a stopped job).
 """
 
-from pencilbot.driver.job import DrawResult, draw
+from pencilbot.driver.plot import DrawResult, draw
 
-stream = draw  # the name CONTRACTS.md gives the streaming entry point
-
-__all__ = ["DrawResult", "draw", "stream"]
+__all__ = ["DrawResult", "draw"]

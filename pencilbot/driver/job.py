@@ -1,412 +1,230 @@
-"""A plot job from start to end: load, wake, (check), resume, stream, and stop cleanly on faults.
+"""A job ready to stream: every command line encoded once, in one buffer, with arrays beside it.
 
-This is where a :class:`~pencilbot.driver.faults.StreamFault` becomes one plain
-:class:`~pencilbot.errors.PlotError` message: what happened, at which line of the file, what the
-pen is doing now, and the exact command that resumes the job.
+Preparing a million-line file must not cost more than streaming it. :func:`load_job` reads the
+file in blocks and keeps, per command line, only its bytes in one buffer (the cleaned line and its
+``\\n``, exactly what a character-counting sender writes), its offset, its line number in the
+file and the cumulative motion estimate (for the progress ETA): about 45 bytes a line. The modal
+state is not stored per line: a checkpoint is kept every :data:`CHECKPOINT` lines and the state
+anywhere is recomputed from the nearest one (:meth:`Job.state_after`), which only a resume and a
+stop need. The firmware checks the whole buffer at once before the port is opened.
 """
 
 from __future__ import annotations
 
-import shlex
-import time
-from dataclasses import dataclass, field
+import re
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 
-from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.faults import BadLine, StreamFault, is_rejection
-from pencilbot.driver.grbl_stream import GrblSession, encode_lines
-from pencilbot.driver.marlin_stream import MarlinSession, check_lines
-from pencilbot.driver.modal import MM_PER_INCH, ModalState, advance, clean_line, line_seconds
-from pencilbot.driver.port import LineReader, PortLost, open_port
-from pencilbot.driver.progress import Progress
-from pencilbot.driver.resume import locate_stop, pen_model, resume_preamble
+import numpy as np
+
+from pencilbot.driver.modal import ModalState, Track, track
 from pencilbot.errors import PlotError
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import Profile
 
-JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
+#: Lines between stored modal states: a state is at most this many lines of tracking away.
+CHECKPOINT = 4096
+_READ_BLOCK = 1 << 20  # bytes read (and cleaned, and tracked) at a time
+_COMMENT = re.compile(rb"\([^)\n]*\)|;[^\n]*")
+_SPACE = b" \t\r\x0b\x0c"
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Job:
-    """The lines to send, with their file line numbers, modal states and time estimates."""
+    """The command lines of a G-code file, ready to stream.
 
-    lines: list[str]
-    numbers: list[int]  # 1-based file line of each job line
-    states: list[ModalState]  # state after each line
-    seconds: list[float]  # cumulative motion estimate after each line (s)
-    source: str = "<lines>"
+    Attributes
+    ----------
+    source : str
+        What messages call the job (the file's path).
+    frames : bytearray
+        Every command line, cleaned (no comments, spaces or lower case) and ended by ``\\n``
+        (not copied into bytes: a job's buffer is read, never changed).
+    offsets : (n + 1,) int64 array
+        Where line ``i`` starts in ``frames``.
+    numbers : (n,) int32 array
+        The 1-based file line of each job line.
+    seconds : (n,) float32 array
+        Cumulative motion estimate after each line, s.
+    checkpoints : tuple of ModalState
+        The state before lines 0, CHECKPOINT, 2·CHECKPOINT, …
+    total_lines : int
+        Lines in the file, commands or not.
+    """
+
+    source: str
+    frames: bytearray
+    offsets: np.ndarray
+    numbers: np.ndarray
+    seconds: np.ndarray
+    checkpoints: tuple[ModalState, ...]
+    total_lines: int
+    profile: Profile
+
+    def __len__(self) -> int:
+        return len(self.numbers)
+
+    def line(self, index: int) -> str:
+        """Job line ``index`` as text (cleaned)."""
+        return self.frames[self.offsets[index] : self.offsets[index + 1] - 1].decode("ascii")
+
+    def size(self, index: int) -> int:
+        """Bytes of line ``index`` as sent, its ``\\n`` included."""
+        return int(self.offsets[index + 1] - self.offsets[index])
+
+    def frames_between(self, first: int, stop: int) -> memoryview:
+        """Lines ``first`` to ``stop − 1`` as sent, in one piece (no copy)."""
+        return memoryview(self.frames)[self.offsets[first] : self.offsets[stop]]
 
     def index_of(self, file_line: int) -> int:
         """Index of the first job line at or after ``file_line``."""
-        for i, number in enumerate(self.numbers):
-            if number >= file_line:
-                return i
-        return len(self.lines)
+        return int(np.searchsorted(self.numbers, file_line, side="left"))
+
+    def number(self, index: int) -> int:
+        """The file line of job line ``index``; past the end, the line after the last."""
+        return int(self.numbers[index]) if index < len(self) else int(self.numbers[-1]) + 1
+
+    def seconds_after(self, index: int) -> float:
+        """Motion estimate of lines ``0 … index`` (0 for ``index < 0``)."""
+        return float(self.seconds[index]) if index >= 0 else 0.0
+
+    def states(self, first: int, stop: int) -> Track:
+        """The modal states after lines ``first`` to ``stop − 1`` (recomputed from a checkpoint)."""
+        base = first // CHECKPOINT * CHECKPOINT
+        full = self._track(base, stop)
+        keep = first - base
+        columns = {name: values[keep:] for name, values in full.columns.items()}
+        return Track(first, columns, full.seconds[keep:])
+
+    def state_after(self, index: int) -> ModalState:
+        """The modal state after line ``index`` (the start state for ``index < 0``)."""
+        if index < 0:
+            return ModalState()
+        return self.states(index, index + 1)[index]
+
+    def _track(self, first: int, stop: int) -> Track:
+        block = self.frames[self.offsets[first] : self.offsets[stop]]
+        fw = self.profile.firmware
+        return track(block, self.profile.pen_model, start=self.checkpoints[first // CHECKPOINT], first=first,
+                     travel_feed=self.profile.motion.travel_feed, dwell_units=fw.dwell_units)
 
 
-def load_job(raw_lines: list[str], profile, source: str = "<lines>") -> Job:
-    """Clean the lines (comments, blanks dropped) and follow their state through the job."""
-    pen = pen_model(profile)
-    lines, numbers, states, seconds = [], [], [], []
-    state, total = ModalState(), 0.0
-    for number, raw in enumerate(raw_lines, start=1):
-        line = clean_line(raw)
-        if not line:
-            continue
-        after = advance(state, line, pen)
-        total += line_seconds(state, after, line, profile.motion.travel_feed, profile.dialect)
-        lines.append(line)
-        numbers.append(number)
-        states.append(after)
-        seconds.append(total)
-        state = after
-    return Job(lines, numbers, states, seconds, source)
-
-
-@dataclass
-class DrawResult:
-    """What :func:`draw` did: lines sent, rejected line numbers (``--on-error continue``), time."""
-
-    lines_sent: int
-    rejected: list[int] = field(default_factory=list)
-    seconds: float = 0.0
-    journal: Path | None = None
-
-
-def draw(
-    gcode: str | Path | list[str],
-    port: str,
-    *,
-    profile: str | None = None,
-    baud: int = 115200,
-    unlock: bool = False,
-    check: bool = False,
-    send_and_wait: bool = False,
-    on_error: str = "stop",
-    start_line: int | None = None,
-    resume: str | Path | None = None,
-    progress: str = "quiet",
-    timeout: float = 10.0,
-    wake_wait: float = 2.5,
-    source: str | None = None,
-) -> DrawResult:
-    """Stream a G-code file (or lines) to a plotter and wait until it has drawn everything.
+def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source: str | None = None) -> Job:
+    """Read G-code, keep its command lines, and check that the firmware can take every one.
 
     Parameters
     ----------
-    gcode : path or list of str
-        A G-code file, or its lines. Only a file gets a job journal (and ``--resume``).
-    port : str
-        Device or pyserial URL (``/dev/ttyUSB0``, ``COM3``, ``socket://…``, ``sim://…``).
-    profile : str, optional
-        Plotter profile name or TOML path (dialect, receive buffer, pen commands); by default the
-        resumed job's, else ``grbl-servo-a4``.
-    baud : int
-        Serial speed in bit/s.
-    unlock : bool
-        Send ``$X`` if the board starts in alarm lock (GRBL).
-    check : bool
-        Run the whole job through GRBL's ``$C`` check mode first; stop if any line fails.
-    send_and_wait : bool
-        One line in flight at a time instead of GRBL character counting.
-    on_error : {"stop", "continue"}
-        On ``error:N``: stop (feed hold, pen up), or log it and go on.
-    start_line : int, optional
-        Start from this file line (1-based), rebuilding the state of the lines before it.
-    resume : path, optional
-        A job journal (or its G-code file) to continue from where it stopped.
-    progress : {"bar", "quiet", "json"}
-        How to show progress.
-    timeout : float
-        Seconds of silence from the board before the job is declared stuck.
-    wake_wait : float
-        Seconds to wait for the start-up banner.
+    gcode : path, bytes or iterable of str
+        A G-code file, a whole program, or its lines.
+    profile : Profile
+        The plotter: its firmware validates the lines; its pen and feeds drive the tracking.
     source : str, optional
-        What fault messages call ``gcode`` when it is a list of lines (e.g. the file they were
-        read from); a file is named by its path.
+        What messages call the job (default: the file's path, else ``"<lines>"``).
 
     Raises
     ------
     PlotError
-        Any fault; the message says what happened, where, and how to resume.
+        The file cannot be read, holds no command, is binary, or a line cannot be sent (its
+        line number and why).
     """
-    stop_xy = None
-    journal = None
-    if resume is not None:
-        journal = journal_mod.load_journal(resume)
-        gcode = Path(journal.gcode)
-        if journal.status == "done":
-            raise PlotError(
-                f"the job of {gcode} finished; there is nothing to resume. To draw it again: "
-                f"pencilbot draw {shlex.quote(str(gcode))} --port {shlex.quote(port)} --profile "
-                f"{shlex.quote(profile or journal.profile)}"
-            )
-        _check_unchanged(journal, gcode)
-    profile = profile or (journal.profile if journal else "grbl-servo-a4")
-    prof = load_profile(profile)
-    if check and prof.dialect != "grbl":
-        raise PlotError(
-            f"--check runs the file through GRBL's $C check mode, and profile {prof.name} is for "
-            f"{prof.dialect}, which has none; draw without --check"
-        )
     if isinstance(gcode, (str, Path)):
         path = Path(gcode)
+        source = source or str(path)
         try:
-            # Comments may hold any text; a command that is not ASCII is refused line by line below.
-            raw = path.read_text(encoding="utf-8", errors="replace").splitlines()
+            handle = path.open("rb")
         except FileNotFoundError:
             raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
         except OSError as exc:
             raise PlotError(f"cannot read G-code file {path} ({exc})") from None
-        job = load_job(raw, prof, str(path))
-        total_lines = len(raw)
+        with handle:
+            job = _prepare(_blocks(iter(lambda: handle.read(_READ_BLOCK), b"")), profile, source)
+    elif isinstance(gcode, bytes):
+        job = _prepare(_blocks([gcode]), profile, source or "<lines>")
     else:
-        path, job, total_lines = None, load_job(list(gcode), prof, source or "<lines>"), len(gcode)
-    if not job.lines:
+        program = "".join(f"{line}\n" for line in gcode).encode("utf-8", errors="replace")
+        job = _prepare(_blocks([program]), profile, source or "<lines>")
+    if not len(job):
         raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
-    if any("\x00" in line for line in job.lines):
+    return job
+
+
+def _blocks(chunks: Iterable[bytes]) -> Iterator[bytes]:
+    """Whole lines, about a read block at a time (a line never straddles two blocks)."""
+    rest = b""
+    for chunk in chunks:
+        data, start = rest + chunk, 0
+        while True:
+            end = data.rfind(b"\n", start, start + _READ_BLOCK) + 1 or data.find(b"\n", start) + 1
+            if end <= start:
+                break  # no whole line left: wait for the next chunk
+            yield data[start:end]
+            start = end
+        rest = data[start:]
+    if rest:
+        yield rest + b"\n"
+
+
+def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
+    fw = profile.firmware
+    pen = profile.pen_model
+    frames, offsets, numbers, seconds, checkpoints = bytearray(), [np.zeros(1, np.int64)], [], [], [ModalState()]
+    file_lines = done = 0
+    state, elapsed = ModalState(), 0.0
+    for raw in blocks:
+        # \r\n and a lone \r end a line as \n does (GRBL reads both as line ends).
+        text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        cleaned = fw.commands(_COMMENT.sub(b"", text).translate(None, _SPACE).upper())
+        a = np.frombuffer(cleaned, dtype=np.uint8)
+        breaks = np.flatnonzero(a == 10)
+        length = np.diff(breaks, prepend=-1) - 1
+        kept = length > 0
+        numbers.append((file_lines + 1 + np.flatnonzero(kept)).astype(np.int32))
+        file_lines += len(breaks)
+        # Empty lines go: drop each newline that ends one.
+        empty_end = breaks[~kept]
+        block = np.delete(a, empty_end).tobytes() if len(empty_end) else cleaned
+        offsets.append(len(frames) + np.cumsum(length[kept] + 1))
+        frames += block
+        lines = int(kept.sum())
+        if not lines:
+            continue
+        # Track in pieces that end on checkpoints, remembering the state at each.
+        first = 0
+        starts = np.concatenate([[0], np.cumsum(length[kept] + 1)])
+        while first < lines:
+            stop = min(lines, first + CHECKPOINT - (done + first) % CHECKPOINT)
+            piece = track(block[starts[first] : starts[stop]], pen, start=state, travel_feed=profile.motion.travel_feed,
+                          dwell_units=fw.dwell_units)
+            cumulative = elapsed + np.cumsum(piece.seconds)
+            seconds.append(cumulative.astype(np.float32))  # an ETA needs no more digits
+            elapsed = float(cumulative[-1])
+            state = piece.last
+            if (done + stop) % CHECKPOINT == 0:
+                checkpoints.append(state)
+            first = stop
+        done += lines
+    job = Job(
+        source=source,
+        frames=frames,
+        offsets=np.concatenate(offsets),
+        numbers=np.concatenate(numbers) if numbers else np.zeros(0, np.int32),
+        seconds=np.concatenate(seconds) if seconds else np.zeros(0, np.float32),
+        checkpoints=tuple(checkpoints),
+        total_lines=file_lines,
+        profile=profile,
+    )
+    _check(job)
+    return job
+
+
+def _check(job: Job) -> None:
+    """Refuse binary files and lines the firmware cannot take, naming the file line."""
+    if b"\x00" in job.frames:
         raise PlotError(
             f"{job.source} is not G-code text (it holds NUL bytes, as binary files do); give the "
             ".gcode file that pencilbot export wrote"
         )
-    try:
-        encode_lines(job.lines) if prof.dialect == "grbl" else check_lines(job.lines)
-    except BadLine as bad:
-        raise PlotError(f"line {job.numbers[bad.index]} of {job.source}: {bad.reason}") from None
-
-    start = 0
-    if journal is not None:
-        start, stop_xy = job.index_of(journal.next_line), journal.stop_xy
-    elif start_line is not None:
-        if not 1 <= start_line <= total_lines:
-            raise PlotError(f"--start-line {start_line} is outside {job.source} (lines 1..{total_lines})")
-        start = job.index_of(start_line)
-    if path is not None and journal is None:
-        journal = journal_mod.Journal(
-            gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port, profile=profile,
-            total_lines=total_lines, path=journal_mod.journal_path(path),
-        )
-    if journal is not None:
-        journal.port, journal.profile, journal.status, journal.message = port, profile, "running", ""
-
-    runner = _Runner(job, prof, port, journal, progress, send_and_wait, on_error, unlock)
-    reader = LineReader(open_port(port, baudrate=baud))
-    try:
-        session = (
-            GrblSession(reader, budget=prof.gcode.receive_buffer, timeout=timeout)
-            if prof.dialect == "grbl"
-            else MarlinSession(reader, timeout=timeout)
-        )
-        resumed_acked = job.index_of(journal.acked_line) if resume is not None and journal.acked_line else None
-        return runner.run(session, start, stop_xy, check, wake_wait, resumed_acked)
-    finally:
-        try:
-            reader.port.close()
-        except Exception:  # noqa: BLE001 - a vanished port may fail to close; nothing to do
-            pass
-
-
-def _check_unchanged(journal, gcode: Path) -> None:
-    try:
-        digest = journal_mod.file_sha256(gcode)
-    except OSError:
-        raise PlotError(f"the job's G-code file {gcode} is gone; resume needs the same file") from None
-    if digest != journal.sha256:
-        raise PlotError(
-            f"{gcode} changed since the job stopped, so the journal no longer matches it; check the "
-            f"file and continue with: pencilbot draw {shlex.quote(str(gcode))} --port "
-            f"{shlex.quote(journal.port)} --profile {shlex.quote(journal.profile)} --start-line {journal.next_line}"
-        )
-
-
-class _Runner:
-    """Holds one job's running state between the session and the journal/progress."""
-
-    def __init__(self, job, profile, port, journal, progress, send_and_wait, on_error, unlock):
-        self.job, self.profile, self.port, self.journal = job, profile, port, journal
-        self.pen = pen_model(profile)
-        self.progress_mode = progress
-        self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
-        self.acked = -1
-        self._journal_at = 0.0
-
-    def run(self, session, start, stop_xy, check, wake_wait, resumed_acked=None) -> DrawResult:
-        """Stream from job line ``start``; ``resumed_acked``: last acknowledged index of a resumed job."""
-        t0 = time.monotonic()
-        try:
-            self._prepare(session, check, wake_wait)
-            if resumed_acked is not None:
-                # Where the machine stands now tells what the stopped job really drew (a lost link
-                # or a hung board leaves moves that were acknowledged but never run).
-                here = self._job_position(session, resumed_acked)
-                start, stop_xy = locate_stop(self.job.states, resumed_acked, here) or (start, stop_xy)
-            if start > 0:
-                state = self.job.states[start - 1]
-                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=self.profile.gcode.decimals):
-                    self._setup_command(session, line, "restoring the job's state")
-        except StreamFault as fault:
-            raise PlotError(f"{fault} before the job started; nothing was drawn. Check the plotter and retry.") from None
-        except PortLost as exc:
-            raise PlotError(f"the serial port {self.port} vanished before the job started ({exc})") from None
-
-        self.acked = start - 1
-        done0 = self.job.seconds[start - 1] if start > 0 else 0.0
-        total = self.job.seconds[-1] - done0
-        self.progress = Progress(self.progress_mode, len(self.job.lines) - start, total)
-        self._save_journal(force=True)
-
-        def on_ack(index, state):
-            self.acked = index
-            self.progress.update(index + 1 - start, self.job.seconds[index] - done0, state)
-            self._save_journal()
-
-        try:
-            rejected = session.stream(
-                self.job.lines, start, on_ack, send_and_wait=self.send_and_wait, on_error=self.on_error
-            )
-        except StreamFault as fault:
-            message = self._stop(session, fault)
-            self.progress.close("stopped", message)
-            raise PlotError(message) from None
-        self.progress.update(len(self.job.lines) - start, total, session.state)  # drawn: now Idle
-        self.progress.close("done")
-        if self.journal is not None:
-            self.journal.status, self.journal.next_line = "done", self.job.numbers[-1] + 1
-            self.journal.stop_xy = None
-            self._save_journal(force=True)
-        return DrawResult(
-            lines_sent=len(self.job.lines) - start,
-            rejected=[self.job.numbers[i] for i in rejected],
-            seconds=time.monotonic() - t0,
-            journal=self.journal.path if self.journal else None,
-        )
-
-    def _prepare(self, session, check, wake_wait) -> None:
-        session.wake(wake_wait)
-        if not isinstance(session, GrblSession):
-            return
-        status = session.wait_until_still()  # a reconnected board may still be drawing
-        if status.state == "Alarm":
-            if not self.unlock:
-                raise PlotError(
-                    f"the plotter on {self.port} is in alarm lock. Make sure the pen can move freely, "
-                    "then run the same command with --unlock (sends $X), or home the machine"
-                )
-            self._setup_command(session, "$X", "unlocking")
-        elif status.state in ("Hold", "Door"):
-            # A held board queues what it gets and runs none of it: the job would wait forever.
-            raise PlotError(
-                f"the plotter on {self.port} is paused ({status.state}: a feed hold or an open door). "
-                "Close the door, or press resume (cycle start, '~') or reset on the machine, then run again"
-            )
-        if check:
-            self._check_mode(session)
-
-    def _setup_command(self, session, line, doing) -> None:
-        reply = session.command(line)
-        if is_rejection(reply):
-            raise PlotError(f"the plotter refused {line!r} while {doing} ({reply}); check the profile")
-
-    def _check_mode(self, session) -> None:
-        """Run every line through ``$C`` (parse only, no motion) and refuse the job on any error."""
-        self._setup_command(session, "$C", "entering check mode")
-        try:
-            rejected = session.stream(self.job.lines, 0, lambda i, s: None, on_error="continue")
-        except StreamFault as fault:
-            if fault.kind != "alarm" or fault.index >= len(self.job.lines):
-                raise
-            session.reset()  # soft limits still alarm in check mode, and lock until a reset
-            raise PlotError(
-                f"GRBL check mode ($C) stopped at line {self.job.numbers[fault.index]} of "
-                f"{self.job.source} ({self.job.lines[fault.index]!r}): {fault}; nothing was drawn. "
-                "Fix the G-code (pencilbot export keeps every move on the bed), then run again "
-                "with --unlock"
-            ) from None
-        session.command("$C")  # leaving check mode soft-resets GRBL
-        session.reset()
-        if rejected:
-            where = ", ".join(str(self.job.numbers[i]) for i in rejected[:10])
-            more = f" and {len(rejected) - 10} more" if len(rejected) > 10 else ""
-            raise PlotError(
-                f"GRBL check mode ($C) rejected lines {where}{more} of {self.job.source}; nothing was "
-                "drawn. Fix those lines (pencilbot export writes GRBL-safe G-code) and run again"
-            )
-
-    def _save_journal(self, force: bool = False) -> None:
-        if self.journal is None:
-            return
-        now = time.monotonic()
-        if not force and now - self._journal_at < JOURNAL_INTERVAL:
-            return
-        self._journal_at = now
-        job = self.job
-        if self.acked >= 0:
-            self.journal.acked_line = job.numbers[self.acked]
-        self.journal.next_line = job.numbers[self.acked + 1] if self.acked + 1 < len(job.lines) else job.numbers[-1] + 1
-        self.journal.save()
-
-    def _stop(self, session, fault: StreamFault) -> str:
-        """Stop the machine after ``fault``, record where to resume, and say so in one message."""
-        pen_note, position = self._halt_and_lift(session, fault)
-        if fault.kind == "error" and self.on_error == "stop":
-            # The rejected line never ran: resume no later than it (it is sent again).
-            self.acked = min(self.acked, fault.index - 1)
-        # Without a known position, trust the acknowledgements; a resume looks again (the
-        # machine's position after reconnecting tells what a lost link or hung board ran).
-        index, stop_xy = locate_stop(self.job.states, self.acked, position) or (self.acked + 1, None)
-        line_no = self.job.numbers[min(fault.index, len(self.job.lines) - 1)] if fault.index >= 0 else None
-        where = f"at line {line_no} of {self.job.source} ({self.job.lines[fault.index]!r})" if line_no else ""
-        message = f"{fault} {where}. Stopped; {pen_note}. {self._resume_advice(index, stop_xy, fault)}"
-        if fault.kind == "error" and line_no:
-            # Lines without a journal have no command line to resume them: say it in plain words.
-            fix = "use --start-line" if self.journal is not None else "start from it"
-            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
-        return message
-
-    def _halt_and_lift(self, session, fault):
-        """Stop the machine, read where it stands (job units) and raise the pen: (note, position)."""
-        if fault.kind == "port":
-            return "the pen state is unknown (no port left to raise it)", None
-        try:
-            at_rest = False
-            if fault.kind in ("error", "interrupt", "timeout"):
-                at_rest = session.halt()
-            elif fault.kind == "alarm":
-                session.reset()  # a limit alarm blocks all input until a reset
-            status = session.query_status(wait=min(session.timeout, 3.0))
-            position = self._job_position(session, self.acked)
-            if status is not None and status.state == "Alarm" and at_rest:
-                # Our own reset of a machine at rest: the position is exact, so the alarm
-                # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
-                session.command("$X")
-            for line in self.pen.up_lines:
-                if is_rejection(session.command(line)):
-                    if self.pen.kind == "spindle":
-                        # The alarm switched the spindle off, and spindle off is pen up.
-                        return "pen up (the alarm switched the spindle off)", position
-                    return "the alarm locks G-code, so the pen could not be raised", position
-            return "pen raised", position
-        except (StreamFault, PortLost) as exc:
-            return f"could not raise the pen ({exc})", None
-
-    def _job_position(self, session, acked: int):
-        """The machine's work position X, Y in the units the job uses at line ``acked``."""
-        position = session.work_position()
-        if position is not None and self.job.states[max(acked, 0)].inches:
-            position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
-        return position
-
-    def _resume_advice(self, index, stop_xy, fault) -> str:
-        """Record where to resume in the journal and say how: the command, or the line."""
-        unlock = " --unlock" if fault.kind in ("alarm", "reset") else ""
-        port = shlex.quote(self.port)
-        line = self.job.numbers[index] if index < len(self.job.lines) else self.job.numbers[-1] + 1
-        if self.journal is None:  # lines from a program (simulate, the library): no command to give
-            return f"Resume from line {line} of {self.job.source}"
-        self.journal.next_line = line
-        self.journal.acked_line = self.job.numbers[self.acked] if self.acked >= 0 else 0
-        self.journal.stop_xy = list(stop_xy) if stop_xy is not None else None
-        self.journal.status = "stopped"
-        self.journal.message = str(fault)
-        self.journal.save()
-        return f"Resume with: pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {port}{unlock}"
+    refused = job.profile.firmware.check_lines(job)
+    if refused is not None:
+        index, reason = refused
+        raise PlotError(f"line {job.number(index)} of {job.source}: {reason}")

@@ -1,21 +1,47 @@
-"""Follow a G-code job's modal state line by line (units, distance mode, feed, position, pen).
+"""Follow a G-code job's modal state (units, distance mode, feed, position, pen), whole arrays at once.
 
-The driver needs this for two things: to rebuild the machine state when a job resumes in the
-middle, and to estimate how long each line takes for the progress ETA. It understands the subset
-of G-code that pencilbot writes (G0 G1 G4 G20 G21 G90 G91, F X Y Z S P, M3 M5 M280); other words
-pass through without changing the tracked state.
+The driver needs it for two things: to rebuild the machine state when a job resumes in the middle,
+and to estimate how long each line takes for the progress ETA. It understands the subset of
+G-code that plotters are sent (G0 G1 G4 G20 G21 G90 G91, F X Y Z S P, M3 M4 M5 M280); other words
+pass through without changing the tracked state, and axis words on ``G4 G10 G28 G53 G92`` lines are
+not moves.
+
+:func:`track` reads a block of cleaned lines (see :func:`clean_line`) in one pass of numpy: the
+words' numbers are parsed from their digits, each modal value is carried forward from the last
+line that set it, and positions are running sums between absolute assignments. So a job of a
+million lines is tracked in well under a second, and a state in the middle of it is recomputed
+on demand from the nearest checkpoint (:mod:`pencilbot.driver.job`) instead of being stored per
+line. A malformed word (``X1.2.3``, ``G``) changes nothing, as the board will refuse it anyway.
 """
 
 from __future__ import annotations
 
-import math
 import re
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import dataclass
 
-_WORD = re.compile(r"([A-Z])\s*([-+]?(?:\d+\.?\d*|\.\d+))")
+import numpy as np
+
+from pencilbot.machine.pen import PenModel
+from pencilbot.units import MM_PER_INCH
+
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
+_LETTER = {letter: ord(letter) - ord("A") for letter in "FGMPSXYZ"}
+_MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
+_POW10 = 10.0 ** np.arange(-_MAX_DIGITS, _MAX_DIGITS + 1)  # digit weights by exponent
 
-MM_PER_INCH = 25.4
+
+def _bits(codes: dict[int, int]) -> np.ndarray:
+    table = np.full(max(codes) + 1, -1, dtype=np.int64)
+    table[list(codes)] = list(codes.values())
+    return table
+
+
+# The G and M codes the tracker reads, each a bit of a per-line mask.
+G0, G1, G4, G20, G21, G90, G91, NOT_A_MOVE = (1 << b for b in range(8))
+_G_BITS = _bits({0: 0, 1: 1, 4: 2, 20: 3, 21: 4, 90: 5, 91: 6, 10: 7, 28: 7, 53: 7, 92: 7})
+M3, M4, M5, M280 = (1 << b for b in range(4))
+_M_BITS = _bits({3: 0, 4: 1, 5: 2, 280: 3})
 
 
 def clean_line(raw: str) -> str:
@@ -32,46 +58,6 @@ def clean_line(raw: str) -> str:
         Upper-case text without ``( … )`` / ``;`` comments and spaces; ``""`` if nothing is left.
     """
     return "".join(_COMMENT.sub("", raw).split()).upper()
-
-
-def words(line: str) -> dict[str, float]:
-    """Letter → value of a cleaned line (the first occurrence of each letter; G and M kept apart
-    by :func:`codes`)."""
-    out: dict[str, float] = {}
-    for letter, value in _WORD.findall(line):
-        out.setdefault(letter, float(value))
-    return out
-
-
-def codes(line: str, letter: str) -> set[int]:
-    """All integer codes of one letter on a line, e.g. ``codes("G21G90", "G") == {21, 90}``."""
-    return {int(float(v)) for lt, v in _WORD.findall(line) if lt == letter}
-
-
-@dataclass(frozen=True)
-class PenModel:
-    """How a plotter raises and lowers its pen, enough to tell pen state from G-code.
-
-    Parameters
-    ----------
-    kind : {"spindle", "z", "servo"}
-        Spindle pens move with ``M3 S…`` (``M5`` = up), Z pens with the Z axis, servo pens with
-        ``M280 … S<angle>``.
-    up, down : float
-        The S value, Z height (mm) or servo angle (degrees) for pen up and pen down.
-    up_lines, down_lines : tuple of str
-        The G-code lines that raise / lower the pen on this plotter (cleaned).
-    """
-
-    kind: str
-    up: float
-    down: float
-    up_lines: tuple[str, ...]
-    down_lines: tuple[str, ...]
-
-    def is_down(self, value: float) -> bool:
-        """Whether an S / Z / angle value puts the pen on the paper (closer to down than up)."""
-        return abs(value - self.down) < abs(value - self.up)
 
 
 @dataclass(frozen=True)
@@ -91,84 +77,207 @@ class ModalState:
     pen_down: bool = False
 
 
-def advance(state: ModalState, line: str, pen: PenModel) -> ModalState:
-    """The state after executing one cleaned line.
+class Track:
+    """The modal state after each line of a block, as arrays (see :func:`track`).
+
+    ``track[i]`` is the :class:`ModalState` after line ``first + i`` of the job (indexing is by
+    job line, so a window of a job reads like the job); ``seconds`` is each line's duration.
+    """
+
+    FIELDS = ("inches", "relative", "feed", "motion", "x", "y", "z", "spindle_on", "s", "servo", "pen_down")
+
+    def __init__(self, first: int, columns: dict[str, np.ndarray], seconds: np.ndarray) -> None:
+        self.first = first
+        self.columns = columns
+        self.seconds = seconds
+
+    def __len__(self) -> int:
+        return len(self.seconds)
+
+    def __getitem__(self, index: int) -> ModalState:
+        i = index - self.first
+        if not 0 <= i < len(self):
+            raise IndexError(f"line {index} is not in this track (lines {self.first}..{self.first + len(self) - 1})")
+        c = {name: self.columns[name][i].item() for name in self.FIELDS}
+        c["feed"] = None if np.isnan(c["feed"]) else c["feed"]
+        c["servo"] = None if np.isnan(c["servo"]) else c["servo"]
+        return ModalState(**c)
+
+    @property
+    def last(self) -> ModalState:
+        """The state after the block's last line."""
+        return self[self.first + len(self) - 1]
+
+
+def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: ModalState = ModalState(),
+          first: int = 0, travel_feed: float = 6000.0, dwell_units: float = 1.0) -> Track:
+    """The modal state after every line of ``block``, starting from ``start``.
 
     Parameters
     ----------
-    state : ModalState
-        State before the line.
-    line : str
-        A line cleaned by :func:`clean_line`.
+    block : bytes or sequence of str
+        Cleaned lines: ``b"G1X1Y2\\n…"`` (each line ending in ``\\n``, none empty), or a list of
+        cleaned strings.
     pen : PenModel
         Tells which values mean pen down.
-    """
-    if not line or line.startswith("$"):
-        return state
-    w = words(line)
-    g = codes(line, "G")
-    m = codes(line, "M")
-    changes: dict = {}
-    if 20 in g or 21 in g:
-        changes["inches"] = 20 in g
-    if 90 in g or 91 in g:
-        changes["relative"] = 91 in g
-    if "F" in w:
-        changes["feed"] = w["F"]
-    if 0 in g or 1 in g:
-        changes["motion"] = 1 if 1 in g else 0
-    if "S" in w and 280 not in m:
-        changes["s"] = w["S"]
-    if 3 in m or 4 in m:
-        changes["spindle_on"] = True
-    if 5 in m:
-        changes["spindle_on"] = False
-    if 280 in m and "S" in w:
-        changes["servo"] = w["S"]
-    if not ({4, 10, 28, 53, 92} & g):  # these take axis words that are not a move
-        relative = changes.get("relative", state.relative)
-        for axis in "XYZ":
-            if axis in w:
-                base = getattr(state, axis.lower()) if relative else 0.0
-                changes[axis.lower()] = base + w[axis]
-    new = replace(state, **changes)
-    return replace(new, pen_down=_pen_down(new, pen))
-
-
-def _pen_down(state: ModalState, pen: PenModel) -> bool:
-    if pen.kind == "spindle":
-        return state.spindle_on and pen.is_down(state.s)
-    if pen.kind == "z":  # the profile's heights are mm; an inch job's Z is not
-        return pen.is_down(state.z * MM_PER_INCH if state.inches else state.z)
-    return state.servo is not None and pen.is_down(state.servo)
-
-
-def line_seconds(before: ModalState, after: ModalState, line: str, travel_feed: float, dialect: str) -> float:
-    """Rough duration of one line: distance over feed for moves, the dwell for ``G4``.
-
-    Acceleration is ignored: this only feeds the progress ETA, which is rescaled by the observed
-    pace while the job runs.
-
-    Parameters
-    ----------
-    before, after : ModalState
-        State around the line.
-    line : str
-        The cleaned line.
+    start : ModalState
+        State before the first line.
+    first : int
+        Job index of the first line (what :class:`Track` indexes by).
     travel_feed : float
-        Rapid (G0) speed in mm/min.
-    dialect : {"grbl", "marlin"}
-        GRBL's ``G4 P`` is seconds, Marlin's milliseconds.
+        Rapid (G0) speed in mm/min, for the durations.
+    dwell_units : float
+        ``G4 P`` units per second (the firmware's: 1 or 1000).
+
+    Returns
+    -------
+    Track
+        States and durations; a duration is distance over feed for moves (acceleration ignored:
+        the progress ETA is rescaled by the observed pace), the dwell for ``G4``.
     """
-    g = codes(line, "G")
-    if 4 in g:
-        w = words(line)
-        if "S" in w:
-            return w["S"]
-        return w.get("P", 0.0) / (1000.0 if dialect == "marlin" else 1.0)
-    dist = math.dist((before.x, before.y, before.z), (after.x, after.y, after.z))
-    if dist == 0.0:
-        return 0.0
-    scale = MM_PER_INCH if after.inches else 1.0
-    feed = travel_feed if after.motion == 0 or not after.feed else after.feed * scale
-    return dist * scale / feed * 60.0
+    if not isinstance(block, (bytes, bytearray)):
+        block = "".join(f"{line}\n" for line in block).encode("ascii", errors="replace")
+    words = _words(block)
+    lines = words.lines
+    g = _codes(words, "G", lines, _G_BITS)
+    m = _codes(words, "M", lines, _M_BITS)
+    word = {letter: _first_value(words, letter, lines) for letter in "FPSXYZ"}
+    columns = {}
+    columns["inches"] = _carry((g & (G20 | G21)) != 0, (g & G20) != 0, start.inches)
+    relative = columns["relative"] = _carry((g & (G90 | G91)) != 0, (g & G91) != 0, start.relative)
+    columns["feed"] = _carry(~np.isnan(word["F"]), word["F"], np.nan if start.feed is None else start.feed)
+    columns["motion"] = _carry((g & (G0 | G1)) != 0, ((g & G1) != 0).astype(np.int64), start.motion)
+    servo = (m & M280) != 0
+    has_s = ~np.isnan(word["S"])
+    columns["s"] = _carry(has_s & ~servo, word["S"], start.s)
+    columns["spindle_on"] = _carry((m & (M3 | M4 | M5)) != 0, (m & M5) == 0, start.spindle_on)
+    columns["servo"] = _carry(has_s & servo, word["S"], np.nan if start.servo is None else start.servo)
+    moves = (g & (NOT_A_MOVE | G4)) == 0
+    for axis in "xyz":
+        columns[axis] = _position(word[axis.upper()], moves, relative, getattr(start, axis))
+    columns["pen_down"] = _pen_down(columns, pen)
+
+    step = [np.diff(columns[a], prepend=getattr(start, a)) for a in "xyz"]
+    distance = np.sqrt(step[0] ** 2 + step[1] ** 2 + step[2] ** 2)
+    scale = np.where(columns["inches"], MM_PER_INCH, 1.0)
+    feed = columns["feed"]
+    rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)
+    rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * scale)
+    seconds = np.where(distance > 0, distance * scale / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
+    dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
+    seconds = np.where((g & G4) != 0, dwell, seconds)
+    return Track(first, columns, seconds)
+
+
+# --- the numpy parts ---------------------------------------------------------------------------
+
+
+@dataclass
+class _Words:
+    """Every well-formed word of a block: its line, letter (0 = A) and value, in order."""
+
+    lines: int
+    line: np.ndarray
+    letter: np.ndarray
+    value: np.ndarray
+
+
+def _words(block: bytes) -> _Words:
+    a = np.frombuffer(block, dtype=np.uint8)
+    newline = a == 10
+    breaks = np.flatnonzero(newline)
+    n_lines = len(breaks)
+    if n_lines == 0:
+        return _Words(0, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+    line_of = np.cumsum(newline) - newline  # the line each byte belongs to (its newline too)
+    # A '$' line is a system command for the board, not G-code: none of its words count.
+    system = a[np.concatenate([[0], breaks[:-1] + 1])] == ord("$")
+    letter = (a >= 65) & (a <= 90)
+    starts = np.flatnonzero(letter & ~system[line_of])
+    bounds = np.flatnonzero(letter | newline)
+    ends = bounds[np.searchsorted(bounds, starts, side="right")]
+    # The bytes of each word's number: starts + 1 .. ends - 1, at index ``pos`` within it.
+    length = ends - starts - 1
+    word = np.repeat(np.arange(len(starts)), length)
+    pos = np.arange(int(length.sum())) - np.repeat(np.cumsum(length) - length, length)
+    byte = a[np.repeat(starts + 1, length) + pos]
+    digit = (byte >= 48) & (byte <= 57)
+    dot = byte == 46
+    sign = ((byte == 43) | (byte == 45)) & (pos == 0)
+    count = len(starts)
+    n_dots = np.bincount(word, weights=dot, minlength=count)
+    n_digits = np.bincount(word, weights=digit, minlength=count)
+    n_bad = np.bincount(word, weights=~(digit | dot | sign), minlength=count)
+    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= _MAX_DIGITS)
+    # A digit is worth 10^(places before the point − 1), or 10^−(places after it).
+    point = np.where(n_dots > 0, np.bincount(word, weights=np.where(dot, pos, 0), minlength=count), length)
+    point = point.astype(np.int64)[word]
+    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -_MAX_DIGITS, _MAX_DIGITS)
+    value = np.bincount(word, weights=_POW10[exponent + _MAX_DIGITS] * np.where(digit, byte - 48, 0),
+                        minlength=count)
+    negative = np.zeros(count, dtype=bool)
+    negative[word[(byte == 45) & (pos == 0)]] = True
+    value = np.where(negative, -value, value)
+    return _Words(n_lines, line_of[starts][ok], a[starts][ok].astype(np.int64) - 65, value[ok])
+
+
+def _first_value(words: _Words, letter: str, lines: int) -> np.ndarray:
+    """Per line, the value of the first ``letter`` word (NaN where there is none)."""
+    pick = words.letter == _LETTER[letter]
+    line, value = words.line[pick], words.value[pick]
+    first = np.flatnonzero(np.concatenate([[True], line[1:] != line[:-1]])) if len(line) else line
+    out = np.full(lines, np.nan)
+    out[line[first]] = value[first]
+    return out
+
+
+def _codes(words: _Words, letter: str, lines: int, bits: np.ndarray) -> np.ndarray:
+    """Per line, a mask of the ``<letter><code>`` words it holds: ``bits[code]`` (−1: not read)."""
+    code = np.trunc(words.value).astype(np.int64)
+    pick = (words.letter == _LETTER[letter]) & (code >= 0) & (code < len(bits))
+    bit = bits[code[pick]]
+    known = bit >= 0
+    mask = np.zeros(lines, dtype=np.int64)
+    np.bitwise_or.at(mask, words.line[pick][known], np.left_shift(1, bit[known]))
+    return mask
+
+
+def _carry(is_set: np.ndarray, value: np.ndarray, initial) -> np.ndarray:
+    """The value in force after each line: the last set one, or ``initial`` before any."""
+    value = np.broadcast_to(value, is_set.shape)
+    index = np.maximum.accumulate(np.where(is_set, np.arange(len(is_set)), -1)) if len(is_set) else np.zeros(0, np.int64)
+    return np.where(index >= 0, value[np.maximum(index, 0)], initial)
+
+
+def _position(word: np.ndarray, moves: np.ndarray, relative: np.ndarray, initial: float) -> np.ndarray:
+    """An axis after each line: absolute words assign it, relative ones add to it."""
+    given = ~np.isnan(word) & moves
+    delta = np.where(given & relative, word, 0.0)
+    summed = np.cumsum(delta)
+    assigned = given & ~relative
+    index = np.maximum.accumulate(np.where(assigned, np.arange(len(word)), -1)) if len(word) else np.zeros(0, np.int64)
+    at = np.maximum(index, 0)
+    return np.where(index >= 0, word[at] + (summed - summed[at]), initial + summed)
+
+
+def _pen_down(columns: dict[str, np.ndarray], pen: PenModel) -> np.ndarray:
+    def down(value):
+        return np.abs(value - pen.down) < np.abs(value - pen.up)
+
+    if pen.kind == "spindle":
+        return columns["spindle_on"] & down(columns["s"])
+    if pen.kind == "z":  # the profile's heights are mm; an inch job's Z is not
+        return down(np.where(columns["inches"], columns["z"] * MM_PER_INCH, columns["z"]))
+    servo = columns["servo"]
+    return ~np.isnan(servo) & down(np.nan_to_num(servo))
+
+
+def advance(state: ModalState, line: str, pen: PenModel) -> ModalState:
+    """The state after one cleaned line (for a few lines: :func:`track` does whole jobs)."""
+    return track([line], pen, start=state).last if line else state
+
+
+def state_before(lines: Sequence[str], index: int, pen: PenModel) -> ModalState:
+    """Modal state after ``lines[:index]`` (cleaned lines), i.e. just before ``lines[index]``."""
+    lines = [line for line in lines[:index] if line]
+    return track(lines, pen).last if lines else ModalState()

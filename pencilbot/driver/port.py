@@ -2,8 +2,8 @@
 
 Every transport goes through :func:`serial.serial_for_url`, so ``/dev/ttyUSB0``, ``COM3``,
 ``socket://host:23``, ``rfc2217://host:port`` and the virtual plotter's ``sim://…`` are one code
-path. The simulator's URL handler is found through pyserial's ``protocol_handler_packages`` by
-package name, so the driver never imports the simulator.
+path. The driver never imports the simulator: whoever wants ``sim://`` ports registers them
+(:func:`sim.register`), and pyserial finds the handler by package name.
 """
 
 from __future__ import annotations
@@ -14,8 +14,6 @@ import serial
 
 from pencilbot.errors import PlotError
 
-#: Package holding ``protocol_sim`` (pyserial looks up ``<package>.protocol_<scheme>``).
-SIM_HANDLER_PACKAGE = "sim"
 #: How long one read waits for the first byte (s): short, so status polls keep their pace.
 READ_SLICE = 0.02
 
@@ -30,7 +28,7 @@ def open_port(url: str, *, baudrate: int = 115200) -> serial.SerialBase:
     Parameters
     ----------
     url : str
-        A device path or any pyserial URL, including ``sim://…``.
+        A device path or any pyserial URL (``sim://…`` once :func:`sim.register` ran).
     baudrate : int
         Bits per second (ignored by sockets).
 
@@ -39,8 +37,6 @@ def open_port(url: str, *, baudrate: int = 115200) -> serial.SerialBase:
     PlotError
         The port does not exist, is busy, or the URL is malformed.
     """
-    if SIM_HANDLER_PACKAGE not in serial.protocol_handler_packages:
-        serial.protocol_handler_packages.append(SIM_HANDLER_PACKAGE)
     try:
         return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10)
     except (serial.SerialException, ValueError, OSError) as exc:

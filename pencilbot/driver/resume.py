@@ -8,17 +8,8 @@ before it goes down again (if it was down there).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
-from pencilbot.driver.modal import ModalState, PenModel, advance, clean_line
-
-
-def state_before(lines: Sequence[str], index: int, pen: PenModel) -> ModalState:
-    """Modal state after ``lines[:index]`` (cleaned lines), i.e. just before ``lines[index]``."""
-    state = ModalState()
-    for line in lines[:index]:
-        state = advance(state, line, pen)
-    return state
+from pencilbot.driver.modal import ModalState, clean_line
+from pencilbot.machine.pen import PenModel
 
 
 def resume_preamble(
@@ -29,7 +20,7 @@ def resume_preamble(
     Parameters
     ----------
     state : ModalState
-        The state the next job line expects (from :func:`state_before`).
+        The state the next job line expects (:meth:`pencilbot.driver.job.Job.state_after`).
     pen : PenModel
         Pen commands of the plotter.
     stop_xy : (float, float), optional
@@ -46,11 +37,12 @@ def resume_preamble(
     """
     x, y = stop_xy if (stop_xy is not None and not state.relative) else (state.x, state.y)
     fmt = f"{{:.{decimals}f}}"
+    up, down = [clean_line(line) for line in pen.up_lines], [clean_line(line) for line in pen.down_lines]
     # The profile's pen commands are in mm (a Z pen's heights); the job's coordinates may be inches.
     job_units = ["G20"] if state.inches else []
-    lines = ["G21", "G90", *pen.up_lines, *job_units, f"G0X{fmt.format(x)}Y{fmt.format(y)}"]
+    lines = ["G21", "G90", *up, *job_units, f"G0X{fmt.format(x)}Y{fmt.format(y)}"]
     if state.pen_down:
-        lines.extend(["G21", *pen.down_lines, *job_units] if state.inches else pen.down_lines)
+        lines.extend(["G21", *down, *job_units] if state.inches else down)
     mode = f"G{state.motion}"
     lines.append(mode + (f"F{fmt.format(state.feed)}" if state.feed else ""))
     if state.relative:
@@ -58,20 +50,8 @@ def resume_preamble(
     return lines
 
 
-def pen_model(profile) -> PenModel:
-    """The :class:`PenModel` of a :class:`pencilbot.gcode.profiles.Profile`."""
-    pen = profile.pen
-    return PenModel(
-        kind=pen.kind,
-        up=float(pen.up),
-        down=float(pen.down),
-        up_lines=tuple(clean_line(line) for line in profile.render(pen.up_command)),
-        down_lines=tuple(clean_line(line) for line in profile.render(pen.down_command)),
-    )
-
-
 def locate_stop(
-    states: Sequence[ModalState], acked: int, position: tuple[float, float] | None, *, window: int = 40,
+    states, acked: int, position: tuple[float, float] | None, *, window: int = 40,
     tolerance: float = 0.005,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
@@ -85,8 +65,9 @@ def locate_stop(
 
     Parameters
     ----------
-    states : sequence of ModalState
-        ``states[i]`` is the state after job line ``i``.
+    states : indexable by job line
+        ``states[i]`` is the :class:`ModalState` after job line ``i``, for ``i`` within
+        ``window`` lines of ``acked`` (a :class:`~pencilbot.driver.modal.Track` of them).
     acked : int
         Index of the last acknowledged line.
     position : (float, float) or None

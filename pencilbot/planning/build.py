@@ -26,7 +26,8 @@ from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.shading import shade
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
-from pencilbot.render import MM_PER_INCH, render_paths
+from pencilbot.render import render_paths
+from pencilbot.units import MM_PER_INCH
 
 HOME = (0.0, 0.0)
 log = logging.getLogger(__name__)

@@ -13,7 +13,7 @@ The plan knows nothing of G-code or the simulator: :func:`pencilbot.export_gcode
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
@@ -81,10 +81,6 @@ class Plan:
             if layer.name == name:
                 return layer
         raise KeyError(name)
-
-    def with_layers(self, layers: Iterable[Layer]) -> Plan:
-        """The same page and metadata with other layers."""
-        return Plan(self.page, tuple(layers), self.meta)
 
     @property
     def pen_width(self) -> float:

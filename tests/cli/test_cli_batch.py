@@ -11,7 +11,7 @@ from PIL import Image
 from skimage.transform import resize
 
 from pencilbot.cli import build_parser, main
-from pencilbot.planning.svg import read_svg
+from pencilbot.export.svg import read_svg
 
 NAMES = ["camera", "coins", "moon"]
 

@@ -10,9 +10,9 @@ from gcodeparser import parse_gcode_lines
 from skimage import io as skio
 
 from pencilbot.cli import main
-from pencilbot.gcode.profiles import load_profile
-from pencilbot.gcode.writer import Placement
-from pencilbot.planning.svg import read_svg
+from pencilbot.machine.profile import load_profile
+from pencilbot.machine.bed import Placement
+from pencilbot.export.svg import read_svg
 
 PROFILE = "grbl-servo-a4"
 

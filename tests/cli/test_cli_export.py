@@ -13,9 +13,9 @@ from skimage.transform import resize
 
 from pencilbot.cli import main
 from pencilbot.configs_io import config_folder
-from pencilbot.gcode.profiles import list_profiles, load_profile
+from pencilbot.machine.profile import list_profiles, load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.svg import write_svg
+from pencilbot.export.svg import write_svg
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +44,7 @@ def commands(path) -> list:
 
 def test_console_script_exports_a_photo_that_the_virtual_grbl_draws(photo, tmp_path):
     from sim.firmware import Firmware
-    from sim.machine import Machine, MachineConfig
+    from sim.machine import Machine
 
     out = tmp_path / "camera.gcode"
     proc = subprocess.run(
@@ -60,7 +60,7 @@ def test_console_script_exports_a_photo_that_the_virtual_grbl_draws(photo, tmp_p
     downs = sum(c.command_str == "M3" and c.params["S"] == 90 for c in parsed)
     assert downs > 50 and f"{downs} paths" in proc.stdout  # one pen down per path
     assert max(map(len, text.splitlines())) <= 80
-    board = Firmware(Machine(MachineConfig.from_profile(load_profile("grbl-servo-a4"))))
+    board = Firmware(Machine(load_profile("grbl-servo-a4")))
     board.take_output()
     for line in text.splitlines():
         board.receive(line.encode("ascii") + b"\n")

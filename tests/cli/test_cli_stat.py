@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from pencilbot.cli import main
-from pencilbot.gcode.profiles import load_profile
-from pencilbot.planning.motion import estimate
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.planning.stats import estimate
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.svg import read_svg, write_svg
+from pencilbot.export.svg import read_svg, write_svg
 
 
 @pytest.fixture
@@ -28,7 +28,7 @@ def plan_file(tmp_path):
 def test_json_matches_the_estimate_of_the_file(plan_file, capsys):
     assert main(["stat", str(plan_file), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    want = estimate(read_svg(plan_file)).as_dict()
+    want = estimate(read_svg(plan_file), load_profile(DEFAULT_PROFILE)).as_dict()
     assert list(out["layers"]) == ["hatch-0", "edges"]
     assert out["layers"]["hatch-0"]["paths"] == 35 and out["layers"]["edges"]["segments"] == 150
     assert out["total"]["lifts"] == 85
@@ -41,7 +41,7 @@ def test_profile_speeds_change_the_time(plan_file, capsys):
     default = json.loads(capsys.readouterr().out)["total"]
     main(["stat", str(plan_file), "--json", "--profile", "grbl-z-a3"])
     profiled = json.loads(capsys.readouterr().out)["total"]
-    want = estimate(read_svg(plan_file), load_profile("grbl-z-a3").motion_settings()).total
+    want = estimate(read_svg(plan_file), load_profile("grbl-z-a3")).total
     assert profiled["seconds"] == pytest.approx(want.seconds)
     assert profiled["seconds"] != pytest.approx(default["seconds"])
     assert profiled["pen_down_mm"] == pytest.approx(default["pen_down_mm"])
@@ -57,7 +57,7 @@ def test_table_lists_every_layer_and_the_total(plan_file):
     assert lines[0].split() == ["layer", "pen-down", "pen-up", "lifts", "paths", "segments", "time"]
     assert [l.split()[0].strip("-") or "rule" for l in lines[1:]] == ["hatch-0", "edges", "rule", "total"]
     total = lines[-1].split()
-    seconds = estimate(read_svg(plan_file)).total.seconds
+    seconds = estimate(read_svg(plan_file), load_profile(DEFAULT_PROFILE)).total.seconds
     h, m, s = (int(v) for v in total[-1].split(":"))
     assert abs(h * 3600 + m * 60 + s - seconds) <= 0.5
     assert total[5:8] == ["85", "85", "185"]  # after "x.xx m" twice

@@ -62,11 +62,18 @@ class MarlinBoard(PtyBoard):
         number, command = framed
         if command.startswith("M110"):
             self.expected = int(command.split("N")[1]) + 1
-            return self._say("ok")
+            return self._say(self._ok(number))
         if number != self.expected:
             self._say(f"Error:Line Number is not Last Line Number+1, Last Line: {self.expected - 1}")
             return self._request_resend()
         self.expected += 1
+        self._run(number, command)
+
+    def _ok(self, number):
+        return "ok"
+
+    def _run(self, number, command):
+        """Execute one good frame and answer it."""
         self.commands.append(command)
         if command.startswith(self.slow) and self.busy_seconds:
             end = time.monotonic() + self.busy_seconds
@@ -122,3 +129,58 @@ def test_line_numbers_written_by_the_profile_are_replaced_by_the_session_s_own(t
         draw(numbered, board.path, profile=PROFILE, wake_wait=0.5)
     assert board.commands == ["G21", "G90", "G1X5Y5F3000", "M400"]
     assert board.resends == []
+
+
+class AdvancedOkMarlinBoard(MarlinBoard):
+    """Marlin with ADVANCED_OK and a command queue of ``slots``: lines are queued as they arrive
+    and run one every ``step`` seconds, each answered ``ok N<n> P<planner> B<free slots>``. A
+    line arriving at a full queue is counted in ``overflows`` (real Marlin would lose it)."""
+
+    def __init__(self, slots=4, step=0.004, noise_on=()):
+        super().__init__(noise_on=noise_on)
+        self.slots, self.step = slots, step
+        self.queue = []  # (number, command) waiting to run
+        self.overflows = 0
+        self.most_queued = 0
+
+    def _serve(self):
+        self._say("start")
+        buffer, next_run = b"", time.monotonic()
+        while not self._stop.is_set():
+            if select.select([self.master], [], [], 0.001)[0]:
+                buffer += os.read(self.master, 4096)
+                *lines, buffer = buffer.split(b"\n")
+                for raw in lines:
+                    self._line(raw.decode("ascii", "replace").strip())
+            if self.queue and time.monotonic() >= next_run:
+                number, command = self.queue.pop(0)
+                self.commands.append(command)
+                self._say(self._ok(number))
+                next_run = time.monotonic() + self.step
+
+    def _ok(self, number):
+        return f"ok N{number} P15 B{self.slots - len(self.queue)}"
+
+    def _run(self, number, command):
+        """Queue the frame: it runs, and is answered, in its turn."""
+        if len(self.queue) >= self.slots:
+            self.overflows += 1
+            return
+        self.queue.append((number, command))
+        self.most_queued = max(self.most_queued, len(self.queue))
+
+    def _request_resend(self):
+        self.resends.append(self.expected)
+        self._say(f"Resend: {self.expected}", "ok")  # at once, as Marlin's flush_and_request_resend
+
+
+@pytest.mark.parametrize("noise", [(), (9, 23, 24)])
+def test_advanced_ok_counts_fill_marlin_s_queue_without_overflowing_it(tmp_path, noise):
+    lines = lines_for_marlin(60)
+    path = tmp_path / "m.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    with AdvancedOkMarlinBoard(slots=4, noise_on=noise) as board:
+        draw(path, board.path, profile=PROFILE, wake_wait=0.5)
+    assert board.overflows == 0 and board.most_queued > 1  # several lines queued at once, never too many
+    assert board.commands == [clean_line(line) for line in lines] + ["M400"]  # exactly once, in order
+    assert bool(board.resends) == bool(noise)  # the noise was heard, and recovered from

@@ -1,13 +1,12 @@
 """Modal-state tracking and resume preambles: a resumed job leaves the machine exactly as the full job would."""
 
-from dataclasses import replace
-
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pencilbot.driver.modal import ModalState, PenModel, advance, clean_line, line_seconds
-from pencilbot.driver.resume import locate_stop, resume_preamble, state_before
+from pencilbot.driver.modal import ModalState, advance, clean_line, state_before, track
+from pencilbot.driver.resume import locate_stop, resume_preamble
+from pencilbot.machine.pen import PenModel
 
 SPINDLE = PenModel("spindle", up=0, down=1000, up_lines=("M5",), down_lines=("M3S1000",))
 ZPEN = PenModel("z", up=5, down=0, up_lines=("G0Z5",), down_lines=("G1Z0F600",))
@@ -63,17 +62,49 @@ def test_preamble_sends_the_profile_s_pen_commands_in_mm_in_an_inch_job(index):
     assert (state.inches, state.x, state.y, state.pen_down) == (True, 1.0, 1.0, before.pen_down)
 
 
-def test_dwell_units_follow_dialect():
-    s = ModalState()
-    assert line_seconds(s, s, "G4P0.5", 3000, "grbl") == 0.5
-    assert line_seconds(s, s, "G4P500", 3000, "marlin") == 0.5
+def test_dwell_units_follow_the_firmware():
+    assert track(["G4P0.5"], SPINDLE, dwell_units=1).seconds[0] == 0.5  # GRBL: seconds
+    assert track(["G4P500"], SPINDLE, dwell_units=1000).seconds[0] == 0.5  # Marlin: milliseconds
+    assert track(["G4S2"], SPINDLE, dwell_units=1000).seconds[0] == 2.0
 
 
 def test_move_time_is_distance_over_feed():
-    a = ModalState(feed=600.0, motion=1)
-    b = replace(a, x=30.0, y=40.0)
-    assert line_seconds(a, b, "G1X30Y40", 6000, "grbl") == pytest.approx(5.0)  # 50 mm at 10 mm/s
-    assert line_seconds(replace(a, motion=0), replace(b, motion=0), "G0X30Y40", 6000, "grbl") == pytest.approx(0.5)
+    start = ModalState(feed=600.0, motion=1)
+    assert track(["G1X30Y40"], SPINDLE, start=start, travel_feed=6000).seconds[0] == pytest.approx(5.0)  # 50 mm at 10 mm/s
+    assert track(["G0X30Y40"], SPINDLE, start=start, travel_feed=6000).seconds[0] == pytest.approx(0.5)
+    assert track(["G20", "G1X1"], SPINDLE, start=start).seconds[1] == pytest.approx(0.1)  # 1 in at 600 in/min
+
+
+job_words = st.lists(
+    st.one_of(
+        st.builds(lambda a, v: f"{a}{v}", st.sampled_from("XYZFS"), st.floats(-300, 300).map(lambda v: round(v, 4))),
+        st.sampled_from(["G0", "G1", "G4", "G20", "G21", "G90", "G91", "G92", "M3", "M5", "M280", "P0.2"]),
+    ),
+    min_size=1, max_size=5,
+).map("".join)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.lists(job_words, min_size=1, max_size=30))
+def test_whole_block_tracking_equals_line_by_line(lines):
+    for pen in (SPINDLE, ZPEN, SERVO):
+        block = track(lines, pen)
+        state = ModalState()
+        for i, line in enumerate(lines):
+            state = advance(state, line, pen)
+            assert _same(block[i], state), (lines[: i + 1], pen.kind)
+
+
+def _same(a: ModalState, b: ModalState) -> bool:
+    return all(
+        (x is None and y is None) or (x is not None and y is not None and x == pytest.approx(y))
+        for x, y in ((getattr(a, f), getattr(b, f)) for f in a.__dataclass_fields__)
+    )
+
+
+def test_numbers_are_read_from_their_digits():
+    state = track(["G1X-12.5Y.25Z+3F1500", "G91", "X0.125", "X1.2.3", "Y"], SPINDLE).last
+    assert (state.x, state.y, state.z, state.feed, state.relative) == (-12.375, 0.25, 3.0, 1500.0, True)
 
 
 coord = st.floats(-200, 200, allow_nan=False).map(lambda v: round(v, 3))

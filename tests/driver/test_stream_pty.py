@@ -9,6 +9,7 @@ from test_stream_sim import PROFILE, assert_same_drawing, job  # noqa: F401 (job
 from pencilbot.cli import main
 from pencilbot.driver import draw
 from pencilbot.errors import PlotError
+from pencilbot.machine.profile import load_profile
 
 from sim.firmware import Faults
 from sim.protocol_sim import VirtualPlotter
@@ -21,7 +22,7 @@ def accepted(plotter):
 
 def test_exactly_once_over_a_pty_with_json_progress(job, capsys):
     path, lines = job
-    plotter = VirtualPlotter(PROFILE, baud=115200, realtime=50)
+    plotter = VirtualPlotter(load_profile(PROFILE), baud=115200, realtime=50)
     with PtyServer(plotter) as server:
         code = main(["draw", str(path), "--port", server.path, "--profile", PROFILE, "--json-lines"])
     assert code == 0
@@ -37,11 +38,11 @@ def test_exactly_once_over_a_pty_with_json_progress(job, capsys):
 
 def test_pty_vanishing_mid_job_then_resume_on_a_new_pty(job):
     path, lines = job
-    reference = VirtualPlotter(PROFILE)
+    reference = VirtualPlotter(load_profile(PROFILE))
     with PtyServer(reference) as server:
         draw(path, server.path, profile=PROFILE, wake_wait=0.2)
 
-    plotter = VirtualPlotter(PROFILE, faults=Faults.parse("drop@40"))
+    plotter = VirtualPlotter(load_profile(PROFILE), faults=Faults.parse("drop@40"))
     with PtyServer(plotter) as server, pytest.raises(PlotError) as info:
         draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=2.0)
     assert "serial port vanished" in str(info.value) and "--resume" in str(info.value)

@@ -18,9 +18,12 @@ from hypothesis import strategies as st
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import load_profile
 
+import sim
 from sim import protocol_sim
+
+sim.register()
 
 PROFILE = "grbl-servo-a4"
 _names = itertools.count()
@@ -32,10 +35,10 @@ def fresh(options: str = "") -> tuple[str, str]:
     return f"sim://{name}" + (f"?{options}" if options else ""), name
 
 
-def drawing(strokes: int = 12, per_stroke: int = 6, seed: int = 1) -> list[str]:
+def drawing(strokes: int = 12, per_stroke: int = 6, seed: int = 1, profile: str = PROFILE) -> list[str]:
     """A small plot: short random-walk strokes, pen commands from the profile, a comment or two."""
-    profile = load_profile(PROFILE)
-    up, down = profile.render(profile.pen.up_command), profile.render(profile.pen.down_command)
+    pen = load_profile(profile).pen_model
+    up, down = list(pen.up_lines), list(pen.down_lines)
     rng = np.random.default_rng(seed)
     lines = ["G21 ; mm", "G90", *up]
     x, y = 60.0, 80.0
@@ -63,6 +66,7 @@ def accepted(name: str) -> list[str]:
 
 
 def darkness(name: str) -> np.ndarray:
+    """What the plotter behind ``sim://name`` has drawn, coarsely."""
     return protocol_sim.plotter(name).canvas(dpi=40).darkness
 
 
@@ -127,6 +131,7 @@ def test_fault_stops_with_one_message_naming_line_and_resume_command(job, kind, 
 
 
 def resume(path, name):
+    """Clear the glitch and resume the stopped job of ``path`` on the same plotter."""
     plotter = protocol_sim.plotter(name)
     plotter.firmware.faults.at.clear()  # the glitch is over
     plotter.firmware.silent = False
@@ -254,7 +259,6 @@ def test_resuming_a_finished_job_says_so_and_sends_nothing(job):
 def test_a_board_left_in_feed_hold_is_refused_instead_of_waited_on_forever(job):
     path, _ = job
     url, name = fresh()
-    protocol_sim.register()
     with serial.serial_for_url(url) as port:
         port.write(b"!")  # another sender paused the board; it has no auto-reset
     outcome = []

@@ -19,7 +19,7 @@ from firmware_protocol.grbl import (
     parse_line,
     significant_length,
 )
-from pencilbot.errors import PlotError
+from firmware_protocol import ProtocolError
 
 # (line as the board prints it, message)
 GRAMMAR = [
@@ -115,7 +115,7 @@ def test_encode_line_frames_with_single_newline():
 
 @pytest.mark.parametrize("line", ["X" + "1" * 79, "G1 X1\nG1 X2", "G1 X1 (stop!)", "G1 X1 ~", "G1 X°"])
 def test_encode_line_rejects_what_grbl_would_mangle(line):
-    with pytest.raises(PlotError):
+    with pytest.raises(ProtocolError):
         encode_line(line)
 
 

@@ -8,7 +8,7 @@ from firmware_protocol.marlin import (
     Busy, Echo, Error, Ok, Resend, Start, Unknown, checksum, frame_line, parse_line,
     reset_line_numbers, unframe_line,
 )
-from pencilbot.errors import PlotError
+from firmware_protocol import ProtocolError
 
 
 @pytest.mark.parametrize(
@@ -46,7 +46,7 @@ def test_reset_line_numbers():
 
 @pytest.mark.parametrize("command", ["G1 X1*2", "G1\nX1", "G1 X°", "G1 X" + "1" * 100])
 def test_frame_rejects(command):
-    with pytest.raises(PlotError):
+    with pytest.raises(ProtocolError):
         frame_line(3, command)
 
 

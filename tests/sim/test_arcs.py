@@ -7,15 +7,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from machines import description
 from test_machine import run
 
 from sim.arcs import arc_chords
-from sim.machine import Machine, MachineConfig
+from sim.machine import Machine
 
 
 def drawn(*lines, **config):
     """Pen-down polylines (machine mm) of ``lines`` after a pen-down M3 S90."""
-    return run(Machine(MachineConfig(**config)), "M3 S90", *lines).strokes
+    return run(Machine(description(**config)), "M3 S90", *lines).strokes
 
 
 def test_chord_count_follows_grbl_s_formula_and_tolerance():
@@ -74,7 +75,7 @@ def test_radius_arcs_take_the_short_way_and_negative_r_the_long_way(r, sweep):
      ("G19", "G2 Y20 X5 J10", (1, 2), (0, 10, 0), 0)],  # YZ, helix along X
 )
 def test_each_plane_arcs_in_its_axes_and_climbs_along_the_third(plane, line, axes, center, linear):
-    m = Machine()
+    m = Machine(description())
     done = []
     m._complete = done.extend  # noqa: SLF001 -- observe the executed blocks in 3-D
     run(m, plane, line + " F1000")
@@ -86,26 +87,26 @@ def test_each_plane_arcs_in_its_axes_and_climbs_along_the_third(plane, line, axe
 
 
 def test_arc_time_is_its_length_at_the_feed():
-    m = run(Machine(MachineConfig(acceleration=1e6)), "G2 X0 Y0 I50 F3000")  # full circle, r = 50
+    m = run(Machine(description(acceleration=1e6)), "G2 X0 Y0 I50 F3000")  # full circle, r = 50
     assert m.clock == pytest.approx(2 * math.pi * 50 / 50.0, rel=2e-3)  # chords are a hair shorter
 
 
 def test_inverse_time_lines_take_one_over_f_minutes():
-    m = run(Machine(MachineConfig(acceleration=1e6)), "G93 G1 X100 F2")  # 100 mm in half a minute
+    m = run(Machine(description(acceleration=1e6)), "G93 G1 X100 F2")  # 100 mm in half a minute
     assert m.clock == pytest.approx(30.0, rel=1e-3)
 
 
 def test_inverse_time_arcs_run_at_f_times_the_chord_count_as_grbl_s_mc_arc_does():
     # GRBL 1.1h multiplies F by the segment count and then plans each chord at that many mm/min:
     # a half circle of r = 10 (78 chords at $12 = 0.002) at F1 runs at 78 mm/min, not π·10 mm/min.
-    m = run(Machine(MachineConfig(acceleration=1e6)), "G93 G2 X20 I10 F1")
+    m = run(Machine(description(acceleration=1e6)), "G93 G2 X20 I10 F1")
     _, count = arc_chords((0, 0, 0), (20, 0, 0), (10, 0, 0), 10.0, (0, 1, 2), True, 0.002)
     assert count == 78
     assert m.clock == pytest.approx(math.pi * 10 / (count / 60.0), rel=2e-3)
 
 
 def test_an_arc_is_one_stroke_with_the_pen_down_and_travel_with_it_up():
-    m = run(Machine(), "G2 X20 I10 F1000", "M3 S90", "G2 X0 I-10", "M5")
+    m = run(Machine(description()), "G2 X20 I10 F1000", "M3 S90", "G2 X0 I-10", "M5")
     assert len(m.strokes) == 1 and len(m.strokes[0]) > 50
     assert len(m.travel) > 50  # the first arc, chord by chord, pen up
 
@@ -113,7 +114,7 @@ def test_an_arc_is_one_stroke_with_the_pen_down_and_travel_with_it_up():
 def test_arc_chords_queue_as_the_planner_frees_room_in_real_time():
     from sim.firmware import Firmware
 
-    fw = Firmware(Machine(instant=False))
+    fw = Firmware(Machine(description(), instant=False))
     fw.take_output()
     fw.receive(b"G2 X0 Y0 I20 F6000\n")  # a full circle: 250 chords, the planner holds 15
     assert fw.take_output() == b""  # GRBL answers once the last chord is planned

@@ -10,9 +10,10 @@ import re
 from pathlib import Path
 
 import pytest
+from machines import description
 
 from sim.firmware import Firmware
-from sim.machine import Machine, MachineConfig
+from sim.machine import Machine
 
 TABLE = Path(__file__).with_name("grbl_conformance.tsv")
 _DIRECTIVE = re.compile(r"\{(poll [0-9.]+|power)\}")
@@ -50,7 +51,7 @@ def expand(text: str) -> str:
 def board(name: str) -> Firmware:
     """A board in the table's named starting state, its power-up output taken."""
     homing = name in ("homing", "homed")
-    machine = Machine(MachineConfig(homing=homing, soft_limits=homing), instant=name != "realtime")
+    machine = Machine(description(homing=homing, soft_limits=homing), instant=name != "realtime")
     fw = Firmware(machine, power_zero=name == "power-zero")
     if name == "homed":
         fw.receive(b"$H\n")

@@ -5,16 +5,19 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from machines import description
+
 from firmware_protocol import grbl
+from pencilbot.machine.pen import PenModel
 from sim.firmware import GARBAGE, Faults, Firmware, filter_line
-from sim.machine import Machine, MachineConfig, PenModel
+from sim.machine import Machine
 
 BANNER = "\r\nGrbl 1.1h ['$' for help]\r\n"
 IDLE0 = "<Idle|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
 
 
 def board(*, instant=True, faults="", **config):
-    fw = Firmware(Machine(MachineConfig(**config), instant=instant), Faults.parse(faults))
+    fw = Firmware(Machine(description(**config), instant=instant), Faults.parse(faults))
     assert fw.take_output().decode() == BANNER
     return fw
 
@@ -26,7 +29,7 @@ def exchange(fw, data: bytes) -> str:
 
 @pytest.mark.parametrize("homing", [False, True])
 def test_settings_listing_is_grbl_formatted(homing):
-    fw = Firmware(Machine(MachineConfig(width=220, height=310, max_rate=6000, acceleration=800, homing=homing,
+    fw = Firmware(Machine(description(width=220, height=310, max_rate=6000, acceleration=800, homing=homing,
                                         soft_limits=homing)))
     fw.take_output()
     lines = exchange(fw, b"$$\n").split("\r\n")
@@ -204,7 +207,7 @@ def test_m280_is_refused_as_real_grbl_does_unless_the_servo_extension_is_on():
 
 
 def test_pen_model_servo_m280():
-    fw = Firmware(Machine(MachineConfig(pen=PenModel("servo", up=50, down=20)), servo=True))
+    fw = Firmware(Machine(description(pen=PenModel("servo", up=50, down=20)), servo=True))
     fw.take_output()
     exchange(fw, b"G0 X10 Y10\nM280 P0 S20\nG1 X20 F1000\nM280 P0 S50\nG0 X0 Y0\n")
     fw.finish()
@@ -279,7 +282,7 @@ def cruising(fw, line=b"M3 S90\nG1 X100 F3000\n", seconds=1.0):
 
 @pytest.mark.parametrize("loses", [False, True])
 def test_reset_in_motion_alarms_and_a_real_board_loses_the_position(loses):
-    fw = Firmware(Machine(instant=False), abort_loses=loses)
+    fw = Firmware(Machine(description(), instant=False), abort_loses=loses)
     fw.take_output()
     cruising(fw)
     reported = fw.machine.machine_position()
@@ -294,7 +297,7 @@ def test_reset_in_motion_alarms_and_a_real_board_loses_the_position(loses):
 
 
 def test_reset_after_a_completed_hold_keeps_the_position_without_alarm():
-    fw = Firmware(Machine(instant=False), abort_loses=True)
+    fw = Firmware(Machine(description(), instant=False), abort_loses=True)
     fw.take_output()
     cruising(fw)
     exchange(fw, b"!")
@@ -305,7 +308,7 @@ def test_reset_after_a_completed_hold_keeps_the_position_without_alarm():
 
 @pytest.mark.parametrize("zero", [False, True])
 def test_power_cycle_restarts_the_count_at_zero_where_the_carriage_stands(zero):
-    fw = Firmware(Machine(), power_zero=zero)
+    fw = Firmware(Machine(description()), power_zero=zero)
     fw.take_output()
     exchange(fw, b"G0 X50 Y40\n?")
     fw.power_cycle()
@@ -321,7 +324,7 @@ def test_power_cycle_restarts_the_count_at_zero_where_the_carriage_stands(zero):
 
 def test_a_power_cycle_forgets_an_alarm_only_on_a_real_board():
     for zero, state in [(True, "Idle"), (False, "Alarm")]:
-        fw = Firmware(Machine(), power_zero=zero)
+        fw = Firmware(Machine(description()), power_zero=zero)
         exchange(fw, b"G0 X10\n\x18")  # ALARM:3
         fw.power_cycle()
         fw.take_output()
@@ -334,7 +337,7 @@ def test_a_power_cycle_forgets_an_alarm_only_on_a_real_board():
      ("top-right", True, (-1.0, -1.0), (100.0, 50.0))],  # homes to positive: GRBL's negative space, -$27
 )
 def test_homing_finds_the_origin_corner_and_trusts_the_position_again(origin, invert, mpos, corner):
-    config = MachineConfig(width=100, height=50, origin=origin, invert_x=invert, invert_y=invert,
+    config = description(width=100, height=50, origin=origin, invert_x=invert, invert_y=invert,
                            homing=True, soft_limits=True)
     fw = Firmware(Machine(config), power_zero=True)
     assert fw.take_output().decode() == BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"  # HOMING_INIT_LOCK
@@ -344,19 +347,19 @@ def test_homing_finds_the_origin_corner_and_trusts_the_position_again(origin, in
     exchange(fw, b"$H\n")
     status = grbl.parse_line(exchange(fw, b"?").strip())
     assert status.state == "Idle" and status.mpos[:2] == mpos
-    bed = config.to_bed(np.array([fw.machine.carriage_position()]))[0]
+    bed = config.bed.to_view(np.array([fw.machine.carriage_position()]))[0]
     pulloff = 1.0 if invert else 0.0
     assert np.allclose(np.abs(bed - corner), pulloff)  # $27 off the corner's switches, or on the corner
 
 
 def test_homing_with_the_pen_down_drags_a_line_to_the_corner():
-    fw = Firmware(Machine(MachineConfig(homing=True)), power_zero=True)
+    fw = Firmware(Machine(description(homing=True)), power_zero=True)
     exchange(fw, b"$X\nG0 X30 Y20\nM3 S90\n$H\n")
     assert [s.tolist() for s in fw.machine.strokes] == [[[30.0, 20.0], [0.0, 0.0]]]
 
 
 def test_startup_lines_run_after_every_reset_and_after_homing():
-    fw = Firmware(Machine(MachineConfig(homing=True)))
+    fw = Firmware(Machine(description(homing=True)))
     fw.take_output()
     assert exchange(fw, b"$X\n$N0=G91\n$N1=G20\n") == "[MSG:Caution: Unlocked]\r\nok\r\nok\r\nok\r\n"
     assert exchange(fw, b"$H\n") == ">G91:ok\r\n>G20:ok\r\nok\r\n"

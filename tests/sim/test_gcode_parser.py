@@ -6,6 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from machines import description
+
 from firmware_protocol import grbl
 from sim.gcode_parser import Block, ParserState, _grbl_float, parse_block
 from sim.machine import Machine, MachineAlarm
@@ -31,7 +33,7 @@ def test_every_line_gets_a_block_or_a_grbl_status_code(line):
 @settings(max_examples=200, deadline=None)
 @given(st.lists(LINES, max_size=12))
 def test_a_rejected_line_leaves_the_parser_state_as_it_was(lines):
-    m = Machine()
+    m = Machine(description())
     m.settings[12] = 0.05  # coarse arcs keep the random circles cheap
     for line in lines:
         before = copy.deepcopy((m.state.modal, m.state.feed, m.state.position, m.state.coord_offset))

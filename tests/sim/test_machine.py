@@ -7,7 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.machine import Machine, MachineAlarm, MachineConfig, PenModel
+from machines import description
+
+from pencilbot.machine.pen import PenModel
+from sim.machine import Machine, MachineAlarm
 from sim.planner import block_duration, junction_speed
 
 
@@ -21,7 +24,7 @@ def run(machine, *lines):
 
 
 def test_single_move_time_is_the_trapezoid():
-    m = run(Machine(MachineConfig(acceleration=800)), "G1 X100 F3000")
+    m = run(Machine(description(acceleration=800)), "G1 X100 F3000")
     v, a = 50.0, 800.0
     assert m.clock == pytest.approx(2 * v / a + (100 - v * v / a) / v)
 
@@ -32,16 +35,16 @@ def test_triangle_profile_when_too_short_to_cruise():
 
 
 def test_collinear_segments_do_not_stop_in_between():
-    one = run(Machine(), "G1 X100 F3000").clock
-    split = run(Machine(), *[f"G1 X{x} F3000" for x in range(10, 101, 10)]).clock
+    one = run(Machine(description()), "G1 X100 F3000").clock
+    split = run(Machine(description()), *[f"G1 X{x} F3000" for x in range(10, 101, 10)]).clock
     assert split == pytest.approx(one)
 
 
 def test_corners_cost_time_and_reversals_stop():
-    straight = run(Machine(), "G1 X50 F3000", "G1 X100").clock
-    corner = run(Machine(), "G1 X50 F3000", "G1 X50 Y50").clock
-    reverse = run(Machine(), "G1 X50 F3000", "G1 X0").clock
-    stopped = run(Machine(), "G1 X50 F3000", "G4 P0", "G1 X0").clock
+    straight = run(Machine(description()), "G1 X50 F3000", "G1 X100").clock
+    corner = run(Machine(description()), "G1 X50 F3000", "G1 X50 Y50").clock
+    reverse = run(Machine(description()), "G1 X50 F3000", "G1 X0").clock
+    stopped = run(Machine(description()), "G1 X50 F3000", "G4 P0", "G1 X0").clock
     assert straight < corner < reverse
     assert reverse == pytest.approx(stopped)
 
@@ -55,28 +58,28 @@ def test_junction_speed_formula():
 
 
 def test_rapids_run_at_the_max_rate_and_feeds_are_capped_by_it():
-    m = run(Machine(MachineConfig(max_rate=6000, acceleration=1e9)), "G0 X100")
+    m = run(Machine(description(max_rate=6000, acceleration=1e9)), "G0 X100")
     assert m.clock == pytest.approx(1.0, rel=1e-3)
-    m = run(Machine(MachineConfig(max_rate=6000, acceleration=1e9)), "G1 X100 F60000")
+    m = run(Machine(description(max_rate=6000, acceleration=1e9)), "G1 X100 F60000")
     assert m.clock == pytest.approx(1.0, rel=1e-3)
 
 
 def test_dwell_adds_seconds():
-    assert run(Machine(), "G4 P1.5").clock == pytest.approx(1.5)
+    assert run(Machine(description()), "G4 P1.5").clock == pytest.approx(1.5)
 
 
 def test_units_distance_modes_and_offsets():
-    m = run(Machine(), "G20 G0 X1 Y2")
+    m = run(Machine(description()), "G20 G0 X1 Y2")
     assert m.position[:2] == pytest.approx((25.4, 50.8))
-    m = run(Machine(), "G91 G0 X10", "X10", "Y5")
+    m = run(Machine(description()), "G91 G0 X10", "X10", "Y5")
     assert m.position[:2] == pytest.approx((20, 5))
-    m = run(Machine(), "G0 X10", "G92 X0", "G0 X5")
+    m = run(Machine(description()), "G0 X10", "G92 X0", "G0 X5")
     assert m.position[0] == pytest.approx(15)
     assert m.work_position()[0] == pytest.approx(5)
-    m = run(Machine(), "G0 X10 Y10", "G28")
+    m = run(Machine(description()), "G0 X10 Y10", "G28")
     assert m.position == (0, 0, 0)
     # G28 Y20 goes via Y20 and then sends only the named axis home (GRBL's gc_execute_line).
-    m = run(Machine(), "G0 X10", "G28 Y20")
+    m = run(Machine(description()), "G0 X10", "G28 Y20")
     assert [b.tolist() for b in m.travel] == [[[0, 0], [10, 0]], [[10, 0], [10, 20]], [[10, 20], [10, 0]]]
 
 
@@ -94,7 +97,7 @@ SQUARE = ["G0 X10 Y10", "{down}", "G1 X30 F2000", "G1 Y30", "G1 X10", "G1 Y10", 
     ],
 )
 def test_pen_models_draw_only_pen_down_moves(pen, down, up):
-    config = MachineConfig(pen=pen)
+    config = description(pen=pen)
     m = Machine(config, servo=pen.kind == "servo")  # M280 is an extension real GRBL refuses
     if pen.kind == "z":
         run(m, up)
@@ -105,36 +108,36 @@ def test_pen_models_draw_only_pen_down_moves(pen, down, up):
 
 
 def test_spindle_pen_is_up_while_m5_even_at_down_s():
-    m = run(Machine(MachineConfig(pen=PenModel("spindle", 30, 90))), "S90", "G1 X10 F1000")
+    m = run(Machine(description(pen=PenModel("spindle", 30, 90))), "S90", "G1 X10 F1000")
     assert m.strokes == []
 
 
 def test_separate_pen_downs_are_separate_strokes():
-    m = run(Machine(), "M3 S90", "G1 X10 F1000", "M3 S30", "M3 S90", "G1 X20")
+    m = run(Machine(description()), "M3 S90", "G1 X10 F1000", "M3 S30", "M3 S90", "G1 X20")
     assert [s.tolist() for s in m.strokes] == [[[0, 0], [10, 0]], [[10, 0], [20, 0]]]
 
 
 def test_soft_limits_follow_the_bed_and_axis_direction():
-    m = Machine(MachineConfig(width=100, height=50, homing=True, soft_limits=True))
+    m = Machine(description(width=100, height=50, homing=True, soft_limits=True))
     run(m, "G0 X100 Y50")
     with pytest.raises(MachineAlarm) as alarm:
         m.apply(m.parse("G0X100.01"))
     assert alarm.value.code == 2
-    inverted = Machine(MachineConfig(width=100, height=50, invert_x=True, invert_y=True, homing=True, soft_limits=True))
+    inverted = Machine(description(width=100, height=50, invert_x=True, invert_y=True, homing=True, soft_limits=True))
     run(inverted, "G0 X-100 Y-50")
     with pytest.raises(MachineAlarm):
         inverted.apply(inverted.parse("G0X1"))
 
 
 def test_soft_limits_are_off_in_grbl_s_factory_settings():
-    m = Machine()
+    m = Machine(description())
     assert (m.settings[20], m.settings[22]) == (0, 0)
     run(m, "G0 X500 Y-20")
     assert m.position[:2] == (500, -20)
 
 
 def test_soft_limit_alarm_drops_queued_moves():
-    m = Machine(MachineConfig(homing=True, soft_limits=True))
+    m = Machine(description(homing=True, soft_limits=True))
     for line in ("M3S90", "G1X10F1000", "G1X20"):
         m.apply(m.parse(line))
     with pytest.raises(MachineAlarm):
@@ -153,28 +156,28 @@ def test_soft_limit_alarm_drops_queued_moves():
     ],
 )
 def test_machine_to_bed_mapping(origin, invert_x, invert_y, machine_xy, bed_xy):
-    config = MachineConfig(width=100, height=100, origin=origin, invert_x=invert_x, invert_y=invert_y)
-    assert config.to_bed(np.array([machine_xy])).tolist() == [list(bed_xy)]
+    config = description(width=100, height=100, origin=origin, invert_x=invert_x, invert_y=invert_y)
+    assert config.bed.to_view(np.array([machine_xy])).tolist() == [list(bed_xy)]
 
 
-def test_from_profile_reads_bed_pen_and_motion():
-    from pencilbot.gcode.profiles import load_profile
+def test_the_machine_takes_bed_pen_and_motion_from_its_description():
+    from pencilbot.machine.profile import load_profile
 
-    config = MachineConfig.from_profile(load_profile("grbl-z-a3"))
-    assert (config.width, config.height, config.invert_x) == (310.0, 430.0, True)
-    assert config.pen == PenModel("z", 4.0, 0.0)
-    assert config.max_rate == 5000.0 and config.acceleration == 500.0
+    m = Machine(load_profile("grbl-z-a3"))
+    assert (m.settings[130], m.settings[131], m.settings[23]) == (310.0, 430.0, 0)  # X, Y grow out of the bed
+    assert (m.pen.kind, m.pen.up, m.pen.down) == ("z", 4.0, 0.0)
+    assert m.settings[110] == 5000.0 and m.settings[120] == 500.0 and m.settings[11] == 0.01
 
 
 def test_check_mode_moves_nothing():
-    m = Machine()
+    m = Machine(description())
     m.check_mode = True
     run(m, "M3 S90", "G1 X10 F100", "G4 P5")
     assert m.strokes == [] and m.clock == 0.0
 
 
 def test_realtime_advance_moves_part_way():
-    m = Machine(instant=False)
+    m = Machine(description(), instant=False)
     m.apply(m.parse("G1X100F3000"))
     m.advance(1.0)
     x = m.machine_position()[0]
@@ -187,7 +190,7 @@ def test_realtime_advance_moves_part_way():
 @given(st.lists(st.tuples(st.floats(0, 200), st.floats(0, 200), st.sampled_from([300, 1500, 6000])),
                 min_size=1, max_size=40))
 def test_planner_is_never_faster_than_allowed(moves):
-    m = Machine(MachineConfig(width=200, height=200))
+    m = Machine(description(width=200, height=200))
     done = []
     m._complete = done.extend  # noqa: SLF001 -- observe the executed blocks
     for x, y, f in moves:

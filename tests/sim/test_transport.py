@@ -6,14 +6,16 @@ import numpy as np
 import pytest
 import serial
 
+import sim
 from firmware_protocol import grbl
 from pencilbot.errors import ProfileError
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from sim import protocol_sim
 from sim.firmware import Faults
 from sim.protocol_sim import VirtualPlotter, plotter
 from sim.pty_server import PtyServer
 
-protocol_sim.register()
+sim.register()
 DPI = 150
 
 SQUARE = ["G21", "G90", "M3 S30", "G0 X20 Y20", "M3 S90", "G1 X60 F3000", "G1 Y60", "G1 X20", "G1 Y20",
@@ -67,7 +69,7 @@ def test_square_through_sim_url_and_through_a_pty_gives_the_same_image():
     via_url = drawing(plotter("square-url"))
     check_square(via_url)
 
-    served = VirtualPlotter()
+    served = VirtualPlotter(load_profile(DEFAULT_PROFILE))
     with PtyServer(served) as server, serial.Serial(server.path, 115200, timeout=0.05) as port:
         send_and_wait(port, SQUARE)
     via_pty = drawing(served)
@@ -162,7 +164,7 @@ def test_url_options_choose_a_real_board_or_the_forgiving_default():
 
 
 def test_pty_open_resets_the_board_like_an_arduino_and_a_drop_comes_back_on_a_new_pty():
-    board = VirtualPlotter(power="zero", faults=Faults.parse("drop@2"))
+    board = VirtualPlotter(load_profile(DEFAULT_PROFILE), power="zero", faults=Faults.parse("drop@2"))
     paths = []
     with PtyServer(board, on_new_path=paths.append) as server:
         with serial.Serial(server.path, 115200, timeout=0.05) as port:

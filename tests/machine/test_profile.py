@@ -13,10 +13,10 @@ from hypothesis import strategies as st
 
 from pencilbot.configs_io import config_folder
 from pencilbot.errors import ProfileError
-from pencilbot.gcode.profiles import TEMPLATE_FIELDS, list_profiles, load_profile
-from pencilbot.gcode.templates import TemplateError, check_template, fill_template
+from pencilbot.machine.profile import TEMPLATE_FIELDS, list_profiles, load_profile
+from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
-SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4"]
+SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4"]
 
 
 def shipped_table(name: str = "grbl-servo-a4") -> dict:
@@ -56,7 +56,7 @@ def test_shipped_profiles_are_listed_and_load():
     for name in list_profiles():
         profile = load_profile(name)
         assert profile.name == name  # the file name is the name users type
-        assert profile.dialect in ("grbl", "marlin")
+        assert profile.firmware.name == profile.dialect
         assert profile.description
 
 
@@ -87,14 +87,16 @@ def test_name_defaults_to_the_file_name(tmp_path):
     assert load_profile(write_profile(tmp_path, table, "studio.toml")).name == "studio"
 
 
-def test_motion_settings_are_in_mm_per_second():
+def test_motion_is_in_mm_per_second_and_the_pen_model_has_its_commands():
     profile = load_profile("grbl-servo-a4")
-    motion = profile.motion_settings()
-    assert motion.draw_speed == pytest.approx(3000.0 / 60)
-    assert motion.travel_speed == pytest.approx(6000.0 / 60)
-    assert motion.acceleration == 800.0
-    assert motion.junction_deviation == 0.01
-    assert (motion.pen_up_delay, motion.pen_down_delay) == (0.15, 0.2)
+    assert profile.motion.draw_speed == pytest.approx(3000.0 / 60)
+    assert profile.motion.travel_speed == pytest.approx(6000.0 / 60)
+    assert (profile.motion.acceleration, profile.motion.junction_deviation) == (800.0, 0.01)
+    pen = profile.pen_model
+    assert (pen.kind, pen.up, pen.down, pen.up_lines, pen.down_lines) == ("spindle", 30, 90, ("M3 S30",), ("M3 S90",))
+    assert (pen.up_delay, pen.down_delay) == (0.15, 0.2)
+    assert not pen.moves_with_the_axes and load_profile("grbl-z-a3").pen_model.moves_with_the_axes
+    assert profile.firmware.title == "GRBL" and profile.receive_buffer == 128
 
 
 def _set(section, key, value):
@@ -119,7 +121,7 @@ BAD = {
     "wrong type (number for flag)": (_set("bed", "invert_y", 1), ["[bed] invert_y", "true or false"]),
     "wrong type (number for template)": (_set("pen", "up_command", 3), ["[pen] up_command", "string"]),
     "missing key": (_drop("motion", "draw_feed"), ["missing key [motion] draw_feed", "mm/min"]),
-    "missing dialect": (_drop("", "dialect"), ["missing key dialect", '"grbl" or "marlin"']),
+    "missing dialect": (_drop("", "dialect"), ["missing key dialect", '"grbl" or "grblhal" or "marlin"']),
     "missing table": (_drop("", "pen"), ["missing table [pen]", "kind"]),
     "not a table": (_set("", "bed", 5), ["bed = 5", "table [bed]"]),
     "negative feed": (_set("motion", "travel_feed", -100), ["[motion] travel_feed = -100", "> 0 and ≤ 1000000 mm/min"]),

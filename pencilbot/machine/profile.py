@@ -1,12 +1,12 @@
 """Plotter profiles: what a machine is like, as TOML data in ``configs/plotters/*.toml``.
 
-A profile names the firmware dialect, the bed and how its coordinates run, the feeds and
+A profile names the firmware (its ``dialect``, a key of :mod:`pencilbot.firmware`), the bed and how its coordinates run, the feeds and
 acceleration (for G-code and for the time estimate), how the pen goes up and down, and how G-code
 is formatted. Shipped profiles live in ``configs/plotters/<name>.toml`` (found by :mod:`pencilbot.configs_io`
 in a wheel and in a source checkout); any TOML file with the same schema works by path::
 
     name = "grbl-servo-a4"          # optional, defaults to the file name
-    dialect = "grbl"                # "grbl" or "marlin"
+    dialect = "grbl"                # the firmware: "grbl", "marlin", ... (pencilbot.firmware)
     description = "..."             # optional
 
     [bed]
@@ -36,61 +36,42 @@ in a wheel and in a source checkout); any TOML file with the same schema works b
     [gcode]
     decimals = 3                    # digits after the point in X/Y
     line_numbers = false            # Marlin only: N<n> ... *<checksum> on every command line
-    receive_buffer = 128            # bytes of the firmware's serial receive buffer
+    receive_buffer = 128            # bytes of the board's serial receive buffer (default: the firmware's)
     header = "G21\\nG90"             # template, before the first move
     footer = ""                     # template, after the return home
 
 Templates may use only the plain fields ``{up}``, ``{down}``, ``{draw_feed}``, ``{travel_feed}``,
 ``{bed_width}``, ``{bed_height}``, optionally with a precision (``{up:.1f}``); anything else is
-refused when the profile loads (:mod:`pencilbot.gcode.templates`). Every mistake (unknown key,
+refused when the profile loads (:mod:`pencilbot.machine.templates`). Every mistake (unknown key,
 wrong type, missing key, out-of-range value) is one :class:`~pencilbot.errors.ProfileError` that
 names the file, the key and what is expected.
 
-Where the paper sits on the bed is decided by :class:`pencilbot.gcode.writer.Placement`.
+A profile is the neutral description of a machine: the G-code writer, the time estimate, the
+driver and the virtual plotter all read it. Where the paper sits on the bed is decided by
+:class:`pencilbot.machine.bed.Placement`; the pen is :attr:`Profile.pen_model`.
 """
 
 from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
+from pencilbot import firmware as firmware_registry
 from pencilbot import schema
 from pencilbot.configs_io import read_config_text, shipped_names
 from pencilbot.errors import ProfileError
-from pencilbot.gcode.templates import TemplateError, check_template, fill_template
+from pencilbot.firmware.base import Firmware
+from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
+from pencilbot.machine.motion import Motion
+from pencilbot.machine.pen import PEN_KINDS, PenModel
+from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
-DIALECTS = ("grbl", "marlin")
-ORIGINS = ("bottom-left", "top-left", "bottom-right", "top-right")
-PEN_KINDS = ("spindle", "z", "servo")
-MAX_LINE = 80  # GRBL's line buffer; the longest line the writer produces
-FRAME_ROOM = 13  # "N1234567 " + "*255": what Marlin line numbering adds to a line
+MAX_LINE = 80  # the longest line the writer produces: GRBL's line buffer, so every firmware takes it
 TEMPLATE_FIELDS = ("up", "down", "draw_feed", "travel_feed", "bed_width", "bed_height")
-MAX_BED = 10_000  # mm; keeps every coordinate within five integer digits
-
-
-@dataclass(frozen=True)
-class Bed:
-    """Drawable area: ``width`` × ``height`` mm from the ``origin`` corner, axis directions, and
-    whether the firmware homes there and enforces the bed as soft limits."""
-
-    width: float
-    height: float
-    origin: str
-    invert_x: bool = False
-    invert_y: bool = False
-    homing: bool = False
-    soft_limits: bool = False
-
-
-@dataclass(frozen=True)
-class Motion:
-    """Feeds in mm/min, acceleration in mm/s², junction deviation in mm."""
-
-    draw_feed: float
-    travel_feed: float
-    acceleration: float
-    junction_deviation: float
+#: The plotter profile used when none is named.
+DEFAULT_PROFILE = "grbl-servo-a4"
 
 
 @dataclass(frozen=True)
@@ -112,7 +93,7 @@ class GcodeFormat:
 
     decimals: int = 3
     line_numbers: bool = False
-    receive_buffer: int = 128
+    receive_buffer: int | None = None  # bytes; None: the firmware's
     header: str = ""
     footer: str = ""
 
@@ -130,18 +111,26 @@ class Profile:
     gcode: GcodeFormat
     source: str = "<profile>"
 
-    def motion_settings(self):
-        """The :class:`pencilbot.planning.motion.MotionSettings` for the time estimate (mm/s)."""
-        from pencilbot.planning.motion import MotionSettings
-
-        return MotionSettings(
-            draw_speed=self.motion.draw_feed / 60.0,
-            travel_speed=self.motion.travel_feed / 60.0,
-            acceleration=self.motion.acceleration,
-            junction_deviation=self.motion.junction_deviation,
-            pen_up_delay=self.pen.up_delay,
-            pen_down_delay=self.pen.down_delay,
+    @cached_property
+    def pen_model(self) -> PenModel:
+        """The pen as the estimate, the driver and the simulator see it (commands filled in)."""
+        pen = self.pen
+        return PenModel(
+            kind=pen.kind, up=float(pen.up), down=float(pen.down),
+            up_lines=tuple(self.render(pen.up_command)), down_lines=tuple(self.render(pen.down_command)),
+            up_delay=float(pen.up_delay), down_delay=float(pen.down_delay),
         )
+
+    @property
+    def firmware(self) -> Firmware:
+        """The firmware the plotter runs, from the registry (what the writer, the driver and the
+        simulator ask instead of comparing names)."""
+        return firmware_registry.get(self.dialect)
+
+    @property
+    def receive_buffer(self) -> int:
+        """Bytes of the board's serial receive buffer: the profile's, else the firmware's."""
+        return self.gcode.receive_buffer or self.firmware.receive_buffer
 
     def template_values(self) -> dict[str, float]:
         """The values a template's ``{field}`` can name."""
@@ -170,7 +159,9 @@ _SECONDS = schema.number(0, 60, unit="seconds", as_given=True)
 _BED = schema.number(0, MAX_BED, above=True, unit="mm", as_given=True)
 _PEN_VALUE = schema.any_number("S value, Z mm or servo degrees")
 
-_TOP: dict[str, schema.Rule] = {"name": schema.TEXT, "dialect": schema.choice(DIALECTS), "description": schema.TEXT}
+_TOP: dict[str, schema.Rule] = {
+    "name": schema.TEXT, "dialect": schema.choice(firmware_registry.names()), "description": schema.TEXT,
+}
 _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
     "bed": (Bed, {
         "width": _BED,
@@ -288,10 +279,10 @@ def _check_consistency(profile: Profile, where: str) -> None:
             f"plotter profile {where}: [bed] soft_limits = true is invalid without homing = true; "
             "soft limits need a homed machine (GRBL refuses $20=1 while $22=0)"
         )
-    if profile.gcode.line_numbers and profile.dialect != "marlin":
+    if profile.gcode.line_numbers and not profile.firmware.capabilities.line_numbers:
         raise ProfileError(
             f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "
-            f'"{profile.dialect}"; expected false (only Marlin reads N…*checksum lines)'
+            f'"{profile.dialect}"; expected false ({profile.firmware.title} reads no N…*checksum lines)'
         )
     if profile.pen.kind == "z" and not profile.pen.up > profile.pen.down:
         raise ProfileError(
@@ -321,7 +312,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
                 f"plotter profile {where}: {_label(section, key)} is empty; expected the G-code "
                 f"that moves the pen, e.g. \"M3 S{{{key[:-8]}}}\""
             )
-        limit = MAX_LINE - (FRAME_ROOM if profile.gcode.line_numbers else 0)
+        limit = MAX_LINE - (profile.firmware.frame_room if profile.gcode.line_numbers else 0)
         for line in lines:
             if len(line) > limit:
                 raise ProfileError(

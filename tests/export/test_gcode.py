@@ -17,14 +17,17 @@ from hypothesis import strategies as st
 
 from firmware_protocol.marlin import unframe_line
 from pencilbot.errors import OutOfBedError, PencilbotError
-from pencilbot.gcode.profiles import Bed, load_profile
-from pencilbot.gcode.writer import Placement, gcode_lines, write_gcode
+from pencilbot.machine.bed import Bed
+from pencilbot.machine.profile import load_profile
+from pencilbot.export.gcode import gcode_lines, write_gcode
+from pencilbot.machine.bed import Placement
 from pencilbot.planning.plan import Layer, Page, Plan
 
 A4 = Page(210.0, 297.0, margin=15.0, name="A4")
-PROFILES = ["grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4"]
+PROFILES = ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4"]
 ALLOWED = {
     "grbl": {"G0", "G1", "G4", "G21", "G90", "G94", "M3"},
+    "grblhal": {"G0", "G1", "G4", "G21", "G90", "G94", "M3"},
     "marlin": {"G0", "G1", "G4", "G21", "G90", "M280", "M400", "M84", "M110"},
 }
 
@@ -368,16 +371,16 @@ def test_a_path_ending_at_home_needs_no_return_move():
 # --- the virtual GRBL runs it --------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["grbl-servo-a4", "grbl-z-a3"])
+@pytest.mark.parametrize("name", ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3"])
 def test_virtual_grbl_accepts_every_line_and_draws_the_plan(name):
     from sim.firmware import Firmware
-    from sim.machine import Machine, MachineConfig
+    from sim.machine import Machine
 
     profile = load_profile(name)
     rng = np.random.default_rng(7)
     paths = [rng.uniform([20, 20], [190, 277], (rng.integers(2, 6), 2)) for _ in range(40)]
     plan = plan_of(paths)
-    board = Firmware(Machine(MachineConfig.from_profile(profile)))
+    board = Firmware(Machine(profile))
     board.take_output()  # banner
     for line in gcode_lines(plan, profile):
         board.receive(line.encode("ascii") + b"\n")

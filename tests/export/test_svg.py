@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, read_svg, write_svg
+from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, read_svg, write_svg
 
 NS = {"svg": SVG_NS, "inkscape": INKSCAPE_NS}
 

@@ -21,6 +21,7 @@ from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
 from pencilbot.planning.plan import ROLES, Layer, Page, Plan
+from pencilbot.units import MM_PER_INCH
 
 SVG_NS = "http://www.w3.org/2000/svg"
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
@@ -143,7 +144,8 @@ def _escape(text: str) -> str:
 
 def _page_size(root: ET.Element, path) -> tuple[float, float, float]:
     """Page width and height in mm, and mm per user unit."""
-    units_to_mm = {"mm": 1.0, "cm": 10.0, "in": 25.4, "pt": 25.4 / 72, "px": 25.4 / 96, "": 25.4 / 96}
+    units_to_mm = {"mm": 1.0, "cm": 10.0, "in": MM_PER_INCH, "pt": MM_PER_INCH / 72, "px": MM_PER_INCH / 96,
+                   "": MM_PER_INCH / 96}
     sizes = []
     for attr in ("width", "height"):
         match = re.fullmatch(rf"\s*({_NUMBER.pattern})\s*([a-z]*)\s*", root.get(attr, ""))

@@ -1,4 +1,4 @@
-"""Plan → G-code in a plotter profile's dialect.
+"""Plan → G-code for a plotter profile, in its firmware's dialect.
 
 The program is, in order: header comments (source, profile, page placement, estimated time,
 pen-down/pen-up lengths), the profile's header, pen up, then for each path a ``G0`` travel to its
@@ -7,11 +7,14 @@ back to machine ``X0 Y0`` and the profile's footer. No command is repeated witho
 point that rounds onto the previous one is dropped, a travel to where the pen already is is
 dropped, and ``F`` is written only when the feed in force changes (GRBL's ``G0`` ignores ``F``, so
 GRBL only ever gets the drawing feed; Marlin's ``G0`` uses ``F``, so travel and drawing alternate).
-Dwells follow the dialect: GRBL ``G4 P`` in seconds, Marlin ``G4 P`` in milliseconds. Every line
+Dwells follow the firmware: GRBL ``G4 P`` in seconds, Marlin ``G4 P`` in milliseconds. Every line
 is at most 80 characters (GRBL's line buffer). With ``line_numbers`` (Marlin) each command line
-becomes ``N<n> <command>*<checksum>``, the checksum being the XOR of the bytes before ``*``.
+becomes ``N<n> <command>*<checksum>``, the checksum being the XOR of the bytes before ``*``. The
+firmware's facts come from the registry (:attr:`~pencilbot.machine.profile.Profile.firmware`);
+the header's time and lengths are :func:`pencilbot.planning.stats.estimate`, what ``stat`` and
+``demo`` report.
 
-Every coordinate is mapped to the machine by :class:`Placement` and checked against the bed
+Every coordinate is mapped to the machine by :class:`~pencilbot.machine.bed.Placement` and checked against the bed
 before anything is written; the file is written to a temporary name and renamed, so a refused or
 failed export leaves no partial file. Formatting is vectorised: every line is a row of one
 NUL-padded byte matrix (digits gathered from lookup tables), and the file is that matrix, in
@@ -28,83 +31,15 @@ import numpy as np
 
 from pencilbot.errors import OutOfBedError, PencilbotError
 from pencilbot.fileio import write_atomic
-from pencilbot.gcode.profiles import MAX_BED, MAX_LINE, Bed, Profile
-from pencilbot.planning.motion import PlanStats, duration_text, estimate
-from pencilbot.planning.plan import Page, Plan
+from pencilbot.machine.bed import MAX_BED, Placement
+from pencilbot.machine.profile import MAX_LINE, Profile
+from pencilbot.planning.plan import Plan
+from pencilbot.planning.stats import PlanStats, duration_text, estimate
+
+#: File names G-code goes by (the first is the one export gives).
+GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
 
 _INT_DIGITS = len(str(MAX_BED))  # the bed check keeps |coordinate| ≤ MAX_BED mm
-
-
-@dataclass(frozen=True)
-class Placement:
-    """Where the page sits on the bed, and the page mm → machine mm mapping.
-
-    The sheet lies in the bed's ``origin`` corner (the corner machine ``(0, 0)`` is in), edges
-    along the axes. It lies upright (page +y along the bed's far direction as seen from the
-    front) when it fits that way; if it only fits turned a quarter turn, it lies rotated
-    counter-clockwise, its top edge along the bed's left side. Machine coordinates are distances
-    from the origin corner, negated on an inverted axis (a machine homed at +X runs X from 0 to
-    −width).
-
-    Attributes
-    ----------
-    page : Page
-        The sheet, in plan coordinates (mm, origin bottom-left, Y up).
-    bed : Bed
-        The profile's bed.
-    rotated : bool
-        Whether the sheet lies turned a quarter turn.
-    """
-
-    page: Page
-    bed: Bed
-    rotated: bool
-
-    @classmethod
-    def on_bed(cls, page: Page, bed: Bed) -> Placement:
-        """Upright if the page fits the bed that way, else rotated if that fits, else upright."""
-        upright = page.width <= bed.width and page.height <= bed.height
-        turned = page.height <= bed.width and page.width <= bed.height
-        return cls(page, bed, rotated=not upright and turned)
-
-    @property
-    def size(self) -> tuple[float, float]:
-        """Width and height (mm) the sheet takes along the bed's X and Y."""
-        w, h = self.page.width, self.page.height
-        return (h, w) if self.rotated else (w, h)
-
-    def to_machine(self, points: np.ndarray) -> np.ndarray:
-        """Plan points ``(N, 2)`` (page mm, Y up) → machine coordinates ``(N, 2)`` mm."""
-        x, y = np.asarray(points, dtype=np.float64).T
-        if self.rotated:  # quarter turn counter-clockwise: page top edge on the bed's left side
-            x, y = self.page.height - y, x
-        x, y = self._from_origin_corner(x, y)
-        return np.column_stack([-x if self.bed.invert_x else x, -y if self.bed.invert_y else y])
-
-    def to_page(self, machine: np.ndarray) -> np.ndarray:
-        """Inverse of :meth:`to_machine`: machine mm ``(N, 2)`` → page mm, Y up."""
-        x, y = np.asarray(machine, dtype=np.float64).T
-        x, y = self._from_origin_corner(-x if self.bed.invert_x else x, -y if self.bed.invert_y else y)
-        if self.rotated:
-            x, y = y, self.page.height - x
-        return np.column_stack([x, y])
-
-    def _from_origin_corner(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        # Distances from the sheet's left/bottom edges <-> from the origin corner (self-inverse).
-        w, h = self.size
-        vertical, horizontal = self.bed.origin.split("-")
-        return (w - x if horizontal == "right" else x), (h - y if vertical == "top" else y)
-
-    def describe(self) -> str:
-        """One line for people: how to lay the sheet on the bed."""
-        how = "turned 90 deg, top edge at the left," if self.rotated else "upright"
-        return f"sheet {how} in the bed's {self.bed.origin} corner"
-
-    def machine_range(self) -> tuple[tuple[float, float], tuple[float, float]]:
-        """Allowed machine ``(min, max)`` for X and for Y, mm."""
-        bx = (-self.bed.width, 0.0) if self.bed.invert_x else (0.0, self.bed.width)
-        by = (-self.bed.height, 0.0) if self.bed.invert_y else (0.0, self.bed.height)
-        return bx, by
 
 
 @dataclass(frozen=True)
@@ -157,9 +92,14 @@ def write_gcode(plan: Plan, profile: Profile, path: str | Path, *, source: str =
     )
 
 
+def gcode_program(plan: Plan, profile: Profile, *, source: str = "") -> bytes:
+    """The G-code :func:`write_gcode` would write, as one ASCII text (what a sender streams)."""
+    return _program(plan, profile, source)[0]
+
+
 def gcode_lines(plan: Plan, profile: Profile, *, source: str = "") -> list[str]:
     """The G-code :func:`write_gcode` would write, as a list of lines without newlines."""
-    return _program(plan, profile, source)[0].decode("ascii").splitlines()
+    return gcode_program(plan, profile, source=source).decode("ascii").splitlines()
 
 
 # --- building the program ----------------------------------------------------------------------
@@ -179,8 +119,7 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
     machine = np.round(placement.to_machine(points), profile.gcode.decimals) + 0.0  # no "-0"
     _check_bed(machine, placement, profile)
 
-    home = placement.to_page(np.zeros((1, 2)))[0]  # machine X0 Y0, where the plot starts
-    stats = estimate(plan, profile.motion_settings(), start=tuple(home))
+    stats = estimate(plan, profile)
     moves = _Moves.of(machine, paths.lengths, profile)
     notes = [_comment(f"layer {layer.name}: {n} paths") for layer, n in zip(plan.layers, layer_sizes) if n]
     head = _header_comments(plan, profile, placement, stats, source) + profile.render(profile.gcode.header)
@@ -190,15 +129,16 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
         _text(profile.render(profile.gcode.footer)),
     ])
     if profile.gcode.line_numbers:
-        program = b"\n".join(_numbered(program.split(b"\n")[:-1])) + b"\n"
+        program = b"\n".join(profile.firmware.number_lines(program.split(b"\n")[:-1])) + b"\n"
     return program, stats, placement, len(paths)
 
 
 def _body(moves: _Moves, profile: Profile, *, first_paths: np.ndarray, notes: list[str]) -> bytes:
     """Pen up, every path (travel, pen down, moves, pen up), home; ``notes[i]`` comments go
     before path ``first_paths[i]``."""
-    up = _pen_lines(profile, profile.pen.up_command, profile.pen.up_delay)
-    down = _pen_lines(profile, profile.pen.down_command, profile.pen.down_delay)
+    pen = profile.pen_model
+    up = _pen_lines(pen.up_lines, pen.up_delay, profile)
+    down = _pen_lines(pen.down_lines, pen.down_delay, profile)
     # One table of lines: the pen-up block, the pen-down block, one row per move (last: home).
     width = max([moves.width(profile)] + [len(line) + 1 for line in up + down])
     table = np.vstack([_text_rows(up + down, width), moves.rows(profile, width)])
@@ -307,7 +247,7 @@ def _feed_changes(draw: np.ndarray, path_start: np.ndarray, profile: Profile) ->
     GRBL's G0 runs at the machine's max rate and leaves the modal F alone, so only G1 rows count;
     Marlin's G0 takes F too. If a pen template sets F itself, the feed is unknown after it.
     """
-    applies = draw | (profile.dialect == "marlin")  # rows whose motion uses the modal F
+    applies = draw | profile.firmware.rapids_take_feed  # rows whose motion uses the modal F
     feed_value = draw[applies]
     changed = np.ones(len(feed_value), dtype=bool)
     changed[1:] = feed_value[1:] != feed_value[:-1]
@@ -322,17 +262,14 @@ def _feed_changes(draw: np.ndarray, path_start: np.ndarray, profile: Profile) ->
 
 
 def _pen_sets_feed(profile: Profile) -> bool:
-    words = " ".join(profile.render(profile.pen.up_command) + profile.render(profile.pen.down_command))
+    words = " ".join(profile.pen_model.up_lines + profile.pen_model.down_lines)
     return any(w.upper().startswith("F") for w in words.split(";")[0].split())
 
 
-def _pen_lines(profile: Profile, template: str, delay: float) -> list[str]:
-    lines = profile.render(template)
-    # GRBL dwells in seconds, Marlin in milliseconds
-    p = _number_text(delay, 3) if profile.dialect == "grbl" else str(round(delay * 1000))
-    if p != "0":
-        lines.append(f"G4 P{p}")
-    return lines
+def _pen_lines(lines: tuple[str, ...], delay: float, profile: Profile) -> list[str]:
+    """A pen command and its dwell, in the firmware's units."""
+    dwell = profile.firmware.dwell(delay)
+    return [*lines, dwell] if dwell else list(lines)
 
 
 def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: PlanStats,
@@ -357,26 +294,6 @@ def _comment(text: str) -> str:
     clean = "".join(c if " " <= c <= "~" else "?" for c in text)
     line = f"; {clean}"
     return line if len(line) <= MAX_LINE else line[: MAX_LINE - 3] + "..."
-
-
-def _numbered(lines: list[bytes]) -> list[bytes]:
-    """``N<n> <command>*<checksum>`` on every command line, starting with ``M110 N0``.
-
-    Comment lines stay as they are; trailing comments go, since Marlin would read a ``*`` after
-    ``;`` as comment. Same framing as :func:`firmware_protocol.marlin.frame_line`, with the XOR
-    done by numpy over all lines at once (a Python loop per byte is seconds for a big plan).
-    """
-    lines = [b"M110 N0", *lines]
-    is_command = [not line.startswith(b";") for line in lines]
-    numbered = [
-        b"N%d %s" % (n, line.split(b";")[0].rstrip())
-        for n, line in enumerate(line for line, cmd in zip(lines, is_command) if cmd)
-    ]
-    lengths = np.fromiter(map(len, numbered), dtype=np.int64, count=len(numbered))
-    blob = np.frombuffer(b"".join(numbered), dtype=np.uint8)
-    checksums = np.bitwise_xor.reduceat(blob, np.cumsum(lengths) - lengths).tolist()
-    framed = iter([b"%s*%d" % (line, cs) for line, cs in zip(numbered, checksums)])
-    return [next(framed) if cmd else line for line, cmd in zip(lines, is_command)]
 
 
 # --- vectorised number formatting --------------------------------------------------------------

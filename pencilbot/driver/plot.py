@@ -1,0 +1,361 @@
+"""A plot job from start to end: load, wake, (check), resume, stream, and stop cleanly on faults.
+
+This is where a :class:`~pencilbot.driver.stream.StreamFault` becomes one plain
+:class:`~pencilbot.errors.PlotError` message: what happened, at which line of the file, what the
+pen is doing now, and the exact command that resumes the job. What the board can do (check mode,
+unlock, feed hold, status reports) comes from its firmware's capabilities, the same for all.
+"""
+
+from __future__ import annotations
+
+import shlex
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pencilbot.driver import journal as journal_mod
+from pencilbot.driver.job import Job, load_job
+from pencilbot.driver.port import LineReader, open_port
+from pencilbot.driver.progress import Progress
+from pencilbot.driver.resume import locate_stop, resume_preamble
+from pencilbot.driver.stream import Stream, StreamFault
+from pencilbot.errors import PlotError
+from pencilbot.firmware.base import ERROR
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
+from pencilbot.units import MM_PER_INCH
+
+JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
+
+
+@dataclass
+class DrawResult:
+    """What :func:`draw` did: lines sent, rejected line numbers (``--on-error continue``), time."""
+
+    lines_sent: int
+    rejected: list[int] = field(default_factory=list)
+    seconds: float = 0.0
+    journal: Path | None = None
+
+
+def draw(
+    gcode: str | Path | bytes | Sequence[str],
+    port: str,
+    *,
+    profile: str | None = None,
+    baud: int = 115200,
+    unlock: bool = False,
+    check: bool = False,
+    send_and_wait: bool = False,
+    on_error: str = "stop",
+    start_line: int | None = None,
+    resume: str | Path | None = None,
+    progress: str = "quiet",
+    timeout: float = 10.0,
+    wake_wait: float = 2.5,
+    source: str | None = None,
+) -> DrawResult:
+    """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
+
+    Parameters
+    ----------
+    gcode : path, bytes or sequence of str
+        A G-code file, a whole program, or its lines. Only a file gets a job journal (and
+        ``--resume``).
+    port : str
+        Device or pyserial URL (``/dev/ttyUSB0``, ``COM3``, ``socket://…``, ``sim://…``).
+    profile : str, optional
+        Plotter profile name or TOML path (firmware, receive buffer, pen commands); by default the
+        resumed job's, else :data:`~pencilbot.machine.profile.DEFAULT_PROFILE`.
+    baud : int
+        Serial speed in bit/s.
+    unlock : bool
+        Leave alarm lock if the board starts in it (GRBL ``$X``).
+    check : bool
+        Run the whole job through the firmware's check mode first (GRBL ``$C``); stop if any line
+        fails.
+    send_and_wait : bool
+        One line in flight at a time instead of filling the board's buffer.
+    on_error : {"stop", "continue"}
+        On a refused line: stop (feed hold, pen up), or log it and go on.
+    start_line : int, optional
+        Start from this file line (1-based), rebuilding the state of the lines before it.
+    resume : path, optional
+        A job journal (or its G-code file) to continue from where it stopped.
+    progress : {"bar", "quiet", "json"}
+        How to show progress.
+    timeout : float
+        Seconds of silence from the board before the job is declared stuck.
+    wake_wait : float
+        Seconds to wait for the start-up banner.
+    source : str, optional
+        What fault messages call ``gcode`` when it is not a file (e.g. the file it was read from);
+        a file is named by its path.
+
+    Raises
+    ------
+    PlotError
+        Any fault; the message says what happened, where, and how to resume.
+    """
+    stop_xy = None
+    journal = None
+    if resume is not None:
+        journal = journal_mod.load_journal(resume)
+        gcode = Path(journal.gcode)
+        if journal.status == "done":
+            raise PlotError(
+                f"the job of {gcode} finished; there is nothing to resume. To draw it again: "
+                f"pencilbot draw {shlex.quote(str(gcode))} --port {shlex.quote(port)} --profile "
+                f"{shlex.quote(profile or journal.profile)}"
+            )
+        _check_unchanged(journal, gcode)
+    profile = profile or (journal.profile if journal else DEFAULT_PROFILE)
+    machine = load_profile(profile)
+    fw = machine.firmware
+    if check and not fw.capabilities.check_mode:
+        raise PlotError(
+            f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
+            f"profile {machine.name} is for {fw.title}, which has none; draw without --check"
+        )
+    path = Path(gcode) if isinstance(gcode, (str, Path)) else None
+    job = load_job(gcode, machine, source)
+
+    start = 0
+    if journal is not None:
+        start, stop_xy = job.index_of(journal.next_line), journal.stop_xy
+    elif start_line is not None:
+        if not 1 <= start_line <= job.total_lines:
+            raise PlotError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
+        start = job.index_of(start_line)
+    if path is not None and journal is None:
+        journal = journal_mod.Journal(
+            gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port, profile=profile,
+            total_lines=job.total_lines, path=journal_mod.journal_path(path),
+        )
+    if journal is not None:
+        journal.port, journal.profile, journal.status, journal.message = port, profile, "running", ""
+
+    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock)
+    link = LineReader(open_port(port, baudrate=baud))
+    try:
+        stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
+        resumed_acked = job.index_of(journal.acked_line) if resume is not None and journal.acked_line else None
+        return runner.run(stream, start, stop_xy, check, wake_wait, resumed_acked)
+    finally:
+        try:
+            link.port.close()
+        except Exception:  # noqa: BLE001 - a vanished port may fail to close; nothing to do
+            pass
+
+
+def _check_unchanged(journal, gcode: Path) -> None:
+    try:
+        digest = journal_mod.file_sha256(gcode)
+    except OSError:
+        raise PlotError(f"the job's G-code file {gcode} is gone; resume needs the same file") from None
+    if digest != journal.sha256:
+        raise PlotError(
+            f"{gcode} changed since the job stopped, so the journal no longer matches it; check the "
+            f"file and continue with: pencilbot draw {shlex.quote(str(gcode))} --port "
+            f"{shlex.quote(journal.port)} --profile {shlex.quote(journal.profile)} --start-line {journal.next_line}"
+        )
+
+
+class _Runner:
+    """Holds one job's running state between the stream and the journal/progress."""
+
+    def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock):
+        self.job, self.profile, self.port, self.journal = job, profile, port, journal
+        self.firmware = profile.firmware
+        self.pen = profile.pen_model
+        self.progress_mode = progress
+        self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
+        self.acked = -1
+        self._journal_at = 0.0
+
+    def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed_acked=None) -> DrawResult:
+        """Stream from job line ``start``; ``resumed_acked``: last acknowledged index of a resumed job."""
+        t0 = time.monotonic()
+        job = self.job
+        try:
+            self._prepare(stream, check, wake_wait)
+            if resumed_acked is not None:
+                # Where the machine stands now tells what the stopped job really drew (a lost link
+                # or a hung board leaves moves that were acknowledged but never run).
+                here = self._job_position(stream, resumed_acked)
+                start, stop_xy = self._locate(resumed_acked, here) or (start, stop_xy)
+            if start > 0:
+                state = job.state_after(start - 1)
+                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=self.profile.gcode.decimals):
+                    self._setup_command(stream, line, "restoring the job's state")
+        except StreamFault as fault:
+            raise PlotError(f"{fault} before the job started; nothing was drawn. Check the plotter and retry.") from None
+
+        self.acked = start - 1
+        done0 = job.seconds_after(start - 1)
+        total = job.seconds_after(len(job) - 1) - done0
+        self.progress = Progress(self.progress_mode, len(job) - start, total)
+        self._save_journal(force=True)
+
+        def on_ack(index, state):
+            self.acked = index
+            self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state)
+            self._save_journal()
+
+        try:
+            rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait, on_error=self.on_error)
+        except StreamFault as fault:
+            message = self._stop(stream, fault)
+            self.progress.close("stopped", message)
+            raise PlotError(message) from None
+        self.progress.update(len(job) - start, total, stream.machine_state)  # drawn: now Idle
+        self.progress.close("done")
+        if self.journal is not None:
+            self.journal.status, self.journal.next_line = "done", job.number(len(job))
+            self.journal.stop_xy = None
+            self._save_journal(force=True)
+        return DrawResult(
+            lines_sent=len(job) - start,
+            rejected=[job.number(i) for i in rejected],
+            seconds=time.monotonic() - t0,
+            journal=self.journal.path if self.journal else None,
+        )
+
+    def _prepare(self, stream: Stream, check, wake_wait) -> None:
+        stream.wake(wake_wait)
+        status = stream.wait_until_still()  # a reconnected board may still be drawing
+        fw = self.firmware
+        if status is not None and fw.is_alarm(status):
+            if not (self.unlock and fw.capabilities.unlock):
+                raise PlotError(
+                    f"the plotter on {self.port} is in alarm lock. Make sure the pen can move freely, "
+                    f"then run the same command with --unlock (sends {fw.unlock_command or 'an unlock'}), "
+                    "or home the machine"
+                )
+            self._setup_command(stream, fw.unlock_command, "unlocking")
+        elif status is not None and fw.is_paused(status):
+            # A held board queues what it gets and runs none of it: the job would wait forever.
+            raise PlotError(
+                f"the plotter on {self.port} is paused ({status.state}: a feed hold or an open door). "
+                "Close the door, or press resume (cycle start, '~') or reset on the machine, then run again"
+            )
+        if check:
+            self._check_mode(stream)
+
+    def _setup_command(self, stream: Stream, line, doing) -> None:
+        reply = stream.command(line)
+        if reply.kind == ERROR:
+            raise PlotError(f"the plotter refused {line!r} while {doing} ({reply.text}); check the profile")
+
+    def _check_mode(self, stream: Stream) -> None:
+        """Run every line through check mode (parse only, no motion) and refuse the job on any error."""
+        job, toggle = self.job, self.firmware.check_command
+        self._setup_command(stream, toggle, "entering check mode")
+        try:
+            rejected = stream.stream(job, 0, lambda i, s: None, on_error="continue")
+        except StreamFault as fault:
+            if fault.kind != "alarm" or fault.index >= len(job):
+                raise
+            stream.reset()  # soft limits still alarm in check mode, and lock until a reset
+            raise PlotError(
+                f"{self.firmware.title} check mode ({toggle}) stopped at line {job.number(fault.index)} of "
+                f"{job.source} ({job.line(fault.index)!r}): {fault}; nothing was drawn. "
+                "Fix the G-code (pencilbot export keeps every move on the bed), then run again "
+                "with --unlock"
+            ) from None
+        stream.command(toggle)  # leaving check mode soft-resets GRBL
+        stream.reset()
+        if rejected:
+            where = ", ".join(str(job.number(i)) for i in rejected[:10])
+            more = f" and {len(rejected) - 10} more" if len(rejected) > 10 else ""
+            raise PlotError(
+                f"{self.firmware.title} check mode ({toggle}) rejected lines {where}{more} of {job.source}; "
+                "nothing was drawn. Fix those lines (pencilbot export writes G-code the plotter takes) "
+                "and run again"
+            )
+
+    def _save_journal(self, force: bool = False) -> None:
+        if self.journal is None:
+            return
+        now = time.monotonic()
+        if not force and now - self._journal_at < JOURNAL_INTERVAL:
+            return
+        self._journal_at = now
+        if self.acked >= 0:
+            self.journal.acked_line = self.job.number(self.acked)
+        self.journal.next_line = self.job.number(self.acked + 1)
+        self.journal.save()
+
+    def _stop(self, stream: Stream, fault: StreamFault) -> str:
+        """Stop the machine after ``fault``, record where to resume, and say so in one message."""
+        pen_note, position = self._halt_and_lift(stream, fault)
+        job = self.job
+        if fault.kind == "error" and self.on_error == "stop":
+            # The rejected line never ran: resume no later than it (it is sent again).
+            self.acked = min(self.acked, fault.index - 1)
+        # Without a known position, trust the acknowledgements; a resume looks again (the
+        # machine's position after reconnecting tells what a lost link or hung board ran).
+        index, stop_xy = self._locate(self.acked, position) or (self.acked + 1, None)
+        line_no = job.number(min(fault.index, len(job) - 1)) if fault.index >= 0 else None
+        where = f"at line {line_no} of {job.source} ({job.line(min(fault.index, len(job) - 1))!r})" if line_no else ""
+        message = f"{fault} {where}. Stopped; {pen_note}. {self._resume_advice(index, stop_xy, fault)}"
+        if fault.kind == "error" and line_no:
+            # Lines without a journal have no command line to resume them: say it in plain words.
+            fix = "use --start-line" if self.journal is not None else "start from it"
+            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
+        return message
+
+    def _halt_and_lift(self, stream: Stream, fault: StreamFault):
+        """Stop the machine, read where it stands (job units) and raise the pen: (note, position)."""
+        if fault.kind == "port":
+            return "the pen state is unknown (no port left to raise it)", None
+        fw = self.firmware
+        try:
+            at_rest = False
+            if fault.kind in ("error", "interrupt", "timeout"):
+                at_rest = stream.halt()
+            elif fault.kind == "alarm":
+                stream.reset()  # a limit alarm blocks all input until a reset
+            status = stream.query_status(wait=min(stream.timeout, 3.0))
+            position = self._job_position(stream, self.acked)
+            if status is not None and fw.is_alarm(status) and at_rest and fw.capabilities.unlock:
+                # Our own reset of a machine at rest: the position is exact, so the alarm
+                # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
+                stream.command(fw.unlock_command)
+            for line in self.pen.up_lines:
+                if stream.command(line).kind == ERROR:
+                    if self.pen.kind == "spindle":
+                        # The alarm switched the spindle off, and spindle off is pen up.
+                        return "pen up (the alarm switched the spindle off)", position
+                    return "the alarm locks G-code, so the pen could not be raised", position
+            return "pen raised", position
+        except StreamFault as exc:
+            return f"could not raise the pen ({exc})", None
+
+    def _job_position(self, stream: Stream, acked: int):
+        """The machine's work position X, Y in the units the job uses at line ``acked``."""
+        position = stream.work_position()
+        if position is not None and self.job.state_after(max(acked, 0)).inches:
+            position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
+        return position
+
+    def _locate(self, acked: int, position, window: int = 40):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the job's last acknowledged lines."""
+        if position is None or acked < 0:
+            return None
+        return locate_stop(self.job.states(max(acked - window, 0), acked + 1), acked, position, window=window)
+
+    def _resume_advice(self, index, stop_xy, fault) -> str:
+        """Record where to resume in the journal and say how: the command, or the line."""
+        unlock = " --unlock" if fault.kind in ("alarm", "reset") else ""
+        port = shlex.quote(self.port)
+        line = self.job.number(index)
+        if self.journal is None:  # lines from a program (simulate, the library): no command to give
+            return f"Resume from line {line} of {self.job.source}"
+        self.journal.next_line = line
+        self.journal.acked_line = self.job.number(self.acked) if self.acked >= 0 else 0
+        self.journal.stop_xy = list(stop_xy) if stop_xy is not None else None
+        self.journal.status = "stopped"
+        self.journal.message = str(fault)
+        self.journal.save()
+        return f"Resume with: pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {port}{unlock}"

@@ -1,0 +1,90 @@
+"""GRBL 1.1: character counting against a 128-byte buffer, realtime status, feed hold, ``$C``, ``$X``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from firmware_protocol import grbl as protocol
+from pencilbot.firmware.base import (
+    ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply,
+)
+
+_STILL = ("Idle", "Alarm", "Check", "Sleep")  # states in which nothing moves
+# Byte tables: what GRBL's line buffer drops (whitespace, control characters, block delete), and
+# what a line may not hold at all (non-ASCII, realtime commands).
+_DROPPED = np.zeros(256, dtype=bool)
+_DROPPED[: ord(" ") + 1] = _DROPPED[ord("/")] = True
+_ODD = np.zeros(256, dtype=bool)
+_ODD[128:] = True
+_ODD[list(protocol.REALTIME_BYTES)] = True
+
+
+class Grbl(Firmware):
+    """GRBL 1.1 (and firmware that speaks its protocol with other limits, see grblHAL)."""
+
+    name = "grbl"
+    title = "GRBL"
+    protocol = protocol
+    capabilities = Capabilities(
+        status_reports=True, feed_hold=True, soft_reset=True, check_mode=True, unlock=True,
+        realtime_protocol=True,
+    )
+    receive_buffer = protocol.RX_BUFFER_SIZE
+    line_limit = protocol.LINE_BUFFER_SIZE - 1  # significant characters; the NUL takes the last
+    dwell_units = 1.0  # G4 P is seconds
+    # A board that just reset on port open ignores its first bytes: line ends wake it harmlessly.
+    wake_bytes = b"\r\n\r\n"
+    status_query = protocol.STATUS_QUERY
+    feed_hold = protocol.FEED_HOLD
+    cycle_start = protocol.CYCLE_START
+    soft_reset = protocol.SOFT_RESET
+    unlock_command = "$X"
+    check_command = "$C"
+    moving_states = ("Run", "Jog", "Home")
+    paused_states = ("Hold", "Door")
+
+    def frame(self, command: str, number: int = 0) -> bytes:
+        return self.protocol.encode_line(command)
+
+    def check_lines(self, job) -> tuple[int, str] | None:
+        a = np.frombuffer(job.frames, dtype=np.uint8)
+        line_of = lambda at: np.searchsorted(job.offsets, at, side="right") - 1  # noqa: E731
+        # What the line buffer keeps: no whitespace, control characters or block delete (the
+        # newline of each line is one of those).
+        dropped = np.bincount(line_of(np.flatnonzero(_DROPPED[a])), minlength=len(job))
+        significant = np.diff(job.offsets) - dropped
+        odd = np.flatnonzero(_ODD[a])
+        suspects = np.union1d(np.flatnonzero(significant > self.line_limit), line_of(odd))
+        return self._first_refused(job, suspects.tolist())
+
+    def parse(self, text: str) -> Reply:
+        message = self.protocol.parse_line(text)
+        if isinstance(message, protocol.Ok):
+            return Reply(OK, text)
+        if isinstance(message, protocol.Error):
+            return Reply(ERROR, text, f"error:{message.code} {message.text}: {message.explanation}")
+        if isinstance(message, protocol.Alarm):
+            return Reply(ALARM, text, f"ALARM:{message.code} {message.text}: {message.explanation}")
+        if isinstance(message, protocol.Status):
+            return Reply(STATUS, text, status=message)
+        if isinstance(message, protocol.Welcome):
+            return Reply(RESET, text, f"banner '{text.strip().split(' [')[0]}'")
+        return Reply(OTHER, text)
+
+    def is_moving(self, status) -> bool:
+        return status.state in self.moving_states
+
+    def is_finished(self, status) -> bool:
+        return status.state in ("Idle", "Check")
+
+    def is_paused(self, status) -> bool:
+        return status.state in self.paused_states
+
+    def is_alarm(self, status) -> bool:
+        return status.state == "Alarm"
+
+    def is_at_rest(self, status) -> bool:
+        return status.state in _STILL or (status.state == "Hold" and status.substate == 0)
+
+
+GRBL = Grbl()

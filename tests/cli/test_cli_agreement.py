@@ -1,0 +1,49 @@
+"""demo, stat, the G-code header and the virtual plotter agree on plot time and pen-up travel, for
+every shipped plotter profile: one estimate (planning.stats) and one motion model behind them."""
+
+from __future__ import annotations
+
+import json
+import re
+
+import pytest
+from skimage import data
+from skimage import io as skio
+
+from pencilbot.cli import main
+from pencilbot.machine.profile import list_profiles, load_profile
+
+
+@pytest.fixture(scope="module")
+def photo(tmp_path_factory):
+    path = tmp_path_factory.mktemp("agreement") / "camera.png"
+    skio.imsave(path, data.camera()[::4, ::4])
+    return path
+
+
+def run_json(argv, capsys) -> dict:
+    assert main(argv) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.mark.parametrize("name", list_profiles())
+def test_demo_stat_header_and_simulator_agree(name, photo, tmp_path, capsys):
+    out = tmp_path / "demo"
+    demo = run_json(["demo", "--input", str(photo), "--out", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
+    header = (out / "drawing.gcode").read_text()
+    header_seconds = int(re.search(r"; estimated time: \d+:\d\d:\d\d \((\d+) s\)", header).group(1))
+    header_up = float(re.search(r"; pen down [\d.]+ mm, pen up ([\d.]+) mm", header).group(1))
+    stat = run_json(["stat", str(out / "plan.svg"), "--profile", name, "--json"], capsys)["total"]
+
+    assert abs(header_seconds - demo["estimated_s"]) <= 0.5 + 1e-9  # the header says "372 s" for 372.4
+    assert header_up / 1000 == pytest.approx(demo["pen_up_m"], abs=0.005)
+    # stat reads the plan back from its SVG (coordinates to the µm): the same figures
+    assert stat["seconds"] == pytest.approx(demo["estimated_s"], rel=1e-3, abs=0.05)
+    assert stat["pen_up_mm"] == pytest.approx(header_up, rel=1e-4, abs=0.05)
+    if load_profile(name).firmware.capabilities.realtime_protocol:
+        # The virtual plotter's planner runs the same rules move by move, Z moves included.
+        assert demo["simulated_s"] == pytest.approx(demo["estimated_s"], rel=0.05)
+        assert demo["simulated_s"] == pytest.approx(demo["estimated_s"], rel=0.005)  # in fact closer still
+        assert demo["simulated_pen_up_m"] == pytest.approx(demo["pen_up_m"], abs=0.01)
+    else:
+        assert demo["simulated_s"] is None  # its firmware is not one the virtual plotter speaks
