@@ -7,7 +7,7 @@ from pathlib import Path
 
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
-from pencilbot.planning.build import make_plan
+from pencilbot.planning.build import make_plan, plot_resolution
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
@@ -78,8 +78,9 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
                 f"{path} is a plan: its page and pen are already set; {', '.join(flags)} apply to photos only"
             )
         return read_svg(path)
-    image = load_image(path, max_pixels=args.max_pixels, downscale=args.downscale)
-    return make_plan(image, style=photo_style(args))
+    style = photo_style(args)
+    image = load_image(path, max_pixels=args.max_pixels, downscale=args.downscale, shrink_to=plot_resolution(style))
+    return make_plan(image, style=style)
 
 
 def photo_style(args: argparse.Namespace) -> Style:

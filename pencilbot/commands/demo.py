@@ -14,6 +14,7 @@ import os
 import time
 import urllib.parse
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -65,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.gcode.profiles import load_profile
     from pencilbot.gcode.writer import Placement, duration_text, write_gcode
     from pencilbot.imaging.io import image_from_array, load_image
-    from pencilbot.planning.build import sketch_and_plan
+    from pencilbot.planning.build import plot_resolution, sketch_and_plan
     from pencilbot.planning.fidelity import fidelity
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.motion import estimate
@@ -74,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
-    image = _photo(args, load_image, image_from_array)
+    image = _photo(args, partial(load_image, shrink_to=plot_resolution(style)), image_from_array)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
