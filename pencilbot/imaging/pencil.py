@@ -16,19 +16,26 @@ shift hue and darken the drawing's tone, so instead the chroma is scaled down ju
 from __future__ import annotations
 
 import logging
+import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
 from pencilbot.imaging.gmed import edge_map
-from pencilbot.imaging.io import LUMA_601, LoadedImage
+from pencilbot.imaging.io import LUMA_601, LoadedImage, image_from_array
 from pencilbot.imaging.strokes import LineDrawing, line_drawing
 from pencilbot.imaging.texture import TextureResult, pencil_texture, texture_map
 from pencilbot.imaging.tone import tone_target
 
 log = logging.getLogger(__name__)
+
+#: GMED's 3-pixel dilation and strokes of at least 6 pixels need room: in an image only a few
+#: pixels across they reach every pixel, E is 1 everywhere and Lu's normalisation (1 − S / max S)
+#: turns the whole picture into its darkest stroke (a 2×2 photo came out solid black). Such an
+#: image is drawn enlarged (each pixel a block) to this short side, then brought back.
+MIN_SIDE = 32
 
 
 @dataclass(frozen=True)
@@ -97,6 +104,11 @@ def sketch(
     -------
     Sketch
     """
+    factor = math.ceil(MIN_SIDE / min(image.shape))
+    if factor > 1:
+        enlarged = image_from_array(np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source)
+        drawn = sketch(enlarged, line_length=line_length, texture_seed=texture_seed, lines_only=lines_only)
+        return _reduced(drawn, image, color)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
@@ -127,6 +139,23 @@ def sketch(
         ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
     )
     return Sketch(result=result, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+
+
+def _reduced(drawn: Sketch, image: LoadedImage, color: bool) -> Sketch:
+    """The sketch of an enlarged copy of ``image`` brought back to its size (block means;
+    direction labels from each block's centre), R = L·T recomposed at that size."""
+    height, width = image.shape
+    step = drawn.line.labels.shape[0] // height
+
+    def area(a):
+        return None if a is None else cv2.resize(a, (width, height), interpolation=cv2.INTER_AREA)
+
+    labels = drawn.line.labels[step // 2 :: step, step // 2 :: step]
+    line = LineDrawing(area(drawn.line.drawing), labels, area(drawn.line.edges), drawn.line.length)
+    fit = drawn.fit and replace(drawn.fit, T=area(drawn.fit.T), beta=area(drawn.fit.beta))
+    luma = line.drawing * fit.T if fit else line.drawing.copy()
+    result = with_luma(image.rgb, luma) if color else luma
+    return Sketch(result, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings)
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:
