@@ -8,9 +8,12 @@ Each subcommand lives in its own module under :mod:`pencilbot.commands` and expo
 from __future__ import annotations
 
 import argparse
+import ctypes
+import ctypes.util
 import importlib
 import logging
 import os
+import platform
 import sys
 
 from pencilbot import __version__
@@ -38,7 +41,23 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _reuse_freed_memory() -> None:
+    """Let glibc serve big arrays from the heap and keep freed memory for the next one.
+
+    It maps every allocation over 32 MB afresh and unmaps it when freed, so each of the many
+    image-sized temporaries of a 12 MP sketch pays its page faults again: about a third of the
+    sketch's CPU time, all system time. The peak stays the same. Elsewhere nothing changes.
+    """
+    if platform.libc_ver()[0] != "glibc":
+        return
+    libc = ctypes.CDLL(ctypes.util.find_library("c"))
+    m_trim_threshold, m_mmap_threshold = -1, -3  # malloc.h
+    libc.mallopt(m_mmap_threshold, 1 << 30)
+    libc.mallopt(m_trim_threshold, 1 << 30)
+
+
 def main(argv: list[str] | None = None) -> int:
+    _reuse_freed_memory()
     parser = build_parser()
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

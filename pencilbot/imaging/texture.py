@@ -90,7 +90,9 @@ class TextureResult:
     block: int
 
 
-def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None = None) -> np.ndarray:
+def pencil_texture(
+    shape: tuple[int, int], *, seed: int = 0, scale: float | None = None, reduction: int | None = None
+) -> np.ndarray:
     """Synthesise a graphite hatching texture.
 
     Parameters
@@ -102,6 +104,13 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
     scale : float, optional
         Stroke size multiplier. Default :func:`texture_scale`, so strokes are about 0.7 px wide
         and 30 px long on a coffee-sized image and proportionally larger on bigger ones.
+    reduction : int, optional
+        Synthesise the random field on a grid this many times coarser (at FFT-friendly sizes)
+        and bring it to ``shape`` by periodic cubic interpolation. The field has no detail finer
+        than its grain (Gaussian σ = ``scale / 2`` px), so this changes nothing visible while
+        the grain spans a pixel of the coarse grid; default ``floor(scale / 2)``: 1 (exact
+        synthesis at ``shape``) below about 4 MP, 3 at 12 MP, where it makes the texture 2-3x
+        faster (and sides with large prime factors, such as 3464 = 8·433, no slower than others).
 
     Returns
     -------
@@ -114,13 +123,21 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
         raise ValueError(f"shape must be positive, got {shape!r}")
     if scale is None:
         scale = texture_scale((h, w))
+    reduction = max(1, math.floor(scale / 2)) if reduction is None else int(reduction)
+    if reduction < 1:
+        raise ValueError(f"reduction must be at least 1, got {reduction}")
+    if reduction == 1:
+        grid = (h, w)
+    else:
+        grid = (scipy.fft.next_fast_len(-(-h // reduction)), scipy.fft.next_fast_len(-(-w // reduction), real=True))
     # White noise through a filter: a circular convolution, hence periodic. Arithmetic is in
     # place where it can be, since at 12 MP each fresh temporary costs 0.1 s or more.
-    noise = np.random.default_rng(seed).standard_normal((h, w), dtype=np.float32)
+    noise = np.random.default_rng(seed).standard_normal(grid, dtype=np.float32)
     spectrum = scipy.fft.rfft2(noise, workers=-1)
     del noise
-    fy = scipy.fft.fftfreq(h).astype(np.float32)  # cycles per pixel
-    fx = scipy.fft.rfftfreq(w).astype(np.float32)
+    # Frequencies in cycles per pixel of the image, whatever grid they are sampled on.
+    fy = (scipy.fft.fftfreq(grid[0]) * (grid[0] / h)).astype(np.float32)
+    fx = (scipy.fft.rfftfreq(grid[1]) * (grid[1] / w)).astype(np.float32)
     gain = GRAIN_WEIGHT * _unit_power(_gaussian_spectrum(fx, fy, 0.0, 0.5 * scale, 0.5 * scale))
     for angle, weight in zip(STROKE_ANGLES, STROKE_WEIGHTS):
         blob = _gaussian_spectrum(fx, fy, angle, STROKE_LENGTH * scale, STROKE_WIDTH * scale)
@@ -129,8 +146,15 @@ def pencil_texture(shape: tuple[int, int], *, seed: int = 0, scale: float | None
         gain += blob
     spectrum *= gain
     del gain
-    field = scipy.fft.irfft2(spectrum, s=(h, w), workers=-1)
+    field = scipy.fft.irfft2(spectrum, s=grid, workers=-1)
     del spectrum
+    if grid != (h, w):
+        # Grid sample j lies at j · W / grid_w image pixels: a scaling of the torus, so
+        # wrapping at the borders keeps the texture periodic with period (H, W).
+        to_grid = np.array([[grid[1] / w, 0.0, 0.0], [0.0, grid[0] / h, 0.0]])
+        field = cv2.warpAffine(
+            field, to_grid, (w, h), flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP
+        )
     field -= field.mean()
     field *= CONTRAST / max(float(field.std()), 1e-12)
     # Log-normal graphite density: sparse thin dark strokes over a lighter ground (a symmetric
@@ -191,7 +215,8 @@ def texture_map(
     if block < 1:
         raise ValueError(f"block must be at least 1 pixel, got {block}")
     a = np.log(H)
-    rhs = np.log(np.clip(J, J_FLOOR, 1.0))
+    rhs = np.clip(J, J_FLOOR, 1.0)
+    np.log(rhs, out=rhs)
     rhs *= a
     # β constant on blocks: data terms add up, and `block` fine edges cross each coarse edge.
     d, rhs, mu = _block_sum(np.square(a), block), _block_sum(rhs, block), float(lam) * block
