@@ -148,6 +148,8 @@ def pencil_texture(
     del gain
     field = scipy.fft.irfft2(spectrum, s=grid, workers=-1)
     del spectrum
+    field -= field.mean()
+    field *= CONTRAST / max(float(field.std()), 1e-12)
     if grid != (h, w):
         # Grid sample j lies at j · W / grid_w image pixels: a scaling of the torus, so
         # wrapping at the borders keeps the texture periodic with period (H, W).
@@ -155,8 +157,6 @@ def pencil_texture(
         field = cv2.warpAffine(
             field, to_grid, (w, h), flags=cv2.INTER_CUBIC | cv2.WARP_INVERSE_MAP, borderMode=cv2.BORDER_WRAP
         )
-    field -= field.mean()
-    field *= CONTRAST / max(float(field.std()), 1e-12)
     # Log-normal graphite density: sparse thin dark strokes over a lighter ground (a symmetric
     # field would draw white streaks as boldly as dark ones, which reads as rain, not pencil).
     # It is positive, so ln H < 0: H strictly inside (0, 1).

@@ -35,8 +35,6 @@ import random
 from collections.abc import Sequence
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 _NEIGHBOURS = 10  # nearby ends per end: enough candidate moves, cheap to compute
@@ -79,10 +77,10 @@ def order_paths(
     pen_width : float, optional
         Pen width in mm, the default join tolerance.
     rounds : int, optional
-        Improvement work after the greedy matching, in passes over all path ends (a pass costs
-        about what the matching does), at most ``ROUND_WORK / len(paths)`` but at least
-        ``MIN_ROUNDS``; 0 keeps the matching. The result depends only on the paths and this
-        number.
+        Improvement work after the greedy tours, in passes over all path ends (a pass costs
+        about what building both tours does), at most ``ROUND_WORK / len(paths)`` but at least
+        ``MIN_ROUNDS``; 0 keeps the shorter greedy tour. The result depends only on the paths
+        and this number.
 
     Returns
     -------
@@ -438,6 +436,10 @@ def _greedy_matching(ends: _Ends) -> np.ndarray:
 
 def _chain_graph(a, b, ids, opposite, free_end):
     """Graph of free ends (and the free end) with an edge per chain and per proposed join."""
+    # Imported here: scipy.sparse.csgraph adds 60 ms to every pencilbot command's start-up.
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
     nodes = np.concatenate([ids, [free_end]])
     local = np.full(len(opposite), -1, np.int64)
     local[nodes] = np.arange(len(nodes))
@@ -625,7 +627,7 @@ class _Tour:
             e = np.repeat(ends, self.neighbours.shape[1])
             f = self.neighbours[ends].ravel()
             d = self.distances[ends].ravel()
-            d[f == self.free] = 0
+            d[(e == self.free) | (f == self.free)] = 0  # free is in the tree too, at home
         de, df = self.travel[e], self.travel[f]
         # A move that shortens the tour adds an edge shorter than one it removes next to it
         # (the gain criterion of Lin–Kernighan), so other pairs cannot start an improving move.
