@@ -47,7 +47,7 @@ _CHUNK = 8192  # ends per vectorised evaluation: ~80k candidate pairs, temporari
 _CALL_COST = 250
 _TRY_COST = 2
 _ROUND_COST = 1.5
-DEFAULT_ROUNDS = 40  # ~0.75 of greedy's pen-up travel on photo plans (bench/ordering.py)
+DEFAULT_ROUNDS = 40  # ~0.76 of greedy's pen-up travel on photo plans (bench/ordering.py)
 # Rounds × paths is capped so that huge layers stay linear in cost: 2 rounds from 100 000
 # paths on (1.28x the lower bound there, bench/scale.py), all 40 on photo layers.
 ROUND_WORK = 200_000
