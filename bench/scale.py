@@ -74,14 +74,16 @@ def stage(name: str, *, unit: str, sizes: tuple[int, ...], quick: tuple[int, ...
 def measure(argv: list[str]) -> dict:
     """Run argv as a fresh process: its own CPU seconds and peak RSS, and its stdout JSON if any."""
     wall = time.perf_counter()
-    process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    # Read the pipes to the end first (a full pipe would block the child), then reap it with
-    # os.wait4, which gives that child's own resource usage.
-    out, err = process.stdout.read(), process.stderr.read()
-    _, status, usage = os.wait4(process.pid, 0)
-    process.returncode = os.waitstatus_to_exitcode(status)
-    if process.returncode != 0:
-        raise RuntimeError(f"{' '.join(argv)} failed:\n{err}")
+    with tempfile.TemporaryFile("w+") as errors:
+        process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=errors, text=True)
+        # Read the output to its end (a full pipe would block the child), then reap the child
+        # with os.wait4, which gives that child's own resource usage.
+        out = process.stdout.read()
+        _, status, usage = os.wait4(process.pid, 0)
+        process.returncode = os.waitstatus_to_exitcode(status)
+        if process.returncode != 0:
+            errors.seek(0)
+            raise RuntimeError(f"{' '.join(argv)} failed:\n{errors.read()}")
     figures = json.loads(out) if out.strip().startswith("{") else {}
     return {
         "process_cpu_s": round(usage.ru_utime + usage.ru_stime, 3),
