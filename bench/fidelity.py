@@ -33,13 +33,13 @@ import cv2
 import numpy as np
 from skimage import data
 
-from pencilbot.gcode.profiles import load_profile
+from pencilbot.machine.profile import load_profile
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.build import HOME, at_plot_resolution, plan_from_sketch
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, likeness, plotted_darkness
 from pencilbot.planning.layout import Layout, page_size
-from pencilbot.planning.motion import estimate
+from pencilbot.planning.stats import estimate
 from pencilbot.planning.ordering import order_paths, travel_length
 from pencilbot.planning.style import load_style
 
@@ -80,7 +80,7 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "") -> 
     plotted = plotted_darkness(paths, layout.drawing_box, pen_width=pen_width)
     vs_photo = likeness(plotted, 1.0 - image.gray)
     vs_sketch = likeness(plotted, 1.0 - drawing.result)
-    total = estimate(plan, load_profile(PROFILE).motion_settings()).total
+    total = estimate(plan, load_profile(PROFILE)).total
     if montage is not None:
         write_montage(montage / f"{name}.png", image, drawing.result, plotted)
     return {
@@ -128,7 +128,7 @@ def blank_pictures() -> dict[str, np.ndarray]:
 
 def pen_down_m(gray: np.ndarray, name: str) -> float:
     plan, *_ = plan_photo(image_from_array(gray, source=name))
-    return round(estimate(plan).total.pen_down_mm / 1000, 3)
+    return round(estimate(plan, load_profile(PROFILE)).total.pen_down_mm / 1000, 3)
 
 
 def hatched_peer(image: LoadedImage, name: str) -> dict:

@@ -7,7 +7,8 @@ units, 0 = identical, 1 = all mass at the wrong end), for
 * ``tone``   — the tone target J itself (what histogram specification controls), and
 * ``result`` — the finished drawing R = L · T (texture and lines spread the histogram again),
 
-plus the textbook 8-level case's L1 histogram error. Run: ``python bench/tone.py``.
+plus the textbook 8-level case's L1 histogram error, and for each of the two which method is
+closer on which photo (``closer``: the paper's claim is GML's). Run: ``python bench/tone.py``.
 """
 
 from __future__ import annotations
@@ -60,8 +61,13 @@ def main() -> None:
             }
         row["photo"] = round(cdf_distance(image.gray, model), 4)
         photos[name] = row
+    closer = {
+        stage: {method: [name for name, row in photos.items() if row[method][stage] < row[other][stage]]
+                for method, other in (("gml", "sml"), ("sml", "gml"))}
+        for stage in ("tone", "result")
+    }
     print(json.dumps({"metric": "L1 of CDFs / 255 vs the 3-layer model (52:37:11)",
-                      "textbook": textbook(), "photos": photos}, indent=2))
+                      "textbook": textbook(), "closer": closer, "photos": photos}, indent=2))
 
 
 if __name__ == "__main__":

@@ -24,7 +24,7 @@ from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
-from pencilbot.planning.build import make_plan
+from pencilbot.planning.build import make_plan, plot_shape
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
@@ -66,11 +66,18 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
     chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
     if pen_width is not None:
         chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
-    loaded = as_image(image)
-    if not isinstance(page, Page):
-        page = page_size(page or chosen.page, orientation or chosen.orientation, loaded.shape,
+
+    def sheet(shape: tuple[int, int]) -> Page:
+        if isinstance(page, Page):
+            return page
+        return page_size(page or chosen.page, orientation or chosen.orientation, shape,
                          chosen.margin if margin is None else margin)
-    return make_plan(loaded, page=page, style=chosen)
+
+    if isinstance(image, (str, Path)):  # decoded at the size the plan needs, not full size
+        loaded = load_image(image, shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width))
+    else:
+        loaded = as_image(image)
+    return make_plan(loaded, page=sheet(loaded.shape), style=chosen)
 
 
 def export_gcode(

@@ -8,9 +8,12 @@ Each subcommand lives in its own module under :mod:`pencilbot.commands` and expo
 from __future__ import annotations
 
 import argparse
+import ctypes
+import ctypes.util
 import importlib
 import logging
 import os
+import platform
 import sys
 
 from pencilbot import __version__
@@ -20,14 +23,15 @@ from pencilbot.errors import PencilbotError
 COMMANDS = ["sketch", "plan", "stat", "export", "simulate", "sim_serve", "draw", "demo"]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
+    """The parser of every command, or of command ``only`` alone (a module name from COMMANDS)."""
     parser = argparse.ArgumentParser(
         prog="pencilbot",
         description="Turn a photo into a pencil drawing and draw it with a pen plotter.",
     )
     parser.add_argument("--version", action="version", version=f"pencilbot {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS:
+    for name in COMMANDS if only is None else [only]:
         try:
             module = importlib.import_module(f"pencilbot.commands.{name}")
         except ModuleNotFoundError as exc:
@@ -38,8 +42,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _reuse_freed_memory() -> None:
+    """Let glibc serve big arrays from the heap and keep freed memory for the next one.
+
+    It maps every allocation over 32 MB afresh and unmaps it when freed, so each of the many
+    image-sized temporaries of a 12 MP sketch pays its page faults again: about a third of the
+    sketch's CPU time, all system time. The peak stays the same. Elsewhere nothing changes.
+    """
+    if platform.libc_ver()[0] != "glibc":
+        return
+    libc = ctypes.CDLL(ctypes.util.find_library("c"))
+    m_trim_threshold, m_mmap_threshold = -1, -3  # malloc.h
+    libc.mallopt(m_mmap_threshold, 1 << 30)
+    libc.mallopt(m_trim_threshold, 1 << 30)
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
+    _reuse_freed_memory()
+    argv = sys.argv[1:] if argv is None else argv
+    # Only the command being run is imported: all of them cost 0.2 s of start-up.
+    named = argv[0].replace("-", "_") if argv else None
+    parser = build_parser(only=named if named in COMMANDS else None)
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

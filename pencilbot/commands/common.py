@@ -9,7 +9,6 @@ from pathlib import Path
 
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
-from pencilbot.planning.build import make_plan
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
@@ -88,6 +87,10 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
         A photo option was given with a plan SVG, the style or an option is invalid, or the file
         cannot be read.
     """
+    # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
+    # has no use for the planning stack (0.1 s of start-up).
+    from pencilbot.planning.build import make_plan, plot_resolution
+
     path = Path(path)
     if path.suffix.lower() == ".svg":
         given = {"--style": args.style, **_overrides(args), "--downscale": args.downscale or None}
@@ -97,8 +100,9 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
                 f"{path} is a plan: its page and pen are already set; {', '.join(flags)} apply to photos only"
             )
         return read_svg(path)
-    image = load_image(path, max_pixels=args.max_pixels, downscale=args.downscale)
-    return make_plan(image, style=photo_style(args))
+    style = photo_style(args)
+    image = load_image(path, max_pixels=args.max_pixels, downscale=args.downscale, shrink_to=plot_resolution(style))
+    return make_plan(image, style=style)
 
 
 def photo_style(args: argparse.Namespace) -> Style:

@@ -14,6 +14,7 @@ import os
 import time
 import urllib.parse
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -67,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.machine.bed import Placement
     from pencilbot.machine.profile import load_profile
     from pencilbot.imaging.io import image_from_array, load_image
-    from pencilbot.planning.build import sketch_and_plan
+    from pencilbot.planning.build import plot_resolution, sketch_and_plan
     from pencilbot.planning.fidelity import fidelity
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.preview import preview as plan_preview
@@ -75,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
-    image = _photo(args, load_image, image_from_array)
+    image = _photo(args, partial(load_image, shrink_to=plot_resolution(style)), image_from_array)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)

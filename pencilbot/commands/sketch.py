@@ -6,6 +6,7 @@ import argparse
 import io
 from pathlib import Path
 
+import cv2
 import numpy as np
 from PIL import Image
 
@@ -15,8 +16,10 @@ from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.imaging.pencil import sketch
-from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, MAX_LENGTH, MIN_LENGTH, WIDTH_RANGE, line_drawing
+from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, MAX_LENGTH, MIN_LENGTH, WIDTH_RANGE
 
+# From this size up a PNG is written with fast compression (12 MP: 0.2 s instead of 1.4 s).
+FAST_PNG_PIXELS = 1_000_000
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -72,27 +75,21 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"{flag} needs the tone layer; drop --lines-only or {flag}.")
     image = load_image(args.input, max_pixels=args.max_pixels, downscale=args.downscale)
 
-    if args.lines_only:
-        stages = gmed_stages(image.gray)
-        line = line_drawing(stages["edges"], length=args.line_length, width=args.stroke_width, gamma=args.stroke_gamma)
-        result = line.drawing
-    else:
-        drawn = sketch(
-            image,
-            color=args.color,
-            line_length=args.line_length,
-            stroke_gamma=args.stroke_gamma,
-            stroke_width=args.stroke_width,
-            texture=args.texture,
-            texture_seed=args.texture_seed,
-            lines_only=False,
-        )
-        stages = {}
-        if args.stages:
-            stages = gmed_stages(image.gray)
-            stages.update(tone=drawn.tone, texture=drawn.texture, beta=drawn.beta, T=drawn.T)
-        line, result = drawn.line, drawn.result
+    drawn = sketch(
+        image,
+        color=args.color,
+        line_length=args.line_length,
+        stroke_gamma=args.stroke_gamma,
+        stroke_width=args.stroke_width,
+        texture=args.texture,
+        texture_seed=args.texture_seed,
+        lines_only=args.lines_only,
+    )
+    line, result = drawn.line, drawn.result
     if args.stages:
+        stages = gmed_stages(image.gray)
+        if not args.lines_only:
+            stages.update(tone=drawn.tone, texture=drawn.texture, beta=drawn.beta, T=drawn.T)
         stages["lines"] = line.drawing
         write_stages(Path(args.stages), stages)
     write_image(result, output)
@@ -119,11 +116,19 @@ def write_stages(directory: Path, stages: dict[str, np.ndarray]) -> None:
 
 
 def write_image(array: np.ndarray, path: Path) -> None:
-    """Write a float [0, 1] grey or RGB image atomically (temp file in the same folder + rename)."""
-    pixels = np.round(np.clip(array, 0.0, 1.0) * 255.0).astype(np.uint8)
+    """Write a float [0, 1] grey or RGB image atomically (temp file in the same folder + rename).
+
+    PNGs of a megapixel and more use zlib's fastest level: a 12 MP sketch encodes in 0.2 s
+    instead of 1.4 s, for a file about a quarter larger.
+    """
+    if array.min(initial=0.0) >= 0.0:  # one pass: round(255 x), saturated at 255
+        pixels = cv2.convertScaleAbs(np.asarray(array, np.float32), alpha=255.0)
+    else:
+        pixels = np.rint(np.clip(array, 0.0, 1.0) * 255.0).astype(np.uint8)
     image_format = Image.registered_extensions()[path.suffix.lower()]
+    options = {"compress_level": 1} if image_format == "PNG" and pixels.shape[0] * pixels.shape[1] >= FAST_PNG_PIXELS else {}
     encoded = io.BytesIO()
-    Image.fromarray(pixels).save(encoded, format=image_format)
+    Image.fromarray(pixels).save(encoded, format=image_format, **options)
     write_atomic(path, encoded.getvalue())
 
 

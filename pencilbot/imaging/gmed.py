@@ -62,7 +62,6 @@ import math
 
 import cv2
 import numpy as np
-import scipy.ndimage as ndi
 
 from pencilbot.imaging.scale import reference_scale
 
@@ -189,6 +188,8 @@ def denoise_image(gray: np.ndarray, method: str = "median", size: int = 3) -> np
         return cv2.GaussianBlur(gray, (size, size), size / 6.0, borderType=cv2.BORDER_REFLECT)
     if size <= 5:
         return cv2.medianBlur(gray, size)  # OpenCV takes float32 only for 3 and 5
+    import scipy.ndimage as ndi  # here: importing it costs every command 0.15 s of start-up
+
     return ndi.median_filter(gray, size=size, mode="reflect")
 
 
@@ -233,9 +234,12 @@ def gradient_magnitude(f: np.ndarray, magnitude: str = "l2") -> np.ndarray:
     gy = np.zeros_like(f)
     np.subtract(f[:, 1:], f[:, :-1], out=gx[:, :-1])
     np.subtract(f[1:, :], f[:-1, :], out=gy[:-1, :])
+    # In place: the same float operations as sqrt(gx² + gy²) without three fresh 12 MP arrays.
     if magnitude == "l1":
-        return np.abs(gx) + np.abs(gy)
-    return np.sqrt(gx * gx + gy * gy)
+        return np.add(np.abs(gx, out=gx), np.abs(gy, out=gy), out=gx)
+    np.multiply(gx, gx, out=gx)
+    np.multiply(gy, gy, out=gy)
+    return np.sqrt(np.add(gx, gy, out=gx), out=gx)
 
 
 def element_offsets(

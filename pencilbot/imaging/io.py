@@ -11,8 +11,11 @@ sketch can swap Y and keep Cb/Cr without a second definition of brightness.
 
 from __future__ import annotations
 
+import logging
 import math
 import os
+from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import cv2
@@ -22,6 +25,12 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 from pencilbot.errors import ImageLoadError
 
 DEFAULT_MAX_PIXELS = 40_000_000
+#: More pixels than this are never decoded unless ``max_pixels`` allows more: Pillow's own
+#: decompression-bomb threshold (twice its ``MAX_IMAGE_PIXELS``), kept when its check is not.
+DECODE_LIMIT = 2 * 89_478_485
+_EXIF_ORIENTATION = 0x0112
+_BYTE_TO_FLOAT = np.arange(256, dtype=np.float32) / 255.0
+log = logging.getLogger(__name__)
 LUMA_601 = np.array([0.299, 0.587, 0.114], dtype=np.float32)
 
 
@@ -50,20 +59,31 @@ class LoadedImage:
 
 
 def load_image(
-    path: str | os.PathLike, *, max_pixels: int = DEFAULT_MAX_PIXELS, downscale: bool = False
+    path: str | os.PathLike,
+    *,
+    max_pixels: int = DEFAULT_MAX_PIXELS,
+    downscale: bool = False,
+    shrink_to: Callable[[tuple[int, int]], tuple[int, int]] | None = None,
 ) -> LoadedImage:
     """Decode an image file.
 
     Parameters
     ----------
     path : str or path-like
-        Any format Pillow reads (PNG, JPEG, TIFF, BMP, WebP, GIF, ...).
+        Any format Pillow reads (PNG, JPEG, TIFF, BMP, WebP, GIF, ...). Of an animation or a
+        multi-page file the first frame is used, with a warning saying so.
     max_pixels : int
         Largest accepted width × height, in pixels. Bigger images are refused (or shrunk, see
         ``downscale``) before their pixels are decoded, so a huge file cannot exhaust memory.
     downscale : bool
         Shrink a too-large image (area averaging, aspect kept) to at most ``max_pixels`` instead
         of refusing it.
+    shrink_to : callable, optional
+        ``shrink_to((H, W)) -> (h, w)``: the size the caller will use an image of upright size
+        ``(H, W)`` at (no larger). The image is then decoded at a reduced scale where the format
+        can (JPEG: 1/2, 1/4, 1/8), reduced further in its own 8- or 16-bit samples by area
+        averaging, and only then converted to float: a 24 MP photo planned on A4 never exists
+        as a full-size float array.
 
     Returns
     -------
@@ -86,26 +106,10 @@ def load_image(
     if os.path.getsize(name) == 0:
         raise ImageLoadError(f"{name} is empty (0 bytes). Re-export or re-download the image.")
     try:
-        with Image.open(name) as img:
-            width, height = img.size
-            too_large = width * height > max_pixels
-            if too_large and not downscale:
-                raise ImageLoadError(
-                    f"{name} is {width}×{height} = {width * height:,} pixels, more than the "
-                    f"limit of {max_pixels:,}. Use --downscale to shrink it, or raise --max-pixels."
-                )
-            if too_large:
-                # JPEG can decode at 1/2, 1/4, 1/8 scale directly: far less memory for huge photos.
-                img.draft(img.mode, _fit_size((width, height), max_pixels))
-            img.load()
-            img = ImageOps.exif_transpose(img)
-            pixels = _to_float_rgba(img)
+        with _without_pillow_pixel_limit(), Image.open(name) as img:
+            pixels, size = _decode(img, name, max_pixels, downscale, shrink_to)
     except ImageLoadError:
         raise
-    except Image.DecompressionBombError as err:
-        raise ImageLoadError(
-            f"{name} is too large to decode safely ({err}). Shrink it with an image editor first."
-        ) from None
     except UnidentifiedImageError:
         raise ImageLoadError(
             f"{name} is not an image file Pillow can read. Give a PNG, JPEG, TIFF, BMP or WebP file."
@@ -115,10 +119,7 @@ def load_image(
             f"{name} could not be decoded ({err}); it is probably truncated or corrupt. "
             "Re-export or re-download the image."
         ) from None
-    if pixels.shape[0] * pixels.shape[1] > max_pixels:
-        target = _fit_size((pixels.shape[1], pixels.shape[0]), max_pixels)
-        pixels = cv2.resize(pixels, target, interpolation=cv2.INTER_AREA)
-    return _from_rgba(pixels, name)
+    return _from_samples(_reduce(pixels, size), name)
 
 
 def image_from_array(arr: np.ndarray, source: str = "array") -> LoadedImage:
@@ -174,27 +175,103 @@ def _fit_size(size: tuple[int, int], max_pixels: int) -> tuple[int, int]:
     return max(1, math.floor(width * scale)), max(1, math.floor(height * scale))
 
 
-def _to_float_rgba(img: Image.Image) -> np.ndarray:
-    """Any Pillow mode → float32 (H, W, 4) straight (non-premultiplied) RGBA in [0, 1]."""
+@contextmanager
+def _without_pillow_pixel_limit():
+    """Pillow's decompression-bomb check (a raw warning above 89.5 MP, an error above 179 MP)
+    gives way to pencilbot's own: ``max_pixels`` before decoding, ``DECODE_LIMIT`` after."""
+    saved = Image.MAX_IMAGE_PIXELS
+    Image.MAX_IMAGE_PIXELS = None
+    try:
+        yield
+    finally:
+        Image.MAX_IMAGE_PIXELS = saved
+
+
+def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrink_to) -> tuple[np.ndarray, tuple[int, int]]:
+    """Decode ``img`` upright, at reduced scale where that is free: (samples, wanted (w, h))."""
+    width, height = img.size
+    frames = getattr(img, "n_frames", 1)
+    if frames > 1:
+        log.warning("%s holds %d frames (an animation or a multi-page file): using the first only.", name, frames)
+    too_large = width * height > max_pixels
+    if too_large and not downscale:
+        raise ImageLoadError(
+            f"{name} is {width}×{height} = {width * height:,} pixels, more than the "
+            f"limit of {max_pixels:,}. Use --downscale to shrink it, or raise --max-pixels."
+        )
+    turned = img.getexif().get(_EXIF_ORIENTATION, 1) in (5, 6, 7, 8)  # a quarter turn upright
+    upright = (height, width) if turned else (width, height)
+    wanted = _fit_size(upright, max_pixels) if too_large else upright
+    if shrink_to is not None:
+        h, w = shrink_to((wanted[1], wanted[0]))
+        wanted = (min(wanted[0], w), min(wanted[1], h))
+    if wanted != upright:
+        # JPEG can decode at 1/2, 1/4, 1/8 scale directly, keeping at least the size asked for.
+        img.draft(img.mode, wanted[::-1] if turned else wanted)
+    decoded = img.size[0] * img.size[1]
+    if decoded > max(max_pixels, DECODE_LIMIT):
+        raise ImageLoadError(
+            f"{name} is {width}×{height} = {width * height:,} pixels; decoding more than "
+            f"{DECODE_LIMIT:,} is unsafe and only JPEG decodes at a reduced scale. Shrink it with an "
+            "image editor first, or raise --max-pixels if this machine has the memory."
+        )
+    img.load()
+    return _samples(ImageOps.exif_transpose(img)), wanted
+
+
+def _samples(img: Image.Image) -> np.ndarray:
+    """Pixels in their own depth: uint8 RGB or RGBA (straight alpha), uint16 or float32 grey."""
     if img.mode in ("I;16", "I;16L", "I;16B", "I;16N", "I"):
         # 16-bit grey (Pillow reports PNG/TIFF 16-bit grey as I;16, older versions as I): keep
         # the precision. 16-bit colour PNGs arrive from Pillow already reduced to 8 bits per
         # channel, which is still far finer than any pencil tone.
-        grey = np.clip(np.asarray(img).astype(np.float32) / 65535.0, 0.0, 1.0)
-        alpha = np.ones_like(grey)
-        return np.dstack([grey, grey, grey, alpha])
+        return np.clip(np.asarray(img), 0, 65535).astype(np.uint16)
     if img.mode == "F":
-        grey = np.clip(np.nan_to_num(np.asarray(img, dtype=np.float32)), 0.0, 1.0)
-        return np.dstack([grey, grey, grey, np.ones_like(grey)])
+        return np.clip(np.nan_to_num(np.asarray(img, dtype=np.float32)), 0.0, 1.0)
     # P with a transparency entry, LA, PA, RGBA, CMYK, YCbCr, 1, L, RGB: Pillow converts all.
-    rgba = np.asarray(img.convert("RGBA"), dtype=np.float32) / 255.0
-    return rgba
+    transparent = img.mode in ("RGBA", "LA", "PA", "RGBa", "La") or "transparency" in img.info
+    mode = "RGBA" if transparent else "RGB"
+    return np.asarray(img if img.mode == mode else img.convert(mode))
+
+
+def _reduce(pixels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """Area-average samples to ``size`` (w, h) in their own depth; alpha is premultiplied first,
+    so a transparent pixel adds paper, not its hidden colour (returned as uint16 (H, W, 4)
+    holding colour × alpha and alpha × 255, for :func:`_from_samples`)."""
+    if (pixels.shape[1], pixels.shape[0]) == size:
+        return pixels
+    if pixels.ndim == 3 and pixels.shape[2] == 4:
+        alpha = pixels[:, :, 3:].astype(np.uint16)
+        pixels = np.concatenate([pixels[:, :, :3] * alpha, alpha * 255], axis=2)
+    return cv2.resize(pixels, size, interpolation=cv2.INTER_AREA)
+
+
+def _from_samples(pixels: np.ndarray, source: str) -> LoadedImage:
+    """One float conversion, at the final size: composite on white paper and derive grey."""
+    if pixels.dtype == np.uint16 and pixels.ndim == 3:  # premultiplied, from _reduce
+        rgb = (pixels[:, :, :3] + (65025 - pixels[:, :, 3:])).astype(np.float32)
+        rgb *= np.float32(1 / 65025)
+        return _from_rgb(rgb, source)
+    if pixels.dtype == np.uint16:
+        grey = pixels.astype(np.float32) / 65535.0
+    elif pixels.dtype == np.float32:
+        grey = pixels
+    else:
+        scaled = cv2.LUT(pixels, _BYTE_TO_FLOAT)  # exactly pixels / 255, 8x faster than numpy's cast
+        return _from_rgba(scaled, source) if pixels.shape[2] == 4 else _from_rgb(scaled, source)
+    return _from_rgb(np.dstack([grey, grey, grey]), source)
 
 
 def _from_rgba(pixels: np.ndarray, source: str) -> LoadedImage:
-    """Composite straight RGBA on white paper and derive grey."""
+    """Composite straight float RGBA on white paper and derive grey."""
     alpha = pixels[:, :, 3:4]
-    rgb = pixels[:, :, :3] * alpha + (1.0 - alpha)
-    rgb = np.ascontiguousarray(np.clip(rgb, 0.0, 1.0), dtype=np.float32)
-    gray = np.clip(rgb @ LUMA_601, 0.0, 1.0).astype(np.float32)
+    return _from_rgb(pixels[:, :, :3] * alpha + (1.0 - alpha), source)
+
+
+def _from_rgb(rgb: np.ndarray, source: str) -> LoadedImage:
+    """Float RGB (paper already composited; a fresh array, clipped in place) and its Rec. 601 grey."""
+    rgb = np.ascontiguousarray(rgb, dtype=np.float32)
+    np.clip(rgb, 0.0, 1.0, out=rgb)
+    gray = rgb @ LUMA_601
+    np.clip(gray, 0.0, 1.0, out=gray)
     return LoadedImage(gray=gray, rgb=rgb, source=source)

@@ -16,21 +16,28 @@ shift hue and darken the drawing's tone, so instead the chroma is scaled down ju
 from __future__ import annotations
 
 import logging
+import math
 import os
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.gmed import edge_map
-from pencilbot.imaging.io import LUMA_601, LoadedImage
+from pencilbot.imaging.io import LUMA_601, LoadedImage, image_from_array
 from pencilbot.imaging.strokes import GAMMA_RANGE, WIDTH_RANGE, LineDrawing, line_drawing
 from pencilbot.imaging.texture import TextureResult, pencil_texture, texture_map, user_texture
 from pencilbot.imaging.tone import tone_target
 
 log = logging.getLogger(__name__)
+
+#: GMED's 3-pixel dilation and strokes of at least 6 pixels need room: in an image only a few
+#: pixels across they reach every pixel, E is 1 everywhere and Lu's normalisation (1 − S / max S)
+#: turns the whole picture into its darkest stroke (a 2×2 photo came out solid black). Such an
+#: image is drawn enlarged (each pixel a block) to this short side, then brought back.
+MIN_SIDE = 32
 
 
 @dataclass(frozen=True)
@@ -120,6 +127,14 @@ def sketch(
     """
     _check_range("stroke_gamma", stroke_gamma, GAMMA_RANGE)
     _check_range("stroke_width", stroke_width, WIDTH_RANGE)
+    factor = math.ceil(MIN_SIDE / min(image.shape))
+    if factor > 1:
+        enlarged = image_from_array(np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source)
+        drawn = sketch(
+            enlarged, line_length=line_length, stroke_gamma=stroke_gamma, stroke_width=stroke_width,
+            texture=texture, texture_seed=texture_seed, lines_only=lines_only,
+        )
+        return _reduced(drawn, image, color)
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 
@@ -159,6 +174,23 @@ def _check_range(name: str, value: float, bounds: tuple[float, float]) -> None:
     low, high = bounds
     if not (isinstance(value, int | float) and not isinstance(value, bool) and low <= value <= high):
         raise PencilbotError(f"{name} must be a number from {low:g} to {high:g}, got {value!r}")
+
+
+def _reduced(drawn: Sketch, image: LoadedImage, color: bool) -> Sketch:
+    """The sketch of an enlarged copy of ``image`` brought back to its size (block means;
+    direction labels from each block's centre), R = L·T recomposed at that size."""
+    height, width = image.shape
+    step = drawn.line.labels.shape[0] // height
+
+    def area(a):
+        return None if a is None else cv2.resize(a, (width, height), interpolation=cv2.INTER_AREA)
+
+    labels = drawn.line.labels[step // 2 :: step, step // 2 :: step]
+    line = LineDrawing(area(drawn.line.drawing), labels, area(drawn.line.edges), drawn.line.length)
+    fit = drawn.fit and replace(drawn.fit, T=area(drawn.fit.T), beta=area(drawn.fit.beta))
+    luma = line.drawing * fit.T if fit else line.drawing.copy()
+    result = with_luma(image.rgb, luma) if color else luma
+    return Sketch(result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings)
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:

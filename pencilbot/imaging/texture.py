@@ -308,7 +308,8 @@ def texture_map(
     if block < 1:
         raise ValueError(f"block must be at least 1 pixel, got {block}")
     a = np.log(H)
-    rhs = np.log(np.clip(J, J_FLOOR, 1.0))
+    rhs = np.clip(J, J_FLOOR, 1.0)
+    np.log(rhs, out=rhs)
     rhs *= a
     # β constant on blocks: data terms add up, and `block` fine edges cross each coarse edge.
     d, rhs, mu = _block_sum(np.square(a), block), _block_sum(rhs, block), float(lam) * block

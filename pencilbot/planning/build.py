@@ -10,6 +10,7 @@ layer ended; the first starts at the plotter's home, the page origin.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -85,7 +86,8 @@ def at_plot_resolution(image: LoadedImage, page: Page, pen_width: float) -> Load
 
     A pen cannot draw detail finer than its width, and the stroke length ℓ is counted in
     pixels: a 12 MP photo on A4 would give strokes under a millimetre and tens of thousands of
-    them. Smaller images are returned unchanged.
+    them. Smaller images, and images already at that size, are returned unchanged. A photo
+    file is better loaded at that size directly: see :func:`plot_resolution`.
 
     Parameters
     ----------
@@ -98,13 +100,33 @@ def at_plot_resolution(image: LoadedImage, page: Page, pen_width: float) -> Load
     -------
     LoadedImage
     """
-    scale = Layout.fit(image.shape, page).mm_per_px / (pen_width / 3)
-    if scale >= 1:
+    height, width = plot_shape(image.shape, page, pen_width)
+    if (height, width) == image.shape:
         return image
-    height, width = image.shape
-    size = (max(1, round(width * scale)), max(1, round(height * scale)))
-    rgb = np.clip(cv2.resize(image.rgb, size, interpolation=cv2.INTER_AREA), 0.0, 1.0)
+    rgb = np.clip(cv2.resize(image.rgb, (width, height), interpolation=cv2.INTER_AREA), 0.0, 1.0)
     return image_from_array(rgb, source=image.source)
+
+
+def plot_shape(shape: tuple[int, int], page: Page, pen_width: float) -> tuple[int, int]:
+    """``(H, W)`` pixels an image of ``shape`` is planned at on ``page``: a pixel at least a
+    third of the pen wide (sizes rounded down, so that it is), never more than ``shape``."""
+    scale = Layout.fit(shape, page).mm_per_px / (pen_width / 3)
+    if scale >= 1:
+        return tuple(shape)
+    return max(1, math.floor(shape[0] * scale)), max(1, math.floor(shape[1] * scale))
+
+
+def plot_resolution(style: Style, page: Page | None = None):
+    """For :func:`~pencilbot.imaging.io.load_image`'s ``shrink_to``: the size a photo of a given
+    size is planned at with ``style`` (on ``page``, default the style's page for that photo), so
+    that a big photo is reduced while it is decoded instead of after.
+    """
+
+    def shape_for(shape: tuple[int, int]) -> tuple[int, int]:
+        sheet = page if page is not None else page_size(style.page, style.orientation, shape, style.margin)
+        return plot_shape(shape, sheet, style.pen_width)
+
+    return shape_for
 
 
 def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str = "") -> Plan:

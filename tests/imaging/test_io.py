@@ -2,6 +2,7 @@
 
 import io
 
+import cv2
 import numpy as np
 import pytest
 import skimage.data
@@ -11,6 +12,7 @@ from hypothesis.extra.numpy import arrays
 from PIL import Image
 
 from pencilbot.errors import ImageLoadError
+from pencilbot.imaging import io as image_io
 from pencilbot.imaging.io import LUMA_601, LoadedImage, image_from_array, load_image
 
 
@@ -178,3 +180,85 @@ def test_image_from_array_invariants(arr):
     if arr.shape[2] == 4:  # transparency only ever lightens toward paper
         opaque = arr[:, :, :3].astype(np.float32) / 255 @ LUMA_601
         assert np.all(loaded.gray >= opaque - 1e-5)
+
+
+def photo(shape=(480, 640)):
+    return cv2.resize(skimage.data.astronaut(), shape[::-1], interpolation=cv2.INTER_CUBIC)
+
+
+@pytest.mark.parametrize(("suffix", "tolerance"), [("png", 1.5 / 255), ("jpg", 0.02)])
+def test_shrink_to_decodes_at_the_size_asked_for_and_matches_shrinking_after(tmp_path, suffix, tolerance):
+    path = save(tmp_path, Image.fromarray(photo()), f"p.{suffix}", **({"quality": 95} if suffix == "jpg" else {}))
+    asked = []
+
+    def half(shape):
+        asked.append(shape)
+        return shape[0] // 2 - 1, shape[1] // 2 - 1
+
+    small = load_image(path, shrink_to=half)
+    full = load_image(path)
+    assert asked == [(480, 640)] and small.shape == (239, 319)
+    after = cv2.resize(full.rgb, (319, 239), interpolation=cv2.INTER_AREA)
+    assert np.abs(small.rgb - after).mean() < tolerance
+    np.testing.assert_allclose(small.gray, small.rgb @ LUMA_601, atol=1e-5)
+
+
+def test_shrink_to_sees_the_upright_size_of_a_turned_jpeg(tmp_path):
+    exif = Image.Exif()
+    exif[0x0112] = 6  # stored 640 wide, viewed 480 wide
+    path = save(tmp_path, Image.fromarray(photo()), "t.jpg", exif=exif, quality=95)
+    asked = []
+    small = load_image(path, shrink_to=lambda shape: asked.append(shape) or (160, 120))
+    assert asked == [(640, 480)] and small.shape == (160, 120)
+
+
+def test_shrinking_a_transparent_image_mixes_in_paper_not_hidden_colour(tmp_path):
+    rgba = np.zeros((40, 40, 4), np.uint8)
+    rgba[..., 3] = 255
+    rgba[::2, :, :3] = 0  # opaque black rows ...
+    rgba[1::2, :, 3] = 0  # ... between fully transparent (hidden black) rows: blank paper
+    small = load_image(save(tmp_path, Image.fromarray(rgba, "RGBA"), "t.png"), shrink_to=lambda s: (20, 20))
+    np.testing.assert_allclose(small.gray, 0.5, atol=1 / 255)
+
+
+def test_sixteen_bit_grey_keeps_its_precision_when_shrunk(tmp_path):
+    values = np.full((8, 8), 1000, np.uint16)
+    values[:, 4:] = 1001
+    small = load_image(save(tmp_path, Image.fromarray(values), "g16.png"), shrink_to=lambda s: (4, 4))
+    np.testing.assert_allclose(small.gray[:, :2], 1000 / 65535, rtol=1e-6)
+    np.testing.assert_allclose(small.gray[:, 2:], 1001 / 65535, rtol=1e-6)
+
+
+def test_pillow_decompression_bomb_checks_give_way_to_ours(tmp_path, monkeypatch, recwarn):
+    # Pretend the photo is past Pillow's bomb thresholds (a warning at 1 000, an error at 2 000).
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)
+    path = save(tmp_path, Image.new("L", (100, 60), 128), "big.png")
+    assert load_image(path).shape == (60, 100)  # within our limit: loads, Pillow says nothing
+    with pytest.raises(ImageLoadError, match=r"100×60 = 6,000 pixels, more than the limit of 5,000"):
+        load_image(path, max_pixels=5000)
+    assert not [w for w in recwarn if issubclass(w.category, Image.DecompressionBombWarning)]
+    assert Image.MAX_IMAGE_PIXELS == 1000  # Pillow's setting is left as it was
+
+
+def test_too_many_pixels_to_decode_even_with_downscale_is_one_message(tmp_path, monkeypatch):
+    monkeypatch.setattr(image_io, "DECODE_LIMIT", 5000)
+    path = save(tmp_path, Image.new("L", (100, 60)), "big.png")  # PNG cannot decode at 1/8 scale
+    with pytest.raises(ImageLoadError, match=r"decoding more than 5,000 is unsafe.*image editor"):
+        load_image(path, max_pixels=1000, downscale=True)
+    jpeg = save(tmp_path, Image.new("L", (400, 240)), "big.jpg")  # JPEG can: 1/8 scale is 1 500
+    height, width = load_image(jpeg, max_pixels=1000, downscale=True).shape
+    assert height * width <= 1000
+
+
+def test_a_multi_frame_file_gives_its_first_frame_and_says_so(tmp_path, caplog):
+    frames = [Image.new("L", (8, 8), value) for value in (0, 255, 128)]
+    path = tmp_path / "anim.gif"
+    frames[0].save(path, save_all=True, append_images=frames[1:])
+    with caplog.at_level("WARNING", logger="pencilbot.imaging.io"):
+        loaded = load_image(path)
+    np.testing.assert_allclose(loaded.gray, 0.0, atol=1e-6)
+    assert "holds 3 frames" in caplog.text and "first only" in caplog.text
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="pencilbot.imaging.io"):
+        load_image(save(tmp_path, frames[0], "still.gif"))
+    assert caplog.text == ""

@@ -112,3 +112,27 @@ def test_deterministic_and_seeded(coffee, coffee_grey):
 
 def test_line_length_is_passed_through(coffee):
     assert sketch(coffee, line_length=11, lines_only=True).line.length == 11
+
+
+def test_a_tiny_photo_is_not_drawn_solid_black():
+    # This dark 2×2 crop used to come out 0 everywhere: the 3-pixel dilation gave E = 1 at every
+    # pixel and the strokes' normalisation made each the darkest one.
+    crop = image_from_array(skimage.data.astronaut()[200:202, 200:202], source="crop")
+    s = sketch(crop)
+    assert s.result.shape == (2, 2) and s.line.labels.shape == (2, 2)
+    assert s.line.drawing.min() > 0.5 and s.result.min() > 0.3
+    np.testing.assert_array_equal(s.result, s.line.drawing * s.T)
+    # ... and the drawing still follows the photo's tone.
+    checker = sketch(image_from_array(np.array([[0, 255], [255, 0]], np.uint8)))
+    assert checker.result[0, 1] > checker.result[0, 0] + 0.3
+    lines = sketch(crop, lines_only=True)
+    assert lines.result.min() > 0.5 and lines.T is None
+
+
+@settings(max_examples=25, deadline=None)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 8), st.integers(1, 8), st.just(3))))
+def test_tiny_photos_keep_their_size_and_mostly_paper_lines(arr):
+    s = sketch(image_from_array(arr), color=True)
+    assert s.result.shape == arr.shape and s.tone.shape == arr.shape[:2]
+    assert s.line.drawing.mean() > 0.7  # lines where the photo changes, not everywhere
+    np.testing.assert_allclose(s.result @ LUMA, s.line.drawing * s.T, atol=2e-3)

@@ -22,7 +22,8 @@ def test_junction_speed_forms_agree(u, w, accel, deviation):
     scalar = junction_speed(u, w, accel, deviation)
     cos_theta = -np.dot(u, w)
     vector = math.sqrt(junction_speeds_squared(np.array([cos_theta]), accel, deviation)[0])
-    assert vector == pytest.approx(scalar, rel=1e-12) or (math.isinf(scalar) and math.isinf(vector))
+    # Near a straight junction 1 − sin(θ/2) cancels: the two forms round differently there.
+    assert vector == pytest.approx(scalar, rel=1e-9) or (math.isinf(scalar) and math.isinf(vector))
 
 
 @settings(max_examples=200, deadline=None)

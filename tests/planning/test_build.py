@@ -7,13 +7,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from PIL import Image
 from scipy import ndimage as ndi
 from skimage import data
 from skimage.draw import disk
 from skimage.transform import resize
 
 from pencilbot.errors import ProfileError
-from pencilbot.imaging.io import image_from_array
+from pencilbot.imaging.io import image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.build import (
@@ -21,6 +22,8 @@ from pencilbot.planning.build import (
     ink_on_image_grid,
     make_plan,
     plan_from_sketch,
+    plot_resolution,
+    plot_shape,
     sketch_and_plan,
 )
 from pencilbot.planning.fidelity import plotted_darkness
@@ -331,3 +334,17 @@ def test_paper_that_should_stay_paper_plans_no_edge_strokes(gray):
     drawing, plan = sketch_and_plan(image, style=FAST)
     assert len(plan.layer("edges").paths) == 0
     assert np.all(drawing.line.drawing == 1.0)  # and the raster line drawing is paper too
+
+
+def test_a_photo_file_is_decoded_at_plot_resolution_not_reduced_after(tmp_path):
+    path = tmp_path / "big.png"
+    Image.fromarray((resize(data.camera(), (1800, 1200)) * 255).astype(np.uint8)).save(path)
+    style = Style(page="A5", orientation="auto", order_rounds=0)
+    page = page_size("A5", "auto", (1800, 1200), style.margin)
+    lean = load_image(path, shrink_to=plot_resolution(style))
+    after = at_plot_resolution(load_image(path), page, style.pen_width)
+    assert lean.shape == after.shape == plot_shape((1800, 1200), page, style.pen_width)
+    assert Layout.fit(lean.shape, page).mm_per_px >= style.pen_width / 3  # a pixel is at least a third of the pen
+    assert at_plot_resolution(lean, page, style.pen_width) is lean
+    assert np.abs(lean.gray - after.gray).mean() < 1 / 255  # 8-bit area averaging, then float
+    assert make_plan(lean, style=style).meta["image_px"] == f"{lean.shape[1]}x{lean.shape[0]}"

@@ -1,0 +1,292 @@
+"""Cost at scale: CPU time, peak memory and fitted exponent of each stage over sizes spanning 100x.
+
+Prints JSON. Every size of every stage runs in a fresh subprocess; its CPU time (user + system)
+and peak resident memory are that process's own, read with ``os.wait4``. A stage either runs a
+``pencilbot`` command end to end (what a user pays, start-up included) or a library call inside
+a small child that also reports the call's own CPU time. ``exponent`` is the least-squares slope
+of log CPU over log size.
+
+Stages and their targets (issue 16):
+
+* ``ordering`` — ``order_paths`` on random short strokes (1-5 mm on A4, bench/ordering.py),
+  10k to 1M: CPU exponent <= 1.1 from 100k to 1M, 1M in <= 25 s CPU and <= 1.5 GB; travel <=
+  1.35x the lower bound at 100k (``travel_lower_bound``: the LP dual of the matching of path ends
+  that every order's pen-up moves form, raised by dual ascent) and <= vpype ``linesort --two-opt``
+  at 10k (its travel counted from home, as a plotter draws it);
+* ``plan`` — ``pencilbot plan PHOTO.jpg`` on A4 (default style) from 0.1 to 24 MP: <= 1.5 s CPU
+  beyond the 0.1 MP case and <= 350 MB peak at 24 MP;
+* ``sketch`` — ``pencilbot sketch PHOTO.jpg -o OUT.png`` from 0.12 to 12 MP (square, 3464² at
+  12 MP): <= 3 s CPU at 12 MP.
+
+Photos are skimage's astronaut enlarged (cubic) and saved as JPEG quality 90, like a camera's.
+A new stage is one function decorated with ``@stage(...)``: it gets a size and a scratch folder
+and returns the argv to measure (and, for a library child, its own figures); see ``ordering``.
+
+Usage: ``python bench/scale.py [--stage NAME ...] [--quick] [--repeats N]``. Timings share 2
+cores with other work: the median of ``--repeats`` runs is reported.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+@dataclass(frozen=True)
+class Stage:
+    """A measured stage: ``command(size, scratch)`` gives the argv of one fresh subprocess."""
+
+    name: str
+    unit: str
+    sizes: tuple[int, ...]
+    quick_sizes: tuple[int, ...]
+    command: Callable[[int, Path], list[str]]
+    summary: Callable[[list[dict]], dict]
+
+
+STAGES: dict[str, Stage] = {}
+
+
+def stage(name: str, *, unit: str, sizes: tuple[int, ...], quick: tuple[int, ...], summary: Callable):
+    """Register ``command(size, scratch) -> argv`` as stage ``name``."""
+
+    def register(command: Callable[[int, Path], list[str]]) -> Callable[[int, Path], list[str]]:
+        STAGES[name] = Stage(name, unit, sizes, quick, command, summary)
+        return command
+
+    return register
+
+
+# -- measuring ----------------------------------------------------------------------------------
+
+def measure(argv: list[str]) -> dict:
+    """Run argv as a fresh process: its own CPU seconds and peak RSS, and its stdout JSON if any."""
+    wall = time.perf_counter()
+    with tempfile.TemporaryFile("w+") as errors:
+        process = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=errors, text=True)
+        # Read the output to its end (a full pipe would block the child), then reap the child
+        # with os.wait4, which gives that child's own resource usage.
+        out = process.stdout.read()
+        _, status, usage = os.wait4(process.pid, 0)
+        process.returncode = os.waitstatus_to_exitcode(status)
+        if process.returncode != 0:
+            errors.seek(0)
+            raise RuntimeError(f"{' '.join(argv)} failed:\n{errors.read()}")
+    figures = json.loads(out) if out.strip().startswith("{") else {}
+    return {
+        "process_cpu_s": round(usage.ru_utime + usage.ru_stime, 3),
+        "peak_rss_mb": round(usage.ru_maxrss / 1024, 1),
+        "wall_s": round(time.perf_counter() - wall, 2),
+        **figures,
+    }
+
+
+def exponent(sizes: list[float], seconds: list[float]) -> float | None:
+    """Least-squares slope of log(seconds) over log(size)."""
+    if len(sizes) < 2:
+        return None
+    x, y = [math.log(s) for s in sizes], [math.log(t) for t in seconds]
+    mx, my = sum(x) / len(x), sum(y) / len(y)
+    return round(sum((a - mx) * (b - my) for a, b in zip(x, y)) / sum((a - mx) ** 2 for a in x), 3)
+
+
+def run_stage(stage_: Stage, sizes: tuple[int, ...], repeats: int, scratch: Path) -> dict:
+    runs = []
+    for size in sizes:
+        results = [measure(stage_.command(size, scratch)) for _ in range(repeats)]
+        # Timings take the median over repeats; everything else is the same in every run.
+        row = {key: statistics.median(r[key] for r in results) if key.endswith("_s") or key == "peak_rss_mb"
+               else value for key, value in results[0].items()}
+        runs.append({stage_.unit: size, **row})
+    return {"unit": stage_.unit, "runs": runs, **stage_.summary(runs)}
+
+
+def _child(argv: list[str]) -> list[str]:
+    return [sys.executable, str(Path(__file__).resolve()), "--child", *argv]
+
+
+def _pencilbot(*args: str) -> list[str]:
+    return [sys.executable, "-m", "pencilbot.cli", *args]
+
+
+# -- stage: ordering ----------------------------------------------------------------------------
+
+def _ordering_summary(runs: list[dict]) -> dict:
+    big = [r for r in runs if r["paths"] >= 100_000]
+    at = {r["paths"]: r for r in runs}
+    figures = {
+        "exponent_all": exponent([r["paths"] for r in runs], [r["cpu_s"] for r in runs]),
+        "exponent_100k_to_1m": exponent([r["paths"] for r in big], [r["cpu_s"] for r in big]),
+    }
+    targets = {"exponent_100k_to_1m_max": 1.1, "cpu_s_1m_max": 25.0, "peak_rss_mb_1m_max": 1536,
+               "travel_vs_bound_100k_max": 1.35, "travel_vs_vpype_10k_max": 1.0}
+    met = {}
+    if figures["exponent_100k_to_1m"] is not None:
+        met["exponent"] = figures["exponent_100k_to_1m"] <= 1.1
+    if 1_000_000 in at:
+        met["cpu_1m"] = at[1_000_000]["cpu_s"] <= 25.0
+        met["memory_1m"] = at[1_000_000]["peak_rss_mb"] <= 1536
+    if 100_000 in at:
+        met["travel_vs_bound_100k"] = at[100_000]["travel_vs_bound"] <= 1.35
+    if 10_000 in at and "vpype_two_opt_pen_up_mm" in at[10_000]:
+        met["beats_vpype_10k"] = at[10_000]["pen_up_mm"] <= at[10_000]["vpype_two_opt_pen_up_mm"]
+    return {**figures, "targets": targets, "met": met}
+
+
+@stage("ordering", unit="paths", sizes=(10_000, 30_000, 100_000, 300_000, 1_000_000),
+       quick=(10_000, 30_000, 100_000, 300_000), summary=_ordering_summary)
+def ordering_command(size: int, scratch: Path) -> list[str]:
+    return _child(["ordering", str(size)])
+
+
+def ordering_child(size: int) -> dict:
+    """Order ``size`` random strokes with the defaults; travel against bounds and baselines."""
+    import numpy as np
+
+    sys.path.insert(0, str(HERE))
+    from ordering import synthetic_uniform
+
+    from pencilbot.planning.ordering import (
+        MIN_ROUNDS,
+        ROUND_WORK,
+        DEFAULT_ROUNDS,
+        greedy_order,
+        order_paths,
+        travel_length,
+        travel_lower_bound,
+    )
+
+    paths = synthetic_uniform(size, np.random.default_rng(0))
+    home = (0.0, 0.0)
+    cpu = time.process_time()
+    ordered = order_paths(paths, start=home, join_tolerance=-1)
+    cpu = time.process_time() - cpu
+    travel = travel_length(ordered, home)
+    figures = {"cpu_s": round(cpu, 3), "rounds": min(DEFAULT_ROUNDS, max(MIN_ROUNDS, ROUND_WORK // size)),
+               "pen_up_mm": round(travel, 1)}
+    if size <= 100_000:
+        bound = travel_lower_bound(paths, home)
+        figures.update(lower_bound_mm=round(bound, 1), travel_vs_bound=round(travel / bound, 4),
+                       vs_greedy=round(travel / travel_length(greedy_order(paths, home), home), 4))
+    if size <= 10_000:
+        figures.update(_vpype_two_opt(paths, home))
+    return figures
+
+
+def _vpype_two_opt(paths, home) -> dict:
+    """vpype's ``linesort --two-opt`` on the same strokes; its pen-up counted from home."""
+    import numpy as np
+    import vpype
+    import vpype_cli
+
+    from pencilbot.planning.ordering import travel_length
+
+    document = vpype.Document()
+    document.add(vpype.LineCollection([p[:, 0] + 1j * p[:, 1] for p in paths]), 1)
+    cpu = time.process_time()
+    document = vpype_cli.execute("linesort --two-opt", document=document)
+    cpu = time.process_time() - cpu
+    lines = [np.stack([line.real, line.imag], axis=1) for line in document.layers[1]]
+    return {"vpype_two_opt_pen_up_mm": round(travel_length(lines, home), 1), "vpype_two_opt_cpu_s": round(cpu, 2)}
+
+
+# -- stages on photos ---------------------------------------------------------------------------
+
+def photo(pixels: int, aspect: float, scratch: Path) -> Path:
+    """A JPEG of about ``pixels`` pixels (width / height = ``aspect``), made once per scratch folder.
+
+    Made by a child process: a child's peak memory (ru_maxrss) starts from its parent's at the
+    fork, so this process stays small.
+    """
+    width = round(math.sqrt(pixels * aspect))
+    height = round(pixels / width)
+    path = scratch / f"photo-{width}x{height}.jpg"
+    if not path.exists():
+        subprocess.run(_child(["photo", f"{width}x{height}:{path}"]), check=True)
+    return path
+
+
+def photo_child(spec: str) -> None:
+    import cv2
+    from skimage import data
+
+    size, path = spec.split(":", 1)
+    width, height = map(int, size.split("x"))
+    rgb = cv2.resize(data.astronaut(), (width, height), interpolation=cv2.INTER_CUBIC)
+    cv2.imwrite(path, cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])
+
+
+def _photo_summary(target_size: int, cpu_max: float | None, extra_cpu_max: float | None, rss_max: float | None):
+    def summary(runs: list[dict]) -> dict:
+        at = {r["pixels"]: r for r in runs}
+        smallest, largest = runs[0], at.get(target_size)
+        figures = {"exponent_all": exponent([r["pixels"] for r in runs], [r["process_cpu_s"] for r in runs])}
+        targets, met = {}, {}
+        if largest is not None:
+            figures["cpu_s_beyond_smallest"] = round(largest["process_cpu_s"] - smallest["process_cpu_s"], 3)
+            if extra_cpu_max is not None:
+                targets["cpu_s_beyond_smallest_max"] = extra_cpu_max
+                met["cpu_beyond_smallest"] = figures["cpu_s_beyond_smallest"] <= extra_cpu_max
+            if cpu_max is not None:
+                targets["cpu_s_max"] = cpu_max
+                met["cpu"] = largest["process_cpu_s"] <= cpu_max
+            if rss_max is not None:
+                targets["peak_rss_mb_max"] = rss_max
+                met["memory"] = largest["peak_rss_mb"] <= rss_max
+        return {**figures, "targets": targets, "met": met}
+
+    return summary
+
+
+@stage("plan", unit="pixels", sizes=(100_000, 400_000, 1_500_000, 6_000_000, 24_000_000),
+       quick=(100_000, 1_500_000, 6_000_000, 24_000_000),
+       summary=_photo_summary(24_000_000, None, 1.5, 350))
+def plan_command(size: int, scratch: Path) -> list[str]:
+    return _pencilbot("plan", str(photo(size, 1.5, scratch)), "-o", str(scratch / "plan.svg"), "-q", "--page", "A4")
+
+
+@stage("sketch", unit="pixels", sizes=(120_000, 500_000, 2_000_000, 5_000_000, 12_000_000),
+       quick=(120_000, 2_000_000, 12_000_000), summary=_photo_summary(12_000_000, 3.0, None, None))
+def sketch_command(size: int, scratch: Path) -> list[str]:
+    return _pencilbot("sketch", str(photo(size, 1.0, scratch)), "-o", str(scratch / "sketch.png"), "-q")
+
+
+CHILDREN = {"ordering": lambda size: ordering_child(int(size)), "photo": photo_child}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--stage", action="append", choices=sorted(STAGES), help="stages to run (default: all)")
+    parser.add_argument("--quick", action="store_true", help="fewer sizes")
+    parser.add_argument("--repeats", type=int, default=1, help="runs per size; the median is reported")
+    parser.add_argument("--child", nargs=2, metavar=("STAGE", "SIZE"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.child:
+        figures = CHILDREN[args.child[0]](args.child[1])
+        if figures is not None:
+            print(json.dumps(figures))
+        return
+    report = {"cpu": "user + system seconds of the whole fresh process (cpu_s: the call alone)",
+              "memory": "peak resident set of that process (os.wait4 ru_maxrss)", "stages": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        for name in args.stage or list(STAGES):
+            chosen = STAGES[name]
+            report["stages"][name] = run_stage(chosen, chosen.quick_sizes if args.quick else chosen.sizes,
+                                               args.repeats, Path(scratch))
+    print(json.dumps(report, indent=1))
+
+
+if __name__ == "__main__":
+    main()
