@@ -84,9 +84,16 @@ class Grid:
 
     def resample(self, values: np.ndarray, finer: Grid, *, cubic: bool = False) -> np.ndarray:
         """A (rows, cols) array on this grid, interpolated onto the cells of another grid."""
-        rc = self.to_rc(finer.centres()).astype(np.float32)
+        # Both grids are axis-aligned: the map is separable, built from one row and one column.
+        rows, cols = finer.shape
+        x0, _, _, y1 = self.box
+        fx0, _, _, fy1 = finer.box
+        col = ((fx0 + (np.arange(cols) + 0.5) * finer.cell - x0) / self.cell - 0.5).astype(np.float32)
+        row = ((y1 - (fy1 - (np.arange(rows) + 0.5) * finer.cell)) / self.cell - 0.5).astype(np.float32)
+        map_x = np.broadcast_to(col, (rows, cols)).copy()
+        map_y = np.broadcast_to(row[:, None], (rows, cols)).copy()
         mode = cv2.INTER_CUBIC if cubic else cv2.INTER_LINEAR
-        return cv2.remap(np.asarray(values, np.float32), rc[..., 1], rc[..., 0], mode, borderMode=cv2.BORDER_REPLICATE)
+        return cv2.remap(np.asarray(values, np.float32), map_x, map_y, mode, borderMode=cv2.BORDER_REPLICATE)
 
 
 @dataclass(frozen=True)

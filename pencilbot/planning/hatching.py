@@ -180,7 +180,7 @@ def family_lines(
     # A fine grid of three cells per spacing resolves every stripe of width s.
     fine = Grid(coarse.box, spacing / 3.0)
     phi = coarse.resample(phase, fine, cubic=True).astype(np.float64)
-    stripes = (np.sin(np.pi * phi / spacing) > 0).astype(np.uint8)
+    stripes = (np.floor(phi / spacing).astype(np.int64) & 1 == 0).astype(np.uint8)  # sin(πφ/s) > 0
     contours, _ = cv2.findContours(stripes, cv2.RETR_LIST, cv2.CHAIN_APPROX_NONE)
     if not contours:
         return _no_lines(coarse.shape)
@@ -195,11 +195,12 @@ def family_lines(
     rc, chain = rc[inner], chain[inner]
     if rc.size == 0:
         return _no_lines(coarse.shape)
-    # A Newton step onto the nearest level φ = k·s (φ is nearly linear across a cell).
-    d_r, d_c = np.gradient(phi)
+    # A Newton step onto the nearest level φ = k·s (φ is nearly linear across a cell); its
+    # gradient comes from the smooth coarse phase, in fine cells.
     value = _bilinear(phi, rc)
     level = np.rint(value / spacing)
-    g = np.stack([_bilinear(d_r, rc), _bilinear(d_c, rc)], axis=1)
+    at = coarse.to_rc(fine.to_mm(rc))
+    g = np.stack([_bilinear(grad_r, at), _bilinear(grad_c, at)], axis=1) * fine.cell
     rc = rc - ((value - level * spacing) / np.maximum((g**2).sum(axis=1), 1e-12))[:, None] * g
     rc = np.clip(rc, 0, [rows - 1, cols - 1])
     level = level.astype(np.int64)
@@ -325,7 +326,8 @@ def hatch_layers(
         Smooth random bend of the lines, fraction of the spacing.
     seed : int
     lines : list of HatchLines, optional
-        Lines traced before by :func:`trace_families` for the same field and parameters.
+        Lines traced before by :func:`trace_families` for the same field and parameters; it may
+        hold only the first families (the tone never needs the others): those are not drawn.
     capacity : (families, rows, cols) array, optional
         :func:`family_capacity` of ``lines`` on ``grid``, when it was computed before.
 
@@ -340,10 +342,10 @@ def hatch_layers(
         lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
     onset = Onset.spread(len(angles), coverage, overlap)
     if capacity is None:
-        capacity = family_capacity(lines, field, grid)
-    shares = onset.allocate(darkness, capacity).reshape(len(lines), *grid.shape)
+        capacity = family_capacity(lines, field, grid, families=len(angles))
+    shares = onset.allocate(darkness, capacity).reshape(len(angles), *grid.shape)
     layers = []
-    for j, (family, angle) in enumerate(zip(lines, angles, strict=True)):
+    for j, (family, angle) in enumerate(zip(lines, angles[: len(lines)], strict=True)):
         request = grid.sample(shares[j], family.points)
         # Cross-hatching in a narrow band would be a comb of short ticks: later families need
         # longer strokes, and the loop hands what they leave to the first.
@@ -353,9 +355,15 @@ def hatch_layers(
     return layers
 
 
-def family_capacity(lines: list[HatchLines], field: DirectionField, grid: Grid) -> np.ndarray:
-    """(families, rows, cols): what each family covers with every line on, on ``grid``."""
-    return np.stack([field.grid.resample(family.capacity, grid) for family in lines])
+def family_capacity(
+    lines: list[HatchLines], field: DirectionField, grid: Grid, *, families: int | None = None
+) -> np.ndarray:
+    """(families, rows, cols): what each family covers with every line on, on ``grid``; zero for
+    the families past ``len(lines)`` that were not traced."""
+    out = np.zeros((families or len(lines), *grid.shape))
+    for j, family in enumerate(lines):
+        out[j] = field.grid.resample(family.capacity, grid)
+    return out
 
 
 def trace_families(

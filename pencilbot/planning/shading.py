@@ -19,10 +19,14 @@ import cv2
 import numpy as np
 
 from pencilbot.planning.flow import Grid, direction_field, sample_image
-from pencilbot.planning.hatching import family_capacity, hatch_layers, trace_families
+from pencilbot.planning.hatching import family_capacity, family_lines, hatch_layers
 from pencilbot.planning.plan import Layer
 from pencilbot.render import MM_PER_INCH, render_paths
 
+#: A family is traced when more than SHORT_SHARE of the tone asks for more than the families
+#: before it reach, less SHORTFALL.
+SHORTFALL = 0.02
+SHORT_SHARE = 1e-3
 #: Largest cell (mm) on which the loop compares tone: fine enough for a 1 mm blur, coarse enough to be quick.
 TONE_CELL = 0.5
 #: Share of the measured error corrected per round: below 1, as switching lines is not smooth.
@@ -105,8 +109,7 @@ def shade(
     tone[photo < blank_below] = 0.0
     field_grid = Grid(box, FIELD_CELL)
     field = direction_field(sample_image(darkness, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
-    lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
-    capacity = family_capacity(lines, field, grid)
+    families = _Families(field, grid, angles, pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed)
     edge_ink = ink_on_grid(edges, grid, pen_width)
     goal = tone
     paper = tone == 0.0
@@ -117,9 +120,10 @@ def shade(
     request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
     request[paper] = 0.0
     for round_ in range(max(1, rounds)):
+        families.trace_for(request)
         layers = hatch_layers(
             request, grid, field, pen_width=pen_width, angles=angles, coverage=coverage,
-            overlap=overlap, min_run=min_run, lines=lines, capacity=capacity,
+            overlap=overlap, min_run=min_run, lines=families.lines, capacity=families.capacity,
         )
         if round_ == rounds - 1:
             break
@@ -131,6 +135,37 @@ def shade(
         request = np.clip(request + GAIN * error, 0.0, 1.0)
         request[paper] = 0.0
     return layers
+
+
+class _Families:
+    """The hatch families, traced only as far as the tone needs them.
+
+    Tracing a family is the costly part of hatching; the darkest families serve only the
+    darkest tones (with the default onset the third starts near 0.86), which many pictures
+    never reach. A family is traced once some of the request exceeds what the ones before it
+    can lay down together.
+    """
+
+    def __init__(self, field, grid: Grid, angles, **options) -> None:
+        self.field, self.grid, self.angles, self.options = field, grid, tuple(angles), options
+        self.lines: list = []
+        self.capacity = np.zeros((len(self.angles), *grid.shape))
+
+    def trace_for(self, request: np.ndarray) -> None:
+        while len(self.lines) < len(self.angles) and self._short(request):
+            j = len(self.lines)
+            family = family_lines(self.field.rotated(self.angles[j]), seed=self.options["seed"] + j, **{
+                k: v for k, v in self.options.items() if k != "seed"})
+            self.lines.append(family)
+            self.capacity[j] = family_capacity([family], self.field, self.grid)[0]
+
+    def _short(self, request: np.ndarray) -> bool:
+        if not self.lines:
+            return bool(np.any(request > 0))
+        reach = 1.0 - np.prod(1.0 - self.capacity[: len(self.lines)], axis=0)
+        wanting = request > 0
+        short = wanting & (request > reach - SHORTFALL)
+        return short.sum() > SHORT_SHARE * max(wanting.sum(), 1)
 
 
 def ink_on_grid(paths: list[np.ndarray], grid: Grid, pen_width: float) -> np.ndarray:
