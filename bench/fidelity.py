@@ -177,6 +177,11 @@ def main() -> None:
     parser.add_argument("--montage", type=Path, help="write photo | sketch | plot PNGs here")
     parser.add_argument("--no-blank", action="store_true", help="skip the blank-picture checks")
     args = parser.parse_args()
+    if args.peers:
+        try:
+            import hatched  # noqa: F401
+        except ImportError:
+            parser.error("--peers needs hatched: pip install hatched (not a pencilbot dependency)")
     results: dict = {"setup": f"default style, A4 auto, 15 mm margin, 0.5 mm pen, {PROFILE}, "
                      f"yardstick at {YARDSTICK_PX_PER_MM:g} px/mm, sigma 1 mm"}
     for name in args.photos.split(","):
