@@ -105,13 +105,10 @@ class DirectionField:
     grid : Grid
     direction : (rows, cols, 2) float array
         Unit vector (dx, dy) in page axes (Y up) of the hatch direction, signs chosen consistently.
-    coherence : (rows, cols) float array in [0, 1]
-        How clearly the tone has a direction there (0 = flat or isotropic).
     """
 
     grid: Grid
     direction: np.ndarray
-    coherence: np.ndarray
 
     def rotated(self, degrees: float) -> DirectionField:
         """The same field turned by ``degrees`` counter-clockwise (a cross-hatching family)."""
@@ -119,7 +116,7 @@ class DirectionField:
         c, s = np.cos(a), np.sin(a)
         dx, dy = self.direction[..., 0], self.direction[..., 1]
         turned = np.stack([c * dx - s * dy, s * dx + c * dy], axis=-1)
-        return DirectionField(self.grid, turned, self.coherence)
+        return DirectionField(self.grid, turned)
 
 
 def bilinear(values: np.ndarray, rc: np.ndarray) -> np.ndarray:
@@ -202,7 +199,7 @@ def direction_field(
     # The blend's angle halved is the gradient's orientation; isophotes run across it.
     theta = 0.5 * np.arctan2(blend[..., 1], blend[..., 0]) + np.pi / 2
     axial = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
-    return DirectionField(grid, orient(axial), np.clip(coherence, 0, 1))
+    return DirectionField(grid, orient(axial))
 
 
 def orient(axial: np.ndarray) -> np.ndarray:

@@ -18,7 +18,7 @@ family's ink follows its request however the level lines bend.
 
 The families share the darkness with overlapping ramps: family j starts before family j − 1 is
 full, so cross-hatching fades in continuously instead of appearing as a band. Parallel lines
-cover w/s each; families stack as 1 − Π(1 − cⱼ); :func:`family_coverage` inverts that stack, so
+cover w/s each; families stack as 1 − Π(1 − cⱼ); :meth:`Onset.allocate` inverts that stack, so
 a darkness request becomes each family's coverage.
 
 Clipping is sampling, not geometry: every level line is traced once (``cv2.findContours`` on the
@@ -111,11 +111,6 @@ class Onset:
         u[bound] = hi
         u[d <= 0] = 0.0
         return np.minimum(self.coverages(u), cap)
-
-
-def family_coverage(darkness: np.ndarray, onset: Onset) -> np.ndarray:
-    """(families, N) coverage each family must lay down for the total ``darkness`` (N,)."""
-    return onset.coverages(onset.amount(np.ravel(darkness)))
 
 
 @dataclass(frozen=True)

@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.planning.flow import Grid, direction_field
-from pencilbot.planning.hatching import Onset, family_coverage, hatch_layers, trace_families
+from pencilbot.planning.hatching import Onset, hatch_layers, trace_families
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
 from pencilbot.planning.shading import shade
@@ -98,7 +98,7 @@ def test_onset_is_continuous_monotone_and_exactly_inverted():
     assert np.max(np.abs(np.diff(total))) < 0.01  # no jump: cross-hatching fades in
     wanted = np.linspace(0, onset.darkest, 50)
     assert onset.darkness(onset.amount(wanted)) == pytest.approx(wanted, abs=1e-3)
-    shares = family_coverage(np.array([0.2, 0.5, 0.9]), onset)
+    shares = onset.coverages(onset.amount(np.array([0.2, 0.5, 0.9])))
     # A light tone uses mostly the first family; the darkest uses every family.
     assert shares[0, 0] > 0 and shares[3, 0] == 0
     assert np.all(shares[:, 2] > 0)
@@ -164,7 +164,7 @@ def test_what_a_capped_family_cannot_lay_down_the_others_do():
     onset = Onset.spread(4, 0.6, overlap=0.25)
     darkness = np.array([0.2, 0.5, 0.8, 0.0])
     free = onset.allocate(darkness, np.ones((4, 4)))
-    np.testing.assert_allclose(free, family_coverage(darkness, onset), atol=1e-3)
+    np.testing.assert_allclose(free, onset.coverages(onset.amount(darkness)), atol=1e-3)
     capped = np.ones((4, 4))
     capped[0] = 0.3  # the first family's lines spread out: it covers at most 0.3
     shares = onset.allocate(darkness, capped)
