@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.machine.profile import load_profile
     from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.planning.build import plot_resolution, sketch_and_plan
-    from pencilbot.planning.fidelity import fidelity
+    from pencilbot.planning.fidelity import fidelity, photo_likeness
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.preview import preview as plan_preview
     from pencilbot.planning.stats import duration_text
@@ -97,6 +97,7 @@ def run(args: argparse.Namespace) -> int:
     preview = plan_preview(plan, PREVIEW_DPI)
     preview.save_png(out / "preview.png")
     faithful = fidelity(plan, drawing) if style.hatch else None
+    alike = photo_likeness(plan, drawing)
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
@@ -134,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
         "line_fidelity_r": _figure(None if faithful is None else faithful.line_r, 3),
         "tone_fidelity_r": _figure(None if faithful is None else faithful.tone_r, 3),
         "tone_fidelity_mae": _figure(None if faithful is None else faithful.tone_mae, 3),
+        "photo_rho": _figure(alike.rho, 3),
     }
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -197,6 +199,7 @@ def _summary_text(s: dict, duration_text) -> str:
         f"plot time: estimated {duration_text(s['estimated_s'])}"
         + ("" if s["simulated_s"] is None else f", simulated {duration_text(s['simulated_s'])}"),
     ]
+    lines.append(f"likeness to the photo (Spearman, 1 mm blur): rho = {_or_none(s['photo_rho'])}")
     if s["tone_fidelity_mae"] is not None:
         lines.append(f"fidelity to the sketch: lines r = {_or_none(s['line_fidelity_r'])}, "
                      f"tone r = {_or_none(s['tone_fidelity_r'])} (mean difference {s['tone_fidelity_mae']})")

@@ -15,13 +15,18 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 from scipy import ndimage as ndi
+from scipy.stats import spearmanr
+from skimage.metrics import structural_similarity
 
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Plan
+from pencilbot.render import render_paths
+from pencilbot.units import MM_PER_INCH
 
 LINE_SIGMA_PX = 2.0
 TONE_SIGMA_MM = 3.0
@@ -94,12 +99,22 @@ class Likeness:
 
 def plotted_darkness(paths, box, *, pen_width: float, px_per_mm: float = YARDSTICK_PX_PER_MM) -> np.ndarray:
     """Ink of pen ``paths`` (page mm, Y up) over the drawing ``box`` ``(x0, y0, x1, y1)``, row 0 at the top."""
-    from pencilbot.render import MM_PER_INCH, render_paths
-
     x0, y0, x1, y1 = box
     return render_paths(
         paths, x1 - x0, y1 - y0, dpi=px_per_mm * MM_PER_INCH, pen_width=pen_width, origin=(x0, y0)
     )
+
+
+def photo_likeness(plan: Plan, drawing: Sketch) -> Likeness:
+    """How well ``plan`` follows the photo its sketch was made from (issue 11's yardstick).
+
+    The plan rendered at ``YARDSTICK_PX_PER_MM`` over its drawing box against the photo's
+    darkness 1 − luma (at the resolution it was planned from).
+    """
+    layout = Layout.fit(drawing.line.edges.shape, plan.page)
+    pen_width = max((layer.pen_width for layer in plan.layers), default=0.5)
+    plotted = plotted_darkness(plan.paths(), layout.drawing_box, pen_width=pen_width)
+    return likeness(plotted, 1.0 - drawing.gray)
 
 
 def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = YARDSTICK_PX_PER_MM) -> Likeness:
@@ -118,10 +133,6 @@ def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = Y
     -------
     Likeness
     """
-    import cv2
-    from scipy.stats import spearmanr
-    from skimage.metrics import structural_similarity
-
     height, width = plotted.shape
     ref = cv2.resize(np.asarray(reference, np.float32), (width, height), interpolation=cv2.INTER_AREA)
     sigma = YARDSTICK_SIGMA_MM * px_per_mm
