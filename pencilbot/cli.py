@@ -20,7 +20,7 @@ from pencilbot import __version__
 from pencilbot.errors import PencilbotError
 
 # Order is the order shown in --help.
-COMMANDS = ["sketch", "plan", "stat", "export", "simulate", "sim_serve", "draw", "demo"]
+COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "demo"]
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:

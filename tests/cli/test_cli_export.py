@@ -128,8 +128,8 @@ def test_list_profiles(capsys):
     ("extra", "message"),
     [
         (["--profile", "axidraw"], "no plotter profile named 'axidraw'"),
-        (["--page", "A4"], "--page apply to photos only"),
-        (["--pen-width", "1", "--downscale"], "--pen-width, --downscale apply to photos only"),
+        (["--page", "A4"], "--page apply to photos and to other tools' SVGs only"),
+        (["--pen-width", "1", "--downscale"], "--downscale apply to photos only"),
         (["-o", "{tmp}/drawing.txt"], "name the output"),
         (["-o", "{tmp}/missing/drawing.gcode"], "does not exist"),
     ],
