@@ -107,12 +107,16 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
     path = Path(path)
     if path.suffix.lower() == ".svg":
         return read_drawing(path, args)
+    return plan_photo(path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale)
+
+
+def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS, downscale: bool = False) -> Plan:
+    """The plan of the photo ``path`` in ``style``, decoded at the size the plan needs."""
     # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
     # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
     from pencilbot.planning.build import make_plan, plot_resolution
 
-    style = photo_style(args)
-    image = load_image(path, max_pixels=args.max_pixels, downscale=args.downscale, shrink_to=plot_resolution(style))
+    image = load_image(path, max_pixels=max_pixels, downscale=downscale, shrink_to=plot_resolution(style))
     return make_plan(image, style=style)
 
 
