@@ -31,7 +31,7 @@ from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
-from pencilbot.planning.style import DEFAULT_STYLE, list_styles, with_overrides
+from pencilbot.planning.style import default_style, list_styles, with_overrides
 from pencilbot.units import MM_PER_INCH
 
 PX_PER_MM = 96.0 / MM_PER_INCH  # vpype's unit is the CSS pixel
@@ -42,7 +42,7 @@ PEN_COLOR = "black"
 @click.command("pencilbot")
 @click.argument("photo", type=vpype_cli.PathType(exists=True, dir_okay=False))
 @click.option("--style", metavar="NAME|FILE.toml", help=f"drawing style: {', '.join(list_styles())} or a .toml file "
-              f"(default: {DEFAULT_STYLE})")
+              f"(default: {default_style()})")
 @click.option("--page", metavar="A4|WxH", help="paper: A5, A4, A3, Letter or WxH in mm (default: the style's)")
 @click.option("--orientation", type=click.Choice(ORIENTATIONS), help="auto turns the sheet to suit the photo")
 @click.option("--margin", type=float, metavar="MM", help="blank border in mm (default: the style's)")

@@ -11,7 +11,9 @@ from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
-from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
+from pencilbot.configs_io import config_names, user_folder
+from pencilbot.errors import ProfileError
+from pencilbot.planning.style import Style, default_style, list_styles, load_style, with_overrides
 from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.units import MM_PER_INCH
@@ -37,6 +39,57 @@ def add_verbosity(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more detail")
 
 
+def add_profile_option(parser: argparse.ArgumentParser, what: str = "plotter profile") -> None:
+    """``--profile`` (its default: :func:`~pencilbot.machine.profile.default_profile`, read now)
+    and ``--list-profiles``."""
+    from pencilbot.machine.profile import default_profile  # not at the top: `sketch` has no profile
+
+    name = default_profile()
+    parser.add_argument(
+        "--profile", default=name, metavar="NAME|FILE.toml",
+        help=f"{what}: a name (see --list-profiles) or a .toml file (default {name}; yours: $PENCILBOT_PROFILE "
+             f"or profile = \"NAME\" in {user_folder() / 'config.toml'})")
+    parser.add_argument("--list-profiles", action=_Listing, listing=profile_listing,
+                        help="list the plotter profiles, shipped and yours, and exit")
+
+
+class _Listing(argparse.Action):
+    """An option that prints a listing and exits, as ``--version`` does (no other argument needed)."""
+
+    def __init__(self, option_strings, dest, listing, help=None):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+        self.listing = listing
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print("\n".join(self.listing()))
+        parser.exit()
+
+
+def profile_listing() -> list[str]:
+    """One line per profile: name, what it is, and whether it is the user's."""
+    from pencilbot.machine.profile import load_profile
+
+    return [_listing_line(name, path, lambda: load_profile(name).description) for name, path in config_names("plotters").items()]
+
+
+def style_listing() -> list[str]:
+    """One line per style: name, its page, pen and whether it hatches, and whether it is the user's."""
+    def summary(name):
+        style = load_style(name)
+        return f"{style.page} {style.orientation}, {style.pen_width:g} mm pen, {'hatching' if style.hatch else 'outline only'}"
+
+    return [_listing_line(name, path, lambda: summary(name)) for name, path in config_names("styles").items()]
+
+
+def _listing_line(name: str, path: Path, describe) -> str:
+    try:
+        words = describe()
+    except ProfileError as err:
+        words = f"cannot be used: {err}"
+    yours = f" (yours: {path})" if path.is_relative_to(user_folder()) else ""
+    return f"{name:20} {words}{yours}"
+
+
 def add_photo_options(parser: argparse.ArgumentParser) -> None:
     """The options saying how a photo becomes a plan: style, paper, pen, image size limit.
 
@@ -44,23 +97,27 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
     set); another tool's SVG takes the sheet options (it is fitted onto the sheet) and the pen.
     """
     photo = parser.add_argument_group("photo inputs")
+    style = default_style()
     photo.add_argument(
         "--style", metavar="NAME|FILE.toml",
-        help=f"drawing style: {', '.join(list_styles())} or a .toml file (default: {DEFAULT_STYLE})",
+        help=f"drawing style: {', '.join(list_styles())} or a .toml file (default {style}; yours: "
+             f"style = \"NAME\" in {user_folder() / 'config.toml'})",
     )
+    photo.add_argument("--list-styles", action=_Listing, listing=style_listing,
+                       help="list the drawing styles, shipped and yours, and exit")
     _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
-                       f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
+                       f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
     photo.add_argument(
         "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
 
 
-def _add_sheet_options(group, page_default: str, pen_default: str) -> None:
+def _add_sheet_options(group, page_default: str, margin_default: str, pen_default: str) -> None:
     group.add_argument("--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm {page_default}")
     group.add_argument("--orientation", choices=ORIENTATIONS,
                        help=f"auto turns the sheet to suit the picture ({_style_default('orientation')})")
-    group.add_argument("--margin", type=float, metavar="MM", help=f"blank border in mm ({_style_default('margin')})")
+    group.add_argument("--margin", type=float, metavar="MM", help=f"blank border in mm {margin_default}")
     group.add_argument("--pen-width", type=float, metavar="MM", help=f"pen line width in mm {pen_default}")
 
 
@@ -72,6 +129,7 @@ def add_svg_options(parser: argparse.ArgumentParser, *, sheet: bool = False, reo
                      help="user units per inch of an SVG whose size has no unit (96: CSS pixels, as Inkscape reads them)")
     if sheet:
         _add_sheet_options(svg, "(default: the SVG's own page; given: the drawing is fitted onto it)",
+                           f"around a fitted drawing (default {DEFAULT_MARGIN:g})",
                            f"(default: the SVG's stroke width, else {DEFAULT_PEN_WIDTH:g})")
     if reorder:
         svg.add_argument("--keep-order", action="store_true",
@@ -80,7 +138,7 @@ def add_svg_options(parser: argparse.ArgumentParser, *, sheet: bool = False, reo
 
 def _style_default(key: str) -> str:
     """Help words for an option that overrides a style key, with the built-in default."""
-    return f"default: the style's, {getattr(Style, key)} in the {DEFAULT_STYLE} style"
+    return f"default: the style's, {getattr(Style, key)} in the {Style.name} style"
 
 
 def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
@@ -205,7 +263,7 @@ def photo_style(args: argparse.Namespace) -> Style:
         No such style, or an option value the style does not accept.
     """
     options = {_STYLE_OPTIONS[flag]: value for flag, value in _overrides(args).items() if value is not None}
-    return with_overrides(load_style(args.style or DEFAULT_STYLE), options, where="command line")
+    return with_overrides(load_style(args.style or default_style()), options, where="command line")
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:

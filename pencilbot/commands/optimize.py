@@ -7,10 +7,12 @@ import dataclasses
 import json
 from pathlib import Path
 
-from pencilbot.commands.common import add_svg_options, add_verbosity, change_summary, read_drawing, reorder_on
+from pencilbot.commands.common import (
+    add_profile_option, add_svg_options, add_verbosity, change_summary, read_drawing, reorder_on,
+)
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
-from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.machine.profile import load_profile
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -28,8 +30,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("input", metavar="IN.svg", help="SVG drawing")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.svg", help="SVG to write")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"plotter profile for home, speeds and delays (default {DEFAULT_PROFILE})")
+    add_profile_option(parser, "plotter profile for home, speeds and delays")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON (lengths in mm, time in s)")
     add_svg_options(parser, sheet=True)
     add_verbosity(parser)

@@ -16,12 +16,12 @@ import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    add_photo_options, add_svg_options, add_verbosity, check_render, plan_for_input, reorder_drawing,
+    add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, plan_for_input,
+    reorder_drawing,
 )
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
-from pencilbot.machine.profile import DEFAULT_PROFILE
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.stats import duration_text
 _RUNS = itertools.count(1)
@@ -41,8 +41,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"GRBL or grblHAL plotter profile (default {DEFAULT_PROFILE})")
+    add_profile_option(parser, "GRBL or grblHAL plotter profile")
     parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     parser.add_argument("--realtime", type=float, default=0.0, metavar="R",

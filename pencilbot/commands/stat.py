@@ -12,11 +12,11 @@ import argparse
 import json
 from pathlib import Path
 
-from pencilbot.commands.common import add_svg_options, add_verbosity, read_drawing
+from pencilbot.commands.common import add_profile_option, add_svg_options, add_verbosity, read_drawing
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES
 from pencilbot.machine.bed import Placement
-from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
+from pencilbot.machine.profile import Profile, load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.stats import PlanStats, Stats, duration_text, estimate
 
@@ -36,8 +36,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("plan", metavar="DRAWING.svg|FILE.gcode", help="SVG drawing or G-code file")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help="plotter profile for speeds, delays and where home is (default %(default)s)")
+    add_profile_option(parser, "plotter profile for speeds, delays and where home is")
     parser.add_argument("--json", action="store_true", help="print JSON (lengths in mm, time in s)")
     add_svg_options(parser, sheet=True)
     add_verbosity(parser)
