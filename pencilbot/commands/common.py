@@ -233,14 +233,16 @@ def reorder_drawing(plan: Plan, source: Path, args: argparse.Namespace, profile)
     return reordered.plan, "reordered: " + change_summary(before.total, after.total, reordered.specks)
 
 
-def reorder_on(plan: Plan, profile):
+def reorder_on(plan: Plan, profile, rounds: int | None = None):
     """``plan`` reordered from ``profile``'s home (a :class:`~pencilbot.planning.optimize.Reordering`),
-    with the estimate before and after."""
+    with the estimate before and after; ``rounds`` of improvement per layer (default: the
+    reordering's own)."""
     from pencilbot.machine.bed import Placement
-    from pencilbot.planning.optimize import reorder_plan
+    from pencilbot.planning.optimize import REORDER_ROUNDS, reorder_plan
     from pencilbot.planning.stats import estimate
 
-    reordered = reorder_plan(plan, start=tuple(Placement.on_bed(plan.page, profile.bed).home()))
+    home = tuple(Placement.on_bed(plan.page, profile.bed).home())
+    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds)
     return reordered, estimate(plan, profile), estimate(reordered.plan, profile)
 
 
