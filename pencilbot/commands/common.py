@@ -7,15 +7,14 @@ import math
 import os
 from pathlib import Path
 
-from pencilbot.errors import PencilbotError
+from pencilbot.configs_io import config_names, user_folder
+from pencilbot.errors import PencilbotError, ProfileError
+from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
-from pencilbot.configs_io import config_names, user_folder
-from pencilbot.errors import ProfileError
 from pencilbot.planning.style import Style, default_style, list_styles, load_style, with_overrides
-from pencilbot.export.svg import is_plan_svg, read_svg
-from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.units import MM_PER_INCH
 
 #: Image files the commands read as photos and write as pictures (the first is the default).
