@@ -1,45 +1,22 @@
 """Command-line entry point: a thin dispatcher over ``pencilbot.commands``.
 
 Each subcommand lives in its own module under :mod:`pencilbot.commands` and exposes
-``add_parser(subparsers)`` (which registers the parser and sets ``func``). User errors
+``add_parser(subparsers)`` (which registers the parser and sets ``func``); the parser is
+:func:`pencilbot.commands.build_parser`. User errors
 (:class:`~pencilbot.errors.PencilbotError`) print one line and exit non-zero, never a traceback.
 """
 
 from __future__ import annotations
 
-import argparse
 import ctypes
 import ctypes.util
-import importlib
 import logging
 import os
 import platform
 import sys
 
-from pencilbot import __version__
+from pencilbot.commands import COMMANDS, build_parser
 from pencilbot.errors import PencilbotError
-
-# Order is the order shown in --help.
-COMMANDS = ["sketch", "plan", "stat", "export", "simulate", "sim_serve", "draw", "demo"]
-
-
-def build_parser(only: str | None = None) -> argparse.ArgumentParser:
-    """The parser of every command, or of command ``only`` alone (a module name from COMMANDS)."""
-    parser = argparse.ArgumentParser(
-        prog="pencilbot",
-        description="Turn a photo into a pencil drawing and draw it with a pen plotter.",
-    )
-    parser.add_argument("--version", action="version", version=f"pencilbot {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in COMMANDS if only is None else [only]:
-        try:
-            module = importlib.import_module(f"pencilbot.commands.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name != f"pencilbot.commands.{name}":
-                raise
-            continue  # not built yet
-        module.add_parser(sub)
-    return parser
 
 
 def _reuse_freed_memory() -> None:
@@ -62,17 +39,19 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     # Only the command being run is imported: all of them cost 0.2 s of start-up.
     named = argv[0].replace("-", "_") if argv else None
-    parser = build_parser(only=named if named in COMMANDS else None)
-    args = parser.parse_args(argv)
-    if not getattr(args, "func", None):
-        parser.print_help()
-        return 1
-    # -v shows pencilbot's own debug messages, not those of every library (Pillow, ...).
-    logging.basicConfig(level=logging.WARNING, format="%(levelname)s: %(message)s")
-    if getattr(args, "verbose", 0):
-        for name in ("pencilbot", "sim", "firmware_protocol"):
-            logging.getLogger(name).setLevel(logging.DEBUG)
     try:
+        # Inside: the parser reads the user's settings (default profile and style), and
+        # --list-profiles / --list-styles read every profile and style.
+        parser = build_parser(only=named if named in COMMANDS else None)
+        args = parser.parse_args(argv)
+        if not getattr(args, "func", None):
+            parser.print_help()
+            return 1
+        # -v shows pencilbot's own debug messages, not those of every library (Pillow, ...).
+        logging.basicConfig(level=logging.WARNING, format="%(levelname)s: %(message)s")
+        if getattr(args, "verbose", 0):
+            for name in ("pencilbot", "sim", "firmware_protocol"):
+                logging.getLogger(name).setLevel(logging.DEBUG)
         return int(args.func(args) or 0)
     except PencilbotError as err:
         print(f"pencilbot: error: {err}", file=sys.stderr)

@@ -1,13 +1,22 @@
-"""Reading the TOML files behind profiles and styles: shipped by name, or any file by path.
+"""Reading the TOML files behind profiles and styles: the user's or shipped, by name, or any file
+by path; and the user's settings.
 
 The shipped files live in the repository's top-level ``configs/`` folder (``plotters/``,
 ``styles/``). The wheel carries that folder as ``pencilbot/configs/``; a source checkout run in
 place (``python -m pencilbot.cli`` from a clone, or an editable install) reads it where it is.
 :func:`config_folder` knows both places, so nothing else has to.
+
+The user's own folder (:func:`user_folder`: ``$PENCILBOT_CONFIG_DIR`` if set, else the platform's
+place for settings, e.g. ``~/.config/pencilbot``) has the same ``plotters/`` and ``styles/``;
+a name is looked up there first, so a user's profile may also replace a shipped one. Its
+``config.toml`` holds the user's defaults (:data:`SETTINGS`).
 """
 
 from __future__ import annotations
 
+import os
+import sys
+import tomllib
 from pathlib import Path
 
 from pencilbot.errors import ProfileError
@@ -40,6 +49,70 @@ def shipped_names(folder: str) -> list[str]:
     return sorted(p.stem for p in config_folder(folder).glob("*.toml"))
 
 
+def user_folder() -> Path:
+    """The user's pencilbot folder, by the platform's convention (it need not exist).
+
+    ``$PENCILBOT_CONFIG_DIR`` if set; on Windows ``%APPDATA%\\pencilbot``; on macOS
+    ``~/Library/Application Support/pencilbot``; elsewhere ``$XDG_CONFIG_HOME/pencilbot``,
+    by default ``~/.config/pencilbot``.
+    """
+    if os.environ.get("PENCILBOT_CONFIG_DIR"):
+        return Path(os.environ["PENCILBOT_CONFIG_DIR"]).expanduser().absolute()
+    if sys.platform == "win32":
+        return Path(os.environ.get("APPDATA") or Path.home() / "AppData" / "Roaming") / "pencilbot"
+    if sys.platform == "darwin":
+        return Path.home() / "Library" / "Application Support" / "pencilbot"
+    return Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config") / "pencilbot"
+
+
+def user_names(folder: str) -> list[str]:
+    """Names of the user's own files in ``<user folder>/<folder>``, sorted."""
+    return sorted(p.stem for p in (user_folder() / folder).glob("*.toml"))
+
+
+def config_names(folder: str) -> dict[str, Path]:
+    """Every name a profile or style may be given by, user's first: name → its file, sorted."""
+    found = {name: config_folder(folder) / f"{name}.toml" for name in shipped_names(folder)}
+    found.update({name: user_folder() / folder / f"{name}.toml" for name in user_names(folder)})
+    return dict(sorted(found.items()))
+
+
+#: What ``config.toml`` in the user folder may set: key → what it is the default of.
+SETTINGS = {"profile": "the plotter profile", "style": "the drawing style"}
+
+
+def user_setting(key: str) -> str | None:
+    """The user's default for ``key`` (a key of :data:`SETTINGS`) from ``config.toml``, or None.
+
+    A value is a name or a path to a ``.toml`` file (``~`` is the home folder; a relative path
+    is relative to the user folder).
+
+    Raises
+    ------
+    ProfileError
+        The file is not valid TOML, has a key it should not, or a value that is no name.
+    """
+    path = user_folder() / "config.toml"
+    try:
+        table = tomllib.loads(path.read_text(encoding="utf-8"))
+    except FileNotFoundError:
+        return None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ProfileError(f"cannot read settings file {path} ({getattr(exc, 'strerror', None) or exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ProfileError(f"settings file {path} is not valid TOML ({exc}); fix the syntax") from None
+    for name, value in table.items():
+        if name not in SETTINGS:
+            raise ProfileError(f"settings file {path} has unknown key {name!r}; the keys are: {', '.join(SETTINGS)}")
+        if not isinstance(value, str) or not value.strip():
+            raise ProfileError(f"settings file {path}: {name} = {value!r} is invalid; expected the name or .toml "
+                               f"path of {SETTINGS[name]}")
+    value = table.get(key)
+    if value is None or not _is_path(value):
+        return value
+    return str(user_folder() / Path(value).expanduser())  # an absolute path stays as it is
+
+
 def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: str) -> tuple[str, str, str]:
     """The TOML text of a shipped config or a file, where it came from, and its name.
 
@@ -48,26 +121,39 @@ def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: st
     folder : str
         ``"plotters"`` or ``"styles"`` under ``configs``.
     name_or_path : str
-        A shipped name, or a path (anything ending in ``.toml`` or naming a folder).
+        A name (the user's first, then the shipped), or a path (anything ending in ``.toml`` or
+        naming a folder).
     kind, file_kind : str
         Words for messages: e.g. ``"style"`` and ``"style file"``.
 
     Raises
     ------
     ProfileError
-        No such shipped name, or the file cannot be read.
+        No such name, or the file cannot be read.
     """
     path = Path(name_or_path)
-    if path.suffix == ".toml" or path.parent != Path("."):
+    if _is_path(name_or_path):
         try:
             return path.read_text(encoding="utf-8"), str(path), path.stem
         except (OSError, UnicodeDecodeError) as exc:
             reason = getattr(exc, "strerror", None) or str(exc)
             raise ProfileError(f"cannot read {file_kind} {path} ({reason}); check the path") from None
+    own = user_folder() / folder / f"{name_or_path}.toml"
+    if own.is_file():
+        try:
+            return own.read_text(encoding="utf-8"), str(own), name_or_path
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ProfileError(f"cannot read {file_kind} {own} ({getattr(exc, 'strerror', None) or exc})") from None
     shipped = config_folder(folder) / f"{name_or_path}.toml"
     if not shipped.is_file():
         raise ProfileError(
-            f"no {kind} named {name_or_path!r}; choose one of {', '.join(shipped_names(folder))} "
-            "or give a path to a .toml file"
+            f"no {kind} named {name_or_path!r}; choose one of {', '.join(config_names(folder))}, "
+            f"give a path to a .toml file, or put {name_or_path}.toml in {user_folder() / folder}"
         )
     return shipped.read_text(encoding="utf-8"), f"{folder}/{name_or_path}.toml", name_or_path
+
+
+def _is_path(name_or_path: str) -> bool:
+    """Whether a profile or style is given as a file rather than by name."""
+    path = Path(name_or_path)
+    return path.suffix == ".toml" or path.parent != Path(".")

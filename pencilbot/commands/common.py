@@ -7,12 +7,14 @@ import math
 import os
 from pathlib import Path
 
-from pencilbot.errors import PencilbotError
+from pencilbot.configs_io import config_names, user_folder
+from pencilbot.errors import PencilbotError, ProfileError
+from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
-from pencilbot.planning.layout import ORIENTATIONS
-from pencilbot.planning.plan import Plan
-from pencilbot.planning.style import DEFAULT_STYLE, Style, list_styles, load_style, with_overrides
-from pencilbot.export.svg import read_svg
+from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.planning.layout import ORIENTATIONS, fit_plan
+from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
+from pencilbot.planning.style import Style, default_style, list_styles, load_style, with_overrides
 from pencilbot.units import MM_PER_INCH
 
 #: Image files the commands read as photos and write as pictures (the first is the default).
@@ -36,43 +38,115 @@ def add_verbosity(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more detail")
 
 
+def add_profile_option(parser: argparse.ArgumentParser, what: str = "plotter profile") -> None:
+    """``--profile`` (its default: :func:`~pencilbot.machine.profile.default_profile`, read now)
+    and ``--list-profiles``."""
+    from pencilbot.machine.profile import default_profile  # not at the top: `sketch` has no profile
+
+    name = default_profile()
+    parser.add_argument(
+        "--profile", default=name, metavar="NAME|FILE.toml",
+        help=f"{what}: a name (see --list-profiles) or a .toml file (default {name}; yours: $PENCILBOT_PROFILE "
+             f"or profile = \"NAME\" in {user_folder() / 'config.toml'})")
+    parser.add_argument("--list-profiles", action=_Listing, listing=profile_listing,
+                        help="list the plotter profiles, shipped and yours, and exit")
+
+
+class _Listing(argparse.Action):
+    """An option that prints a listing and exits, as ``--version`` does (no other argument needed)."""
+
+    def __init__(self, option_strings, dest, listing, help=None):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+        self.listing = listing
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print("\n".join(self.listing()))
+        parser.exit()
+
+
+def profile_listing() -> list[str]:
+    """One line per profile: name, what it is, and whether it is the user's."""
+    from pencilbot.machine.profile import load_profile
+
+    return [_listing_line(name, path, lambda: load_profile(name).description) for name, path in config_names("plotters").items()]
+
+
+def style_listing() -> list[str]:
+    """One line per style: name, its page, pen and whether it hatches, and whether it is the user's."""
+    def summary(name):
+        style = load_style(name)
+        return f"{style.page} {style.orientation}, {style.pen_width:g} mm pen, {'hatching' if style.hatch else 'outline only'}"
+
+    return [_listing_line(name, path, lambda: summary(name)) for name, path in config_names("styles").items()]
+
+
+def _listing_line(name: str, path: Path, describe) -> str:
+    try:
+        words = describe()
+    except ProfileError as err:
+        words = f"cannot be used: {err}"
+    yours = f" (yours: {path})" if path.is_relative_to(user_folder()) else ""
+    return f"{name:20} {words}{yours}"
+
+
 def add_photo_options(parser: argparse.ArgumentParser) -> None:
     """The options saying how a photo becomes a plan: style, paper, pen, image size limit.
 
-    Read back with :func:`plan_for_input`; a plan SVG input refuses them (its page and pen are set).
+    Read back with :func:`plan_for_input`. A plan SVG of ours refuses them (its page and pen are
+    set); another tool's SVG takes the sheet options (it is fitted onto the sheet) and the pen.
     """
     photo = parser.add_argument_group("photo inputs")
+    style = default_style()
     photo.add_argument(
         "--style", metavar="NAME|FILE.toml",
-        help=f"drawing style: {', '.join(list_styles())} or a .toml file (default: {DEFAULT_STYLE})",
+        help=f"drawing style: {', '.join(list_styles())} or a .toml file (default {style}; yours: "
+             f"style = \"NAME\" in {user_folder() / 'config.toml'})",
     )
-    photo.add_argument(
-        "--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm ({_style_default('page')})"
-    )
-    photo.add_argument(
-        "--orientation", choices=ORIENTATIONS,
-        help=f"auto turns the sheet to suit the photo ({_style_default('orientation')})",
-    )
-    photo.add_argument("--margin", type=float, metavar="MM", help=f"blank border in mm ({_style_default('margin')})")
-    photo.add_argument("--pen-width", type=float, metavar="MM", help=f"pen line width in mm ({_style_default('pen_width')})")
+    photo.add_argument("--list-styles", action=_Listing, listing=style_listing,
+                       help="list the drawing styles, shipped and yours, and exit")
+    _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
+                       f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
     photo.add_argument(
         "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
 
 
+def _add_sheet_options(group, page_default: str, margin_default: str, pen_default: str) -> None:
+    group.add_argument("--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm {page_default}")
+    group.add_argument("--orientation", choices=ORIENTATIONS,
+                       help=f"auto turns the sheet to suit the picture ({_style_default('orientation')})")
+    group.add_argument("--margin", type=float, metavar="MM", help=f"blank border in mm {margin_default}")
+    group.add_argument("--pen-width", type=float, metavar="MM", help=f"pen line width in mm {pen_default}")
+
+
+def add_svg_options(parser: argparse.ArgumentParser, *, sheet: bool = False, reorder: bool = False) -> None:
+    """How an SVG from another tool is read: ``--svg-dpi``, and with ``sheet`` the sheet and pen
+    options (commands without photo options), with ``reorder`` ``--keep-order``."""
+    svg = parser.add_argument_group("SVG drawings from other tools")
+    svg.add_argument("--svg-dpi", type=float, metavar="DPI",
+                     help="user units per inch of an SVG whose size has no unit (96: CSS pixels, as Inkscape reads them)")
+    if sheet:
+        _add_sheet_options(svg, "(default: the SVG's own page; given: the drawing is fitted onto it)",
+                           f"around a fitted drawing (default {DEFAULT_MARGIN:g})",
+                           f"(default: the SVG's stroke width, else {DEFAULT_PEN_WIDTH:g})")
+    if reorder:
+        svg.add_argument("--keep-order", action="store_true",
+                         help="draw it in its own order (default: reordered as `pencilbot optimize` does)")
+
+
 def _style_default(key: str) -> str:
     """Help words for an option that overrides a style key, with the built-in default."""
-    return f"default: the style's, {getattr(Style, key)} in the {DEFAULT_STYLE} style"
+    return f"default: the style's, {getattr(Style, key)} in the {Style.name} style"
 
 
 def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
-    """The plan of ``path``: a photo planned with the photo options, or a plan SVG read as is.
+    """The plan of ``path``: a photo planned with the photo options, or an SVG (:func:`read_drawing`).
 
     Parameters
     ----------
     path : Path
-        A photo, or a ``.svg`` written by ``pencilbot plan``.
+        A photo, or a ``.svg`` drawing.
     args : argparse.Namespace
         Parsed options of a parser given :func:`add_photo_options`.
 
@@ -84,25 +158,101 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
     Raises
     ------
     PencilbotError
-        A photo option was given with a plan SVG, the style or an option is invalid, or the file
+        An option does not apply to the input, the style or an option is invalid, or the file
         cannot be read.
     """
-    # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
-    # has no use for the planning stack (0.1 s of start-up).
-    from pencilbot.planning.build import make_plan, plot_resolution
-
     path = Path(path)
     if path.suffix.lower() == ".svg":
-        given = {"--style": args.style, **_overrides(args), "--downscale": args.downscale or None}
-        flags = [flag for flag, value in given.items() if value is not None]
-        if flags:
-            raise PencilbotError(
-                f"{path} is a plan: its page and pen are already set; {', '.join(flags)} apply to photos only"
-            )
-        return read_svg(path)
-    style = photo_style(args)
-    image = load_image(path, max_pixels=args.max_pixels, downscale=args.downscale, shrink_to=plot_resolution(style))
+        return read_drawing(path, args)
+    return plan_photo(path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale)
+
+
+def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS, downscale: bool = False) -> Plan:
+    """The plan of the photo ``path`` in ``style``, decoded at the size the plan needs."""
+    # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
+    # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
+    from pencilbot.planning.build import make_plan, plot_resolution
+
+    image = load_image(path, max_pixels=max_pixels, downscale=downscale, shrink_to=plot_resolution(style))
     return make_plan(image, style=style)
+
+
+def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
+    """An SVG as a plan: one of pencilbot's as it is; another tool's read with ``--svg-dpi`` and
+    ``--pen-width``, and fitted onto ``--page`` if given.
+
+    Raises
+    ------
+    PencilbotError
+        An option that does not apply to this SVG, or the file cannot be read.
+    """
+    given = lambda *flags: [flag for flag in flags if _option(args, flag) not in (None, False)]  # noqa: E731
+    photo_only = given("--style", "--downscale")
+    if is_plan_svg(path):
+        sheet_flags = given("--page", "--orientation", "--margin", "--pen-width")
+        if photo_only or sheet_flags:
+            applies = "to photos only" if photo_only else "to photos and to other tools' SVGs only"
+            raise PencilbotError(
+                f"{path} is a plan: its page and pen are already set; {', '.join(photo_only or sheet_flags)} "
+                f"apply {applies}")
+        return read_svg(path)
+    if photo_only:
+        raise PencilbotError(f"{path} is a drawing, not a photo; {', '.join(photo_only)} apply to photos only")
+    sheet = _option(args, "--page")
+    if sheet is None and (flags := given("--orientation", "--margin")):
+        raise PencilbotError(f"{', '.join(flags)} place a drawing on a sheet; give the sheet too (--page A4)")
+    dpi = _option(args, "--svg-dpi") or (_ANY_DPI if sheet else None)
+    if dpi is not None and not (math.isfinite(dpi) and dpi > 0):
+        raise PencilbotError(f"--svg-dpi must be a positive number of user units per inch, not {dpi:g}")
+    pen = _option(args, "--pen-width")
+    if pen is not None:
+        with_overrides(Style(), {"pen_width": pen}, where="--pen-width")  # the same rule as for photos
+    plan = read_svg(path, dpi=dpi, pen_width=pen)
+    if sheet is None:
+        return plan
+    margin = _option(args, "--margin")
+    return fit_plan(plan, sheet, _option(args, "--orientation") or "auto", DEFAULT_MARGIN if margin is None else margin)
+
+
+_ANY_DPI = 96.0  # a drawing fitted onto a sheet needs no size of its own: any will do
+
+
+def _option(args: argparse.Namespace, flag: str):
+    """The value of ``flag`` (``"--pen-width"``) in ``args``; None if the command has no such option."""
+    return getattr(args, flag.lstrip("-").replace("-", "_"), None)
+
+
+def reorder_drawing(plan: Plan, source: Path, args: argparse.Namespace, profile) -> tuple[Plan, str]:
+    """Another tool's SVG reordered for ``profile``'s plotter (as ``pencilbot optimize``), unless
+    ``--keep-order``; a photo's plan or one of ours is already ordered. Also the words saying what
+    changed ("" if nothing did)."""
+    if Path(source).suffix.lower() != ".svg" or getattr(args, "keep_order", False) or is_plan_svg(source):
+        return plan, ""
+    reordered, before, after = reorder_on(plan, profile)
+    return reordered.plan, "reordered: " + change_summary(before.total, after.total, reordered.specks)
+
+
+def reorder_on(plan: Plan, profile, rounds: int | None = None):
+    """``plan`` reordered from ``profile``'s home (a :class:`~pencilbot.planning.optimize.Reordering`),
+    with the estimate before and after; ``rounds`` of improvement per layer (default: the
+    reordering's own)."""
+    from pencilbot.machine.bed import Placement
+    from pencilbot.planning.optimize import REORDER_ROUNDS, reorder_plan
+    from pencilbot.planning.stats import estimate
+
+    home = tuple(Placement.on_bed(plan.page, profile.bed).home())
+    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds)
+    return reordered, estimate(plan, profile), estimate(reordered.plan, profile)
+
+
+def change_summary(before, after, specks: int) -> str:
+    """``pen-up 122.91 → 6.49 m, 1175 → 1170 lifts, 0:44:02 → 0:20:14`` (and the specks dropped)."""
+    from pencilbot.planning.stats import duration_text
+
+    words = (f"pen-up {before.pen_up_mm / 1000:.2f} → {after.pen_up_mm / 1000:.2f} m, "
+             f"{before.lifts} → {after.lifts} lifts, "
+             f"{duration_text(before.seconds)} → {duration_text(after.seconds)}")
+    return words + (f" ({specks} covered speck{'s' * (specks != 1)} dropped)" if specks else "")
 
 
 def photo_style(args: argparse.Namespace) -> Style:
@@ -114,7 +264,7 @@ def photo_style(args: argparse.Namespace) -> Style:
         No such style, or an option value the style does not accept.
     """
     options = {_STYLE_OPTIONS[flag]: value for flag, value in _overrides(args).items() if value is not None}
-    return with_overrides(load_style(args.style or DEFAULT_STYLE), options, where="command line")
+    return with_overrides(load_style(args.style or default_style()), options, where="command line")
 
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:

@@ -19,10 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style
+from pencilbot.commands.common import add_photo_options, add_profile_option, add_verbosity, photo_style
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
-from pencilbot.machine.profile import DEFAULT_PROFILE
 
 DEFAULT_PHOTO = "coffee"
 PREVIEW_DPI = 150.0
@@ -42,8 +41,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--out", default="pencilbot-demo", metavar="DIR", help="folder for the outputs")
     parser.add_argument("--port", metavar="PORT",
                         help="plotter port or pyserial URL (default: the built-in virtual plotter)")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"plotter profile (default {DEFAULT_PROFILE})")
+    add_profile_option(parser)
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     add_photo_options(parser)
     add_verbosity(parser)

@@ -11,7 +11,7 @@ from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
 from pencilbot.driver import draw
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
-from pencilbot.machine.profile import DEFAULT_PROFILE
+from pencilbot.machine.profile import default_profile
 
 
 def add_parser(subparsers) -> None:
@@ -23,7 +23,7 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
-    p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {DEFAULT_PROFILE})")
+    p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {default_profile()})")
     p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
     sim.register()  # --port sim://… reaches the virtual plotter
     result = draw(
-        gcode, port, profile=args.profile, baud=args.baud, unlock=args.unlock, check=args.check,
+        gcode, port, profile=args.profile or (None if journal else default_profile()), baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
         resume=args.resume, progress=progress, timeout=args.timeout,
     )

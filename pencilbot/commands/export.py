@@ -8,45 +8,42 @@ from pathlib import Path
 from pencilbot.commands.batch import (
     Inputs, add_jobs_option, collect_inputs, distinct, make_folders, output_paths, run_batch,
 )
-from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
+from pencilbot.commands.common import (
+    add_photo_options, add_profile_option, add_svg_options, add_verbosity, photo_style, plan_for_input,
+    reorder_drawing,
+)
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, write_gcode
-from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, list_profiles, load_profile
+from pencilbot.machine.profile import Profile, load_profile
 from pencilbot.planning.stats import duration_text
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "export",
-        help="write G-code for a plotter from photos or plan SVGs",
+        help="write G-code for a plotter from photos or SVG drawings",
         description=(
             "Write G-code for a plotter profile. INPUT is a photo (planned with the style, page "
-            "and pen width given), a plan SVG written by `pencilbot plan`, or a folder of photos. "
+            "and pen width given), a plan SVG written by `pencilbot plan`, an SVG drawing from "
+            "another tool (reordered for the plotter unless --keep-order), or a folder of photos. "
             "With several inputs or a folder, -o names a folder, each input gets NAME.gcode "
             "there, and the files are planned on all cores."
         ),
     )
-    parser.add_argument("inputs", nargs="*", metavar="INPUT", help="photo, plan .svg, or folder of photos")
+    parser.add_argument("inputs", nargs="*", metavar="INPUT", help="photo, .svg drawing, or folder of photos")
     parser.add_argument(
         "-o", "--output", metavar="OUT.gcode|DIR",
         help="G-code file to write (a folder for several inputs; default: INPUT's name .gcode beside it)",
     )
-    parser.add_argument(
-        "--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-        help=f"shipped plotter profile or a profile file (default {DEFAULT_PROFILE}; see --list-profiles)",
-    )
-    parser.add_argument("--list-profiles", action="store_true", help="list the shipped profiles and exit")
+    add_profile_option(parser)
     add_photo_options(parser)
+    add_svg_options(parser, reorder=True)
     add_jobs_option(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    if args.list_profiles:
-        for name in list_profiles():
-            print(f"{name:20} {load_profile(name).description}")
-        return 0
     if not args.inputs:
         raise PencilbotError("give a photo or plan SVG to export (pencilbot export photo.jpg -o drawing.gcode)")
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow planning
@@ -69,10 +66,11 @@ def _outputs(inputs: Inputs, output: str | None) -> list[Path]:
 
 
 def export_one(source: Path, target: Path, profile: Profile, args: argparse.Namespace) -> str:
-    """Write the G-code of ``source`` (photo or plan SVG) to ``target``; return the line reporting it."""
-    summary = write_gcode(plan_for_input(source, args), profile, target, source=str(source))
+    """Write the G-code of ``source`` (photo or SVG) to ``target``; return the line reporting it."""
+    plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
+    summary = write_gcode(plan, profile, target, source=str(source))
     return (
         f"wrote {summary.path} for {profile.name}: {summary.paths} paths, {summary.lines} lines, "
         f"{summary.bytes / 1e3:.0f} kB; about {duration_text(summary.stats.total.seconds)} to draw; "
-        f"{summary.placement.describe()}"
+        f"{summary.placement.describe()}" + (f"; {reordered}" if reordered else "")
     )

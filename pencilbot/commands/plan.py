@@ -8,7 +8,7 @@ from pathlib import Path
 from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folders, output_paths, run_batch
 from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
 from pencilbot.errors import PencilbotError
-from pencilbot.export.svg import write_svg
+from pencilbot.export.svg import is_plan_svg, write_svg
 from pencilbot.planning.preview import preview as plan_preview
 
 PREVIEW_DPI = 100
@@ -53,8 +53,12 @@ def run(args: argparse.Namespace) -> int:
 
 def plan_one(source: Path, output: Path, preview: Path | None, args: argparse.Namespace) -> str:
     """Plan the photo ``source`` into ``output`` (and ``preview``); return the line reporting it."""
-    if source.suffix.lower() == ".svg":
+    if source.suffix.lower() == ".svg" and is_plan_svg(source):
         raise PencilbotError(f"{source} is already a plan; give a photo (pencilbot export draws a plan)")
+    if source.suffix.lower() == ".svg":
+        raise PencilbotError(
+            f"{source} is a drawing, not a photo: `pencilbot optimize {source} -o {output}` reorders it "
+            f"for the plotter, `pencilbot export {source}` writes its G-code (reordered the same way)")
     plan = plan_for_input(source, args)
     write_svg(plan, output)
     if preview is not None:

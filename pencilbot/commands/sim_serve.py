@@ -7,9 +7,8 @@ import math
 import signal
 from pathlib import Path
 
-from pencilbot.commands.common import add_verbosity, check_render
+from pencilbot.commands.common import add_profile_option, add_verbosity, check_render
 from pencilbot.errors import PencilbotError
-from pencilbot.machine.profile import DEFAULT_PROFILE
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 
 
@@ -27,8 +26,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
         ),
     )
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"GRBL or grblHAL plotter profile (default {DEFAULT_PROFILE})")
+    add_profile_option(parser, "GRBL or grblHAL plotter profile")
     parser.add_argument("--realtime", type=float, default=1.0, metavar="R",
                         help="move R times faster than real time; 0 = instant (default %(default)g)")
     parser.add_argument("--baud", type=int, default=0, help="emulated bit/s (default %(default)s: unlimited)")

@@ -15,11 +15,13 @@ import re
 import urllib.parse
 from pathlib import Path
 
-from pencilbot.commands.common import add_photo_options, add_verbosity, check_render, plan_for_input
+from pencilbot.commands.common import (
+    add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, plan_for_input,
+    reorder_drawing,
+)
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
-from pencilbot.machine.profile import DEFAULT_PROFILE
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.stats import duration_text
 _RUNS = itertools.count(1)
@@ -30,21 +32,22 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "simulate",
         help="draw on the virtual plotter and save what it drew as a PNG",
         description=(
-            "Stream INPUT (G-code, a plan SVG, or a photo, which is planned first) through the "
+            "Stream INPUT (G-code, an SVG drawing, reordered for the plotter unless it is "
+            "pencilbot's own or --keep-order is given, or a photo, which is planned first) through the "
             "serial driver into the virtual GRBL plotter, save the drawing as a PNG of the whole "
             "bed and print the simulated drawing time. --pen-width also sets the line width a "
             f"G-code input is rendered with (default: the plan's, else {DEFAULT_PEN_WIDTH:g} mm)."
         ),
     )
-    parser.add_argument("input", metavar="INPUT", help="G-code file, plan .svg, or photo")
+    parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help=f"GRBL or grblHAL plotter profile (default {DEFAULT_PROFILE})")
+    add_profile_option(parser, "GRBL or grblHAL plotter profile")
     parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
                         help="move R times faster than real time (default %(default)g: instant)")
     add_photo_options(parser)
+    add_svg_options(parser, reorder=True)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -95,7 +98,9 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
         return _without_program_markers(program), args.pen_width or DEFAULT_PEN_WIDTH
-    plan = plan_for_input(source, args)
+    plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
+    if reordered and not args.quiet:
+        print(f"{source}: {reordered}")
     return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
 
 

@@ -1,43 +1,81 @@
-"""``pencilbot stat``: what a plan costs at the plotter — lengths, lifts and estimated time."""
+"""``pencilbot stat``: what a drawing costs at the plotter — lengths, lifts and estimated time.
+
+An SVG (a plan of ours or any other drawing) is read as ``export`` reads it, but in its own
+order; a G-code file (ours or another tool's) is read back into the pen-down paths it draws, on
+a page the size of the bed. Either way the figures are the one estimate of
+:func:`pencilbot.planning.stats.estimate`, the program's from the plotter's home and back.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
-from pencilbot.commands.common import add_verbosity
-from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.commands.common import add_profile_option, add_svg_options, add_verbosity, read_drawing
+from pencilbot.errors import PencilbotError
+from pencilbot.export.gcode import GCODE_SUFFIXES
+from pencilbot.machine.bed import Placement
+from pencilbot.machine.profile import Profile, load_profile
+from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.stats import PlanStats, Stats, duration_text, estimate
-from pencilbot.export.svg import read_svg
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "stat",
-        help="pen-down/up length, lifts and estimated plot time of a plan",
+        help="pen-down/up length, lifts and estimated plot time of a drawing or G-code",
         description=(
             "Print pen-down length, pen-up length, lifts, paths, segments and the estimated "
-            "plot time of a plan SVG, per layer and in total: the program `pencilbot export` "
-            "writes for the plotter profile, with its acceleration, junction deviation, pen "
-            "delays and Z moves, from and back to its home (the G-code header says the same)."
+            "plot time of an SVG drawing (a plan, or any other tool's, in its own order) per "
+            "layer and in total: the program `pencilbot export` writes for the plotter profile, "
+            "with its acceleration, junction deviation, pen delays and Z moves, from and back to "
+            "its home (the G-code header says the same). A G-code file, ours or another tool's, "
+            "is read back into the paths its pen draws (the profile's pen model says what puts "
+            "the pen down; arcs count as straight moves) and costed the same way."
         ),
     )
-    parser.add_argument("plan", metavar="PLAN.svg", help="plan written by `pencilbot plan`")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, metavar="NAME|FILE.toml",
-                        help="plotter profile for speeds, delays and where home is (default %(default)s)")
+    parser.add_argument("plan", metavar="DRAWING.svg|FILE.gcode", help="SVG drawing or G-code file")
+    add_profile_option(parser, "plotter profile for speeds, delays and where home is")
     parser.add_argument("--json", action="store_true", help="print JSON (lengths in mm, time in s)")
+    add_svg_options(parser, sheet=True)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)
-    stats = estimate(read_svg(args.plan), profile)
+    source = Path(args.plan)
+    plan = gcode_plan(source, profile) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
+    stats = estimate(plan, profile)
     if args.json:
         print(json.dumps({"plan": args.plan, "profile": args.profile, **stats.as_dict()}, indent=2))
     elif not args.quiet:
         print(format_table(stats))
     return 0
+
+
+def gcode_plan(path: Path, profile: Profile) -> Plan:
+    """What the G-code file ``path`` draws, as a one-layer plan on a page the size of the bed.
+
+    Raises
+    ------
+    PencilbotError
+        The file cannot be read or streamed to the profile's firmware, or its pen never goes
+        down as the profile's pen model says.
+    """
+    from pencilbot.driver.drawn import drawn_paths
+    from pencilbot.driver.job import load_job
+
+    drawn = drawn_paths(load_job(path, profile))
+    if not len(drawn):
+        pen = profile.pen_model
+        raise PencilbotError(
+            f"{path}: the pen never goes down the way profile {profile.name} puts it down ({pen.kind} pen, "
+            f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)")
+    bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
+    placement = Placement.on_bed(bed, profile.bed)
+    return Plan(bed, [Layer(path.stem, drawn.with_points(placement.to_page(drawn.points)))])
 
 
 def format_table(stats: PlanStats) -> str:

@@ -11,8 +11,10 @@ tools ignore.
 
 from __future__ import annotations
 
+import io
 import os
 import re
+import warnings
 import xml.etree.ElementTree as ET
 
 import numpy as np
@@ -28,7 +30,6 @@ INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 PENCILBOT_NS = "https://pencilbot.invalid/plan"  # a name only; never fetched
 DECIMALS = 3  # µm: far below any pen's width
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-_PATH_TOKEN = re.compile(r"[A-Za-z]|" + _NUMBER.pattern)
 
 
 def write_svg(plan: Plan, path: str | os.PathLike) -> None:
@@ -61,57 +62,307 @@ def svg_text(plan: Plan) -> str:
     return "\n".join(out)
 
 
-def read_svg(path: str | os.PathLike) -> Plan:
-    """Read a plan SVG (as written by :func:`write_svg`) back into a :class:`Plan`.
+def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: float | None = None) -> Plan:
+    """Read an SVG drawing into a :class:`Plan`: a plan written by :func:`write_svg`, or any other.
 
-    Straight-line SVGs from other tools load too when their size is in mm (or has a viewBox)
-    and their drawing is in ``path`` (M/L/H/V/Z), ``polyline``, ``polygon`` or ``line`` elements;
-    top-level groups become layers. Curves and ``transform`` attributes are refused with a hint
-    to flatten them first.
+    A plan of pencilbot's own is read with whole-array numpy (a million strokes in about a
+    second). Any other SVG (Inkscape, vpype, hatched, linedraw, …) goes through vpype's reader
+    (``pip install "pencilbot[vpype]"``), which applies transforms and reads groups, shapes and
+    curves. Curves are cut into segments of at most half the pen width ``w``: a chord strays
+    from an arc of radius ``r`` by at most ``w² / 32 r``, under a tenth of the pen width wherever
+    ``r > w / 3``. vpype drops zero-length paths (dots). The top-level groups become layers (named by ``inkscape:label``, else
+    ``id``; drawing outside any group becomes a layer ``"default"``), with their stroke width as
+    pen width. A plan of ours edited elsewhere keeps its page, margin, layer roles and metadata.
+    Nothing is cropped: a drawing that runs off its page is read whole (the G-code writer
+    checks it against the bed).
+
+    Parameters
+    ----------
+    path : str or PathLike
+    dpi : float, optional
+        User units per inch of a file whose ``width`` and ``height`` carry no unit or are
+        missing (96 reads them as CSS pixels, as Inkscape and vpype do). Without it, such a
+        file is refused: nothing says how large it is meant to be.
+    pen_width : float, optional
+        Pen width in mm of every layer of a foreign file (default: its stroke width if it
+        declares one, else :data:`~pencilbot.paths.DEFAULT_PEN_WIDTH`); it also sets the
+        flattening tolerance. A plan of ours keeps its own pen widths.
+
+    Returns
+    -------
+    Plan
+        Coordinates in mm on the page, origin bottom-left, Y up.
+
+    Raises
+    ------
+    PencilbotError
+        The file is missing or not SVG, has no physical size and no ``dpi``, or is foreign and
+        vpype is not installed or cannot read it.
+    """
+    data = _read_bytes(path)
+    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width)
+
+
+def is_plan_svg(path: str | os.PathLike) -> bool:
+    """Whether ``path`` was written by :func:`write_svg` (and is so already in drawing order).
+
+    Only the root element is read; a file that is not SVG is no plan.
     """
     try:
-        root = ET.parse(path).getroot()
+        for _, root in ET.iterparse(path, events=("start",)):
+            return root.tag == f"{{{SVG_NS}}}svg" and root.get(_PAGE) is not None
+    except (ET.ParseError, OSError):
+        pass
+    return False
+
+
+def _read_bytes(path) -> bytes:
+    try:
+        with open(path, "rb") as handle:
+            return handle.read()
     except FileNotFoundError:
-        raise PencilbotError(f"plan file {path} does not exist; check the path") from None
-    except (ET.ParseError, OSError) as exc:
-        raise PencilbotError(f"cannot read {path} as SVG ({exc}); is it a plan written by pencilbot?") from None
+        raise PencilbotError(f"SVG file {path} does not exist; check the path") from None
+    except OSError as exc:
+        raise PencilbotError(f"cannot read {path} ({exc.strerror}); check the path and its permissions") from None
+
+
+def _parse(data: bytes, path) -> ET.Element:
+    try:
+        root = ET.fromstring(data)
+    except ET.ParseError as exc:
+        raise PencilbotError(f"cannot read {path} as SVG ({exc}); is it an SVG drawing?") from None
     if root.tag != f"{{{SVG_NS}}}svg":
         raise PencilbotError(f"{path} is not an SVG file (root element {root.tag!r})")
-    width, height, scale = _page_size(root, path)
-    moved = next((el for el in root.iter() if el.get("transform")), None)
-    if moved is not None:
-        # Coordinates under a transform are not where they read; drawing them as read would put
-        # the pen somewhere else on the paper without a word.
-        raise PencilbotError(
-            f"{path}: <{moved.tag.rsplit('}', 1)[-1]}> has transform={moved.get('transform')!r}, "
-            "which is not applied; bake transforms into the coordinates first (e.g. vpype read … write)"
-        )
-    margin = root.get(f"{{{PENCILBOT_NS}}}margin", "0")
-    if not re.fullmatch(_NUMBER.pattern, margin.strip()):
-        raise PencilbotError(f"{path}: pencilbot:margin {margin!r} is not a number of mm; fix or remove it")
-    page = Page(
-        width=width,
-        height=height,
-        margin=float(margin),
-        name=root.get(f"{{{PENCILBOT_NS}}}page", "custom"),
-    )
-    meta = {m.get("name", ""): m.text or "" for m in root.iter(f"{{{PENCILBOT_NS}}}meta")}
+    return root
+
+
+# --- pencilbot's own plans, whole arrays at a time ---------------------------------------------
+
+_PAGE, _MARGIN, _ROLE = (f"{{{PENCILBOT_NS}}}{name}" for name in ("page", "margin", "role"))
+_LABEL = f"{{{INKSCAPE_NS}}}label"
+_OWN_TEXT = b"0123456789.- L\n"  # all a layer's path data holds besides its element tags
+_NUMBER_BYTES = bytes(c if c in b"0123456789.-na" else 32 for c in range(256))
+#: Attributes that move or hide what a group holds: a layer with one is read as any SVG is.
+_MOVES = {"transform", "style", "display", "visibility", "clip-path", "mask", "filter"}
+
+
+def _read_own(data: bytes) -> Plan | None:
+    """The plan, if ``data`` is a file just as :func:`write_svg` writes it; else None.
+
+    Each layer's path data is cut out of the file and the rest (root, metadata, layer tags)
+    parsed as XML; a layer's coordinates are then one ``np.fromstring`` over its cut, with a
+    NaN where each path starts. Anything else (an edited file, a nested group, a curve) gives
+    None, and the file is read as any SVG is.
+    """
+    if f'xmlns:pencilbot="{PENCILBOT_NS}"'.encode() not in data[:4096]:
+        return None
+    skeleton, cuts, at = [], [], 0
+    while (tag := data.find(b"<g ", at)) >= 0:
+        body = data.find(b">", tag) + 1
+        close = data.find(b"</g>", body)
+        if body == 0 or close < 0 or data[body - 2 : body] == b"/>":
+            return None
+        skeleton.append(data[at:body])
+        cuts.append(data[body:close])
+        at = close
+    skeleton.append(data[at:])
+    try:
+        root = ET.fromstring(b"".join(skeleton))
+        width, height, scale = _svg_size(root, "", None)
+    except (ET.ParseError, PencilbotError):
+        return None
+    groups = [child for child in root if child.tag == f"{{{SVG_NS}}}g"]
+    others = {child.tag for child in root} - {f"{{{SVG_NS}}}g", f"{{{SVG_NS}}}metadata"}
+    moved = [element for element in (root, *groups) if _MOVES.intersection(element.keys())]
+    origin = [float(v) for v in _NUMBER.findall(root.get("viewBox", "0 0"))[:2]]
+    if others or moved or origin != [0.0, 0.0] or len(groups) != len(cuts) or any(len(g) for g in groups):
+        return None
     layers = []
-    loose = []  # drawing outside any group: one extra layer
-    for child in root:
-        if child.tag == f"{{{SVG_NS}}}g":
-            name = child.get(f"{{{INKSCAPE_NS}}}label") or child.get("id") or f"layer{len(layers) + 1}"
-            stroke = _NUMBER.match(_stroke_width(child) or "")
-            pen = float(stroke[0]) * scale if stroke else DEFAULT_PEN_WIDTH
-            role = child.get(f"{{{PENCILBOT_NS}}}role")
-            paths = [p for el in child.iter() for p in _element_paths(el, path)]
-            layers.append(Layer(name, [_to_page(p, scale, height) for p in paths], pen_width=pen,
-                                role=role if role in ROLES else "other"))
+    for number, (group, cut) in enumerate(zip(groups, cuts), start=1):
+        paths = _own_paths(cut, scale, height)
+        if paths is None:
+            return None
+        attributes = _layer_attributes(group, number, scale)
+        attributes["pen_width"] = attributes["pen_width"] or DEFAULT_PEN_WIDTH
+        layers.append(Layer(paths=paths, **attributes))
+    return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+
+
+def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
+    """One layer's ``<path d="M x y L x y …"/>`` elements as paths in page mm; None if its text
+    is anything else."""
+    if cut.replace(b'<path d="M ', b"").replace(b'"/>', b"").translate(None, _OWN_TEXT):
+        return None
+    if b"<path" not in cut:
+        return Paths.empty()
+    text = cut.replace(b'<path d="M', b" nan ").translate(_NUMBER_BYTES)
+    try:
+        with warnings.catch_warnings():  # numpy < 2 warns, and stops, at a malformed number
+            warnings.simplefilter("error", DeprecationWarning)
+            numbers = np.fromstring(text, sep=" ")
+    except (ValueError, DeprecationWarning):
+        return None
+    starts = np.flatnonzero(np.isnan(numbers))
+    counts = np.diff(np.append(starts, len(numbers))) - 1
+    if len(starts) != cut.count(b"<path") or (len(starts) and starts[0]) or np.any((counts < 4) | (counts % 2 == 1)):
+        return None
+    points = numbers[~np.isnan(numbers)].reshape(-1, 2)
+    lengths = counts // 2
+    # A dot is written as a zero-length segment; it reads back as the one point it is.
+    firsts = np.concatenate([[0], np.cumsum(lengths)[:-1]]).astype(np.int64)
+    dots = (lengths == 2) & np.all(points[firsts] == points[np.minimum(firsts + 1, len(points) - 1)], axis=1)
+    if dots.any():
+        points = np.delete(points, firsts[dots] + 1, axis=0)
+        lengths[dots] = 1
+    return Paths(_to_page(points, scale, page_height), np.concatenate([[0], np.cumsum(lengths)]))
+
+
+# --- any SVG: vpype's reader -------------------------------------------------------------------
+
+#: Top-level elements that draw nothing, so are no layer.
+_NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
+_CSS_PX_PER_INCH = 96.0  # vpype (svgelements) works in CSS pixels
+
+
+def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None) -> Plan:
+    """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
+    try:
+        import vpype
+    except ImportError:
+        raise PencilbotError(
+            f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
+            'pip install "pencilbot[vpype]"'
+        ) from None
+    width, height, scale = _svg_size(root, path, dpi)
+    # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
+    # every top-level element a label by its place, the layer attributes having been read.
+    tops = [element for element in root if _local(element.tag) not in _NOT_DRAWN]
+    loose = [element for element in tops if _local(element.tag) != "g"]
+    groups = {}
+    for place, element in enumerate(tops, start=2):  # vpype's layer 1 holds the loose shapes
+        if element not in loose:
+            groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
+        element.set(_LABEL, f"pencilbot-{place}")
+    px_to_mm = MM_PER_INCH / (_CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
+    # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
+    quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
+    try:
+        document = vpype.read_multilayer_svg(
+            io.StringIO(ET.tostring(root, encoding="unicode")), quantization=quantization, crop=False)
+    except Exception as exc:  # noqa: BLE001 - whatever the third-party parser trips on is in the file
+        raise PencilbotError(f"vpype cannot read {path} ({type(exc).__name__}: {exc}); check the file") from None
+    if height is not None and document.page_size and document.page_size[0] > 0:
+        px_to_mm = width / document.page_size[0]  # exactly: svgelements rounds its mm to px factor
+    stylesheet = any(_local(el.tag) == "style" and "stroke-width" in (el.text or "") for el in root.iter())
+    layers = []
+    for lid in sorted(document.layers, key=lambda lid: (lid == 1, lid)):  # loose shapes last
+        lines = [line for line in document.layers[lid] if len(line)]
+        if not lines:
+            continue
+        attributes, declared = groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose)))
+        vpype_pen = document.layers[lid].property("vp_pen_width")
+        if pen_width is None and vpype_pen and (declared or stylesheet or _declares_stroke([root], deep=False)):
+            attributes["pen_width"] = float(vpype_pen) * px_to_mm
         else:
-            loose.extend(_element_paths(child, path))
-    if loose:
-        layers.append(Layer("default", [_to_page(p, scale, height) for p in loose]))
-    return Plan(page=page, layers=layers, meta=meta)
+            attributes["pen_width"] = pen_width or DEFAULT_PEN_WIDTH
+        points = np.concatenate(lines)
+        offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
+        layers.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
+    if height is None:  # no size at all: the page reaches to the drawing's far corner
+        width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in layers] or [[1.0, 1.0]], axis=0))
+    return Plan(
+        page=_page(root, width, height),
+        layers=[Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
+                for attributes, mm, offsets in layers],
+        meta=_meta(root),
+    )
+
+
+def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
+    """Whether any of ``elements`` (or what they hold) sets a stroke width. SVG's default of one
+    user unit is a matter of display, not a pen: a layer without one gets the default pen."""
+    return any(_stroke_width(el) is not None for top in elements for el in (top.iter() if deep else [top]))
+
+
+# --- what both readers share -------------------------------------------------------------------
+
+_UNITS_TO_MM = {"mm": 1.0, "cm": 10.0, "q": 0.25, "in": MM_PER_INCH, "pt": MM_PER_INCH / 72,
+                "pc": MM_PER_INCH / 6, "px": MM_PER_INCH / 96}
+
+
+def _size_unit(root: ET.Element) -> str | None:
+    """The physical unit both ``width`` and ``height`` are given in, or None."""
+    units = [re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, "")) for attr in ("width", "height")]
+    if all(units) and units[0][1].lower() in _UNITS_TO_MM and units[1][1].lower() in _UNITS_TO_MM:
+        return units[0][1].lower()
+    return None
+
+
+def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float | None, float]:
+    """Page width and height in mm (None if the file gives no size at all) and mm per user unit."""
+    view = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
+    view = view if len(view) == 4 and view[2] > 0 and view[3] > 0 else None
+    if _size_unit(root) is not None:
+        sizes = []
+        for attr in ("width", "height"):
+            number = float(_NUMBER.search(root.get(attr))[0]) * _UNITS_TO_MM[_size_unit(root)]
+            if not 0 < number < float("inf"):
+                raise PencilbotError(f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm")
+            sizes.append(number)
+        return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[_size_unit(root)]
+    given = f"width {root.get('width')!r} and height {root.get('height')!r}" if root.get("width") else "no width or height"
+    if dpi is None:
+        raise PencilbotError(
+            f"{path} gives {given}, no size on paper (no mm, cm, in, pt or px), so how large to draw it is "
+            "unknown; add --svg-dpi 96 to read its units as CSS pixels (as Inkscape does), or --page A4 "
+            "to fit it onto a sheet"
+        )
+    unit = MM_PER_INCH / dpi
+    numbers = [_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")]
+    if all(numbers) and all(0 < float(n[0]) < float("inf") for n in numbers):
+        width, height = (float(n[0]) * unit for n in numbers)
+        return width, height, width / view[2] if view else unit
+    if view:
+        return view[2] * unit, view[3] * unit, unit
+    return 0.0, None, unit
+
+
+def _page(root: ET.Element, width: float, height: float) -> Page:
+    margin = root.get(_MARGIN, "0")
+    if not re.fullmatch(_NUMBER.pattern, margin.strip()):
+        raise PencilbotError(f"pencilbot:margin {margin!r} is not a number of mm; fix or remove it")
+    return Page(width=width, height=height, margin=float(margin), name=root.get(_PAGE, "custom"))
+
+
+def _meta(root: ET.Element) -> dict[str, str]:
+    return {m.get("name", ""): m.text or "" for m in root.iter(f"{{{PENCILBOT_NS}}}meta")}
+
+
+def _layer_attributes(group: ET.Element, number: int, scale: float) -> dict:
+    """A layer's name, role and pen width (mm, None if its group sets none) from its group
+    element: the one place both readers take layer attributes from."""
+    stroke = _NUMBER.match(_stroke_width(group) or "")
+    role = group.get(_ROLE)
+    return {
+        "name": group.get(_LABEL) or group.get("id") or f"layer{number}",
+        "role": role if role in ROLES else "other",
+        "pen_width": float(stroke[0]) * scale if stroke else None,
+    }
+
+
+def _stroke_width(el: ET.Element) -> str | None:
+    style = {key.strip(): value for key, _, value in (part.partition(":") for part in el.get("style", "").split(";"))}
+    value = el.get("stroke-width") or style.get("stroke-width")
+    return value.strip() if value else None
+
+
+def _local(tag: str) -> str:
+    return tag.rsplit("}", 1)[-1]
+
+
+def _to_page(points: np.ndarray, scale: float, page_height: float) -> np.ndarray:
+    """User units, Y down → page mm, Y up."""
+    return np.column_stack([points[:, 0] * scale, page_height - points[:, 1] * scale])
 
 
 def _path_data(paths: Paths, page_height: float) -> list[str]:
@@ -140,109 +391,3 @@ def _escape(text: str) -> str:
     return (
         str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
     )
-
-
-def _page_size(root: ET.Element, path) -> tuple[float, float, float]:
-    """Page width and height in mm, and mm per user unit."""
-    units_to_mm = {"mm": 1.0, "cm": 10.0, "in": MM_PER_INCH, "pt": MM_PER_INCH / 72, "px": MM_PER_INCH / 96,
-                   "": MM_PER_INCH / 96}
-    sizes = []
-    for attr in ("width", "height"):
-        match = re.fullmatch(rf"\s*({_NUMBER.pattern})\s*([a-z]*)\s*", root.get(attr, ""))
-        if not match or match[2] not in units_to_mm or not 0 < float(match[1]) < float("inf"):
-            raise PencilbotError(
-                f"{path}: the SVG's {attr} {root.get(attr)!r} has no physical size; "
-                "give width and height in mm"
-            )
-        sizes.append(float(match[1]) * units_to_mm[match[2]])
-    view = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
-    scale = sizes[0] / view[2] if len(view) == 4 and view[2] > 0 else units_to_mm[match[2]]
-    if len(view) == 4 and (view[0], view[1]) != (0.0, 0.0):
-        raise PencilbotError(f"{path}: viewBox must start at 0 0 (found {view[0]:g} {view[1]:g})")
-    return sizes[0], sizes[1], scale
-
-
-def _stroke_width(el: ET.Element) -> str | None:
-    style = dict(
-        part.split(":", 1) for part in el.get("style", "").split(";") if ":" in part
-    )
-    value = el.get("stroke-width") or style.get("stroke-width")
-    return value.strip() if value else None
-
-
-def _element_paths(el: ET.Element, path) -> list[np.ndarray]:
-    """Polylines (user units, SVG Y down) of one drawing element; other elements give none."""
-    tag = el.tag.rsplit("}", 1)[-1]
-    if tag == "path":
-        return _parse_d(el.get("d", ""), path)
-    if tag in ("polyline", "polygon"):
-        pts = np.array([float(v) for v in _NUMBER.findall(el.get("points", ""))]).reshape(-1, 2)
-        if tag == "polygon" and len(pts):
-            pts = np.vstack([pts, pts[:1]])
-        return [pts] if len(pts) else []
-    if tag == "line":
-        get = lambda k: float(el.get(k, 0))  # noqa: E731
-        return [np.array([[get("x1"), get("y1")], [get("x2"), get("y2")]])]
-    if tag in ("circle", "ellipse", "rect", "text"):
-        raise PencilbotError(
-            f"{path}: <{tag}> shapes are not read; convert them to paths first "
-            "(e.g. Inkscape: Path ▸ Object to Path, or vpype read … write)"
-        )
-    return []
-
-
-def _parse_d(d: str, path) -> list[np.ndarray]:
-    """Straight-line path data: M, L, H, V, Z and their relative forms."""
-    try:
-        return _parse_tokens(_PATH_TOKEN.findall(d), path)
-    except (IndexError, ValueError):
-        raise PencilbotError(f"{path}: malformed path data {d[:60]!r}") from None
-
-
-def _parse_tokens(tokens: list[str], path) -> list[np.ndarray]:
-    """Polylines from path-data tokens (letters and numbers)."""
-    paths, current, pos, start = [], [], np.zeros(2), np.zeros(2)
-    command, i = None, 0
-    while i < len(tokens):
-        if tokens[i].isalpha():
-            command = tokens[i]
-            i += 1
-            if command in "Zz":
-                if current:
-                    current.append(start.copy())
-                    pos = start.copy()
-                continue
-        if command is None or command not in "MmLlHhVv":
-            raise PencilbotError(
-                f"{path}: path command {command!r} (curves or arcs) is not read; "
-                "flatten curves to lines first (e.g. vpype read … linesimplify write)"
-            )
-        relative = command.islower()
-        if command in "Hh":
-            pos = np.array([float(tokens[i]) + (pos[0] if relative else 0.0), pos[1]])
-            i += 1
-        elif command in "Vv":
-            pos = np.array([pos[0], float(tokens[i]) + (pos[1] if relative else 0.0)])
-            i += 1
-        else:
-            point = np.array([float(tokens[i]), float(tokens[i + 1])])
-            pos = point + pos if relative else point
-            i += 2
-        if command in "Mm":
-            if len(current) > 0:
-                paths.append(np.array(current))
-            current, start = [pos.copy()], pos.copy()
-            command = "l" if relative else "L"  # later pairs after M are line-tos
-        else:
-            current.append(pos.copy())
-    if current:
-        paths.append(np.array(current))
-    return paths
-
-
-def _to_page(pts: np.ndarray, scale: float, page_height: float) -> np.ndarray:
-    """User units, Y down → page mm, Y up; a zero-length segment written for a dot reads back as one point."""
-    mm = np.column_stack([pts[:, 0] * scale, page_height - pts[:, 1] * scale])
-    if len(mm) == 2 and np.array_equal(mm[0], mm[1]):
-        return mm[:1]
-    return mm

@@ -53,6 +53,7 @@ driver and the virtual plotter all read it. Where the paper sits on the bed is d
 
 from __future__ import annotations
 
+import os
 import tomllib
 from dataclasses import dataclass
 from functools import cached_property
@@ -60,7 +61,7 @@ from pathlib import Path
 
 from pencilbot import firmware as firmware_registry
 from pencilbot import schema
-from pencilbot.configs_io import read_config_text, shipped_names
+from pencilbot.configs_io import config_names, read_config_text, user_setting
 from pencilbot.errors import ProfileError
 from pencilbot.firmware.base import Firmware
 from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
@@ -225,8 +226,20 @@ def load_profile(name_or_path: str | Path) -> Profile:
 
 
 def list_profiles() -> list[str]:
-    """Names of the profiles shipped in ``configs/plotters``, sorted."""
-    return shipped_names("plotters")
+    """Names of the profiles there are, the user's and those shipped in ``configs/plotters``, sorted."""
+    return list(config_names("plotters"))
+
+
+def default_profile() -> str:
+    """The profile used when none is named: ``$PENCILBOT_PROFILE``, else the user's ``profile``
+    setting, else :data:`DEFAULT_PROFILE`.
+
+    Raises
+    ------
+    ProfileError
+        The user's settings file is not valid.
+    """
+    return os.environ.get("PENCILBOT_PROFILE") or user_setting("profile") or DEFAULT_PROFILE
 
 
 def profile_from_mapping(table: dict, *, where: str = "<profile>", default_name: str = "custom") -> Profile:

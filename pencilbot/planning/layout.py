@@ -9,12 +9,12 @@ of ``np.nonzero`` indices); page coordinates are mm from the page's bottom-left 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.plan import DEFAULT_MARGIN, Page
+from pencilbot.planning.plan import DEFAULT_MARGIN, Page, Plan
 
 # Portrait sizes in mm (ISO 216 and US Letter).
 PAGE_SIZES: dict[str, tuple[float, float]] = {
@@ -156,6 +156,42 @@ class Layout:
     def _box_centre(self) -> np.ndarray:
         x0, y0, x1, y1 = self.drawing_box
         return np.array([(x0 + x1) / 2, (y0 + y1) / 2])
+
+
+def fit_plan(plan: Plan, sheet: str, orientation: str = "auto", margin: float = DEFAULT_MARGIN) -> Plan:
+    """A finished drawing scaled (uniformly) and centred to fill a sheet inside its margins.
+
+    What is fitted is the drawing's own page together with anything drawn beyond it (some
+    tools write a page smaller than their drawing), so the drawing keeps its place on its page.
+    Pen widths stay: a pen does not grow with the picture.
+
+    Parameters
+    ----------
+    plan : Plan
+        The drawing on its page, mm.
+    sheet : str
+        A page name or ``"WxH"`` mm (see :func:`page_size`).
+    orientation : {"portrait", "landscape", "auto"}, optional
+        ``auto`` turns the sheet to suit the drawing.
+    margin : float, optional
+        Blank border on every side, mm.
+
+    Returns
+    -------
+    Plan
+        On the new page.
+    """
+    points = plan.paths().points
+    low = np.minimum(points.min(axis=0), 0.0) if len(points) else np.zeros(2)
+    high = np.maximum(points.max(axis=0), (plan.page.width, plan.page.height)) if len(points) else np.array(
+        [plan.page.width, plan.page.height])
+    size = np.maximum(high - low, 1e-9)
+    page = page_size(sheet, orientation, (size[1], size[0]), margin)
+    free = np.array([page.width, page.height]) - 2 * page.margin
+    scale = float(np.min(free / size))
+    offset = page.margin + (free - size * scale) / 2 - low * scale
+    layers = [replace(layer, paths=layer.paths.with_points(layer.paths.points * scale + offset)) for layer in plan.layers]
+    return replace(plan, page=page, layers=layers)
 
 
 def _alignment(align: str) -> tuple[float, float]:

@@ -2,8 +2,8 @@
 
 A style says how a photo becomes strokes (line length, edge threshold, hatch angles, pen width)
 and where it goes on paper (page, orientation, margin). Shipped styles live in ``configs/styles/<name>.toml``
-(found by :mod:`pencilbot.configs_io` in a wheel and in a source checkout); a path to any TOML file
-works too. Every key is optional (missing keys
+(found by :mod:`pencilbot.configs_io` in a wheel and in a source checkout), the user's own in the
+``styles`` folder of their pencilbot folder (found first); a path to any TOML file works too. Every key is optional (missing keys
 keep the defaults below); an unknown key or a wrongly typed value is a
 :class:`~pencilbot.errors.ProfileError` naming the file and the key, so a typo never silently does
 nothing. The rules are one table, :data:`STYLE_SCHEMA`, as for plotter profiles.
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pencilbot import schema
-from pencilbot.configs_io import read_config_text, shipped_names
+from pencilbot.configs_io import config_names, read_config_text, user_setting
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, WIDTH_RANGE
 from pencilbot.paths import DEFAULT_PEN_WIDTH
@@ -155,15 +155,21 @@ def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
     style = with_overrides(Style(name=stem), table, where=f"style file {where}")
-    source = Path(name_or_path)
-    if style.texture is not None and source.is_file():  # a file of the user's, not a shipped style
+    source = Path(where)  # a user's file, by name (an absolute path) or by path; not a shipped style
+    if style.texture is not None and (source.is_absolute() or Path(name_or_path).is_file()):
         style = dataclasses.replace(style, texture=str(source.parent / Path(style.texture).expanduser()))
     return style
 
 
 def list_styles() -> list[str]:
-    """Names of the styles shipped in ``configs/styles``."""
-    return shipped_names("styles")
+    """Names of the styles there are: the user's and those shipped in ``configs/styles``."""
+    return list(config_names("styles"))
+
+
+def default_style() -> str:
+    """The style a plan uses when none is named: the user's ``style`` setting, else
+    :data:`DEFAULT_STYLE`."""
+    return user_setting("style") or DEFAULT_STYLE
 
 
 def with_overrides(style: Style, values: dict, *, where: str = "command line") -> Style:

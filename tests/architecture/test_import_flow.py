@@ -40,6 +40,7 @@ ALLOWED: dict[str, set[str]] = {
 _BELOW = set(ALLOWED)
 ALLOWED["pencilbot.api"] = _BELOW
 ALLOWED["pencilbot.commands"] = _BELOW | {"pencilbot.api", "pencilbot"}
+ALLOWED["pencilbot.vpype_plugin"] = ALLOWED["pencilbot.commands"] | {"pencilbot.commands"}  # a front end too
 ALLOWED["pencilbot.cli"] = {"pencilbot.commands", "pencilbot"} | BASE
 ALLOWED["pencilbot"] = {"pencilbot.api"}  # the package itself: the lazy library API
 

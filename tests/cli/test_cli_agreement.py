@@ -1,5 +1,6 @@
-"""demo, stat, the G-code header and the virtual plotter agree on plot time and pen-up travel, for
-every shipped plotter profile: one estimate (planning.stats) and one motion model behind them."""
+"""demo, stat (of the plan and of the G-code), the G-code header and the virtual plotter agree on
+plot time and pen-up travel, for every shipped plotter profile: one estimate (planning.stats) and
+one motion model behind them."""
 
 from __future__ import annotations
 
@@ -34,6 +35,12 @@ def test_demo_stat_header_and_simulator_agree(name, photo, tmp_path, capsys):
     header_seconds = int(re.search(r"; estimated time: \d+:\d\d:\d\d \((\d+) s\)", header).group(1))
     header_up = float(re.search(r"; pen down [\d.]+ mm, pen up ([\d.]+) mm", header).group(1))
     stat = run_json(["stat", str(out / "plan.svg"), "--profile", name, "--json"], capsys)["total"]
+    # stat of the G-code reads back the paths the pen draws, whatever the pen and the dialect
+    gcode = run_json(["stat", str(out / "drawing.gcode"), "--profile", name, "--json"], capsys)["total"]
+    for key in ("paths", "lifts", "segments"):
+        assert gcode[key] == stat[key]
+    for key in ("pen_down_mm", "pen_up_mm", "seconds"):
+        assert gcode[key] == pytest.approx(stat[key], rel=1e-4, abs=0.05)
 
     assert abs(header_seconds - demo["estimated_s"]) <= 0.5 + 1e-9  # the header says "372 s" for 372.4
     assert header_up / 1000 == pytest.approx(demo["pen_up_m"], abs=0.005)

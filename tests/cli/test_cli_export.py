@@ -118,7 +118,9 @@ def open_shipped(name: str) -> str:
 
 
 def test_list_profiles(capsys):
-    assert main(["export", "--list-profiles"]) == 0
+    with pytest.raises(SystemExit) as done:  # as --version does: no input needed
+        main(["export", "--list-profiles"])
+    assert done.value.code == 0
     out = capsys.readouterr().out
     for name in list_profiles():
         assert name in out and load_profile(name).description in out
@@ -128,8 +130,8 @@ def test_list_profiles(capsys):
     ("extra", "message"),
     [
         (["--profile", "axidraw"], "no plotter profile named 'axidraw'"),
-        (["--page", "A4"], "--page apply to photos only"),
-        (["--pen-width", "1", "--downscale"], "--pen-width, --downscale apply to photos only"),
+        (["--page", "A4"], "--page apply to photos and to other tools' SVGs only"),
+        (["--pen-width", "1", "--downscale"], "--downscale apply to photos only"),
         (["-o", "{tmp}/drawing.txt"], "name the output"),
         (["-o", "{tmp}/missing/drawing.gcode"], "does not exist"),
     ],

@@ -76,3 +76,67 @@ def test_user_errors_print_one_line_and_exit_2(plan_file, tmp_path, monkeypatch,
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+FOREIGN_GCODE = """(made by another tool: inches, relative moves, a Z pen, comments, an arc)
+G20 G91
+G0 Z0.1 ; pen up
+G0 X1 Y1
+G1 Z-0.2 F20
+G1 X1
+G1 Y1
+G0 Z0.2
+G0 X-1
+G1 Z-0.2
+G2 X0.5 Y0.5 I0.25 J0.25
+G0 Z0.2
+G90
+G0 X0 Y0
+"""
+
+Z_INCH_PROFILE = """name = "z-inch"
+dialect = "grbl"
+[bed]
+width = 200.0
+height = 200.0
+origin = "bottom-left"
+[motion]
+draw_feed = 1000.0
+travel_feed = 2000.0
+acceleration = 500.0
+junction_deviation = 0.01
+[pen]
+kind = "z"
+up = 2.54
+down = -2.54
+up_command = "G0 Z2.54"
+down_command = "G1 Z-2.54 F500"
+up_delay = 0.0
+down_delay = 0.0
+[gcode]
+decimals = 4
+header = "G21"
+footer = ""
+"""
+
+
+def test_stat_reads_another_tools_gcode(tmp_path, capsys):
+    (tmp_path / "other.nc").write_text(FOREIGN_GCODE)
+    (tmp_path / "z.toml").write_text(Z_INCH_PROFILE)
+    assert main(["stat", str(tmp_path / "other.nc"), "--profile", str(tmp_path / "z.toml"), "--json"]) == 0
+    total = json.loads(capsys.readouterr().out)["total"]
+    # Two pen-down runs: an L of 2 in, and the arc as a chord to its end point.
+    assert total["paths"] == 2 and total["segments"] == 3
+    assert total["pen_down_mm"] == pytest.approx((2 + 0.5 * 2**0.5) * 25.4, abs=1e-6)
+    # Pen up: home → (1, 1) in, (2, 2) → (1, 2), (1.5, 2.5) → home.
+    assert total["pen_up_mm"] == pytest.approx((2**0.5 + 1 + 8.5**0.5) * 25.4, abs=1e-6)
+
+
+def test_stat_of_gcode_whose_pen_never_goes_down_says_which_profile_to_give(tmp_path, capsys):
+    path = tmp_path / "z.gcode"
+    path.write_text("G21\nG90\nG0 Z5\nG0 X10 Y10\nG1 Z0\nG1 X20\nG0 Z5\n")
+    assert main(["stat", str(path)]) == 2  # the default profile's pen is a servo on M3 S…
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the pen never goes down" in err and "--profile" in err
+    assert main(["stat", str(path), "--profile", "grbl-z-a3", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["total"]["pen_down_mm"] == pytest.approx(10)

@@ -1,0 +1,207 @@
+"""Reordering other tools' drawings: `pencilbot optimize` against vpype's `linesort`.
+
+Prints JSON. Three foreign drawings of skimage's coffee on A4 (15 mm margins, 0.5 mm pen):
+
+* ``shuffled`` — pencilbot's own plan of the photo with every layer's paths shuffled and half
+  of them reversed (a drawing whose order was lost, e.g. after an edit);
+* ``hatching`` — diagonal hatching at three tone levels (light 45°, then 135°, then 45° again
+  at half the pitch, as hatched does), each level's hatch lines cut into runs over the dark
+  area and written in scan order, one layer; with ``--hatched PYTHON`` (a Python that has
+  ``pip install hatched``; hatched 0.2 needs a shim for shapely 2, applied here) the real
+  hatched's output instead;
+* ``contours`` — iso-contours of the grey photo at 8 levels (``skimage.measure.find_contours``,
+  as linedraw and other contour tracers do), cut into pieces of at most 30 points, in the
+  order traced, one layer.
+
+For each: pen-up travel and plot time (``planning.stats.estimate`` on grbl-servo-a4, from its
+home and back) as written, after vpype ``linesort``, after ``linesort --two-opt`` and after
+pencilbot's reordering (:func:`pencilbot.planning.optimize.reorder_plan`, what ``pencilbot
+optimize`` runs), and each tool's CPU time (the reordering alone, in process, as vpype's
+``vpype_cli.execute`` is timed; the median of ``--repeats`` runs). vpype starts at its origin, which is put at the plotter's home. Goal: pen-up <= 0.97 x ``linesort --two-opt`` on every drawing, in <=
+1/3 of its time. Timings share 2 cores with other work.
+
+Usage: ``python bench/optimize.py [--hatched PYTHON] [--repeats N]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from skimage import data, measure
+
+from pencilbot.export.svg import read_svg
+from pencilbot.imaging.io import image_from_array
+from pencilbot.machine.bed import Placement
+from pencilbot.machine.profile import load_profile
+from pencilbot.planning.build import make_plan
+from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.optimize import reorder_plan
+from pencilbot.planning.plan import Layer, Plan
+from pencilbot.planning.stats import estimate
+
+PROFILE = "grbl-servo-a4"
+PEN = 0.5
+GOALS = {"pen_up_vs_two_opt_max": 0.97, "cpu_vs_two_opt_max": 1 / 3}
+
+
+def coffee_layout():
+    grey = data.coffee().mean(axis=2) / 255.0
+    page = page_size("A4", "auto", grey.shape, 15.0)
+    return grey, Layout.fit(grey.shape, page)
+
+
+def shuffled() -> Plan:
+    plan = make_plan(image_from_array(data.coffee(), source="coffee"))
+    rng = np.random.default_rng(0)
+    layers = []
+    for layer in plan.layers:
+        paths = list(layer.paths)
+        order = rng.permutation(len(paths))
+        layers.append(Layer(layer.name, [paths[i][::-1] if rng.random() < 0.5 else paths[i] for i in order],
+                            pen_width=PEN))
+    return Plan(plan.page, layers)
+
+
+def hatching() -> Plan:
+    """Three levels of diagonal hatching over the dark parts, scan order, one layer."""
+    grey, layout = coffee_layout()
+    h, w = grey.shape
+    lines = []
+    pitch = 1.0 / layout.mm_per_px  # 1 mm apart at plot scale, hatched's pitch for a 0.5 mm pen
+    for threshold, angle, spacing in ((0.75, 45, pitch), (0.5, 135, pitch), (0.25, 45, pitch / 2)):
+        dark = grey < threshold
+        direction = np.array([np.cos(np.radians(angle)), np.sin(np.radians(angle))])
+        normal = np.array([-direction[1], direction[0]])
+        corners = np.array([[0, 0], [w, 0], [0, h], [w, h]], float)
+        for offset in np.arange((corners @ normal).min(), (corners @ normal).max(), spacing):
+            t = np.arange((corners @ direction).min(), (corners @ direction).max(), 0.5)
+            xy = offset * normal + t[:, None] * direction
+            inside = (xy[:, 0] >= 0) & (xy[:, 0] < w) & (xy[:, 1] >= 0) & (xy[:, 1] < h)
+            on = np.zeros(len(t), bool)
+            on[inside] = dark[xy[inside, 1].astype(int), xy[inside, 0].astype(int)]
+            edges = np.flatnonzero(np.diff(np.concatenate([[0], on.astype(np.int8), [0]])))
+            for a, b in zip(edges[::2], edges[1::2] - 1):
+                if b > a:
+                    lines.append(layout.px_to_mm(xy[[a, b]]))
+    return Plan(layout.page, [Layer("hatching", lines, pen_width=PEN)])
+
+
+def real_hatched(python: str) -> Plan:
+    """hatched 0.2's own SVG of the photo (run in ``python``), read as pencilbot reads any SVG."""
+    shim = """
+import sys, numpy as np, cv2, hatched
+from shapely.geometry import MultiLineString
+def lines_of(geometry=None):  # hatched 0.2 builds empty levels from empty arrays, which shapely 2 refuses
+    if geometry is None or (isinstance(geometry, np.ndarray) and geometry.size == 0):
+        return MultiLineString()
+    if hasattr(geometry, "geoms") and not isinstance(geometry, MultiLineString):
+        return MultiLineString([g for g in geometry.geoms if g.geom_type == "LineString"])
+    return MultiLineString(geometry)
+hatched.hatched.MultiLineString = lines_of
+hatched.hatch(sys.argv[1], hatch_pitch=float(sys.argv[2]), show_plot=False, save_svg=True)
+"""
+    import cv2
+
+    grey, layout = coffee_layout()
+    with tempfile.TemporaryDirectory() as tmp:
+        photo = Path(tmp) / "coffee.png"
+        cv2.imwrite(str(photo), np.rint(grey * 255).astype(np.uint8))
+        subprocess.run([python, "-c", shim, str(photo), str(1.0 / layout.mm_per_px)], check=True,
+                       capture_output=True, timeout=600)
+        drawn = read_svg(photo.with_suffix(".svg"), dpi=25.4 / layout.mm_per_px)  # 1 user unit = 1 px
+    return Plan(drawn.page, [Layer("hatching", layer.paths, pen_width=PEN) for layer in drawn.layers])
+
+
+def contours() -> Plan:
+    """Iso-contours at 8 levels, cut into pieces, in the order traced, one layer."""
+    grey, layout = coffee_layout()
+    pieces = []
+    for level in np.linspace(0.15, 0.85, 8):
+        for contour in measure.find_contours(grey, level):
+            xy = contour[:, ::-1]  # (row, col) → (col, row)
+            for start in range(0, len(xy) - 1, 29):
+                piece = xy[start : start + 30]
+                if len(piece) > 1:
+                    pieces.append(layout.px_to_mm(piece))
+    return Plan(layout.page, [Layer("contours", pieces, pen_width=PEN)])
+
+
+def timed(work, repeats: int):
+    """``work()``'s result and its median CPU seconds over ``repeats`` runs."""
+    seconds = []
+    for _ in range(repeats):
+        started = time.process_time()
+        result = work()
+        seconds.append(time.process_time() - started)
+    return result, statistics.median(seconds)
+
+
+def vpype_sorted(plan: Plan, home: np.ndarray, repeats: int, *options: str) -> tuple[Plan, float]:
+    """Each layer through vpype's ``linesort``, which starts at its origin (put at ``home``); its CPU seconds."""
+    import vpype
+    import vpype_cli
+
+    def run():
+        document = vpype.Document()
+        for lid, layer in enumerate(plan.layers, start=1):
+            document.add(vpype.LineCollection([(p[:, 0] - home[0]) + 1j * (p[:, 1] - home[1]) for p in layer.paths]), lid)
+        return vpype_cli.execute(" ".join(["linesort", *options]), document=document)
+
+    document, seconds = timed(run, repeats)
+    layers = [Layer(layer.name, [np.column_stack([line.real, line.imag]) + home for line in document.layers[lid]],
+                    pen_width=layer.pen_width) for lid, layer in enumerate(plan.layers, start=1)]
+    return Plan(plan.page, layers), seconds
+
+
+def figures(plan: Plan, profile) -> dict:
+    total = estimate(plan, profile).total
+    return {"pen_up_m": round(total.pen_up_mm / 1000, 3), "plot_s": round(total.seconds, 1), "lifts": total.lifts}
+
+
+def compare(plan: Plan, profile, repeats: int) -> dict:
+    # vpype drops one-point paths: they leave every tool's result alike.
+    plan = Plan(plan.page, [Layer(l.name, [p for p in l.paths if len(p) > 1], pen_width=l.pen_width) for l in plan.layers])
+    home = Placement.on_bed(plan.page, profile.bed).home()
+    row = {"paths": len(plan.paths()), "as_written": figures(plan, profile)}
+    greedy, greedy_s = vpype_sorted(plan, home, repeats)
+    row["vpype_linesort"] = {**figures(greedy, profile), "cpu_s": round(greedy_s, 3)}
+    two_opt, two_opt_s = vpype_sorted(plan, home, repeats, "--two-opt")
+    row["vpype_linesort_two_opt"] = {**figures(two_opt, profile), "cpu_s": round(two_opt_s, 3)}
+    ours, ours_s = timed(lambda: reorder_plan(plan, start=tuple(home)), repeats)
+    row["pencilbot_optimize"] = {**figures(ours.plan, profile), "cpu_s": round(ours_s, 3), "specks_dropped": ours.specks}
+    pen_up = row["pencilbot_optimize"]["pen_up_m"] / row["vpype_linesort_two_opt"]["pen_up_m"]
+    cpu = ours_s / two_opt_s
+    row["vs_two_opt"] = {"pen_up": round(pen_up, 3), "cpu": round(cpu, 3),
+                         "met": pen_up <= GOALS["pen_up_vs_two_opt_max"] and cpu <= GOALS["cpu_vs_two_opt_max"]}
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--hatched", metavar="PYTHON", help="a Python with hatched installed: use its real output")
+    parser.add_argument("--repeats", type=int, default=3, help="runs of each tool; the median CPU time is reported")
+    args = parser.parse_args()
+    profile = load_profile(PROFILE)
+    drawings = {"shuffled": shuffled(), "hatching": real_hatched(args.hatched) if args.hatched else hatching(),
+                "contours": contours()}
+    report = {"setup": f"coffee on A4 auto, 15 mm margins, {PEN} mm pen, {PROFILE}; CPU seconds of the "
+                       f"reordering alone, median of {args.repeats} runs",
+              "hatching_from": "hatched 0.2" if args.hatched else "hatched's method, in this script",
+              "goals": GOALS}
+    for name, plan in drawings.items():
+        report[name] = compare(plan, profile, args.repeats)
+        print(f"{name}: done", file=sys.stderr)
+    report["all_met"] = all(report[name]["vs_two_opt"]["met"] for name in drawings)
+    print(json.dumps(report, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,49 @@
+"""What a G-code job draws: its pen-down polylines, whole arrays at once.
+
+The job's modal state after every line (:func:`pencilbot.driver.modal.track`, which reads the pen
+the way the profile's pen model says) gives where the pen is and whether it is down, from the
+first line that changes the pen on (before it the pen's height is unknown). A path starts
+where the pen goes down and takes every point the pen then moves to until it lifts; a pen that goes
+down and up without moving draws a dot. Arcs (``G2``/``G3``) count as a straight move to their end.
+Any program works, pencilbot's own or another tool's, in mm or inches, absolute or relative.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pencilbot.driver.job import Job
+from pencilbot.paths import Paths
+from pencilbot.units import MM_PER_INCH
+
+
+def drawn_paths(job: Job) -> Paths:
+    """The pen-down paths of ``job`` in machine mm, in the order they are drawn.
+
+    Parameters
+    ----------
+    job : Job
+        A loaded G-code job (:func:`pencilbot.driver.job.load_job`); its profile's pen model
+        says which commands put the pen down.
+
+    Returns
+    -------
+    Paths
+        Machine X and Y in mm; empty if the pen never goes down.
+    """
+    if not len(job):
+        return Paths.empty()
+    states = job.states(0, len(job)).columns
+    scale = np.where(states["inches"], MM_PER_INCH, 1.0)
+    xy = np.column_stack([states["x"] * scale, states["y"] * scale])
+    down = states["pen_down"].astype(bool)
+    # Until the program first changes the pen, where it is is unknown (a Z pen at the power-up
+    # height 0 reads as down): those lines draw nothing.
+    down &= np.cumsum(down != down[0]) > 0
+    before = np.concatenate([[False], down[:-1]])
+    moved = np.any(np.diff(xy, axis=0, prepend=xy[:1]) != 0, axis=1)
+    starts = down & ~before  # the pen touches the paper here
+    drawn = down & before & moved  # and goes on to each of these points
+    points = xy[starts | drawn]
+    first = np.flatnonzero(starts[starts | drawn])
+    return Paths(points, np.append(first, len(points))) if len(points) else Paths.empty()

@@ -1,0 +1,139 @@
+"""Reordering a finished drawing for the plotter: drop covered specks, order, join what touches.
+
+A drawing made by another tool (a hatching or contour tracer, Inkscape) keeps the order it was
+generated in, which can double the pen-up travel. Each layer, in its place and starting where
+the previous one ended (the first at the plotter's home), is reordered with
+:func:`~pencilbot.planning.ordering.order_paths`: paths may be reversed, and paths whose ends
+come within the pen width of each other are joined with a pen-down move, which draws no more
+than the round pen tips already cover. Specks, paths shorter than the pen width lying within
+half a pen width of another path, are dropped: the other path's ink already covers them, and
+each would cost a lift. An isolated dot stays (a stipple is made of them).
+
+Nothing else changes: every segment of every other path is drawn exactly once, and a layer whose
+new order would travel further than the file's own keeps the file's.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from pencilbot.paths import Paths
+from pencilbot.planning.ordering import order_paths
+from pencilbot.planning.plan import Plan
+
+_NEAREST = 16  # pieces of ink looked at around each point of a speck
+#: Improvement rounds per layer: two passes take most of the gain of forty at a fifth of the
+#: work (bench/optimize.py), and keep even a small drawing within a third of the time of vpype's
+#: ``linesort --two-opt``; ``pencilbot optimize --rounds`` buys the rest.
+REORDER_ROUNDS = 2
+
+
+@dataclass(frozen=True)
+class Reordering:
+    """What :func:`reorder_plan` made: the plan, and how many specks it dropped."""
+
+    plan: Plan
+    specks: int
+
+
+def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds: int = REORDER_ROUNDS) -> Reordering:
+    """Reorder every layer of ``plan`` for short pen-up travel, joining and dropping as above.
+
+    Parameters
+    ----------
+    plan : Plan
+    start : (float, float), optional
+        Where the pen stands before the first layer, page mm (the plotter's home there).
+    rounds : int, optional
+        Improvement work per layer (see :func:`~pencilbot.planning.ordering.order_paths`).
+
+    Returns
+    -------
+    Reordering
+        The layers in their order, each reordered; pen-up travel (from ``start`` and back)
+        never longer than ``plan``'s.
+    """
+    layers, dropped, position = [], 0, tuple(start)
+    for layer in plan.layers:
+        speck = specks(layer.paths, layer.pen_width)
+        kept = _select(layer.paths, ~speck)
+        ordered = Paths.of(order_paths(
+            kept, start=position, join_tolerance=layer.pen_width, pen_width=layer.pen_width, rounds=rounds))
+        if len(layer.paths) and pen_up_length(ordered, position) > pen_up_length(layer.paths, position):
+            ordered, kept = layer.paths, layer.paths  # the file's own order is the shorter
+        dropped += len(layer.paths) - len(kept)
+        layers.append(replace(layer, paths=ordered))
+        if len(ordered):
+            position = tuple(ordered.points[-1])
+    result = replace(plan, layers=layers)
+    if pen_up_length(result.paths(), start) > pen_up_length(plan.paths(), start):
+        return Reordering(plan, 0)  # the layers' new ends lengthened the moves between them
+    return Reordering(result, dropped)
+
+
+def pen_up_length(paths: Paths, start: tuple[float, float]) -> float:
+    """Pen-up travel in mm: from ``start`` to the first path, between paths, and back to ``start``."""
+    home = np.asarray(start, np.float64).reshape(1, 2)
+    tails = np.concatenate([home, paths.lasts])
+    heads = np.concatenate([paths.firsts, home])
+    return float(np.hypot(*(heads - tails).T).sum())
+
+
+def specks(paths: Paths, pen_width: float) -> np.ndarray:
+    """Which of ``paths`` are specks: shorter than ``pen_width`` (mm), every point within half a
+    pen width of another, longer path. ``(P,)`` bool.
+
+    The other paths are cut into pieces no longer than the pen width, so a piece within half a
+    pen width of a point has its midpoint within one pen width; the exact point-to-piece distance
+    of the nearest few decides.
+    """
+    none = np.zeros(len(paths), bool)
+    if len(paths) < 2:
+        return none
+    step = np.diff(paths.points, axis=0)
+    owner = paths.owners()
+    within = owner[1:] == owner[:-1]
+    seg_length = np.where(within, np.hypot(*step.T), 0.0)
+    length = np.bincount(owner[1:], weights=seg_length, minlength=len(paths))
+    short = length < pen_width
+    if not short.any() or short.all():
+        return none
+    # Pieces of the longer paths' segments, each at most a pen width long.
+    long_segment = within & ~short[owner[1:]] & (seg_length > 0)
+    starts, vectors, lengths = paths.points[:-1][long_segment], step[long_segment], seg_length[long_segment]
+    cuts = np.ceil(lengths / pen_width).astype(np.int64)
+    segment = np.repeat(np.arange(len(cuts)), cuts)
+    index = np.arange(len(segment)) - np.repeat(np.cumsum(cuts) - cuts, cuts)
+    a = starts[segment] + vectors[segment] * (index / cuts[segment])[:, None]
+    b = starts[segment] + vectors[segment] * ((index + 1) / cuts[segment])[:, None]
+    tree = cKDTree((a + b) / 2)
+    candidate_points = short[owner]
+    query = paths.points[candidate_points]
+    k = min(_NEAREST, len(a))
+    distance, nearest = tree.query(query, k=k, distance_upper_bound=pen_width)
+    distance, nearest = distance.reshape(len(query), k), nearest.reshape(len(query), k)
+    found = np.isfinite(distance)
+    pieces = np.where(found, nearest, 0)
+    gap = _point_segment_distance(query[:, None, :], a[pieces], b[pieces])
+    covered_point = np.any(found & (gap <= pen_width / 2), axis=1)
+    # A speck is dropped when all its points are covered.
+    uncovered = np.bincount(owner[candidate_points], weights=~covered_point, minlength=len(paths))
+    return short & (uncovered == 0)
+
+
+def _select(paths: Paths, keep: np.ndarray) -> Paths:
+    """The paths where ``keep`` (``(P,)`` bool) is true, in order."""
+    if keep.all():
+        return paths
+    return Paths(paths.points[keep[paths.owners()]], np.concatenate([[0], np.cumsum(paths.lengths[keep])]))
+
+
+def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Distance from points ``p`` to segments ``a``–``b`` (broadcast over leading axes), mm."""
+    ab = b - a
+    squared = np.einsum("...i,...i->...", ab, ab)
+    t = np.clip(np.einsum("...i,...i->...", p - a, ab) / np.where(squared > 0, squared, 1.0), 0.0, 1.0)
+    return np.hypot(*np.moveaxis(p - (a + ab * t[..., None]), -1, 0))

@@ -1,0 +1,101 @@
+"""``vpype pencilbot PHOTO``: pencilbot's drawing of a photo as layers of a vpype pipeline.
+
+Registered as a vpype plugin through the ``vpype.plugins`` entry point (``pip install
+"pencilbot[vpype]"``), so a photo goes into any pipeline::
+
+    vpype pencilbot photo.jpg linesimplify gwrite --profile my_plotter out.gcode
+    vpype pencilbot --no-hatch --pen-width 0.3 photo.jpg write out.svg
+
+(vpype's commands take their options before their arguments.)
+The plan is made exactly as ``pencilbot plan`` makes it (the same options, in pencilbot's units:
+mm), and each of its layers — the hatch layers, lightest first, then ``edges`` — becomes a new
+vpype layer after the pipeline's own, with its name (``vp_name``), pen width (``vp_pen_width``)
+and colour (``vp_color``). vpype works in CSS pixels with Y down: the page's Y flip is applied
+here. A dot (a one-point path) becomes a zero-length line, which vpype keeps and draws as a dot.
+The page size is set unless the pipeline has set one.
+
+This module is a front end, as the commands are: it may use everything below them.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import click
+import numpy as np
+import vpype
+import vpype_cli
+
+from pencilbot.commands.common import photo_style, plan_photo
+from pencilbot.errors import PencilbotError
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
+from pencilbot.planning.layout import ORIENTATIONS
+from pencilbot.planning.plan import Plan
+from pencilbot.planning.style import default_style, list_styles, with_overrides
+from pencilbot.units import MM_PER_INCH
+
+PX_PER_MM = 96.0 / MM_PER_INCH  # vpype's unit is the CSS pixel
+#: The colour of every layer: pencilbot draws all of them with the one pen.
+PEN_COLOR = "black"
+
+
+@click.command("pencilbot")
+@click.argument("photo", type=vpype_cli.PathType(exists=True, dir_okay=False))
+@click.option("--style", metavar="NAME|FILE.toml", help=f"drawing style: {', '.join(list_styles())} or a .toml file "
+              f"(default: {default_style()})")
+@click.option("--page", metavar="A4|WxH", help="paper: A5, A4, A3, Letter or WxH in mm (default: the style's)")
+@click.option("--orientation", type=click.Choice(ORIENTATIONS), help="auto turns the sheet to suit the photo")
+@click.option("--margin", type=float, metavar="MM", help="blank border in mm (default: the style's)")
+@click.option("--pen-width", type=float, metavar="MM", help="pen line width in mm (default: the style's)")
+@click.option("--hatch/--no-hatch", default=None, help="draw the tone as hatching (default: as the style says)")
+@click.option("--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, show_default=True, help="refuse larger images")
+@click.option("--downscale", is_flag=True, help="shrink a too-large image instead")
+@vpype_cli.global_processor
+def pencilbot(document: vpype.Document, photo, style, page, orientation, margin, pen_width, hatch, max_pixels,
+              downscale) -> vpype.Document:
+    """Add pencilbot's pen drawing of PHOTO: its hatch layers and its edges, as new layers.
+
+    The options are `pencilbot plan`'s, in mm; each layer gets its name, pen width and colour.
+    """
+    sheet = argparse.Namespace(style=style, page=page, orientation=orientation, margin=margin, pen_width=pen_width)
+    try:
+        chosen = photo_style(sheet)
+        if hatch is not None:
+            chosen = with_overrides(chosen, {"hatch": hatch}, where="--hatch")
+        plan = plan_photo(photo, chosen, max_pixels=max_pixels, downscale=downscale)
+    except PencilbotError as err:
+        raise click.ClickException(str(err)) from None
+    return add_plan(document, plan)
+
+
+def add_plan(document: vpype.Document, plan: Plan) -> vpype.Document:
+    """``document`` with every layer of ``plan`` added after its own layers (see the module).
+
+    Parameters
+    ----------
+    document : vpype.Document
+    plan : Plan
+        Page mm, Y up.
+
+    Returns
+    -------
+    vpype.Document
+        The same document, its page size set from the plan's page unless it had one.
+    """
+    height = plan.page.height
+    lid = max(document.layers, default=0)
+    for layer in plan.layers:
+        lines = [path if len(path) > 1 else np.vstack([path, path]) for path in layer.paths]
+        lines = [(p[:, 0] + 1j * (height - p[:, 1])) * PX_PER_MM for p in lines]
+        lid += 1
+        document.add(vpype.LineCollection(lines), lid)
+        added = document.layers[lid]
+        added.set_property(vpype.METADATA_FIELD_NAME, layer.name)
+        added.set_property(vpype.METADATA_FIELD_PEN_WIDTH, layer.pen_width * PX_PER_MM)
+        added.set_property(vpype.METADATA_FIELD_COLOR, vpype.Color(PEN_COLOR))
+    if document.page_size is None:
+        document.page_size = (plan.page.width * PX_PER_MM, height * PX_PER_MM)
+    return document
+
+
+pencilbot.help_group = "Plugins"
