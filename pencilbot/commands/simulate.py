@@ -80,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         protocol_sim.forget(name)
     if not args.quiet:
-        strokes = len(plotter.machine.strokes)
+        strokes = len(plotter.machine.drawn())
         print(f"wrote {output}: {strokes} pen-down strokes, simulated drawing time "
               f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
     return 0
