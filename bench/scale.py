@@ -16,7 +16,19 @@ Stages and their targets (issue 16):
 * ``plan`` — ``pencilbot plan PHOTO.jpg`` on A4 (default style) from 0.1 to 24 MP: <= 1.5 s CPU
   beyond the 0.1 MP case and <= 350 MB peak at 24 MP;
 * ``sketch`` — ``pencilbot sketch PHOTO.jpg -o OUT.png`` from 0.12 to 12 MP (square, 3464² at
-  12 MP): <= 3 s CPU at 12 MP.
+  12 MP): <= 3 s CPU at 12 MP;
+* ``export`` — ``pencilbot export PLAN.svg`` of 10k to 1M random 1-5 mm strokes on A4
+  (bench/gcode.py's plan, written by ``write_svg``): <= 4 s CPU at 1M;
+* ``simulate`` — ``pencilbot simulate PLAN.svg --dpi D`` of 20 000 random 1-8 mm strokes on an A0
+  sheet on an A0 GRBL bed (850 x 1200 mm, the shipped servo profile enlarged), 60 to 600 dpi
+  (5.6 to 560 million bed pixels): <= 2 GB peak at 600 dpi; the exponent is over bed pixels;
+* ``draw`` — ``pencilbot draw JOB.gcode --port /dev/pts/N`` of bench/gcode.py's plan, 15k to
+  1.5M G-code lines, into a virtual plotter in a process of its own (``pencilbot sim-serve``,
+  instant): a real serial port, so the figures are the driver's alone. ``bytes_per_line`` is
+  the slope of its peak memory over lines (<= 120); ``lines_per_cpu_s`` its CPU throughput.
+  ``traced_bytes_per_line`` is one more run, of ``draw`` over ``sim://`` (the virtual plotter in
+  the same process, as ``pencilbot draw --port sim://`` and ``simulate`` run it) at 150k lines:
+  what is held when it ends, per line, by the module that allocated it (tracemalloc).
 
 Photos are skimage's astronaut enlarged (cubic) and saved as JPEG quality 90, like a camera's.
 A new stage is one function decorated with ``@stage(...)``: it gets a size and a scratch folder
@@ -29,6 +41,7 @@ cores with other work: the median of ``--repeats`` runs is reported.
 from __future__ import annotations
 
 import argparse
+import atexit
 import json
 import math
 import os
@@ -54,16 +67,19 @@ class Stage:
     quick_sizes: tuple[int, ...]
     command: Callable[[int, Path], list[str]]
     summary: Callable[[list[dict]], dict]
+    extra: Callable[[Path], dict] | None = None
 
 
 STAGES: dict[str, Stage] = {}
 
 
-def stage(name: str, *, unit: str, sizes: tuple[int, ...], quick: tuple[int, ...], summary: Callable):
-    """Register ``command(size, scratch) -> argv`` as stage ``name``."""
+def stage(name: str, *, unit: str, sizes: tuple[int, ...], quick: tuple[int, ...], summary: Callable,
+          extra: Callable[[Path], dict] | None = None):
+    """Register ``command(size, scratch) -> argv`` as stage ``name`` (``extra(scratch)``: more
+    figures from runs of its own)."""
 
     def register(command: Callable[[int, Path], list[str]]) -> Callable[[int, Path], list[str]]:
-        STAGES[name] = Stage(name, unit, sizes, quick, command, summary)
+        STAGES[name] = Stage(name, unit, sizes, quick, command, summary, extra)
         return command
 
     return register
@@ -110,7 +126,8 @@ def run_stage(stage_: Stage, sizes: tuple[int, ...], repeats: int, scratch: Path
         row = {key: statistics.median(r[key] for r in results) if key.endswith("_s") or key == "peak_rss_mb"
                else value for key, value in results[0].items()}
         runs.append({stage_.unit: size, **row})
-    return {"unit": stage_.unit, "runs": runs, **stage_.summary(runs)}
+    extra = stage_.extra(scratch) if stage_.extra else {}
+    return {"unit": stage_.unit, "runs": runs, **stage_.summary(runs), **extra}
 
 
 def _child(argv: list[str]) -> list[str]:
@@ -228,11 +245,15 @@ def photo_child(spec: str) -> None:
     cv2.imwrite(path, cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])
 
 
-def _photo_summary(target_size: int, cpu_max: float | None, extra_cpu_max: float | None, rss_max: float | None):
+def _command_summary(target_size: int, cpu_max: float | None, extra_cpu_max: float | None, rss_max: float | None,
+                     unit: str = "pixels", size_of: Callable[[int], float] = float):
+    """Exponent of CPU over ``size_of(size)``; targets at ``target_size``: CPU, CPU beyond the
+    smallest size, peak memory."""
+
     def summary(runs: list[dict]) -> dict:
-        at = {r["pixels"]: r for r in runs}
+        at = {r[unit]: r for r in runs}
         smallest, largest = runs[0], at.get(target_size)
-        figures = {"exponent_all": exponent([r["pixels"] for r in runs], [r["process_cpu_s"] for r in runs])}
+        figures = {"exponent_all": exponent([size_of(r[unit]) for r in runs], [r["process_cpu_s"] for r in runs])}
         targets, met = {}, {}
         if largest is not None:
             figures["cpu_s_beyond_smallest"] = round(largest["process_cpu_s"] - smallest["process_cpu_s"], 3)
@@ -252,18 +273,151 @@ def _photo_summary(target_size: int, cpu_max: float | None, extra_cpu_max: float
 
 @stage("plan", unit="pixels", sizes=(100_000, 400_000, 1_500_000, 6_000_000, 24_000_000),
        quick=(100_000, 1_500_000, 6_000_000, 24_000_000),
-       summary=_photo_summary(24_000_000, None, 1.5, 350))
+       summary=_command_summary(24_000_000, None, 1.5, 350))
 def plan_command(size: int, scratch: Path) -> list[str]:
     return _pencilbot("plan", str(photo(size, 1.5, scratch)), "-o", str(scratch / "plan.svg"), "-q", "--page", "A4")
 
 
 @stage("sketch", unit="pixels", sizes=(120_000, 500_000, 2_000_000, 5_000_000, 12_000_000),
-       quick=(120_000, 2_000_000, 12_000_000), summary=_photo_summary(12_000_000, 3.0, None, None))
+       quick=(120_000, 2_000_000, 12_000_000), summary=_command_summary(12_000_000, 3.0, None, None))
 def sketch_command(size: int, scratch: Path) -> list[str]:
     return _pencilbot("sketch", str(photo(size, 1.0, scratch)), "-o", str(scratch / "sketch.png"), "-q")
 
 
-CHILDREN = {"ordering": lambda size: ordering_child(int(size)), "photo": photo_child}
+# -- stages on plans and G-code -----------------------------------------------------------------
+
+def made_by_child(kind: str, size: int, suffix: str, scratch: Path) -> Path:
+    """``scratch/KIND-SIZE.SUFFIX``, made once by a child process (so this process stays small)."""
+    path = scratch / f"{kind}-{size}{suffix}"
+    if not path.exists():
+        subprocess.run(_child([kind, f"{size}:{path}"]), check=True)
+    return path
+
+
+def plan_svg_child(spec: str) -> None:
+    """bench/gcode.py's plan of SIZE random strokes on A4, as pencilbot's plan SVG."""
+    from pencilbot.export.svg import write_svg
+
+    size, path = spec.split(":", 1)
+    sys.path.insert(0, str(HERE))
+    from gcode import stroke_plan
+
+    write_svg(stroke_plan(int(size)), path)
+
+
+def job_gcode_child(spec: str) -> None:
+    """bench/gcode.py's plan of SIZE random strokes on A4 as G-code for grbl-servo-a4."""
+    from pencilbot.export.gcode import write_gcode
+    from pencilbot.machine.profile import load_profile
+
+    size, path = spec.split(":", 1)
+    sys.path.insert(0, str(HERE))
+    from gcode import stroke_plan
+
+    write_gcode(stroke_plan(int(size)), load_profile("grbl-servo-a4"), path)
+
+
+A0_BED = (850.0, 1200.0)  # mm
+A0_STROKES = 20_000
+
+
+def a0_child(spec: str) -> None:
+    """An A0 GRBL profile (the shipped servo one, bed enlarged) and a plan of SIZE strokes on A0."""
+    import numpy as np
+
+    from pencilbot.export.svg import write_svg
+    from pencilbot.planning.plan import Layer, Page, Plan
+
+    size, path = spec.split(":", 1)
+    shipped = (HERE.parent / "configs" / "plotters" / "grbl-servo-a4.toml").read_text()
+    profile = shipped.replace('name = "grbl-servo-a4"', 'name = "grbl-servo-a0"')
+    profile = profile.replace("width = 220.0 ", f"width = {A0_BED[0]} ").replace("height = 310.0 ", f"height = {A0_BED[1]} ")
+    Path(path).with_suffix(".toml").write_text(profile)
+    rng = np.random.default_rng(0)
+    n = int(size)
+    start = rng.uniform([20, 20], [821, 1169], size=(n, 2))
+    angle, length = rng.uniform(0, np.pi, n), rng.uniform(1, 8, n)
+    end = start + length[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
+    write_svg(Plan(Page(841.0, 1189.0, name="A0"), [Layer("strokes", list(np.stack([start, end], axis=1)))]), path)
+
+
+@stage("export", unit="strokes", sizes=(10_000, 30_000, 100_000, 300_000, 1_000_000),
+       quick=(10_000, 100_000, 300_000, 1_000_000),
+       summary=_command_summary(1_000_000, 4.0, None, None, unit="strokes"))
+def export_command(size: int, scratch: Path) -> list[str]:
+    svg = made_by_child("plan_svg", size, ".svg", scratch)
+    return _pencilbot("export", str(svg), "-o", str(scratch / "plan.gcode"), "-q", "--profile", "grbl-servo-a4")
+
+
+def _bed_pixels(dpi: float) -> float:
+    return math.ceil(A0_BED[0] / 25.4 * dpi) * math.ceil(A0_BED[1] / 25.4 * dpi)
+
+
+@stage("simulate", unit="dpi", sizes=(60, 120, 300, 600), quick=(60, 300, 600),
+       summary=_command_summary(600, None, None, 2048, unit="dpi", size_of=_bed_pixels))
+def simulate_command(size: int, scratch: Path) -> list[str]:
+    svg = made_by_child("a0", A0_STROKES, ".svg", scratch)
+    return _pencilbot("simulate", str(svg), "-o", str(scratch / "a0.png"), "-q", "--dpi", str(size),
+                      "--profile", str(svg.with_suffix(".toml")))
+
+
+def _draw_summary(runs: list[dict]) -> dict:
+    small, big = runs[0], runs[-1]
+    per_line = (big["peak_rss_mb"] - small["peak_rss_mb"]) * 2**20 / (big["lines"] - small["lines"])
+    return {"exponent_all": exponent([r["lines"] for r in runs], [r["process_cpu_s"] for r in runs]),
+            "bytes_per_line": round(per_line, 1),
+            "lines_per_cpu_s": round(big["lines"] / big["process_cpu_s"]),
+            "targets": {"bytes_per_line_max": 120}, "met": {"bytes_per_line": per_line <= 120}}
+
+
+_SERVER: dict[str, str] = {}  # the one `pencilbot sim-serve` of a draw stage: its pty, once started
+
+
+def _plotter_port() -> str:
+    """The pty of a virtual plotter in its own process (started once, stopped when the bench ends)."""
+    if not _SERVER:
+        server = subprocess.Popen(_pencilbot("sim-serve", "--realtime", "0", "--power", "keep", "--abort", "keep",
+                                             "-q"), stdout=subprocess.PIPE, text=True)
+        atexit.register(lambda: (server.terminate(), server.wait()))
+        _SERVER["port"] = server.stdout.readline().strip()  # it prints its device path first
+    return _SERVER["port"]
+
+
+def _draw_traced(scratch: Path) -> dict:
+    job = made_by_child("job_gcode", 25_000, ".gcode", scratch)
+    return {"traced_bytes_per_line": measure(_child(["draw_traced", str(job)]))}
+
+
+@stage("draw", unit="lines", sizes=(15_014, 50_014, 150_014, 1_500_014), quick=(15_014, 150_014, 1_500_014),
+       summary=_draw_summary, extra=_draw_traced)
+def draw_command(size: int, scratch: Path) -> list[str]:
+    job = made_by_child("job_gcode", (size - 14) // 6, ".gcode", scratch)  # 6 lines a stroke, 14 around
+    return _pencilbot("draw", str(job), "--port", _plotter_port(), "-q")
+
+
+def draw_traced_child(job: str) -> dict:
+    """Bytes per line held after ``draw`` of ``job`` over sim://, by the part that holds them."""
+    import tracemalloc
+
+    import sim
+    from pencilbot.driver import draw
+
+    sim.register()
+    program = Path(job).read_bytes()
+    lines = program.count(b"\n")
+    tracemalloc.start()
+    draw(program, "sim://traced", profile="grbl-servo-a4", progress="quiet")
+    snapshot = tracemalloc.take_snapshot()
+    parts: dict[str, int] = {}
+    for stat in snapshot.statistics("filename"):
+        name = stat.traceback[0].filename
+        part = next((p for p in ("sim/firmware.py", "sim/", "pencilbot/driver/", "pencilbot/") if p in name), "other")
+        parts[part] = parts.get(part, 0) + stat.size
+    return {"lines": lines, **{part: round(size / lines, 1) for part, size in sorted(parts.items())}}
+
+
+CHILDREN = {"ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
+            "job_gcode": job_gcode_child, "a0": a0_child, "draw_traced": draw_traced_child}
 
 
 def main() -> None:

@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import BinaryIO
 
 from pencilbot.errors import PencilbotError
 
@@ -31,6 +34,22 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
     PencilbotError
         The folder does not exist or cannot be written.
     """
+    with atomic_writer(path) as handle:
+        handle.write(data)
+
+
+@contextmanager
+def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
+    """A binary file to write ``path`` piece by piece; renamed into place when the block ends.
+
+    What :func:`write_atomic` does for data that is made as it is written (a PNG band by band):
+    if the block raises, the temporary file is removed and ``path`` is left as it was.
+
+    Raises
+    ------
+    PencilbotError
+        The folder does not exist or cannot be written.
+    """
     target = Path(path)
     folder = target.parent
     if not folder.is_dir():
@@ -41,7 +60,7 @@ def write_atomic(path: str | os.PathLike, data: bytes) -> None:
         raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the folder's permissions") from None
     try:
         with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
+            yield handle
             os.fchmod(handle.fileno(), _MODE)
         os.replace(tmp, target)
     except BaseException as exc:

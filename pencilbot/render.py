@@ -21,6 +21,10 @@ segment's own frame (offsets of a few pixels, so float32 keeps ~1e-7 accuracy) o
 dense blocks. "Once per path" is a group-max per (path, pixel), found with one ``np.maximum.at``
 into a page-sized buffer (sorting only where separate paths overlap). Work is chunked to bound
 memory; a path longer than a chunk keeps its per-pixel maximum open until it ends.
+
+A sheet too large to hold (an A0 bed at 600 dpi is 0.56 gigapixels) is inked a band of rows at a
+time (:class:`Bands`, :func:`render_band`) and streamed into a PNG (:func:`save_drawing_png`):
+each band's pixels sit where the whole sheet puts them, so they get the same coverage.
 """
 
 from __future__ import annotations
@@ -28,12 +32,11 @@ from __future__ import annotations
 import os
 from collections.abc import Sequence
 
-import cv2
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.png import write_png_bands
 from pencilbot.units import MM_PER_INCH
 
 # Candidates per chunk: its inked pixels (~30 bytes each) stay near 50 MB; larger chunks measured
@@ -44,6 +47,9 @@ _BATCH_CANDIDATES = 32_768
 # Coverage is clipped below 1 so log(1 − c) stays finite; 1e-9 is far below 8-bit resolution.
 _MAX_COVERAGE = 1.0 - 1e-9
 TRAVEL_RGB = (220, 40, 40)  # pen-up overlay colour in previews
+#: Pixels in one band of a banded render (:class:`Bands`): about 24 bytes each while it is
+#: inked (its log-transmittance and two scratch buffers, float64), so about 100 MB a band.
+BAND_PIXELS = 4_000_000
 
 
 class Canvas:
@@ -76,28 +82,16 @@ class Canvas:
         pen_width: float = DEFAULT_PEN_WIDTH,
         origin: tuple[float, float] = (0.0, 0.0),
     ) -> None:
-        if not (width_mm > 0 and height_mm > 0 and dpi > 0 and pen_width > 0):
-            raise PencilbotError(
-                f"cannot make a canvas of {width_mm} x {height_mm} mm at {dpi} dpi with a "
-                f"{pen_width} mm pen: sizes, dpi and pen width must all be positive"
-            )
-        self.width_mm = float(width_mm)
-        self.height_mm = float(height_mm)
-        self.dpi = float(dpi)
-        self.pen_width = float(pen_width)
+        self.mm_per_px, self.shape = sheet_pixels(width_mm, height_mm, dpi, pen_width)
+        self.width_mm, self.height_mm = float(width_mm), float(height_mm)
+        self.dpi, self.pen_width = float(dpi), float(pen_width)
         self.origin = (float(origin[0]), float(origin[1]))
-        self.mm_per_px = MM_PER_INCH / self.dpi
-        # A partial pixel at the edge still shows paper; 1e-6 absorbs float error in exact fits.
-        self.shape = (
-            int(np.ceil(self.height_mm / self.mm_per_px - 1e-6)),
-            int(np.ceil(self.width_mm / self.mm_per_px - 1e-6)),
-        )
         self._log_paper = np.zeros(self.shape, np.float64)  # Σ log(1 − coverage) of ink
         self._log_travel: np.ndarray | None = None
 
     @property
     def darkness(self) -> np.ndarray:
-        return np.abs(np.expm1(self._log_paper)).astype(np.float32)  # abs: no -0.0 on paper
+        return _darkness(self._log_paper)
 
     def draw_paths(self, paths: Paths | Sequence[np.ndarray], pen_width: float | None = None) -> None:
         """Ink pen-down paths (mm, Y up) with the canvas's pen or ``pen_width`` mm."""
@@ -108,30 +102,170 @@ class Canvas:
         if self._log_travel is None:
             self._log_travel = np.zeros(self.shape, np.float64)
         # Half the pen width, but at least a pixel so the overlay shows in coarse previews.
-        _accumulate(self._log_travel, Paths.of(paths), self._grid(max(self.pen_width / 2, self.mm_per_px)))
+        _accumulate(self._log_travel, Paths.of(paths), self._grid(travel_width(self.pen_width, self.mm_per_px)))
 
     def to_image(self) -> np.ndarray:
         """The sheet as uint8 (255 = paper): gray (H, W), or RGB (H, W, 3) with a travel overlay."""
-        paper = 255.0 * (1.0 - self.darkness)
-        if self._log_travel is None:
-            return np.rint(paper).astype(np.uint8)
-        travel = -np.expm1(self._log_travel)[..., None]
-        rgb = paper[..., None] * (1.0 - travel) + np.asarray(TRAVEL_RGB, np.float64) * travel
-        return np.rint(rgb).astype(np.uint8)
+        return _image(self._log_paper, self._log_travel)
 
     def save_png(self, path: str | os.PathLike) -> None:
         """Write :meth:`to_image` as a PNG, atomically (a temporary file renamed into place)."""
         image = self.to_image()
-        if image.ndim == 3:
-            image = image[..., ::-1]  # OpenCV writes BGR
-        ok, data = cv2.imencode(".png", image)
-        if not ok:  # pragma: no cover - encoding a uint8 array only fails on OOM
-            raise PencilbotError(f"could not encode the preview for {path}")
-        write_atomic(path, data.tobytes())
+        write_png_bands(path, image.shape, [image])
 
     def _grid(self, pen_width: float | None) -> _Grid:
         width = self.pen_width if pen_width is None else float(pen_width)
         return _Grid(self.shape, self.mm_per_px, self.origin, self.height_mm, width)
+
+
+def sheet_pixels(width_mm: float, height_mm: float, dpi: float, pen_width: float) -> tuple[float, tuple[int, int]]:
+    """Millimetres per pixel and ``(rows, columns)`` of a sheet rendered at ``dpi``.
+
+    Raises
+    ------
+    PencilbotError
+        A size, the dpi or the pen width is not positive.
+    """
+    if not (width_mm > 0 and height_mm > 0 and dpi > 0 and pen_width > 0):
+        raise PencilbotError(
+            f"cannot make a canvas of {width_mm} x {height_mm} mm at {dpi} dpi with a "
+            f"{pen_width} mm pen: sizes, dpi and pen width must all be positive"
+        )
+    mm_per_px = MM_PER_INCH / float(dpi)
+    # A partial pixel at the edge still shows paper; 1e-6 absorbs float error in exact fits.
+    shape = (int(np.ceil(height_mm / mm_per_px - 1e-6)), int(np.ceil(width_mm / mm_per_px - 1e-6)))
+    return mm_per_px, shape
+
+
+def travel_width(pen_width: float, mm_per_px: float) -> float:
+    """Line width (mm) of the pen-up overlay: half the pen, but at least a pixel so it shows."""
+    return max(pen_width / 2, mm_per_px)
+
+
+class Bands:
+    """Pen paths on a sheet, inked one band of rows at a time: memory follows a band, not the sheet.
+
+    The paths' segments are placed on the whole sheet's pixel grid once; each band inks only
+    those that reach it. A band's pixels get the coverage a whole-sheet :class:`Canvas` gives
+    them (the same arithmetic on the same positions; only the order in which separate paths'
+    log-transmittances are added can differ, by float64 rounding).
+
+    Parameters
+    ----------
+    paths : Paths or sequence of (N, 2) arrays
+        Pen-down paths, mm, Y up.
+    width_mm, height_mm, dpi, pen_width, origin
+        As for :class:`Canvas`.
+
+    Attributes
+    ----------
+    shape : (int, int)
+        The whole sheet's (rows, columns).
+    """
+
+    def __init__(
+        self,
+        paths: Paths | Sequence[np.ndarray],
+        width_mm: float,
+        height_mm: float,
+        *,
+        dpi: float = 100,
+        pen_width: float = DEFAULT_PEN_WIDTH,
+        origin: tuple[float, float] = (0.0, 0.0),
+    ) -> None:
+        self.mm_per_px, self.shape = sheet_pixels(width_mm, height_mm, dpi, pen_width)
+        origin = (float(origin[0]), float(origin[1]))
+        self._grid_args = (self.shape, self.mm_per_px, origin, float(height_mm), float(pen_width))
+        grid = _Grid(*self._grid_args)
+        paths = Paths.of(paths)
+        if len(paths):
+            a, b, self._path = _segments(paths)
+            self._a, self._b = grid.to_px(a), grid.to_px(b)
+        else:
+            self._a = self._b = np.zeros((0, 2))
+            self._path = np.zeros(0, np.intp)
+        # Rows a segment can ink: its ends' rows widened by the pen's radius and a pixel.
+        reach = grid.radius + 1.0
+        self._top = np.minimum(self._a[:, 1], self._b[:, 1]) - reach
+        self._bottom = np.maximum(self._a[:, 1], self._b[:, 1]) + reach
+
+    def log_transmittance(self, first: int, stop: int) -> np.ndarray:
+        """``Σ log(1 − coverage)`` of rows ``first:stop``, float64 ``(stop − first, W)``."""
+        if not 0 <= first < stop <= self.shape[0]:
+            raise ValueError(f"rows {first}:{stop} are not a band of the sheet's {self.shape[0]} rows")
+        grid = _Grid(*self._grid_args, rows=(first, stop))
+        log_paper = np.zeros(grid.band_shape, np.float64)
+        near = np.flatnonzero((self._bottom >= first) & (self._top < stop))
+        if len(near):
+            owner = self._path[near]
+            # Paths renumbered 0, 1, ... among those that reach the band (a chunk's path numbers
+            # must stay small, see _Paper.ink_once_per_path).
+            owner = np.cumsum(np.r_[0, owner[1:] != owner[:-1]])
+            _ink(log_paper, self._a[near], self._b[near], owner, grid)
+        return log_paper
+
+    def darkness(self, first: int, stop: int) -> np.ndarray:
+        """Darkness in [0, 1] of rows ``first:stop``, float32 ``(stop − first, W)``: the rows
+        ``first:stop`` of :func:`render_paths` of the same paths."""
+        return _darkness(self.log_transmittance(first, stop))
+
+
+def band_rows(columns: int, band_pixels: int | None = None) -> int:
+    """Rows per band so that a band holds about ``band_pixels`` (default :data:`BAND_PIXELS`)."""
+    return max(1, (BAND_PIXELS if band_pixels is None else band_pixels) // max(1, columns))
+
+
+def render_band(
+    paths: Paths | Sequence[np.ndarray],
+    rows: tuple[int, int],
+    width_mm: float,
+    height_mm: float,
+    *,
+    dpi: float = 100,
+    pen_width: float = DEFAULT_PEN_WIDTH,
+    origin: tuple[float, float] = (0.0, 0.0),
+) -> np.ndarray:
+    """Darkness (float32 in [0, 1]) of rows ``rows = (first, stop)`` of :func:`render_paths` of
+    the same arguments, without the rest of the sheet (see :class:`Bands` to render many bands
+    of the same paths)."""
+    return Bands(paths, width_mm, height_mm, dpi=dpi, pen_width=pen_width, origin=origin).darkness(*rows)
+
+
+def save_drawing_png(
+    path: str | os.PathLike,
+    paths: Paths | Sequence[np.ndarray],
+    width_mm: float,
+    height_mm: float,
+    *,
+    dpi: float = 100,
+    pen_width: float = DEFAULT_PEN_WIDTH,
+    travel: Paths | Sequence[np.ndarray] | None = None,
+    band_pixels: int | None = None,
+) -> tuple[int, int]:
+    """Render ``paths`` (and a pen-up ``travel`` overlay) band by band straight into a PNG.
+
+    The same picture :meth:`Canvas.save_png` writes for a canvas with these paths drawn (and
+    travel overlaid), with memory bounded by one band of ``band_pixels`` pixels
+    (:data:`BAND_PIXELS`, about 100 MB) whatever the sheet's size. Written atomically.
+
+    Returns
+    -------
+    (int, int)
+        The PNG's (rows, columns).
+    """
+    ink = Bands(paths, width_mm, height_mm, dpi=dpi, pen_width=pen_width)
+    moves = None if travel is None else Bands(
+        travel, width_mm, height_mm, dpi=dpi, pen_width=travel_width(pen_width, ink.mm_per_px))
+    rows, columns = ink.shape
+    step = band_rows(columns, band_pixels)
+
+    def bands():
+        for first in range(0, rows, step):
+            stop = min(first + step, rows)
+            yield _image(ink.log_transmittance(first, stop), None if moves is None else moves.log_transmittance(first, stop))
+
+    write_png_bands(path, ink.shape if travel is None else (rows, columns, 3), bands())
+    return ink.shape
 
 
 def render_paths(
@@ -149,11 +283,32 @@ def render_paths(
     return canvas.darkness
 
 
-class _Grid:
-    """Where page millimetres land on the pixel grid, and how wide the pen is in pixels."""
+def _darkness(log_paper: np.ndarray) -> np.ndarray:
+    return np.abs(np.expm1(log_paper)).astype(np.float32)  # abs: no -0.0 on paper
 
-    def __init__(self, shape, mm_per_px, origin, height_mm, pen_width) -> None:
+
+def _image(log_paper: np.ndarray, log_travel: np.ndarray | None) -> np.ndarray:
+    """uint8 picture (255 = paper) of log-transmittances: grey, or RGB with the travel overlay."""
+    paper = 255.0 * (1.0 - _darkness(log_paper))
+    if log_travel is None:
+        return np.rint(paper).astype(np.uint8)
+    travel = -np.expm1(log_travel)[..., None]
+    rgb = paper[..., None] * (1.0 - travel) + np.asarray(TRAVEL_RGB, np.float64) * travel
+    return np.rint(rgb).astype(np.uint8)
+
+
+class _Grid:
+    """Where page millimetres land on the pixel grid, and how wide the pen is in pixels.
+
+    ``rows`` = (first, stop) is the band of the sheet's rows being inked (default: all of them);
+    pixel positions stay those of the whole sheet, so a band's pixels get exactly the coverage
+    they get in a whole-sheet render.
+    """
+
+    def __init__(self, shape, mm_per_px, origin, height_mm, pen_width, rows=None) -> None:
         self.shape = shape
+        self.rows = (0, shape[0]) if rows is None else (int(rows[0]), int(rows[1]))
+        self.band_shape = (self.rows[1] - self.rows[0], shape[1])
         self.mm_per_px = mm_per_px
         self.origin = origin
         self.top = origin[1] + height_mm
@@ -171,7 +326,15 @@ def _accumulate(log_paper: np.ndarray, paths: Paths, grid: _Grid) -> None:
     if not len(paths):
         return
     a, b, seg_path = _segments(paths)
-    frames = _Frames(grid.to_px(a), grid.to_px(b), grid.radius)
+    _ink(log_paper, grid.to_px(a), grid.to_px(b), seg_path, grid)
+
+
+def _ink(log_paper: np.ndarray, a: np.ndarray, b: np.ndarray, seg_path: np.ndarray, grid: _Grid) -> None:
+    """Add ``Σ log(1 − coverage)`` of segments ``a → b`` (pixels, whole-sheet frame; consecutive
+    segments of one path share a non-decreasing ``seg_path``) to the band ``log_paper``."""
+    if not len(a):
+        return
+    frames = _Frames(a, b, grid.radius)
     # Chunks of about _CHUNK_CANDIDATES candidates (at least one segment each) bound memory.
     cum = np.cumsum(frames.candidates)
     cuts = np.searchsorted(cum, np.arange(_CHUNK_CANDIDATES, cum[-1], _CHUNK_CANDIDATES), side="right")
@@ -236,26 +399,31 @@ def _chunk_coverage(frames: _Frames, lo: int, hi: int, grid: _Grid):
     One segment inks each of its pixels once. Segments are grouped by (candidates per column,
     steep) so a block of columns is a dense ``(k, columns)`` array; blocks are cache-sized.
     """
-    h, w = grid.shape
+    w = grid.shape[1]
+    first, stop = grid.rows
     pixels, covers, segments = [], [], []
     segs = np.arange(lo, hi)
     group = frames.k[segs] * 2 + frames.steep[segs]
     for key in np.unique(group):
         k, steep = int(key) // 2, bool(key % 2)
-        u_size, v_size = (h, w) if steep else (w, h)
-        col = _Columns(frames, segs[group == key], u_size)
+        # A steep segment walks rows (u) across columns (v); a flat one the other way round.
+        u_span, (v_lo, v_hi) = ((first, stop), (0, w)) if steep else ((0, w), (first, stop))
+        col = _Columns(frames, segs[group == key], u_span)
         j = np.arange(k, dtype=np.float32)[:, None]
         jv = np.arange(k)[:, None]
-        pixel_step = 1 if steep else w  # flat-index step from one candidate of a column to the next
         step = max(1, _BATCH_CANDIDATES // k)
         for s in range(0, len(col.segment), step):
             c = col.block(s, s + step)
             cover = _capsule_coverage(j, c, frames.radius)
             inked = cover > 0
-            if c["v"].min() < 0 or c["v"].max() + k > v_size:  # columns cut by the page's edge
+            if c["v"].min() < v_lo or c["v"].max() + k > v_hi:  # columns cut by the band's edge
                 v = c["v"] + jv
-                inked &= (v >= 0) & (v < v_size)
-            pixel = (c["u"] * w if steep else c["u"]) + (c["v"] + jv) * pixel_step
+                inked &= (v >= v_lo) & (v < v_hi)
+            # Flat index into the band: rows counted from its first.
+            if steep:
+                pixel = (c["u"] - first) * w + (c["v"] + jv)
+            else:
+                pixel = c["u"] + (c["v"] + jv - first) * w
             pixels.append(pixel[inked])
             covers.append(np.minimum(cover[inked], _MAX_COVERAGE, dtype=np.float64))
             segments.append(np.broadcast_to(c["segment"], inked.shape)[inked])
@@ -265,13 +433,15 @@ def _chunk_coverage(frames: _Frames, lo: int, hi: int, grid: _Grid):
 
 
 class _Columns:
-    """The on-page pixel columns of some segments, in each column's own frame (float32)."""
+    """The pixel columns of some segments inside ``span`` (their major axis's pixel range: the
+    band's rows for steep segments, the sheet's columns for flat ones), in each column's own
+    frame (float32)."""
 
-    def __init__(self, f: _Frames, segs: np.ndarray, span: int) -> None:
+    def __init__(self, f: _Frames, segs: np.ndarray, span: tuple[int, int]) -> None:
         n = f.columns[segs]
         seg = np.repeat(segs, n)
         u = f.first[seg] + (np.arange(len(seg)) - np.repeat(np.cumsum(n) - n, n))
-        on = (u >= 0) & (u < span)
+        on = (u >= span[0]) & (u < span[1])
         seg, u = seg[on], u[on]
         x = u - f.u0[seg]  # along the major axis from the segment's start
         # Endcaps: beyond the segment's ends a column is centred on the nearest end.

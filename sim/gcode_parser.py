@@ -470,9 +470,17 @@ def _check_arc(block: Block, position, target: list[float], axes: dict[int, floa
         h2 = 4.0 * r * r - x * x - y * y
         if h2 < 0:
             return ARC_RADIUS
+        chord = math.hypot(x, y)
+        if chord == 0:
+            # The target differs from the start only along the linear axis. GRBL divides by
+            # this zero chord in float: its centre offsets come out NaN and mc_arc's segment
+            # count 0, so the board moves straight to the target. A zero offset and radius
+            # give arc_chords that one straight move.
+            block.arc = ((0.0, 0.0, 0.0), 0.0, clockwise)
+            return OK
         # Centre on the perpendicular bisector of the chord; the sign picks the side: the
         # short way round for R > 0, the long way (more than 180°) for R < 0.
-        h_x2_div_d = -math.sqrt(h2) / math.hypot(x, y)
+        h_x2_div_d = -math.sqrt(h2) / chord
         if not clockwise:
             h_x2_div_d = -h_x2_div_d
         if r < 0:

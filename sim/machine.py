@@ -34,12 +34,14 @@ With soft limits on (``$20=1``) a target outside the travel raises :class:`Machi
 from __future__ import annotations
 
 import math
+from array import array
 
 import numpy as np
 
 from firmware_protocol import grbl
 from pencilbot.machine.motion import axis_limited
 from pencilbot.machine.profile import Profile
+from pencilbot.paths import Paths
 from sim import gcode_parser as gp
 from sim.arcs import arc_chords
 from sim.planner import Block, Planner
@@ -106,8 +108,8 @@ class Machine:
         self.settings = grbl_settings(profile)
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
-        self._strokes: list[np.ndarray] = []  # finished pen-down polylines, bed-frame machine mm
-        self.travel: list[np.ndarray] = []  # pen-up moves, same frame
+        self._strokes = _Polylines()  # finished pen-down polylines, machine mm
+        self._travel = _Polylines()  # pen-up moves, same frame
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
         self.offsets_changed = False  # a WCO change the next status report must show
@@ -519,12 +521,12 @@ class Machine:
             self._stroke.append(end)
         else:
             self._close_stroke()
-            self.travel.append(np.array([start, end]))
+            self._travel.add((start, end))
 
     def _close_stroke(self) -> None:
         """The pen has left the paper: the polyline being drawn is finished."""
         if len(self._stroke) >= 2:
-            self._strokes.append(np.array(self._stroke))
+            self._strokes.add(self._stroke)
         self._stroke = []
 
     def finish(self) -> None:
@@ -535,21 +537,68 @@ class Machine:
     @property
     def strokes(self) -> list[np.ndarray]:
         """Pen-down polylines drawn so far (machine mm), the one still being drawn last."""
-        if len(self._stroke) >= 2:
-            return self._strokes + [np.array(self._stroke)]
-        return list(self._strokes)
+        return list(self.drawn())
+
+    @property
+    def travel(self) -> list[np.ndarray]:
+        """Pen-up moves so far (machine mm), each a (2, 2) array."""
+        return list(self._travel.paths())
+
+    def drawn(self) -> Paths:
+        """:attr:`strokes` as one :class:`~pencilbot.paths.Paths` (no array per stroke)."""
+        return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
 
     @property
     def clock(self) -> float:
         """Simulated seconds of motion and dwell since power-on."""
         return self.planner.clock
 
-    def bed_strokes(self) -> list[np.ndarray]:
-        """Pen-down polylines in bed mm (bottom-left origin, Y up) for :class:`pencilbot.render.Canvas`."""
-        return [self.profile.bed.to_view(s) for s in self.strokes]
+    def bed_strokes(self) -> Paths:
+        """Pen-down polylines in bed mm (bottom-left origin, Y up) for :mod:`pencilbot.render`."""
+        return self._bed_view(self.drawn())
 
-    def bed_travel(self) -> list[np.ndarray]:
-        return [self.profile.bed.to_view(s) for s in self.travel]
+    def bed_travel(self) -> Paths:
+        """Pen-up moves in bed mm, as :meth:`bed_strokes`."""
+        return self._bed_view(self._travel.paths())
+
+    def _bed_view(self, paths: Paths) -> Paths:
+        return Paths(self.profile.bed.to_view(paths.points), paths.offsets)
+
+
+class _Polylines:
+    """Polylines appended one by one into a single growing (N, 2) float64 point array.
+
+    A million-line job draws hundreds of thousands of strokes and moves: as one array they cost
+    16 bytes a point and 8 a polyline, where an array per polyline cost about 130 bytes more.
+    """
+
+    def __init__(self) -> None:
+        self._points = np.empty((1024, 2))
+        self._size = 0
+        self._ends = array("q")
+
+    def __len__(self) -> int:
+        return len(self._ends)
+
+    def add(self, points) -> None:
+        """Append one polyline (a sequence of (x, y), at least one point)."""
+        points = np.asarray(points, dtype=np.float64)
+        end = self._size + len(points)
+        if end > len(self._points):  # grow by doubling: appends stay amortised O(1)
+            grown = np.empty((max(end, 2 * len(self._points)), 2))
+            grown[: self._size] = self._points[: self._size]
+            self._points = grown
+        self._points[self._size : end] = points
+        self._size = end
+        self._ends.append(end)
+
+    def paths(self, last=None) -> Paths:
+        """Every polyline (a copy), and ``last`` (points, if given) after them."""
+        points, ends = self._points[: self._size], np.array(self._ends, dtype=np.int64)
+        if last is not None:
+            points = np.concatenate([points, np.asarray(last, dtype=np.float64)])
+            ends = np.append(ends, len(points))
+        return Paths(points.copy(), np.concatenate([[0], ends]))
 
 
 def _speed_at(block: Block, t: float) -> float:

@@ -58,7 +58,7 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Tim
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.paths import DEFAULT_PEN_WIDTH
-from pencilbot.render import Canvas
+from pencilbot.render import Canvas, save_drawing_png
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
 _OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits")
@@ -173,6 +173,14 @@ class VirtualPlotter:
         if travel:
             canvas.draw_travel(self.machine.bed_travel())
         return canvas
+
+    def save_png(self, path, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
+        """Write the bed as drawn so far to a PNG, a band of rows at a time: the picture
+        :meth:`canvas` would give, with memory bounded by a band instead of the bed."""
+        self.firmware.finish()
+        bed = self.profile.bed
+        save_drawing_png(path, self.machine.bed_strokes(), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
+                         travel=self.machine.bed_travel() if travel else None)
 
     @property
     def seconds(self) -> float:

@@ -15,6 +15,7 @@ from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
 from pencilbot.planning.style import Style, default_style, list_styles, load_style, with_overrides
+from pencilbot.render import BAND_PIXELS
 from pencilbot.units import MM_PER_INCH
 
 #: Image files the commands read as photos and write as pictures (the first is the default).
@@ -22,11 +23,16 @@ IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 #: The widest pen a preview renders (mm): a broad marker, not a roller.
 MAX_RENDER_PEN_WIDTH = 50.0
-# Peak bytes per pixel of a bed render, measured with /usr/bin/time (A4 bed at 600 dpi): the
-# float64 ink sums, the per-path maxima and the PNG conversion; about three times more with travel.
-_RENDER_BYTES_PER_PIXEL = 24
-_RENDER_BYTES_PER_PIXEL_TRAVEL = 80
+# A bed is rendered a band of rows at a time (pencilbot.render.Bands): peak bytes per pixel of
+# a band in flight (the float64 ink sums, the per-path maxima, the uint8 rows and their PNG
+# filter), about three times more with the travel overlay's second render and RGB rows.
+_RENDER_BYTES_PER_PIXEL = 40
+_RENDER_BYTES_PER_PIXEL_TRAVEL = 120
 _MEMORY_SHARE = 0.75  # of the memory the system says is available
+#: The largest render (pixels): an A0 bed at 800 dpi. Memory stays a band's, but time and the PNG
+#: do not: an A0 bed at 600 dpi (0.56 gigapixels) takes about a minute and most image viewers
+#: refuse files past this.
+MAX_RENDER_PIXELS = 1 << 30
 
 # Style keys a command-line option may override, by option name.
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
@@ -279,8 +285,9 @@ def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float
     ------
     PencilbotError
         ``dpi`` or ``pen_width`` is not a positive finite number, the pen is wider than
-        :data:`MAX_RENDER_PEN_WIDTH`, or the image would need more memory than is available
-        (the message names the largest ``--dpi`` that fits).
+        :data:`MAX_RENDER_PEN_WIDTH`, the render would have more than :data:`MAX_RENDER_PIXELS`
+        pixels (the message names the largest ``--dpi`` that fits), or one band of it would
+        need more memory than is available.
     """
     for option, value in (("--dpi", dpi), ("--pen-width", pen_width)):
         if not (math.isfinite(value) and value > 0):
@@ -289,14 +296,22 @@ def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float
         raise PencilbotError(
             f"--pen-width {pen_width:g} mm is wider than any pen; give at most {MAX_RENDER_PEN_WIDTH:g} mm")
     cols, rows = (math.ceil(size / MM_PER_INCH * dpi) for size in (width_mm, height_mm))
-    need = cols * rows * (_RENDER_BYTES_PER_PIXEL_TRAVEL if travel else _RENDER_BYTES_PER_PIXEL)
+    if cols * rows > MAX_RENDER_PIXELS:
+        fits = max(1, math.floor(dpi * math.sqrt(MAX_RENDER_PIXELS / (cols * rows))))
+        raise PencilbotError(
+            f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels "
+            f"({cols * rows / 1e9:.1f} gigapixels), more than the {MAX_RENDER_PIXELS / 1e9:.2f} gigapixels "
+            f"pencilbot renders; use --dpi {fits} or less"
+        )
+    # Memory is that of one band (at least a row), not of the bed.
+    band = max(BAND_PIXELS, cols) if rows * cols > BAND_PIXELS else rows * cols
+    need = band * (_RENDER_BYTES_PER_PIXEL_TRAVEL if travel else _RENDER_BYTES_PER_PIXEL)
     budget = _MEMORY_SHARE * available_memory()
     if need > budget:
-        fits = max(1, math.floor(dpi * math.sqrt(budget / need)))
         raise PencilbotError(
-            f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels, about "
-            f"{need / 1e9:.1f} GB to render, more than this machine has free ({budget / _MEMORY_SHARE / 1e9:.1f} GB); "
-            f"use --dpi {fits} or less"
+            f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels; rendering "
+            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than this machine has free "
+            f"({budget / _MEMORY_SHARE / 1e6:.0f} MB); free some memory or use a lower --dpi"
         )
 
 

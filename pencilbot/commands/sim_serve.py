@@ -83,5 +83,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"simulated drawing time {plotter.seconds:.1f} s; "
               f"{len(plotter.firmware.accepted_lines())} lines accepted")
     if args.output:
-        plotter.canvas(dpi=args.dpi, pen_width=DEFAULT_PEN_WIDTH).save_png(args.output)
+        plotter.save_png(args.output, dpi=args.dpi, pen_width=DEFAULT_PEN_WIDTH)
     return 0

@@ -2,7 +2,8 @@
 
 The G-code goes the way it would to hardware: through the driver, over pyserial, to the
 ``sim://`` port of an in-process virtual GRBL 1.1 plotter. What the pen drew is rendered at the
-chosen dpi over the whole bed, and the simulated drawing time is reported.
+chosen dpi over the whole bed, a band of rows at a time straight into the PNG (an A0 bed at
+600 dpi is half a gigapixel), and the simulated drawing time is reported.
 """
 
 from __future__ import annotations
@@ -75,12 +76,11 @@ def run(args: argparse.Namespace) -> int:
         draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")
         plotter = protocol_sim.plotter(name)
-        canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)
-        canvas.save_png(output)
+        plotter.save_png(output, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
     finally:
         protocol_sim.forget(name)
     if not args.quiet:
-        strokes = len(plotter.machine.strokes)
+        strokes = len(plotter.machine.drawn())
         print(f"wrote {output}: {strokes} pen-down strokes, simulated drawing time "
               f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
     return 0

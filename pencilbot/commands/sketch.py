@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import io
+import zlib
 from pathlib import Path
 
 import cv2
@@ -118,15 +119,18 @@ def write_stages(directory: Path, stages: dict[str, np.ndarray]) -> None:
 def write_image(array: np.ndarray, path: Path) -> None:
     """Write a float [0, 1] grey or RGB image atomically (temp file in the same folder + rename).
 
-    PNGs of a megapixel and more use zlib's fastest level: a 12 MP sketch encodes in 0.2 s
-    instead of 1.4 s, for a file about a quarter larger.
+    PNGs of a megapixel and more use zlib's fastest level: a 12 MP sketch encodes in 0.3 s
+    instead of 1.4 s, for a file about a quarter larger; grey ones with zlib's run-length
+    strategy on top (0.25 s, and 13 % smaller than level 1 alone; colour files grow with it).
     """
     if array.min(initial=0.0) >= 0.0:  # one pass: round(255 x), saturated at 255
         pixels = cv2.convertScaleAbs(np.asarray(array, np.float32), alpha=255.0)
     else:
         pixels = np.rint(np.clip(array, 0.0, 1.0) * 255.0).astype(np.uint8)
     image_format = Image.registered_extensions()[path.suffix.lower()]
-    options = {"compress_level": 1} if image_format == "PNG" and pixels.shape[0] * pixels.shape[1] >= FAST_PNG_PIXELS else {}
+    options = {}
+    if image_format == "PNG" and pixels.shape[0] * pixels.shape[1] >= FAST_PNG_PIXELS:
+        options = {"compress_level": 1, "compress_type": zlib.Z_RLE if pixels.ndim == 2 else zlib.Z_DEFAULT_STRATEGY}
     encoded = io.BytesIO()
     Image.fromarray(pixels).save(encoded, format=image_format, **options)
     write_atomic(path, encoded.getvalue())

@@ -74,7 +74,7 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
         (["simulate", "{src}", "-o", "{out}", "--profile", "nope"], "nope"),
         (["simulate", "{src}", "-o", "{out}", "--dpi", "0"], "--dpi"),
         # Without the bounds these grew to 22.5 GB, died in MemoryError / ZeroDivisionError, or hung.
-        (["simulate", "{src}", "-o", "{out}", "--dpi", "5000"], "GB to render, more than this machine has free"),
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "5000"], "gigapixels pencilbot renders; use --dpi"),
         (["simulate", "{src}", "-o", "{out}", "--dpi", "30000"], "use --dpi"),
         (["simulate", "{src}", "-o", "{out}", "--pen-width", "1e9"], "--pen-width 1e+09 mm is wider than any pen"),
         (["simulate", "{src}", "-o", "{out}", "--dpi", "inf"], "--dpi must be positive and finite"),
@@ -303,3 +303,19 @@ def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
     )
     assert proc.returncode != 0 and proc.stdout == ""
     assert proc.stderr.startswith("pencilbot: error:") and message in proc.stderr
+
+
+def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, capsys, monkeypatch):
+    # The render's memory is one band's (~4 M pixels), whatever the bed: with 50 MB free even
+    # that does not fit, and the command says so before streaming anything.
+    import pencilbot.commands.common as common
+
+    monkeypatch.setattr(common, "available_memory", lambda: 50_000_000)
+    src, out = tmp_path / "square.gcode", tmp_path / "plot.png"
+    src.write_text(SQUARE)
+    assert main(["simulate", str(src), "-o", str(out), "--dpi", "600"]) == 2
+    err = capsys.readouterr().err
+    assert "a band of rows at a time needs about 160 MB, more than this machine has free (50 MB)" in err
+    assert not out.exists()
+    monkeypatch.setattr(common, "available_memory", lambda: 400_000_000)  # a band fits: it runs
+    assert main(["simulate", str(src), "-o", str(out), "--dpi", "600", "-q"]) == 0 and out.exists()

@@ -196,3 +196,46 @@ def test_save_png_into_missing_folder_is_a_user_error(tmp_path):
 def test_bad_sizes_are_user_errors(args):
     with pytest.raises(PencilbotError, match="positive"):
         Canvas(*args)
+
+
+def _scribble(seed=3, count=400, size=40.0):
+    rng = np.random.default_rng(seed)
+    paths = [rng.uniform(0, size, (rng.integers(1, 6), 2)) for _ in range(count)]
+    # Steep, flat and retraced long paths that cross many bands; one off the sheet's top edge.
+    paths += [np.tile([[1.0, 1.0], [39.0, 38.0]], (12, 1)), np.array([[1.0, 20.0], [39.0, 20.3]]),
+              np.array([[20.0, 1.0], [20.2, 39.0]]), np.array([[5.0, 39.9], [35.0, 41.0]])]
+    return paths
+
+
+@pytest.mark.parametrize("step", [1, 7, 64])
+def test_a_sheet_inked_band_by_band_is_the_whole_sheet_bit_for_bit(step):
+    paths = _scribble()
+    whole = render_paths(paths, 40, 40, dpi=200, pen_width=0.5)
+    bands = canvas_module.Bands(paths, 40, 40, dpi=200, pen_width=0.5)
+    rows = whole.shape[0]
+    banded = np.vstack([bands.darkness(r, min(r + step, rows)) for r in range(0, rows, step)])
+    np.testing.assert_array_equal(banded, whole)
+    assert whole.max() > 0.9  # the drawing is there, not an empty page twice
+    band = canvas_module.render_band(paths, (100, 140), 40, 40, dpi=200, pen_width=0.5)
+    np.testing.assert_array_equal(band, whole[100:140])
+    with pytest.raises(ValueError, match="not a band"):
+        bands.darkness(rows - 1, rows + 1)
+
+
+@pytest.mark.parametrize("travel", [False, True])
+def test_a_drawing_streamed_to_png_is_the_canvas_picture(tmp_path, travel):
+    paths = _scribble(seed=5, count=150)
+    moves = [np.array([[0.0, 0.0], [30.0, 12.0]]), np.array([[3.0, 35.0], [36.0, 2.0]])]
+    canvas = Canvas(40, 30, dpi=150, pen_width=0.4)
+    canvas.draw_paths(paths)
+    if travel:
+        canvas.draw_travel(moves)
+    out = tmp_path / "plot.png"
+    shape = canvas_module.save_drawing_png(out, paths, 40, 30, dpi=150, pen_width=0.4,
+                                           travel=moves if travel else None, band_pixels=5000)
+    back = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)
+    if travel:
+        back = back[..., ::-1]
+    assert shape == canvas.shape and canvas.shape[0] > 5000 // canvas.shape[1]  # several bands
+    np.testing.assert_array_equal(back, canvas.to_image())
+    assert [p.name for p in tmp_path.iterdir()] == ["plot.png"]

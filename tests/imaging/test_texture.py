@@ -80,6 +80,32 @@ def test_texture_is_thin_graphite_marks_not_smudge():
     assert correlation(along, 60) < 0.1
 
 
+def _density_correlation(d, direction, distance):
+    dcol, drow = np.rint(np.asarray(direction) * distance).astype(int)
+    return (d * np.roll(d, (drow, dcol), axis=(0, 1))).mean() / d.var()
+
+
+def test_a_texture_synthesised_on_a_coarse_grid_looks_like_the_exact_one():
+    # A side with a large prime factor (709), scale 6: the default grid is 3x coarser.
+    shape, scale = (709, 640), 6.0
+    coarse = -np.log(pencil_texture(shape, seed=3, scale=scale).astype(np.float64))
+    exact = -np.log(pencil_texture(shape, seed=3, scale=scale, reduction=1).astype(np.float64))
+    assert coarse.shape == shape and not np.array_equal(coarse, exact)  # a new draw, not a copy
+    assert coarse.mean() == pytest.approx(exact.mean(), rel=0.01)
+    assert coarse.std() / coarse.mean() == pytest.approx(exact.std() / exact.mean(), rel=0.05)
+    theta = np.radians(STROKE_ANGLES[0])
+    along, across = (np.cos(theta), -np.sin(theta)), (np.sin(theta), np.cos(theta))
+    coarse -= coarse.mean()
+    exact -= exact.mean()
+    for direction, distance in ((along, 30), (across, 6), (across, 12)):
+        assert _density_correlation(coarse, direction, distance) == pytest.approx(
+            _density_correlation(exact, direction, distance), abs=0.05
+        )
+    for axis in (0, 1):  # still periodic with the image's own period
+        d = np.moveaxis(coarse, axis, 0)
+        assert np.abs(d[0] - d[-1]).mean() < 1.15 * np.abs(np.diff(d, axis=0)).mean()
+
+
 def _hatching(shape=(60, 80), seed=0):
     rng = np.random.default_rng(seed)
     paper = np.full(shape, 0.92, np.float32)

@@ -30,6 +30,18 @@ def test_every_line_gets_a_block_or_a_grbl_status_code(line):
     assert isinstance(result, Block) or result in grbl.ERRORS
 
 
+def test_a_radius_arc_whose_end_is_its_start_in_the_plane_moves_straight_along_the_linear_axis():
+    # Found by the test above: GRBL divides by the zero chord (NaN centre, no segments) and the
+    # board goes straight to the target; the parser raised ZeroDivisionError.
+    m = Machine(description())
+    block = m.parse("G2R5X0Z1F100")
+    assert isinstance(block, Block) and block.arc == ((0.0, 0.0, 0.0), 0.0, True)
+    for _ in m.execute(block):
+        pass
+    m.finish()
+    assert m.machine_position() == pytest.approx((0.0, 0.0, 1.0))
+
+
 @settings(max_examples=200, deadline=None)
 @given(st.lists(LINES, max_size=12))
 def test_a_rejected_line_leaves_the_parser_state_as_it_was(lines):
