@@ -9,6 +9,7 @@ import sim
 
 from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
 from pencilbot.driver import draw
+from pencilbot.driver.header import profile_for
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import default_profile
@@ -23,7 +24,8 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
-    p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {default_profile()})")
+    p.add_argument("--profile", help="plotter profile name or TOML file (default: the resumed job's, else the one "
+                   f"the file's header names, else {default_profile()}); must be the header's if it names one")
     p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
@@ -61,8 +63,9 @@ def run(args: argparse.Namespace) -> int:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
     sim.register()  # --port sim://… reaches the virtual plotter
+    profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
     result = draw(
-        gcode, port, profile=args.profile or (None if journal else default_profile()), baud=args.baud, unlock=args.unlock, check=args.check,
+        gcode, port, profile=profile, baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
         resume=args.resume, progress=progress, timeout=args.timeout,
     )

@@ -11,7 +11,6 @@ import argparse
 import itertools
 import math
 import os
-import re
 import urllib.parse
 from pathlib import Path
 
@@ -97,23 +96,10 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
             program = source.read_bytes()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return _without_program_markers(program), args.pen_width or DEFAULT_PEN_WIDTH
+        return program, args.pen_width or DEFAULT_PEN_WIDTH
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
     return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
 
 
-_BOM = b"\xef\xbb\xbf"
-_PROGRAM_MARKER = re.compile(rb"(?m)^[ \t]*%[ \t]*(?:;[^\r\n]*)?(?=\r?$)")
-
-
-def _without_program_markers(program: bytes) -> bytes:
-    """The program without a UTF-8 byte-order mark (not text: GRBL drops its bytes too), and its
-    ``%`` lines (the tape start/end marker CAM and Inkscape programs carry) left empty.
-
-    GRBL answers a ``%`` with error:1 (its protocol loop has the feature commented out); a
-    preview of a program written for controllers that read it leaves the marker out. The lines
-    stay, empty, so messages keep the file's line numbers.
-    """
-    return _PROGRAM_MARKER.sub(b"", program.removeprefix(_BOM))

@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pencilbot.driver.markers import without_markers
 from pencilbot.driver.modal import ModalState, Track, track
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import Profile
@@ -170,7 +171,7 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
     frames, offsets, numbers, seconds, checkpoints = bytearray(), [np.zeros(1, np.int64)], [], [], [ModalState()]
     file_lines = done = 0
     state, elapsed = ModalState(), 0.0
-    for raw in blocks:
+    for raw in without_markers(blocks):
         # \r\n and a lone \r end a line as \n does (GRBL reads both as line ends).
         text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
         cleaned = fw.commands(_COMMENT.sub(b"", text).translate(None, _SPACE).upper())

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
@@ -119,6 +120,7 @@ def draw(
         )
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     job = load_job(gcode, machine, source)
+    check_on_bed(job)  # before the port is opened: nothing is sent
 
     start = 0
     if journal is not None:
