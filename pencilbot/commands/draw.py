@@ -7,7 +7,7 @@ from pathlib import Path
 
 import sim
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
+from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_verbosity, number
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.driver.journal import load_journal
@@ -26,7 +26,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
     p.add_argument("--profile", help="plotter profile name or TOML file (default: the resumed job's, else the one "
                    f"the file's header names, else {default_profile()}); must be the header's if it names one")
-    p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
+    p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"), default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
     p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
@@ -34,12 +34,15 @@ def add_parser(subparsers) -> None:
                    help="on error:N stop (feed hold, pen up; default) or log it and continue")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue")
-    where.add_argument("--start-line", type=int, metavar="N", help="start at file line N, restoring the state before it")
-    p.add_argument("--timeout", type=float, default=10.0, help="seconds of silence before giving up (default %(default)g)")
+    where.add_argument("--start-line", type=number("--start-line", low=1, high=2**31 - 1, whole=True), metavar="N", help="start at file line N, restoring the state before it")
+    p.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"), default=10.0, help="seconds of silence before giving up (default %(default)g)")
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
     add_verbosity(p)
     p.set_defaults(func=run)
 
+
+#: Seconds of silence anyone would wait for a board (a day); more is a typo, and none never works.
+MAX_TIMEOUT = 86_400.0
 
 #: Inputs that are pictures or plans, not G-code: `pencilbot export` turns them into G-code.
 NOT_GCODE = {*IMAGE_SUFFIXES, ".gif", ".svg"}

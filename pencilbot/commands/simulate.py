@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import math
 import os
 import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, plan_for_input,
-    reorder_drawing,
+    MAX_DPI, MAX_REALTIME, add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, number,
+    plan_for_input, reorder_drawing,
 )
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
@@ -41,9 +40,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     add_profile_option(parser, "GRBL or grblHAL plotter profile")
-    parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
-    parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
+    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
+                        default=0.0, metavar="R",
                         help="move R times faster than real time (default %(default)g: instant)")
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
@@ -55,8 +55,6 @@ def run(args: argparse.Namespace) -> int:
     source, output = Path(args.input), Path(args.output)
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
-    if not (math.isfinite(args.realtime) and args.realtime >= 0):
-        raise PencilbotError(f"--realtime must be 0 (instant) or a positive speed-up, not {args.realtime:g}")
     import sim
     from sim import protocol_sim
 
