@@ -303,3 +303,28 @@ def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
     )
     assert proc.returncode != 0 and proc.stdout == ""
     assert proc.stderr.startswith("pencilbot: error:") and message in proc.stderr
+
+
+def test_sim_serve_outlives_its_senders_and_saves_what_they_drew_on_sigterm(tmp_path):
+    # Two `pencilbot draw` processes one after the other, each opening, streaming and closing the
+    # pty (the board resets on each first open, as an Arduino does): the server serves both.
+    first, second = tmp_path / "first.gcode", tmp_path / "second.gcode"
+    first.write_text(SQUARE)
+    second.write_text(SQUARE.replace("X20 Y20", "X120 Y120").replace("X60", "X160").replace("Y60", "Y160")
+                      .replace("X20\n", "X120\n").replace("Y20\n", "Y120\n"))
+    out = tmp_path / "served.png"
+    proc, path = serve(tmp_path, "-o", str(out), "--dpi", str(DPI))  # a real board: zeroed on each open
+    try:
+        for job in (first, second):
+            drawn = subprocess.run([sys.executable, "-m", "pencilbot.cli", "draw", str(job), "--port", path, "-q"],
+                                   capture_output=True, text=True, timeout=60)
+            assert drawn.returncode == 0, drawn.stderr
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=20)
+    assert proc.returncode == 0, stderr
+    dark = ink(out)
+    rows = dark.shape[0]
+    for x, y in ((40, 20), (60, 40), (140, 120), (160, 140)):  # an edge of each square
+        r, c = px(rows, x, y)
+        assert dark[r - 1:r + 2, c - 1:c + 2].max() > 0.5, (x, y)
