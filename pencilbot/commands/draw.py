@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import sim
 
 from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_verbosity, number
 from pencilbot.driver import draw
-from pencilbot.driver.header import profile_for
+from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import default_profile
@@ -65,14 +66,38 @@ def run(args: argparse.Namespace) -> int:
     if port is None:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
+    announce = None
+    if args.verbose and not args.quiet:
+        def announce(banner, job):
+            print("\n".join(banner_lines(port, args.baud, banner, job)), file=sys.stderr, flush=True)
+
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
     result = draw(
         gcode, port, profile=profile, baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
-        resume=args.resume, progress=progress, timeout=args.timeout,
+        resume=args.resume, progress=progress, timeout=args.timeout, announce=announce,
     )
     if not args.quiet and not args.json_lines:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
+    """What ``draw -v`` says before it streams: the port, the profile, what the board said it
+    is, the job's size and its estimated plot time."""
+    from pencilbot.planning.stats import duration_text
+
+    profile = job.profile
+    board = banner.removeprefix("banner '").removesuffix("'")  # a reset's reply: "banner 'Grbl 1.1h'"
+    header = estimated_seconds(job.source) if Path(job.source).is_file() else None
+    seconds, how = (header, "the file's estimate") if header is not None else (
+        job.seconds_after(len(job) - 1), "distance over feed, without acceleration")
+    return [
+        f"port {port} at {baud} bit/s",
+        f"profile {profile.name} ({profile.source}): {profile.description}",
+        f"board: {board}",
+        f"job: {job.source}, {len(job)} command lines of {job.total_lines}",
+        f"estimated plot time {duration_text(seconds)} ({how})",
+    ]

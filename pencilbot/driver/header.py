@@ -25,6 +25,7 @@ from pencilbot.machine.profile import load_profile
 _HEAD_LINES = 12  # the header comes first; a file without one in its first lines has none
 _MADE_FOR = re.compile(r"^; pencilbot G-code for (?P<name>\S+) \((?P<dialect>[^)]*)\)\s*$")
 _SOURCE = re.compile(r"^; profile: (?P<source>.+?)\s*$")
+_ESTIMATE = re.compile(r"^; estimated time: \S+ \((?P<seconds>\d+) s\)\s*$")
 
 
 @dataclass(frozen=True)
@@ -63,6 +64,18 @@ def made_for(path: str | Path) -> MadeFor | None:
     except OSError:
         return None
     return MadeFor(found[0], source, found[1]) if found else None
+
+
+def estimated_seconds(path: str | Path) -> float | None:
+    """The plot time (s) the header of ``path`` estimates (acceleration included), or None."""
+    try:
+        with open(path, encoding="utf-8", errors="replace") as handle:
+            for _, line in zip(range(_HEAD_LINES), handle):
+                if match := _ESTIMATE.match(line):
+                    return float(match["seconds"])
+    except OSError:
+        pass
+    return None
 
 
 def profile_for(path: str | Path, given: str | None, default: str) -> str:
