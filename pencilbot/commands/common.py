@@ -87,11 +87,20 @@ def add_profile_option(parser: argparse.ArgumentParser, what: str = "plotter pro
 
     name = default_profile()
     parser.add_argument(
-        "--profile", default=name, metavar="NAME|FILE.toml",
+        "--profile", default=name, metavar="NAME|FILE.toml", action=_Given,
         help=f"{what}: a name (see --list-profiles) or a .toml file (default {name}; yours: $PENCILBOT_PROFILE "
              f"or profile = \"NAME\" in {user_folder() / 'config.toml'})")
     parser.add_argument("--list-profiles", action=_Listing, listing=profile_listing,
                         help="list the plotter profiles, shipped and yours, and exit")
+
+
+class _Given(argparse.Action):
+    """Store the value, and ``<dest>_given = True``: whether the user named it, not the default
+    (a G-code file's own profile counts more than a default, less than a given one)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"{self.dest}_given", True)
 
 
 class _Listing(argparse.Action):

@@ -18,6 +18,7 @@ from pencilbot.commands.common import (
     plan_for_input, reorder_drawing,
 )
 from pencilbot.driver import draw
+from pencilbot.driver.header import profile_for
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
 from pencilbot.paths import DEFAULT_PEN_WIDTH
@@ -59,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
     from sim import protocol_sim
 
     sim.register()
+    if source.suffix.lower() in GCODE_SUFFIXES:
+        # As draw: the profile the file was exported for, unless another one is asked for.
+        args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
     check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,

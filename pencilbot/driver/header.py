@@ -107,6 +107,6 @@ def profile_for(path: str | Path, given: str | None, default: str) -> str:
     if name != header.name:
         raise PlotError(
             f"{path} was made for plotter profile {header.name} (line {header.line} of its header), not "
-            f"{name}: its pen commands and bed are that plotter's. Draw it without --profile (or with "
+            f"{name}: its pen commands and bed are that plotter's. Leave out --profile (or give "
             f"--profile {header.name}), or export the drawing again for {name}")
     return given

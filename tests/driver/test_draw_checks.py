@@ -132,9 +132,19 @@ def test_a_profile_other_than_the_header_s_is_refused_with_what_to_do(tmp_path, 
     err = capsys.readouterr().err
     assert err == (
         f"pencilbot: error: {path} was made for plotter profile grbl-z-a3 (line 1 of its header), not "
-        "grbl-servo-a4: its pen commands and bed are that plotter's. Draw it without --profile (or with "
+        "grbl-servo-a4: its pen commands and bed are that plotter's. Leave out --profile (or give "
         "--profile grbl-z-a3), or export the drawing again for grbl-servo-a4\n")
     assert main(["draw", str(path), "--port", "sim://?profile=grbl-z-a3", "--profile", "grbl-z-a3", "-q"]) == 0
+
+
+def test_simulate_takes_the_header_s_profile_too_and_refuses_another(tmp_path, capsys):
+    path = exported(tmp_path, "grbl-z-a3")
+    out = tmp_path / "z.png"
+    assert main(["simulate", str(path), "-o", str(out), "--dpi", "20"]) == 0
+    assert "on grbl-z-a3" in capsys.readouterr().out
+    # Named, even as the default profile, it must be the file's.
+    assert main(["simulate", str(path), "-o", str(out), "--profile", "grbl-servo-a4"]) == 3
+    assert "was made for plotter profile grbl-z-a3" in capsys.readouterr().err
 
 
 def test_a_header_naming_an_unknown_profile_asks_for_one(tmp_path, capsys):
