@@ -239,9 +239,10 @@ def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS
 _PLAN_BYTES_PER_MM2_MM = 1100
 
 
-def check_plan(style: Style) -> None:
-    """Refuse planning on a page whose grids would need more memory than is free, before
-    anything is allocated (a 100 m sheet asked for 584 GB).
+def check_plan(style: Style, preview_dpi: float | None = None) -> None:
+    """Refuse planning on a page whose grids (and, with ``preview_dpi``, its preview picture)
+    would need more memory than is free, before anything is allocated (a 100 m sheet asked
+    for 584 GB).
 
     Raises
     ------
@@ -251,15 +252,18 @@ def check_plan(style: Style) -> None:
     from pencilbot.planning.layout import page_size
 
     page = page_size(style.page, None, margin=style.margin)
-    need = page.width * page.height * _PLAN_BYTES_PER_MM2_MM / style.pen_width
+    planning = _PLAN_BYTES_PER_MM2_MM / style.pen_width  # both grow with the page's area
+    picture = (preview_dpi / MM_PER_INCH) ** 2 * _RENDER_BYTES_PER_PIXEL if preview_dpi is not None else 0.0
+    per_mm2 = planning + picture
+    need = page.width * page.height * per_mm2
     budget = _MEMORY_SHARE * available_memory()
     if need > budget:
-        side = math.sqrt(budget * style.pen_width / _PLAN_BYTES_PER_MM2_MM)
+        side = math.sqrt(budget / per_mm2)
         raise PencilbotError(
             f"a {page.width:g} x {page.height:g} mm page with a {style.pen_width:g} mm pen needs about "
-            f"{need / 1e9:.0f} GB to plan, more than this machine has free "
-            f"({budget / _MEMORY_SHARE / 1e9:.1f} GB); use a page of at most about {side:.0f} x {side:.0f} mm "
-            "(or a wider pen)")
+            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than this machine has free "
+            f"({budget / _MEMORY_SHARE / 1e9:.1f} GB); use a page of at most about {side:.0f} x {side:.0f} mm"
+            + (" (or a wider pen)" if planning > picture else ""))
 
 
 def read_drawing(path: Path, args: argparse.Namespace) -> Plan:

@@ -92,3 +92,25 @@ def test_a_render_bigger_than_memory_is_refused_before_it_is_allocated(tmp_path,
     err = capsys.readouterr().err
     assert "--dpi 5000 makes the 220 x 310 mm bed 43308 x 61024 pixels" in err and "use --dpi" in err
     assert not (tmp_path / "a.png").exists()
+
+
+@pytest.mark.parametrize("argv", [
+    ["plan", "{photo}", "-o", "{out}", "--page", "3000x3000", "--pen-width", "50", "--preview", "{tmp}/p.png"],
+    ["demo", "--input", "{photo}", "--out", "{tmp}/demo", "--page", "3000x3000", "--pen-width", "50"],
+])
+def test_a_page_whose_preview_would_not_fit_is_refused_before_planning(tmp_path, capsys, monkeypatch, argv):
+    from PIL import Image
+    import numpy as np
+
+    from pencilbot.commands import common
+
+    # 2 GB free: planning 3 x 3 m with a 50 mm pen takes 0.2 GB, its 100-150 dpi preview 3.3-7.5 GB.
+    monkeypatch.setattr(common, "available_memory", lambda: 2 << 30)
+    photo = tmp_path / "p.png"
+    Image.fromarray(np.full((40, 60), 128, np.uint8)).save(photo)
+    code = main([a.format(photo=photo, out=tmp_path / "p.svg", tmp=tmp_path) for a in argv])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith("pencilbot: error: a 3000 x 3000 mm page with a 50 mm pen needs about") and "to plan and preview" in err
+    assert "wider pen" not in err  # the preview is what does not fit
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["p.png"]  # nothing written, no folder made
