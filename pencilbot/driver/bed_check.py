@@ -7,19 +7,62 @@ inch and relative moves become absolute millimetres, and an arc (G2/G3 in the XY
 ``I J`` centre offsets or radius ``R``) is checked at its end and at every point where it crosses
 an axis of its circle, so a bulge past the edge is caught too. Coordinates are taken as machine
 coordinates (no work offset), as pencilbot's G-code is written.
+
+The moves are looked at while the job is read (:class:`BedWatch`, fed the tracker's pieces by
+:func:`~pencilbot.driver.job.load_job`), so the check costs no second pass over the file; a job
+keeps the first move off the bed, and :func:`check_on_bed` refuses it before the port is opened.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from pencilbot.driver.job import CHECKPOINT, Job
 from pencilbot.errors import OutOfBedError
 from pencilbot.units import MM_PER_INCH
 
+if TYPE_CHECKING:  # the job module feeds the watch: no import at run time
+    from pencilbot.driver.job import Job
+    from pencilbot.driver.modal import Track
+    from pencilbot.machine.bed import Bed
+
 #: How far past an edge (mm) still counts as on the bed: a decimal in inches is not exact in mm.
 TOLERANCE = 1e-4
-_BLOCK = 16 * CHECKPOINT  # job lines tracked at a time (starting on a checkpoint)
+
+
+class BedWatch:
+    """The first move off ``bed`` among the tracked pieces of a job, seen in order.
+
+    Attributes
+    ----------
+    first : tuple or None
+        ``(job index, x, y, on_arc)`` of the first line that leaves the bed (machine mm, and
+        whether it is a point of the line's arc rather than its end); None while all are on it.
+    """
+
+    def __init__(self, bed: Bed):
+        self.bed = bed
+        self.before = np.zeros(2)  # machine X, Y (mm) before the next piece: a job starts at 0, 0
+        self.first: tuple[int, float, float, bool] | None = None
+
+    def see(self, piece: Track, index: int) -> None:
+        """Look at ``piece``, the states of job lines ``index`` onwards."""
+        if self.first is not None or not len(piece):
+            return
+        c = piece.columns
+        scale = np.where(c["inches"], MM_PER_INCH, 1.0)
+        end = np.column_stack([c["x_mm"], c["y_mm"]])
+        start = np.vstack([self.before, end[:-1]])
+        self.before = end[-1]
+        # Points to check per line: its end, and each of its arc's four axis crossings (NaN if none).
+        points = np.concatenate([end[:, None, :], _arc_extremes(start, end, c, scale)], axis=1)
+        off = self.bed.outside(points.reshape(-1, 2), TOLERANCE).reshape(len(end), -1) & ~np.isnan(points[..., 0])
+        lines = np.flatnonzero(off.any(axis=1))
+        if len(lines):
+            line = int(lines[0])
+            x, y = points[line, np.flatnonzero(off[line])[0]]
+            self.first = (index + line, float(x), float(y), not off[line, 0])
 
 
 def check_on_bed(job: Job) -> None:
@@ -31,23 +74,9 @@ def check_on_bed(job: Job) -> None:
         Naming the first offending file line, its text, the coordinate it reaches (mm) and the
         bed's range, and what to do.
     """
-    bed = job.profile.bed
-    before = np.zeros(2)  # machine X, Y (mm) before the block's first line: a job starts at 0, 0
-    for first in range(0, len(job), _BLOCK):
-        states = job.states(first, min(first + _BLOCK, len(job)))
-        c = states.columns
-        scale = np.where(c["inches"], MM_PER_INCH, 1.0)
-        end = np.column_stack([c["x_mm"], c["y_mm"]])
-        start = np.vstack([before, end[:-1]])
-        before = end[-1]
-        # Points to check per line: its end, and each of its arc's four axis crossings (NaN if none).
-        points = np.concatenate([end[:, None, :], _arc_extremes(start, end, c, scale)], axis=1)
-        off = bed.outside(points.reshape(-1, 2), TOLERANCE).reshape(len(end), -1) & ~np.isnan(points[..., 0])
-        lines = np.flatnonzero(off.any(axis=1))
-        if len(lines):
-            index = int(lines[0])
-            x, y = points[index, np.flatnonzero(off[index])[0]]
-            _refuse(job, first + index, x, y, reaches="its arc reaches" if not off[index, 0] else "moves to")
+    if job.off_bed is not None:
+        index, x, y, on_arc = job.off_bed
+        _refuse(job, index, x, y, reaches="its arc reaches" if on_arc else "moves to")
 
 
 def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray) -> np.ndarray:
