@@ -236,3 +236,10 @@ def test_simulate_renders_the_foreign_shapes_and_nothing_else(tmp_path):
     assert distance_to_shapes(inked).max() < 0.25 + 1.5 * mm
     for shape in shape_points():
         assert distance_to(shape, inked).max() < 1.5 * mm
+
+
+def test_stat_of_gcode_reads_it_with_the_header_s_profile(tmp_path, capsys):
+    path = exported(tmp_path, "grbl-z-a3")
+    assert main(["stat", str(path), "--json"]) == 0  # the default profile's servo pen would never go down
+    report = json.loads(capsys.readouterr().out)
+    assert report["profile"] == "grbl-z-a3" and report["total"]["pen_down_mm"] == pytest.approx(math.hypot(60, 30), abs=0.01)
