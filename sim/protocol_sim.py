@@ -10,7 +10,9 @@ URL parts (all optional):
 ``NAME``
     Registry key. Ports opened with the same name reach the same plotter (so a test can look
     at what a driver drew with :func:`plotter` and a sender can reconnect after a dropped
-    link); without a name every open makes a fresh plotter.
+    link); without a name every open makes a fresh plotter. One port at a time: while one is
+    open, another open of the name fails with ``EBUSY``, as a serial device another program
+    holds does.
 ``profile``
     Plotter profile name or TOML path (bed, pen, motion, firmware); default
     :data:`~pencilbot.machine.profile.DEFAULT_PROFILE`. This adapter is the one place of the
@@ -49,6 +51,7 @@ URL parts (all optional):
 from __future__ import annotations
 
 import dataclasses
+import errno
 import math
 import time
 import urllib.parse
@@ -67,6 +70,7 @@ REAL_BOARD = {"power": "zero", "abort": "lose", "limits": "profile"}
 DEFAULT_BOARD = {"power": "keep", "abort": "keep", "limits": "bed"}
 _CHOICES = {"power": ("zero", "keep"), "abort": ("lose", "keep"), "limits": ("profile", "bed")}
 _PLOTTERS: dict[str, VirtualPlotter] = {}
+_OPEN: set[str] = set()  # names with a port open now: a second open is refused, as a busy device's
 _SLICE = 0.001  # s between polls while a read waits
 
 
@@ -239,10 +243,15 @@ class Serial(SerialBase):
         if self.is_open:
             raise SerialException("Port is already open.")
         name, options = parse_url(self.portstr)
+        if name in _OPEN:
+            # A board has one cable: a second sender gets what a locked serial device gives.
+            raise SerialException(errno.EBUSY, f"could not open sim://{name}: it is open already")
         fresh = not name or name not in _PLOTTERS
         self.plotter = plotter_from_options(options) if fresh else _PLOTTERS[name]
         if name:
             _PLOTTERS[name] = self.plotter
+            _OPEN.add(name)
+        self._name = name
         firmware = self.plotter.firmware
         firmware.link_dropped = False  # plugged back in
         if not fresh and options.get("reset", "1") != "0":
@@ -251,6 +260,8 @@ class Serial(SerialBase):
         self.is_open = True
 
     def close(self) -> None:
+        if self.is_open and self._name:
+            _OPEN.discard(self._name)
         self.is_open = False
 
     def _reconfigure_port(self) -> None:

@@ -5,7 +5,8 @@ the server keeps its own handle on the device side open, so senders can connect,
 reconnect without the pty hanging up.
 
 Like an Arduino whose DTR line resets the controller, the board power-cycles when a sender
-opens the device (``reset_on_open``; seen through Linux inotify, so elsewhere it does not).
+opens the device while nobody else has it open (``reset_on_open``; seen through Linux inotify,
+so elsewhere it does not).
 A ``drop`` fault is a pulled cable: the pty goes away under the sender, the board keeps
 running, and the server plugs it back in on a new pty — the way a USB adapter comes back,
 often under another name — and reports the new path through ``on_new_path``.
@@ -25,19 +26,25 @@ from collections.abc import Callable
 from sim.protocol_sim import VirtualPlotter
 
 POLL = 0.002  # s: how often the machine clock advances while nobody talks
-_IN_OPEN = 0x20
+_IN_OPEN, _IN_CLOSE = 0x20, 0x08 | 0x10  # IN_CLOSE_WRITE | IN_CLOSE_NOWRITE
 _EVENT = struct.Struct("iIII")  # inotify_event: wd, mask, cookie, len (then the name)
 
 
 class _OpenWatch:
-    """Tells when some process opens a path (inotify IN_OPEN); inert where inotify is missing."""
+    """Tells when a path goes from closed to opened by some process (inotify IN_OPEN and
+    IN_CLOSE); inert where inotify is missing.
+
+    Only the first open counts: DTR rises when a port is opened while nobody has it open, so a
+    second program opening a port in use (and failing to lock it) does not reset the board.
+    """
 
     def __init__(self, path: str):
         self.fd = -1
+        self.openers = 0
         try:
             libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
             fd = libc.inotify_init1(os.O_NONBLOCK | os.O_CLOEXEC)
-            if fd >= 0 and libc.inotify_add_watch(fd, os.fsencode(path), _IN_OPEN) >= 0:
+            if fd >= 0 and libc.inotify_add_watch(fd, os.fsencode(path), _IN_OPEN | _IN_CLOSE) >= 0:
                 self.fd = fd
             elif fd >= 0:
                 os.close(fd)
@@ -45,7 +52,7 @@ class _OpenWatch:
             pass  # not Linux: no DTR emulation
 
     def opened(self) -> bool:
-        """True if the path was opened since the last call."""
+        """True if the path was opened while nobody else had it open, since the last call."""
         if self.fd < 0:
             return False
         try:
@@ -55,7 +62,11 @@ class _OpenWatch:
         offset, seen = 0, False
         while offset + _EVENT.size <= len(data):
             _, mask, _, length = _EVENT.unpack_from(data, offset)
-            seen = seen or bool(mask & _IN_OPEN)
+            if mask & _IN_OPEN:
+                seen = seen or self.openers == 0
+                self.openers += 1
+            if mask & _IN_CLOSE:
+                self.openers = max(self.openers - 1, 0)
             offset += _EVENT.size + length
         return seen
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from pencilbot.commands.common import IMAGE_SUFFIXES
+from pencilbot.commands.common import IMAGE_SUFFIXES, number
 from pencilbot.errors import PencilbotError
 
 
@@ -31,16 +31,13 @@ from pencilbot.errors import PencilbotError
 def add_jobs_option(parser: argparse.ArgumentParser) -> None:
     """``-j/--jobs``: how many files to work on at once."""
     parser.add_argument(
-        "-j", "--jobs", type=_positive_count, metavar="N",
+        "-j", "--jobs", type=number("--jobs", low=1, high=MAX_JOBS, whole=True), metavar="N",
         help=f"files worked on at once with several inputs (default: all {os.cpu_count()} cores; 1: one by one)",
     )
 
 
-def _positive_count(text: str) -> int:
-    """``--jobs`` value: a whole number ≥ 1 (argparse reports anything else as a usage error)."""
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of files (1 or more)")
-    return int(text)
+#: Most files worked on at once: a process each, so past a few hundred the machine thrashes.
+MAX_JOBS = 256
 
 
 @dataclass(frozen=True)

@@ -11,10 +11,13 @@ from pencilbot.configs_io import config_names, user_folder
 from pencilbot.errors import PencilbotError, ProfileError
 from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
+from pencilbot.machine.bed import MAX_BED
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
-from pencilbot.planning.style import Style, default_style, list_styles, load_style, with_overrides
+from pencilbot.planning.style import (
+    MIN_PEN_WIDTH, Style, default_style, list_styles, load_style, with_overrides,
+)
 from pencilbot.render import BAND_PIXELS
 from pencilbot.units import MM_PER_INCH
 
@@ -38,6 +41,45 @@ MAX_RENDER_PIXELS = 1 << 30
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
 
 
+def number(option: str, *, low: float | None = None, high: float, above: bool = False, whole: bool = False,
+           unit: str = ""):
+    """The argparse ``type`` of a numeric option: a finite number in ``[low, high]`` (``(low,
+    high]`` with ``above``), a whole one with ``whole``; ``unit`` names what it counts.
+
+    Every numeric option of every command is read through this, so a value out of bounds (``nan``,
+    ``inf``, ``0`` where it must be positive, ``1e9`` mm of pen) is one message naming the option,
+    before anything runs. It raises :class:`PencilbotError`, not ``ValueError``: argparse lets it
+    through to the CLI's one-line report instead of printing its usage text.
+    """
+    def text(value: float) -> str:
+        return f"{value:.0f}" if float(value).is_integer() else f"{value:g}"
+
+    bounds = [f"{'more than' if above else 'at least'} {text(low)}"] if low is not None else []
+    rule = " and ".join([*bounds, f"at most {text(high)}"]) + (f" {unit}" if unit else "") + (", a whole number" if whole else "")
+
+    def parse(text: str):
+        try:
+            value = int(text) if whole else float(text)
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value) or value > high or (
+                low is not None and (value <= low if above else value < low)):
+            raise PencilbotError(f"{option} must be {rule}, not {text!r}")
+        return value
+
+    parse.__name__ = option.lstrip("-")  # what argparse would call the type in its own messages
+    parse.bounds = (low, high, above, whole)  # for --help generators and tests
+    return parse
+
+
+#: Bounds shared by several commands' options.
+MAX_DPI = 10_000.0  # dots per inch of a rendered PNG (memory is checked on top: check_render)
+MAX_SVG_DPI = 100_000.0
+MAX_IMAGE_PIXELS = 10**10
+MAX_BAUD = 20_000_000  # bit/s: above any USB serial adapter
+MAX_REALTIME = 1e6  # speed-up over real time
+
+
 def add_verbosity(parser: argparse.ArgumentParser) -> None:
     """``-q/--quiet`` and ``-v/--verbose`` for every subcommand."""
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")
@@ -51,11 +93,20 @@ def add_profile_option(parser: argparse.ArgumentParser, what: str = "plotter pro
 
     name = default_profile()
     parser.add_argument(
-        "--profile", default=name, metavar="NAME|FILE.toml",
+        "--profile", default=name, metavar="NAME|FILE.toml", action=_Given,
         help=f"{what}: a name (see --list-profiles) or a .toml file (default {name}; yours: $PENCILBOT_PROFILE "
              f"or profile = \"NAME\" in {user_folder() / 'config.toml'})")
     parser.add_argument("--list-profiles", action=_Listing, listing=profile_listing,
                         help="list the plotter profiles, shipped and yours, and exit")
+
+
+class _Given(argparse.Action):
+    """Store the value, and ``<dest>_given = True``: whether the user named it, not the default
+    (a G-code file's own profile counts more than a default, less than a given one)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+        setattr(namespace, f"{self.dest}_given", True)
 
 
 class _Listing(argparse.Action):
@@ -113,7 +164,8 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
     _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
                        f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
     photo.add_argument(
-        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
+        "--max-pixels", type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True),
+        default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
 
@@ -122,15 +174,18 @@ def _add_sheet_options(group, page_default: str, margin_default: str, pen_defaul
     group.add_argument("--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm {page_default}")
     group.add_argument("--orientation", choices=ORIENTATIONS,
                        help=f"auto turns the sheet to suit the picture ({_style_default('orientation')})")
-    group.add_argument("--margin", type=float, metavar="MM", help=f"blank border in mm {margin_default}")
-    group.add_argument("--pen-width", type=float, metavar="MM", help=f"pen line width in mm {pen_default}")
+    group.add_argument("--margin", type=number("--margin", low=0, high=MAX_BED / 2, unit="mm"), metavar="MM",
+                       help=f"blank border in mm {margin_default}")
+    group.add_argument("--pen-width", type=number("--pen-width", low=MIN_PEN_WIDTH, high=MAX_RENDER_PEN_WIDTH, unit="mm"),
+                       metavar="MM", help=f"pen line width in mm {pen_default}")
 
 
 def add_svg_options(parser: argparse.ArgumentParser, *, sheet: bool = False, reorder: bool = False) -> None:
     """How an SVG from another tool is read: ``--svg-dpi``, and with ``sheet`` the sheet and pen
     options (commands without photo options), with ``reorder`` ``--keep-order``."""
     svg = parser.add_argument_group("SVG drawings from other tools")
-    svg.add_argument("--svg-dpi", type=float, metavar="DPI",
+    svg.add_argument("--svg-dpi", type=number("--svg-dpi", low=0, above=True, high=MAX_SVG_DPI, unit="user units per inch"),
+                     metavar="DPI",
                      help="user units per inch of an SVG whose size has no unit (96: CSS pixels, as Inkscape reads them)")
     if sheet:
         _add_sheet_options(svg, "(default: the SVG's own page; given: the drawing is fitted onto it)",
@@ -179,8 +234,42 @@ def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS
     # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
     from pencilbot.planning.build import make_plan, plot_resolution
 
+    check_plan(style)
     image = load_image(path, max_pixels=max_pixels, downscale=downscale, shrink_to=plot_resolution(style))
     return make_plan(image, style=style)
+
+
+# Peak bytes of planning a photo per mm² of page and mm of pen width (the shading grids follow
+# the pen, ~1/width), measured with /usr/bin/time: camera at 256 px on 500x500 and 1000x1000 mm
+# pages with 0.5 and 1 mm pens (594 MB, 2.2 GB, 367 MB).
+_PLAN_BYTES_PER_MM2_MM = 1100
+
+
+def check_plan(style: Style, preview_dpi: float | None = None) -> None:
+    """Refuse planning on a page whose grids (and, with ``preview_dpi``, its preview picture)
+    would need more memory than is free, before anything is allocated (a 100 m sheet asked
+    for 584 GB).
+
+    Raises
+    ------
+    PencilbotError
+        Saying how much the page would need and how much there is.
+    """
+    from pencilbot.planning.layout import page_size
+
+    page = page_size(style.page, None, margin=style.margin)
+    planning = _PLAN_BYTES_PER_MM2_MM / style.pen_width  # both grow with the page's area
+    picture = (preview_dpi / MM_PER_INCH) ** 2 * _RENDER_BYTES_PER_PIXEL if preview_dpi is not None else 0.0
+    per_mm2 = planning + picture
+    need = page.width * page.height * per_mm2
+    budget = _MEMORY_SHARE * available_memory()
+    if need > budget:
+        side = math.sqrt(budget / per_mm2)
+        raise PencilbotError(
+            f"a {page.width:g} x {page.height:g} mm page with a {style.pen_width:g} mm pen needs about "
+            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than this machine has free "
+            f"({budget / _MEMORY_SHARE / 1e9:.1f} GB); use a page of at most about {side:.0f} x {side:.0f} mm"
+            + (" (or a wider pen)" if planning > picture else ""))
 
 
 def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
@@ -208,8 +297,6 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
     if sheet is None and (flags := given("--orientation", "--margin")):
         raise PencilbotError(f"{', '.join(flags)} place a drawing on a sheet; give the sheet too (--page A4)")
     dpi = _option(args, "--svg-dpi") or (_ANY_DPI if sheet else None)
-    if dpi is not None and not (math.isfinite(dpi) and dpi > 0):
-        raise PencilbotError(f"--svg-dpi must be a positive number of user units per inch, not {dpi:g}")
     pen = _option(args, "--pen-width")
     if pen is not None:
         with_overrides(Style(), {"pen_width": pen}, where="--pen-width")  # the same rule as for photos

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.commands.common import add_photo_options, add_profile_option, add_verbosity, photo_style
+from pencilbot.commands.common import add_photo_options, add_profile_option, add_verbosity, check_plan, photo_style
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
 
@@ -74,6 +74,7 @@ def run(args: argparse.Namespace) -> int:
 
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
     style = photo_style(args)
+    check_plan(style, PREVIEW_DPI)  # before the photo is read: a page too large for memory fails now
     image = _photo(args, partial(load_image, shrink_to=plot_resolution(style)), image_from_array)
     out = Path(args.out)
     try:

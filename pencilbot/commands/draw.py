@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import sim
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
+from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_verbosity, number
 from pencilbot.driver import draw
+from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import load_journal
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import default_profile
@@ -23,8 +25,9 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
-    p.add_argument("--profile", help=f"plotter profile name or TOML file (default: the resumed job's, else {default_profile()})")
-    p.add_argument("--baud", type=int, default=115200, help="serial speed in bit/s (default %(default)s)")
+    p.add_argument("--profile", help="plotter profile name or TOML file (default: the resumed job's, else the one "
+                   f"the file's header names, else {default_profile()}); must be the header's if it names one")
+    p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"), default=115200, help="serial speed in bit/s (default %(default)s)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
     p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
@@ -32,12 +35,15 @@ def add_parser(subparsers) -> None:
                    help="on error:N stop (feed hold, pen up; default) or log it and continue")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue")
-    where.add_argument("--start-line", type=int, metavar="N", help="start at file line N, restoring the state before it")
-    p.add_argument("--timeout", type=float, default=10.0, help="seconds of silence before giving up (default %(default)g)")
+    where.add_argument("--start-line", type=number("--start-line", low=1, high=2**31 - 1, whole=True), metavar="N", help="start at file line N, restoring the state before it")
+    p.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"), default=10.0, help="seconds of silence before giving up (default %(default)g)")
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
     add_verbosity(p)
     p.set_defaults(func=run)
 
+
+#: Seconds of silence anyone would wait for a board (a day); more is a typo, and none never works.
+MAX_TIMEOUT = 86_400.0
 
 #: Inputs that are pictures or plans, not G-code: `pencilbot export` turns them into G-code.
 NOT_GCODE = {*IMAGE_SUFFIXES, ".gif", ".svg"}
@@ -60,13 +66,38 @@ def run(args: argparse.Namespace) -> int:
     if port is None:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
+    announce = None
+    if args.verbose and not args.quiet:
+        def announce(banner, job):
+            print("\n".join(banner_lines(port, args.baud, banner, job)), file=sys.stderr, flush=True)
+
     sim.register()  # --port sim://… reaches the virtual plotter
+    profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
     result = draw(
-        gcode, port, profile=args.profile or (None if journal else default_profile()), baud=args.baud, unlock=args.unlock, check=args.check,
+        gcode, port, profile=profile, baud=args.baud, unlock=args.unlock, check=args.check,
         send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
-        resume=args.resume, progress=progress, timeout=args.timeout,
+        resume=args.resume, progress=progress, timeout=args.timeout, announce=announce,
     )
     if not args.quiet and not args.json_lines:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
+    """What ``draw -v`` says before it streams: the port, the profile, what the board said it
+    is, the job's size and its estimated plot time."""
+    from pencilbot.planning.stats import duration_text
+
+    profile = job.profile
+    board = banner.removeprefix("banner '").removesuffix("'")  # a reset's reply: "banner 'Grbl 1.1h'"
+    header = estimated_seconds(job.source) if Path(job.source).is_file() else None
+    seconds, how = (header, "the file's estimate") if header is not None else (
+        job.seconds_after(len(job) - 1), "distance over feed, without acceleration")
+    return [
+        f"port {port} at {baud} bit/s",
+        f"profile {profile.name} ({profile.source}): {profile.description}",
+        f"board: {board}",
+        f"job: {job.source}, {len(job)} command lines of {job.total_lines}",
+        f"estimated plot time {duration_text(seconds)} ({how})",
+    ]

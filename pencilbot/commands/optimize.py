@@ -8,8 +8,10 @@ import json
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    add_profile_option, add_svg_options, add_verbosity, change_summary, read_drawing, reorder_on,
+    add_profile_option, add_svg_options, add_verbosity, change_summary, number, read_drawing, reorder_on,
 )
+
+MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
 from pencilbot.machine.profile import load_profile
@@ -32,19 +34,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("input", metavar="IN.svg", help="SVG drawing")
     parser.add_argument("-o", "--output", required=True, metavar="OUT.svg", help="SVG to write")
     add_profile_option(parser, "plotter profile for home, speeds and delays")
-    parser.add_argument("--rounds", type=_rounds, default=REORDER_ROUNDS, metavar="N",
+    parser.add_argument("--rounds", type=number("--rounds", low=0, high=MAX_ROUNDS, whole=True), default=REORDER_ROUNDS, metavar="N",
                         help="improvement passes per layer: more shortens pen-up a little more, slower "
                              "(default %(default)s; a photo's plan gets 40)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON (lengths in mm, time in s)")
     add_svg_options(parser, sheet=True)
     add_verbosity(parser)
     parser.set_defaults(func=run)
-
-
-def _rounds(text: str) -> int:
-    if not text.isdigit():
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of rounds (0 or more)")
-    return int(text)
 
 
 def run(args: argparse.Namespace) -> int:

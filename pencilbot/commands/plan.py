@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folders, output_paths, run_batch
-from pencilbot.commands.common import add_photo_options, add_verbosity, photo_style, plan_for_input
+from pencilbot.commands.common import add_photo_options, add_verbosity, check_plan, photo_style, plan_for_input
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import is_plan_svg, write_svg
 from pencilbot.planning.preview import preview as plan_preview
@@ -59,6 +59,8 @@ def plan_one(source: Path, output: Path, preview: Path | None, args: argparse.Na
         raise PencilbotError(
             f"{source} is a drawing, not a photo: `pencilbot optimize {source} -o {output}` reorders it "
             f"for the plotter, `pencilbot export {source}` writes its G-code (reordered the same way)")
+    if preview is not None:
+        check_plan(photo_style(args), PREVIEW_DPI)  # the preview's memory too, before any planning
     plan = plan_for_input(source, args)
     write_svg(plan, output)
     if preview is not None:

@@ -10,17 +10,16 @@ from __future__ import annotations
 
 import argparse
 import itertools
-import math
 import os
-import re
 import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, plan_for_input,
-    reorder_drawing,
+    MAX_DPI, MAX_REALTIME, add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, number,
+    plan_for_input, reorder_drawing,
 )
 from pencilbot.driver import draw
+from pencilbot.driver.header import profile_for
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
 from pencilbot.paths import DEFAULT_PEN_WIDTH
@@ -43,9 +42,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     add_profile_option(parser, "GRBL or grblHAL plotter profile")
-    parser.add_argument("--dpi", type=float, default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
-    parser.add_argument("--realtime", type=float, default=0.0, metavar="R",
+    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
+                        default=0.0, metavar="R",
                         help="move R times faster than real time (default %(default)g: instant)")
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
@@ -57,12 +57,13 @@ def run(args: argparse.Namespace) -> int:
     source, output = Path(args.input), Path(args.output)
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
-    if not (math.isfinite(args.realtime) and args.realtime >= 0):
-        raise PencilbotError(f"--realtime must be 0 (instant) or a positive speed-up, not {args.realtime:g}")
     import sim
     from sim import protocol_sim
 
     sim.register()
+    if source.suffix.lower() in GCODE_SUFFIXES:
+        # As draw: the profile the file was exported for, unless another one is asked for.
+        args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
     check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
@@ -97,23 +98,10 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
             program = source.read_bytes()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return _without_program_markers(program), args.pen_width or DEFAULT_PEN_WIDTH
+        return program, args.pen_width or DEFAULT_PEN_WIDTH
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
     return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
 
 
-_BOM = b"\xef\xbb\xbf"
-_PROGRAM_MARKER = re.compile(rb"(?m)^[ \t]*%[ \t]*(?:;[^\r\n]*)?(?=\r?$)")
-
-
-def _without_program_markers(program: bytes) -> bytes:
-    """The program without a UTF-8 byte-order mark (not text: GRBL drops its bytes too), and its
-    ``%`` lines (the tape start/end marker CAM and Inkscape programs carry) left empty.
-
-    GRBL answers a ``%`` with error:1 (its protocol loop has the feature commented out); a
-    preview of a program written for controllers that read it leaves the marker out. The lines
-    stay, empty, so messages keep the file's line numbers.
-    """
-    return _PROGRAM_MARKER.sub(b"", program.removeprefix(_BOM))

@@ -11,7 +11,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, add_verbosity
+from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_IMAGE_PIXELS, add_verbosity, number
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
@@ -35,23 +35,23 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
     parser.add_argument("--color", action="store_true", help="colour pencil drawing")
     parser.add_argument(
-        "--line-length", type=int, metavar="N",
+        "--line-length", type=number("--line-length", low=1, high=LONGEST_LENGTH, whole=True, unit="pixels"), metavar="N",
         help=f"stroke length in pixels, 1-{LONGEST_LENGTH} (default: by image size, {MIN_LENGTH}-{MAX_LENGTH})",
     )
     parser.add_argument(
-        "--stroke-gamma", type=float, default=1.0, metavar="G",
+        "--stroke-gamma", type=number("--stroke-gamma", low=GAMMA_RANGE[0], high=GAMMA_RANGE[1]), default=1.0, metavar="G",
         help="tone curve of the line drawing: >1 darker strokes, <1 lighter (0.1-10, default 1)",
     )
     parser.add_argument(
-        "--stroke-width", type=float, default=1.0, metavar="PX", help="stroke width in pixels (0.5-20, default 1)"
+        "--stroke-width", type=number("--stroke-width", low=WIDTH_RANGE[0], high=WIDTH_RANGE[1], unit="pixels"), default=1.0, metavar="PX", help="stroke width in pixels (0.5-20, default 1)"
     )
     parser.add_argument(
         "--texture", metavar="FILE",
         help="hand-drawn pencil texture image, tiled over the drawing (default: synthesised)",
     )
-    parser.add_argument("--texture-seed", type=int, default=0, metavar="S", help="pencil texture seed")
+    parser.add_argument("--texture-seed", type=number("--texture-seed", low=0, high=2**32 - 1, whole=True), default=0, metavar="S", help="pencil texture seed")
     parser.add_argument(
-        "--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
+        "--max-pixels", type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True), default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     parser.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
     add_verbosity(parser)
@@ -61,16 +61,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     output = Path(args.output)
     _check_output(output)
-    if args.line_length is not None and not 1 <= args.line_length <= LONGEST_LENGTH:
-        raise PencilbotError(f"--line-length must be 1 to {LONGEST_LENGTH} pixels, got {args.line_length}.")
-    if args.texture_seed < 0:
-        raise PencilbotError(f"--texture-seed must be 0 or more, got {args.texture_seed}.")
-    for flag, value, (low, high) in (
-        ("--stroke-gamma", args.stroke_gamma, GAMMA_RANGE),
-        ("--stroke-width", args.stroke_width, WIDTH_RANGE),
-    ):
-        if not low <= value <= high:
-            raise PencilbotError(f"{flag} must be {low:g} to {high:g}, got {value:g}.")
     if args.lines_only and (args.color or args.texture):
         flag = "--color" if args.color else "--texture"
         raise PencilbotError(f"{flag} needs the tone layer; drop --lines-only or {flag}.")

@@ -44,8 +44,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    profile = load_profile(args.profile)
     source = Path(args.plan)
+    if source.suffix.lower() in GCODE_SUFFIXES:  # as draw: the profile the file was exported for
+        from pencilbot.driver.header import profile_for
+
+        args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
+    profile = load_profile(args.profile)
     plan = gcode_plan(source, profile) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
     stats = estimate(plan, profile)
     if args.json:

@@ -18,6 +18,8 @@ from pathlib import Path
 
 import numpy as np
 
+from pencilbot.driver.bed_check import BedWatch
+from pencilbot.driver.markers import without_markers
 from pencilbot.driver.modal import ModalState, Track, track
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import Profile
@@ -50,6 +52,8 @@ class Job:
         The state before lines 0, CHECKPOINT, 2·CHECKPOINT, …
     total_lines : int
         Lines in the file, commands or not.
+    off_bed : tuple or None
+        The first move off the profile's bed (:class:`~pencilbot.driver.bed_check.BedWatch`).
     """
 
     source: str
@@ -60,6 +64,7 @@ class Job:
     checkpoints: tuple[ModalState, ...]
     total_lines: int
     profile: Profile
+    off_bed: tuple[int, float, float, bool] | None = None
 
     def __len__(self) -> int:
         return len(self.numbers)
@@ -170,7 +175,8 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
     frames, offsets, numbers, seconds, checkpoints = bytearray(), [np.zeros(1, np.int64)], [], [], [ModalState()]
     file_lines = done = 0
     state, elapsed = ModalState(), 0.0
-    for raw in blocks:
+    bed = BedWatch(profile.bed)
+    for raw in without_markers(blocks):
         # \r\n and a lone \r end a line as \n does (GRBL reads both as line ends).
         text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
         cleaned = fw.commands(_COMMENT.sub(b"", text).translate(None, _SPACE).upper())
@@ -195,6 +201,7 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
             stop = min(lines, first + CHECKPOINT - (done + first) % CHECKPOINT)
             piece = track(block[starts[first] : starts[stop]], pen, start=state, travel_feed=profile.motion.travel_feed,
                           dwell_units=fw.dwell_units)
+            bed.see(piece, done + first)
             cumulative = elapsed + np.cumsum(piece.seconds)
             seconds.append(cumulative.astype(np.float32))  # an ETA needs no more digits
             elapsed = float(cumulative[-1])
@@ -212,6 +219,7 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         checkpoints=tuple(checkpoints),
         total_lines=file_lines,
         profile=profile,
+        off_bed=bed.first,
     )
     _check(job)
     return job

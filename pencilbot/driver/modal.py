@@ -2,9 +2,12 @@
 
 The driver needs it for two things: to rebuild the machine state when a job resumes in the middle,
 and to estimate how long each line takes for the progress ETA. It understands the subset of
-G-code that plotters are sent (G0 G1 G4 G20 G21 G90 G91, F X Y Z S P, M3 M4 M5 M280); other words
-pass through without changing the tracked state, and axis words on ``G4 G10 G28 G53 G92`` lines are
-not moves.
+G-code that plotters are sent (G0 G1 G2 G3 G4 G20 G21 G90 G91, F X Y Z I J R S P, M3 M4 M5 M280);
+other words pass through without changing the tracked state, and axis words on
+``G4 G10 G28 G53 G92`` lines are not moves. Arcs (G2/G3 in the XY plane, as other tools write
+them) are followed to their end point; their centre words are kept per line (``i``, ``j``, ``r``
+columns, with the positions in mm, ``x_mm`` and ``y_mm``) for whoever needs the curve between
+(:mod:`pencilbot.driver.bed_check`).
 
 :func:`track` reads a block of cleaned lines (see :func:`clean_line`) in one pass of numpy: the
 words' numbers are parsed from their digits, each modal value is carried forward from the last
@@ -26,7 +29,7 @@ from pencilbot.machine.pen import PenModel
 from pencilbot.units import MM_PER_INCH
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
-_LETTER = {letter: ord(letter) - ord("A") for letter in "FGMPSXYZ"}
+_LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJMPRSXYZ"}
 _MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
 _POW10 = 10.0 ** np.arange(-_MAX_DIGITS, _MAX_DIGITS + 1)  # digit weights by exponent
 
@@ -38,8 +41,8 @@ def _bits(codes: dict[int, int]) -> np.ndarray:
 
 
 # The G and M codes the tracker reads, each a bit of a per-line mask.
-G0, G1, G4, G20, G21, G90, G91, NOT_A_MOVE = (1 << b for b in range(8))
-_G_BITS = _bits({0: 0, 1: 1, 4: 2, 20: 3, 21: 4, 90: 5, 91: 6, 10: 7, 28: 7, 53: 7, 92: 7})
+G0, G1, G4, G20, G21, G90, G91, NOT_A_MOVE, G2, G3 = (1 << b for b in range(10))
+_G_BITS = _bits({0: 0, 1: 1, 4: 2, 20: 3, 21: 4, 90: 5, 91: 6, 10: 7, 28: 7, 53: 7, 92: 7, 2: 8, 3: 9})
 M3, M4, M5, M280 = (1 << b for b in range(4))
 _M_BITS = _bits({3: 0, 4: 1, 5: 2, 280: 3})
 
@@ -67,7 +70,8 @@ class ModalState:
     inches: bool = False
     relative: bool = False
     feed: float | None = None
-    motion: int = 0  # 0 = G0, 1 = G1 (modal)
+    motion: int = 0  # 0 = G0, 1 = G1 (modal): the last straight motion
+    arc: int = 0  # 2 = G2, 3 = G3 when the modal motion is an arc, else 0 (then ``motion`` is in force)
     x: float = 0.0
     y: float = 0.0
     z: float = 0.0
@@ -84,7 +88,7 @@ class Track:
     job line, so a window of a job reads like the job); ``seconds`` is each line's duration.
     """
 
-    FIELDS = ("inches", "relative", "feed", "motion", "x", "y", "z", "spindle_on", "s", "servo", "pen_down")
+    FIELDS = ("inches", "relative", "feed", "motion", "arc", "x", "y", "z", "spindle_on", "s", "servo", "pen_down")
 
     def __init__(self, first: int, columns: dict[str, np.ndarray], seconds: np.ndarray) -> None:
         self.first = first
@@ -141,12 +145,14 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     lines = words.lines
     g = _codes(words, "G", lines, _G_BITS)
     m = _codes(words, "M", lines, _M_BITS)
-    word = {letter: _first_value(words, letter, lines) for letter in "FPSXYZ"}
+    word = {letter: _first_value(words, letter, lines) for letter in "FIJPRSXYZ"}
     columns = {}
     columns["inches"] = _carry((g & (G20 | G21)) != 0, (g & G20) != 0, start.inches)
     relative = columns["relative"] = _carry((g & (G90 | G91)) != 0, (g & G91) != 0, start.relative)
     columns["feed"] = _carry(~np.isnan(word["F"]), word["F"], np.nan if start.feed is None else start.feed)
     columns["motion"] = _carry((g & (G0 | G1)) != 0, ((g & G1) != 0).astype(np.int64), start.motion)
+    arc_code = np.where((g & G2) != 0, 2, np.where((g & G3) != 0, 3, 0))
+    columns["arc"] = _carry((g & (G0 | G1 | G2 | G3)) != 0, arc_code, start.arc)
     servo = (m & M280) != 0
     has_s = ~np.isnan(word["S"])
     columns["s"] = _carry(has_s & ~servo, word["S"], start.s)
@@ -155,15 +161,24 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     moves = (g & (NOT_A_MOVE | G4)) == 0
     for axis in "xyz":
         columns[axis] = _position(word[axis.upper()], moves, relative, getattr(start, axis))
-    columns["pen_down"] = _pen_down(columns, pen)
-
-    step = [np.diff(columns[a], prepend=getattr(start, a)) for a in "xyz"]
-    distance = np.sqrt(step[0] ** 2 + step[1] ** 2 + step[2] ** 2)
+    # Also in mm, as the board keeps them: a G20/G21 in the middle of a file changes how later
+    # words read, not where the pen is (``x``/``y`` above take the numbers as written). Exact
+    # but for a file mixing units across a checkpoint, whose start is taken in the file's units.
     scale = np.where(columns["inches"], MM_PER_INCH, 1.0)
+    start_scale = MM_PER_INCH if start.inches else 1.0
+    mm = {axis: _position(word[axis.upper()] * scale, moves, relative, getattr(start, axis) * start_scale)
+          for axis in "xyz"}
+    columns["x_mm"], columns["y_mm"] = mm["x"], mm["y"]
+    columns["pen_down"] = _pen_down(columns, pen)
+    for letter in "IJR":  # an arc's centre, per line (not modal)
+        columns[letter.lower()] = word[letter]
+
+    step = [np.diff(mm[a], prepend=getattr(start, a) * start_scale) for a in "xyz"]
+    distance = np.sqrt(step[0] ** 2 + step[1] ** 2 + step[2] ** 2)  # mm
     feed = columns["feed"]
     rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)
     rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * scale)
-    seconds = np.where(distance > 0, distance * scale / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
+    seconds = np.where(distance > 0, distance / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
     dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
     seconds = np.where((g & G4) != 0, dwell, seconds)
     return Track(first, columns, seconds)

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import shlex
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
@@ -54,6 +55,7 @@ def draw(
     timeout: float = 10.0,
     wake_wait: float = 2.5,
     source: str | None = None,
+    announce: Callable[[str, Job], None] | None = None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -91,6 +93,9 @@ def draw(
     source : str, optional
         What fault messages call ``gcode`` when it is not a file (e.g. the file it was read from);
         a file is named by its path.
+    announce : callable, optional
+        Called with the board's start-up banner and the job once the board answered, before
+        anything is streamed (``draw -v`` prints them).
 
     Raises
     ------
@@ -119,6 +124,7 @@ def draw(
         )
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     job = load_job(gcode, machine, source)
+    check_on_bed(job)  # before the port is opened: nothing is sent
 
     start = 0
     if journal is not None:
@@ -136,6 +142,7 @@ def draw(
         journal.port, journal.profile, journal.status, journal.message = port, profile, "running", ""
 
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock)
+    runner.announce = announce
     link = LineReader(open_port(port, baudrate=baud))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
@@ -172,6 +179,7 @@ class _Runner:
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
         self.acked = -1
         self._journal_at = 0.0
+        self.announce = None
 
     def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed_acked=None) -> DrawResult:
         """Stream from job line ``start``; ``resumed_acked``: last acknowledged index of a resumed job."""
@@ -222,7 +230,9 @@ class _Runner:
         )
 
     def _prepare(self, stream: Stream, check, wake_wait) -> None:
-        stream.wake(wake_wait)
+        banner = stream.wake(wake_wait)
+        if self.announce is not None:
+            self.announce(banner, self.job)
         status = stream.wait_until_still()  # a reconnected board may still be drawing
         fw = self.firmware
         if status is not None and fw.is_alarm(status):

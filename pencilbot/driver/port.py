@@ -8,6 +8,7 @@ path. The driver never imports the simulator: whoever wants ``sim://`` ports reg
 
 from __future__ import annotations
 
+import errno
 import time
 
 import serial
@@ -16,6 +17,9 @@ from pencilbot.errors import PlotError
 
 #: How long one read waits for the first byte (s): short, so status polls keep their pace.
 READ_SLICE = 0.02
+# What an open of a port someone else holds fails with: a lock taken (EAGAIN/EWOULDBLOCK from
+# flock, pyserial's ``exclusive``), or a device opened exclusively (EBUSY, TIOCEXCL; sim://).
+_BUSY = {errno.EAGAIN, errno.EWOULDBLOCK, errno.EBUSY}
 
 
 class PortLost(Exception):
@@ -32,14 +36,22 @@ def open_port(url: str, *, baudrate: int = 115200) -> serial.SerialBase:
     baudrate : int
         Bits per second (ignored by sockets).
 
+    The port is ours alone while it is open (pyserial's ``exclusive``, an advisory lock other
+    senders that lock respect; ``sim://NAME`` refuses a second open the same way): two senders
+    on one board interleave their bytes, and each one's drawing is ruined.
+
     Raises
     ------
     PlotError
-        The port does not exist, is busy, or the URL is malformed.
+        The port does not exist, is in use by another program, or the URL is malformed.
     """
     try:
-        return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10)
+        return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10, exclusive=True)
     except (serial.SerialException, ValueError, OSError) as exc:
+        if getattr(exc, "errno", None) in _BUSY:
+            raise PlotError(
+                f"{url} is in use by another program (another pencilbot draw?) — wait for it or close it"
+            ) from None
         raise PlotError(
             f"could not open port {url!r}: {exc}. Check the cable and the port name "
             "(list ports with: python -m serial.tools.list_ports) and that no other program has it open."

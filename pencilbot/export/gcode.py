@@ -153,10 +153,10 @@ def _body(moves: _Moves, profile: Profile, *, first_paths: np.ndarray, notes: li
 def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile) -> None:
     if not len(machine):
         return
+    if not profile.bed.outside(machine).any():
+        return
     low, high = machine.min(axis=0), machine.max(axis=0)
     (x0, x1), (y0, y1) = placement.machine_range()
-    if low[0] >= x0 and high[0] <= x1 and low[1] >= y0 and high[1] <= y1:
-        return
     page = placement.page
     raise OutOfBedError(
         f"the drawing does not fit the bed of plotter profile {profile.name}: it spans "

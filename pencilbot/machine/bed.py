@@ -45,6 +45,14 @@ class Bed:
         by = (-self.height, 0.0) if self.invert_y else (0.0, self.height)
         return bx, by
 
+    def outside(self, machine: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
+        """Which machine points ``(N, 2+)`` mm lie off the bed (more than ``tolerance`` mm
+        beyond its edges): a ``(N,)`` bool array. The one bed check (export and draw)."""
+        xy = np.asarray(machine, dtype=np.float64)[:, :2]
+        (x0, x1), (y0, y1) = self.machine_range()
+        x, y = xy[:, 0], xy[:, 1]
+        return ~((x >= x0 - tolerance) & (x <= x1 + tolerance) & (y >= y0 - tolerance) & (y <= y1 + tolerance))
+
     def to_view(self, machine: np.ndarray) -> np.ndarray:
         """Machine XY ``(N, 2+)`` mm → the bed seen from above: mm from its bottom-left, Y up."""
         whole_bed = Placement(page=self, bed=self, rotated=False)

@@ -66,3 +66,30 @@ def test_a_binary_file_is_named_as_not_gcode_before_the_port_is_opened(capsys, t
     path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))
     code, err = run(capsys, str(path), "--port", "/dev/no-such-port")
     assert code == 3 and "is not G-code text" in err and "Traceback" not in err
+
+
+def test_verbose_draw_says_where_what_and_how_long_before_streaming(capsys, tmp_path):
+    from pencilbot.export.gcode import write_gcode
+    from pencilbot.machine.profile import load_profile
+    from pencilbot.planning.plan import Layer, Page, Plan
+    from pencilbot.planning.stats import duration_text
+
+    import numpy as np
+    import sim
+
+    sim.register()
+    plan = Plan(Page(210.0, 297.0, name="A4"), [Layer("edges", [np.array([[30.0, 30.0], [90.0, 60.0], [90.0, 90.0]])])])
+    path = tmp_path / "v.gcode"
+    summary = write_gcode(plan, load_profile("grbl-servo-a4"), path)
+    code = main(["draw", str(path), "--port", "sim://verbose", "--baud", "57600", "-v", "--json-lines"])
+    err = capsys.readouterr().err
+    lines = sum(1 for line in path.read_text().splitlines() if line.split(";")[0].strip())
+    assert code == 0
+    assert err.splitlines()[:5] == [
+        "port sim://verbose at 57600 bit/s",
+        "profile grbl-servo-a4 (plotters/grbl-servo-a4.toml): GRBL 1.1, servo pen on spindle PWM (M3 S30 up / "
+        "M3 S90 down), A4 portrait bed",
+        "board: Grbl 1.1h",
+        f"job: {path}, {lines} command lines of {len(path.read_text().splitlines())}",
+        f"estimated plot time {duration_text(summary.stats.total.seconds)} (the file's estimate)",
+    ]

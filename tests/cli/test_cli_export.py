@@ -168,7 +168,7 @@ def test_no_input_and_bad_pen_width(photo, tmp_path, capsys):
     assert main(["export"]) == 2
     assert "give a photo or plan SVG" in capsys.readouterr().err
     assert main(["export", str(photo), "-o", str(tmp_path / "x.gcode"), "--pen-width", "-1"]) == 2
-    assert "pen_width" in capsys.readouterr().err
+    assert "--pen-width must be at least 0.05" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
 
 

@@ -69,9 +69,9 @@ def test_a_style_file_is_accepted(photo, tmp_path):
     ("extra", "message"),
     [
         (["--style", "nope"], "no style named 'nope'"),
-        (["--pen-width", "-1"], "pen_width"),
-        (["--pen-width", "nan"], "pen_width"),
-        (["--pen-width", "inf"], "pen_width"),
+        (["--pen-width", "-1"], "--pen-width must be at least 0.05"),
+        (["--pen-width", "nan"], "--pen-width must be"),
+        (["--pen-width", "inf"], "--pen-width must be"),
         (["--margin", "nan"], "margin"),
         (["--max-pixels", "0", "--downscale"], "--max-pixels must be at least 1"),
         (["--page", "B7"], "unknown page size"),

@@ -15,6 +15,7 @@ import serial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from pencilbot.configs_io import config_folder
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
@@ -227,11 +228,13 @@ def test_check_mode_with_a_marlin_profile_is_refused_not_skipped(job):
 def test_resume_of_a_changed_file_keeps_the_job_s_profile_in_the_advice(job):
     path, _ = job
     url, _ = fresh("faults=error@30")
+    mine = path.parent / "mine.toml"  # not the default profile, with a bed the drawing is on
+    mine.write_text((config_folder("plotters") / f"{PROFILE}.toml").read_text().replace(PROFILE, "mine"))
     with pytest.raises(PlotError):
-        draw(path, url, profile="grbl-z-a3", wake_wait=0.2)
+        draw(path, url, profile=str(mine), wake_wait=0.2)
     with open(path, "a") as f:
         f.write("G0 X0 Y0\n")
-    with pytest.raises(PlotError, match=r"changed since.*--profile grbl-z-a3 --start-line \d+"):
+    with pytest.raises(PlotError, match=rf"changed since.*--profile {mine} --start-line \d+"):
         draw(path, url, resume=f"{path}.job.json", wake_wait=0.2)
 
 
@@ -241,8 +244,10 @@ def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
     path = tmp_path / "far.gcode"
     path.write_text("\n".join(lines) + "\n")
     url, name = fresh()
+    mine = tmp_path / "wide.toml"  # a profile whose bed takes the move, on a board whose limits do not
+    mine.write_text((config_folder("plotters") / f"{PROFILE}.toml").read_text().replace("width = 220.0", "width = 1000.0"))
     with pytest.raises(PlotError, match=r"check mode \(\$C\) stopped at line 13 of .*'G1X900Y10F3000'.*ALARM:2.*nothing was drawn"):
-        draw(path, url, profile=PROFILE, check=True, wake_wait=0.2)
+        draw(path, url, profile=str(mine), check=True, wake_wait=0.2)
     assert protocol_sim.plotter(name).machine.strokes == []
 
 

@@ -1,0 +1,127 @@
+"""Check every move of a job against the profile's bed before anything is sent.
+
+With soft limits off (GRBL's default) a board drives into its frame or past the paper on a move
+off the bed; `pencilbot export` never writes one, but a file from elsewhere (or for another
+plotter) may. The moves are followed by the modal tracker (:mod:`pencilbot.driver.modal`):
+inch and relative moves become absolute millimetres, and an arc (G2/G3 in the XY plane, by
+``I J`` centre offsets or radius ``R``) is checked at its end and at every point where it crosses
+an axis of its circle, so a bulge past the edge is caught too. Coordinates are taken as machine
+coordinates (no work offset), as pencilbot's G-code is written.
+
+The moves are looked at while the job is read (:class:`BedWatch`, fed the tracker's pieces by
+:func:`~pencilbot.driver.job.load_job`), so the check costs no second pass over the file; a job
+keeps the first move off the bed, and :func:`check_on_bed` refuses it before the port is opened.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from pencilbot.errors import OutOfBedError
+from pencilbot.units import MM_PER_INCH
+
+if TYPE_CHECKING:  # the job module feeds the watch: no import at run time
+    from pencilbot.driver.job import Job
+    from pencilbot.driver.modal import Track
+    from pencilbot.machine.bed import Bed
+
+#: How far past an edge (mm) still counts as on the bed: a decimal in inches is not exact in mm.
+TOLERANCE = 1e-4
+
+
+class BedWatch:
+    """The first move off ``bed`` among the tracked pieces of a job, seen in order.
+
+    Attributes
+    ----------
+    first : tuple or None
+        ``(job index, x, y, on_arc)`` of the first line that leaves the bed (machine mm, and
+        whether it is a point of the line's arc rather than its end); None while all are on it.
+    """
+
+    def __init__(self, bed: Bed):
+        self.bed = bed
+        self.before = np.zeros(2)  # machine X, Y (mm) before the next piece: a job starts at 0, 0
+        self.first: tuple[int, float, float, bool] | None = None
+
+    def see(self, piece: Track, index: int) -> None:
+        """Look at ``piece``, the states of job lines ``index`` onwards."""
+        if self.first is not None or not len(piece):
+            return
+        c = piece.columns
+        scale = np.where(c["inches"], MM_PER_INCH, 1.0)
+        end = np.column_stack([c["x_mm"], c["y_mm"]])
+        start = np.vstack([self.before, end[:-1]])
+        self.before = end[-1]
+        # Points to check per line: its end, and each of its arc's four axis crossings (NaN if none).
+        points = np.concatenate([end[:, None, :], _arc_extremes(start, end, c, scale)], axis=1)
+        off = self.bed.outside(points.reshape(-1, 2), TOLERANCE).reshape(len(end), -1) & ~np.isnan(points[..., 0])
+        lines = np.flatnonzero(off.any(axis=1))
+        if len(lines):
+            line = int(lines[0])
+            x, y = points[line, np.flatnonzero(off[line])[0]]
+            self.first = (index + line, float(x), float(y), not off[line, 0])
+
+
+def check_on_bed(job: Job) -> None:
+    """Refuse ``job`` if any move leaves ``job.profile``'s bed.
+
+    Raises
+    ------
+    OutOfBedError
+        Naming the first offending file line, its text, the coordinate it reaches (mm) and the
+        bed's range, and what to do.
+    """
+    if job.off_bed is not None:
+        index, x, y, on_arc = job.off_bed
+        _refuse(job, index, x, y, reaches="its arc reaches" if on_arc else "moves to")
+
+
+def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray) -> np.ndarray:
+    """``(N, 4, 2)`` mm: where each arc line's arc crosses +X, +Y, −X, −Y of its centre; NaN
+    where a line is no arc or its arc does not get there."""
+    n = len(end)
+    out = np.full((n, 4, 2), np.nan)
+    arc = c["arc"]
+    # An arc line names its centre (a modal arc without one is an error the board reports).
+    has_centre = ~np.isnan(c["i"]) | ~np.isnan(c["j"]) | ~np.isnan(c["r"])
+    rows = np.flatnonzero((arc > 0) & has_centre)
+    if not len(rows):
+        return out
+    p0, p1, k = start[rows], end[rows], scale[rows]
+    ccw = arc[rows] == 3
+    r_word = c["r"][rows] * k
+    by_radius = ~np.isnan(r_word)
+    # Centre by offsets, or by radius as GRBL computes it (negative R: the longer way round).
+    centre = p0 + np.column_stack([np.nan_to_num(c["i"][rows]), np.nan_to_num(c["j"][rows])]) * k[:, None]
+    d = p1 - p0
+    chord = np.hypot(d[:, 0], d[:, 1])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        h = -np.sqrt(np.maximum(4 * r_word**2 - chord**2, 0.0)) / np.where(chord > 0, chord, 1.0)
+    h = np.where(ccw, -h, h)
+    h = np.where(r_word < 0, -h, h)
+    by_r_centre = p0 + 0.5 * np.column_stack([d[:, 0] - d[:, 1] * h, d[:, 1] + d[:, 0] * h])
+    centre = np.where(by_radius[:, None], by_r_centre, centre)
+    radius = np.hypot(*(p0 - centre).T)
+    a0 = np.arctan2(*(p0 - centre).T[::-1])
+    a1 = np.arctan2(*(p1 - centre).T[::-1])
+    full = np.where(ccw, a1 - a0, a0 - a1) % (2 * np.pi)
+    sweep = np.where(np.isclose(full, 0.0, atol=1e-9), 2 * np.pi, full)  # same start and end: a circle
+    axes = np.arange(4) * (np.pi / 2)
+    along = np.where(ccw[:, None], axes[None, :] - a0[:, None], a0[:, None] - axes[None, :]) % (2 * np.pi)
+    reached = along <= sweep[:, None]
+    crossing = centre[:, None, :] + radius[:, None, None] * np.stack([np.cos(axes), np.sin(axes)], axis=1)[None]
+    out[rows] = np.where(reached[..., None], crossing, np.nan)
+    return out
+
+
+def _refuse(job: Job, index: int, x: float, y: float, reaches: str) -> None:
+    (x0, x1), (y0, y1) = job.profile.bed.machine_range()
+    raise OutOfBedError(
+        f"line {job.number(index)} of {job.source} ({job.line(index)!r}) {reaches} X {x:.3f} Y {y:.3f} mm, "
+        f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm); "
+        "nothing was sent. Draw it with the profile it was made for, or export it again for this one "
+        "(pencilbot export keeps every move on the bed)"
+    )
