@@ -1,0 +1,188 @@
+"""Colour separation: how much of each pen a colour sketch needs, and each pen's hatching.
+
+The model is the one the previews and the simulated plot are judged by
+(:func:`pencilbot.colours.inks_on_paper`): pen k laying ink of linear reflectance c_k over a
+share a_k of the paper multiplies the paper's reflectance by ``1 − a_k (1 − c_k)`` per channel.
+Per cell of a blurred, downsampled copy of the colour sketch (:data:`SEPARATION_CELL`, the
+1–3 mm scale at which hatching is seen as colour), :func:`separate` finds the amounts a ≥ 0 that
+make the stacked inks match the sketch's colour, by projected Gauss–Newton on all cells at once.
+The metric is the cube root of linear light (CIELAB's lightness curve per channel), so an error
+in a shadow counts as much as one in a highlight, as the eye sees it. A small cost per unit of
+ink picks, among mixtures that look alike, the one with least ink: a neutral shadow takes black
+rather than three colours on top of each other, which is also how printers separate (grey
+component replacement).
+
+Each pen's amount then goes through the black plan's own closed loop
+(:func:`~pencilbot.planning.shading.shade`): hatch, render with the exact-area rasteriser, blur,
+correct. So each pen's coverage response (lines dropped, gaps bridged, lines crowding on bends)
+is measured, not modelled, exactly as for the black plan. Each pen hatches at its own angles
+(:func:`pen_angles`), so the lines of different pens cross instead of lying on each other and the
+colours mix optically; the contours are drawn in the darkest pen, which also carries their share
+of its tone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import lru_cache
+
+import cv2
+import numpy as np
+from scipy import ndimage as ndi
+
+from pencilbot.colours import linear_to_srgb, srgb_to_linear
+from pencilbot.machine.pens import Pen
+from pencilbot.planning.plan import Layer
+from pencilbot.planning.shading import shade
+
+#: Cell (mm) of the grid the separation is solved on: finer than the hatching's 1 mm tone scale.
+SEPARATION_CELL = 0.5
+#: Gaussian sigma (mm) of the colour the separation matches (the scale a hatch pattern reads as one colour).
+SEPARATION_BLUR = 1.0
+#: Most coverage asked of one pen: all its hatch families at their densest still show some paper.
+MOST_INK = 0.95
+#: Cost of a unit of ink against a unit of squared colour error (cube-root units).
+INK_COST = 2e-3
+#: Keeps the Gauss–Newton system well posed where pens are interchangeable (more pens than channels).
+DAMPING = 1e-4
+ROUNDS = 30
+#: Samples per sRGB axis of the table :func:`separation_table` solves once per pen set.
+TABLE_SIZE = 33
+_FLOOR = 0.01  # cube root of linear light, offset: its slope stays finite at black
+
+
+def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
+             ink_cost: float = INK_COST, rounds: int = ROUNDS) -> np.ndarray:
+    """The coverage of each pen whose stacked inks best match a colour picture.
+
+    Parameters
+    ----------
+    target : (H, W, 3) float array
+        The colour to match, sRGB in [0, 1] (1 = the paper).
+    pens : sequence of Pen
+        The inks.
+    most : float
+        Largest coverage of one pen, in (0, 1].
+    ink_cost : float
+        Cost per unit of coverage (against squared error in cube-root linear light).
+    rounds : int
+        Gauss–Newton iterations.
+
+    Returns
+    -------
+    (K, H, W) float32 array in [0, most]
+        Coverage of each pen, in the order of ``pens``.
+    """
+    shape = target.shape[:2]
+    goal = _lightness(srgb_to_linear(target).reshape(-1, 3))  # (N, 3)
+    absorb = 1.0 - srgb_to_linear(np.array([pen.rgb for pen in pens]))  # (K, 3)
+    k = len(pens)
+    amount = np.zeros((goal.shape[0], k))
+    eye = np.eye(k)
+    for _ in range(rounds):
+        filters = 1.0 - amount[:, :, None] * absorb[None]  # (N, K, 3)
+        reflect = np.prod(filters, axis=1)  # (N, 3)
+        residual = _lightness(reflect) - goal
+        slope = (reflect + _FLOOR) ** (-2.0 / 3.0) / 3.0 * reflect  # d lightness / d log reflectance
+        jac = slope[:, None, :] * (-absorb[None] / np.maximum(filters, 1e-6))  # (N, K, 3)
+        grad = np.einsum("nkc,nc->nk", jac, residual) + ink_cost + DAMPING * amount
+        hess = np.einsum("nkc,njc->nkj", jac, jac) + DAMPING * eye
+        # Projected Newton: a pen at a bound whose gradient pushes it further out is held there.
+        held = ((amount <= 0.0) & (grad > 0)) | ((amount >= most) & (grad < 0))
+        hess = np.where(held[:, :, None] | held[:, None, :], 0.0, hess) + held[:, :, None] * eye
+        grad = np.where(held, 0.0, grad)
+        step = np.linalg.solve(hess, grad[..., None])[..., 0]
+        amount = np.clip(amount - step, 0.0, most)
+    return amount.T.reshape(k, *shape).astype(np.float32)
+
+
+@lru_cache(maxsize=8)
+def separation_table(colors: tuple[str, ...]) -> np.ndarray:
+    """(K, S, S, S): :func:`separate` solved on a grid of S = :data:`TABLE_SIZE` sRGB values per
+    axis, for pens of ``colors``; a picture is separated by trilinear interpolation in it (solving
+    every cell of an A4 sheet would take seconds, the table a second once per pen set)."""
+    axis = np.linspace(0.0, 1.0, TABLE_SIZE)
+    cube = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 1, 3)
+    pens = [Pen(f"pen{k}", color, 0.5) for k, color in enumerate(colors)]
+    return separate(cube, pens).reshape(len(colors), TABLE_SIZE, TABLE_SIZE, TABLE_SIZE)
+
+
+def _lightness(linear: np.ndarray) -> np.ndarray:
+    return np.cbrt(linear + _FLOOR)
+
+
+def pen_angles(base: Sequence[float], index: int, count: int) -> tuple[float, ...]:
+    """The hatch angles (degrees to the form) of the ``index``-th of ``count`` pens.
+
+    The family angles of a pen come in 45° steps, so pens are told apart by their offset modulo
+    45°: spread evenly over it, the lines of two pens always cross at ``45 / count`` degrees or
+    more. Each pen's first family, the one light tones get alone, also turns by a further 45° per
+    pen, so the lightest tones of different pens cross at a wide angle.
+    """
+    offset = index * 45.0 / max(count, 1) + 45.0 * (index % 4)
+    return tuple((angle + offset + 90.0) % 180.0 - 90.0 for angle in base)
+
+
+def colour_hatching(
+    target: np.ndarray, layout, pens: Sequence[Pen], edges: list[np.ndarray], *,
+    form: np.ndarray, paper: np.ndarray, angles: Sequence[float], **shading,
+) -> list[Layer]:
+    """Hatch layers of every pen whose stacked inks follow a colour picture.
+
+    Parameters
+    ----------
+    target : (H, W, 3) float array
+        The colour sketch, sRGB in [0, 1], on the layout's image grid.
+    layout : Layout
+    pens : sequence of Pen
+        In load order (lightest first); the last draws the contours ``edges`` and carries their ink.
+    edges : list of (N, 2) arrays
+        Contour strokes (page mm) drawn in the last pen.
+    form : (H, W) float array
+        Tone whose forms every pen's hatching follows (the black plan's darkness).
+    paper : (H, W) float array
+        The photo's darkness (see :func:`~pencilbot.planning.shading.shade`).
+    angles : sequence of float
+        The style's hatch angles; each pen turns them by :func:`pen_angles`.
+    **shading
+        Passed on to :func:`~pencilbot.planning.shading.shade` (coverage, blur, seed, …).
+
+    Returns
+    -------
+    list of Layer
+        Each pen's hatch layers (lightest family first), pens in the given order; every layer
+        carries its pen's name, colour and width.
+    """
+    amounts = separation(target, layout, pens)
+    layers = []
+    seed = shading.pop("seed", 0)
+    for index, (pen, amount) in enumerate(zip(pens, amounts)):
+        if not np.any(amount > 0.0):
+            continue
+        last = index == len(pens) - 1
+        hatches = shade(
+            amount, layout, edges if last else [], paper=paper, form=form, pen_width=pen.width,
+            angles=pen_angles(angles, index, len(pens)), seed=seed + 101 * index, **shading,
+        )
+        layers += [
+            Layer(f"{pen.name}-{layer.name}", layer.paths, pen_width=pen.width, role="hatch", pen=pen.name, color=pen.color)
+            for layer in hatches if layer.paths
+        ]
+    return layers
+
+
+def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
+    """(K, H, W): the separation (:func:`separation_table`) of ``target`` blurred by
+    :data:`SEPARATION_BLUR` on cells of :data:`SEPARATION_CELL` mm, brought back to the layout's
+    image grid."""
+    height, width = target.shape[:2]
+    linear = srgb_to_linear(target).astype(np.float32)
+    # Blurred in linear light: that is how the eye averages ink and paper.
+    blurred = cv2.GaussianBlur(linear, (0, 0), SEPARATION_BLUR / layout.mm_per_px, borderType=cv2.BORDER_REPLICATE)
+    factor = max(1.0, SEPARATION_CELL / layout.mm_per_px)
+    small = cv2.resize(blurred, (max(1, round(width / factor)), max(1, round(height / factor))), interpolation=cv2.INTER_AREA)
+    table = separation_table(tuple(pen.color for pen in pens))
+    at = linear_to_srgb(small).reshape(-1, 3).T * (TABLE_SIZE - 1)
+    amounts = [ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(small.shape[:2]).astype(np.float32)
+               for t in table]
+    return np.stack([cv2.resize(a, (width, height), interpolation=cv2.INTER_LINEAR) for a in amounts])
