@@ -121,7 +121,9 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
 
     stats = estimate(plan, profile)
     moves = _Moves.of(machine, paths.lengths, profile)
-    notes = [_comment(f"layer {layer.name}: {n} paths") for layer, n in zip(plan.layers, layer_sizes) if n]
+    changes = _pen_changes(plan, profile, placement)
+    notes = ["\n".join([*changes.get(index, []), _comment(f"layer {layer.name}: {n} paths")])
+             for index, (layer, n) in enumerate(zip(plan.layers, layer_sizes)) if n]
     head = _header_comments(plan, profile, placement, stats, source) + profile.render(profile.gcode.header)
     program = b"".join([
         _text(head),
@@ -150,7 +152,38 @@ def _body(moves: _Moves, profile: Profile, *, first_paths: np.ndarray, notes: li
     return _gather(table, order, cuts=len(up) + path_offsets[first_paths], inserts=notes)
 
 
-def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile) -> None:
+def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int, list[str]]:
+    """Layer index → the lines that ask for its pen, before the first layer of each pen of a
+    plan drawn with several (the first pen is asked for too: the plotter may hold any).
+
+    The pen is up there already (every path ends with it up, the program starts with it up);
+    the carriage parks where the profile says, then the profile's pen-change template (by
+    default ``M0 (pen change: insert NAME)``) stops the job until the pen is in.
+    """
+    pens = plan.pens
+    if len(pens) < 2:
+        return {}
+    park = profile.pen_change.park
+    park_lines = []
+    if park is not None:
+        _check_bed(np.array([park]), placement, profile, what=f"the pen-change park position {park[0]:g}, {park[1]:g}")
+        feed = f" F{_number_text(profile.motion.travel_feed, profile.gcode.decimals)}" if profile.firmware.rapids_take_feed else ""
+        park_lines = [f"G0 X{_number_text(park[0], profile.gcode.decimals)} Y{_number_text(park[1], profile.gcode.decimals)}{feed}"]
+    changes, start = {}, 0
+    for pen, layers in plan.pen_runs():
+        first = next((start + i for i, layer in enumerate(layers) if len(layer.paths)), None)
+        start += len(layers)
+        if first is None:
+            continue
+        layer, number = plan.layers[first], len(changes) + 1
+        changes[first] = [
+            _comment(f"pen change {number} of {len(pens)}: {pen} {layer.color} {layer.pen_width:g} mm"),
+            *park_lines, *profile.pen_change_lines(pen, number),
+        ]
+    return changes
+
+
+def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing") -> None:
     if not len(machine):
         return
     low, high = machine.min(axis=0), machine.max(axis=0)
@@ -159,7 +192,7 @@ def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile) -> N
         return
     page = placement.page
     raise OutOfBedError(
-        f"the drawing does not fit the bed of plotter profile {profile.name}: it spans "
+        f"{what} does not fit the bed of plotter profile {profile.name}: it spans "
         f"X {low[0]:g} .. {high[0]:g} and Y {low[1]:g} .. {high[1]:g} mm in machine coordinates, "
         f"the bed allows X {x0:g} .. {x1:g} and Y {y0:g} .. {y1:g} mm "
         f"(page {page.name} {page.width:g} x {page.height:g} mm, {placement.describe()}); "
@@ -276,6 +309,8 @@ def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: 
                      source: str) -> list[str]:
     page, bed = plan.page, profile.bed
     total = stats.total
+    pens = [_comment(f"pen {number} of {len(plan.pens)}: {pen} {layers[0].color} {layers[0].pen_width:g} mm")
+            for number, (pen, layers) in enumerate(((p, l) for p, l in plan.pen_runs() if p), start=1)]
     return [
         _comment(f"pencilbot G-code for {profile.name} ({profile.dialect})"),
         _comment(f"source: {source or plan.meta.get('source') or 'plan'}"),
@@ -286,6 +321,7 @@ def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: 
         _comment(f"estimated time: {duration_text(total.seconds)} ({total.seconds:.0f} s)"),
         _comment(f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
                  f"{total.paths} paths, {total.lifts} lifts"),
+        *pens,
     ]
 
 

@@ -37,7 +37,8 @@ from pencilbot.errors import ProfileError
 PEN_WIDTH_RANGE = (0.05, 5.0)
 #: What a pen's name may be: it goes into G-code comments (``M0 (pen change: insert NAME)``),
 #: which allow no parentheses and must stay within GRBL's 80-character line.
-PEN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9 _.+-]{0,23}")
+LONGEST_PEN_NAME = 24
+PEN_NAME = re.compile(rf"[A-Za-z0-9][A-Za-z0-9 _.+-]{{0,{LONGEST_PEN_NAME - 1}}}")
 _COLOR = re.compile(r"#[0-9a-fA-F]{6}")
 
 
@@ -128,7 +129,7 @@ def pens_from_mapping(table: dict, *, where: str = "<pens>", name: str = "custom
 
 _PEN_RULES = {
     "name": schema.Rule(
-        "a name of letters, digits, spaces and - _ . + (at most 24, starting with a letter or digit)",
+        f"a name of letters, digits, spaces and - _ . + (at most {LONGEST_PEN_NAME}, starting with a letter or digit)",
         lambda value: isinstance(value, str) and PEN_NAME.fullmatch(value) is not None),
     "color": schema.Rule("an sRGB colour written #rrggbb, e.g. \"#009fe3\"",
                          lambda value: isinstance(value, str) and _COLOR.fullmatch(value) is not None,
