@@ -31,6 +31,7 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
+from pencilbot.colours import inks_on_paper
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
@@ -121,17 +122,49 @@ class Canvas:
 
     def save_png(self, path: str | os.PathLike) -> None:
         """Write :meth:`to_image` as a PNG, atomically (a temporary file renamed into place)."""
-        image = self.to_image()
-        if image.ndim == 3:
-            image = image[..., ::-1]  # OpenCV writes BGR
-        ok, data = cv2.imencode(".png", image)
-        if not ok:  # pragma: no cover - encoding a uint8 array only fails on OOM
-            raise PencilbotError(f"could not encode the preview for {path}")
-        write_atomic(path, data.tobytes())
+        write_png(path, self.to_image())
+
+    def travel_share(self) -> np.ndarray | None:
+        """How much of each pixel the pen-up overlay covers, (H, W) in [0, 1] (None: no overlay)."""
+        return None if self._log_travel is None else -np.expm1(self._log_travel).astype(np.float32)
 
     def _grid(self, pen_width: float | None) -> _Grid:
         width = self.pen_width if pen_width is None else float(pen_width)
         return _Grid(self.shape, self.mm_per_px, self.origin, self.height_mm, width)
+
+
+def colour_image(canvases: Sequence[Canvas], colors: Sequence[str]) -> np.ndarray:
+    """The ink of one canvas per pen, stacked as transparent colour layers on white paper.
+
+    Parameters
+    ----------
+    canvases : sequence of Canvas
+        One per pen, all of one shape; a travel overlay on any of them is shown in
+        :data:`TRAVEL_RGB` on top.
+    colors : sequence of str
+        Each pen's ink, ``#rrggbb``.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        sRGB (see :func:`pencilbot.colours.inks_on_paper`).
+    """
+    rgb = 255.0 * inks_on_paper([canvas.darkness for canvas in canvases], colors)
+    for canvas in canvases:
+        travel = canvas.travel_share()
+        if travel is not None:
+            rgb = rgb * (1.0 - travel[..., None]) + np.asarray(TRAVEL_RGB, np.float32) * travel[..., None]
+    return np.rint(rgb).astype(np.uint8)
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write a uint8 grey (H, W) or RGB (H, W, 3) image as a PNG, atomically."""
+    if image.ndim == 3:
+        image = image[..., ::-1]  # OpenCV writes BGR
+    ok, data = cv2.imencode(".png", image)
+    if not ok:  # pragma: no cover - encoding a uint8 array only fails on OOM
+        raise PencilbotError(f"could not encode the picture for {path}")
+    write_atomic(path, data.tobytes())
 
 
 def render_paths(

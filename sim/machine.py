@@ -107,6 +107,8 @@ class Machine:
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
         self._strokes: list[np.ndarray] = []  # finished pen-down polylines, bed-frame machine mm
+        self.pauses = 0  # M0 pauses the program has reached (a colour job: its pen changes)
+        self._stroke_pauses: list[int] = []  # for each stroke, the pauses reached before it began
         self.travel: list[np.ndarray] = []  # pen-up moves, same frame
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
@@ -118,6 +120,7 @@ class Machine:
         self.servo_angle = self.pen.up
         self.check_mode = False
         self._stroke: list[tuple[float, float]] = []
+        self._stroke_pause = 0
         self.state = gp.ParserState(self.coord_data)
         self.reset_modes()
 
@@ -278,6 +281,7 @@ class Machine:
             yield from self._synchronize()
             if m.program_flow == gp.PAUSE:
                 if not self.check_mode:
+                    self.pauses += 1
                     yield PAUSE
             else:
                 self._program_end()
@@ -516,6 +520,7 @@ class Machine:
             if not self._stroke or self._stroke[-1] != start:
                 self._close_stroke()
                 self._stroke.append(start)
+                self._stroke_pause = self.pauses
             self._stroke.append(end)
         else:
             self._close_stroke()
@@ -525,6 +530,7 @@ class Machine:
         """The pen has left the paper: the polyline being drawn is finished."""
         if len(self._stroke) >= 2:
             self._strokes.append(np.array(self._stroke))
+            self._stroke_pauses.append(self._stroke_pause)
         self._stroke = []
 
     def finish(self) -> None:
@@ -538,6 +544,14 @@ class Machine:
         if len(self._stroke) >= 2:
             return self._strokes + [np.array(self._stroke)]
         return list(self._strokes)
+
+    @property
+    def stroke_pauses(self) -> list[int]:
+        """For each of :attr:`strokes`, how many ``M0`` pauses the program had passed when it
+        began: a colour job's pen changes are pauses, so this says which pen drew it."""
+        if len(self._stroke) >= 2:
+            return self._stroke_pauses + [self._stroke_pause]
+        return list(self._stroke_pauses)
 
     @property
     def clock(self) -> float:

@@ -21,9 +21,13 @@ from pencilbot.commands.common import (
 )
 from pencilbot.driver import draw
 from pencilbot.errors import PencilbotError
-from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
+from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
+from pencilbot.machine.pens import load_pens
 from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.planning.plan import BLACK
 from pencilbot.planning.stats import duration_text
+from pencilbot.render import Canvas, colour_image, write_png
+
 _RUNS = itertools.count(1)
 
 
@@ -69,21 +73,60 @@ def run(args: argparse.Namespace) -> int:
     program, pen_width = _gcode(source, profile, args)
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
+    pens = pens_at_pauses(program)
+    if getattr(args, "pens", None) and any(pens):
+        pens = _recoloured(pens, load_pens(args.pens))
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
-    query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
+    # A colour job stops at each pen change; in a simulation the pen is in at once.
+    options = {"profile": args.profile, "realtime": args.realtime, **({"operator": "auto"} if pens else {})}
     try:
-        draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
+        draw(program, f"sim://{name}?{urllib.parse.urlencode(options)}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")
         plotter = protocol_sim.plotter(name)
-        canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)
-        canvas.save_png(output)
+        if any(pens):
+            write_png(output, _colour_plot(plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel))
+        else:
+            plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel).save_png(output)
     finally:
         protocol_sim.forget(name)
     if not args.quiet:
         strokes = len(plotter.machine.strokes)
-        print(f"wrote {output}: {strokes} pen-down strokes, simulated drawing time "
+        in_pens = f" with {len({p.name for p in pens if p})} pens" if any(pens) else ""
+        print(f"wrote {output}: {strokes} pen-down strokes{in_pens}, simulated drawing time "
               f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
     return 0
+
+
+def _colour_plot(plotter, pens: list, *, dpi: float, pen_width: float, travel: bool):
+    """What the plotter drew, each pen's strokes (told apart by the pen changes they followed)
+    as a transparent layer of its ink; strokes before any pen change in black."""
+    plotter.firmware.finish()
+    machine = plotter.machine
+    bed = plotter.profile.bed
+    inks: dict[object, tuple[str, float]] = {None: (BLACK, pen_width)}
+    inks.update({pen.name: (pen.color, pen.width) for pen in pens if pen})
+    drawn: dict[object, list] = {key: [] for key in inks}
+    for stroke, pauses in zip(machine.bed_strokes(), machine.stroke_pauses):
+        pen = pens[pauses - 1] if 0 < pauses <= len(pens) else None
+        drawn[pen.name if pen else None].append(stroke)
+    canvases, colors = [], []
+    for key, strokes in drawn.items():
+        if strokes or (travel and not canvases):
+            color, width = inks[key]
+            canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=width)
+            canvas.draw_paths(strokes)
+            canvases.append(canvas)
+            colors.append(color)
+    if travel:
+        canvases[0].draw_travel(machine.bed_travel())
+    return colour_image(canvases, colors)
+
+
+def _recoloured(pens: list, pen_set) -> list:
+    """The file's pens with the colours and widths ``--pens`` gives for the names it knows."""
+    known = {pen.name: pen for pen in pen_set.pens}
+    return [p if p is None or p.name not in known else PenInFile(p.name, known[p.name].color, known[p.name].width)
+            for p in pens]
 
 
 def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float]:

@@ -23,6 +23,7 @@ drawing order, without its NULs; 100 000 strokes take well under a second.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -39,7 +40,12 @@ from pencilbot.planning.stats import PlanStats, duration_text, estimate
 #: File names G-code goes by (the first is the one export gives).
 GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
 
-_INT_DIGITS = len(str(MAX_BED))  # the bed check keeps |coordinate| ≤ MAX_BED mm
+_INT_DIGITS = len(str(MAX_BED))
+#: The comment before each pen change of a colour plan (its pen, as :func:`pens_at_pauses` reads it).
+PEN_CHANGE_NOTE = "pen change {number} of {count}: {pen} {color} {width:g} mm"
+_PEN_CHANGE_NOTE = re.compile(
+    rb"(?m)^; pen change \d+ of \d+: (?P<pen>[A-Za-z0-9][A-Za-z0-9 _.+-]*) (?P<color>#[0-9a-f]{6}) (?P<width>[0-9.]+) mm\r?$")
+_PAUSE_LINE = re.compile(rb"(?mi)^[ \t]*(?:N\d+[ \t]*)?M0*0(?![\d.])")  # the bed check keeps |coordinate| ≤ MAX_BED mm
 
 
 @dataclass(frozen=True)
@@ -177,10 +183,36 @@ def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int
             continue
         layer, number = plan.layers[first], len(changes) + 1
         changes[first] = [
-            _comment(f"pen change {number} of {len(pens)}: {pen} {layer.color} {layer.pen_width:g} mm"),
+            _comment(PEN_CHANGE_NOTE.format(number=number, count=len(pens), pen=pen, color=layer.color, width=layer.pen_width)),
             *park_lines, *profile.pen_change_lines(pen, number),
         ]
     return changes
+
+
+@dataclass(frozen=True)
+class PenInFile:
+    """A pen a G-code file asks for: name, ink ``#rrggbb``, width mm."""
+
+    name: str
+    color: str
+    width: float
+
+
+def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
+    """For each ``M0`` pause of a program, in order, the pen drawn after it: the pen its
+    pen-change note names (see :data:`PEN_CHANGE_NOTE`), or the pen before it (None before any)
+    for a pause that is no pen change. What a simulator needs to tell the pens' strokes apart.
+    """
+    events = sorted([(m.start(), PenInFile(m["pen"].decode(), m["color"].decode(), float(m["width"])))
+                     for m in _PEN_CHANGE_NOTE.finditer(program)]
+                    + [(m.start(), None) for m in _PAUSE_LINE.finditer(program)], key=lambda e: e[0])
+    pens, current = [], None
+    for _, pen in events:
+        if pen is not None:
+            current = pen
+        else:
+            pens.append(current)
+    return pens
 
 
 def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing") -> None:
