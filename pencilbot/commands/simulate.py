@@ -98,28 +98,31 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _colour_plot(plotter, pens: list, *, dpi: float, pen_width: float, travel: bool):
-    """What the plotter drew, each pen's strokes (told apart by the pen changes they followed)
-    as a transparent layer of its ink; strokes before any pen change in black."""
+    """What the plotter drew, each pen's strokes as a transparent layer of its ink (strokes
+    before any pen change in black)."""
     plotter.firmware.finish()
-    machine = plotter.machine
     bed = plotter.profile.bed
-    inks: dict[object, tuple[str, float]] = {None: (BLACK, pen_width)}
-    inks.update({pen.name: (pen.color, pen.width) for pen in pens if pen})
-    drawn: dict[object, list] = {key: [] for key in inks}
-    for stroke, pauses in zip(machine.bed_strokes(), machine.stroke_pauses):
-        pen = pens[pauses - 1] if 0 < pauses <= len(pens) else None
-        drawn[pen.name if pen else None].append(stroke)
     canvases, colors = [], []
-    for key, strokes in drawn.items():
-        if strokes or (travel and not canvases):
-            color, width = inks[key]
-            canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=width)
-            canvas.draw_paths(strokes)
-            canvases.append(canvas)
-            colors.append(color)
+    for ink, strokes in strokes_by_pen(plotter.machine, pens, default=PenInFile("", BLACK, pen_width)):
+        canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=ink.width)
+        canvas.draw_paths([bed.to_view(stroke) for stroke in strokes])
+        canvases.append(canvas)
+        colors.append(ink.color)
     if travel:
-        canvases[0].draw_travel(machine.bed_travel())
+        canvases[0].draw_travel(plotter.machine.bed_travel())
     return colour_image(canvases, colors)
+
+
+def strokes_by_pen(machine, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
+    """A virtual plotter's pen-down strokes (machine mm) grouped by the pen that drew them, in
+    the order the pens came: a stroke's pen is the one the last pen change before it asked for
+    (``pens``: :func:`~pencilbot.export.gcode.pens_at_pauses` of the program), else ``default``.
+    """
+    groups: dict[str, tuple[PenInFile, list]] = {}
+    for stroke, pauses in zip(machine.strokes, machine.stroke_pauses):
+        pen = (pens[pauses - 1] if 0 < pauses <= len(pens) else None) or default
+        groups.setdefault(pen.name, (pen, []))[1].append(stroke)
+    return list(groups.values()) or [(default, [])]
 
 
 def _recoloured(pens: list, pen_set) -> list:
