@@ -39,6 +39,8 @@ from pencilbot.planning.shading import shade
 SEPARATION_CELL = 0.5
 #: Gaussian sigma (mm) of the colour the separation matches (the scale a hatch pattern reads as one colour).
 SEPARATION_BLUR = 1.0
+#: Least coverage a pen is asked for: less would be a few stray dashes nobody sees as colour.
+LEAST_INK = 0.01
 #: Most coverage asked of one pen: all its hatch families at their densest still show some paper.
 MOST_INK = 0.95
 #: Cost of a unit of ink against a unit of squared colour error (cube-root units).
@@ -48,11 +50,14 @@ DAMPING = 1e-4
 ROUNDS = 30
 #: Samples per sRGB axis of the table :func:`separation_table` solves once per pen set.
 TABLE_SIZE = 33
+#: Gauss–Newton rounds that take the table's interpolated amounts to each cell's own optimum
+#: (interpolation blends neighbouring solutions: a pure cyan would get a trace of other pens).
+POLISH_ROUNDS = 5
 _FLOOR = 0.01  # cube root of linear light, offset: its slope stays finite at black
 
 
 def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
-             ink_cost: float = INK_COST, rounds: int = ROUNDS) -> np.ndarray:
+             ink_cost: float = INK_COST, rounds: int = ROUNDS, start: np.ndarray | None = None) -> np.ndarray:
     """The coverage of each pen whose stacked inks best match a colour picture.
 
     Parameters
@@ -67,6 +72,8 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
         Cost per unit of coverage (against squared error in cube-root linear light).
     rounds : int
         Gauss–Newton iterations.
+    start : (K, H, W) array, optional
+        Amounts to start from (default none of any pen): a good guess needs few rounds.
 
     Returns
     -------
@@ -77,22 +84,33 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
     goal = _lightness(srgb_to_linear(target).reshape(-1, 3))  # (N, 3)
     absorb = 1.0 - srgb_to_linear(np.array([pen.rgb for pen in pens]))  # (K, 3)
     k = len(pens)
-    amount = np.zeros((goal.shape[0], k))
-    eye = np.eye(k)
-    for _ in range(rounds):
-        filters = 1.0 - amount[:, :, None] * absorb[None]  # (N, K, 3)
+    amount = np.zeros((goal.shape[0], k)) if start is None else np.clip(start.reshape(k, -1).T.astype(np.float64), 0.0, most)
+
+    def cost(a):
+        filters = 1.0 - a[:, :, None] * absorb[None]  # (N, K, 3)
         reflect = np.prod(filters, axis=1)  # (N, 3)
         residual = _lightness(reflect) - goal
+        return 0.5 * (residual**2).sum(axis=1) + ink_cost * a.sum(axis=1) + 0.5 * DAMPING * (a**2).sum(axis=1), filters, reflect, residual
+
+    eye = np.eye(k)
+    spent, filters, reflect, residual = cost(amount)
+    trust = np.full(goal.shape[0], 1e-2)  # Levenberg–Marquardt damping, per cell
+    for _ in range(rounds):
         slope = (reflect + _FLOOR) ** (-2.0 / 3.0) / 3.0 * reflect  # d lightness / d log reflectance
         jac = slope[:, None, :] * (-absorb[None] / np.maximum(filters, 1e-6))  # (N, K, 3)
         grad = np.einsum("nkc,nc->nk", jac, residual) + ink_cost + DAMPING * amount
-        hess = np.einsum("nkc,njc->nkj", jac, jac) + DAMPING * eye
+        hess = np.einsum("nkc,njc->nkj", jac, jac) + (DAMPING + trust)[:, None, None] * eye
         # Projected Newton: a pen at a bound whose gradient pushes it further out is held there.
         held = ((amount <= 0.0) & (grad > 0)) | ((amount >= most) & (grad < 0))
         hess = np.where(held[:, :, None] | held[:, None, :], 0.0, hess) + held[:, :, None] * eye
         grad = np.where(held, 0.0, grad)
-        step = np.linalg.solve(hess, grad[..., None])[..., 0]
-        amount = np.clip(amount - step, 0.0, most)
+        trial = np.clip(amount - np.linalg.solve(hess, grad[..., None])[..., 0], 0.0, most)
+        trial_cost, trial_filters, trial_reflect, trial_residual = cost(trial)
+        # A step is kept only where it lowers the cost; elsewhere the next one is shorter.
+        better = trial_cost < spent
+        amount[better], spent[better] = trial[better], trial_cost[better]
+        filters[better], reflect[better], residual[better] = trial_filters[better], trial_reflect[better], trial_residual[better]
+        trust = np.where(better, np.maximum(trust * 0.3, 1e-9), trust * 10.0)
     return amount.T.reshape(k, *shape).astype(np.float32)
 
 
@@ -172,9 +190,9 @@ def colour_hatching(
 
 
 def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
-    """(K, H, W): the separation (:func:`separation_table`) of ``target`` blurred by
-    :data:`SEPARATION_BLUR` on cells of :data:`SEPARATION_CELL` mm, brought back to the layout's
-    image grid."""
+    """(K, H, W): the separation of ``target`` blurred by :data:`SEPARATION_BLUR` on cells of
+    :data:`SEPARATION_CELL` mm (interpolated in :func:`separation_table`, then polished by
+    :data:`POLISH_ROUNDS` of :func:`separate`), brought back to the layout's image grid."""
     height, width = target.shape[:2]
     linear = srgb_to_linear(target).astype(np.float32)
     # Blurred in linear light: that is how the eye averages ink and paper.
@@ -183,6 +201,7 @@ def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
     small = cv2.resize(blurred, (max(1, round(width / factor)), max(1, round(height / factor))), interpolation=cv2.INTER_AREA)
     table = separation_table(tuple(pen.color for pen in pens))
     at = linear_to_srgb(small).reshape(-1, 3).T * (TABLE_SIZE - 1)
-    amounts = [ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(small.shape[:2]).astype(np.float32)
-               for t in table]
+    guess = np.stack([ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(small.shape[:2]) for t in table])
+    amounts = separate(linear_to_srgb(small), pens, rounds=POLISH_ROUNDS, start=guess)
+    amounts[amounts < LEAST_INK] = 0.0
     return np.stack([cv2.resize(a, (width, height), interpolation=cv2.INTER_LINEAR) for a in amounts])
