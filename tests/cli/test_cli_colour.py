@@ -93,3 +93,22 @@ def test_a_bad_pen_set_is_one_message_before_any_planning(tmp_path, photo, capsy
     assert not (tmp_path / "x.svg").exists()
     assert main(["export", str(photo), "--pens", "rainbow", "-o", str(tmp_path / "x.gcode")]) == 2
     assert "no pen set named 'rainbow'" in capsys.readouterr().err
+
+
+def test_the_vpype_plugin_gives_one_layer_per_pen_in_load_order_with_its_ink(tmp_path, photo):
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import vpype
+
+    command = shutil.which("vpype", path=str(Path(sys.executable).parent))
+    out = tmp_path / "vp.svg"
+    done = subprocess.run([command, "pencilbot", "--pens", "primaries", "--page", "120x90", str(photo), "write", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    document = vpype.read_multilayer_svg(str(out), quantization=0.1)
+    found = [(layer.property("vp_name"), layer.property("vp_color").as_hex()[:7]) for _, layer in sorted(document.layers.items())]
+    order = [(pen.name, pen.color) for pen in load_pens("primaries").load_order]
+    assert found == [pen for pen in order if pen[0] in dict(found)] and found[-1] == order[-1]
