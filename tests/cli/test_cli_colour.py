@@ -112,3 +112,18 @@ def test_the_vpype_plugin_gives_one_layer_per_pen_in_load_order_with_its_ink(tmp
     found = [(layer.property("vp_name"), layer.property("vp_color").as_hex()[:7]) for _, layer in sorted(document.layers.items())]
     order = [(pen.name, pen.color) for pen in load_pens("primaries").load_order]
     assert found == [pen for pen in order if pen[0] in dict(found)] and found[-1] == order[-1]
+
+
+def test_demo_with_cmyk_plots_in_colour_close_to_the_colour_sketch(tmp_path, photo, capsys):
+    import json
+
+    out = tmp_path / "demo"
+    assert main(["demo", "--input", str(photo), "--pens", "cmyk", "--page", "120x90", "--out", str(out), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["pens"][-1] == "black" and set(summary["pens"]) <= {"yellow", "cyan", "magenta", "black"}
+    assert summary["colour_delta_e00_3mm"] < 8.0
+    assert summary["plot_vs_preview_r"] > 0.99  # the simulated plot, every pen change passed, is the plan
+    for name in ("sketch.png", "preview.png", "plot.png"):
+        picture = np.asarray(Image.open(out / name).convert("RGB")).astype(int)
+        assert np.ptp(picture, axis=2).max() > 100, name  # in colour
+    assert (out / "drawing.gcode").read_text().count("M0 (pen change: insert") == len(summary["pens"])
