@@ -179,7 +179,7 @@ def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int
     for pen, layers in plan.pen_runs():
         first = next((start + i for i, layer in enumerate(layers) if len(layer.paths)), None)
         start += len(layers)
-        if first is None:
+        if first is None or not pen:  # nothing drawn, or layers that name no pen (any will do)
             continue
         layer, number = plan.layers[first], len(changes) + 1
         changes[first] = [
