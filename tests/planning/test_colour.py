@@ -130,3 +130,35 @@ def test_a_grey_patch_with_cmyk_comes_out_grey_on_paper():
     lengths = {p.name: pen_down(layers, p.name) for p in pens}
     colour = [lengths["cyan"], lengths["magenta"], lengths["yellow"]]
     assert lengths["black"] > 0.9 * sum(lengths.values()) or np.ptp(colour) < 0.25 * max(colour)
+
+
+def picture_with_spot(base, spot, share: float, size: int = 100) -> np.ndarray:
+    """A (size, size) sRGB picture of colour ``base`` with ``share`` of its cells ``spot``."""
+    picture = np.broadcast_to(np.asarray(base, np.float64), (size, size, 3)).copy()
+    picture.reshape(-1, 3)[: round(share * size * size)] = spot
+    return picture
+
+
+def test_a_pen_the_picture_hardly_needs_is_left_out_but_a_small_vivid_spot_keeps_its_pen():
+    from pencilbot.planning.colour import separate_cells, unneeded_pens
+
+    pens = load_pens("cmyk").load_order  # yellow, cyan, magenta, black
+    magenta = mixed(pens[2], 0.5)
+    faint = picture_with_spot(magenta, mixed(pens[1], 0.1), 0.08)  # 8 % a pale tint of cyan
+    amounts = separate_cells(faint, pens)
+    assert 0 < amounts[1].sum() < 0.02 * amounts.sum()  # a candidate: cyan lays under 2 % of the ink
+    assert unneeded_pens(faint, pens, amounts) == [1]
+    vivid = picture_with_spot(magenta, mixed(pens[1], 0.8), 0.012)  # 1.2 % strong cyan
+    amounts = separate_cells(vivid, pens)
+    assert 0 < amounts[1].sum() < 0.02 * amounts.sum()
+    assert unneeded_pens(vivid, pens, amounts) == []
+
+
+def test_pens_that_stand_in_for_each_other_are_not_all_left_out():
+    from pencilbot.planning.colour import separate_cells, unneeded_pens
+
+    pens = load_pens("fineliner6").load_order  # yellow, orange, green, red, blue, black
+    blue = mixed(pens[4], 0.6)
+    warm = picture_with_spot(blue, mixed(pens[0], 0.9), 0.015)  # 1.5 % strong yellow (orange could do it)
+    dropped = unneeded_pens(warm, pens, separate_cells(warm, pens))
+    assert not {0, 1} <= set(dropped)  # yellow or orange stays to draw the spot
