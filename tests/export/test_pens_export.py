@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 import vpype
 from gcodeparser import parse_gcode_lines
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from pencilbot.errors import OutOfBedError, ProfileError
 from pencilbot.export.gcode import gcode_lines, gcode_program, pens_at_pauses
@@ -157,3 +159,28 @@ def test_a_bad_pen_change_table_is_one_message(pen_change, words):
     with pytest.raises(ProfileError) as err:
         profile_from_mapping(table, where="test.toml")
     assert words in str(err.value) and "test.toml" in str(err.value)
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.tuples(st.sampled_from(["cyan", "sky blue", "red-2", "ink.7", "black"]), st.integers(1, 3),
+                          st.sampled_from(["#009fe3", "#d7262b", "#1a1a1a"]), st.sampled_from([0.3, 0.5])),
+                min_size=1, max_size=6))
+def test_any_plan_of_pens_reads_back_as_it_was_written(tmp_path, runs):
+    rng = np.random.default_rng(len(runs))
+    layers = []
+    for pen, count, color, width in runs:
+        for k in range(count):
+            paths = [rng.uniform(20, 180, (int(rng.integers(1, 5)), 2)) for _ in range(int(rng.integers(1, 4)))]
+            layers.append(Layer(f"{pen}-{k}", paths, pen_width=width, role="hatch", pen=pen, color=color))
+    plan = Plan(A4, layers)
+    path = tmp_path / "round.svg"
+    write_svg(plan, path)
+    back = read_svg(path)
+    assert [(l.name, l.pen, l.color, l.pen_width, l.role) for l in back.layers] == [
+        (l.name, l.pen, l.color, l.pen_width, l.role) for l in plan.layers]
+    for a, b in zip(plan.layers, back.layers):
+        assert np.array_equal(a.paths.offsets, b.paths.offsets)
+        assert np.allclose(a.paths.points, b.paths.points, atol=1e-3)
+    # One pen-change pause per run of a pen, in drawing order (when there are several pens).
+    names = [p.name for p in pens_at_pauses(gcode_program(plan, load_profile("grbl-servo-a4")))]
+    assert names == (list(plan.pens) if len(plan.pens) > 1 else [])
