@@ -1,8 +1,10 @@
-"""Make the README's picture row: photo → pencil sketch → plan preview → simulated plot.
+"""Make the README's picture rows: photo → pencil sketch → plan preview → simulated plot, and
+the colour sketch → the colour plot with the cmyk pens.
 
 Runs ``pencilbot demo`` on scikit-image's coffee photo, then ``pencilbot simulate --travel`` on
-its G-code (the virtual plotter's drawing, pen-up travel in red), and writes small PNGs to
-docs/images/.
+its G-code (the virtual plotter's drawing, pen-up travel in red), then ``pencilbot demo --pens
+cmyk`` (its colour sketch and what the virtual plotter drew, pen by pen), and writes small PNGs
+to docs/images/.
 Usage: ``python docs/make_pictures.py``.
 """
 
@@ -52,6 +54,11 @@ def main() -> None:
         bed = cv2.cvtColor(cv2.imread(str(plot)), cv2.COLOR_BGR2RGB)
         # The landscape sheet lies turned a quarter turn on the portrait bed: show it upright.
         save_small(crop_to_ink(np.rot90(bed, k=-1)), out / "4-plot.png")
+    with tempfile.TemporaryDirectory() as tmp:
+        subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "--pens", "cmyk", "--out", tmp, "-q"], check=True)
+        save_small(cv2.cvtColor(cv2.imread(str(Path(tmp) / "sketch.png")), cv2.COLOR_BGR2RGB), out / "5-colour-sketch.png")
+        plot = cv2.cvtColor(cv2.imread(str(Path(tmp) / "plot.png")), cv2.COLOR_BGR2RGB)  # on the page, upright
+        save_small(crop_to_ink(plot), out / "6-colour-plot.png")
     print(f"wrote {sorted(p.name for p in out.glob('*.png'))} to {out}")
 
 

@@ -24,7 +24,8 @@ from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
-from pencilbot.planning.build import make_plan, plot_shape
+from pencilbot.machine.pens import PenSet, load_pens
+from pencilbot.planning.build import make_plan, plot_shape, with_pens
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
@@ -58,14 +59,19 @@ def sketch(image: ImageLike, *, color: bool = False, line_length: int | None = N
 
 def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,
          margin: float | None = None, style: str | Path | Style | None = None,
-         pen_width: float | None = None) -> Plan:
+         pen_width: float | None = None, pens: str | Path | PenSet | None = None) -> Plan:
     """Plan the pen drawing of an image on a page (``"A4"``, ``"300x200"`` mm or a Page).
 
-    Unset options come from the style (``"default"`` unless given).
+    Unset options come from the style (``"default"`` unless given). ``pens`` (a shipped set's
+    name such as ``"cmyk"``, a pen set file or a PenSet) draws the colour sketch with those pens,
+    one run of layers per pen in load order; their widths replace ``pen_width``.
     """
     chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
     if pen_width is not None:
         chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
+    pen_set = pens if pens is None or isinstance(pens, PenSet) else load_pens(pens)
+    if pen_set is not None:
+        chosen = with_pens(chosen, pen_set)
 
     def sheet(shape: tuple[int, int]) -> Page:
         if isinstance(page, Page):
@@ -77,7 +83,7 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
         loaded = load_image(image, shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width))
     else:
         loaded = as_image(image)
-    return make_plan(loaded, page=sheet(loaded.shape), style=chosen)
+    return make_plan(loaded, page=sheet(loaded.shape), style=chosen, pens=pen_set)
 
 
 def export_gcode(

@@ -2,12 +2,12 @@
 by path; and the user's settings.
 
 The shipped files live in the repository's top-level ``configs/`` folder (``plotters/``,
-``styles/``). The wheel carries that folder as ``pencilbot/configs/``; a source checkout run in
+``styles/``, ``pens/``). The wheel carries that folder as ``pencilbot/configs/``; a source checkout run in
 place (``python -m pencilbot.cli`` from a clone, or an editable install) reads it where it is.
 :func:`config_folder` knows both places, so nothing else has to.
 
 The user's own folder (:func:`user_folder`: ``$PENCILBOT_CONFIG_DIR`` if set, else the platform's
-place for settings, e.g. ``~/.config/pencilbot``) has the same ``plotters/`` and ``styles/``;
+place for settings, e.g. ``~/.config/pencilbot``) has the same ``plotters/``, ``styles/`` and ``pens/``;
 a name is looked up there first, so a user's profile may also replace a shipped one. Its
 ``config.toml`` holds the user's defaults (:data:`SETTINGS`).
 """
@@ -28,7 +28,7 @@ CONFIG_ROOTS = (_PACKAGE / "configs", _PACKAGE.parent / "configs")
 
 
 def config_folder(folder: str) -> Path:
-    """The shipped ``configs/<folder>`` (``"plotters"`` or ``"styles"``).
+    """The shipped ``configs/<folder>`` (``"plotters"``, ``"styles"`` or ``"pens"``).
 
     Raises
     ------
@@ -119,7 +119,7 @@ def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: st
     Parameters
     ----------
     folder : str
-        ``"plotters"`` or ``"styles"`` under ``configs``.
+        ``"plotters"``, ``"styles"`` or ``"pens"`` under ``configs``.
     name_or_path : str
         A name (the user's first, then the shipped), or a path (anything ending in ``.toml`` or
         naming a folder).

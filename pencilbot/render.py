@@ -34,6 +34,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from pencilbot.colours import inks_on_paper
 from pencilbot.errors import PencilbotError
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
 from pencilbot.png import write_png_bands
@@ -112,6 +113,10 @@ class Canvas:
         """Write :meth:`to_image` as a PNG, atomically (a temporary file renamed into place)."""
         image = self.to_image()
         write_png_bands(path, image.shape, [image])
+
+    def travel_share(self) -> np.ndarray | None:
+        """How much of each pixel the pen-up overlay covers, (H, W) in [0, 1] (None: no overlay)."""
+        return None if self._log_travel is None else -np.expm1(self._log_travel).astype(np.float32)
 
     def _grid(self, pen_width: float | None) -> _Grid:
         width = self.pen_width if pen_width is None else float(pen_width)
@@ -266,6 +271,84 @@ def save_drawing_png(
 
     write_png_bands(path, ink.shape if travel is None else (rows, columns, 3), bands())
     return ink.shape
+
+
+def colour_image(canvases: Sequence[Canvas], colors: Sequence[str]) -> np.ndarray:
+    """The ink of one canvas per pen, stacked as transparent colour layers on white paper.
+
+    Parameters
+    ----------
+    canvases : sequence of Canvas
+        One per pen, all of one shape; a travel overlay on any of them is shown in
+        :data:`TRAVEL_RGB` on top.
+    colors : sequence of str
+        Each pen's ink, ``#rrggbb``.
+
+    Returns
+    -------
+    (H, W, 3) uint8
+        sRGB (see :func:`pencilbot.colours.inks_on_paper`).
+    """
+    rgb = 255.0 * inks_on_paper([canvas.darkness for canvas in canvases], colors)
+    for canvas in canvases:
+        travel = canvas.travel_share()
+        if travel is not None:
+            rgb = rgb * (1.0 - travel[..., None]) + np.asarray(TRAVEL_RGB, np.float32) * travel[..., None]
+    return np.rint(rgb).astype(np.uint8)
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write a uint8 grey (H, W) or RGB (H, W, 3) image as a PNG, atomically."""
+    write_png_bands(path, image.shape, [image])
+
+
+def save_colour_png(
+    path: str | os.PathLike,
+    inks: Sequence[tuple[Paths | Sequence[np.ndarray], str, float]],
+    width_mm: float,
+    height_mm: float,
+    *,
+    dpi: float = 100,
+    travel: Paths | Sequence[np.ndarray] | None = None,
+    travel_pen: float = DEFAULT_PEN_WIDTH,
+    band_pixels: int | None = None,
+) -> tuple[int, int]:
+    """Render each pen's paths as a transparent layer of its ink, band by band into a PNG.
+
+    The picture :func:`colour_image` makes of one :class:`Canvas` per pen, with memory bounded
+    by one band of every pen (as :func:`save_drawing_png` for one pen). Written atomically.
+
+    Parameters
+    ----------
+    inks : sequence of (paths, colour, pen width mm)
+        One entry per pen, in the order they were drawn; colour ``#rrggbb``.
+    travel : paths, optional
+        Pen-up moves, overlaid in :data:`TRAVEL_RGB` (drawn as :class:`Canvas` draws travel
+        for a ``travel_pen`` pen).
+
+    Returns
+    -------
+    (int, int)
+        The PNG's (rows, columns).
+    """
+    layers = [Bands(paths, width_mm, height_mm, dpi=dpi, pen_width=width) for paths, _, width in inks]
+    colors = [color for _, color, _ in inks]
+    mm_per_px, (rows, columns) = sheet_pixels(width_mm, height_mm, dpi, travel_pen)
+    moves = None if travel is None else Bands(
+        travel, width_mm, height_mm, dpi=dpi, pen_width=travel_width(travel_pen, mm_per_px))
+    step = band_rows(columns * max(1, len(layers)), band_pixels)
+
+    def bands():
+        for first in range(0, rows, step):
+            stop = min(first + step, rows)
+            rgb = 255.0 * inks_on_paper([layer.darkness(first, stop) for layer in layers], colors)
+            if moves is not None:
+                share = -np.expm1(moves.log_transmittance(first, stop)).astype(np.float32)[..., None]
+                rgb = rgb * (1.0 - share) + np.asarray(TRAVEL_RGB, np.float32) * share
+            yield np.rint(rgb).astype(np.uint8)
+
+    write_png_bands(path, (rows, columns, 3), bands())
+    return rows, columns
 
 
 def render_paths(

@@ -10,7 +10,9 @@ Registered as a vpype plugin through the ``vpype.plugins`` entry point (``pip in
 The plan is made exactly as ``pencilbot plan`` makes it (the same options, in pencilbot's units:
 mm), and each of its layers — the hatch layers, lightest first, then ``edges`` — becomes a new
 vpype layer after the pipeline's own, with its name (``vp_name``), pen width (``vp_pen_width``)
-and colour (``vp_color``). vpype works in CSS pixels with Y down: the page's Y flip is applied
+and colour (``vp_color``). With ``--pens`` (a colour plan) each *pen* becomes one vpype layer,
+named by the pen, in load order, with its ink as colour: vpype's convention of a layer per pen,
+so ``gwrite`` and plotting tools change pens between layers. vpype works in CSS pixels with Y down: the page's Y flip is applied
 here. A dot (a one-point path) becomes a zero-length line, which vpype keeps and draws as a dot.
 The page size is set unless the pipeline has set one.
 
@@ -29,14 +31,13 @@ import vpype_cli
 from pencilbot.commands.common import photo_style, plan_photo
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
+from pencilbot.machine.pens import list_pen_sets, load_pens
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import default_style, list_styles, with_overrides
 from pencilbot.units import MM_PER_INCH
 
 PX_PER_MM = 96.0 / MM_PER_INCH  # vpype's unit is the CSS pixel
-#: The colour of every layer: pencilbot draws all of them with the one pen.
-PEN_COLOR = "black"
 
 
 @click.command("pencilbot")
@@ -47,11 +48,13 @@ PEN_COLOR = "black"
 @click.option("--orientation", type=click.Choice(ORIENTATIONS), help="auto turns the sheet to suit the photo")
 @click.option("--margin", type=float, metavar="MM", help="blank border in mm (default: the style's)")
 @click.option("--pen-width", type=float, metavar="MM", help="pen line width in mm (default: the style's)")
+@click.option("--pens", metavar="NAME|FILE.toml", help=f"draw in colour with a pen set: {', '.join(list_pen_sets())} "
+              "or a .toml file (one layer per pen)")
 @click.option("--hatch/--no-hatch", default=None, help="draw the tone as hatching (default: as the style says)")
 @click.option("--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, show_default=True, help="refuse larger images")
 @click.option("--downscale", is_flag=True, help="shrink a too-large image instead")
 @vpype_cli.global_processor
-def pencilbot(document: vpype.Document, photo, style, page, orientation, margin, pen_width, hatch, max_pixels,
+def pencilbot(document: vpype.Document, photo, style, page, orientation, margin, pen_width, pens, hatch, max_pixels,
               downscale) -> vpype.Document:
     """Add pencilbot's pen drawing of PHOTO: its hatch layers and its edges, as new layers.
 
@@ -62,7 +65,8 @@ def pencilbot(document: vpype.Document, photo, style, page, orientation, margin,
         chosen = photo_style(sheet)
         if hatch is not None:
             chosen = with_overrides(chosen, {"hatch": hatch}, where="--hatch")
-        plan = plan_photo(photo, chosen, max_pixels=max_pixels, downscale=downscale)
+        plan = plan_photo(photo, chosen, max_pixels=max_pixels, downscale=downscale,
+                          pens=None if pens is None else load_pens(pens))
     except PencilbotError as err:
         raise click.ClickException(str(err)) from None
     return add_plan(document, plan)
@@ -84,15 +88,17 @@ def add_plan(document: vpype.Document, plan: Plan) -> vpype.Document:
     """
     height = plan.page.height
     lid = max(document.layers, default=0)
-    for layer in plan.layers:
-        lines = [path if len(path) > 1 else np.vstack([path, path]) for path in layer.paths]
+    groups = ([(pen, layers) for pen, layers in plan.pen_runs()] if len(plan.pens) > 1
+              else [(layer.name, (layer,)) for layer in plan.layers])
+    for name, layers in groups:
+        lines = [path if len(path) > 1 else np.vstack([path, path]) for layer in layers for path in layer.paths]
         lines = [(p[:, 0] + 1j * (height - p[:, 1])) * PX_PER_MM for p in lines]
         lid += 1
         document.add(vpype.LineCollection(lines), lid)
         added = document.layers[lid]
-        added.set_property(vpype.METADATA_FIELD_NAME, layer.name)
-        added.set_property(vpype.METADATA_FIELD_PEN_WIDTH, layer.pen_width * PX_PER_MM)
-        added.set_property(vpype.METADATA_FIELD_COLOR, vpype.Color(PEN_COLOR))
+        added.set_property(vpype.METADATA_FIELD_NAME, name)
+        added.set_property(vpype.METADATA_FIELD_PEN_WIDTH, layers[0].pen_width * PX_PER_MM)
+        added.set_property(vpype.METADATA_FIELD_COLOR, vpype.Color(layers[0].color))
     if document.page_size is None:
         document.page_size = (plan.page.width * PX_PER_MM, height * PX_PER_MM)
     return document

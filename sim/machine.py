@@ -110,6 +110,8 @@ class Machine:
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
         self._strokes = _Polylines()  # finished pen-down polylines, machine mm
         self._travel = _Polylines()  # pen-up moves, same frame
+        self.pauses = 0  # M0 pauses the program has reached (a colour job: its pen changes)
+        self._stroke_pauses: list[int] = []  # for each stroke, the pauses reached before it began
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
         self.offsets_changed = False  # a WCO change the next status report must show
@@ -120,6 +122,7 @@ class Machine:
         self.servo_angle = self.pen.up
         self.check_mode = False
         self._stroke: list[tuple[float, float]] = []
+        self._stroke_pause = 0
         self.state = gp.ParserState(self.coord_data)
         self.reset_modes()
 
@@ -280,6 +283,7 @@ class Machine:
             yield from self._synchronize()
             if m.program_flow == gp.PAUSE:
                 if not self.check_mode:
+                    self.pauses += 1
                     yield PAUSE
             else:
                 self._program_end()
@@ -518,6 +522,7 @@ class Machine:
             if not self._stroke or self._stroke[-1] != start:
                 self._close_stroke()
                 self._stroke.append(start)
+                self._stroke_pause = self.pauses
             self._stroke.append(end)
         else:
             self._close_stroke()
@@ -527,6 +532,7 @@ class Machine:
         """The pen has left the paper: the polyline being drawn is finished."""
         if len(self._stroke) >= 2:
             self._strokes.add(self._stroke)
+            self._stroke_pauses.append(self._stroke_pause)
         self._stroke = []
 
     def finish(self) -> None:
@@ -547,6 +553,14 @@ class Machine:
     def drawn(self) -> Paths:
         """:attr:`strokes` as one :class:`~pencilbot.paths.Paths` (no array per stroke)."""
         return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
+
+    @property
+    def stroke_pauses(self) -> list[int]:
+        """For each of :attr:`strokes`, how many ``M0`` pauses the program had passed when it
+        began: a colour job's pen changes are pauses, so this says which pen drew it."""
+        if len(self._stroke) >= 2:
+            return self._stroke_pauses + [self._stroke_pause]
+        return list(self._stroke_pauses)
 
     @property
     def clock(self) -> float:

@@ -45,6 +45,11 @@ URL parts (all optional):
     edges, in a build without HOMING_INIT_LOCK (``$I`` shows ``OPT:VL``), so the board trusts
     the position it powers up with.
 
+``operator``
+    ``none`` (default): an ``M0`` pause holds until the host sends ``~``, as on a real board.
+    ``auto``: a virtual person at the plotter presses cycle start as soon as the machine stops at
+    an ``M0`` (the pen change of a colour job done at once), for previews such as ``simulate``.
+
 ``port.plotter`` is the :class:`VirtualPlotter` behind an open port.
 """
 
@@ -64,7 +69,9 @@ from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.render import Canvas, save_drawing_png
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
-_OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits")
+_OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits", "operator")
+_OPERATORS = ("none", "auto")
+_CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
 #: Option values a real GRBL board has; the defaults are kinder until the driver copes (issue 12).
 REAL_BOARD = {"power": "zero", "abort": "lose", "limits": "profile"}
 DEFAULT_BOARD = {"power": "keep", "abort": "keep", "limits": "bed"}
@@ -133,12 +140,17 @@ class VirtualPlotter:
         Failures to inject.
     power, abort, limits : str
         How real the board is: see the ``sim://`` options of the same names (module docstring).
+    operator : str
+        ``"auto"``: cycle start is pressed at every ``M0`` pause (see the ``operator`` option).
     """
 
     def __init__(self, profile: Profile, *, baud: int = 0, realtime: float = 0.0,
                  faults: Faults | None = None, power: str = DEFAULT_BOARD["power"],
-                 abort: str = DEFAULT_BOARD["abort"], limits: str = DEFAULT_BOARD["limits"]):
+                 abort: str = DEFAULT_BOARD["abort"], limits: str = DEFAULT_BOARD["limits"],
+                 operator: str = "none"):
         check_simulated(profile)
+        self.operator = operator
+        self._pauses_answered = 0
         self.profile = profile
         if limits == "bed":
             profile = dataclasses.replace(profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True))
@@ -161,6 +173,9 @@ class VirtualPlotter:
         elapsed, self._last = now - self._last, now
         self.firmware.receive(self._to_board.take(now))
         self.firmware.poll(elapsed * self.realtime)
+        if self.operator == "auto" and self.machine.pauses > self._pauses_answered:
+            self._pauses_answered = self.machine.pauses
+            self.firmware.receive(_CYCLE_START)
         self._to_host.put(self.firmware.take_output(), now)
 
     def read(self) -> bytes:
@@ -230,8 +245,11 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
         board[key] = options.get(key, DEFAULT_BOARD[key])
         if board[key] not in choices:
             raise SerialException(f"sim:// option {key}={board[key]!r}: use {' or '.join(choices)}")
+    operator = options.get("operator", "none")
+    if operator not in _OPERATORS:
+        raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
-    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, **board)
+    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, **board)
 
 
 class Serial(SerialBase):

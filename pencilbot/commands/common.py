@@ -12,6 +12,7 @@ from pencilbot.errors import PencilbotError, ProfileError
 from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.bed import MAX_BED
+from pencilbot.machine.pens import PenSet, list_pen_sets, load_pens
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
@@ -137,6 +138,15 @@ def style_listing() -> list[str]:
     return [_listing_line(name, path, lambda: summary(name)) for name, path in config_names("styles").items()]
 
 
+def pens_listing() -> list[str]:
+    """One line per pen set: its pens in load order, and whether it is the user's."""
+    def summary(name):
+        pens = load_pens(name)
+        return ", ".join(f"{pen.name} {pen.color} {pen.width:g} mm" for pen in pens.load_order)
+
+    return [_listing_line(name, path, lambda: summary(name)) for name, path in config_names("pens").items()]
+
+
 def _listing_line(name: str, path: Path, describe) -> str:
     try:
         words = describe()
@@ -161,6 +171,13 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
     )
     photo.add_argument("--list-styles", action=_Listing, listing=style_listing,
                        help="list the drawing styles, shipped and yours, and exit")
+    photo.add_argument(
+        "--pens", metavar="NAME|FILE.toml",
+        help=f"draw in colour with a pen set: {', '.join(list_pen_sets())} or a .toml file (default: one "
+             "black pen; the pens' widths replace --pen-width)",
+    )
+    photo.add_argument("--list-pens", action=_Listing, listing=pens_listing,
+                       help="list the pen sets, shipped and yours, and exit")
     _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
                        f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
     photo.add_argument(
@@ -225,18 +242,33 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
     path = Path(path)
     if path.suffix.lower() == ".svg":
         return read_drawing(path, args)
-    return plan_photo(path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale)
+    return plan_photo(path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale,
+                      pens=photo_pens(args))
 
 
-def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS, downscale: bool = False) -> Plan:
-    """The plan of the photo ``path`` in ``style``, decoded at the size the plan needs."""
+def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS, downscale: bool = False,
+               pens: PenSet | None = None) -> Plan:
+    """The plan of the photo ``path`` in ``style`` (with ``pens``), decoded at the size the plan needs."""
     # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
     # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
-    from pencilbot.planning.build import make_plan, plot_resolution
+    from pencilbot.planning.build import make_plan, plot_resolution, with_pens
 
     check_plan(style)
-    image = load_image(path, max_pixels=max_pixels, downscale=downscale, shrink_to=plot_resolution(style))
-    return make_plan(image, style=style)
+    sized = style if pens is None else with_pens(style, pens)
+    image = load_image(path, max_pixels=max_pixels, downscale=downscale, shrink_to=plot_resolution(sized))
+    return make_plan(image, style=style, pens=pens)
+
+
+def photo_pens(args: argparse.Namespace) -> PenSet | None:
+    """The pen set ``--pens`` names (None: the one black pen).
+
+    Raises
+    ------
+    ProfileError
+        No such set, or an invalid one.
+    """
+    name = getattr(args, "pens", None)
+    return None if name is None else load_pens(name)
 
 
 # Peak bytes of planning a photo per mm² of page and mm of pen width (the shading grids follow
@@ -282,7 +314,7 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
         An option that does not apply to this SVG, or the file cannot be read.
     """
     given = lambda *flags: [flag for flag in flags if _option(args, flag) not in (None, False)]  # noqa: E731
-    photo_only = given("--style", "--downscale")
+    photo_only = given("--style", "--downscale", "--pens")
     if is_plan_svg(path):
         sheet_flags = given("--page", "--orientation", "--margin", "--pen-width")
         if photo_only or sheet_flags:

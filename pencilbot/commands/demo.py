@@ -19,7 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.commands.common import add_photo_options, add_profile_option, add_verbosity, check_plan, photo_style
+from pencilbot.commands.common import (
+    add_photo_options, add_profile_option, add_verbosity, check_plan, photo_pens, photo_style,
+)
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
 
@@ -66,16 +68,20 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.machine.bed import Placement
     from pencilbot.machine.profile import load_profile
     from pencilbot.imaging.io import image_from_array, load_image
-    from pencilbot.planning.build import plot_resolution, sketch_and_plan
-    from pencilbot.planning.fidelity import fidelity, photo_likeness
+    from pencilbot.planning.build import plot_resolution, sketch_and_plan, with_pens
+    from pencilbot.planning.fidelity import colour_difference, fidelity, photo_likeness
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.preview import preview as plan_preview
+    from pencilbot.planning.preview import preview_image
     from pencilbot.planning.stats import duration_text
+    from pencilbot.render import write_png
 
-    profile = load_profile(args.profile)  # a bad profile or style fails before any slow work
+    profile = load_profile(args.profile)  # a bad profile, style or pen set fails before any slow work
     style = photo_style(args)
     check_plan(style, PREVIEW_DPI)  # before the photo is read: a page too large for memory fails now
-    image = _photo(args, partial(load_image, shrink_to=plot_resolution(style)), image_from_array)
+    pens = photo_pens(args)
+    sized = style if pens is None else with_pens(style, pens)
+    image = _photo(args, partial(load_image, shrink_to=plot_resolution(sized)), image_from_array)
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -87,16 +93,18 @@ def run(args: argparse.Namespace) -> int:
 
     started = time.perf_counter()
     page = page_size(style.page, style.orientation, image.shape, style.margin)
-    drawing, plan = sketch_and_plan(image, page=page, style=style)
+    drawing, plan = sketch_and_plan(image, page=page, style=style, pens=pens)
+    colour = len(plan.pens) > 1
     write_image(drawing.result, out / "sketch.png")
-    step.done("sketch.png: GMED pencil sketch", started)
+    step.done(f"sketch.png: GMED pencil sketch{' in colour' if colour else ''}", started)
 
     started = time.perf_counter()
     write_svg(plan, out / "plan.svg")
     preview = plan_preview(plan, PREVIEW_DPI)
-    preview.save_png(out / "preview.png")
-    faithful = fidelity(plan, drawing) if style.hatch else None
+    write_png(out / "preview.png", preview_image(plan, PREVIEW_DPI))
+    faithful = fidelity(plan, drawing) if style.hatch and not colour else None
     alike = photo_likeness(plan, drawing)
+    delta_e = colour_difference(plan, drawing.result) if colour else None
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
@@ -135,6 +143,8 @@ def run(args: argparse.Namespace) -> int:
         "tone_fidelity_r": _figure(None if faithful is None else faithful.tone_r, 3),
         "tone_fidelity_mae": _figure(None if faithful is None else faithful.tone_mae, 3),
         "photo_rho": _figure(alike.rho, 3),
+        "pens": list(plan.pens),
+        "colour_delta_e00_3mm": _figure(delta_e, 2),
     }
     if args.json:
         print(json.dumps(summary, indent=2))
@@ -167,28 +177,37 @@ def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[fl
     plot with the preview.
     """
     import sim
+    from pencilbot.commands.simulate import strokes_by_pen
     from pencilbot.driver import draw
+    from pencilbot.export.gcode import PenInFile, pens_at_pauses
     from pencilbot.planning.fidelity import pearson
-    from pencilbot.render import Canvas
+    from pencilbot.planning.plan import BLACK
+    from pencilbot.render import Canvas, colour_image, write_png
     from sim import protocol_sim
 
     sim.register()
     name = f"demo-{os.getpid()}"
-    query = urllib.parse.urlencode({"profile": args.profile})
+    pens = pens_at_pauses(gcode_path.read_bytes())
+    # A colour job stops at each pen change; the virtual plotter's operator puts the pen in at once.
+    query = urllib.parse.urlencode({"profile": args.profile, **({"operator": "auto"} if pens else {})})
     try:
         draw(gcode_path, f"sim://{name}?{query}", profile=args.profile, progress=_progress(args))
         plotter = protocol_sim.plotter(name)
         plotter.firmware.finish()
-        # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
-        drawn = [placement.to_page(stroke[:, :2]) for stroke in plotter.machine.strokes]
+        by_pen = strokes_by_pen(plotter.machine, pens, default=PenInFile("", BLACK, preview.pen_width))
         seconds = plotter.seconds
         pen_up = sum(float(np.hypot(*np.diff(move, axis=0).T).sum()) for move in plotter.machine.travel)
     finally:
         protocol_sim.forget(name)
-    plot = Canvas(preview.width_mm, preview.height_mm, dpi=PREVIEW_DPI, pen_width=preview.pen_width)
-    plot.draw_paths(drawn)
-    plot.save_png(out / "plot.png")
-    return seconds, pen_up, pearson(plot.darkness, preview.darkness)
+    plots = []
+    for ink, strokes in by_pen:
+        plot = Canvas(preview.width_mm, preview.height_mm, dpi=PREVIEW_DPI, pen_width=ink.width)
+        # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
+        plot.draw_paths([placement.to_page(stroke[:, :2]) for stroke in strokes])
+        plots.append(plot)
+    write_png(out / "plot.png", colour_image(plots, [ink.color for ink, _ in by_pen]) if pens else plots[0].to_image())
+    darkness = 1.0 - np.prod([1.0 - plot.darkness for plot in plots], axis=0)
+    return seconds, pen_up, pearson(darkness, preview.darkness)
 
 
 def _summary_text(s: dict, duration_text) -> str:
@@ -199,6 +218,9 @@ def _summary_text(s: dict, duration_text) -> str:
         + ("" if s["simulated_s"] is None else f", simulated {duration_text(s['simulated_s'])}"),
     ]
     lines.append(f"likeness to the photo (Spearman, 1 mm blur): rho = {_or_none(s['photo_rho'])}")
+    if s["pens"]:
+        lines.append(f"pens, in load order: {', '.join(s['pens'])}; colour against the colour sketch "
+                     f"(mean CIEDE2000, 3 mm blur): {_or_none(s['colour_delta_e00_3mm'])}")
     if s["tone_fidelity_mae"] is not None:
         lines.append(f"fidelity to the sketch: lines r = {_or_none(s['line_fidelity_r'])}, "
                      f"tone r = {_or_none(s['tone_fidelity_r'])} (mean difference {s['tone_fidelity_mae']})")

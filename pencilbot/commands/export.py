@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import re
+from dataclasses import replace
 from pathlib import Path
 
 from pencilbot.commands.batch import (
     Inputs, add_jobs_option, collect_inputs, distinct, make_folders, output_paths, run_batch,
 )
 from pencilbot.commands.common import (
-    add_photo_options, add_profile_option, add_svg_options, add_verbosity, photo_style, plan_for_input,
-    reorder_drawing,
+    add_photo_options, add_profile_option, add_svg_options, add_verbosity, photo_pens, photo_style,
+    plan_for_input, reorder_drawing,
 )
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, write_gcode
 from pencilbot.machine.profile import Profile, load_profile
+from pencilbot.planning.plan import Plan
 from pencilbot.planning.stats import duration_text
 
 
@@ -36,6 +39,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help="G-code file to write (a folder for several inputs; default: INPUT's name .gcode beside it)",
     )
     add_profile_option(parser)
+    parser.add_argument(
+        "--split-pens", action="store_true",
+        help="write one G-code file per pen of a colour plan (OUT-1-yellow.gcode, OUT-2-cyan.gcode, ...), "
+             "in load order, with no pen-change pauses",
+    )
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
     add_jobs_option(parser)
@@ -50,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
     inputs = collect_inputs(args.inputs)
     if any(p.suffix.lower() != ".svg" for p in inputs.paths):
         photo_style(args)
+        photo_pens(args)
     outputs = _outputs(inputs, args.output)
     jobs = [(source, target, profile, args) for source, target in zip(inputs.paths, outputs)]
     return run_batch(export_one, jobs, workers=args.jobs, quiet=args.quiet, verbose=args.verbose)
@@ -68,9 +77,29 @@ def _outputs(inputs: Inputs, output: str | None) -> list[Path]:
 def export_one(source: Path, target: Path, profile: Profile, args: argparse.Namespace) -> str:
     """Write the G-code of ``source`` (photo or SVG) to ``target``; return the line reporting it."""
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
+    if args.split_pens and len(plan.pens) > 1:
+        return _export_split(plan, source, target, profile) + (f"; {reordered}" if reordered else "")
     summary = write_gcode(plan, profile, target, source=str(source))
     return (
         f"wrote {summary.path} for {profile.name}: {summary.paths} paths, {summary.lines} lines, "
         f"{summary.bytes / 1e3:.0f} kB; about {duration_text(summary.stats.total.seconds)} to draw; "
         f"{summary.placement.describe()}" + (f"; {reordered}" if reordered else "")
     )
+
+
+def pen_file(target: Path, number: int, pen: str) -> Path:
+    """The file of the ``number``-th pen beside ``target``: ``OUT-1-yellow.gcode``."""
+    safe = re.sub(r"[^A-Za-z0-9_.+-]+", "_", pen)
+    return target.with_name(f"{target.stem}-{number}-{safe}{target.suffix}")
+
+
+def _export_split(plan: Plan, source: Path, target: Path, profile: Profile) -> str:
+    """One G-code file per pen run of ``plan`` (each a plan of one pen: no pen-change pause)."""
+    written, seconds = [], 0.0
+    for number, (pen, layers) in enumerate(plan.pen_runs(), start=1):
+        one = replace(plan, layers=layers)
+        summary = write_gcode(one, profile, pen_file(target, number, pen), source=f"{source} (pen {number}: {pen})")
+        written.append(f"{Path(summary.path).name} ({pen}, {summary.paths} paths)")
+        seconds += summary.stats.total.seconds
+    return (f"wrote {len(written)} files for {profile.name}, one per pen in load order: {', '.join(written)}; "
+            f"about {duration_text(seconds)} to draw in all")

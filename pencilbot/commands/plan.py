@@ -6,10 +6,13 @@ import argparse
 from pathlib import Path
 
 from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folders, output_paths, run_batch
-from pencilbot.commands.common import add_photo_options, add_verbosity, check_plan, photo_style, plan_for_input
+from pencilbot.commands.common import (
+    add_photo_options, add_verbosity, check_plan, photo_pens, photo_style, plan_for_input,
+)
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import is_plan_svg, write_svg
-from pencilbot.planning.preview import preview as plan_preview
+from pencilbot.planning.preview import preview_image
+from pencilbot.render import write_png
 
 PREVIEW_DPI = 100
 
@@ -40,7 +43,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    photo_style(args)  # a bad style or option fails once, before any slow planning
+    photo_style(args)  # a bad style, pen set or option fails once, before any slow planning
+    photo_pens(args)
     inputs = collect_inputs(args.inputs)
     outputs = output_paths(inputs, args.output, what="plan", suffixes=(".svg",))
     previews = (output_paths(inputs, args.preview, what="preview", suffixes=(".png",))
@@ -64,8 +68,10 @@ def plan_one(source: Path, output: Path, preview: Path | None, args: argparse.Na
     plan = plan_for_input(source, args)
     write_svg(plan, output)
     if preview is not None:
-        plan_preview(plan, PREVIEW_DPI).save_png(preview)
+        write_png(preview, preview_image(plan, PREVIEW_DPI))
     counts = ", ".join(f"{layer.name} {len(layer.paths)}" for layer in plan.layers)
+    if plan.pens:
+        counts += f"; pens in load order: {', '.join(plan.pens)}"
     return (
         f"wrote {output} ({plan.page.width:g}×{plan.page.height:g} mm): "
         f"{sum(len(layer.paths) for layer in plan.layers)} paths ({counts})"

@@ -21,9 +21,13 @@ from pencilbot.commands.common import (
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.errors import PencilbotError
-from pencilbot.export.gcode import GCODE_SUFFIXES, gcode_program
+from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
+from pencilbot.machine.pens import load_pens
 from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.planning.plan import BLACK
 from pencilbot.planning.stats import duration_text
+from pencilbot.render import save_colour_png
+
 _RUNS = itertools.count(1)
 
 
@@ -71,20 +75,58 @@ def run(args: argparse.Namespace) -> int:
     program, pen_width = _gcode(source, profile, args)
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
+    pens = pens_at_pauses(program)
+    if getattr(args, "pens", None) and any(pens):
+        pens = _recoloured(pens, load_pens(args.pens))
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
-    query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
+    # A colour job stops at each pen change; in a simulation the pen is in at once.
+    options = {"profile": args.profile, "realtime": args.realtime, **({"operator": "auto"} if pens else {})}
     try:
-        draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
+        draw(program, f"sim://{name}?{urllib.parse.urlencode(options)}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")
         plotter = protocol_sim.plotter(name)
-        plotter.save_png(output, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+        if any(pens):
+            _save_colour_plot(output, plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+        else:
+            plotter.save_png(output, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
     finally:
         protocol_sim.forget(name)
     if not args.quiet:
         strokes = len(plotter.machine.drawn())
-        print(f"wrote {output}: {strokes} pen-down strokes, simulated drawing time "
+        in_pens = f" with {len({p.name for p in pens if p})} pens" if any(pens) else ""
+        print(f"wrote {output}: {strokes} pen-down strokes{in_pens}, simulated drawing time "
               f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
     return 0
+
+
+def _save_colour_plot(output: Path, plotter, pens: list, *, dpi: float, pen_width: float, travel: bool) -> None:
+    """Save what the plotter drew, each pen's strokes as a transparent layer of its ink (strokes
+    before any pen change in black), band by band."""
+    plotter.firmware.finish()
+    bed = plotter.profile.bed
+    inks = [([bed.to_view(stroke) for stroke in strokes], ink.color, ink.width)
+            for ink, strokes in strokes_by_pen(plotter.machine, pens, default=PenInFile("", BLACK, pen_width))]
+    save_colour_png(output, inks, bed.width, bed.height, dpi=dpi, travel_pen=pen_width,
+                    travel=plotter.machine.bed_travel() if travel else None)
+
+
+def strokes_by_pen(machine, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
+    """A virtual plotter's pen-down strokes (machine mm) grouped by the pen that drew them, in
+    the order the pens came: a stroke's pen is the one the last pen change before it asked for
+    (``pens``: :func:`~pencilbot.export.gcode.pens_at_pauses` of the program), else ``default``.
+    """
+    groups: dict[str, tuple[PenInFile, list]] = {}
+    for stroke, pauses in zip(machine.strokes, machine.stroke_pauses):
+        pen = (pens[pauses - 1] if 0 < pauses <= len(pens) else None) or default
+        groups.setdefault(pen.name, (pen, []))[1].append(stroke)
+    return list(groups.values()) or [(default, [])]
+
+
+def _recoloured(pens: list, pen_set) -> list:
+    """The file's pens with the colours and widths ``--pens`` gives for the names it knows."""
+    known = {pen.name: pen for pen in pen_set.pens}
+    return [p if p is None or p.name not in known else PenInFile(p.name, known[p.name].color, known[p.name].width)
+            for p in pens]
 
 
 def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float]:

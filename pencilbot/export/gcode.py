@@ -23,6 +23,7 @@ drawing order, without its NULs; 100 000 strokes take well under a second.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
@@ -39,7 +40,12 @@ from pencilbot.planning.stats import PlanStats, duration_text, estimate
 #: File names G-code goes by (the first is the one export gives).
 GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
 
-_INT_DIGITS = len(str(MAX_BED))  # the bed check keeps |coordinate| ≤ MAX_BED mm
+_INT_DIGITS = len(str(MAX_BED))
+#: The comment before each pen change of a colour plan (its pen, as :func:`pens_at_pauses` reads it).
+PEN_CHANGE_NOTE = "pen change {number} of {count}: {pen} {color} {width:g} mm"
+_PEN_CHANGE_NOTE = re.compile(
+    rb"(?m)^; pen change \d+ of \d+: (?P<pen>[A-Za-z0-9][A-Za-z0-9 _.+-]*) (?P<color>#[0-9a-f]{6}) (?P<width>[0-9.]+) mm\r?$")
+_PAUSE_LINE = re.compile(rb"(?mi)^[ \t]*(?:N\d+[ \t]*)?M0*0(?![\d.])")  # the bed check keeps |coordinate| ≤ MAX_BED mm
 
 
 @dataclass(frozen=True)
@@ -121,7 +127,9 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
 
     stats = estimate(plan, profile)
     moves = _Moves.of(machine, paths.lengths, profile)
-    notes = [_comment(f"layer {layer.name}: {n} paths") for layer, n in zip(plan.layers, layer_sizes) if n]
+    changes = _pen_changes(plan, profile, placement)
+    notes = ["\n".join([*changes.get(index, []), _comment(f"layer {layer.name}: {n} paths")])
+             for index, (layer, n) in enumerate(zip(plan.layers, layer_sizes)) if n]
     head = _header_comments(plan, profile, placement, stats, source) + profile.render(profile.gcode.header)
     program = b"".join([
         _text(head),
@@ -150,7 +158,64 @@ def _body(moves: _Moves, profile: Profile, *, first_paths: np.ndarray, notes: li
     return _gather(table, order, cuts=len(up) + path_offsets[first_paths], inserts=notes)
 
 
-def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile) -> None:
+def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int, list[str]]:
+    """Layer index → the lines that ask for its pen, before the first layer of each pen of a
+    plan drawn with several (the first pen is asked for too: the plotter may hold any).
+
+    The pen is up there already (every path ends with it up, the program starts with it up);
+    the carriage parks where the profile says, then the profile's pen-change template (by
+    default ``M0 (pen change: insert NAME)``) stops the job until the pen is in.
+    """
+    pens = plan.pens
+    if len(pens) < 2:
+        return {}
+    park = profile.pen_change.park
+    park_lines = []
+    if park is not None:
+        _check_bed(np.array([park]), placement, profile, what=f"the pen-change park position {park[0]:g}, {park[1]:g}")
+        feed = f" F{_number_text(profile.motion.travel_feed, profile.gcode.decimals)}" if profile.firmware.rapids_take_feed else ""
+        park_lines = [f"G0 X{_number_text(park[0], profile.gcode.decimals)} Y{_number_text(park[1], profile.gcode.decimals)}{feed}"]
+    changes, start = {}, 0
+    for pen, layers in plan.pen_runs():
+        first = next((start + i for i, layer in enumerate(layers) if len(layer.paths)), None)
+        start += len(layers)
+        if first is None or not pen:  # nothing drawn, or layers that name no pen (any will do)
+            continue
+        layer, number = plan.layers[first], len(changes) + 1
+        changes[first] = [
+            _comment(PEN_CHANGE_NOTE.format(number=number, count=len(pens), pen=pen, color=layer.color, width=layer.pen_width)),
+            *park_lines, *profile.pen_change_lines(pen, number),
+        ]
+    return changes
+
+
+@dataclass(frozen=True)
+class PenInFile:
+    """A pen a G-code file asks for: name, ink ``#rrggbb``, width mm."""
+
+    name: str
+    color: str
+    width: float
+
+
+def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
+    """For each ``M0`` pause of a program, in order, the pen drawn after it: the pen its
+    pen-change note names (see :data:`PEN_CHANGE_NOTE`), or the pen before it (None before any)
+    for a pause that is no pen change. What a simulator needs to tell the pens' strokes apart.
+    """
+    events = sorted([(m.start(), PenInFile(m["pen"].decode(), m["color"].decode(), float(m["width"])))
+                     for m in _PEN_CHANGE_NOTE.finditer(program)]
+                    + [(m.start(), None) for m in _PAUSE_LINE.finditer(program)], key=lambda e: e[0])
+    pens, current = [], None
+    for _, pen in events:
+        if pen is not None:
+            current = pen
+        else:
+            pens.append(current)
+    return pens
+
+
+def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing") -> None:
     if not len(machine):
         return
     if not profile.bed.outside(machine).any():
@@ -159,7 +224,7 @@ def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile) -> N
     (x0, x1), (y0, y1) = placement.machine_range()
     page = placement.page
     raise OutOfBedError(
-        f"the drawing does not fit the bed of plotter profile {profile.name}: it spans "
+        f"{what} does not fit the bed of plotter profile {profile.name}: it spans "
         f"X {low[0]:g} .. {high[0]:g} and Y {low[1]:g} .. {high[1]:g} mm in machine coordinates, "
         f"the bed allows X {x0:g} .. {x1:g} and Y {y0:g} .. {y1:g} mm "
         f"(page {page.name} {page.width:g} x {page.height:g} mm, {placement.describe()}); "
@@ -276,6 +341,8 @@ def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: 
                      source: str) -> list[str]:
     page, bed = plan.page, profile.bed
     total = stats.total
+    pens = [_comment(f"pen {number} of {len(plan.pens)}: {pen} {layers[0].color} {layers[0].pen_width:g} mm")
+            for number, (pen, layers) in enumerate(((p, l) for p, l in plan.pen_runs() if p), start=1)]
     return [
         _comment(f"pencilbot G-code for {profile.name} ({profile.dialect})"),
         _comment(f"source: {source or plan.meta.get('source') or 'plan'}"),
@@ -286,6 +353,7 @@ def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: 
         _comment(f"estimated time: {duration_text(total.seconds)} ({total.seconds:.0f} s)"),
         _comment(f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
                  f"{total.paths} paths, {total.lifts} lifts"),
+        *pens,
     ]
 
 

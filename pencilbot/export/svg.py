@@ -22,7 +22,7 @@ import numpy as np
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
-from pencilbot.planning.plan import ROLES, Layer, Page, Plan
+from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
 from pencilbot.units import MM_PER_INCH
 
 SVG_NS = "http://www.w3.org/2000/svg"
@@ -50,16 +50,42 @@ def svg_text(plan: Plan) -> str:
         *(f'<pencilbot:meta name="{_escape(k)}">{_escape(v)}</pencilbot:meta>' for k, v in plan.meta.items()),
         "</metadata>",
     ]
-    for number, layer in enumerate(plan.layers, start=1):
-        out.append(
-            f'<g inkscape:groupmode="layer" inkscape:label="{_escape(layer.name)}" id="layer{number}"'
-            f' pencilbot:role="{layer.role}" fill="none" stroke="black" stroke-width="{_fmt(layer.pen_width)}"'
-            ' stroke-linecap="round" stroke-linejoin="round">'
-        )
-        out.extend(f'<path d="{d}"/>' for d in _path_data(layer.paths, page.height))
-        out.append("</g>")
+    if plan.pens:
+        number = 0
+        for place, (pen, layers) in enumerate(plan.pen_runs(), start=1):
+            # vpype numbers a layer by the first digits of its label and takes its colour and
+            # pen width from the stroke its paths inherit: "1 yellow" is vpype's layer 1.
+            out.append(
+                f'<g inkscape:groupmode="layer" inkscape:label="{place} {_escape(pen)}" id="pen{place}"'
+                f' pencilbot:pen="{_escape(pen)}" fill="none" stroke="{_ink(layers[0].color)}"'
+                f' stroke-width="{_fmt(layers[0].pen_width)}" stroke-linecap="round" stroke-linejoin="round">'
+            )
+            for layer in layers:
+                number += 1
+                out += _layer_group(layer, number, page.height, stroke=layer.color != layers[0].color
+                                    or layer.pen_width != layers[0].pen_width)
+            out.append("</g>")
+    else:
+        for number, layer in enumerate(plan.layers, start=1):
+            out += _layer_group(layer, number, page.height, stroke=True)
     out.append("</svg>\n")
     return "\n".join(out)
+
+
+def _layer_group(layer: Layer, number: int, page_height: float, *, stroke: bool) -> list[str]:
+    """A plan layer as an Inkscape layer group (with its own stroke, or inheriting its pen's)."""
+    look = (f' fill="none" stroke="{_ink(layer.color)}" stroke-width="{_fmt(layer.pen_width)}"'
+            ' stroke-linecap="round" stroke-linejoin="round"') if stroke else ""
+    return [
+        f'<g inkscape:groupmode="layer" inkscape:label="{_escape(layer.name)}" id="layer{number}"'
+        f' pencilbot:role="{layer.role}"{look}>',
+        *(f'<path d="{d}"/>' for d in _path_data(layer.paths, page_height)),
+        "</g>",
+    ]
+
+
+def _ink(color: str) -> str:
+    return "black" if color == BLACK else color
 
 
 def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: float | None = None) -> Plan:
@@ -138,7 +164,8 @@ def _parse(data: bytes, path) -> ET.Element:
 
 # --- pencilbot's own plans, whole arrays at a time ---------------------------------------------
 
-_PAGE, _MARGIN, _ROLE = (f"{{{PENCILBOT_NS}}}{name}" for name in ("page", "margin", "role"))
+_PAGE, _MARGIN, _ROLE, _PEN = (f"{{{PENCILBOT_NS}}}{name}" for name in ("page", "margin", "role", "pen"))
+_GROUP_TAG = re.compile(rb"<g [^>]*>|</g>")
 _LABEL = f"{{{INKSCAPE_NS}}}label"
 _OWN_TEXT = b"0123456789.- L\n"  # all a layer's path data holds besides its element tags
 _NUMBER_BYTES = bytes(c if c in b"0123456789.-na" else 32 for c in range(256))
@@ -149,40 +176,51 @@ _MOVES = {"transform", "style", "display", "visibility", "clip-path", "mask", "f
 def _read_own(data: bytes) -> Plan | None:
     """The plan, if ``data`` is a file just as :func:`write_svg` writes it; else None.
 
-    Each layer's path data is cut out of the file and the rest (root, metadata, layer tags)
-    parsed as XML; a layer's coordinates are then one ``np.fromstring`` over its cut, with a
-    NaN where each path starts. Anything else (an edited file, a nested group, a curve) gives
-    None, and the file is read as any SVG is.
+    Each layer's path data is cut out of the file and the rest (root, metadata, pen and layer
+    tags) parsed as XML; a layer's coordinates are then one ``np.fromstring`` over its cut, with
+    a NaN where each path starts. A layer is a group that holds no group: at the top, or inside a
+    pen's group (a colour plan). Anything else (an edited file, a curve) gives None, and the file
+    is read as any SVG is.
     """
     if f'xmlns:pencilbot="{PENCILBOT_NS}"'.encode() not in data[:4096]:
         return None
     skeleton, cuts, at = [], [], 0
-    while (tag := data.find(b"<g ", at)) >= 0:
-        body = data.find(b">", tag) + 1
-        close = data.find(b"</g>", body)
-        if body == 0 or close < 0 or data[body - 2 : body] == b"/>":
-            return None
-        skeleton.append(data[at:body])
-        cuts.append(data[body:close])
-        at = close
+    tags = list(_GROUP_TAG.finditer(data))
+    for tag, after in zip(tags, tags[1:] + [None]):
+        if tag[0] == b"</g>" or tag[0].endswith(b"/>"):
+            continue
+        if after is None or after[0] != b"</g>":  # a pen's group: its layers follow
+            continue
+        skeleton.append(data[at : tag.end()])
+        cuts.append(data[tag.end() : after.start()])
+        at = after.start()
     skeleton.append(data[at:])
     try:
         root = ET.fromstring(b"".join(skeleton))
         width, height, scale = _svg_size(root, "", None)
     except (ET.ParseError, PencilbotError):
         return None
-    groups = [child for child in root if child.tag == f"{{{SVG_NS}}}g"]
-    others = {child.tag for child in root} - {f"{{{SVG_NS}}}g", f"{{{SVG_NS}}}metadata"}
-    moved = [element for element in (root, *groups) if _MOVES.intersection(element.keys())]
+    g = f"{{{SVG_NS}}}g"
+    tops = [child for child in root if child.tag == g]
+    others = {child.tag for child in root} - {g, f"{{{SVG_NS}}}metadata"}
+    leaves = []  # (layer group, its pen's group or None)
+    for top in tops:
+        if top.get(_PEN) is None:
+            leaves.append((top, None))
+        else:
+            leaves += [(child, top) for child in top]
+            if any(child.tag != g for child in top):
+                return None
+    moved = [element for element in (root, *tops, *(leaf for leaf, _ in leaves)) if _MOVES.intersection(element.keys())]
     origin = [float(v) for v in _NUMBER.findall(root.get("viewBox", "0 0"))[:2]]
-    if others or moved or origin != [0.0, 0.0] or len(groups) != len(cuts) or any(len(g) for g in groups):
+    if others or moved or origin != [0.0, 0.0] or len(leaves) != len(cuts) or any(len(leaf) for leaf, _ in leaves):
         return None
     layers = []
-    for number, (group, cut) in enumerate(zip(groups, cuts), start=1):
+    for number, ((group, pen), cut) in enumerate(zip(leaves, cuts), start=1):
         paths = _own_paths(cut, scale, height)
         if paths is None:
             return None
-        attributes = _layer_attributes(group, number, scale)
+        attributes = _layer_attributes(group, number, scale, pen=pen)
         attributes["pen_width"] = attributes["pen_width"] or DEFAULT_PEN_WIDTH
         layers.append(Layer(paths=paths, **attributes))
     return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
@@ -338,16 +376,34 @@ def _meta(root: ET.Element) -> dict[str, str]:
     return {m.get("name", ""): m.text or "" for m in root.iter(f"{{{PENCILBOT_NS}}}meta")}
 
 
-def _layer_attributes(group: ET.Element, number: int, scale: float) -> dict:
-    """A layer's name, role and pen width (mm, None if its group sets none) from its group
-    element: the one place both readers take layer attributes from."""
-    stroke = _NUMBER.match(_stroke_width(group) or "")
+def _layer_attributes(group: ET.Element, number: int, scale: float, *, pen: ET.Element | None = None) -> dict:
+    """A layer's name, role, pen width (mm, None if its group sets none), pen and ink colour
+    from its group element (and the group of the pen it sits in): the one place both readers
+    take layer attributes from."""
+    holders = [group] if pen is None else [group, pen]
+    stroke = next((m for m in (_NUMBER.match(_stroke_width(el) or "") for el in holders) if m), None)
+    color = next((c for c in (_stroke_color(el) for el in holders) if c), BLACK)
     role = group.get(_ROLE)
     return {
         "name": group.get(_LABEL) or group.get("id") or f"layer{number}",
         "role": role if role in ROLES else "other",
         "pen_width": float(stroke[0]) * scale if stroke else None,
+        "pen": next((el.get(_PEN) for el in holders if el.get(_PEN)), ""),
+        "color": color,
     }
+
+
+_HEX = re.compile(r"#([0-9a-fA-F]{6}|[0-9a-fA-F]{3})")
+
+
+def _stroke_color(el: ET.Element) -> str | None:
+    """The element's stroke colour as ``#rrggbb`` when it gives one in hex, else None."""
+    style = {key.strip(): value for key, _, value in (part.partition(":") for part in el.get("style", "").split(";"))}
+    found = _HEX.fullmatch((el.get("stroke") or style.get("stroke") or "").strip())
+    if not found:
+        return None
+    digits = found[1].lower()
+    return "#" + (digits if len(digits) == 6 else "".join(c * 2 for c in digits))
 
 
 def _stroke_width(el: ET.Element) -> str | None:

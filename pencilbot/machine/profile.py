@@ -40,6 +40,10 @@ in a wheel and in a source checkout); any TOML file with the same schema works b
     header = "G21\\nG90"             # template, before the first move
     footer = ""                     # template, after the return home
 
+    [pen_change]                    # optional: how a colour plan asks for the next pen
+    command = "M0 (pen change: insert {pen})"   # template; also {pen} and {number} (1, 2, ...)
+    park = [0.0, 0.0]               # optional: machine X, Y (mm) to move to, pen up, first
+
 Templates may use only the plain fields ``{up}``, ``{down}``, ``{draw_feed}``, ``{travel_feed}``,
 ``{bed_width}``, ``{bed_height}``, optionally with a precision (``{up:.1f}``); anything else is
 refused when the profile loads (:mod:`pencilbot.machine.templates`). Every mistake (unknown key,
@@ -67,10 +71,16 @@ from pencilbot.firmware.base import Firmware
 from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
 from pencilbot.machine.motion import Motion
 from pencilbot.machine.pen import PEN_KINDS, PenModel
+from pencilbot.machine.pens import LONGEST_PEN_NAME
 from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
 MAX_LINE = 80  # the longest line the writer produces: GRBL's line buffer, so every firmware takes it
 TEMPLATE_FIELDS = ("up", "down", "draw_feed", "travel_feed", "bed_width", "bed_height")
+#: A pen change's template may also name the pen asked for and its place in the load order.
+PEN_CHANGE_FIELDS = (*TEMPLATE_FIELDS, "pen", "number")
+#: A pen change when the profile gives no template: one program pause whose comment names the
+#: pen (a sender reads it for its prompt and its journal; GRBL's M0 is a feed hold until ~).
+PEN_CHANGE = "M0 (pen change: insert {pen})"
 #: The plotter profile used when none is named.
 DEFAULT_PROFILE = "grbl-servo-a4"
 
@@ -100,6 +110,15 @@ class GcodeFormat:
 
 
 @dataclass(frozen=True)
+class PenChange:
+    """How the plotter asks for the next pen: a template (``{pen}``, ``{number}``), and where the
+    carriage parks for it (machine mm; None: where the last layer ended)."""
+
+    command: str = PEN_CHANGE
+    park: tuple[float, float] | None = None
+
+
+@dataclass(frozen=True)
 class Profile:
     """A validated plotter profile; ``source`` is where it was read from (for messages)."""
 
@@ -110,6 +129,7 @@ class Profile:
     motion: Motion
     pen: Pen
     gcode: GcodeFormat
+    pen_change: PenChange = PenChange()
     source: str = "<profile>"
 
     @cached_property
@@ -143,6 +163,12 @@ class Profile:
             "bed_width": self.bed.width,
             "bed_height": self.bed.height,
         }
+
+    def pen_change_lines(self, pen: str, number: int) -> list[str]:
+        """The G-code that asks for pen ``pen``, the ``number``-th loaded (from 1)."""
+        values = {**self.template_values(), "pen": pen, "number": number}
+        text = fill_template(self.pen_change.command, values)
+        return [line.strip() for line in text.splitlines() if line.strip()]
 
     def render(self, template: str) -> list[str]:
         """A template filled with this profile's values, as G-code lines (blank lines dropped)."""
@@ -195,6 +221,14 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         "receive_buffer": schema.whole(MAX_LINE + 1, 1 << 20, "bytes"),
         "header": _TEMPLATE,
         "footer": _TEMPLATE,
+    }),
+    "pen_change": (PenChange, {
+        "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(
+            f"{{{f}}}" for f in PEN_CHANGE_FIELDS) + ")"),
+        "park": schema.Rule(
+            "a list of two numbers, machine X and Y in mm",
+            lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
+            lambda value: (float(value[0]), float(value[1]))),
     }),
 }
 
@@ -269,9 +303,9 @@ def profile_from_mapping(table: dict, *, where: str = "<profile>", default_name:
 
 def _section(table: dict, name: str, cls: type, rules: dict[str, schema.Rule], context: str):
     """Table ``[name]`` of the profile validated into a ``cls``."""
-    if name not in table:
+    if name not in table and not all(schema.has_default(cls, key) for key in rules):
         raise ProfileError(f"{context}: missing table [{name}]; expected keys {', '.join(rules)}")
-    found = table[name]
+    found = table.get(name, {})
     if not isinstance(found, dict):
         raise ProfileError(
             f"{context}: {name} = {found!r} is invalid; expected a table [{name}] with keys {', '.join(rules)}"
@@ -307,6 +341,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
         ("pen", "down_command", profile.pen.down_command),
         ("gcode", "header", profile.gcode.header),
         ("gcode", "footer", profile.gcode.footer),
+        ("pen_change", "command", profile.pen_change.command),
     ):
         if not text.isascii():
             raise ProfileError(
@@ -314,8 +349,12 @@ def _check_consistency(profile: Profile, where: str) -> None:
                 "plain ASCII G-code (firmware reads bytes; write comments without accents)"
             )
         try:
-            check_template(text, TEMPLATE_FIELDS)
-            lines = profile.render(text)
+            if section == "pen_change":  # measured with the longest name a pen may have
+                check_template(text, PEN_CHANGE_FIELDS)
+                lines = profile.pen_change_lines("W" * LONGEST_PEN_NAME, 99)
+            else:
+                check_template(text, TEMPLATE_FIELDS)
+                lines = profile.render(text)
         except TemplateError as exc:
             raise ProfileError(
                 f"plotter profile {where}: {_label(section, key)} = {text!r} is invalid: {exc}"

@@ -20,7 +20,9 @@ import numpy as np
 
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
+from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
+from pencilbot.planning.colour import colour_hatching
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -35,7 +37,8 @@ log = logging.getLogger(__name__)
 
 
 def make_plan(
-    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None
+    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None,
+    pens: PenSet | str | Path | None = None,
 ) -> Plan:
     """Plan the pen drawing of a photo.
 
@@ -47,30 +50,42 @@ def make_plan(
         The sheet; default from the style's ``page``, ``orientation`` and ``margin``.
     style : Style, str or Path, optional
         A :class:`Style`, a shipped style name or a style file; default ``"default"``.
+    pens : PenSet, str or Path, optional
+        The pens (a :class:`~pencilbot.machine.pens.PenSet`, a shipped set's name or a file);
+        default: the plotter's one pen, black. With several pens the plan is of the colour
+        sketch (:mod:`pencilbot.planning.colour`).
 
     Returns
     -------
     Plan
         Hatch layers (lightest first, if the style hatches) then ``"edges"``, each ordered
-        for short pen-up travel; ``meta`` records the source and every drawing parameter.
+        for short pen-up travel; ``meta`` records the source and every drawing parameter. With
+        pens, every layer names its pen, the pens in load order (lightest first), the edges in
+        the darkest.
     """
-    return sketch_and_plan(image, page=page, style=style)[1]
+    return sketch_and_plan(image, page=page, style=style, pens=pens)[1]
 
 
 def sketch_and_plan(
-    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None
+    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None,
+    pens: PenSet | str | Path | None = None,
 ) -> tuple[Sketch, Plan]:
-    """:func:`make_plan`, also returning the pencil sketch it was planned from.
+    """:func:`make_plan`, also returning the pencil sketch it was planned from (in colour when
+    there are several pens).
 
     The sketch is of the image at plot resolution (see :func:`at_plot_resolution`), the grid
     the plan was laid out on.
     """
     style = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
+    pens = pens if pens is None or isinstance(pens, PenSet) else load_pens(pens)
+    if pens is not None:
+        style = with_pens(style, pens)
     if page is None:
         page = page_size(style.page, style.orientation, image.shape, style.margin)
     image = at_plot_resolution(image, page, style.pen_width)
     drawing = sketch(
         image,
+        color=pens is not None and len(pens.pens) > 1,
         line_length=style.line_length,
         stroke_gamma=style.stroke_gamma,
         stroke_width=style.stroke_width,
@@ -78,7 +93,12 @@ def sketch_and_plan(
         texture_seed=style.seed,
         lines_only=not style.hatch,
     )
-    return drawing, plan_from_sketch(drawing, page, style, source=image.source)
+    return drawing, plan_from_sketch(drawing, page, style, source=image.source, pens=pens)
+
+
+def with_pens(style: Style, pens: PenSet) -> Style:
+    """``style`` drawn with ``pens``: the contours' pen, the darkest, sets the style's pen width."""
+    return replace(style, pen_width=pens.darkest.width)
 
 
 def at_plot_resolution(image: LoadedImage, page: Page, pen_width: float) -> LoadedImage:
@@ -129,17 +149,23 @@ def plot_resolution(style: Style, page: Page | None = None):
     return shape_for
 
 
-def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str = "") -> Plan:
+def plan_from_sketch(
+    drawing: Sketch, page: Page, style: Style, *, source: str = "", pens: PenSet | None = None
+) -> Plan:
     """Plan the pen strokes of an already computed pencil sketch (see :func:`make_plan`).
 
     Parameters
     ----------
     drawing : Sketch
-        Line drawing and, when ``style.hatch``, the texture fit (T).
+        Line drawing and, when ``style.hatch``, the texture fit (T); a colour sketch
+        (``result`` RGB) when there are several ``pens``.
     page : Page
     style : Style
+        (Its pen width is the contours' pen's: see :func:`with_pens`.)
     source : str
         Where the picture came from, for the plan's metadata.
+    pens : PenSet, optional
+        The pens; default the plotter's one pen.
 
     Returns
     -------
@@ -158,7 +184,17 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         clutter=style.edge_clutter,
     )
     layers = []
-    if style.hatch:
+    colour = pens is not None and len(pens.pens) > 1
+    if style.hatch and colour:
+        if drawing.result.ndim != 3:
+            raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
+        layers += colour_hatching(
+            drawing.result, layout, pens.load_order, strokes, form=1.0 - drawing.tone, paper=1.0 - drawing.gray,
+            angles=style.hatch_angles, coverage=style.hatch_coverage, form_scale=style.hatch_form,
+            min_run=style.min_hatch_run, blank_below=style.hatch_blank_below, wobble=style.hatch_jitter,
+            blur=style.hatch_blur, seed=style.seed,
+        )
+    elif style.hatch:
         hatches = shade(
             1.0 - drawing.tone,
             layout,
@@ -175,7 +211,13 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
             seed=style.seed,
         )
         layers += [layer for layer in hatches if layer.paths]
-    layers.append(Layer("edges", strokes, pen_width=style.pen_width, role="edges"))
+    if pens is None:
+        layers.append(Layer("edges", strokes, pen_width=style.pen_width, role="edges"))
+    else:
+        dark = pens.darkest
+        layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
+        layers.append(Layer(f"{dark.name}-edges" if colour else "edges", strokes, pen_width=dark.width,
+                            role="edges", pen=dark.name, color=dark.color))
 
     ordered, position = [], HOME
     for layer in layers:
@@ -211,6 +253,8 @@ def plan_from_sketch(drawing: Sketch, page: Page, style: Style, *, source: str =
         "texture": style.texture or "synthesised",
         "texture_seed": str(style.seed),
     }
+    if pens is not None:
+        meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)
     return Plan(page=page, layers=ordered, meta=meta)
 
 

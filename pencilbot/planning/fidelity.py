@@ -7,6 +7,12 @@
   plan and of the raster pencil drawing 1 − R, both blurred with σ = 3 mm at plot scale (the
   distance at which a viewer judges shading rather than single lines).
 
+* **Colour difference** (a colour plan, or a black one judged against colour):
+  mean CIEDE2000 ΔE00 between the colour sketch and the plan's inks stacked on paper
+  (:func:`pencilbot.colours.inks_on_paper`), both Gaussian-blurred by σ = 3 mm in linear light
+  (how the eye averages lines and paper at arm's length). Below 2 is hard to see side by side,
+  around 5 reads as the same colour a little off, past 10 as another colour.
+
 A correlation is NaN where it is undefined: one of the two pictures is flat (a blank photo has
 no edges to draw, an outline plan of it draws nothing).
 """
@@ -19,8 +25,10 @@ import cv2
 import numpy as np
 from scipy import ndimage as ndi
 from scipy.stats import spearmanr
+from skimage.color import deltaE_ciede2000, rgb2lab
 from skimage.metrics import structural_similarity
 
+from pencilbot.colours import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout
@@ -30,6 +38,8 @@ from pencilbot.units import MM_PER_INCH
 
 LINE_SIGMA_PX = 2.0
 TONE_SIGMA_MM = 3.0
+#: Cell (mm) the colour difference is measured on: far below its 3 mm blur, above the pixel.
+COLOUR_CELL = 0.25
 
 
 @dataclass(frozen=True)
@@ -150,3 +160,53 @@ def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = Y
     cb = cv2.resize(ref, small, interpolation=cv2.INTER_AREA)
     ssim = float(structural_similarity(ca, cb, data_range=1.0, gaussian_weights=True, sigma=SSIM_SIGMA_MM))
     return Likeness(rho=rho, r=pearson(sa, sb), ssim=ssim)
+
+
+def plan_colour(plan: Plan, shape: tuple[int, int], *, cell: float = COLOUR_CELL) -> tuple[np.ndarray, int]:
+    """The plan's inks stacked on paper over the drawing box of an image of ``shape``.
+
+    Returns the sRGB picture (h, w, 3) on blocks of ``coarsen`` image pixels (about ``cell`` mm)
+    and ``coarsen``; each pen's layers are rendered together with its width, and stacked
+    with its ink colour (a layer naming no pen is black).
+    """
+    layout = Layout.fit(shape, plan.page)
+    coarsen = max(1, round(cell / layout.mm_per_px))
+    covers, colors = [], []
+    for _, layers in plan.pen_runs():
+        covers.append(ink_on_image_grid(
+            [p for layer in layers for p in layer.paths], layout, pen_width=layers[0].pen_width, coarsen=coarsen))
+        colors.append(layers[0].color)
+    if not covers:
+        rows, cols = -(-shape[0] // coarsen), -(-shape[1] // coarsen)
+        return np.ones((rows, cols, 3), np.float32), coarsen
+    return inks_on_paper(covers, colors), coarsen
+
+
+def colour_difference(plan: Plan, reference: np.ndarray, *, blur: float = TONE_SIGMA_MM) -> float:
+    """Mean CIEDE2000 between a plan's colour on paper and ``reference`` after a ``blur`` mm blur.
+
+    Parameters
+    ----------
+    plan : Plan
+        Laid out on the grid of ``reference`` (its image as planned).
+    reference : (H, W, 3) float array
+        The colour it should look like, sRGB in [0, 1] (the colour sketch).
+    blur : float
+        Gaussian sigma, mm, applied to both in linear light.
+
+    Returns
+    -------
+    float
+        Mean ΔE00 over the drawing box.
+    """
+    shape = reference.shape[:2]
+    plotted, coarsen = plan_colour(plan, shape)
+    height, width = plotted.shape[:2]
+    ref = cv2.resize(srgb_to_linear(reference).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    sigma = blur / (Layout.fit(shape, plan.page).mm_per_px * coarsen)
+
+    def seen(linear):
+        blurred = cv2.GaussianBlur(np.asarray(linear, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+        return rgb2lab(linear_to_srgb(blurred))
+
+    return float(deltaE_ciede2000(seen(ref), seen(srgb_to_linear(plotted))).mean())

@@ -25,6 +25,8 @@ DEFAULT_MARGIN = 15.0
 #: What a layer draws: ``hatch`` is tone (hatching), ``edges`` the line drawing, ``other``
 #: anything else (a layer read from another tool's SVG).
 ROLES = ("hatch", "edges", "other")
+#: The ink of a layer that names no colour.
+BLACK = "#000000"
 
 
 @dataclass(frozen=True)
@@ -42,13 +44,17 @@ class Layer:
     """One pen pass of the drawing, e.g. ``Layer("hatch1-45", paths, role="hatch")``.
 
     ``paths`` may be given as any iterable of ``(k, 2)`` arrays; it is stored as
-    :class:`~pencilbot.paths.Paths` (paths without points dropped).
+    :class:`~pencilbot.paths.Paths` (paths without points dropped). ``pen`` names the pen a
+    colour plan draws the layer with (``""``: the plotter's one pen) and ``color`` is its ink,
+    sRGB ``#rrggbb``.
     """
 
     name: str
     paths: Paths = field(default_factory=Paths.empty)
     pen_width: float = DEFAULT_PEN_WIDTH  # mm
     role: str = "other"
+    pen: str = ""
+    color: str = BLACK
 
     def __post_init__(self) -> None:
         if self.role not in ROLES:
@@ -81,6 +87,22 @@ class Plan:
             if layer.name == name:
                 return layer
         raise KeyError(name)
+
+    def pen_runs(self) -> list[tuple[str, tuple[Layer, ...]]]:
+        """The layers grouped by pen, in drawing order: ``(pen name, layers)`` for each run of
+        consecutive layers that one pen draws (one run, pen ``""``, for a one-pen plan)."""
+        runs: list[tuple[str, list[Layer]]] = []
+        for layer in self.layers:
+            if runs and runs[-1][0] == layer.pen:
+                runs[-1][1].append(layer)
+            else:
+                runs.append((layer.pen, [layer]))
+        return [(pen, tuple(layers)) for pen, layers in runs]
+
+    @property
+    def pens(self) -> tuple[str, ...]:
+        """The pens a plotter is loaded with, in order (empty for a plan of the one pen)."""
+        return tuple(pen for pen, _ in self.pen_runs() if pen)
 
     @property
     def pen_width(self) -> float:

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from pencilbot.planning.plan import Plan
-from pencilbot.render import Canvas
+from pencilbot.render import Canvas, colour_image
 
 
 def preview(plan: Plan, dpi: float) -> Canvas:
@@ -24,3 +26,18 @@ def preview(plan: Plan, dpi: float) -> Canvas:
     for layer in plan.layers:
         canvas.draw_paths(layer.paths, pen_width=layer.pen_width)
     return canvas
+
+
+def preview_image(plan: Plan, dpi: float) -> np.ndarray:
+    """The plan as a picture: grey (H, W) uint8 for a plan of one pen, else each pen's ink as a
+    transparent colour layer (:func:`~pencilbot.render.colour_image`), (H, W, 3) uint8."""
+    if len(plan.pens) < 2:
+        return preview(plan, dpi).to_image()
+    canvases, colors = [], []
+    for _, layers in plan.pen_runs():
+        canvas = Canvas(plan.page.width, plan.page.height, dpi=dpi, pen_width=layers[0].pen_width)
+        for layer in layers:
+            canvas.draw_paths(layer.paths, pen_width=layer.pen_width)
+        canvases.append(canvas)
+        colors.append(layers[0].color)
+    return colour_image(canvases, colors)

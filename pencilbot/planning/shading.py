@@ -43,6 +43,7 @@ def shade(
     edges: list[np.ndarray],
     *,
     paper: np.ndarray | None = None,
+    form: np.ndarray | None = None,
     pen_width: float = 0.5,
     angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
     coverage: float = 0.7,
@@ -70,6 +71,9 @@ def shade(
         (after the blur) the paper stays blank whatever the tone asks. Judging paper by the
         photo, not the tone, keeps a white sheet white and still shades a light face that the
         pencil tone model maps close to paper. Default: ``darkness``.
+    form : (H, W) float array, optional
+        Tone whose forms the lines follow (the direction field's picture); default
+        ``darkness``. A colour plan gives every pen the picture's tone, so all pens follow one form.
     pen_width : float
         Pen width, mm.
     angles : tuple of float
@@ -108,7 +112,7 @@ def shade(
     photo = tone if paper is None else _blur(sample_image(paper, layout, grid), sigma)
     tone[photo < blank_below] = 0.0
     field_grid = Grid(box, FIELD_CELL)
-    field = direction_field(sample_image(darkness, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
+    field = direction_field(sample_image(darkness if form is None else form, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
     families = _Families(field, grid, angles, pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed)
     edge_ink = ink_on_grid(edges, grid, pen_width)
     goal = tone

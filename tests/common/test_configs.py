@@ -11,7 +11,7 @@ CHECKOUT = Path(__file__).resolve().parents[2]
 
 
 def test_every_file_in_the_top_level_configs_folder_is_shipped():
-    for folder in ("plotters", "styles"):
+    for folder in ("plotters", "styles", "pens"):
         in_checkout = sorted(p.stem for p in (CHECKOUT / "configs" / folder).glob("*.toml"))
         assert in_checkout and shipped_names(folder) == in_checkout
         assert config_folder(folder).parent in CONFIG_ROOTS

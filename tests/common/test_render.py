@@ -239,3 +239,28 @@ def test_a_drawing_streamed_to_png_is_the_canvas_picture(tmp_path, travel):
     assert shape == canvas.shape and canvas.shape[0] > 5000 // canvas.shape[1]  # several bands
     np.testing.assert_array_equal(back, canvas.to_image())
     assert [p.name for p in tmp_path.iterdir()] == ["plot.png"]
+
+
+@pytest.mark.parametrize("travel", [False, True])
+def test_a_colour_drawing_streamed_to_png_is_the_stacked_canvases(tmp_path, travel):
+    # Two pens, each its own ink and width, band by band: the picture colour_image makes of one
+    # whole canvas per pen (a band that mixed up pens or rows would change the colours).
+    cyan, magenta = _scribble(seed=2, count=80), _scribble(seed=3, count=80)
+    moves = [np.array([[0.0, 0.0], [30.0, 12.0]])]
+    canvases = []
+    for paths, width in ((cyan, 0.3), (magenta, 0.6)):
+        canvas = Canvas(40, 30, dpi=150, pen_width=width)
+        canvas.draw_paths(paths)
+        canvases.append(canvas)
+    if travel:
+        canvases[0].draw_travel(moves)
+    colors = ["#00a0e0", "#e0007a"]
+    want = canvas_module.colour_image(canvases, colors)
+    out = tmp_path / "colour.png"
+    shape = canvas_module.save_colour_png(out, [(cyan, colors[0], 0.3), (magenta, colors[1], 0.6)], 40, 30,
+                                          dpi=150, travel=moves if travel else None, travel_pen=0.3,
+                                          band_pixels=5000)
+    back = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)[..., ::-1]
+    assert shape == canvases[0].shape
+    assert np.abs(back.astype(int) - want.astype(int)).max() <= 1
+    assert (back[..., 0] < 128).any() and (back[..., 1] < 128).any()  # both inks are there

@@ -1,0 +1,267 @@
+"""Colour separation: how much of each pen a colour sketch needs, and each pen's hatching.
+
+The model is the one the previews and the simulated plot are judged by
+(:func:`pencilbot.colours.inks_on_paper`): pen k laying ink of linear reflectance c_k over a
+share a_k of the paper multiplies the paper's reflectance by ``1 − a_k (1 − c_k)`` per channel.
+Per cell of a blurred, downsampled copy of the colour sketch (:data:`SEPARATION_CELL`, the
+1–3 mm scale at which hatching is seen as colour), :func:`separate` finds the amounts a ≥ 0 that
+make the stacked inks match the sketch's colour, by projected Levenberg–Marquardt steps on all
+cells at once (solved once per pen set on a table of colours, :func:`separation_table`, then
+polished per cell).
+The metric is the cube root of linear light (CIELAB's lightness curve per channel), so an error
+in a shadow counts as much as one in a highlight, as the eye sees it. A small cost per unit of
+ink picks, among mixtures that look alike, the one with least ink: a neutral shadow takes black
+rather than three colours on top of each other, which is also how printers separate (grey
+component replacement).
+
+Each pen's amount then goes through the black plan's own closed loop
+(:func:`~pencilbot.planning.shading.shade`): hatch, render with the exact-area rasteriser, blur,
+correct. So each pen's coverage response (lines dropped, gaps bridged, lines crowding on bends)
+is measured, not modelled, exactly as for the black plan. Each pen hatches at its own angles
+(:func:`pen_angles`), so the lines of different pens cross instead of lying on each other and the
+colours mix optically; the contours are drawn in the darkest pen, which also carries their share
+of its tone.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from functools import lru_cache
+
+import cv2
+import numpy as np
+from scipy import ndimage as ndi
+from skimage.color import deltaE_ciede2000, rgb2lab
+
+from pencilbot.colours import inks_on_paper, linear_to_srgb, srgb_to_linear
+from pencilbot.machine.pens import Pen
+from pencilbot.planning.plan import Layer
+from pencilbot.planning.shading import shade
+
+#: Cell (mm) of the grid the separation is solved on: finer than the hatching's 1 mm tone scale.
+SEPARATION_CELL = 0.5
+#: Gaussian sigma (mm) of the colour the separation matches (the scale a hatch pattern reads as one colour).
+SEPARATION_BLUR = 1.0
+#: Least coverage a pen is asked for: less is a scatter of stray dashes that reads as specks, not
+#: as a tint (dropping it moved no bench photo's ΔE00 by more than 0.02).
+LEAST_INK = 0.03
+#: Most coverage asked of one pen: all its hatch families at their densest still show some paper.
+MOST_INK = 0.95
+#: Cost of a unit of ink against a unit of squared colour error (cube-root units).
+INK_COST = 2e-3
+#: Keeps the Gauss–Newton system well posed where pens are interchangeable (more pens than channels).
+DAMPING = 1e-4
+#: Steps from no ink to the optimum (the table's cells converge in 20 to 30).
+ROUNDS = 30
+#: Samples per sRGB axis of the table :func:`separation_table` solves once per pen set.
+TABLE_SIZE = 33
+#: Gauss–Newton rounds that take the table's interpolated amounts to each cell's own optimum
+#: (interpolation blends neighbouring solutions: a pure cyan would get a trace of other pens).
+POLISH_ROUNDS = 5
+#: A pen laying less than this share of all the ink is asked whether the picture needs it ...
+SPARE_SHARE = 0.02
+#: ... and left out if without it no more than this share of the cells (1/200 of an A4 sheet is
+#: 3 cm² in all) ...
+SPARE_CELLS = 0.005
+#: ... change by this CIEDE2000 or more (a difference anyone sees side by side).
+SPARE_DELTA_E = 5.0
+_FLOOR = 0.01  # cube root of linear light, offset: its slope stays finite at black
+
+
+def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
+             ink_cost: float = INK_COST, rounds: int = ROUNDS, start: np.ndarray | None = None) -> np.ndarray:
+    """The coverage of each pen whose stacked inks best match a colour picture.
+
+    Parameters
+    ----------
+    target : (H, W, 3) float array
+        The colour to match, sRGB in [0, 1] (1 = the paper).
+    pens : sequence of Pen
+        The inks.
+    most : float
+        Largest coverage of one pen, in (0, 1].
+    ink_cost : float
+        Cost per unit of coverage (against squared error in cube-root linear light).
+    rounds : int
+        Levenberg–Marquardt steps.
+    start : (K, H, W) array, optional
+        Amounts to start from (default none of any pen): a good guess needs few rounds.
+
+    Returns
+    -------
+    (K, H, W) float32 array in [0, most]
+        Coverage of each pen, in the order of ``pens``.
+    """
+    shape = target.shape[:2]
+    goal = _lightness(srgb_to_linear(target).reshape(-1, 3))  # (N, 3)
+    absorb = 1.0 - srgb_to_linear(np.array([pen.rgb for pen in pens]))  # (K, 3)
+    k = len(pens)
+    amount = np.zeros((goal.shape[0], k)) if start is None else np.clip(start.reshape(k, -1).T.astype(np.float64), 0.0, most)
+
+    def cost(a):
+        """Per cell: the cost, each pen's filter (N, K, 3), the reflectance and the residual (N, 3)."""
+        filters = 1.0 - a[:, :, None] * absorb[None]
+        reflect = np.prod(filters, axis=1)
+        residual = _lightness(reflect) - goal
+        spent = 0.5 * (residual**2).sum(axis=1) + ink_cost * a.sum(axis=1) + 0.5 * DAMPING * (a**2).sum(axis=1)
+        return spent, filters, reflect, residual
+
+    eye = np.eye(k)
+    spent, filters, reflect, residual = cost(amount)
+    trust = np.full(goal.shape[0], 1e-2)  # Levenberg–Marquardt damping, per cell
+    for _ in range(rounds):
+        slope = (reflect + _FLOOR) ** (-2.0 / 3.0) / 3.0 * reflect  # d lightness / d log reflectance
+        jac = slope[:, None, :] * (-absorb[None] / np.maximum(filters, 1e-6))  # (N, K, 3)
+        grad = np.einsum("nkc,nc->nk", jac, residual) + ink_cost + DAMPING * amount
+        hess = np.einsum("nkc,njc->nkj", jac, jac) + (DAMPING + trust)[:, None, None] * eye
+        # Projected Newton: a pen at a bound whose gradient pushes it further out is held there.
+        held = ((amount <= 0.0) & (grad > 0)) | ((amount >= most) & (grad < 0))
+        hess = np.where(held[:, :, None] | held[:, None, :], 0.0, hess) + held[:, :, None] * eye
+        grad = np.where(held, 0.0, grad)
+        trial = np.clip(amount - np.linalg.solve(hess, grad[..., None])[..., 0], 0.0, most)
+        trial_cost, trial_filters, trial_reflect, trial_residual = cost(trial)
+        # A step is kept only where it lowers the cost; elsewhere the next one is shorter.
+        better = trial_cost < spent
+        amount[better], spent[better] = trial[better], trial_cost[better]
+        filters[better], reflect[better], residual[better] = trial_filters[better], trial_reflect[better], trial_residual[better]
+        trust = np.where(better, np.maximum(trust * 0.3, 1e-9), trust * 10.0)
+    return amount.T.reshape(k, *shape).astype(np.float32)
+
+
+@lru_cache(maxsize=8)
+def separation_table(colors: tuple[str, ...]) -> np.ndarray:
+    """(K, S, S, S): :func:`separate` solved on a grid of S = :data:`TABLE_SIZE` sRGB values per
+    axis, for pens of ``colors``; a picture is separated by trilinear interpolation in it (solving
+    every cell of an A4 sheet would take seconds, the table a second once per pen set)."""
+    axis = np.linspace(0.0, 1.0, TABLE_SIZE)
+    cube = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 1, 3)
+    pens = [Pen(f"pen{k}", color, 0.5) for k, color in enumerate(colors)]
+    return separate(cube, pens).reshape(len(colors), TABLE_SIZE, TABLE_SIZE, TABLE_SIZE)
+
+
+def _lightness(linear: np.ndarray) -> np.ndarray:
+    return np.cbrt(linear + _FLOOR)
+
+
+def pen_angles(base: Sequence[float], index: int, count: int) -> tuple[float, ...]:
+    """The hatch angles (degrees to the form) of the ``index``-th of ``count`` pens.
+
+    The family angles of a pen come in 45° steps, so pens are told apart by their offset modulo
+    45°: spread evenly over it, the lines of two pens always cross at ``45 / count`` degrees or
+    more. Each pen's first family, the one light tones get alone, also turns by a further 45° per
+    pen, so the lightest tones of different pens cross at a wide angle.
+    """
+    offset = index * 45.0 / max(count, 1) + 45.0 * (index % 4)
+    return tuple((angle + offset + 90.0) % 180.0 - 90.0 for angle in base)
+
+
+def colour_hatching(
+    target: np.ndarray, layout, pens: Sequence[Pen], edges: list[np.ndarray], *,
+    form: np.ndarray, paper: np.ndarray, angles: Sequence[float], **shading,
+) -> list[Layer]:
+    """Hatch layers of every pen whose stacked inks follow a colour picture.
+
+    Parameters
+    ----------
+    target : (H, W, 3) float array
+        The colour sketch, sRGB in [0, 1], on the layout's image grid.
+    layout : Layout
+    pens : sequence of Pen
+        In load order (lightest first); the last draws the contours ``edges`` and carries their ink.
+    edges : list of (N, 2) arrays
+        Contour strokes (page mm) drawn in the last pen.
+    form : (H, W) float array
+        Tone whose forms every pen's hatching follows (the black plan's darkness).
+    paper : (H, W) float array
+        The photo's darkness (see :func:`~pencilbot.planning.shading.shade`).
+    angles : sequence of float
+        The style's hatch angles; each pen turns them by :func:`pen_angles`.
+    **shading
+        Passed on to :func:`~pencilbot.planning.shading.shade` (coverage, blur, seed, …).
+
+    Returns
+    -------
+    list of Layer
+        Each pen's hatch layers (lightest family first), pens in the given order; every layer
+        carries its pen's name, colour and width.
+    """
+    amounts = separation(target, layout, pens)
+    layers = []
+    seed = shading.pop("seed", 0)
+    for index, (pen, amount) in enumerate(zip(pens, amounts)):
+        if not np.any(amount > 0.0):
+            continue
+        last = index == len(pens) - 1
+        hatches = shade(
+            amount, layout, edges if last else [], paper=paper, form=form, pen_width=pen.width,
+            angles=pen_angles(angles, index, len(pens)), seed=seed + 101 * index, **shading,
+        )
+        layers += [
+            Layer(f"{pen.name}-{layer.name}", layer.paths, pen_width=pen.width, role="hatch", pen=pen.name, color=pen.color)
+            for layer in hatches if layer.paths
+        ]
+    return layers
+
+
+def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
+    """(K, H, W): the separation of ``target`` blurred by :data:`SEPARATION_BLUR` on cells of
+    :data:`SEPARATION_CELL` mm (:func:`separate_cells`), brought back to the layout's image grid.
+
+    A pen the picture can do without (:func:`unneeded_pens`) gets no ink at all: its pen change
+    would cost the person at the plotter more than its ink gives the picture.
+    """
+    height, width = target.shape[:2]
+    linear = srgb_to_linear(target).astype(np.float32)
+    # Blurred in linear light: that is how the eye averages ink and paper.
+    blurred = cv2.GaussianBlur(linear, (0, 0), SEPARATION_BLUR / layout.mm_per_px, borderType=cv2.BORDER_REPLICATE)
+    factor = max(1.0, SEPARATION_CELL / layout.mm_per_px)
+    small = linear_to_srgb(cv2.resize(
+        blurred, (max(1, round(width / factor)), max(1, round(height / factor))), interpolation=cv2.INTER_AREA))
+    amounts = separate_cells(small, pens)
+    dropped = unneeded_pens(small, pens, amounts)
+    if dropped:
+        kept = [k for k in range(len(pens)) if k not in dropped]
+        amounts = np.zeros_like(amounts)
+        amounts[kept] = separate_cells(small, [pens[k] for k in kept])
+    return np.stack([cv2.resize(a, (width, height), interpolation=cv2.INTER_LINEAR) for a in amounts])
+
+
+def separate_cells(colours: np.ndarray, pens: Sequence[Pen]) -> np.ndarray:
+    """(K, h, w): :func:`separate` of an sRGB picture by interpolation in :func:`separation_table`,
+    polished by :data:`POLISH_ROUNDS`; coverage under :data:`LEAST_INK` left out."""
+    table = separation_table(tuple(pen.color for pen in pens))
+    at = colours.reshape(-1, 3).T * (TABLE_SIZE - 1)
+    guess = np.stack([ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(colours.shape[:2]) for t in table])
+    amounts = separate(colours, pens, rounds=POLISH_ROUNDS, start=guess)
+    amounts[amounts < LEAST_INK] = 0.0
+    return amounts
+
+
+def unneeded_pens(colours: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray) -> list[int]:
+    """Pens (indices; never the last, which draws the contours) whose ink the picture can do without.
+
+    A pen is a candidate when it lays under :data:`SPARE_SHARE` of all the ink; it is dropped when
+    separating without it makes no more than :data:`SPARE_CELLS` of the cells worse by
+    :data:`SPARE_DELTA_E` or more (CIEDE2000 on the separation's grid). Measured: rocket's yellow
+    lamps (3.5 % of its cells change that much without yellow) keep their pen; coffee's trace of
+    cyan (0.4 %) and chelsea's (0.2 %) lose it, and its pen change.
+    """
+    total = float(amounts.sum()) or 1.0
+    candidates = [k for k in range(len(pens) - 1) if 0 < amounts[k].sum() < SPARE_SHARE * total]
+    if not candidates:
+        return []
+    goal = rgb2lab(colours)
+    before = deltaE_ciede2000(goal, rgb2lab(_stacked(amounts, pens)))
+    dropped = []
+    # One at a time, the least used first, each judged with the ones before it gone: pens that
+    # could stand in for each other (yellow and orange) are not all dropped at once.
+    for k in sorted(candidates, key=lambda k: amounts[k].sum()):
+        others = [pens[j] for j in range(len(pens)) if j != k and j not in dropped]
+        without = deltaE_ciede2000(goal, rgb2lab(_stacked(separate_cells(colours, others), others)))
+        if np.mean(without - before >= SPARE_DELTA_E) <= SPARE_CELLS:
+            dropped.append(k)
+    return dropped
+
+
+def _stacked(amounts: np.ndarray, pens: Sequence[Pen]) -> np.ndarray:
+    return inks_on_paper(list(amounts), [pen.color for pen in pens]).astype(np.float64)

@@ -1,0 +1,164 @@
+"""Colour separation: a pen's own colour is drawn with that pen alone, a grey is neutral (black,
+or cyan, magenta and yellow in balance), and the hatched plan lays the inks the picture asks for.
+
+The plan-level tests render each pen's hatching with the exact-area rasteriser and stack the inks
+with the one model (:func:`pencilbot.colours.inks_on_paper`), then judge in CIELAB."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from skimage.color import deltaE_ciede2000, rgb2lab
+
+from pencilbot.colours import inks_on_paper
+from pencilbot.machine.pens import load_pens
+from pencilbot.planning.build import ink_on_image_grid
+from pencilbot.planning.colour import MOST_INK, colour_hatching, pen_angles, separate, separation_table
+from pencilbot.planning.layout import Layout
+from pencilbot.planning.plan import Page
+
+SETS = ["cmyk", "primaries", "fineliner6"]
+PATCH_PX = (150, 150)  # 50 x 50 mm at 1/3 mm a pixel
+PAGE = Page(80.0, 80.0, margin=15.0)
+
+
+def mixed(pen, amount: float) -> np.ndarray:
+    """The sRGB colour of paper under ``amount`` of ``pen``'s ink."""
+    return inks_on_paper([np.full((1, 1), amount)], [pen.color])[0, 0]
+
+
+def lab(rgb) -> np.ndarray:
+    return rgb2lab(np.asarray(rgb, np.float64).reshape(1, 1, 3))[0, 0]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.sampled_from(SETS), st.data(), st.floats(0.1, 0.9))
+def test_a_pens_own_colour_is_drawn_with_that_pen_alone(name, data, amount):
+    pens = load_pens(name).load_order
+    index = data.draw(st.integers(0, len(pens) - 1))
+    found = separate(mixed(pens[index], amount).reshape(1, 1, 3), pens)[:, 0, 0]
+    assert found[index] == pytest.approx(amount, abs=0.02)
+    assert np.delete(found, index).max() < 0.02
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.floats(0.3, 0.95))
+def test_a_grey_with_cmyk_is_neutral_black_or_balanced_colours(grey):
+    # (Greys darker than about 0.27 are beyond the black pen alone: see the test below.)
+    pens = load_pens("cmyk").load_order  # yellow, cyan, magenta, black
+    found = separate(np.full((1, 1, 3), grey), pens)[:, 0, 0]
+    stacked = inks_on_paper([np.full((1, 1), a) for a in found], [p.color for p in pens])[0, 0]
+    *_, a, b = lab(stacked)
+    assert np.hypot(a, b) < 2.0  # no tint
+    assert float(deltaE_ciede2000(lab(stacked), lab([grey] * 3))) < 2.0
+    colours = found[:3]
+    assert found[3] > 0.9 * found.sum() or np.ptp(colours) < 0.1 * max(colours.max(), 1e-9)
+
+
+def test_a_grey_darker_than_the_black_pen_takes_all_the_black_there_is():
+    pens = load_pens("cmyk").load_order
+    found = separate(np.full((1, 1, 3), 0.1), pens)[:, 0, 0]
+    assert found[3] == pytest.approx(MOST_INK)
+
+
+def test_colours_a_pen_set_cannot_reach_get_its_nearest_mixture_not_nothing():
+    pens = load_pens("cmyk").load_order
+    found = separate(np.array([[[0.1, 0.7, 0.1]]]), pens)[:, 0, 0]  # a green: cyan and yellow
+    assert found[1] > 0.5 and found[0] > 0.5 and found[2] < 0.1
+    assert found.max() <= MOST_INK
+
+
+def test_the_table_agrees_with_solving_each_colour():
+    pens = load_pens("primaries").load_order
+    table = separation_table(tuple(p.color for p in pens))
+    size = table.shape[1]
+    rng = np.random.default_rng(1)
+    index = rng.integers(0, size, (50, 3))
+    colours = index / (size - 1)
+    direct = separate(colours.reshape(50, 1, 3), pens)[:, :, 0]
+    assert np.abs(table[:, index[:, 0], index[:, 1], index[:, 2]] - direct).max() < 1e-5
+
+
+def test_each_pen_hatches_at_angles_no_other_pen_uses():
+    base = (0.0, 90.0, 45.0, -45.0)
+    for count in (2, 4, 6):
+        residues = [{round(a % 45.0, 6) for a in pen_angles(base, i, count)} for i in range(count)]
+        assert all(len(r) == 1 for r in residues)  # a pen's families are 45° apart
+        spread = sorted(r.pop() for r in residues)
+        gaps = np.diff(spread + [spread[0] + 45.0])
+        assert gaps.min() == pytest.approx(45.0 / count)
+
+
+def patch_plan(rgb, pens):
+    """Hatch a uniform colour patch; each pen's rendered ink on the image grid, and its layers."""
+    layout = Layout.fit(PATCH_PX, PAGE)
+    target = np.broadcast_to(np.asarray(rgb, np.float32), (*PATCH_PX, 3)).copy()
+    tone = np.full(PATCH_PX, 0.5, np.float32)
+    layers = colour_hatching(target, layout, pens, [], form=tone, paper=tone, angles=(0.0, 90.0, 45.0, -45.0),
+                             form_scale=0.0, seed=3)
+    inks = {}
+    for pen in pens:
+        mine = [p for layer in layers if layer.pen == pen.name for p in layer.paths]
+        inks[pen.name] = ink_on_image_grid(mine, layout, pen_width=pen.width)[20:-20, 20:-20]
+    return layers, inks
+
+
+def pen_down(layers, pen: str) -> float:
+    return sum(float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) for layer in layers if layer.pen == pen
+               for p in layer.paths)
+
+
+@pytest.mark.parametrize("which", ["magenta", "cyan"])
+def test_a_patch_of_a_pens_colour_is_hatched_with_that_pen_alone_at_its_density(which):
+    pens = load_pens("cmyk").load_order
+    pen = next(p for p in pens if p.name == which)
+    layers, inks = patch_plan(mixed(pen, 0.45), pens)
+    assert {layer.pen for layer in layers} == {which}
+    assert all(layer.color == pen.color and layer.pen_width == pen.width for layer in layers)
+    assert inks[which].mean() == pytest.approx(0.45, abs=0.05)
+    assert pen_down(layers, which) > 0
+
+
+def test_a_grey_patch_with_cmyk_comes_out_grey_on_paper():
+    pens = load_pens("cmyk").load_order
+    grey = [0.55] * 3
+    layers, inks = patch_plan(grey, pens)
+    stacked = inks_on_paper([inks[p.name].mean(keepdims=True)[None] for p in pens], [p.color for p in pens])[0, 0]
+    assert float(deltaE_ciede2000(lab(stacked), lab(grey))) < 4.0
+    lengths = {p.name: pen_down(layers, p.name) for p in pens}
+    colour = [lengths["cyan"], lengths["magenta"], lengths["yellow"]]
+    assert lengths["black"] > 0.9 * sum(lengths.values()) or np.ptp(colour) < 0.25 * max(colour)
+
+
+def picture_with_spot(base, spot, share: float, size: int = 100) -> np.ndarray:
+    """A (size, size) sRGB picture of colour ``base`` with ``share`` of its cells ``spot``."""
+    picture = np.broadcast_to(np.asarray(base, np.float64), (size, size, 3)).copy()
+    picture.reshape(-1, 3)[: round(share * size * size)] = spot
+    return picture
+
+
+def test_a_pen_the_picture_hardly_needs_is_left_out_but_a_small_vivid_spot_keeps_its_pen():
+    from pencilbot.planning.colour import separate_cells, unneeded_pens
+
+    pens = load_pens("cmyk").load_order  # yellow, cyan, magenta, black
+    magenta = mixed(pens[2], 0.5)
+    faint = picture_with_spot(magenta, mixed(pens[1], 0.1), 0.08)  # 8 % a pale tint of cyan
+    amounts = separate_cells(faint, pens)
+    assert 0 < amounts[1].sum() < 0.02 * amounts.sum()  # a candidate: cyan lays under 2 % of the ink
+    assert unneeded_pens(faint, pens, amounts) == [1]
+    vivid = picture_with_spot(magenta, mixed(pens[1], 0.8), 0.012)  # 1.2 % strong cyan
+    amounts = separate_cells(vivid, pens)
+    assert 0 < amounts[1].sum() < 0.02 * amounts.sum()
+    assert unneeded_pens(vivid, pens, amounts) == []
+
+
+def test_pens_that_stand_in_for_each_other_are_not_all_left_out():
+    from pencilbot.planning.colour import separate_cells, unneeded_pens
+
+    pens = load_pens("fineliner6").load_order  # yellow, orange, green, red, blue, black
+    blue = mixed(pens[4], 0.6)
+    warm = picture_with_spot(blue, mixed(pens[0], 0.9), 0.015)  # 1.5 % strong yellow (orange could do it)
+    dropped = unneeded_pens(warm, pens, separate_cells(warm, pens))
+    assert not {0, 1} <= set(dropped)  # yellow or orange stays to draw the spot
