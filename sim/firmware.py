@@ -42,6 +42,7 @@ delivery. :class:`Faults` injects failures keyed by that index.
 from __future__ import annotations
 
 import re
+from array import array
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
@@ -100,6 +101,57 @@ class LoggedLine:
     reply: str
 
 
+class LineLog:
+    """Every complete line the board received, with its reply, in the order they were answered.
+
+    A sequence of :class:`LoggedLine`, held as flat arrays (the texts in one byte string, each
+    reply as a number into the few distinct replies): a million-line job costs tens of bytes a
+    line, not the ~200 an object per line took.
+    """
+
+    def __init__(self) -> None:
+        self._texts = bytearray()
+        self._ends = array("Q")  # where each line's text ends in _texts
+        self._index = array("L")
+        self._reply = array("H")  # into _replies
+        self._replies: list[str] = []
+        self._reply_code: dict[str, int] = {}
+
+    def append(self, index: int, text: str, reply: str) -> None:
+        code = self._reply_code.get(reply)
+        if code is None:
+            code = self._reply_code[reply] = len(self._replies)
+            self._replies.append(reply)
+        self._texts += text.encode("latin-1")
+        self._ends.append(len(self._texts))
+        self._index.append(index)
+        self._reply.append(code)
+
+    def __len__(self) -> int:
+        return len(self._ends)
+
+    def __getitem__(self, i: int) -> LoggedLine:
+        n = len(self._ends)
+        if not -n <= i < n:
+            raise IndexError(f"line {i} of a log of {n}")
+        i %= n
+        start = self._ends[i - 1] if i else 0
+        text = self._texts[start:self._ends[i]].decode("latin-1")
+        return LoggedLine(self._index[i], text, self._replies[self._reply[i]])
+
+    def __iter__(self) -> Iterator[LoggedLine]:
+        return (self[i] for i in range(len(self)))
+
+    def texts_answered(self, reply: str) -> list[str]:
+        """Texts of the non-blank lines answered ``reply``, in order."""
+        code = self._reply_code.get(reply)
+        if code is None:
+            return []
+        texts = self._texts.decode("latin-1")
+        starts = [0, *self._ends[:-1]]
+        return [texts[a:b] for a, b, r in zip(starts, self._ends, self._reply) if r == code and b > a]
+
+
 @dataclass
 class _Task:
     """A line GRBL's main loop is inside of: its steps run until done, then ``finish`` answers.
@@ -148,7 +200,7 @@ class Firmware:
         self.faults = faults or Faults()
         self.power_zero, self.abort_loses, self.init_lock = power_zero, abort_loses, init_lock
         self.out = bytearray()
-        self.log: list[LoggedLine] = []
+        self.log = LineLog()
         self.lost_bytes = 0  # bytes dropped because the receive ring was full
         self.link_dropped = False
         self.silent = False
@@ -437,14 +489,14 @@ class Firmware:
         self._reply(index, text, "ok" if code == 0 else f"error:{code}")
 
     def _reply(self, index: int, text: str, reply: str, *, emit: bool = True) -> None:
-        self.log.append(LoggedLine(index, text, reply))
+        self.log.append(index, text, reply)
         if emit:
             self._emit(reply)
 
     def accepted_lines(self) -> list[str]:
         """Texts of the non-blank lines answered ``ok``, in order (the exactly-once record;
         blank lines, such as a sender's wake-up line ends, carry nothing to deliver)."""
-        return [entry.text for entry in self.log if entry.reply == "ok" and entry.text]
+        return self.log.texts_answered("ok")
 
     def _startup_steps(self):
         """The ``$N`` lines, run after a reset or homing; each reports ``>line:status``."""

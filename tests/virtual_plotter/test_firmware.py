@@ -390,3 +390,20 @@ def test_dollar_dollar_is_answered_while_jogging_but_not_while_running():
     exchange(fw, grbl.JOG_CANCEL + b"G1 X0 F600\n")
     fw.poll(0.5)
     assert exchange(fw, b"$$\n") == "error:8\r\n"
+
+
+@given(st.lists(st.tuples(st.integers(1, 2**31), st.text(st.characters(max_codepoint=255), max_size=12),
+                          st.sampled_from(["ok", "error:20", "-", "error:1"])), max_size=30))
+def test_the_line_log_gives_back_every_line_as_it_was_logged(entries):
+    from sim.firmware import LineLog, LoggedLine
+
+    log = LineLog()
+    for entry in entries:
+        log.append(*entry)
+    want = [LoggedLine(*entry) for entry in entries]
+    assert len(log) == len(want) and list(log) == want
+    if want:
+        assert log[-1] == want[-1] and log[0] == want[0]
+    assert log.texts_answered("ok") == [e.text for e in want if e.reply == "ok" and e.text]
+    with pytest.raises(IndexError):
+        log[len(want)]
