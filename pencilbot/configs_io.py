@@ -153,6 +153,21 @@ def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: st
     return shipped.read_text(encoding="utf-8"), f"{folder}/{name_or_path}.toml", name_or_path
 
 
+def read_config_table(folder: str, name_or_path: str, *, kind: str, file_kind: str) -> tuple[dict, str, str]:
+    """:func:`read_config_text` parsed: the TOML table, where it came from, and its name.
+
+    Raises
+    ------
+    ProfileError
+        As :func:`read_config_text`, or the text is not valid TOML.
+    """
+    text, where, stem = read_config_text(folder, name_or_path, kind=kind, file_kind=file_kind)
+    try:
+        return tomllib.loads(text), where, stem
+    except tomllib.TOMLDecodeError as exc:
+        raise ProfileError(f"{file_kind} {where} is not valid TOML ({exc}); fix the syntax") from None
+
+
 def _is_path(name_or_path: str) -> bool:
     """Whether a profile or style is given as a file rather than by name."""
     path = Path(name_or_path)

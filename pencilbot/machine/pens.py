@@ -22,7 +22,6 @@ pen) come last.
 from __future__ import annotations
 
 import re
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,7 +29,7 @@ import numpy as np
 
 from pencilbot import schema
 from pencilbot.colours import LUMINANCE, hex_to_rgb, srgb_to_linear
-from pencilbot.configs_io import config_names, read_config_text
+from pencilbot.configs_io import config_names, read_config_table
 from pencilbot.errors import ProfileError
 
 #: Thinnest and widest pen a set may hold, mm (a plan's hatch spacing follows the width).
@@ -96,11 +95,7 @@ def load_pens(name_or_path: str | Path) -> PenSet:
     ProfileError
         No such set, not TOML, or a key, pen name, colour or width that is not as documented.
     """
-    text, where, stem = read_config_text("pens", str(name_or_path), kind="pen set", file_kind="pen set file")
-    try:
-        table = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProfileError(f"pen set {where} is not valid TOML ({exc}); fix the syntax") from None
+    table, where, stem = read_config_table("pens", str(name_or_path), kind="pen set", file_kind="pen set file")
     return pens_from_mapping(table, where=where, name=stem)
 
 

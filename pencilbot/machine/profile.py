@@ -58,14 +58,13 @@ driver and the virtual plotter all read it. Where the paper sits on the bed is d
 from __future__ import annotations
 
 import os
-import tomllib
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 
 from pencilbot import firmware as firmware_registry
 from pencilbot import schema
-from pencilbot.configs_io import config_names, read_config_text, user_setting
+from pencilbot.configs_io import config_names, read_config_table, user_setting
 from pencilbot.errors import ProfileError
 from pencilbot.firmware.base import Firmware
 from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
@@ -251,11 +250,7 @@ def load_profile(name_or_path: str | Path) -> Profile:
         The profile does not exist, is not TOML, or has an unknown key, a missing key, a value
         of the wrong type or range, or a template that uses anything but plain named fields.
     """
-    text, where, stem = read_config_text("plotters", str(name_or_path), kind="plotter profile", file_kind="plotter profile")
-    try:
-        table = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProfileError(f"plotter profile {where} is not valid TOML ({exc}); fix the syntax") from None
+    table, where, stem = read_config_table("plotters", str(name_or_path), kind="plotter profile", file_kind="plotter profile")
     return profile_from_mapping(table, where=where, default_name=stem)
 
 

@@ -12,12 +12,11 @@ nothing. The rules are one table, :data:`STYLE_SCHEMA`, as for plotter profiles.
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 from pencilbot import schema
-from pencilbot.configs_io import config_names, read_config_text, user_setting
+from pencilbot.configs_io import config_names, read_config_table, user_setting
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, WIDTH_RANGE
 from pencilbot.paths import DEFAULT_PEN_WIDTH
@@ -149,11 +148,7 @@ def load_style(name_or_path: str | Path = DEFAULT_STYLE) -> Style:
     ProfileError
         The style does not exist, is not valid TOML, has an unknown key or a bad value.
     """
-    text, where, stem = read_config_text("styles", str(name_or_path), kind="style", file_kind="style file")
-    try:
-        table = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ProfileError(f"style file {where} is not valid TOML ({exc}); fix the syntax") from None
+    table, where, stem = read_config_table("styles", str(name_or_path), kind="style", file_kind="style file")
     style = with_overrides(Style(name=stem), table, where=f"style file {where}")
     source = Path(where)  # a user's file, by name (an absolute path) or by path; not a shipped style
     if style.texture is not None and (source.is_absolute() or Path(name_or_path).is_file()):
