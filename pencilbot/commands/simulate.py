@@ -70,7 +70,9 @@ def run(args: argparse.Namespace) -> int:
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
-    query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime})
+    # A preview's plotter has soft limits at the bed's edges (sim:// limits=bed), so a move off
+    # the bed fails with GRBL's alarm instead of being drawn off the picture.
+    query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime, "limits": "bed"})
     try:
         draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar")

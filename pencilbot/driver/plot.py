@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver import position
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
@@ -26,6 +27,7 @@ from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.units import MM_PER_INCH
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
+_WINDOW = 60  # job lines before the last one sent that may not have run (planner, receive buffer)
 
 
 @dataclass
@@ -54,6 +56,7 @@ def draw(
     timeout: float = 10.0,
     wake_wait: float = 2.5,
     source: str | None = None,
+    operator=None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -91,6 +94,10 @@ def draw(
     source : str, optional
         What fault messages call ``gcode`` when it is not a file (e.g. the file it was read from);
         a file is named by its path.
+    operator : pencilbot.driver.position.Operator, optional
+        Someone at the machine: answers program pauses and guides a re-zero when a resume finds
+        the position lost. Without one, a pause waits for the machine's cycle-start button and a
+        lost position is a refusal that says what to do.
 
     Raises
     ------
@@ -133,14 +140,15 @@ def draw(
             total_lines=job.total_lines, path=journal_mod.journal_path(path),
         )
     if journal is not None:
-        journal.port, journal.profile, journal.status, journal.message = port, profile, "running", ""
+        journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
+        journal.options = {"baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
 
-    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock)
+    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator)
     link = LineReader(open_port(port, baudrate=baud))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
-        resumed_acked = job.index_of(journal.acked_line) if resume is not None and journal.acked_line else None
-        return runner.run(stream, start, stop_xy, check, wake_wait, resumed_acked)
+        resumed = journal if resume is not None else None
+        return runner.run(stream, start, stop_xy, check, wake_wait, resumed)
     finally:
         try:
             link.port.close()
@@ -164,29 +172,33 @@ def _check_unchanged(journal, gcode: Path) -> None:
 class _Runner:
     """Holds one job's running state between the stream and the journal/progress."""
 
-    def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock):
+    def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock,
+                 operator=None):
         self.job, self.profile, self.port, self.journal = job, profile, port, journal
         self.firmware = profile.firmware
         self.pen = profile.pen_model
         self.progress_mode = progress
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
+        self.operator = operator
         self.acked = -1
         self._journal_at = 0.0
 
-    def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed_acked=None) -> DrawResult:
-        """Stream from job line ``start``; ``resumed_acked``: last acknowledged index of a resumed job."""
+    def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed=None) -> DrawResult:
+        """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
         t0 = time.monotonic()
         job = self.job
         try:
-            self._prepare(stream, check, wake_wait)
-            if resumed_acked is not None:
-                # Where the machine stands now tells what the stopped job really drew (a lost link
-                # or a hung board leaves moves that were acknowledged but never run).
-                here = self._job_position(stream, resumed_acked)
-                start, stop_xy = self._locate(resumed_acked, here) or (start, stop_xy)
+            self._prepare(stream, check, wake_wait, resuming=resumed is not None)
+            if resumed is not None:
+                # Where the machine stands now, checked against what the stop proved, tells
+                # whether its position can be trusted and what the stopped job really drew.
+                start, stop_xy = self._resume_point(stream, resumed)
+                resumed.message = ""
             if start > 0:
                 state = job.state_after(start - 1)
-                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=self.profile.gcode.decimals):
+                decimals = max(self.profile.gcode.decimals, 4)  # a stop point is known to 1 µm
+                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=decimals,
+                                            dwell=self.firmware.dwell):
                     self._setup_command(stream, line, "restoring the job's state")
         except StreamFault as fault:
             raise PlotError(f"{fault} before the job started; nothing was drawn. Check the plotter and retry.") from None
@@ -200,7 +212,7 @@ class _Runner:
         def on_ack(index, state):
             self.acked = index
             self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state)
-            self._save_journal()
+            self._save_journal(stream)
 
         try:
             rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait, on_error=self.on_error)
@@ -221,11 +233,12 @@ class _Runner:
             journal=self.journal.path if self.journal else None,
         )
 
-    def _prepare(self, stream: Stream, check, wake_wait) -> None:
+    def _prepare(self, stream: Stream, check, wake_wait, resuming: bool = False) -> None:
         stream.wake(wake_wait)
         status = stream.wait_until_still()  # a reconnected board may still be drawing
         fw = self.firmware
-        if status is not None and fw.is_alarm(status):
+        if status is not None and fw.is_alarm(status) and not resuming:
+            # (A resume looks at an alarm itself: it may be the stop's own, or a lost position.)
             if not (self.unlock and fw.capabilities.unlock):
                 raise PlotError(
                     f"the plotter on {self.port} is in alarm lock. Make sure the pen can move freely, "
@@ -241,6 +254,61 @@ class _Runner:
             )
         if check:
             self._check_mode(stream)
+
+    # --- where to resume -----------------------------------------------------------------------
+
+    def _resume_point(self, stream: Stream, journal) -> tuple[int, tuple[float, float] | None]:
+        """The first line to send and the stop point, once the board's position is trusted."""
+        fw, job = self.firmware, self.job
+        status = stream.status
+        alarm = status is not None and fw.is_alarm(status)
+        mpos = stream.machine_position()
+        restarted_at_zero = stream.restarted and position.near(mpos, (0.0, 0.0))
+        recorded = job.index_of(journal.next_line), (tuple(journal.stop_xy) if journal.stop_xy else None)
+        sent = job.index_of(journal.sent_line) if journal.sent_line else recorded[0] - 1
+        if journal.stop_work is not None:  # the stop proved where the pen stood
+            if not alarm and position.near(mpos, journal.stop_mpos):
+                return recorded
+            if not alarm and restarted_at_zero:
+                # The board restarted (DTR reset on open, power cut) and counts from 0, 0 where
+                # the pen stood: that spot is the proven stop point.
+                x, y = journal.stop_work
+                self._setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}", "restoring the origin at the stop point")
+                return recorded
+            if alarm and self.profile.bed.homing:
+                self._setup_command(stream, "$H", "homing")
+                return recorded
+            why = ("the plotter is in alarm" if alarm else
+                   f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
+                   "the plotter does not report its position")
+            self._reestablish(stream, why, alarm, recorded[0])
+            return recorded
+        if mpos is not None and not alarm and not restarted_at_zero:
+            # The stop could not read the position; a board that kept its count tells it now.
+            located = self._locate(sent, self._job_units(stream.work_position(), sent))
+            if located is not None:
+                return located
+        why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
+        acked = job.index_of(journal.acked_line) if journal.acked_line else -1
+        here = self._reestablish(stream, why, alarm, max(acked - _WINDOW, 0))
+        located = self._locate(sent, self._job_units(here, sent))
+        if located is None:
+            raise PlotError(
+                f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
+                f"last lines the plotter was sent (file lines {job.number(max(sent - _WINDOW, 0))}-"
+                f"{job.number(sent)}); the origin is set again, so continue from the line you see drawn last "
+                f"with: pencilbot draw {shlex.quote(str(journal.gcode))} --port {shlex.quote(self.port)} "
+                "--start-line N"
+            )
+        return located
+
+    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int) -> tuple[float, float]:
+        """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
+        to_mm = MM_PER_INCH if self.job.state_after(max(certain - 1, 0)).inches else 1.0
+        mark = position.mark_before(self.job, certain, to_mm)
+        if self.operator is None or not self.firmware.capabilities.realtime_protocol:
+            raise position.refusal(why, mark, self._resume_command(), self.profile.bed.homing)
+        return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm)
 
     def _setup_command(self, stream: Stream, line, doing) -> None:
         reply = stream.command(line)
@@ -265,6 +333,7 @@ class _Runner:
             ) from None
         stream.command(toggle)  # leaving check mode soft-resets GRBL
         stream.reset()
+        stream.sent = -1
         if rejected:
             where = ", ".join(str(job.number(i)) for i in rejected[:10])
             more = f" and {len(rejected) - 10} more" if len(rejected) > 10 else ""
@@ -274,7 +343,7 @@ class _Runner:
                 "and run again"
             )
 
-    def _save_journal(self, force: bool = False) -> None:
+    def _save_journal(self, stream: Stream | None = None, force: bool = False) -> None:
         if self.journal is None:
             return
         now = time.monotonic()
@@ -284,29 +353,48 @@ class _Runner:
         if self.acked >= 0:
             self.journal.acked_line = self.job.number(self.acked)
         self.journal.next_line = self.job.number(self.acked + 1)
+        if stream is not None and stream.sent >= 0:
+            self.journal.sent_line = self.job.number(stream.sent)
         self.journal.save()
+
+    # --- stopping ------------------------------------------------------------------------------
 
     def _stop(self, stream: Stream, fault: StreamFault) -> str:
         """Stop the machine after ``fault``, record where to resume, and say so in one message."""
-        pen_note, position = self._halt_and_lift(stream, fault)
+        pen_note, proven = self._halt_and_lift(stream, fault)
         job = self.job
-        if fault.kind == "error" and self.on_error == "stop":
-            # The rejected line never ran: resume no later than it (it is sent again).
-            self.acked = min(self.acked, fault.index - 1)
-        # Without a known position, trust the acknowledgements; a resume looks again (the
-        # machine's position after reconnecting tells what a lost link or hung board ran).
-        index, stop_xy = self._locate(self.acked, position) or (self.acked + 1, None)
+        located = None
+        if proven is not None:
+            pen_down = position.pen_down_in(stream.rest_status, self.pen)
+            located = self._locate(stream.sent, self._job_units(proven[0], stream.sent), pen_down)
+            if located is None:
+                proven = None  # where it stands is not on the lines it had: not a stop point
+        if located is not None:
+            index, stop_xy = located
+        else:
+            # Lost: the resume re-establishes the position and finds out; the guess is the first
+            # line not acknowledged (a refused line never ran).
+            index = min(self.acked, fault.index - 1) + 1 if fault.kind == "error" else self.acked + 1
+            stop_xy = None
         line_no = job.number(min(fault.index, len(job) - 1)) if fault.index >= 0 else None
         where = f"at line {line_no} of {job.source} ({job.line(min(fault.index, len(job) - 1))!r})" if line_no else ""
-        message = f"{fault} {where}. Stopped; {pen_note}. {self._resume_advice(index, stop_xy, fault)}"
+        lost = "" if proven is not None else (
+            " The plotter cannot prove where the pen stopped, so the resume re-establishes its position first.")
+        message = f"{fault} {where}. Stopped; {pen_note}.{lost} {self._resume_advice(stream, index, stop_xy, fault, proven)}"
         if fault.kind == "error" and line_no:
-            # Lines without a journal have no command line to resume them: say it in plain words.
-            fix = "use --start-line" if self.journal is not None else "start from it"
-            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
+            if index > fault.index:
+                message += (f" (line {line_no} never ran; the lines the plotter had already taken after it did, "
+                            "so the resume continues after them)")
+            else:
+                # Lines without a journal have no command line to resume them: say it in plain words.
+                fix = "use --start-line" if self.journal is not None else "start from it"
+                message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
         return message
 
     def _halt_and_lift(self, stream: Stream, fault: StreamFault):
-        """Stop the machine, read where it stands (job units) and raise the pen: (note, position)."""
+        """Stop the machine, read where it stands and raise the pen: (note, proven), where
+        ``proven`` is (work X, Y; machine X, Y) in mm when the board's count is known to be
+        where the pen is, else None."""
         if fault.kind == "port":
             return "the pen state is unknown (no port left to raise it)", None
         fw = self.firmware
@@ -317,8 +405,13 @@ class _Runner:
             elif fault.kind == "alarm":
                 stream.reset()  # a limit alarm blocks all input until a reset
             status = stream.query_status(wait=min(stream.timeout, 3.0))
-            position = self._job_position(stream, self.acked)
-            if status is not None and fw.is_alarm(status) and at_rest and fw.capabilities.unlock:
+            alarm = status is not None and fw.is_alarm(status)
+            work, mpos = stream.work_position(), stream.machine_position()
+            # At rest before our reset: the count is exact. A board that reset by itself
+            # (banner, no alarm) kept it if it was idle, unless it powered up counting from 0, 0.
+            trusted = (at_rest or (fault.kind == "reset" and not alarm and not position.near(mpos, (0.0, 0.0))))
+            proven = (work, mpos) if trusted and work is not None and mpos is not None else None
+            if alarm and at_rest and fw.capabilities.unlock:
                 # Our own reset of a machine at rest: the position is exact, so the alarm
                 # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
                 stream.command(fw.unlock_command)
@@ -326,36 +419,45 @@ class _Runner:
                 if stream.command(line).kind == ERROR:
                     if self.pen.kind == "spindle":
                         # The alarm switched the spindle off, and spindle off is pen up.
-                        return "pen up (the alarm switched the spindle off)", position
-                    return "the alarm locks G-code, so the pen could not be raised", position
-            return "pen raised", position
+                        return "pen up (the alarm switched the spindle off)", proven
+                    return "the alarm locks G-code, so the pen could not be raised", proven
+            return "pen raised", proven
         except StreamFault as exc:
             return f"could not raise the pen ({exc})", None
 
-    def _job_position(self, stream: Stream, acked: int):
-        """The machine's work position X, Y in the units the job uses at line ``acked``."""
-        position = stream.work_position()
-        if position is not None and self.job.state_after(max(acked, 0)).inches:
-            position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
-        return position
+    def _job_units(self, xy, index: int):
+        """A work position X, Y (mm) in the units the job uses at line ``index``."""
+        if xy is not None and self.job.state_after(max(index, 0)).inches:
+            return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
+        return xy
 
-    def _locate(self, acked: int, position, window: int = 40):
-        """:func:`~pencilbot.driver.resume.locate_stop` over the job's last acknowledged lines."""
-        if position is None or acked < 0:
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent)."""
+        if position_xy is None or last < 0:
             return None
-        return locate_stop(self.job.states(max(acked - window, 0), acked + 1), acked, position, window=window)
+        last = min(last, len(self.job) - 1)
+        first = max(last - _WINDOW, 0)
+        return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
+                           pen_down=pen_down)
 
-    def _resume_advice(self, index, stop_xy, fault) -> str:
+    def _resume_command(self) -> str:
+        if self.journal is None:
+            return f"resume from the line named above ({self.job.source} has no journal)"
+        return f"pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {shlex.quote(self.port)}"
+
+    def _resume_advice(self, stream: Stream, index, stop_xy, fault, proven) -> str:
         """Record where to resume in the journal and say how: the command, or the line."""
-        unlock = " --unlock" if fault.kind in ("alarm", "reset") else ""
-        port = shlex.quote(self.port)
         line = self.job.number(index)
         if self.journal is None:  # lines from a program (simulate, the library): no command to give
             return f"Resume from line {line} of {self.job.source}"
-        self.journal.next_line = line
-        self.journal.acked_line = self.job.number(self.acked) if self.acked >= 0 else 0
-        self.journal.stop_xy = list(stop_xy) if stop_xy is not None else None
-        self.journal.status = "stopped"
-        self.journal.message = str(fault)
-        self.journal.save()
-        return f"Resume with: pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {port}{unlock}"
+        journal = self.journal
+        journal.next_line = line
+        journal.acked_line = self.job.number(self.acked) if self.acked >= 0 else 0
+        journal.sent_line = self.job.number(stream.sent) if stream.sent >= 0 else 0
+        journal.stop_xy = list(stop_xy) if stop_xy is not None else None
+        journal.stop_work = list(proven[0]) if proven is not None else None
+        journal.stop_mpos = list(proven[1]) if proven is not None else None
+        journal.status = "stopped"
+        journal.message = str(fault)
+        journal.save()
+        return f"Resume with: {self._resume_command()}"

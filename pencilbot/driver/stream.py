@@ -107,6 +107,9 @@ class Stream:
         self.machine_state = ""  # what the board is doing, in its words ("Run", "Idle", …)
         self.reports = 0  # status reports received so far
         self.wco = (0.0, 0.0, 0.0)
+        self.sent = -1  # the last job line written to the board
+        self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
+        self.restarted = False  # the board printed its start-up banner when woken (a reset on open)
         self.number = 0  # the last line number framed (numbered firmware)
         self._unread: deque[str] = deque()  # lines received and not yet handled
         self._sent: deque[_Sent] = deque()
@@ -143,6 +146,7 @@ class Stream:
         with self._guard(-1):
             self.link.write(fw.wake_bytes)
             banner = self._await_banner(wait)
+            self.restarted = banner is not None
             reason = f"nothing within {2 * wait:g} s"
             if banner is None and fw.capabilities.status_reports:
                 try:
@@ -152,6 +156,7 @@ class Stream:
                     if fw.capabilities.soft_reset:
                         self.link.write(fw.soft_reset)
                         banner = self._await_banner(wait)
+                        self.restarted = banner is not None
             renumber = fw.renumber()
             if renumber is not None:
                 command, self.number = renumber[0], renumber[1] - 1
@@ -308,6 +313,7 @@ class Stream:
             nxt += 1
         if entries:
             self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
+            self.sent = max(self.sent, nxt - 1)
         return nxt
 
     def _fits(self, size: int, lines: int = 0, batch: int = 0) -> bool:
@@ -486,6 +492,7 @@ class Stream:
                         if reply.kind == OK and entry.index is not None:
                             self._on_ack(entry.index, self.machine_state)
                 at_rest = self.status is not None and fw.is_at_rest(self.status)
+        self.rest_status = self.status if at_rest else None
         self.reset(wait)
         return at_rest
 
@@ -505,6 +512,23 @@ class Stream:
         self._resend.clear()
         self._in_flight = 0
         self._refusal, self._swallow_ok = None, False
+
+    def machine_position(self) -> tuple[float, float] | None:
+        """The last reported machine position X, Y (mm), from MPos or WPos + WCO; None if unknown."""
+        status = self.status
+        if status is None:
+            return None
+        if status.mpos is not None:
+            return status.mpos[0], status.mpos[1]
+        if status.wpos is not None:
+            return status.wpos[0] + self.wco[0], status.wpos[1] + self.wco[1]
+        return None
+
+    def jog(self, dx: float, dy: float, feed: float) -> Reply:
+        """Jog by ``dx``, ``dy`` mm at ``feed`` mm/min (GRBL ``$J=``) and wait until it stands."""
+        reply = self.command(f"$J=G91G21X{dx:.4f}Y{dy:.4f}F{feed:g}")
+        self.wait_until_still()
+        return reply
 
     def work_position(self) -> tuple[float, float] | None:
         """The last reported work position X, Y (mm), from WPos or MPos − WCO; None if unknown."""
