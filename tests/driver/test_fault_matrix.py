@@ -1,0 +1,143 @@
+"""Every way a plot is interrupted, on every kind of board, ends in exactly the drawing of an
+uninterrupted run — or in a refusal until the position is re-established, and then exactly it.
+
+Faults × clock (instant; real time at a large speed-up, so moves are still queued when the
+fault comes) × board (keeps its position through resets, or counts from 0, 0 after a power-up
+and loses it in a reset or alarm in motion, as a real Arduino GRBL does). The drawings are
+compared as multisets of pen-down segments to 1 µm (:mod:`strokes`).
+
+The drawing is strokes of one long segment each, with the pen's dwells: a board that loses its
+position lets the carriage coast on after a reset in motion (v²/2a), and a coast that stays on
+the segment being drawn can be drawn exactly once by the resume; one that ran past a corner
+would be ink off the job's path, which no sender can take back.
+"""
+
+import _thread
+import itertools
+import threading
+
+import numpy as np
+import pytest
+from test_stream_sim import HandOnTheMachine, drawn
+
+from pencilbot.driver import draw
+from pencilbot.driver.modal import clean_line
+from pencilbot.errors import PlotError
+from sim import protocol_sim
+from strokes import assert_same_drawing
+
+PROFILE = "grbl-servo-a4"
+WAKE_LINES = 4  # empty lines the driver's wake-up sends first (the board logs them)
+_names = itertools.count()
+
+BOARDS = {"keeps": "power=keep&abort=keep", "restarts": "power=zero&abort=lose"}
+CLOCKS = {"instant": "", "realtime": "&realtime=200"}
+
+
+def matrix_drawing() -> list[str]:
+    """Ten strokes, each one straight 12-20 mm segment, with the profile's pen commands and dwells."""
+    rng = np.random.default_rng(7)
+    lines = ["G21", "G90", "M3 S30", "G4 P0.15"]
+    for i in range(10):
+        x, y = 30 + 15 * (i % 5), 40 + 40 * (i // 5)
+        angle, length = rng.uniform(0, 2 * np.pi), rng.uniform(12, 20)
+        lines += [f"G0 X{x:.3f} Y{y:.3f}", "M3 S90", "G4 P0.2",
+                  f"G1 X{x + length * np.cos(angle):.3f} Y{y + length * np.sin(angle):.3f} F3000",
+                  "M3 S30", "G4 P0.15"]
+    return lines
+
+
+LINES = matrix_drawing()
+CLEAN = [clean_line(line) for line in LINES]
+MID = 4 + 6 * 5 + 3  # the G1 of the sixth stroke (0-based job index: 4 header lines, 6 a stroke)
+MOVING = MID + 1  # the pen-up after it: arrives while that move is queued or under way
+DWELL_BEFORE_TRAVEL = MID + 2  # its pen-up dwell (G4 P0.15): a line whose loss changes no stroke
+AFTER_DWELL = MID + 3  # the next travel: the board is idle when it arrives
+
+#: fault → (sim fault kind, job line it hits)
+SIM_FAULTS = {
+    "error": ("error", DWELL_BEFORE_TRAVEL),
+    "alarm": ("alarm", MOVING),
+    "reset idle": ("abort", AFTER_DWELL),
+    "reset in motion": ("abort", MOVING),
+    "power cycle": ("reset", MOVING),
+    "drop and reconnect": ("drop", MOVING),
+    "silence": ("silent", MOVING),
+    "garbage": ("garbage", MOVING),
+}
+#: Faults after which no board can say where the pen is (or, on the board that restarts, where
+#: it counts from): the resume must refuse until someone re-establishes the position.
+LOST_ON_EVERY_BOARD = {"alarm", "reset in motion"}
+LOST_ON_A_RESTARTING_BOARD = {"power cycle", "drop and reconnect", "silence"}
+
+
+@pytest.fixture(scope="module")
+def reference():
+    name = f"matrix-ref{next(_names)}"
+    draw(LINES, f"sim://{name}", profile=PROFILE, wake_wait=0.2)
+    return drawn(name)
+
+
+def interrupt_at(name: str, board_line: int, times: int = 1) -> None:
+    """Press Ctrl-C ``times`` (0.05 s apart) once the board has received ``board_line`` lines."""
+
+    def press():
+        while True:
+            try:
+                if len(protocol_sim.plotter(name).firmware.log) >= board_line:
+                    break
+            except KeyError:
+                pass
+            threading.Event().wait(0.002)
+        for _ in range(times):
+            _thread.interrupt_main()
+            threading.Event().wait(0.05)
+
+    threading.Thread(target=press, daemon=True).start()
+
+
+def resume_until_drawn(path, name, lost: bool) -> None:
+    """Resume with nobody at the machine; if that is refused for a lost position, check that
+    nothing was drawn meanwhile, then resume with someone who jogs to the mark."""
+    plotter = protocol_sim.plotter(name)
+    plotter.firmware.faults.at.clear()  # the glitch is over
+    plotter.firmware.silent = False
+    before = len(drawn(name))
+    journal = f"{path}.job.json"
+    try:
+        draw(path, f"sim://{name}", resume=journal, wake_wait=0.2, timeout=2.0)
+        refused = None
+    except PlotError as exc:
+        refused = str(exc)
+    assert (refused is not None) == lost, refused
+    if refused is not None:
+        assert "position cannot be trusted" in refused and "jog the raised pen" in refused
+        assert len(drawn(name)) == before  # a refusal draws nothing
+        draw(path, f"sim://{name}", resume=journal, wake_wait=0.2, timeout=2.0, operator=HandOnTheMachine(plotter))
+
+
+@pytest.mark.parametrize("board", BOARDS)
+@pytest.mark.parametrize("clock", CLOCKS)
+@pytest.mark.parametrize("fault", [*SIM_FAULTS, "ctrl-c"])
+def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, fault, clock, board):
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(LINES) + "\n")
+    name = f"matrix{next(_names)}"
+    url = f"sim://{name}?{BOARDS[board]}{CLOCKS[clock]}"
+    if fault == "ctrl-c":
+        interrupt_at(name, WAKE_LINES + MOVING + 1)
+    else:
+        kind, line = SIM_FAULTS[fault]
+        url += f"&faults={kind}@{WAKE_LINES + line + 1}"
+    try:
+        draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+        stopped = False
+    except PlotError as exc:
+        stopped = True
+        assert "Resume with: pencilbot draw --resume" in str(exc)
+    assert stopped == (fault != "garbage")  # noise between answers is not a fault
+    if stopped:
+        lost = fault in LOST_ON_EVERY_BOARD or (board == "restarts" and fault in LOST_ON_A_RESTARTING_BOARD)
+        resume_until_drawn(path, name, lost)
+    assert_same_drawing(drawn(name), reference)
+    assert set(CLEAN) <= set(protocol_sim.plotter(name).firmware.accepted_lines())
