@@ -26,6 +26,9 @@ from pencilbot.machine.profile import Profile
 CHECKPOINT = 4096
 _READ_BLOCK = 1 << 20  # bytes read (and cleaned, and tracked) at a time
 _COMMENT = re.compile(rb"\([^)\n]*\)|;[^\n]*")
+#: A program pause (M0, M1) and what its line says: ``M0 (pen change: insert red)``.
+_PAUSE = re.compile(rb"(?im)^[^\n(;]*?M0*[01](?![0-9.])[^\n]*")
+_PAUSE_NOTE = re.compile(rb"\(([^)\n]*)\)|;\s*([^\n]*)")
 _SPACE = b" \t\r\x0b\x0c"
 
 
@@ -50,6 +53,9 @@ class Job:
         The state before lines 0, CHECKPOINT, 2·CHECKPOINT, …
     total_lines : int
         Lines in the file, commands or not.
+    pauses : dict of int to str
+        Job lines that pause the program (``M0``/``M1``) and the comment beside each (the
+        reason shown to the user: ``pen change: insert red``), ``""`` without one.
     """
 
     source: str
@@ -60,6 +66,7 @@ class Job:
     checkpoints: tuple[ModalState, ...]
     total_lines: int
     profile: Profile
+    pauses: dict
 
     def __len__(self) -> int:
         return len(self.numbers)
@@ -170,9 +177,14 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
     frames, offsets, numbers, seconds, checkpoints = bytearray(), [np.zeros(1, np.int64)], [], [], [ModalState()]
     file_lines = done = 0
     state, elapsed = ModalState(), 0.0
+    pauses = {}  # file line → note
     for raw in blocks:
         # \r\n and a lone \r end a line as \n does (GRBL reads both as line ends).
         text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        for m in _PAUSE.finditer(text):  # rare: counting the lines before each costs nothing
+            note = _PAUSE_NOTE.search(m.group())
+            words = (note.group(1) or note.group(2) or b"") if note else b""
+            pauses[file_lines + 1 + text.count(b"\n", 0, m.start())] = words.decode("utf-8", "replace").strip()
         cleaned = fw.commands(_COMMENT.sub(b"", text).translate(None, _SPACE).upper())
         a = np.frombuffer(cleaned, dtype=np.uint8)
         breaks = np.flatnonzero(a == 10)
@@ -212,7 +224,13 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         checkpoints=tuple(checkpoints),
         total_lines=file_lines,
         profile=profile,
+        pauses={},
     )
+    numbers = job.numbers
+    for file_line, note in pauses.items():
+        index = int(np.searchsorted(numbers, file_line))
+        if index < len(numbers) and numbers[index] == file_line:  # a command, not a comment saying M0
+            job.pauses[index] = note
     _check(job)
     return job
 

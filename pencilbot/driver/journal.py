@@ -55,6 +55,8 @@ class Journal:
     status : {"running", "stopped", "done"}
     message : str
         The fault that stopped the job, if any.
+    resume : str
+        The command that resumes a stopped job (also printed, where a terminal is left).
     """
 
     gcode: str
@@ -72,6 +74,7 @@ class Journal:
     options: dict = field(default_factory=dict)
     status: str = "running"
     message: str = ""
+    resume: str = ""
     path: Path | None = field(default=None, compare=False, repr=False)
 
     def save(self) -> None:

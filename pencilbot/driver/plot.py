@@ -8,9 +8,13 @@ unlock, feed hold, status reports) comes from its firmware's capabilities, the s
 
 from __future__ import annotations
 
+import re
 import shlex
+import signal
+import threading
 import time
 from collections.abc import Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,13 +24,16 @@ from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import locate_stop, resume_preamble
-from pencilbot.driver.stream import Stream, StreamFault
+from pencilbot.driver.stream import Interrupted, Stream, StreamFault
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.units import MM_PER_INCH
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
+_PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
+#: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
+STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 _WINDOW = 60  # job lines before the last one sent that may not have run (planner, receive buffer)
 
 
@@ -57,6 +64,7 @@ def draw(
     wake_wait: float = 2.5,
     source: str | None = None,
     operator=None,
+    keys=None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -98,6 +106,8 @@ def draw(
         Someone at the machine: answers program pauses and guides a re-zero when a resume finds
         the position lost. Without one, a pause waits for the machine's cycle-start button and a
         lost position is a refusal that says what to do.
+    keys : pencilbot.driver.keys.KeyReader, optional
+        The terminal's keys: pause / resume (feed hold, cycle start) and stop.
 
     Raises
     ------
@@ -143,7 +153,7 @@ def draw(
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
         journal.options = {"baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
 
-    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator)
+    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     link = LineReader(open_port(port, baudrate=baud))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
@@ -173,13 +183,14 @@ class _Runner:
     """Holds one job's running state between the stream and the journal/progress."""
 
     def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock,
-                 operator=None):
+                 operator=None, keys=None):
         self.job, self.profile, self.port, self.journal = job, profile, port, journal
         self.firmware = profile.firmware
         self.pen = profile.pen_model
         self.progress_mode = progress
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
-        self.operator = operator
+        self.operator, self.keys = operator, keys
+        self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
         self.acked = -1
         self._journal_at = 0.0
 
@@ -194,6 +205,8 @@ class _Runner:
                 # whether its position can be trusted and what the stopped job really drew.
                 start, stop_xy = self._resume_point(stream, resumed)
                 resumed.message = ""
+                if resumed.pen and self.operator is not None:
+                    self.operator.pause(f"pen change: insert {resumed.pen} (the pen the job was drawing with)")
             if start > 0:
                 state = job.state_after(start - 1)
                 decimals = max(self.profile.gcode.decimals, 4)  # a stop point is known to 1 µm
@@ -211,15 +224,28 @@ class _Runner:
 
         def on_ack(index, state):
             self.acked = index
+            if index in job.pauses and self.journal is not None:
+                pen = _PEN_CHANGE.search(job.pauses[index])
+                self.journal.pen = pen.group(1).strip() if pen else self.journal.pen
             self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state)
             self._save_journal(stream)
 
-        try:
-            rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait, on_error=self.on_error)
-        except StreamFault as fault:
-            message = self._stop(stream, fault)
-            self.progress.close("stopped", message)
-            raise PlotError(message) from None
+        def on_pause(reason):
+            self.progress.show_state(f"paused: {reason}")
+            if self.operator is None:
+                return False  # the machine's cycle-start button resumes it
+            self.operator.pause(f"paused: {reason}")
+            return True
+
+        with self._stop_signals():
+            try:
+                rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait,
+                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys)
+            except StreamFault as fault:
+                self._stopping = True  # from here a second Ctrl-C must not cut the stop short
+                message = self._stop(stream, fault)
+                self.progress.close("stopped", message)
+                raise PlotError(message) from None
         self.progress.update(len(job) - start, total, stream.machine_state)  # drawn: now Idle
         self.progress.close("done")
         if self.journal is not None:
@@ -232,6 +258,29 @@ class _Runner:
             seconds=time.monotonic() - t0,
             journal=self.journal.path if self.journal else None,
         )
+
+    @contextmanager
+    def _stop_signals(self):
+        """Ctrl-C, SIGTERM and SIGHUP stop the stream safely; during the stop they are noted,
+        not obeyed (the stop lifts the pen and writes the resume command either way)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield  # only the main thread can have signal handlers (a library call elsewhere)
+            return
+
+        def stop(signum, frame):
+            if not self._stopping:
+                self._stopping = True  # set here: a second one, however soon, finds it set
+                raise Interrupted(STOP_SIGNALS[signum])
+
+        saved = {}
+        for signum in STOP_SIGNALS:
+            if signum is not None:
+                saved[signum] = signal.signal(signum, stop)
+        try:
+            yield
+        finally:
+            for signum, handler in saved.items():
+                signal.signal(signum, handler)
 
     def _prepare(self, stream: Stream, check, wake_wait, resuming: bool = False) -> None:
         stream.wake(wake_wait)
@@ -459,5 +508,6 @@ class _Runner:
         journal.stop_mpos = list(proven[1]) if proven is not None else None
         journal.status = "stopped"
         journal.message = str(fault)
+        journal.resume = self._resume_command()
         journal.save()
-        return f"Resume with: {self._resume_command()}"
+        return f"Resume with: {journal.resume}"

@@ -53,7 +53,7 @@ KINDS = {
     "reset": "the plotter reset in the middle of the job; the lines it had buffered were lost",
     "timeout": "the plotter stopped answering",
     "port": "the serial port vanished",
-    "interrupt": "stopped by Ctrl-C",
+    "interrupt": "stopped by",  # + who: Ctrl-C, SIGTERM, SIGHUP, the stop key
 }
 
 
@@ -67,7 +67,18 @@ class StreamFault(Exception):
     detail: str = ""
 
     def __str__(self) -> str:
+        if self.kind == "interrupt":
+            return f"{KINDS[self.kind]} {self.detail or 'Ctrl-C'}"
         return KINDS[self.kind] + (f" ({self.detail})" if self.detail else "")
+
+
+class Interrupted(KeyboardInterrupt):
+    """A request to stop safely: Ctrl-C, a signal (SIGTERM, SIGHUP) or the stop key; ``by`` says
+    which."""
+
+    def __init__(self, by: str = "Ctrl-C"):
+        super().__init__(by)
+        self.by = by
 
 
 @dataclass
@@ -109,6 +120,9 @@ class Stream:
         self.wco = (0.0, 0.0, 0.0)
         self.sent = -1  # the last job line written to the board
         self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
+        self.paused: str | None = None  # why the board is holding, while it is
+        self._pause_key = None  # which pause was shown (an M0 line, or the hold button)
+        self._held_by_us = False  # our pause key holds the board
         self.restarted = False  # the board printed its start-up banner when woken (a reset on open)
         self.number = 0  # the last line number framed (numbered firmware)
         self._unread: deque[str] = deque()  # lines received and not yet handled
@@ -239,7 +253,7 @@ class Stream:
     # --- streaming ---------------------------------------------------------------------------
 
     def stream(self, job: Job, start: int, on_ack: Callable[[int, str], None], *, send_and_wait: bool = False,
-               on_error: str = "stop") -> list[int]:
+               on_error: str = "stop", on_pause: Callable[[str], bool] | None = None, keys=None) -> list[int]:
         """Send job lines ``start …`` and wait until the machine has run them.
 
         Parameters
@@ -253,6 +267,13 @@ class Stream:
             One line in flight instead of filling the receive buffer.
         on_error : {"stop", "continue"}
             A refused line raises a fault, or is logged and skipped.
+        on_pause : callable, optional
+            ``on_pause(reason)`` when the board holds by itself (an ``M0`` in the job: the
+            reason is the comment beside it; the machine's feed-hold button); it returns True to
+            send cycle start. Without it, or when it returns False, the stream waits (never
+            timing out: the board still answers) until the machine's own cycle start.
+        keys : KeyReader, optional
+            Requests from the keyboard: ``"pause"`` (feed hold, again: cycle start), ``"stop"``.
 
         Returns
         -------
@@ -287,11 +308,48 @@ class Stream:
                 self._poll()
                 for reply in self._replies():
                     self._handle(reply, self._oldest(nxt))
+                if keys is not None:
+                    self._serve_keys(keys, self._oldest(nxt))
+                self._serve_pause(job, on_pause)
                 self._check_alive(self._oldest(nxt))
                 if self.state == DRAINING and self._drained(drain):
                     self.state = DONE
         self.machine_state = self.status.state if self.status is not None else "Idle"
         return self._rejected
+
+    def _serve_pause(self, job: Job, on_pause) -> None:
+        """A board in Hold: say why once (the M0 line's comment, the machine's button, our own
+        key) and, if someone answers, send cycle start."""
+        status = self.status
+        if status is None or not self.firmware.is_paused(status):
+            self.paused = self._pause_key = None
+            return
+        index = next((e.index for e in self._sent if e.index is not None and e.index in job.pauses), None)
+        key = index if index is not None else "hold"
+        if key == self._pause_key:
+            self.machine_state = f"paused: {self.paused}"
+            return  # shown already (and a report sent before the cycle start may still say Hold)
+        self._pause_key = key
+        if index is not None:
+            self.paused = job.pauses[index] or f"program pause ({job.line(index)})"
+        else:
+            self.paused = "from the keyboard (press the pause key to go on)" if self._held_by_us else "feed hold on the machine"
+        self.machine_state = f"paused: {self.paused}"
+        if self._held_by_us and index is None:
+            return  # the key that paused resumes
+        if on_pause is not None and on_pause(self.paused):
+            self._held_by_us = False
+            self.link.write(self.firmware.cycle_start)
+        self.link.last_rx = time.monotonic()  # waiting for the user is not the board's silence
+
+    def _serve_keys(self, keys, index: int) -> None:
+        for request in keys.poll():
+            if request == "stop":
+                raise StreamFault("interrupt", index, "the stop key")
+            if request == "pause" and self.firmware.capabilities.feed_hold:
+                held = self._held_by_us or (self.status is not None and self.firmware.is_paused(self.status))
+                self.link.write(self.firmware.cycle_start if held else self.firmware.feed_hold)
+                self._held_by_us = not held
 
     def _fill(self, job: Job, nxt: int) -> int:
         """Send what fits of the frames asked for again, then of ``job`` from ``nxt``; return the
@@ -460,8 +518,9 @@ class Stream:
             yield
         except PortLost as exc:
             raise StreamFault("port", index() if callable(index) else index, str(exc)) from None
-        except KeyboardInterrupt:
-            raise StreamFault("interrupt", index() if callable(index) else index) from None
+        except KeyboardInterrupt as exc:
+            by = exc.by if isinstance(exc, Interrupted) else "Ctrl-C"
+            raise StreamFault("interrupt", index() if callable(index) else index, by) from None
         except ProtocolError as exc:  # a command the firmware cannot take (a profile's own)
             raise PlotError(str(exc)) from None
 
