@@ -123,6 +123,7 @@ class Stream:
         self.paused: str | None = None  # why the board is holding, while it is
         self._pause_key = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
+        self._fresh_after = 0  # reports up to this one may predate our last hold or cycle start
         self.restarted = False  # the board printed its start-up banner when woken (a reset on open)
         self.number = 0  # the last line number framed (numbered firmware)
         self._unread: deque[str] = deque()  # lines received and not yet handled
@@ -321,6 +322,8 @@ class Stream:
         """A board in Hold: say why once (the M0 line's comment, the machine's button, our own
         key) and, if someone answers, send cycle start."""
         status = self.status
+        if self.reports <= self._fresh_after:
+            return  # a report asked for before the cycle start: it may still say Hold
         if status is None or not self.firmware.is_paused(status):
             self.paused = self._pause_key = None
             return
@@ -340,6 +343,7 @@ class Stream:
         if on_pause is not None and on_pause(self.paused):
             self._held_by_us = False
             self.link.write(self.firmware.cycle_start)
+            self._fresh_after = self.reports + int(self._query_unanswered)
         self.link.last_rx = time.monotonic()  # waiting for the user is not the board's silence
 
     def _serve_keys(self, keys, index: int) -> None:
@@ -350,6 +354,7 @@ class Stream:
                 held = self._held_by_us or (self.status is not None and self.firmware.is_paused(self.status))
                 self.link.write(self.firmware.cycle_start if held else self.firmware.feed_hold)
                 self._held_by_us = not held
+                self._fresh_after = self.reports + int(self._query_unanswered)
 
     def _fill(self, job: Job, nxt: int) -> int:
         """Send what fits of the frames asked for again, then of ``job`` from ``nxt``; return the
@@ -370,8 +375,10 @@ class Stream:
             batch += entry.size
             nxt += 1
         if entries:
-            self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
+            # Counted before the write: a stop that lands between the two must not miss lines
+            # the board may have (a line counted but never written only widens the search).
             self.sent = max(self.sent, nxt - 1)
+            self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
         return nxt
 
     def _fits(self, size: int, lines: int = 0, batch: int = 0) -> bool:

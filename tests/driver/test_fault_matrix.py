@@ -1,9 +1,9 @@
 """Every way a plot is interrupted, on every kind of board, ends in exactly the drawing of an
 uninterrupted run — or in a refusal until the position is re-established, and then exactly it.
 
-Faults × clock (instant; real time at a large speed-up, so moves are still queued when the
-fault comes) × board (keeps its position through resets, or counts from 0, 0 after a power-up
-and loses it in a reset or alarm in motion, as a real Arduino GRBL does). The drawings are
+Faults × clock (real time at a large speed-up, so moves are still queued when the fault comes;
+instant, where that matters) × board (keeps its position through resets, or counts from 0, 0
+after a power-up and loses it in a reset or alarm in motion, as a real Arduino GRBL does). The drawings are
 compared as multisets of pen-down segments to 1 µm (:mod:`strokes`).
 
 The drawing is strokes of one long segment each, with the pen's dwells: a board that loses its
@@ -14,6 +14,9 @@ would be ink off the job's path, which no sender can take back.
 
 import _thread
 import itertools
+import json
+import os
+import signal
 import threading
 
 import numpy as np
@@ -78,8 +81,9 @@ def reference():
     return drawn(name)
 
 
-def interrupt_at(name: str, board_line: int, times: int = 1) -> None:
-    """Press Ctrl-C ``times`` (0.05 s apart) once the board has received ``board_line`` lines."""
+def interrupt_at(name: str, board_line: int, times: int = 1, signum: int | None = None) -> None:
+    """Press Ctrl-C ``times`` (0.05 s apart; or send ``signum`` to this process) once the board
+    has received ``board_line`` lines."""
 
     def press():
         while True:
@@ -90,7 +94,10 @@ def interrupt_at(name: str, board_line: int, times: int = 1) -> None:
                 pass
             threading.Event().wait(0.002)
         for _ in range(times):
-            _thread.interrupt_main()
+            if signum is None:
+                _thread.interrupt_main()
+            else:
+                os.kill(os.getpid(), signum)
             threading.Event().wait(0.05)
 
     threading.Thread(target=press, daemon=True).start()
@@ -116,25 +123,55 @@ def resume_until_drawn(path, name, lost: bool) -> None:
         draw(path, f"sim://{name}", resume=journal, wake_wait=0.2, timeout=2.0, operator=HandOnTheMachine(plotter))
 
 
-@pytest.mark.parametrize("board", BOARDS)
-@pytest.mark.parametrize("clock", CLOCKS)
-@pytest.mark.parametrize("fault", [*SIM_FAULTS, "ctrl-c"])
+#: Someone stops the plot: Ctrl-C (twice: the second lands in the stop sequence), a kill, a
+#: closed terminal.
+STOPS = {"ctrl-c": (None, 1), "ctrl-c twice": (None, 2), "SIGTERM": (signal.SIGTERM, 1), "SIGHUP": (signal.SIGHUP, 1)}
+#: The board pauses and someone at the machine answers (cycle start): the job never stops.
+PAUSES = {"feed hold": "paused: feed hold on the machine", "M0": "paused: pen change: insert red"}
+
+
+#: Every fault on both boards in real time (moves still queued when it strikes); on the instant
+#: clock (the board has run all it took), those whose outcome depends on what was queued, on
+#: the board that loses its position.
+INSTANT = ("error", "alarm", "reset in motion", "power cycle", "drop and reconnect", "ctrl-c")
+CASES = [(fault, "realtime", board) for fault in [*SIM_FAULTS, *STOPS, *PAUSES] for board in BOARDS] + [
+    (fault, "instant", "restarts") for fault in INSTANT]
+
+
+@pytest.mark.parametrize("fault, clock, board", CASES)
 def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, fault, clock, board):
     path = tmp_path / "plot.gcode"
-    path.write_text("\n".join(LINES) + "\n")
+    lines = LINES
+    if fault == "M0":  # a pen change after the sixth stroke: it changes no stroke
+        lines = [*LINES[: DWELL_BEFORE_TRAVEL + 1], "M0 (pen change: insert red)", *LINES[DWELL_BEFORE_TRAVEL + 1:]]
+    path.write_text("\n".join(lines) + "\n")
     name = f"matrix{next(_names)}"
     url = f"sim://{name}?{BOARDS[board]}{CLOCKS[clock]}"
-    if fault == "ctrl-c":
-        interrupt_at(name, WAKE_LINES + MOVING + 1)
+    if fault in PAUSES:
+        if fault == "feed hold":
+            url += f"&faults=hold@{WAKE_LINES + MOVING + 1}"
+        operator = HandOnTheMachine(None)
+        draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5, operator=operator)
+        assert operator.prompts == [PAUSES[fault]]
+        if fault == "M0":  # the journal knew the pen in use
+            assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["pen"] == "red"
+        assert_same_drawing(drawn(name), reference)
+        return
+    if fault in STOPS:
+        signum, times = STOPS[fault]
+        interrupt_at(name, WAKE_LINES + MOVING + 1, times, signum)
     else:
         kind, line = SIM_FAULTS[fault]
         url += f"&faults={kind}@{WAKE_LINES + line + 1}"
     try:
-        draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+        draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.3)
         stopped = False
     except PlotError as exc:
         stopped = True
         assert "Resume with: pencilbot draw --resume" in str(exc)
+        if fault in STOPS:
+            assert f"stopped by {STOPS[fault][0] and STOPS[fault][0].name or 'Ctrl-C'}" in str(exc)
+            assert "pen raised" in str(exc)
     assert stopped == (fault != "garbage")  # noise between answers is not a fault
     if stopped:
         lost = fault in LOST_ON_EVERY_BOARD or (board == "restarts" and fault in LOST_ON_A_RESTARTING_BOARD)
