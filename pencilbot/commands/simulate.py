@@ -59,6 +59,7 @@ def run(args: argparse.Namespace) -> int:
     if not (math.isfinite(args.realtime) and args.realtime >= 0):
         raise PencilbotError(f"--realtime must be 0 (instant) or a positive speed-up, not {args.realtime:g}")
     import sim
+    from pencilbot.driver.keys import AutoOperator
     from sim import protocol_sim
 
     sim.register()
@@ -74,8 +75,9 @@ def run(args: argparse.Namespace) -> int:
     # the bed fails with GRBL's alarm instead of being drawn off the picture.
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime, "limits": "bed"})
     try:
+        # Nobody needs to change a pen in a simulation: an M0 prints its prompt and goes on.
         draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
-             progress="quiet" if args.quiet else "bar")
+             progress="quiet" if args.quiet else "bar", operator=AutoOperator())
         plotter = protocol_sim.plotter(name)
         canvas = plotter.canvas(dpi=args.dpi, pen_width=pen_width, travel=args.travel)
         canvas.save_png(output)

@@ -127,6 +127,8 @@ def draw(
             )
         _check_unchanged(journal, gcode)
     profile = profile or (journal.profile if journal else DEFAULT_PROFILE)
+    if Path(profile).suffix.lower() == ".toml":
+        profile = str(Path(profile).resolve())  # the journal's resume works from any folder
     machine = load_profile(profile)
     fw = machine.firmware
     if check and not fw.capabilities.check_mode:

@@ -66,3 +66,61 @@ def test_a_binary_file_is_named_as_not_gcode_before_the_port_is_opened(capsys, t
     path.write_bytes(b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR" + bytes(range(256)))
     code, err = run(capsys, str(path), "--port", "/dev/no-such-port")
     assert code == 3 and "is not G-code text" in err and "Traceback" not in err
+
+
+def _plot(tmp_path):
+    import sys
+
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parents[1] / "driver"))
+    from test_stream_sim import drawing
+
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(drawing()) + "\n")
+    return path
+
+
+def test_a_stopped_job_is_not_drawn_again_from_line_1_without_restart(capsys, tmp_path):
+    import json
+
+    from sim import protocol_sim
+
+    path = _plot(tmp_path)
+    profile = tmp_path / "mine.toml"
+    profile.write_text((__import__("pathlib").Path(__file__).parents[2] / "configs/plotters/grbl-servo-a4.toml").read_text())
+    code, err = run(capsys, str(path), "--port", "sim://jobs1?faults=error@30", "--profile", str(profile),
+                    "--send-and-wait", "--baud", "57600", "--timeout", "3", "-q")
+    assert code != 0 and "Resume with: pencilbot draw --resume" in err
+    journal = json.loads((tmp_path / "plot.gcode.job.json").read_text())
+    # Every connection option, and a profile path that works from any folder.
+    assert journal["options"] == {"baud": 57600, "timeout": 3.0, "send_and_wait": True, "on_error": "stop"}
+    assert journal["profile"] == str(profile.resolve()) and journal["resume"] in err
+    sent = len(protocol_sim.plotter("jobs1").firmware.log)
+    code, err = run(capsys, str(path), "--port", "sim://jobs1")
+    assert code == 3 and "stopped at line" in err and journal["resume"] in err and "--restart" in err
+    assert len(protocol_sim.plotter("jobs1").firmware.log) == sent  # nothing was sent
+    code, err = run(capsys, str(path), "--port", "sim://jobs1", "--profile", str(profile), "--restart", "-q")
+    assert code == 0, err
+    assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["status"] == "done"
+
+
+def test_sigterm_stops_safely_and_prints_the_resume_command(tmp_path):
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    path = _plot(tmp_path)
+    command = [sys.executable, "-c", "from pencilbot.cli import main; raise SystemExit(main())", "draw", str(path),
+               "--port", "sim://term?realtime=2", "--profile", "grbl-servo-a4", "--json-lines"]
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    journal = tmp_path / "plot.gcode.job.json"
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not (journal.exists() and json.loads(journal.read_text())["acked_line"] > 10):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode != 0
+    assert "stopped by SIGTERM" in err and "pen raised" in err and "Resume with: pencilbot draw --resume" in err
+    record = json.loads(journal.read_text())
+    assert record["status"] == "stopped" and record["resume"] in err and record["stop_work"] is not None
