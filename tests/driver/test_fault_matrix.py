@@ -26,7 +26,11 @@ from test_stream_sim import HandOnTheMachine, drawn
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
+from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
+from sim.firmware import Faults
+from sim.protocol_sim import VirtualPlotter
+from sim.pty_server import PtyServer
 from strokes import assert_same_drawing
 
 PROFILE = "grbl-servo-a4"
@@ -81,17 +85,18 @@ def reference():
     return drawn(name)
 
 
-def interrupt_at(name: str, board_line: int, times: int = 1, signum: int | None = None) -> None:
+def interrupt_at(name, board_line: int, times: int = 1, signum: int | None = None) -> None:
     """Press Ctrl-C ``times`` (0.05 s apart; or send ``signum`` to this process) once the board
-    has received ``board_line`` lines."""
+    (``sim://name``, or a :class:`VirtualPlotter`) has received ``board_line`` lines."""
+
+    def received() -> int:
+        try:
+            return len((protocol_sim.plotter(name) if isinstance(name, str) else name).firmware.log)
+        except KeyError:
+            return 0
 
     def press():
-        while True:
-            try:
-                if len(protocol_sim.plotter(name).firmware.log) >= board_line:
-                    break
-            except KeyError:
-                pass
+        while received() < board_line:
             threading.Event().wait(0.002)
         for _ in range(times):
             if signum is None:
@@ -178,3 +183,32 @@ def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, 
         resume_until_drawn(path, name, lost)
     assert_same_drawing(drawn(name), reference)
     assert set(CLEAN) <= set(protocol_sim.plotter(name).firmware.accepted_lines())
+
+
+@pytest.mark.parametrize("fault", ["power cycle", "reset in motion", "ctrl-c"])
+def test_over_a_pty_a_board_that_restarts_at_zero_is_re_zeroed_and_drawn_exactly(tmp_path, reference, fault):
+    # The same file-descriptor path as a USB adapter; opening the pty resets the board (DTR).
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(LINES) + "\n")
+    spec = "" if fault == "ctrl-c" else f"{SIM_FAULTS[fault][0]}@{WAKE_LINES + MOVING + 1}"
+    plotter = VirtualPlotter(load_profile(PROFILE), realtime=200, faults=Faults.parse(spec), power="zero",
+                             abort="lose")
+    journal = f"{path}.job.json"
+    with PtyServer(plotter) as server:
+        if fault == "ctrl-c":
+            interrupt_at(plotter, WAKE_LINES + MOVING + 1)
+        with pytest.raises(PlotError, match="Resume with"):
+            draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+        plotter.firmware.faults.at.clear()
+        if fault != "ctrl-c":  # the position is lost: refused, nothing drawn, until re-zeroed
+            before = len(drawn_by(plotter))
+            with pytest.raises(PlotError, match="position cannot be trusted"):
+                draw(path, server.path, resume=journal, wake_wait=0.2, timeout=2.0)
+            assert len(drawn_by(plotter)) == before
+        draw(path, server.path, resume=journal, wake_wait=0.2, timeout=2.0, operator=HandOnTheMachine(plotter))
+    assert_same_drawing(drawn_by(plotter), reference)
+
+
+def drawn_by(plotter) -> list:
+    plotter.firmware.finish()
+    return plotter.machine.strokes
