@@ -295,6 +295,7 @@ class Stream:
         self._send_and_wait = send_and_wait
         self._answered_at = self.reports
         drain = None
+        last_asked = False
         nxt = start
         self.link.last_rx = time.monotonic()
         with self._guard(lambda: self._oldest(nxt)):
@@ -306,7 +307,10 @@ class Stream:
                 if self.state == DRAINING and fw.drain_command and drain is None and not self._sent:
                     drain = self._framed(fw.drain_command, None)
                     self._write([drain], drain.frame)
-                self._poll()
+                # The last line answered: ask at once whether the machine is done (a job that
+                # ends idle ends now, not at the next 5 Hz poll).
+                self._poll(force=self.state == DRAINING and not self._sent and not last_asked)
+                last_asked = last_asked or (self.state == DRAINING and not self._sent)
                 for reply in self._replies():
                     self._handle(reply, self._oldest(nxt))
                 if keys is not None:
