@@ -52,7 +52,8 @@ class Journal:
         The pen in use: the last pen change (``M0 (pen change: insert NAME)``) the job passed.
     options : dict
         Connection options of the run (baud, timeout, send_and_wait, on_error), for the resume.
-    status : {"running", "stopped", "done"}
+    status : {"running", "stopped"}
+        (A finished job's journal is removed.)
     message : str
         The fault that stopped the job, if any.
     resume : str

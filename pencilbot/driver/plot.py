@@ -39,12 +39,12 @@ _WINDOW = 60  # job lines before the last one sent that may not have run (planne
 
 @dataclass
 class DrawResult:
-    """What :func:`draw` did: lines sent, rejected line numbers (``--on-error continue``), time."""
+    """What :func:`draw` did: lines sent, rejected line numbers (``--on-error continue``), time.
+    (A finished job's journal is removed: there is nothing left to resume.)"""
 
     lines_sent: int
     rejected: list[int] = field(default_factory=list)
     seconds: float = 0.0
-    journal: Path | None = None
 
 
 def draw(
@@ -119,12 +119,6 @@ def draw(
     if resume is not None:
         journal = journal_mod.load_journal(resume)
         gcode = Path(journal.gcode)
-        if journal.status == "done":
-            raise PlotError(
-                f"the job of {gcode} finished; there is nothing to resume. To draw it again: "
-                f"pencilbot draw {shlex.quote(str(gcode))} --port {shlex.quote(port)} --profile "
-                f"{shlex.quote(profile or journal.profile)}"
-            )
         _check_unchanged(journal, gcode)
     profile = profile or (journal.profile if journal else DEFAULT_PROFILE)
     if Path(profile).suffix.lower() == ".toml":
@@ -251,14 +245,11 @@ class _Runner:
         self.progress.update(len(job) - start, total, stream.machine_state)  # drawn: now Idle
         self.progress.close("done")
         if self.journal is not None:
-            self.journal.status, self.journal.next_line = "done", job.number(len(job))
-            self.journal.stop_xy = None
-            self._save_journal(force=True)
+            self.journal.path.unlink(missing_ok=True)  # a finished job has nothing to resume
         return DrawResult(
             lines_sent=len(job) - start,
             rejected=[job.number(i) for i in rejected],
             seconds=time.monotonic() - t0,
-            journal=self.journal.path if self.journal else None,
         )
 
     @contextmanager

@@ -162,8 +162,6 @@ def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, 
         operator = HandOnTheMachine(None)
         draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5, operator=operator)
         assert operator.prompts == [PAUSES[fault]]
-        if fault == "M0":  # the journal knew the pen in use
-            assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["pen"] == "red"
         assert_same_drawing(drawn(name), reference)
         return
     finished = threading.Event()
@@ -219,3 +217,21 @@ def test_over_a_pty_a_board_that_restarts_at_zero_is_re_zeroed_and_drawn_exactly
 def drawn_by(plotter) -> list:
     plotter.firmware.finish()
     return plotter.machine.strokes
+
+
+def test_a_resume_asks_for_the_pen_the_job_was_drawing_with_first(tmp_path, reference):
+    path = tmp_path / "plot.gcode"
+    at = DWELL_BEFORE_TRAVEL + 1
+    path.write_text("\n".join([*LINES[:at], "M0 (pen change: insert red)", *LINES[at:]]) + "\n")
+    name = f"matrix{next(_names)}"
+    # A pen change, then Ctrl-C after it (the eighth stroke's G1: the M0 shifted it by one).
+    finished = interrupt_at(name, WAKE_LINES + MOVING + 1 + 12 + 1)
+    operator = HandOnTheMachine(None)
+    with pytest.raises(PlotError, match="stopped by Ctrl-C"):
+        draw(path, f"sim://{name}?realtime=200", profile=PROFILE, wake_wait=0.2, operator=operator)
+    finished.set()
+    assert operator.prompts == ["paused: pen change: insert red"]
+    assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["pen"] == "red"
+    draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2, operator=operator)
+    assert operator.prompts[1] == "pen change: insert red (the pen the job was drawing with)"
+    assert_same_drawing(drawn(name), reference)

@@ -106,7 +106,7 @@ def test_every_line_is_accepted_exactly_once_in_order(job, send_and_wait):
     result = draw(path, url, profile=PROFILE, send_and_wait=send_and_wait, wake_wait=0.2)
     assert accepted(name) == lines
     assert result.lines_sent == len(lines) and result.rejected == []
-    assert json.loads(result.journal.read_text())["status"] == "done"
+    assert not (path.parent / (path.name + ".job.json")).exists()  # finished: nothing to resume
 
 
 def test_character_counting_never_overflows_a_busy_board(job):
@@ -171,7 +171,7 @@ def test_resume_after_fault_completes_the_same_drawing(job, reference, kind, sen
         draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5, send_and_wait=send_and_wait)
     resume(path, name)
     assert_same_drawing(drawn(name), reference)
-    assert json.loads((path.parent / (path.name + ".job.json")).read_text())["status"] == "done"
+    assert not (path.parent / (path.name + ".job.json")).exists()  # finished: nothing to resume
     assert set(lines) <= set(accepted(name))
 
 
@@ -257,12 +257,12 @@ def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
     assert protocol_sim.plotter(name).machine.strokes == []
 
 
-def test_resuming_a_finished_job_says_so_and_sends_nothing(job):
+def test_a_finished_job_leaves_no_journal_so_a_resume_sends_nothing(job):
     path, lines = job
     url, name = fresh()
     draw(path, url, profile=PROFILE, wake_wait=0.2)
     sent = len(protocol_sim.plotter(name).firmware.log)
-    with pytest.raises(PlotError, match=r"finished; there is nothing to resume.*pencilbot draw .*plot.gcode --port"):
+    with pytest.raises(PlotError, match=r"no job journal at .*plot.gcode.job.json"):
         draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2)
     assert len(protocol_sim.plotter(name).firmware.log) == sent
 
