@@ -307,6 +307,10 @@ class _Runner:
         mpos = stream.machine_position()
         restarted_at_zero = stream.restarted and position.near(mpos, (0.0, 0.0))
         recorded = job.index_of(journal.next_line), (tuple(journal.stop_xy) if journal.stop_xy else None)
+        if not fw.capabilities.status_reports:
+            # A board that cannot say where it is (Marlin) leaves only the acknowledgements: it
+            # runs every move it acknowledged (it has no feed hold), so the first unanswered is next.
+            return recorded
         sent = job.index_of(journal.sent_line) if journal.sent_line else recorded[0] - 1
         if journal.stop_work is not None:  # the stop proved where the pen stood
             if not alarm and position.near(mpos, journal.stop_mpos):

@@ -22,7 +22,9 @@ module (:mod:`pencilbot.firmware`), so nothing here knows a firmware by name. It
 
 Everything that can stop a stream (a refused line, an alarm, a reset, silence, a lost port,
 Ctrl-C) becomes one :class:`StreamFault` naming the job line; the caller turns it into a message.
-A pause or a hold (issue for later) would be a state beside ``streaming``.
+A board in Hold (an ``M0`` of the job, the machine's button, the pause key) is served beside
+``streaming``: the reason is shown once, cycle start goes when someone answers, and the wait
+never times out (a held board still answers status queries).
 """
 
 from __future__ import annotations

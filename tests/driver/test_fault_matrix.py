@@ -4,7 +4,7 @@ uninterrupted run — or in a refusal until the position is re-established, and 
 Faults × clock (real time at a large speed-up, so moves are still queued when the fault comes;
 instant, where that matters) × board (keeps its position through resets, or counts from 0, 0
 after a power-up and loses it in a reset or alarm in motion, as a real Arduino GRBL does). The drawings are
-compared as multisets of pen-down segments to 1 µm (:mod:`strokes`).
+compared as multisets of pen-down segments to 1 µm (:mod:`segments`).
 
 The drawing is strokes of one long segment each, with the pen's dwells: a board that loses its
 position lets the carriage coast on after a reset in motion (v²/2a), and a coast that stays on
@@ -31,7 +31,7 @@ from sim import protocol_sim
 from sim.firmware import Faults
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
-from strokes import assert_same_drawing
+from segments import assert_same_drawing
 
 PROFILE = "grbl-servo-a4"
 WAKE_LINES = 4  # empty lines the driver's wake-up sends first (the board logs them)

@@ -62,7 +62,7 @@ def test_the_pause_key_holds_a_running_plot_without_timing_out_and_the_stop_key_
     from pencilbot.driver import draw
     from pencilbot.errors import PlotError
     from sim import protocol_sim
-    from strokes import assert_same_drawing
+    from segments import assert_same_drawing
 
     reference_name = "keys-ref"
     draw(LINES, f"sim://{reference_name}", profile=PROFILE, wake_wait=0.2)

@@ -22,7 +22,7 @@ from pencilbot.machine.profile import load_profile
 
 import sim
 from sim import protocol_sim
-from strokes import assert_same_drawing  # noqa: F401 (shared with the other driver tests)
+from segments import assert_same_drawing  # noqa: F401 (shared with the other driver tests)
 
 sim.register()
 

@@ -5,7 +5,7 @@ import pytest
 from test_stream_sim import PROFILE, drawing, drawn, fresh
 
 from pencilbot.driver import draw
-from strokes import assert_same_drawing, drawing_differences
+from segments import assert_same_drawing, drawing_differences
 
 
 @pytest.fixture(scope="module")
