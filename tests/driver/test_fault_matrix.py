@@ -16,6 +16,7 @@ import _thread
 import itertools
 import json
 import os
+import pathlib
 import signal
 import threading
 
@@ -235,3 +236,34 @@ def test_a_resume_asks_for_the_pen_the_job_was_drawing_with_first(tmp_path, refe
     draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2, operator=operator)
     assert operator.prompts[1] == "pen change: insert red (the pen the job was drawing with)"
     assert_same_drawing(drawn(name), reference)
+
+
+def test_a_board_with_homing_is_homed_before_the_resume_instead_of_asking(tmp_path):
+    import serial
+
+    profile = tmp_path / "homing.toml"
+    text = (pathlib.Path(__file__).parents[2] / "configs/plotters/grbl-servo-a4.toml").read_text()
+    profile.write_text(text.replace('name = "grbl-servo-a4"', 'name = "homing-a4"').replace(
+        "invert_y = false", "invert_y = false\nhoming = true"))
+
+    def homed(name: str) -> None:
+        """Open the board (it powers up in Alarm: HOMING_INIT_LOCK) and home it."""
+        with serial.serial_for_url(f"sim://{name}?profile={profile}&realtime=200", timeout=0.05) as port:
+            port.write(b"$H\n")
+            deadline = threading.Event()
+            while b"ok" not in port.read(200) and not deadline.wait(0.01):
+                pass
+
+    homed("home-ref")
+    draw(LINES, "sim://home-ref?reset=0", profile=str(profile), wake_wait=0.2)
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(LINES) + "\n")
+    homed("home1")
+    finished = interrupt_at("home1", WAKE_LINES + MOVING + 1 + 1)  # ($H was line 1)
+    with pytest.raises(PlotError, match="stopped by Ctrl-C"):
+        draw(path, "sim://home1?reset=0", profile=str(profile), wake_wait=0.2)
+    finished.set()
+    # Reopening resets the board: it counts from 0,0 and locks until homed. Nobody is asked.
+    draw(path, "sim://home1", resume=f"{path}.job.json", wake_wait=0.2)
+    assert "$H" in protocol_sim.plotter("home1").firmware.accepted_lines()[1:]
+    assert_same_drawing(drawn("home1"), drawn("home-ref"))
