@@ -411,8 +411,12 @@ class _Runner:
         job = self.job
         located = None
         if proven is not None:
+            # GRBL answers a line once it is planned, and runs only planned lines: with the
+            # board at rest and its answers in, nothing past the line after the last answered
+            # one can have run (lines still in its receive buffer were dropped by the reset).
+            last = min(stream.sent, self.acked + 1)
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
-            located = self._locate(stream.sent, self._job_units(proven[0], stream.sent), pen_down)
+            located = self._locate(last, self._job_units(proven[0], last), pen_down, self._floor(stream, last))
             if located is None:
                 proven = None  # where it stands is not on the lines it had: not a stop point
         if located is not None:
@@ -477,14 +481,24 @@ class _Runner:
             return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
         return xy
 
-    def _locate(self, last: int, position_xy, pen_down: bool | None = None):
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None):
         """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent)."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
         first = max(last - _WINDOW, 0)
         return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
-                           pen_down=pen_down)
+                           pen_down=pen_down, floor=floor)
+
+    def _floor(self, stream: Stream, last: int) -> int | None:
+        """The line the machine was running at the last status report of the stream (it can
+        only have moved on from there), if that report's position is on the lines sent."""
+        if stream.seen is None:
+            return None
+        xy, status, answered = stream.seen
+        bound = min(last, answered + 1)  # then, too, it ran only lines it had answered
+        found = self._locate(bound, self._job_units(xy, bound), position.pen_down_in(status, self.pen))
+        return None if found is None else found[0] - (found[1] is None and found[0] > 0)
 
     def _resume_command(self) -> str:
         if self.journal is None:

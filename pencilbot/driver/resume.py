@@ -60,7 +60,7 @@ def resume_preamble(
 
 def locate_stop(
     states, last: int, position: tuple[float, float] | None, *, window: int = 40,
-    tolerance: float = 0.005, pen_down: bool | None = None,
+    tolerance: float = 0.005, pen_down: bool | None = None, floor: int | None = None,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
     the last moves sent (unknown, or the machine was power-cycled or moved by hand).
@@ -89,6 +89,10 @@ def locate_stop(
         Whether the pen was down when the machine stopped, if the board said (its spindle
         value or Z): a stop inside a move is only on a move drawn with the pen so (a travel
         that crosses the stroke being drawn is not where the machine stopped).
+    floor : int, optional
+        A line the machine was running earlier (an earlier status report's position): it runs
+        lines in order, so the earliest move from ``floor`` on that passes through the position
+        is taken instead of the latest (a closed stroke begins and ends at the same point).
 
     Returns
     -------
@@ -100,7 +104,8 @@ def locate_stop(
     if position is None:
         return None
     p = complex(*position)
-    for i in range(last, max(last - window, -1), -1):
+    lines = range(last, max(last - window, -1), -1) if floor is None else range(max(floor, last - window + 1), last + 1)
+    for i in lines:
         end = complex(states[i].x, states[i].y)
         start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
         if abs(p - end) <= tolerance:

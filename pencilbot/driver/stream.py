@@ -122,6 +122,8 @@ class Stream:
         self.wco = (0.0, 0.0, 0.0)
         self.sent = -1  # the last job line written to the board
         self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
+        self.answered = -1  # the last job line answered
+        self.seen = None  # (work X, Y in mm, status, last line answered) of the last report while streaming
         self.paused: str | None = None  # why the board is holding, while it is
         self._pause_key = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
@@ -459,6 +461,7 @@ class Stream:
             self._rejected.append(entry.index)
         if self.status is None:
             self.machine_state = "Run"
+        self.answered = max(self.answered, entry.index)
         self._on_ack(entry.index, self.machine_state)
 
     def _rewind(self, number: int, index: int) -> None:
@@ -487,6 +490,8 @@ class Stream:
                 self._query_unanswered = False
                 if reply.status.wco is not None:
                     self.wco = reply.status.wco
+                if self.state in (STREAMING, DRAINING) and self.work_position() is not None:
+                    self.seen = (self.work_position(), reply.status, self.answered)
                 continue
             yield reply
 
