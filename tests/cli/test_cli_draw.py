@@ -124,3 +124,13 @@ def test_sigterm_stops_safely_and_prints_the_resume_command(tmp_path):
     assert "stopped by SIGTERM" in err and "pen raised" in err and "Resume with: pencilbot draw --resume" in err
     record = json.loads(journal.read_text())
     assert record["status"] == "stopped" and record["resume"] in err and record["stop_work"] is not None
+
+
+def test_simulate_of_a_file_with_a_pen_change_prints_the_prompt_and_finishes(capsys, tmp_path):
+    src = tmp_path / "two-pens.gcode"
+    src.write_text("G21\nG90\nM3 S30\nG0 X10 Y10\nM3 S90\nG1 X40 Y10 F3000\nM3 S30\n"
+                   "M0 (pen change: insert red)\nM3 S90\nG1 X40 Y40\nM3 S30\n")
+    code = main(["simulate", str(src), "-o", str(tmp_path / "p.png"), "--profile", "grbl-servo-a4"])
+    captured = capsys.readouterr()
+    assert code == 0 and "paused: pen change: insert red (simulate presses cycle start)" in captured.err
+    assert "2 pen-down strokes" in captured.out

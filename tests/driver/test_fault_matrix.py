@@ -99,9 +99,9 @@ def interrupt_at(name, board_line: int, times: int = 1, signum: int | None = Non
     def press():
         while received() < board_line:
             threading.Event().wait(0.002)
-        if finished.is_set():
-            return  # too late: the job ended (an interrupt now would hit the test run)
         for _ in range(times):
+            if finished.is_set():
+                return  # too late: the job ended (an interrupt now would hit the test run)
             if signum is None:
                 _thread.interrupt_main()
             else:
