@@ -57,3 +57,29 @@ def test_pty_vanishing_mid_job_then_resume_on_a_new_pty(job):
     assert_same_drawing(plotter.machine.strokes, reference.machine.strokes)
     assert set(lines) <= set(accepted(plotter))
     assert plotter.machine.strokes
+
+
+def test_a_hold_from_the_machine_shows_paused_and_waits_past_the_timeout_for_its_cycle_start(job, capsys):
+    import os
+    import threading
+    import time
+
+    path, lines = job
+    plotter = VirtualPlotter(load_profile(PROFILE), realtime=50, faults=Faults.parse("hold@30"))
+    with PtyServer(plotter, reset_on_open=False) as server:
+
+        def press_cycle_start_on_the_machine():
+            while plotter.firmware.state() != "Hold:0":
+                time.sleep(0.01)
+            time.sleep(1.5)  # three times the timeout
+            fd = os.open(server.path, os.O_WRONLY | os.O_NOCTTY)  # another hand on the board
+            os.write(fd, b"~")
+            os.close(fd)
+
+        threading.Thread(target=press_cycle_start_on_the_machine, daemon=True).start()
+        code = main(["draw", str(path), "--port", server.path, "--profile", PROFILE, "--json-lines",
+                     "--timeout", "0.5"])
+    assert code == 0
+    assert accepted(plotter) == lines
+    records = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert any(r.get("state") == "paused: feed hold on the machine" for r in records)
