@@ -319,7 +319,9 @@ class _Runner:
                 # The board restarted (DTR reset on open, power cut) and counts from 0, 0 where
                 # the pen stood: that spot is the proven stop point.
                 x, y = journal.stop_work
-                self._setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}", "restoring the origin at the stop point")
+                # A Z pen's count restarted too; the stop raised it to its up height.
+                z = f"Z{self.pen.up:.4f}" if self.pen.kind == "z" else ""
+                self._setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}{z}", "restoring the origin at the stop point")
                 return recorded
             if alarm and self.profile.bed.homing:
                 self._setup_command(stream, "$H", "homing")
@@ -352,6 +354,13 @@ class _Runner:
         """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
         to_mm = MM_PER_INCH if self.job.state_after(max(certain - 1, 0)).inches else 1.0
         mark = position.mark_before(self.job, certain, to_mm)
+        if self.pen.kind == "z":
+            # Its height is lost with the count: raising it by a number could plunge it.
+            raise PlotError(
+                f"{why}: the plotter's position cannot be trusted, and with a Z pen its height is lost too. "
+                f"Raise the pen, home the machine or set its origin by hand at {mark.text} (with Z at the "
+                "pen's up height), then continue with --start-line N from the line you see drawn last"
+            )
         if self.operator is None or not self.firmware.capabilities.realtime_protocol:
             raise position.refusal(why, mark, self._resume_command(), self.profile.bed.homing)
         return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm)
@@ -470,7 +479,12 @@ class _Runner:
                     if self.pen.kind == "spindle":
                         # The alarm switched the spindle off, and spindle off is pen up.
                         return "pen up (the alarm switched the spindle off)", proven
-                    return "the alarm locks G-code, so the pen could not be raised", proven
+                    # (A Z pen left down has no known height to restore the origin with.)
+                    return ("the alarm locks G-code, so the pen could not be raised",
+                            None if self.pen.kind == "z" else proven)
+            # Wait until it is up: a Z pen's lift is a move, and closing the port resets an
+            # Arduino board (DTR), which would cut the move short and leave the pen down.
+            stream.wait_until_still()
             return "pen raised", proven
         except StreamFault as exc:
             return f"could not raise the pen ({exc})", None

@@ -300,3 +300,29 @@ def test_a_stop_where_a_closed_stroke_begins_resumes_at_its_start_not_after_its_
              wake_wait=0.2)
     draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2)
     assert_same_drawing(drawn(name), drawn(f"loop-ref-{clock}"))
+
+
+def test_a_z_pen_gets_its_height_back_with_the_origin_or_the_resume_refuses(tmp_path):
+    from test_stream_sim import drawing
+
+    profile = "grbl-z-a3"
+    lines = drawing(profile=profile)
+    draw(lines, f"sim://z-ref?profile={profile}", profile=profile, wake_wait=0.2)
+    path = tmp_path / "z.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    finished = interrupt_at("z1", WAKE_LINES + 30)
+    with pytest.raises(PlotError, match="stopped by Ctrl-C.*pen raised"):
+        draw(path, f"sim://z1?profile={profile}&realtime=200", profile=profile, wake_wait=0.2)
+    finished.set()
+    # The port's reset zeroed X, Y and Z where the raised pen stood: all three come back.
+    draw(path, "sim://z1", resume=f"{path}.job.json", wake_wait=0.2)
+    assert_same_drawing(drawn("z1"), drawn("z-ref"))
+
+    path2 = tmp_path / "z2.gcode"
+    path2.write_text("\n".join(lines) + "\n")
+    with pytest.raises(PlotError, match="Resume with"):
+        draw(path2, f"sim://z2?profile={profile}&faults=reset@30", profile=profile, wake_wait=0.2, timeout=0.5)
+    plotter = protocol_sim.plotter("z2")
+    plotter.firmware.faults.at.clear()
+    with pytest.raises(PlotError, match="with a Z pen its height is lost too.*--start-line"):
+        draw(path2, "sim://z2", resume=f"{path2}.job.json", wake_wait=0.2, operator=HandOnTheMachine(plotter))
