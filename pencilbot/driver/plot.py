@@ -425,7 +425,9 @@ class _Runner:
             # one can have run (lines still in its receive buffer were dropped by the reset).
             last = min(stream.sent, self.acked + 1)
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
-            located = self._locate(last, self._job_units(proven[0], last), pen_down, self._floor(stream, last))
+            floor = self._planner_floor(stream.rest_status)
+            floor = self._floor(stream, last) if floor is None else floor
+            located = self._locate(last, self._job_units(proven[0], last), pen_down, floor)
             if located is None:
                 proven = None  # where it stands is not on the lines it had: not a stop point
         if located is not None:
@@ -503,6 +505,26 @@ class _Runner:
         first = max(last - _WINDOW, 0)
         return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
                            pen_down=pen_down, floor=floor)
+
+    def _planner_floor(self, status) -> int | None:
+        """The line the machine was running when it came to rest, from the planner count of the
+        status report (GRBL's ``Bf:``, reported when ``$10`` asks for it): the blocks still
+        planned are the moves of the last lines answered, one block per move."""
+        if status is None or status.buffer is None or self.acked < 0:
+            return None
+        queued = getattr(self.firmware.protocol, "BLOCK_BUFFER_SIZE", 0) - 1 - status.buffer[0]
+        if queued <= 0:
+            return None
+        first = max(self.acked - _WINDOW, 0)
+        states = self.job.states(first, self.acked + 1)
+        moves = 0
+        for i in range(self.acked, first, -1):
+            state, before = states[i], states[i - 1]
+            if (state.x, state.y, state.z) != (before.x, before.y, before.z):
+                moves += 1
+                if moves == queued:
+                    return i
+        return None
 
     def _floor(self, stream: Stream, last: int) -> int | None:
         """The line the machine was running at the last status report of the stream (it can

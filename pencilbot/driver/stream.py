@@ -490,7 +490,9 @@ class Stream:
                 self._query_unanswered = False
                 if reply.status.wco is not None:
                     self.wco = reply.status.wco
-                if self.state in (STREAMING, DRAINING) and self.work_position() is not None:
+                if (self.state in (STREAMING, DRAINING) and self.firmware.is_moving(reply.status)
+                        and self.work_position() is not None):
+                    # (Moving: mid-move, so the position names one line; at rest it may not.)
                     self.seen = (self.work_position(), reply.status, self.answered)
                 continue
             yield reply

@@ -326,3 +326,31 @@ def test_a_z_pen_gets_its_height_back_with_the_origin_or_the_resume_refuses(tmp_
     plotter.firmware.faults.at.clear()
     with pytest.raises(PlotError, match="with a Z pen its height is lost too.*--start-line"):
         draw(path2, "sim://z2", resume=f"{path2}.job.json", wake_wait=0.2, operator=HandOnTheMachine(plotter))
+
+
+class CtrlCAtThePause(HandOnTheMachine):
+    """Presses Ctrl-C instead of cycle start when the board pauses."""
+
+    def pause(self, prompt):
+        raise KeyboardInterrupt
+
+
+def test_the_planner_count_tells_which_pass_through_a_point_the_machine_stopped_on(tmp_path):
+    # The hold button is pressed with a whole closed square planned and none of it run: the
+    # machine stands at the square's start, which its last move ends at too. The board's
+    # planner count (Bf:, with $10=3) says four moves were still to run: the square's.
+    import serial
+
+    lines = loop_drawing()
+    draw(lines, "sim://bf-ref", profile=PROFILE, wake_wait=0.2)
+    pen_up = 4 + 9 * 2 + 7  # after the third square's last G1
+    with serial.serial_for_url(f"sim://bf1?faults=hold@{1 + WAKE_LINES + pen_up + 1}", timeout=0.05) as port:
+        port.write(b"$10=3\n")  # report the buffer state (kept in EEPROM); the board's line 1
+        threading.Event().wait(0.05)
+    path = tmp_path / "loops.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(PlotError, match="stopped by Ctrl-C"):
+        draw(path, "sim://bf1", profile=PROFILE, wake_wait=0.2, operator=CtrlCAtThePause(None))
+    assert json.loads((tmp_path / "loops.gcode.job.json").read_text())["next_line"] == 4 + 9 * 2 + 3 + 1
+    draw(path, "sim://bf1", resume=f"{path}.job.json", wake_wait=0.2)
+    assert_same_drawing(drawn("bf1"), drawn("bf-ref"))
