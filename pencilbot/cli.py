@@ -61,7 +61,10 @@ def main(argv: list[str] | None = None) -> int:
                 logging.getLogger(name).setLevel(logging.DEBUG)
         return int(args.func(args) or 0)
     except PencilbotError as err:
-        print(f"pencilbot: error: {err}", file=sys.stderr)
+        try:
+            print(f"pencilbot: error: {err}", file=sys.stderr)
+        except OSError:
+            pass  # the terminal is gone (SIGHUP): a stopped plot's journal keeps the resume command
         return err.exit_code
     except KeyboardInterrupt:
         print("pencilbot: interrupted", file=sys.stderr)

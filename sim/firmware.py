@@ -57,7 +57,7 @@ _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block dele
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
 _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
-FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "garbage", "hold")
+FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold")
 GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
 
@@ -71,7 +71,8 @@ class Faults:
     ``alarm@k`` raises ALARM:1 (hard limit) instead of running line k; ``silent@k`` stops
     answering anything from line k on (a hung board); ``drop@k`` drops the link when line k
     arrives (the port raises, the board keeps its state); ``reset@k`` reboots the board instead
-    of running line k; ``garbage@k`` sends a line of noise before the reply to line k;
+    of running line k (a power cut); ``abort@k`` soft-resets it as line k arrives (a Ctrl-X
+    from another program: ``ALARM:3`` if it was moving, the position kept if it was idle); ``garbage@k`` sends a line of noise before the reply to line k;
     ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``).
     """
 
@@ -418,6 +419,11 @@ class Firmware:
         elif kind == "reset":
             self._reply(index, text, "-", emit=False)
             return self.power_cycle()
+        elif kind == "abort":
+            self._reply(index, text, "-", emit=False)
+            self.reset()
+            self._rebooting = True  # what was in the receive buffer with it is flushed
+            return
         elif kind == "hold" and self._held_index != index:
             self._held_index, self._held_line, self._hold = index, raw, True
             return

@@ -32,16 +32,16 @@ URL parts (all optional):
 ``power``
     What a power-up (DTR reset on open, the ``reset`` fault) does to the position. ``zero``: the
     controller counts from 0, 0, 0 again wherever the carriage stands and forgets any alarm,
-    as a real GRBL board does. ``keep`` (default for now): position and alarm lock survive, a
-    forgiving board.
+    as a real GRBL board does (default). ``keep``: position and alarm lock survive, a forgiving
+    board.
 ``abort``
     What a reset in motion (``ALARM:3``) or a hard-limit alarm does. ``lose``: the motors stop
     dead and the carriage coasts on (v²/2a), so the reported position is no longer where the
-    pen is, as on a real board; ``keep`` (default for now): the position stays true.
+    pen is, as on a real board (default); ``keep``: the position stays true.
 ``limits``
-    ``profile``: the profile's own settings (GRBL's factory defaults: no homing, no soft limits,
+    ``profile`` (default): the profile's own settings (GRBL's factory defaults: no homing, no soft limits,
     unless ``[bed] homing`` / ``soft_limits`` say so) in a standard build, which powers up in
-    Alarm when homing is on. ``bed`` (default for now): homing and soft limits on at the bed's
+    Alarm when homing is on. ``bed``: homing and soft limits on at the bed's
     edges, in a build without HOMING_INIT_LOCK (``$I`` shows ``OPT:VL``), so the board trusts
     the position it powers up with.
 
@@ -72,9 +72,9 @@ from sim.machine import Machine
 _OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits", "operator")
 _OPERATORS = ("none", "auto")
 _CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
-#: Option values a real GRBL board has; the defaults are kinder until the driver copes (issue 12).
+#: Option values a real GRBL board has: the default, so tests meet what a sender meets.
 REAL_BOARD = {"power": "zero", "abort": "lose", "limits": "profile"}
-DEFAULT_BOARD = {"power": "keep", "abort": "keep", "limits": "bed"}
+DEFAULT_BOARD = dict(REAL_BOARD)
 _CHOICES = {"power": ("zero", "keep"), "abort": ("lose", "keep"), "limits": ("profile", "bed")}
 _PLOTTERS: dict[str, VirtualPlotter] = {}
 _OPEN: set[str] = set()  # names with a port open now: a second open is refused, as a busy device's

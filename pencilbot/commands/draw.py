@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from contextlib import ExitStack
 from pathlib import Path
 
 import sim
@@ -11,7 +12,7 @@ import sim
 from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_verbosity, number
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
-from pencilbot.driver.journal import load_journal
+from pencilbot.driver.journal import journal_path, load_journal
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import default_profile
 
@@ -21,13 +22,16 @@ def add_parser(subparsers) -> None:
         "draw",
         help="stream G-code to a pen plotter over serial",
         description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter. If the job stops (error, alarm, "
-        "reset, lost port, Ctrl-C) the message gives the exact command to resume it.",
+        "reset, lost port, Ctrl-C, SIGTERM, SIGHUP) the message gives the exact command to resume it. In a "
+        "terminal: p or space pauses and resumes (feed hold, cycle start), s stops safely; M0 pauses (a pen "
+        "change) wait for Enter.",
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
     p.add_argument("--profile", help="plotter profile name or TOML file (default: the resumed job's, else the one "
                    f"the file's header names, else {default_profile()}); must be the header's if it names one")
-    p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"), default=115200, help="serial speed in bit/s (default %(default)s)")
+    p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
+                   help="serial speed in bit/s (default: the resumed job's, else 115200)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
     p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
@@ -35,8 +39,12 @@ def add_parser(subparsers) -> None:
                    help="on error:N stop (feed hold, pen up; default) or log it and continue")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue")
-    where.add_argument("--start-line", type=number("--start-line", low=1, high=2**31 - 1, whole=True), metavar="N", help="start at file line N, restoring the state before it")
-    p.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"), default=10.0, help="seconds of silence before giving up (default %(default)g)")
+    where.add_argument("--start-line", type=number("--start-line", low=1, high=2**31 - 1, whole=True), metavar="N",
+                       help="start at file line N, restoring the state before it")
+    p.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"),
+                   help="seconds of silence before giving up (default: the resumed job's, else 10)")
+    p.add_argument("--restart", action="store_true",
+                   help="draw a file whose job stopped from line 1 again (its journal is replaced)")
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
     add_verbosity(p)
     p.set_defaults(func=run)
@@ -65,19 +73,36 @@ def run(args: argparse.Namespace) -> int:
         raise PlotError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
     if port is None:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
+    if journal is None and args.start_line is None and not args.restart:
+        _refuse_a_stopped_job(Path(gcode))
+    # A resume runs as the job did: its connection options, unless given again.
+    options = journal.options if journal else {}
+    baud = args.baud or options.get("baud", 115200)
+    timeout = args.timeout or options.get("timeout", 10.0)
+    send_and_wait = args.send_and_wait or options.get("send_and_wait", False)
+    on_error = args.on_error if args.on_error != "stop" else options.get("on_error", "stop")
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
     announce = None
     if args.verbose and not args.quiet:
         def announce(banner, job):
-            print("\n".join(banner_lines(port, args.baud, banner, job)), file=sys.stderr, flush=True)
+            print("\n".join(banner_lines(port, baud, banner, job)), file=sys.stderr, flush=True)
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
-    result = draw(
-        gcode, port, profile=profile, baud=args.baud, unlock=args.unlock, check=args.check,
-        send_and_wait=args.send_and_wait, on_error=args.on_error, start_line=args.start_line,
-        resume=args.resume, progress=progress, timeout=args.timeout, announce=announce,
-    )
+    with ExitStack() as stack:
+        keys = operator = None
+        if sys.stdin.isatty() and not args.json_lines:
+            from pencilbot.driver.keys import KeyReader, TerminalOperator
+
+            keys = KeyReader()
+            stack.callback(keys.close)
+            operator = TerminalOperator(keys)
+        result = draw(
+            gcode, port, profile=profile, baud=baud,
+            unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
+            start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
+            operator=operator, keys=keys, announce=announce,
+        )
     if not args.quiet and not args.json_lines:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
@@ -101,3 +126,21 @@ def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
         f"job: {job.source}, {len(job)} command lines of {job.total_lines}",
         f"estimated plot time {duration_text(seconds)} ({how})",
     ]
+
+
+def _refuse_a_stopped_job(gcode: Path) -> None:
+    """Drawing a file whose job stopped would redraw what is on the paper: say how to resume."""
+    path = journal_path(gcode)
+    if not path.is_file():
+        return
+    try:
+        journal = load_journal(path)
+    except PlotError:
+        return  # an unreadable journal is replaced
+    if journal.status in ("stopped", "running"):  # "running": the sender itself was killed
+        how = journal.resume or f"pencilbot draw --resume {path} --port {journal.port}"
+        why = f" ({journal.message})" if journal.message else ""
+        raise PlotError(
+            f"the job of {gcode} stopped at line {journal.next_line}{why}; drawing it again would draw "
+            f"over what is on the paper. Resume it with: {how} — or start over with --restart"
+        )

@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
     import sim
+    from pencilbot.driver.keys import AutoOperator
     from sim import protocol_sim
 
     sim.register()
@@ -79,11 +80,13 @@ def run(args: argparse.Namespace) -> int:
     if getattr(args, "pens", None) and any(pens):
         pens = _recoloured(pens, load_pens(args.pens))
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
-    # A colour job stops at each pen change; in a simulation the pen is in at once.
-    options = {"profile": args.profile, "realtime": args.realtime, **({"operator": "auto"} if pens else {})}
+    # A preview's plotter has soft limits at the bed's edges (sim:// limits=bed), so a move off
+    # the bed fails with GRBL's alarm instead of being drawn off the picture.
+    query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime, "limits": "bed"})
     try:
-        draw(program, f"sim://{name}?{urllib.parse.urlencode(options)}", profile=args.profile, source=str(source),
-             progress="quiet" if args.quiet else "bar")
+        # Nobody needs to change a pen in a simulation: an M0 prints its prompt and goes on.
+        draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
+             progress="quiet" if args.quiet else "bar", operator=AutoOperator())
         plotter = protocol_sim.plotter(name)
         if any(pens):
             _save_colour_plot(output, plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel)

@@ -28,6 +28,9 @@ from pencilbot.machine.profile import Profile
 CHECKPOINT = 4096
 _READ_BLOCK = 1 << 20  # bytes read (and cleaned, and tracked) at a time
 _COMMENT = re.compile(rb"\([^)\n]*\)|;[^\n]*")
+#: A program pause (M0, M1) and what its line says: ``M0 (pen change: insert red)``.
+_PAUSE = re.compile(rb"(?im)^[^\n(;]*?M0*[01](?![0-9.])[^\n]*")
+_PAUSE_NOTE = re.compile(rb"\(([^)\n]*)\)|;\s*([^\n]*)")
 _SPACE = b" \t\r\x0b\x0c"
 
 
@@ -52,6 +55,9 @@ class Job:
         The state before lines 0, CHECKPOINT, 2·CHECKPOINT, …
     total_lines : int
         Lines in the file, commands or not.
+    pauses : dict of int to str
+        Job lines that pause the program (``M0``/``M1``) and the comment beside each (the
+        reason shown to the user: ``pen change: insert red``), ``""`` without one.
     off_bed : tuple or None
         The first move off the profile's bed (:class:`~pencilbot.driver.bed_check.BedWatch`).
     """
@@ -64,6 +70,7 @@ class Job:
     checkpoints: tuple[ModalState, ...]
     total_lines: int
     profile: Profile
+    pauses: dict
     off_bed: tuple[int, float, float, bool] | None = None
 
     def __len__(self) -> int:
@@ -176,9 +183,14 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
     file_lines = done = 0
     state, elapsed = ModalState(), 0.0
     bed = BedWatch(profile.bed)
+    pauses = {}  # file line → note
     for raw in without_markers(blocks):
         # \r\n and a lone \r end a line as \n does (GRBL reads both as line ends).
         text = raw.replace(b"\r\n", b"\n").replace(b"\r", b"\n")
+        for m in _PAUSE.finditer(text):  # rare: counting the lines before each costs nothing
+            note = _PAUSE_NOTE.search(m.group())
+            words = (note.group(1) or note.group(2) or b"") if note else b""
+            pauses[file_lines + 1 + text.count(b"\n", 0, m.start())] = words.decode("utf-8", "replace").strip()
         cleaned = fw.commands(_COMMENT.sub(b"", text).translate(None, _SPACE).upper())
         a = np.frombuffer(cleaned, dtype=np.uint8)
         breaks = np.flatnonzero(a == 10)
@@ -219,8 +231,14 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         checkpoints=tuple(checkpoints),
         total_lines=file_lines,
         profile=profile,
+        pauses={},
         off_bed=bed.first,
     )
+    numbers = job.numbers
+    for file_line, note in pauses.items():
+        index = int(np.searchsorted(numbers, file_line))
+        if index < len(numbers) and numbers[index] == file_line:  # a command, not a comment saying M0
+            job.pauses[index] = note
     _check(job)
     return job
 

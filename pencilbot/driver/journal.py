@@ -38,12 +38,26 @@ class Journal:
     acked_line : int
         File line number (1-based) of the last line the plotter acknowledged; 0 before any.
     next_line : int
-        File line number to send first on resume.
+        File line number to send first on resume (a guess while ``stop_work`` is None: the
+        resume finds out what ran from the position it re-establishes).
+    sent_line : int
+        File line number of the last line written to the board (it may have run unanswered).
     stop_xy : list of float or None
         Where the pen stopped inside ``next_line``'s move (job units), if it stopped mid-move.
-    status : {"running", "stopped", "done"}
+    stop_work, stop_mpos : list of float or None
+        Where the pen stood when the job stopped, proven by the board at rest: work and machine
+        position X, Y (mm). None: the position was lost (power cycle, reset or alarm in motion,
+        a silent board or a lost port), and the resume must re-establish it.
+    pen : str
+        The pen in use: the last pen change (``M0 (pen change: insert NAME)``) the job passed.
+    options : dict
+        Connection options of the run (baud, timeout, send_and_wait, on_error), for the resume.
+    status : {"running", "stopped"}
+        (A finished job's journal is removed.)
     message : str
         The fault that stopped the job, if any.
+    resume : str
+        The command that resumes a stopped job (also printed, where a terminal is left).
     """
 
     gcode: str
@@ -53,9 +67,15 @@ class Journal:
     total_lines: int
     acked_line: int = 0
     next_line: int = 1
+    sent_line: int = 0
     stop_xy: list[float] | None = None
+    stop_work: list[float] | None = None
+    stop_mpos: list[float] | None = None
+    pen: str = ""
+    options: dict = field(default_factory=dict)
     status: str = "running"
     message: str = ""
+    resume: str = ""
     path: Path | None = field(default=None, compare=False, repr=False)
 
     def save(self) -> None:

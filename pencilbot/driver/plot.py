@@ -8,35 +8,44 @@ unlock, feed hold, status reports) comes from its firmware's capabilities, the s
 
 from __future__ import annotations
 
+import re
 import shlex
+import signal
+import threading
 import time
 from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver import position
 from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import locate_stop, resume_preamble
-from pencilbot.driver.stream import Stream, StreamFault
+from pencilbot.driver.stream import Interrupted, Stream, StreamFault
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.units import MM_PER_INCH
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
+_PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
+#: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
+STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
+_WINDOW = 60  # job lines before the last one sent that may not have run (planner, receive buffer)
 
 
 @dataclass
 class DrawResult:
-    """What :func:`draw` did: lines sent, rejected line numbers (``--on-error continue``), time."""
+    """What :func:`draw` did: lines sent, rejected line numbers (``--on-error continue``), time.
+    (A finished job's journal is removed: there is nothing left to resume.)"""
 
     lines_sent: int
     rejected: list[int] = field(default_factory=list)
     seconds: float = 0.0
-    journal: Path | None = None
 
 
 def draw(
@@ -56,6 +65,8 @@ def draw(
     wake_wait: float = 2.5,
     source: str | None = None,
     announce: Callable[[str, Job], None] | None = None,
+    operator=None,
+    keys=None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -96,6 +107,12 @@ def draw(
     announce : callable, optional
         Called with the board's start-up banner and the job once the board answered, before
         anything is streamed (``draw -v`` prints them).
+    operator : pencilbot.driver.position.Operator, optional
+        Someone at the machine: answers program pauses and guides a re-zero when a resume finds
+        the position lost. Without one, a pause waits for the machine's cycle-start button and a
+        lost position is a refusal that says what to do.
+    keys : pencilbot.driver.keys.KeyReader, optional
+        The terminal's keys: pause / resume (feed hold, cycle start) and stop.
 
     Raises
     ------
@@ -107,14 +124,10 @@ def draw(
     if resume is not None:
         journal = journal_mod.load_journal(resume)
         gcode = Path(journal.gcode)
-        if journal.status == "done":
-            raise PlotError(
-                f"the job of {gcode} finished; there is nothing to resume. To draw it again: "
-                f"pencilbot draw {shlex.quote(str(gcode))} --port {shlex.quote(port)} --profile "
-                f"{shlex.quote(profile or journal.profile)}"
-            )
         _check_unchanged(journal, gcode)
     profile = profile or (journal.profile if journal else DEFAULT_PROFILE)
+    if Path(profile).suffix.lower() == ".toml":
+        profile = str(Path(profile).resolve())  # the journal's resume works from any folder
     machine = load_profile(profile)
     fw = machine.firmware
     if check and not fw.capabilities.check_mode:
@@ -139,15 +152,16 @@ def draw(
             total_lines=job.total_lines, path=journal_mod.journal_path(path),
         )
     if journal is not None:
-        journal.port, journal.profile, journal.status, journal.message = port, profile, "running", ""
+        journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
+        journal.options = {"baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
 
-    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock)
+    runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     link = LineReader(open_port(port, baudrate=baud))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
-        resumed_acked = job.index_of(journal.acked_line) if resume is not None and journal.acked_line else None
-        return runner.run(stream, start, stop_xy, check, wake_wait, resumed_acked)
+        resumed = journal if resume is not None else None
+        return runner.run(stream, start, stop_xy, check, wake_wait, resumed)
     finally:
         try:
             link.port.close()
@@ -171,30 +185,37 @@ def _check_unchanged(journal, gcode: Path) -> None:
 class _Runner:
     """Holds one job's running state between the stream and the journal/progress."""
 
-    def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock):
+    def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock,
+                 operator=None, keys=None):
         self.job, self.profile, self.port, self.journal = job, profile, port, journal
         self.firmware = profile.firmware
         self.pen = profile.pen_model
         self.progress_mode = progress
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
+        self.operator, self.keys = operator, keys
+        self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
         self.acked = -1
         self._journal_at = 0.0
         self.announce = None
 
-    def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed_acked=None) -> DrawResult:
-        """Stream from job line ``start``; ``resumed_acked``: last acknowledged index of a resumed job."""
+    def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed=None) -> DrawResult:
+        """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
         t0 = time.monotonic()
         job = self.job
         try:
-            self._prepare(stream, check, wake_wait)
-            if resumed_acked is not None:
-                # Where the machine stands now tells what the stopped job really drew (a lost link
-                # or a hung board leaves moves that were acknowledged but never run).
-                here = self._job_position(stream, resumed_acked)
-                start, stop_xy = self._locate(resumed_acked, here) or (start, stop_xy)
+            self._prepare(stream, check, wake_wait, resuming=resumed is not None)
+            if resumed is not None:
+                # Where the machine stands now, checked against what the stop proved, tells
+                # whether its position can be trusted and what the stopped job really drew.
+                start, stop_xy = self._resume_point(stream, resumed)
+                resumed.message = ""
+                if resumed.pen and self.operator is not None:
+                    self.operator.pause(f"pen change: insert {resumed.pen} (the pen the job was drawing with)")
             if start > 0:
                 state = job.state_after(start - 1)
-                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=self.profile.gcode.decimals):
+                decimals = max(self.profile.gcode.decimals, 4)  # a stop point is known to 1 µm
+                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=decimals,
+                                            dwell=self.firmware.dwell):
                     self._setup_command(stream, line, "restoring the job's state")
         except StreamFault as fault:
             raise PlotError(f"{fault} before the job started; nothing was drawn. Check the plotter and retry.") from None
@@ -207,35 +228,69 @@ class _Runner:
 
         def on_ack(index, state):
             self.acked = index
+            if index in job.pauses and self.journal is not None:
+                pen = _PEN_CHANGE.search(job.pauses[index])
+                self.journal.pen = pen.group(1).strip() if pen else self.journal.pen
             self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state)
-            self._save_journal()
+            self._save_journal(stream)
 
-        try:
-            rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait, on_error=self.on_error)
-        except StreamFault as fault:
-            message = self._stop(stream, fault)
-            self.progress.close("stopped", message)
-            raise PlotError(message) from None
+        def on_pause(reason):
+            self.progress.show_state(f"paused: {reason}")
+            if self.operator is None:
+                return False  # the machine's cycle-start button resumes it
+            self.operator.pause(f"paused: {reason}")
+            return True
+
+        with self._stop_signals():
+            try:
+                rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait,
+                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys)
+            except StreamFault as fault:
+                self._stopping = True  # from here a second Ctrl-C must not cut the stop short
+                message = self._stop(stream, fault)
+                self.progress.close("stopped", message)
+                raise PlotError(message) from None
         self.progress.update(len(job) - start, total, stream.machine_state)  # drawn: now Idle
         self.progress.close("done")
         if self.journal is not None:
-            self.journal.status, self.journal.next_line = "done", job.number(len(job))
-            self.journal.stop_xy = None
-            self._save_journal(force=True)
+            self.journal.path.unlink(missing_ok=True)  # a finished job has nothing to resume
         return DrawResult(
             lines_sent=len(job) - start,
             rejected=[job.number(i) for i in rejected],
             seconds=time.monotonic() - t0,
-            journal=self.journal.path if self.journal else None,
         )
 
-    def _prepare(self, stream: Stream, check, wake_wait) -> None:
+    @contextmanager
+    def _stop_signals(self):
+        """Ctrl-C, SIGTERM and SIGHUP stop the stream safely; during the stop they are noted,
+        not obeyed (the stop lifts the pen and writes the resume command either way)."""
+        if threading.current_thread() is not threading.main_thread():
+            yield  # only the main thread can have signal handlers (a library call elsewhere)
+            return
+
+        def stop(signum, frame):
+            if not self._stopping:
+                self._stopping = True  # set here: a second one, however soon, finds it set
+                raise Interrupted(STOP_SIGNALS[signum])
+
+        saved = {}
+        for signum in STOP_SIGNALS:
+            if signum is not None:
+                saved[signum] = signal.signal(signum, stop)
+        try:
+            yield
+        finally:
+            for signum, handler in saved.items():
+                signal.signal(signum, handler)
+
+    def _prepare(self, stream: Stream, check, wake_wait, resuming: bool = False) -> None:
         banner = stream.wake(wake_wait)
         if self.announce is not None:
             self.announce(banner, self.job)
         status = stream.wait_until_still()  # a reconnected board may still be drawing
         fw = self.firmware
-        if status is not None and fw.is_alarm(status):
+        if status is not None and fw.is_alarm(status) and not resuming:
+            # (A resume looks at an alarm itself: it may be the stop's own, or a lost position.)
             if not (self.unlock and fw.capabilities.unlock):
                 raise PlotError(
                     f"the plotter on {self.port} is in alarm lock. Make sure the pen can move freely, "
@@ -251,6 +306,74 @@ class _Runner:
             )
         if check:
             self._check_mode(stream)
+
+    # --- where to resume -----------------------------------------------------------------------
+
+    def _resume_point(self, stream: Stream, journal) -> tuple[int, tuple[float, float] | None]:
+        """The first line to send and the stop point, once the board's position is trusted."""
+        fw, job = self.firmware, self.job
+        status = stream.status
+        alarm = status is not None and fw.is_alarm(status)
+        mpos = stream.machine_position()
+        restarted_at_zero = stream.restarted and position.near(mpos, (0.0, 0.0))
+        recorded = job.index_of(journal.next_line), (tuple(journal.stop_xy) if journal.stop_xy else None)
+        if not fw.capabilities.status_reports:
+            # A board that cannot say where it is (Marlin) leaves only the acknowledgements: it
+            # runs every move it acknowledged (it has no feed hold), so the first unanswered is next.
+            return recorded
+        sent = job.index_of(journal.sent_line) if journal.sent_line else recorded[0] - 1
+        if journal.stop_work is not None:  # the stop proved where the pen stood
+            if not alarm and position.near(mpos, journal.stop_mpos):
+                return recorded
+            if not alarm and restarted_at_zero:
+                # The board restarted (DTR reset on open, power cut) and counts from 0, 0 where
+                # the pen stood: that spot is the proven stop point.
+                x, y = journal.stop_work
+                # A Z pen's count restarted too; the stop raised it to its up height.
+                z = f"Z{self.pen.up:.4f}" if self.pen.kind == "z" else ""
+                self._setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}{z}", "restoring the origin at the stop point")
+                return recorded
+            if alarm and self.profile.bed.homing:
+                self._setup_command(stream, "$H", "homing")
+                return recorded
+            why = ("the plotter is in alarm" if alarm else
+                   f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
+                   "the plotter does not report its position")
+            self._reestablish(stream, why, alarm, recorded[0])
+            return recorded
+        if mpos is not None and not alarm and not restarted_at_zero:
+            # The stop could not read the position; a board that kept its count tells it now.
+            located = self._locate(sent, self._job_units(stream.work_position(), sent))
+            if located is not None:
+                return located
+        why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
+        acked = job.index_of(journal.acked_line) if journal.acked_line else -1
+        here = self._reestablish(stream, why, alarm, max(acked - _WINDOW, 0))
+        located = self._locate(sent, self._job_units(here, sent))
+        if located is None:
+            raise PlotError(
+                f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
+                f"last lines the plotter was sent (file lines {job.number(max(sent - _WINDOW, 0))}-"
+                f"{job.number(sent)}); the origin is set again, so continue from the line you see drawn last "
+                f"with: pencilbot draw {shlex.quote(str(journal.gcode))} --port {shlex.quote(self.port)} "
+                "--start-line N"
+            )
+        return located
+
+    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int) -> tuple[float, float]:
+        """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
+        to_mm = MM_PER_INCH if self.job.state_after(max(certain - 1, 0)).inches else 1.0
+        mark = position.mark_before(self.job, certain, to_mm)
+        if self.pen.kind == "z":
+            # Its height is lost with the count: raising it by a number could plunge it.
+            raise PlotError(
+                f"{why}: the plotter's position cannot be trusted, and with a Z pen its height is lost too. "
+                f"Raise the pen, home the machine or set its origin by hand at {mark.text} (with Z at the "
+                "pen's up height), then continue with --start-line N from the line you see drawn last"
+            )
+        if self.operator is None or not self.firmware.capabilities.realtime_protocol:
+            raise position.refusal(why, mark, self._resume_command(), self.profile.bed.homing)
+        return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm)
 
     def _setup_command(self, stream: Stream, line, doing) -> None:
         reply = stream.command(line)
@@ -275,6 +398,7 @@ class _Runner:
             ) from None
         stream.command(toggle)  # leaving check mode soft-resets GRBL
         stream.reset()
+        stream.sent = -1
         if rejected:
             where = ", ".join(str(job.number(i)) for i in rejected[:10])
             more = f" and {len(rejected) - 10} more" if len(rejected) > 10 else ""
@@ -284,7 +408,7 @@ class _Runner:
                 "and run again"
             )
 
-    def _save_journal(self, force: bool = False) -> None:
+    def _save_journal(self, stream: Stream | None = None, force: bool = False) -> None:
         if self.journal is None:
             return
         now = time.monotonic()
@@ -294,29 +418,54 @@ class _Runner:
         if self.acked >= 0:
             self.journal.acked_line = self.job.number(self.acked)
         self.journal.next_line = self.job.number(self.acked + 1)
+        if stream is not None and stream.sent >= 0:
+            self.journal.sent_line = self.job.number(stream.sent)
         self.journal.save()
+
+    # --- stopping ------------------------------------------------------------------------------
 
     def _stop(self, stream: Stream, fault: StreamFault) -> str:
         """Stop the machine after ``fault``, record where to resume, and say so in one message."""
-        pen_note, position = self._halt_and_lift(stream, fault)
+        pen_note, proven = self._halt_and_lift(stream, fault)
         job = self.job
-        if fault.kind == "error" and self.on_error == "stop":
-            # The rejected line never ran: resume no later than it (it is sent again).
-            self.acked = min(self.acked, fault.index - 1)
-        # Without a known position, trust the acknowledgements; a resume looks again (the
-        # machine's position after reconnecting tells what a lost link or hung board ran).
-        index, stop_xy = self._locate(self.acked, position) or (self.acked + 1, None)
+        located = None
+        if proven is not None:
+            # GRBL answers a line once it is planned, and runs only planned lines: with the
+            # board at rest and its answers in, nothing past the line after the last answered
+            # one can have run (lines still in its receive buffer were dropped by the reset).
+            last = min(stream.sent, self.acked + 1)
+            pen_down = position.pen_down_in(stream.rest_status, self.pen)
+            floor = self._planner_floor(stream.rest_status)
+            floor = self._floor(stream, last) if floor is None else floor
+            located = self._locate(last, self._job_units(proven[0], last), pen_down, floor)
+            if located is None:
+                proven = None  # where it stands is not on the lines it had: not a stop point
+        if located is not None:
+            index, stop_xy = located
+        else:
+            # Lost: the resume re-establishes the position and finds out; the guess is the first
+            # line not acknowledged (a refused line never ran).
+            index = min(self.acked, fault.index - 1) + 1 if fault.kind == "error" else self.acked + 1
+            stop_xy = None
         line_no = job.number(min(fault.index, len(job) - 1)) if fault.index >= 0 else None
         where = f"at line {line_no} of {job.source} ({job.line(min(fault.index, len(job) - 1))!r})" if line_no else ""
-        message = f"{fault} {where}. Stopped; {pen_note}. {self._resume_advice(index, stop_xy, fault)}"
+        lost = "" if proven is not None else (
+            " The plotter cannot prove where the pen stopped, so the resume re-establishes its position first.")
+        message = f"{fault} {where}. Stopped; {pen_note}.{lost} {self._resume_advice(stream, index, stop_xy, fault, proven)}"
         if fault.kind == "error" and line_no:
-            # Lines without a journal have no command line to resume them: say it in plain words.
-            fix = "use --start-line" if self.journal is not None else "start from it"
-            message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
+            if index > fault.index:
+                message += (f" (line {line_no} never ran; the lines the plotter had already taken after it did, "
+                            "so the resume continues after them)")
+            else:
+                # Lines without a journal have no command line to resume them: say it in plain words.
+                fix = "use --start-line" if self.journal is not None else "start from it"
+                message += f" (this sends line {line_no} again; if the line itself is wrong, fix it and {fix})"
         return message
 
     def _halt_and_lift(self, stream: Stream, fault: StreamFault):
-        """Stop the machine, read where it stands (job units) and raise the pen: (note, position)."""
+        """Stop the machine, read where it stands and raise the pen: (note, proven), where
+        ``proven`` is (work X, Y; machine X, Y) in mm when the board's count is known to be
+        where the pen is, else None."""
         if fault.kind == "port":
             return "the pen state is unknown (no port left to raise it)", None
         fw = self.firmware
@@ -327,8 +476,13 @@ class _Runner:
             elif fault.kind == "alarm":
                 stream.reset()  # a limit alarm blocks all input until a reset
             status = stream.query_status(wait=min(stream.timeout, 3.0))
-            position = self._job_position(stream, self.acked)
-            if status is not None and fw.is_alarm(status) and at_rest and fw.capabilities.unlock:
+            alarm = status is not None and fw.is_alarm(status)
+            work, mpos = stream.work_position(), stream.machine_position()
+            # At rest before our reset: the count is exact. A board that reset by itself
+            # (banner, no alarm) kept it if it was idle, unless it powered up counting from 0, 0.
+            trusted = (at_rest or (fault.kind == "reset" and not alarm and not position.near(mpos, (0.0, 0.0))))
+            proven = (work, mpos) if trusted and work is not None and mpos is not None else None
+            if alarm and at_rest and fw.capabilities.unlock:
                 # Our own reset of a machine at rest: the position is exact, so the alarm
                 # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
                 stream.command(fw.unlock_command)
@@ -336,36 +490,81 @@ class _Runner:
                 if stream.command(line).kind == ERROR:
                     if self.pen.kind == "spindle":
                         # The alarm switched the spindle off, and spindle off is pen up.
-                        return "pen up (the alarm switched the spindle off)", position
-                    return "the alarm locks G-code, so the pen could not be raised", position
-            return "pen raised", position
+                        return "pen up (the alarm switched the spindle off)", proven
+                    # (A Z pen left down has no known height to restore the origin with.)
+                    return ("the alarm locks G-code, so the pen could not be raised",
+                            None if self.pen.kind == "z" else proven)
+            # Wait until it is up: a Z pen's lift is a move, and closing the port resets an
+            # Arduino board (DTR), which would cut the move short and leave the pen down.
+            stream.wait_until_still()
+            return "pen raised", proven
         except StreamFault as exc:
             return f"could not raise the pen ({exc})", None
 
-    def _job_position(self, stream: Stream, acked: int):
-        """The machine's work position X, Y in the units the job uses at line ``acked``."""
-        position = stream.work_position()
-        if position is not None and self.job.state_after(max(acked, 0)).inches:
-            position = (position[0] / MM_PER_INCH, position[1] / MM_PER_INCH)
-        return position
+    def _job_units(self, xy, index: int):
+        """A work position X, Y (mm) in the units the job uses at line ``index``."""
+        if xy is not None and self.job.state_after(max(index, 0)).inches:
+            return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
+        return xy
 
-    def _locate(self, acked: int, position, window: int = 40):
-        """:func:`~pencilbot.driver.resume.locate_stop` over the job's last acknowledged lines."""
-        if position is None or acked < 0:
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent)."""
+        if position_xy is None or last < 0:
             return None
-        return locate_stop(self.job.states(max(acked - window, 0), acked + 1), acked, position, window=window)
+        last = min(last, len(self.job) - 1)
+        first = max(last - _WINDOW, 0)
+        return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
+                           pen_down=pen_down, floor=floor)
 
-    def _resume_advice(self, index, stop_xy, fault) -> str:
+    def _planner_floor(self, status) -> int | None:
+        """The line the machine was running when it came to rest, from the planner count of the
+        status report (GRBL's ``Bf:``, reported when ``$10`` asks for it): the blocks still
+        planned are the moves of the last lines answered, one block per move."""
+        if status is None or status.buffer is None or self.acked < 0:
+            return None
+        queued = getattr(self.firmware.protocol, "BLOCK_BUFFER_SIZE", 0) - 1 - status.buffer[0]
+        if queued <= 0:
+            return None
+        first = max(self.acked - _WINDOW, 0)
+        states = self.job.states(first, self.acked + 1)
+        moves = 0
+        for i in range(self.acked, first, -1):
+            state, before = states[i], states[i - 1]
+            if (state.x, state.y, state.z) != (before.x, before.y, before.z):
+                moves += 1
+                if moves == queued:
+                    return i
+        return None
+
+    def _floor(self, stream: Stream, last: int) -> int | None:
+        """The line the machine was running at the last status report of the stream (it can
+        only have moved on from there), if that report's position is on the lines sent."""
+        if stream.seen is None:
+            return None
+        xy, status, answered = stream.seen
+        bound = min(last, answered + 1)  # then, too, it ran only lines it had answered
+        found = self._locate(bound, self._job_units(xy, bound), position.pen_down_in(status, self.pen))
+        return None if found is None else found[0] - (found[1] is None and found[0] > 0)
+
+    def _resume_command(self) -> str:
+        if self.journal is None:
+            return f"resume from the line named above ({self.job.source} has no journal)"
+        return f"pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {shlex.quote(self.port)}"
+
+    def _resume_advice(self, stream: Stream, index, stop_xy, fault, proven) -> str:
         """Record where to resume in the journal and say how: the command, or the line."""
-        unlock = " --unlock" if fault.kind in ("alarm", "reset") else ""
-        port = shlex.quote(self.port)
         line = self.job.number(index)
         if self.journal is None:  # lines from a program (simulate, the library): no command to give
             return f"Resume from line {line} of {self.job.source}"
-        self.journal.next_line = line
-        self.journal.acked_line = self.job.number(self.acked) if self.acked >= 0 else 0
-        self.journal.stop_xy = list(stop_xy) if stop_xy is not None else None
-        self.journal.status = "stopped"
-        self.journal.message = str(fault)
-        self.journal.save()
-        return f"Resume with: pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {port}{unlock}"
+        journal = self.journal
+        journal.next_line = line
+        journal.acked_line = self.job.number(self.acked) if self.acked >= 0 else 0
+        journal.sent_line = self.job.number(stream.sent) if stream.sent >= 0 else 0
+        journal.stop_xy = list(stop_xy) if stop_xy is not None else None
+        journal.stop_work = list(proven[0]) if proven is not None else None
+        journal.stop_mpos = list(proven[1]) if proven is not None else None
+        journal.status = "stopped"
+        journal.message = str(fault)
+        journal.resume = self._resume_command()
+        journal.save()
+        return f"Resume with: {journal.resume}"

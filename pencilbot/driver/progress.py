@@ -1,8 +1,11 @@
 """Show how a plot is going: a progress bar for people, JSON lines for scripts, or nothing.
 
-The ETA comes from the motion estimate of the lines still to draw (distance over feed plus
+The bar and the percentage count plot time, not lines (a thousand short hatch lines take less
+time than one long outline): the motion estimate of the lines acknowledged over the whole
+job's. The ETA comes from the estimate of the lines still to draw (distance over feed plus
 dwells), scaled by the pace observed so far, because a plotter's acceleration and the serial
-link make the raw estimate optimistic.
+link make the raw estimate optimistic. The bar shows the time elapsed and the machine state
+("paused: pen change: insert red" while the board holds).
 """
 
 from __future__ import annotations
@@ -44,12 +47,12 @@ class Progress:
         self.started = time.monotonic()
         self._last_emit = -1.0
         self._bar = None
+        self._done = (0, 0.0)  # lines, seconds of the last update
         if mode == "bar":
             self._bar = tqdm(
-                total=total_lines,
-                unit="line",
+                total=100.0,
                 dynamic_ncols=True,
-                bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} lines{postfix}",
+                bar_format="{percentage:3.0f}% of plot time |{bar}| {elapsed} elapsed, {postfix}",
             )
 
     def eta(self, done_seconds: float) -> float:
@@ -59,26 +62,41 @@ class Progress:
         pace = elapsed / done_seconds if done_seconds >= 1.0 else 1.0  # too early to judge before
         return remaining * max(pace, 1.0)
 
-    def update(self, lines_done: int, done_seconds: float, state: str) -> None:
+    def percent(self, done_seconds: float, lines_done: int) -> float:
+        """Share of the plot time done (%); a job without motion counts its lines."""
+        if self.total_seconds > 0:
+            return min(100.0, 100.0 * done_seconds / self.total_seconds)
+        return 100.0 * lines_done / max(self.total_lines, 1)
+
+    def update(self, lines_done: int, done_seconds: float, state: str, force: bool = False) -> None:
         """Report progress: lines acknowledged, their motion estimate (s), machine state."""
         now = time.monotonic()
-        if self.mode == "quiet" or (now - self._last_emit < MIN_INTERVAL and lines_done < self.total_lines):
+        self._done = (lines_done, done_seconds)
+        if self.mode == "quiet" or (now - self._last_emit < MIN_INTERVAL and lines_done < self.total_lines
+                                    and not force):
             return
         self._last_emit = now
         eta = self.eta(done_seconds)
+        percent = self.percent(done_seconds, lines_done)
         if self._bar is not None:
-            self._bar.n = lines_done
-            self._bar.set_postfix_str(f"{state or '?'} ETA {time.strftime('%H:%M:%S', time.gmtime(eta))}", refresh=False)
+            self._bar.n = round(percent, 1)
+            self._bar.set_postfix_str(f"line {lines_done}/{self.total_lines}, {state or '?'}, "
+                                      f"ETA {time.strftime('%H:%M:%S', time.gmtime(eta))}", refresh=False)
             self._bar.refresh()
         else:
             self._emit(
                 event="progress",
                 line=lines_done,
                 total=self.total_lines,
-                percent=round(100.0 * lines_done / max(self.total_lines, 1), 2),
+                percent=round(percent, 2),
                 state=state,
+                elapsed_s=round(now - self.started, 1),
                 eta_s=round(eta, 1),
             )
+
+    def show_state(self, state: str) -> None:
+        """Show a new machine state (a pause) at once, with the progress so far."""
+        self.update(*self._done, state, force=True)
 
     def close(self, status: str, message: str = "") -> None:
         """End the display: ``status`` is ``"done"`` or ``"stopped"``."""

@@ -13,7 +13,8 @@ from pencilbot.machine.pen import PenModel
 
 
 def resume_preamble(
-    state: ModalState, pen: PenModel, *, stop_xy: tuple[float, float] | None = None, decimals: int = 3
+    state: ModalState, pen: PenModel, *, stop_xy: tuple[float, float] | None = None, decimals: int = 3,
+    dwell=None,
 ) -> list[str]:
     """G-code that puts a freshly woken machine into ``state``, travelling with the pen up.
 
@@ -29,6 +30,10 @@ def resume_preamble(
         the end of the previous line.
     decimals : int
         Digits after the point for coordinates and feed.
+    dwell : callable, optional
+        ``dwell(seconds)`` → the firmware's ``G4`` line (``""`` for none): the pen waits its
+        ``up_delay`` / ``down_delay`` after moving, as the job's own pen changes do, so a
+        servo pen is up before the travel and down before the first stroke.
 
     Returns
     -------
@@ -38,6 +43,9 @@ def resume_preamble(
     x, y = stop_xy if (stop_xy is not None and not state.relative) else (state.x, state.y)
     fmt = f"{{:.{decimals}f}}"
     up, down = [clean_line(line) for line in pen.up_lines], [clean_line(line) for line in pen.down_lines]
+    if dwell is not None:
+        up += [clean_line(line) for line in [dwell(pen.up_delay)] if line]
+        down += [clean_line(line) for line in [dwell(pen.down_delay)] if line]
     # The profile's pen commands are in mm (a Z pen's heights); the job's coordinates may be inches.
     job_units = ["G20"] if state.inches else []
     lines = ["G21", "G90", *up, *job_units, f"G0X{fmt.format(x)}Y{fmt.format(y)}"]
@@ -51,31 +59,40 @@ def resume_preamble(
 
 
 def locate_stop(
-    states, acked: int, position: tuple[float, float] | None, *, window: int = 40,
-    tolerance: float = 0.005,
+    states, last: int, position: tuple[float, float] | None, *, window: int = 40,
+    tolerance: float = 0.005, pen_down: bool | None = None, floor: int | None = None,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
-    the last acknowledged moves (unknown, or the machine was power-cycled or moved by hand).
+    the last moves sent (unknown, or the machine was power-cycled or moved by hand).
 
-    The plotter has acknowledged lines up to ``acked`` (0-based; −1 for none), but the last few
-    may still have been waiting in its planner when it stopped, so the stop position, not the
-    acknowledgement count, tells what was drawn. The latest acknowledged move (within
-    ``window`` lines) that passes through the position is taken: the machine runs moves in
-    order and a plot rarely passes the very same point twice within a planner's length.
+    The plotter has received lines up to ``last`` (0-based; −1 for none), but the last ones
+    may still have been waiting in its planner or receive buffer when it stopped (acknowledged
+    or not), so the stop position, not the acknowledgement count, tells what was drawn. The
+    latest move (within ``window`` lines) that passes through the position is taken: the
+    machine runs moves in order and a plot rarely passes the very same point twice within a
+    planner's length.
 
     Parameters
     ----------
     states : indexable by job line
         ``states[i]`` is the :class:`ModalState` after job line ``i``, for ``i`` within
-        ``window`` lines of ``acked`` (a :class:`~pencilbot.driver.modal.Track` of them).
-    acked : int
-        Index of the last acknowledged line.
+        ``window`` lines of ``last`` (a :class:`~pencilbot.driver.modal.Track` of them).
+    last : int
+        Index of the last line sent.
     position : (float, float) or None
         Work position where the machine stopped (job units); ``None`` if unknown.
     window : int
-        How many acknowledged lines back to look (a planner holds 15 moves).
+        How many lines back to look (a planner holds 15 moves, the receive buffer a few more).
     tolerance : float
         Distance (job units) under which the position counts as on a move.
+    pen_down : bool, optional
+        Whether the pen was down when the machine stopped, if the board said (its spindle
+        value or Z): a stop inside a move is only on a move drawn with the pen so (a travel
+        that crosses the stroke being drawn is not where the machine stopped).
+    floor : int, optional
+        A line the machine was running earlier (an earlier status report's position): it runs
+        lines in order, so the earliest move from ``floor`` on that passes through the position
+        is taken instead of the latest (a closed stroke begins and ends at the same point).
 
     Returns
     -------
@@ -87,7 +104,8 @@ def locate_stop(
     if position is None:
         return None
     p = complex(*position)
-    for i in range(acked, max(acked - window, -1), -1):
+    lines = range(last, max(last - window, -1), -1) if floor is None else range(max(floor, last - window + 1), last + 1)
+    for i in lines:
         end = complex(states[i].x, states[i].y)
         start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
         if abs(p - end) <= tolerance:
@@ -97,5 +115,7 @@ def locate_stop(
             continue
         t = ((p - start) / seg).real
         if 0.0 <= t < 1.0 and abs(start + t * seg - p) <= tolerance:
+            if t > 0.0 and pen_down is not None and states[i].pen_down != pen_down:
+                continue
             return i, (position if t > 0.0 else None)
     return None

@@ -22,7 +22,9 @@ module (:mod:`pencilbot.firmware`), so nothing here knows a firmware by name. It
 
 Everything that can stop a stream (a refused line, an alarm, a reset, silence, a lost port,
 Ctrl-C) becomes one :class:`StreamFault` naming the job line; the caller turns it into a message.
-A pause or a hold (issue for later) would be a state beside ``streaming``.
+A board in Hold (an ``M0`` of the job, the machine's button, the pause key) is served beside
+``streaming``: the reason is shown once, cycle start goes when someone answers, and the wait
+never times out (a held board still answers status queries).
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ KINDS = {
     "reset": "the plotter reset in the middle of the job; the lines it had buffered were lost",
     "timeout": "the plotter stopped answering",
     "port": "the serial port vanished",
-    "interrupt": "stopped by Ctrl-C",
+    "interrupt": "stopped by",  # + who: Ctrl-C, SIGTERM, SIGHUP, the stop key
 }
 
 
@@ -67,7 +69,18 @@ class StreamFault(Exception):
     detail: str = ""
 
     def __str__(self) -> str:
+        if self.kind == "interrupt":
+            return f"{KINDS[self.kind]} {self.detail or 'Ctrl-C'}"
         return KINDS[self.kind] + (f" ({self.detail})" if self.detail else "")
+
+
+class Interrupted(KeyboardInterrupt):
+    """A request to stop safely: Ctrl-C, a signal (SIGTERM, SIGHUP) or the stop key; ``by`` says
+    which."""
+
+    def __init__(self, by: str = "Ctrl-C"):
+        super().__init__(by)
+        self.by = by
 
 
 @dataclass
@@ -107,6 +120,15 @@ class Stream:
         self.machine_state = ""  # what the board is doing, in its words ("Run", "Idle", …)
         self.reports = 0  # status reports received so far
         self.wco = (0.0, 0.0, 0.0)
+        self.sent = -1  # the last job line written to the board
+        self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
+        self.answered = -1  # the last job line answered
+        self.seen = None  # (work X, Y in mm, status, last line answered) of the last report while streaming
+        self.paused: str | None = None  # why the board is holding, while it is
+        self._pause_key = None  # which pause was shown (an M0 line, or the hold button)
+        self._held_by_us = False  # our pause key holds the board
+        self._fresh_after = 0  # reports up to this one may predate our last hold or cycle start
+        self.restarted = False  # the board printed its start-up banner when woken (a reset on open)
         self.number = 0  # the last line number framed (numbered firmware)
         self._unread: deque[str] = deque()  # lines received and not yet handled
         self._sent: deque[_Sent] = deque()
@@ -143,6 +165,7 @@ class Stream:
         with self._guard(-1):
             self.link.write(fw.wake_bytes)
             banner = self._await_banner(wait)
+            self.restarted = banner is not None
             reason = f"nothing within {2 * wait:g} s"
             if banner is None and fw.capabilities.status_reports:
                 try:
@@ -152,6 +175,7 @@ class Stream:
                     if fw.capabilities.soft_reset:
                         self.link.write(fw.soft_reset)
                         banner = self._await_banner(wait)
+                        self.restarted = banner is not None
             renumber = fw.renumber()
             if renumber is not None:
                 command, self.number = renumber[0], renumber[1] - 1
@@ -234,7 +258,7 @@ class Stream:
     # --- streaming ---------------------------------------------------------------------------
 
     def stream(self, job: Job, start: int, on_ack: Callable[[int, str], None], *, send_and_wait: bool = False,
-               on_error: str = "stop") -> list[int]:
+               on_error: str = "stop", on_pause: Callable[[str], bool] | None = None, keys=None) -> list[int]:
         """Send job lines ``start …`` and wait until the machine has run them.
 
         Parameters
@@ -248,6 +272,13 @@ class Stream:
             One line in flight instead of filling the receive buffer.
         on_error : {"stop", "continue"}
             A refused line raises a fault, or is logged and skipped.
+        on_pause : callable, optional
+            ``on_pause(reason)`` when the board holds by itself (an ``M0`` in the job: the
+            reason is the comment beside it; the machine's feed-hold button); it returns True to
+            send cycle start. Without it, or when it returns False, the stream waits (never
+            timing out: the board still answers) until the machine's own cycle start.
+        keys : KeyReader, optional
+            Requests from the keyboard: ``"pause"`` (feed hold, again: cycle start), ``"stop"``.
 
         Returns
         -------
@@ -268,6 +299,7 @@ class Stream:
         self._send_and_wait = send_and_wait
         self._answered_at = self.reports
         drain = None
+        last_asked = False
         nxt = start
         self.link.last_rx = time.monotonic()
         with self._guard(lambda: self._oldest(nxt)):
@@ -279,14 +311,58 @@ class Stream:
                 if self.state == DRAINING and fw.drain_command and drain is None and not self._sent:
                     drain = self._framed(fw.drain_command, None)
                     self._write([drain], drain.frame)
-                self._poll()
+                # The last line answered: ask at once whether the machine is done (a job that
+                # ends idle ends now, not at the next 5 Hz poll).
+                self._poll(force=self.state == DRAINING and not self._sent and not last_asked)
+                last_asked = last_asked or (self.state == DRAINING and not self._sent)
                 for reply in self._replies():
                     self._handle(reply, self._oldest(nxt))
+                if keys is not None:
+                    self._serve_keys(keys, self._oldest(nxt))
+                self._serve_pause(job, on_pause)
                 self._check_alive(self._oldest(nxt))
                 if self.state == DRAINING and self._drained(drain):
                     self.state = DONE
         self.machine_state = self.status.state if self.status is not None else "Idle"
         return self._rejected
+
+    def _serve_pause(self, job: Job, on_pause) -> None:
+        """A board in Hold: say why once (the M0 line's comment, the machine's button, our own
+        key) and, if someone answers, send cycle start."""
+        status = self.status
+        if self.reports <= self._fresh_after:
+            return  # a report asked for before the cycle start: it may still say Hold
+        if status is None or not self.firmware.is_paused(status):
+            self.paused = self._pause_key = None
+            return
+        index = next((e.index for e in self._sent if e.index is not None and e.index in job.pauses), None)
+        key = index if index is not None else "hold"
+        if key == self._pause_key:
+            self.machine_state = f"paused: {self.paused}"
+            return  # shown already (and a report sent before the cycle start may still say Hold)
+        self._pause_key = key
+        if index is not None:
+            self.paused = job.pauses[index] or f"program pause ({job.line(index)})"
+        else:
+            self.paused = "from the keyboard (press the pause key to go on)" if self._held_by_us else "feed hold on the machine"
+        self.machine_state = f"paused: {self.paused}"
+        if self._held_by_us and index is None:
+            return  # the key that paused resumes
+        if on_pause is not None and on_pause(self.paused):
+            self._held_by_us = False
+            self.link.write(self.firmware.cycle_start)
+            self._fresh_after = self.reports + int(self._query_unanswered)
+        self.link.last_rx = time.monotonic()  # waiting for the user is not the board's silence
+
+    def _serve_keys(self, keys, index: int) -> None:
+        for request in keys.poll():
+            if request == "stop":
+                raise StreamFault("interrupt", index, "the stop key")
+            if request == "pause" and self.firmware.capabilities.feed_hold:
+                held = self._held_by_us or (self.status is not None and self.firmware.is_paused(self.status))
+                self.link.write(self.firmware.cycle_start if held else self.firmware.feed_hold)
+                self._held_by_us = not held
+                self._fresh_after = self.reports + int(self._query_unanswered)
 
     def _fill(self, job: Job, nxt: int) -> int:
         """Send what fits of the frames asked for again, then of ``job`` from ``nxt``; return the
@@ -307,6 +383,9 @@ class Stream:
             batch += entry.size
             nxt += 1
         if entries:
+            # Counted before the write: a stop that lands between the two must not miss lines
+            # the board may have (a line counted but never written only widens the search).
+            self.sent = max(self.sent, nxt - 1)
             self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
         return nxt
 
@@ -382,6 +461,7 @@ class Stream:
             self._rejected.append(entry.index)
         if self.status is None:
             self.machine_state = "Run"
+        self.answered = max(self.answered, entry.index)
         self._on_ack(entry.index, self.machine_state)
 
     def _rewind(self, number: int, index: int) -> None:
@@ -410,6 +490,10 @@ class Stream:
                 self._query_unanswered = False
                 if reply.status.wco is not None:
                     self.wco = reply.status.wco
+                if (self.state in (STREAMING, DRAINING) and self.firmware.is_moving(reply.status)
+                        and self.work_position() is not None):
+                    # (Moving: mid-move, so the position names one line; at rest it may not.)
+                    self.seen = (self.work_position(), reply.status, self.answered)
                 continue
             yield reply
 
@@ -454,8 +538,9 @@ class Stream:
             yield
         except PortLost as exc:
             raise StreamFault("port", index() if callable(index) else index, str(exc)) from None
-        except KeyboardInterrupt:
-            raise StreamFault("interrupt", index() if callable(index) else index) from None
+        except KeyboardInterrupt as exc:
+            by = exc.by if isinstance(exc, Interrupted) else "Ctrl-C"
+            raise StreamFault("interrupt", index() if callable(index) else index, by) from None
         except ProtocolError as exc:  # a command the firmware cannot take (a profile's own)
             raise PlotError(str(exc)) from None
 
@@ -486,6 +571,7 @@ class Stream:
                         if reply.kind == OK and entry.index is not None:
                             self._on_ack(entry.index, self.machine_state)
                 at_rest = self.status is not None and fw.is_at_rest(self.status)
+        self.rest_status = self.status if at_rest else None
         self.reset(wait)
         return at_rest
 
@@ -505,6 +591,23 @@ class Stream:
         self._resend.clear()
         self._in_flight = 0
         self._refusal, self._swallow_ok = None, False
+
+    def machine_position(self) -> tuple[float, float] | None:
+        """The last reported machine position X, Y (mm), from MPos or WPos + WCO; None if unknown."""
+        status = self.status
+        if status is None:
+            return None
+        if status.mpos is not None:
+            return status.mpos[0], status.mpos[1]
+        if status.wpos is not None:
+            return status.wpos[0] + self.wco[0], status.wpos[1] + self.wco[1]
+        return None
+
+    def jog(self, dx: float, dy: float, feed: float) -> Reply:
+        """Jog by ``dx``, ``dy`` mm at ``feed`` mm/min (GRBL ``$J=``) and wait until it stands."""
+        reply = self.command(f"$J=G91G21X{dx:.4f}Y{dy:.4f}F{feed:g}")
+        self.wait_until_still()
+        return reply
 
     def work_position(self) -> tuple[float, float] | None:
         """The last reported work position X, Y (mm), from WPos or MPos − WCO; None if unknown."""

@@ -93,3 +93,71 @@ def test_verbose_draw_says_where_what_and_how_long_before_streaming(capsys, tmp_
         f"job: {path}, {lines} command lines of {len(path.read_text().splitlines())}",
         f"estimated plot time {duration_text(summary.stats.total.seconds)} (the file's estimate)",
     ]
+
+
+def _plot(tmp_path):
+    import sys
+
+    sys.path.insert(0, str(__import__("pathlib").Path(__file__).parents[1] / "driver"))
+    from test_stream_sim import drawing
+
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(drawing()) + "\n")
+    return path
+
+
+def test_a_stopped_job_is_not_drawn_again_from_line_1_without_restart(capsys, tmp_path):
+    import json
+
+    from sim import protocol_sim
+
+    path = _plot(tmp_path)
+    profile = tmp_path / "mine.toml"
+    profile.write_text((__import__("pathlib").Path(__file__).parents[2] / "configs/plotters/grbl-servo-a4.toml").read_text())
+    code, err = run(capsys, str(path), "--port", "sim://jobs1?faults=error@30", "--profile", str(profile),
+                    "--send-and-wait", "--baud", "57600", "--timeout", "3", "-q")
+    assert code != 0 and "Resume with: pencilbot draw --resume" in err
+    journal = json.loads((tmp_path / "plot.gcode.job.json").read_text())
+    # Every connection option, and a profile path that works from any folder.
+    assert journal["options"] == {"baud": 57600, "timeout": 3.0, "send_and_wait": True, "on_error": "stop"}
+    assert journal["profile"] == str(profile.resolve()) and journal["resume"] in err
+    sent = len(protocol_sim.plotter("jobs1").firmware.log)
+    code, err = run(capsys, str(path), "--port", "sim://jobs1")
+    assert code == 3 and "stopped at line" in err and journal["resume"] in err and "--restart" in err
+    assert len(protocol_sim.plotter("jobs1").firmware.log) == sent  # nothing was sent
+    code, err = run(capsys, str(path), "--port", "sim://jobs1", "--profile", str(profile), "--restart", "-q")
+    assert code == 0, err
+    assert not (tmp_path / "plot.gcode.job.json").exists()  # finished: nothing to resume
+
+
+def test_sigterm_stops_safely_and_prints_the_resume_command(tmp_path):
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    path = _plot(tmp_path)
+    command = [sys.executable, "-c", "from pencilbot.cli import main; raise SystemExit(main())", "draw", str(path),
+               "--port", "sim://term?realtime=2", "--profile", "grbl-servo-a4", "--json-lines"]
+    proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    journal = tmp_path / "plot.gcode.job.json"
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and not (journal.exists() and json.loads(journal.read_text())["acked_line"] > 10):
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=30)
+    assert proc.returncode != 0
+    assert "stopped by SIGTERM" in err and "pen raised" in err and "Resume with: pencilbot draw --resume" in err
+    record = json.loads(journal.read_text())
+    assert record["status"] == "stopped" and record["resume"] in err and record["stop_work"] is not None
+
+
+def test_simulate_of_a_file_with_a_pen_change_prints_the_prompt_and_finishes(capsys, tmp_path):
+    src = tmp_path / "two-pens.gcode"
+    src.write_text("G21\nG90\nM3 S30\nG0 X10 Y10\nM3 S90\nG1 X40 Y10 F3000\nM3 S30\n"
+                   "M0 (pen change: insert red)\nM3 S90\nG1 X40 Y40\nM3 S30\n")
+    code = main(["simulate", str(src), "-o", str(tmp_path / "p.png"), "--profile", "grbl-servo-a4"])
+    captured = capsys.readouterr()
+    assert code == 0 and "paused: pen change: insert red (simulate presses cycle start)" in captured.err
+    assert "2 pen-down strokes" in captured.out

@@ -51,16 +51,16 @@ def test_json_that_is_not_a_journal_is_a_plain_error(tmp_path, text):
         load_journal(tmp_path / "odd.gcode.job.json")
 
 
-def test_json_lines_progress_reports_lines_percent_state_and_end():
+def test_json_lines_progress_reports_lines_percent_of_plot_time_state_and_end():
     out = io.StringIO()
     progress = Progress("json", total_lines=4, total_seconds=10.0, out=out)
-    progress.update(2, 5.0, "Run")
+    progress.update(2, 2.0, "Run")  # half the lines, a fifth of the plot time
     progress.update(4, 10.0, "Idle")  # the last line is always reported
     progress.close("done")
     records = [json.loads(l) for l in out.getvalue().splitlines()]
     assert [r["event"] for r in records] == ["progress", "progress", "done"]
-    assert (records[0]["line"], records[0]["percent"], records[0]["state"]) == (2, 50.0, "Run")
-    assert records[1]["percent"] == 100.0
+    assert (records[0]["line"], records[0]["percent"], records[0]["state"]) == (2, 20.0, "Run")
+    assert records[1]["percent"] == 100.0 and records[1]["elapsed_s"] >= 0
 
 
 def test_quiet_progress_prints_nothing():

@@ -184,3 +184,30 @@ def test_advanced_ok_counts_fill_marlin_s_queue_without_overflowing_it(tmp_path,
     assert board.overflows == 0 and board.most_queued > 1  # several lines queued at once, never too many
     assert board.commands == [clean_line(line) for line in lines] + ["M400"]  # exactly once, in order
     assert bool(board.resends) == bool(noise)  # the noise was heard, and recovered from
+
+
+class HangingMarlinBoard(MarlinBoard):
+    """Stops answering (and running) after ``hang_after`` commands: a hung board."""
+
+    def __init__(self, hang_after):
+        super().__init__()
+        self.hang_after = hang_after
+
+    def _run(self, number, command):
+        if self.answered < self.hang_after:
+            super()._run(number, command)
+
+
+def test_a_marlin_job_resumes_after_the_last_acknowledged_line(tmp_path):
+    # Marlin reports no position and has no feed hold: it runs what it acknowledged, so the
+    # acknowledgements are what the resume goes by (no re-zero asked for).
+    lines = lines_for_marlin()
+    path = tmp_path / "m.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    with HangingMarlinBoard(hang_after=14) as board, pytest.raises(PlotError, match="stopped answering"):
+        draw(path, board.path, profile=PROFILE, wake_wait=0.5, timeout=0.5)
+    done = board.commands
+    with MarlinBoard() as board:
+        draw(path, board.path, resume=f"{path}.job.json", wake_wait=0.5, timeout=2.0)
+    rest = [clean_line(line) for line in lines][len(done):]
+    assert board.commands[-len(rest) - 1:-1] == rest and board.commands[-1] == "M400"

@@ -2,9 +2,8 @@
 
 import json
 
-import numpy as np
 import pytest
-from test_stream_sim import PROFILE, assert_same_drawing, job  # noqa: F401 (job: a shared fixture)
+from test_stream_sim import PROFILE, HandOnTheMachine, assert_same_drawing, job  # noqa: F401 (job: a shared fixture)
 
 from pencilbot.cli import main
 from pencilbot.driver import draw
@@ -50,7 +49,37 @@ def test_pty_vanishing_mid_job_then_resume_on_a_new_pty(job):
     plotter.firmware.faults.at.clear()
     plotter.firmware.link_dropped = False  # plugged back in, on a new device path
     with PtyServer(plotter) as server:
-        draw(path, server.path, resume=f"{path}.job.json", wake_wait=0.2)
-    assert_same_drawing(plotter.canvas(dpi=40).darkness, reference.canvas(dpi=40).darkness)
+        # The board reset as the port opened: it counts from 0, 0 again, so the resume asks the
+        # user to jog to a mark before it draws.
+        draw(path, server.path, resume=f"{path}.job.json", wake_wait=0.2, operator=HandOnTheMachine(plotter))
+    plotter.firmware.finish()
+    reference.firmware.finish()
+    assert_same_drawing(plotter.machine.strokes, reference.machine.strokes)
     assert set(lines) <= set(accepted(plotter))
-    assert not np.array_equal(plotter.canvas(dpi=40).darkness, 0)
+    assert plotter.machine.strokes
+
+
+def test_a_hold_from_the_machine_shows_paused_and_waits_past_the_timeout_for_its_cycle_start(job, capsys):
+    import os
+    import threading
+    import time
+
+    path, lines = job
+    plotter = VirtualPlotter(load_profile(PROFILE), realtime=50, faults=Faults.parse("hold@30"))
+    with PtyServer(plotter, reset_on_open=False) as server:
+
+        def press_cycle_start_on_the_machine():
+            while plotter.firmware.state() != "Hold:0":
+                time.sleep(0.01)
+            time.sleep(1.5)  # three times the timeout
+            fd = os.open(server.path, os.O_WRONLY | os.O_NOCTTY)  # another hand on the board
+            os.write(fd, b"~")
+            os.close(fd)
+
+        threading.Thread(target=press_cycle_start_on_the_machine, daemon=True).start()
+        code = main(["draw", str(path), "--port", server.path, "--profile", PROFILE, "--json-lines",
+                     "--timeout", "0.5"])
+    assert code == 0
+    assert accepted(plotter) == lines
+    records = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert any(r.get("state") == "paused: feed hold on the machine" for r in records)

@@ -142,9 +142,9 @@ def test_bad_urls_say_what_is_wrong(url, error):
         serial.serial_for_url(url)
 
 
-def test_url_options_choose_a_real_board_or_the_forgiving_default():
+def test_url_options_choose_a_real_board_by_default_or_a_forgiving_one():
     protocol_sim.forget("real")
-    with serial.serial_for_url("sim://real?power=zero&abort=lose&limits=profile", timeout=0.05) as port:
+    with serial.serial_for_url("sim://real", timeout=0.05) as port:  # power=zero&abort=lose&limits=profile
         send_and_wait(port, ["G0 X50"])
         port.write(b"$$\n")
         time.sleep(0.05)
@@ -156,7 +156,7 @@ def test_url_options_choose_a_real_board_or_the_forgiving_default():
         assert grbl.parse_line(read_line(port)) == grbl.Welcome("1.1h")
         assert grbl.parse_line(read_line(port)).mpos == (0.0, 0.0, 0.0)  # ...and the count restarts
     assert plotter("real").machine.carriage_position()[0] == 50.0
-    with serial.serial_for_url("sim://", timeout=0.05) as port:
+    with serial.serial_for_url("sim://?power=keep&abort=keep&limits=bed", timeout=0.05) as port:
         port.write(b"$$\n$I\n")
         time.sleep(0.05)
         text = port.read(3000).decode()
