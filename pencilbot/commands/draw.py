@@ -140,7 +140,9 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
     if journal.status in ("stopped", "running"):  # "running": the sender itself was killed
         how = journal.resume or f"pencilbot draw --resume {path} --port {journal.port}"
         why = f" ({journal.message})" if journal.message else ""
-        raise PlotError(
-            f"the job of {gcode} stopped at line {journal.next_line}{why}; drawing it again would draw "
-            f"over what is on the paper. Resume it with: {how} — or start over with --restart"
-        )
+        if journal.status == "running":
+            state = (f"is being drawn now (on {journal.port}), or its sender was killed at line "
+                     f"{journal.next_line}; if no pencilbot is drawing it")
+        else:
+            state = f"stopped at line {journal.next_line}{why}; drawing it again would draw over what is on the paper."
+        raise PlotError(f"the job of {gcode} {state} Resume it with: {how} — or start over with --restart")

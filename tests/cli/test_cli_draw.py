@@ -124,6 +124,12 @@ def test_a_stopped_job_is_not_drawn_again_from_line_1_without_restart(capsys, tm
     sent = len(protocol_sim.plotter("jobs1").firmware.log)
     code, err = run(capsys, str(path), "--port", "sim://jobs1")
     assert code == 3 and "stopped at line" in err and journal["resume"] in err and "--restart" in err
+    record = path.with_name(path.name + ".job.json")
+    record.write_text(json.dumps({**json.loads(record.read_text()), "status": "running"}))  # a killed sender's
+    code, err = run(capsys, str(path), "--port", "sim://jobs1")
+    assert code == 3 and "is being drawn now (on sim://jobs1" in err and "or its sender was killed at line" in err
+    assert journal["resume"] in err
+    record.write_text(json.dumps({**json.loads(record.read_text()), "status": "stopped"}))
     assert len(protocol_sim.plotter("jobs1").firmware.log) == sent  # nothing was sent
     code, err = run(capsys, str(path), "--port", "sim://jobs1", "--profile", str(profile), "--restart", "-q")
     assert code == 0, err

@@ -83,8 +83,10 @@ def test_second_draw_on_a_pty_in_use_is_one_message_and_the_first_is_exact(long_
             target=lambda: _catch(errors, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]))
         first.start()
         started(plotter, first)
+        other = path.with_name("another.gcode")  # another job (the same file's own journal would refuse it)
+        other.write_bytes(path.read_bytes())
         second = subprocess.run(
-            [sys.executable, "-m", "pencilbot.cli", "draw", str(path), "--port", server.path, "--profile", PROFILE],
+            [sys.executable, "-m", "pencilbot.cli", "draw", str(other), "--port", server.path, "--profile", PROFILE],
             capture_output=True, text=True, timeout=60)
         assert first.is_alive()  # the second gave up at once, not after waiting on the board
         first.join(60)

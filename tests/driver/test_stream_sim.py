@@ -39,17 +39,20 @@ def fresh(options: str = "") -> tuple[str, str]:
 
 def drawing(strokes: int = 12, per_stroke: int = 6, seed: int = 1, profile: str = PROFILE) -> list[str]:
     """A small plot: short random-walk strokes, pen commands from the profile, a comment or two."""
-    pen = load_profile(profile).pen_model
+    loaded = load_profile(profile)
+    pen = loaded.pen_model
+    # Machine coordinates on the bed: a bed homed at the far corner counts X or Y negative.
+    sx, sy = (-1.0 if loaded.bed.invert_x else 1.0), (-1.0 if loaded.bed.invert_y else 1.0)
     up, down = list(pen.up_lines), list(pen.down_lines)
     rng = np.random.default_rng(seed)
     lines = ["G21 ; mm", "G90", *up]
     x, y = 60.0, 80.0
     for _ in range(strokes):
         x, y = x + rng.uniform(-8, 8), y + rng.uniform(-8, 8)
-        lines += [f"G0 X{x:.3f} Y{y:.3f}", *down]
+        lines += [f"G0 X{sx * x:.3f} Y{sy * y:.3f}", *down]
         for _ in range(per_stroke):
             x, y = x + rng.uniform(-3, 3), y + rng.uniform(-3, 3)
-            lines.append(f"G1 X{x:.3f} Y{y:.3f} F3000")
+            lines.append(f"G1 X{sx * x:.3f} Y{sy * y:.3f} F3000")
         lines += up
     return lines
 

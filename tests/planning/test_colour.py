@@ -38,9 +38,15 @@ def lab(rgb) -> np.ndarray:
 def test_a_pens_own_colour_is_drawn_with_that_pen_alone(name, data, amount):
     pens = load_pens(name).load_order
     index = data.draw(st.integers(0, len(pens) - 1))
-    found = separate(mixed(pens[index], amount).reshape(1, 1, 3), pens)[:, 0, 0]
-    assert found[index] == pytest.approx(amount, abs=0.02)
+    target = mixed(pens[index], amount)
+    found = separate(target.reshape(1, 1, 3), pens)[:, 0, 0]
     assert np.delete(found, index).max() < 0.02
+    # The separation trades invisible colour for less ink (its cost per unit of ink), so it is
+    # judged by colour: the stacked inks it chose are the pen's own colour to well under a
+    # just-noticeable difference, and the amount is close (light tones come out ~0.02 short).
+    got = inks_on_paper([np.full((1, 1), a) for a in found], [pen.color for pen in pens])[0, 0]
+    assert deltaE_ciede2000(lab(target), lab(got)) < 1.0
+    assert found[index] == pytest.approx(amount, abs=0.03)
 
 
 @settings(max_examples=30, deadline=None)

@@ -110,7 +110,9 @@ def test_no_reversal_of_a_run_shortens_the_result(ps, home):
     for i in range(len(out)):
         for j in range(i, len(out)):
             turned = out[:i] + [p[::-1] for p in out[i : j + 1][::-1]] + out[j + 1 :]
-            assert travel_length(turned, home) >= travel - 1e-9
+            # The ordering compares moves in float32 (issue 16): ties within its rounding
+            # (~1e-7 of the coordinates) are not a shorter order missed.
+            assert travel_length(turned, home) >= travel - 1e-6 * max(1.0, travel)
 
 
 def test_improvement_beats_greedy_nearest_neighbour_on_random_strokes():
