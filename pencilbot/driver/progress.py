@@ -52,7 +52,7 @@ class Progress:
             self._bar = tqdm(
                 total=100.0,
                 dynamic_ncols=True,
-                bar_format="{percentage:3.0f}% of plot time |{bar}| {elapsed} elapsed, {postfix}",
+                bar_format="{percentage:3.0f}% of plot time |{bar}| {elapsed} elapsed{postfix}",  # tqdm puts ", " before a postfix
             )
 
     def eta(self, done_seconds: float) -> float:

@@ -82,3 +82,12 @@ def test_eta_is_the_motion_estimate_left_slowed_to_the_observed_pace():
     progress.started -= 40.0  # 40 s of wall time went by ...
     assert progress.eta(20.0) == pytest.approx(80.0 * 2.0, rel=0.01)  # ... for 20 s of motion
     assert progress.eta(60.0) == pytest.approx(40.0, rel=0.01)  # never faster than the estimate
+
+
+def test_the_bar_shows_percent_of_plot_time_elapsed_time_and_where_the_job_is(capsys):
+    progress = Progress("bar", total_lines=200, total_seconds=100.0)
+    progress.update(50, 25.0, "Run", force=True)
+    progress.close("finished")
+    bar = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
+    assert bar.startswith(" 25% of plot time |") and " elapsed, line 50/200, Run, ETA " in bar
+    assert ", ," not in bar
