@@ -280,8 +280,12 @@ def _apply(paths: list[np.ndarray], order: np.ndarray, reverse: np.ndarray) -> l
 
 
 def _dist32(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """float32 distances between rows a and b of (N, 2) float32 ``points``."""
-    delta = points[a] - points[b]
+    """float32 distances between points a and b of (N,) complex64 ``points`` (x + iy).
+
+    Gathering one 8-byte complex per point is ~4x faster than gathering rows of an (N, 2)
+    array; the subtraction is the same float32 one per coordinate.
+    """
+    delta = (points[a] - points[b]).view(np.float32).reshape(-1, 2)
     return np.sqrt(np.einsum("ij,ij->i", delta, delta))
 
 
@@ -316,7 +320,7 @@ class _Ends:
         points[0:-2:2], points[1:-2:2] = first, last
         points[-2:] = np.asarray(start, np.float64)
         self.points = points
-        self.points32 = points.astype(np.float32)
+        self.points32 = points.astype(np.float32).view(np.complex64).ravel()  # x + iy, see _dist32
         count = len(points)
         self.k = min(_NEIGHBOURS, count - 2)  # a node's own two ends are never candidates
         self.tree = cKDTree(points, balanced_tree=False)
@@ -564,13 +568,16 @@ class _Tour:
     # -- state ------------------------------------------------------------------------------
     def refresh(self) -> None:
         """Walk the cycle from home: positions and roles for 2-opt, nothing dirty."""
-        adj, pos, exits = self._adj, self._pos, self._exits
-        x = self.home
-        for t in range(self.n + 1):
-            pos[x >> 1] = t
-            exits[x] = 1
-            exits[x ^ 1] = 0
+        adj, x = self._adj, self.home
+        walk = [x]  # the exit end of each node, in travel order (the loop does only the walk)
+        step = walk.append
+        for _ in range(self.n):
             x = adj[x] ^ 1
+            step(x)
+        walk = np.array(walk, np.int32)
+        self.pos[walk >> 1] = np.arange(self.n + 1, dtype=np.int32)
+        self.exits[walk] = 1
+        self.exits[walk ^ 1] = 0
         self.dirty[:] = 0
         self.moved = 0
         self.reversed = _Intervals(self.n + 1)
@@ -767,14 +774,16 @@ class _Intervals:
     def fits(self, a: int, b: int) -> bool:
         if self.used[a] or self.used[b]:
             return False
-        tree, x, i = self.tree, 0, b  # XOR of the tags at a+1..b-1: prefix(b) ^ prefix(a+1)
-        while i > 0:
-            x ^= tree[i]
-            i &= i - 1
-        i = a + 1
-        while i > 0:
-            x ^= tree[i]
-            i &= i - 1
+        # XOR of the tags at a+1..b-1: prefix(b) ^ prefix(a+1). The two prefix walks meet at
+        # their common prefix, whose cells cancel: walk only until they meet (the larger first).
+        tree, x, i, j = self.tree, 0, b, a + 1
+        while i != j:
+            if i > j:
+                x ^= tree[i]
+                i &= i - 1
+            else:
+                x ^= tree[j]
+                j &= j - 1
         return x == 0
 
     def add(self, a: int, b: int) -> None:
