@@ -595,7 +595,15 @@ class _Tour:
         return np.arange(2 * self.n + 2, dtype=np.int32)
 
     def ends_of(self, nodes: np.ndarray) -> np.ndarray:
-        return np.unique(np.concatenate([2 * nodes, 2 * nodes + 1]).astype(np.int32))
+        # Sorted and distinct, as np.unique gives them; a mask over the nodes is cheaper.
+        nodes = self._distinct_nodes(nodes)
+        return np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel().astype(np.int32)
+
+    def _distinct_nodes(self, nodes) -> np.ndarray:
+        """Sorted distinct node ids (``np.unique``, by a mask over all nodes: no sort, no hash)."""
+        mask = np.zeros(self.n + 1, bool)
+        mask[nodes] = True
+        return np.flatnonzero(mask).astype(np.int32)
 
     # -- vectorised candidate moves ---------------------------------------------------------
     def improve(self, ends: np.ndarray) -> tuple[np.ndarray, float]:
@@ -616,7 +624,7 @@ class _Tour:
         for kd, ee, ff in zip(kind[best].tolist(), e[best].tolist(), f[best].tolist()):
             gained += self._try(kd, ee, ff, touched)
         self.held, self.tries = np.array(self._held, np.int32), len(best)
-        return np.unique(np.array(touched, np.int32)), gained
+        return self._distinct_nodes(np.array(touched, np.int32)), gained
 
     def _near_the_end(self) -> np.ndarray:
         """Ends whose moves to or from the tour's free end can gain: around the last exit."""
@@ -700,11 +708,6 @@ class _Tour:
             self._dirty[node] = 1
             self.moved += 1
 
-    def _edge_position(self, end: int) -> int:
-        """Recorded position of the travel edge at a clean end (edge t leaves position t)."""
-        t = self._pos[end >> 1]
-        return t if self._exits[end] else (t - 1) % (self.n + 1)
-
     def _try(self, kind: int, e: int, f: int, touched: list[int]) -> float:
         """Recompute move (kind, e, f) on the current tour in float64; apply it if it gains.
 
@@ -718,7 +721,12 @@ class _Tour:
         if kind == 0:
             if self._exits[e] != self._exits[f]:
                 return 0.0
-            a, b = sorted((self._edge_position(e), self._edge_position(f)))
+            # Recorded positions of the two travel edges (edge t leaves position t), in order.
+            a, b = self._pos[e >> 1], self._pos[f >> 1]
+            if not self._exits[e]:
+                a, b = (a - 1) % (self.n + 1), (b - 1) % (self.n + 1)
+            if a > b:
+                a, b = b, a
             if self._dirty[e >> 1] or self._dirty[f >> 1] or not self.reversed.fits(a, b):
                 self._held.append(e >> 1)  # may be valid: retried after a refresh
                 return 0.0
