@@ -762,36 +762,34 @@ class _Tour:
 class _Intervals:
     """A laminar set of intervals [a, b] of 0..size-1: does a new one nest or stay apart?
 
-    Each interval XORs a random 62-bit tag into a Fenwick tree at both ends, so the XOR over
+    Each interval XORs a random 62-bit tag into a cell at both ends, so the XOR of the cells
     a < t < b is 0 exactly when every interval with an end inside has both ends inside (up to a
-    2^-62 chance of a false match per test). Ends are never shared.
+    2^-62 chance of a false match per test). Ends are never shared. Tests far outnumber
+    intervals, so prefix XORs are kept in blocks of ``2^shift`` cells: a test reads four
+    numbers, an interval rewrites two slices of about √size each.
     """
 
     def __init__(self, size: int) -> None:
-        self.tree = [0] * (size + 1)
+        self.shift = max(4, (max(size, 1).bit_length() + 1) // 2)
+        self.within = np.zeros(size, np.uint64)  # XOR of the cells from the block start to t
+        self.before = np.zeros((size >> self.shift) + 2, np.uint64)  # XOR of the blocks before
+        self._within, self._before = memoryview(self.within), memoryview(self.before)
         self.used = bytearray(size)
         self.rng = random.Random(size)
 
-    def _toggle(self, i: int, tag: int) -> None:
-        tree = self.tree
-        i += 1
-        while i < len(tree):
-            tree[i] ^= tag
-            i += i & -i
+    def _toggle(self, t: int, tag: int) -> None:
+        block = t >> self.shift
+        self.within[t : (block + 1) << self.shift] ^= tag
+        self.before[block + 1 :] ^= tag
 
     def fits(self, a: int, b: int) -> bool:
         if self.used[a] or self.used[b]:
             return False
-        # XOR of the tags at a+1..b-1: prefix(b) ^ prefix(a+1). The two prefix walks meet at
-        # their common prefix, whose cells cancel: walk only until they meet (the larger first).
-        tree, x, i, j = self.tree, 0, b, a + 1
-        while i != j:
-            if i > j:
-                x ^= tree[i]
-                i &= i - 1
-            else:
-                x ^= tree[j]
-                j &= j - 1
+        # XOR of the cells a+1..b-1: (XOR of 0..b-1) ^ (XOR of 0..a).
+        within, before, shift = self._within, self._before, self.shift
+        x = before[a >> shift] ^ within[a]
+        if b:
+            x ^= before[(b - 1) >> shift] ^ within[b - 1]
         return x == 0
 
     def add(self, a: int, b: int) -> None:
