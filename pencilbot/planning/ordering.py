@@ -355,11 +355,10 @@ def _greedy(ends: _Ends) -> tuple[np.ndarray, np.ndarray]:
     used = bytearray(n + 1)
     used[n] = 1  # home
     nbr = memoryview(np.ascontiguousarray(ends.neighbours).ravel())
-    order = np.empty(n, np.int64)
-    reverse = np.empty(n, bool)
+    order, reverse = [], []  # lists: a numpy scalar store costs more than the step's search
     tree, tree_ids, stale = ends.tree, np.arange(2 * (n + 1), dtype=np.int32), 0
     current = 2 * n + 1  # end id at which the pen stands: home
-    for step in range(n):
+    for _ in range(n):
         chosen = -1
         for c in range(current * k, current * k + k):
             e = nbr[c]
@@ -383,10 +382,10 @@ def _greedy(ends: _Ends) -> tuple[np.ndarray, np.ndarray]:
         node = chosen >> 1
         used[node] = 1
         stale += 2
-        order[step] = node
-        reverse[step] = chosen & 1  # entered at its last point
+        order.append(node)
+        reverse.append(chosen & 1)  # entered at its last point
         current = chosen ^ 1  # leave by the other end
-    return order, reverse
+    return np.array(order, np.int64), np.array(reverse, bool)
 
 
 def _adjacency(order: np.ndarray, reverse: np.ndarray) -> np.ndarray:
@@ -657,11 +656,12 @@ class _Tour:
         de, df = self.travel[e], self.travel[f]
         # A move that shortens the tour adds an edge shorter than one it removes next to it
         # (the gain criterion of Lin–Kernighan), so other pairs cannot start an improving move.
-        m = (d < np.maximum(de, df)) & ((e >> 1) != (f >> 1))
+        # (Masks as indices: converted once, then taken from every array.)
+        m = np.flatnonzero((d < np.maximum(de, df)) & ((e >> 1) != (f >> 1)))
         e, f, d, de, df = (x[m] for x in (e, f, d, de, df))
         adj = self.adj
         ae, af = adj[e], adj[f]
-        m = f != ae
+        m = np.flatnonzero(f != ae)
         e, f, ae, af, d, de, df = (x[m] for x in (e, f, ae, af, d, de, df))
         kinds, es, fs, gains = [], [], [], []
 
