@@ -261,7 +261,13 @@ def join_touching(paths: Sequence[np.ndarray], tolerance: float, *, min_length: 
 
 
 def _nonempty(paths: Sequence[np.ndarray]) -> list[np.ndarray]:
-    arrays = [np.asarray(p, np.float64).reshape(-1, 2) for p in paths]
+    # (N, 2) float64 arrays as they are: asarray and reshape cost ~0.4 µs a path, at 1M paths.
+    f64 = np.dtype(np.float64)
+    arrays = [
+        p if type(p) is np.ndarray and p.dtype is f64 and p.ndim == 2 and p.shape[1] == 2
+        else np.asarray(p, np.float64).reshape(-1, 2)
+        for p in paths
+    ]
     return [p for p in arrays if len(p)]
 
 
@@ -619,9 +625,9 @@ class _Tour:
         best = best[np.argsort(-gain[best], kind="stable")]
         touched: list[int] = []
         self._held: list[int] = []
-        gained = 0.0
+        gained, attempt = 0.0, self._try
         for kd, ee, ff in zip(kind[best].tolist(), e[best].tolist(), f[best].tolist()):
-            gained += self._try(kd, ee, ff, touched)
+            gained += attempt(kd, ee, ff, touched)
         self.held, self.tries = np.array(self._held, np.int32), len(best)
         return self._distinct_nodes(np.array(touched, np.int32)), gained
 
@@ -690,10 +696,11 @@ class _Tour:
 
     # -- scalar check and application --------------------------------------------------------
     def _gap(self, a: int, b: int) -> float:
-        if a == self.free or b == self.free:
+        free = self.free
+        if a == free or b == free:
             return 0.0
-        xy = self._xy
-        d = math.hypot(xy[2 * a] - xy[2 * b], xy[2 * a + 1] - xy[2 * b + 1])
+        xy, a, b = self._xy, 2 * a, 2 * b
+        d = math.hypot(xy[a] - xy[b], xy[a + 1] - xy[b + 1])
         return d if d > self.free_gap else 0.0
 
     def _link(self, a: int, b: int) -> None:
@@ -714,23 +721,25 @@ class _Tour:
         Returns the gain in mm (0 when not applied); the nodes around the changed edges are
         added to ``touched``.
         """
-        adj = self._adj
+        adj, gap = self._adj, self._gap  # (locals: this runs about once per path and pass)
         ae, af = adj[e], adj[f]
         if (e >> 1) == (f >> 1) or f == ae:
             return 0.0
         if kind == 0:
-            if self._exits[e] != self._exits[f]:
+            exits = self._exits
+            if exits[e] != exits[f]:
                 return 0.0
             # Recorded positions of the two travel edges (edge t leaves position t), in order.
-            a, b = self._pos[e >> 1], self._pos[f >> 1]
-            if not self._exits[e]:
+            pos, dirty = self._pos, self._dirty
+            a, b = pos[e >> 1], pos[f >> 1]
+            if not exits[e]:
                 a, b = (a - 1) % (self.n + 1), (b - 1) % (self.n + 1)
             if a > b:
                 a, b = b, a
-            if self._dirty[e >> 1] or self._dirty[f >> 1] or not self.reversed.fits(a, b):
+            if dirty[e >> 1] or dirty[f >> 1] or not self.reversed.fits(a, b):
                 self._held.append(e >> 1)  # may be valid: retried after a refresh
                 return 0.0
-            gain = self._gap(e, ae) + self._gap(f, af) - self._gap(e, f) - self._gap(ae, af)
+            gain = gap(e, ae) + gap(f, af) - gap(e, f) - gap(ae, af)
             if gain <= _EPS:
                 return 0.0
             self.reversed.add(a, b)
@@ -746,8 +755,8 @@ class _Tour:
         ag = adj[g]
         if (e >> 1) in run or e == af or e == ag or g == af or len(set(run)) < kind:
             return 0.0
-        gain = self._gap(f, af) + self._gap(g, ag) + self._gap(e, ae)
-        gain -= self._gap(af, ag) + self._gap(e, f) + self._gap(g, ae)
+        gain = gap(f, af) + gap(g, ag) + gap(e, ae)
+        gain -= gap(af, ag) + gap(e, f) + gap(g, ae)
         if gain <= _EPS:
             return 0.0
         for node in run:
