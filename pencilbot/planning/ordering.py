@@ -261,7 +261,13 @@ def join_touching(paths: Sequence[np.ndarray], tolerance: float, *, min_length: 
 
 
 def _nonempty(paths: Sequence[np.ndarray]) -> list[np.ndarray]:
-    arrays = [np.asarray(p, np.float64).reshape(-1, 2) for p in paths]
+    # (N, 2) float64 arrays as they are: asarray and reshape cost ~0.4 µs a path, at 1M paths.
+    f64 = np.dtype(np.float64)
+    arrays = [
+        p if type(p) is np.ndarray and p.dtype is f64 and p.ndim == 2 and p.shape[1] == 2
+        else np.asarray(p, np.float64).reshape(-1, 2)
+        for p in paths
+    ]
     return [p for p in arrays if len(p)]
 
 
@@ -280,8 +286,12 @@ def _apply(paths: list[np.ndarray], order: np.ndarray, reverse: np.ndarray) -> l
 
 
 def _dist32(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """float32 distances between rows a and b of (N, 2) float32 ``points``."""
-    delta = points[a] - points[b]
+    """float32 distances between points a and b of (N,) complex64 ``points`` (x + iy).
+
+    Gathering one 8-byte complex per point is ~4x faster than gathering rows of an (N, 2)
+    array; the subtraction is the same float32 one per coordinate.
+    """
+    delta = (points[a] - points[b]).view(np.float32).reshape(-1, 2)
     return np.sqrt(np.einsum("ij,ij->i", delta, delta))
 
 
@@ -316,7 +326,7 @@ class _Ends:
         points[0:-2:2], points[1:-2:2] = first, last
         points[-2:] = np.asarray(start, np.float64)
         self.points = points
-        self.points32 = points.astype(np.float32)
+        self.points32 = points.astype(np.float32).view(np.complex64).ravel()  # x + iy, see _dist32
         count = len(points)
         self.k = min(_NEIGHBOURS, count - 2)  # a node's own two ends are never candidates
         self.tree = cKDTree(points, balanced_tree=False)
@@ -351,11 +361,10 @@ def _greedy(ends: _Ends) -> tuple[np.ndarray, np.ndarray]:
     used = bytearray(n + 1)
     used[n] = 1  # home
     nbr = memoryview(np.ascontiguousarray(ends.neighbours).ravel())
-    order = np.empty(n, np.int64)
-    reverse = np.empty(n, bool)
+    order, reverse = [], []  # lists: a numpy scalar store costs more than the step's search
     tree, tree_ids, stale = ends.tree, np.arange(2 * (n + 1), dtype=np.int32), 0
     current = 2 * n + 1  # end id at which the pen stands: home
-    for step in range(n):
+    for _ in range(n):
         chosen = -1
         for c in range(current * k, current * k + k):
             e = nbr[c]
@@ -379,10 +388,10 @@ def _greedy(ends: _Ends) -> tuple[np.ndarray, np.ndarray]:
         node = chosen >> 1
         used[node] = 1
         stale += 2
-        order[step] = node
-        reverse[step] = chosen & 1  # entered at its last point
+        order.append(node)
+        reverse.append(chosen & 1)  # entered at its last point
         current = chosen ^ 1  # leave by the other end
-    return order, reverse
+    return np.array(order, np.int64), np.array(reverse, bool)
 
 
 def _adjacency(order: np.ndarray, reverse: np.ndarray) -> np.ndarray:
@@ -564,13 +573,16 @@ class _Tour:
     # -- state ------------------------------------------------------------------------------
     def refresh(self) -> None:
         """Walk the cycle from home: positions and roles for 2-opt, nothing dirty."""
-        adj, pos, exits = self._adj, self._pos, self._exits
-        x = self.home
-        for t in range(self.n + 1):
-            pos[x >> 1] = t
-            exits[x] = 1
-            exits[x ^ 1] = 0
+        adj, x = self._adj, self.home
+        walk = [x]  # the exit end of each node, in travel order (the loop does only the walk)
+        step = walk.append
+        for _ in range(self.n):
             x = adj[x] ^ 1
+            step(x)
+        walk = np.array(walk, np.int32)
+        self.pos[walk >> 1] = np.arange(self.n + 1, dtype=np.int32)
+        self.exits[walk] = 1
+        self.exits[walk ^ 1] = 0
         self.dirty[:] = 0
         self.moved = 0
         self.reversed = _Intervals(self.n + 1)
@@ -588,7 +600,15 @@ class _Tour:
         return np.arange(2 * self.n + 2, dtype=np.int32)
 
     def ends_of(self, nodes: np.ndarray) -> np.ndarray:
-        return np.unique(np.concatenate([2 * nodes, 2 * nodes + 1]).astype(np.int32))
+        # Sorted and distinct, as np.unique gives them; a mask over the nodes is cheaper.
+        nodes = self._distinct_nodes(nodes)
+        return np.stack([2 * nodes, 2 * nodes + 1], axis=1).ravel().astype(np.int32)
+
+    def _distinct_nodes(self, nodes) -> np.ndarray:
+        """Sorted distinct node ids (``np.unique``, by a mask over all nodes: no sort, no hash)."""
+        mask = np.zeros(self.n + 1, bool)
+        mask[nodes] = True
+        return np.flatnonzero(mask).astype(np.int32)
 
     # -- vectorised candidate moves ---------------------------------------------------------
     def improve(self, ends: np.ndarray) -> tuple[np.ndarray, float]:
@@ -605,11 +625,11 @@ class _Tour:
         best = best[np.argsort(-gain[best], kind="stable")]
         touched: list[int] = []
         self._held: list[int] = []
-        gained = 0.0
+        gained, attempt = 0.0, self._try
         for kd, ee, ff in zip(kind[best].tolist(), e[best].tolist(), f[best].tolist()):
-            gained += self._try(kd, ee, ff, touched)
+            gained += attempt(kd, ee, ff, touched)
         self.held, self.tries = np.array(self._held, np.int32), len(best)
-        return np.unique(np.array(touched, np.int32)), gained
+        return self._distinct_nodes(np.array(touched, np.int32)), gained
 
     def _near_the_end(self) -> np.ndarray:
         """Ends whose moves to or from the tour's free end can gain: around the last exit."""
@@ -642,11 +662,12 @@ class _Tour:
         de, df = self.travel[e], self.travel[f]
         # A move that shortens the tour adds an edge shorter than one it removes next to it
         # (the gain criterion of Lin–Kernighan), so other pairs cannot start an improving move.
-        m = (d < np.maximum(de, df)) & ((e >> 1) != (f >> 1))
+        # (Masks as indices: converted once, then taken from every array.)
+        m = np.flatnonzero((d < np.maximum(de, df)) & ((e >> 1) != (f >> 1)))
         e, f, d, de, df = (x[m] for x in (e, f, d, de, df))
         adj = self.adj
         ae, af = adj[e], adj[f]
-        m = f != ae
+        m = np.flatnonzero(f != ae)
         e, f, ae, af, d, de, df = (x[m] for x in (e, f, ae, af, d, de, df))
         kinds, es, fs, gains = [], [], [], []
 
@@ -675,10 +696,11 @@ class _Tour:
 
     # -- scalar check and application --------------------------------------------------------
     def _gap(self, a: int, b: int) -> float:
-        if a == self.free or b == self.free:
+        free = self.free
+        if a == free or b == free:
             return 0.0
-        xy = self._xy
-        d = math.hypot(xy[2 * a] - xy[2 * b], xy[2 * a + 1] - xy[2 * b + 1])
+        xy, a, b = self._xy, 2 * a, 2 * b
+        d = math.hypot(xy[a] - xy[b], xy[a + 1] - xy[b + 1])
         return d if d > self.free_gap else 0.0
 
     def _link(self, a: int, b: int) -> None:
@@ -693,29 +715,31 @@ class _Tour:
             self._dirty[node] = 1
             self.moved += 1
 
-    def _edge_position(self, end: int) -> int:
-        """Recorded position of the travel edge at a clean end (edge t leaves position t)."""
-        t = self._pos[end >> 1]
-        return t if self._exits[end] else (t - 1) % (self.n + 1)
-
     def _try(self, kind: int, e: int, f: int, touched: list[int]) -> float:
         """Recompute move (kind, e, f) on the current tour in float64; apply it if it gains.
 
         Returns the gain in mm (0 when not applied); the nodes around the changed edges are
         added to ``touched``.
         """
-        adj = self._adj
+        adj, gap = self._adj, self._gap  # (locals: this runs about once per path and pass)
         ae, af = adj[e], adj[f]
         if (e >> 1) == (f >> 1) or f == ae:
             return 0.0
         if kind == 0:
-            if self._exits[e] != self._exits[f]:
+            exits = self._exits
+            if exits[e] != exits[f]:
                 return 0.0
-            a, b = sorted((self._edge_position(e), self._edge_position(f)))
-            if self._dirty[e >> 1] or self._dirty[f >> 1] or not self.reversed.fits(a, b):
+            # Recorded positions of the two travel edges (edge t leaves position t), in order.
+            pos, dirty = self._pos, self._dirty
+            a, b = pos[e >> 1], pos[f >> 1]
+            if not exits[e]:
+                a, b = (a - 1) % (self.n + 1), (b - 1) % (self.n + 1)
+            if a > b:
+                a, b = b, a
+            if dirty[e >> 1] or dirty[f >> 1] or not self.reversed.fits(a, b):
                 self._held.append(e >> 1)  # may be valid: retried after a refresh
                 return 0.0
-            gain = self._gap(e, ae) + self._gap(f, af) - self._gap(e, f) - self._gap(ae, af)
+            gain = gap(e, ae) + gap(f, af) - gap(e, f) - gap(ae, af)
             if gain <= _EPS:
                 return 0.0
             self.reversed.add(a, b)
@@ -731,8 +755,8 @@ class _Tour:
         ag = adj[g]
         if (e >> 1) in run or e == af or e == ag or g == af or len(set(run)) < kind:
             return 0.0
-        gain = self._gap(f, af) + self._gap(g, ag) + self._gap(e, ae)
-        gain -= self._gap(af, ag) + self._gap(e, f) + self._gap(g, ae)
+        gain = gap(f, af) + gap(g, ag) + gap(e, ae)
+        gain -= gap(af, ag) + gap(e, f) + gap(g, ae)
         if gain <= _EPS:
             return 0.0
         for node in run:
@@ -747,34 +771,34 @@ class _Tour:
 class _Intervals:
     """A laminar set of intervals [a, b] of 0..size-1: does a new one nest or stay apart?
 
-    Each interval XORs a random 62-bit tag into a Fenwick tree at both ends, so the XOR over
+    Each interval XORs a random 62-bit tag into a cell at both ends, so the XOR of the cells
     a < t < b is 0 exactly when every interval with an end inside has both ends inside (up to a
-    2^-62 chance of a false match per test). Ends are never shared.
+    2^-62 chance of a false match per test). Ends are never shared. Tests far outnumber
+    intervals, so prefix XORs are kept in blocks of ``2^shift`` cells: a test reads four
+    numbers, an interval rewrites two slices of about √size each.
     """
 
     def __init__(self, size: int) -> None:
-        self.tree = [0] * (size + 1)
+        self.shift = max(4, (max(size, 1).bit_length() + 1) // 2)
+        self.within = np.zeros(size, np.uint64)  # XOR of the cells from the block start to t
+        self.before = np.zeros((size >> self.shift) + 2, np.uint64)  # XOR of the blocks before
+        self._within, self._before = memoryview(self.within), memoryview(self.before)
         self.used = bytearray(size)
         self.rng = random.Random(size)
 
-    def _toggle(self, i: int, tag: int) -> None:
-        tree = self.tree
-        i += 1
-        while i < len(tree):
-            tree[i] ^= tag
-            i += i & -i
+    def _toggle(self, t: int, tag: int) -> None:
+        block = t >> self.shift
+        self.within[t : (block + 1) << self.shift] ^= tag
+        self.before[block + 1 :] ^= tag
 
     def fits(self, a: int, b: int) -> bool:
         if self.used[a] or self.used[b]:
             return False
-        tree, x, i = self.tree, 0, b  # XOR of the tags at a+1..b-1: prefix(b) ^ prefix(a+1)
-        while i > 0:
-            x ^= tree[i]
-            i &= i - 1
-        i = a + 1
-        while i > 0:
-            x ^= tree[i]
-            i &= i - 1
+        # XOR of the cells a+1..b-1: (XOR of 0..b-1) ^ (XOR of 0..a).
+        within, before, shift = self._within, self._before, self.shift
+        x = before[a >> shift] ^ within[a]
+        if b:
+            x ^= before[(b - 1) >> shift] ^ within[b - 1]
         return x == 0
 
     def add(self, a: int, b: int) -> None:

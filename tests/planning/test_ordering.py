@@ -276,3 +276,21 @@ def test_short_paths_are_never_joined_even_when_they_touch():
     assert len(joined) == 3  # the two runs zig-zag into one path, the dashes stay apart
     assert len(joined[0]) == 4
     assert len(join_touching([dash_a, dash_b], tolerance=1.0)) == 1  # without the rule they join
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.integers(1, 300), st.lists(st.tuples(st.integers(0, 299), st.integers(0, 299)), max_size=40))
+def test_interval_set_accepts_exactly_the_intervals_that_nest_or_stay_apart(size, proposed):
+    """The 2-opt interval test against a direct check over every accepted interval (the block
+    prefix XORs span several blocks once size > 16, and position 0 is the home's edge)."""
+    intervals, accepted = ordering._Intervals(size), []
+    for a, b in proposed:
+        a, b = sorted((a % size, b % size))
+        used = {t for iv in accepted for t in iv}
+        # An accepted [c, d] with exactly one end strictly inside (a, b) crosses it.
+        crossing = any((a < c < b) != (a < d < b) for c, d in accepted)
+        expected = a not in used and b not in used and not crossing
+        assert intervals.fits(a, b) == expected
+        if expected and a < b:
+            intervals.add(a, b)
+            accepted.append((a, b))
