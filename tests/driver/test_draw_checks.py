@@ -19,7 +19,7 @@ from pencilbot.configs_io import config_folder
 from pencilbot.driver import draw
 from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import load_job
-from pencilbot.errors import OutOfBedError, PlotError
+from pencilbot.errors import OutOfBedError
 from pencilbot.export.gcode import write_gcode
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan

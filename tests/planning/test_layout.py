@@ -7,7 +7,6 @@ from hypothesis import strategies as st
 
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.layout import Layout, page_size
-from pencilbot.planning.plan import Page
 
 
 @pytest.mark.parametrize(
