@@ -298,7 +298,10 @@ def _dist32(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _morton_order(points: np.ndarray) -> np.ndarray:
     """Indices that sort ``points`` along a Z-order curve on a 65 536² grid over their extent."""
     low = points.min(axis=0)
-    extent = float((points.max(axis=0) - low).max())
+    with np.errstate(over="ignore"):
+        extent = float((points.max(axis=0) - low).max())
+    if not np.isfinite(extent):  # ends near the float limit: their differences overflow, halves do not
+        return _morton_order(points / 2)
     cells = ((points - low) * (65535.0 / extent if extent > 0 else 0.0)).astype(np.uint64)
 
     def spread(v):  # 16 bits → every other of 32 bits
