@@ -137,19 +137,9 @@ def pen_down_m(gray: np.ndarray, name: str) -> float:
 
 def hatched_peer(image: LoadedImage, name: str) -> dict:
     """hatched's default three-level diagonal hatching, pitch 1 mm (0.5 mm pen), on the same box."""
-    import hatched
-    from shapely.geometry import MultiLineString
+    from hatched_compat import patch_hatched
 
-    def lines_of(geometry=None):
-        # hatched 0.2 builds empty levels from an empty numpy array, which shapely 2 refuses,
-        # and wraps intersection results that may be collections: take their line parts.
-        if geometry is None or (isinstance(geometry, np.ndarray) and geometry.size == 0):
-            return MultiLineString()
-        if hasattr(geometry, "geoms") and not isinstance(geometry, MultiLineString):
-            return MultiLineString([g for g in geometry.geoms if g.geom_type == "LineString"])
-        return MultiLineString(geometry)
-
-    hatched.hatched.MultiLineString = lines_of
+    hatched = patch_hatched()
     page = page_size("A4", "auto", image.shape, 15.0)
     layout = Layout.fit(image.shape, page)
     with tempfile.TemporaryDirectory() as tmp:

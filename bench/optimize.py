@@ -96,16 +96,11 @@ def hatching() -> Plan:
 
 def real_hatched(python: str) -> Plan:
     """hatched 0.2's own SVG of the photo (run in ``python``), read as pencilbot reads any SVG."""
-    shim = """
-import sys, numpy as np, cv2, hatched
-from shapely.geometry import MultiLineString
-def lines_of(geometry=None):  # hatched 0.2 builds empty levels from empty arrays, which shapely 2 refuses
-    if geometry is None or (isinstance(geometry, np.ndarray) and geometry.size == 0):
-        return MultiLineString()
-    if hasattr(geometry, "geoms") and not isinstance(geometry, MultiLineString):
-        return MultiLineString([g for g in geometry.geoms if g.geom_type == "LineString"])
-    return MultiLineString(geometry)
-hatched.hatched.MultiLineString = lines_of
+    shim = f"""
+import sys
+sys.path.insert(0, {str(Path(__file__).resolve().parent)!r})
+from hatched_compat import patch_hatched
+hatched = patch_hatched()
 hatched.hatch(sys.argv[1], hatch_pitch=float(sys.argv[2]), show_plot=False, save_svg=True)
 """
     import cv2
