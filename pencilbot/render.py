@@ -36,9 +36,13 @@ import numpy as np
 
 from pencilbot.colours import inks_on_paper
 from pencilbot.errors import PencilbotError
-from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.paths import Paths
 from pencilbot.png import write_png_bands
-from pencilbot.units import MM_PER_INCH
+from pencilbot.units import DEFAULT_PEN_WIDTH, MM_PER_INCH
+
+#: Raster resolution (pixels per inch) of a preview or simulated plot when nothing says otherwise:
+#: 100 dpi is about 0.25 mm per pixel, half a pen width.
+DEFAULT_DPI = 100
 
 # Candidates per chunk: its inked pixels (~30 bytes each) stay near 50 MB; larger chunks measured
 # slower (temporaries fall out of cache), much smaller ones pay per-chunk overhead.
@@ -79,7 +83,7 @@ class Canvas:
         width_mm: float,
         height_mm: float,
         *,
-        dpi: float = 100,
+        dpi: float = DEFAULT_DPI,
         pen_width: float = DEFAULT_PEN_WIDTH,
         origin: tuple[float, float] = (0.0, 0.0),
     ) -> None:
@@ -174,7 +178,7 @@ class Bands:
         width_mm: float,
         height_mm: float,
         *,
-        dpi: float = 100,
+        dpi: float = DEFAULT_DPI,
         pen_width: float = DEFAULT_PEN_WIDTH,
         origin: tuple[float, float] = (0.0, 0.0),
     ) -> None:
@@ -226,7 +230,7 @@ def render_band(
     width_mm: float,
     height_mm: float,
     *,
-    dpi: float = 100,
+    dpi: float = DEFAULT_DPI,
     pen_width: float = DEFAULT_PEN_WIDTH,
     origin: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:
@@ -242,7 +246,7 @@ def save_drawing_png(
     width_mm: float,
     height_mm: float,
     *,
-    dpi: float = 100,
+    dpi: float = DEFAULT_DPI,
     pen_width: float = DEFAULT_PEN_WIDTH,
     travel: Paths | Sequence[np.ndarray] | None = None,
     band_pixels: int | None = None,
@@ -308,7 +312,7 @@ def save_colour_png(
     width_mm: float,
     height_mm: float,
     *,
-    dpi: float = 100,
+    dpi: float = DEFAULT_DPI,
     travel: Paths | Sequence[np.ndarray] | None = None,
     travel_pen: float = DEFAULT_PEN_WIDTH,
     band_pixels: int | None = None,
@@ -356,7 +360,7 @@ def render_paths(
     width_mm: float,
     height_mm: float,
     *,
-    dpi: float = 100,
+    dpi: float = DEFAULT_DPI,
     pen_width: float = DEFAULT_PEN_WIDTH,
     origin: tuple[float, float] = (0.0, 0.0),
 ) -> np.ndarray:

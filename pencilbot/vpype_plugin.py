@@ -35,9 +35,9 @@ from pencilbot.machine.pens import list_pen_sets, load_pens
 from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.style import default_style, list_styles, with_overrides
-from pencilbot.units import MM_PER_INCH
+from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
 
-PX_PER_MM = 96.0 / MM_PER_INCH  # vpype's unit is the CSS pixel
+PX_PER_MM = CSS_PX_PER_INCH / MM_PER_INCH  # vpype's unit is the CSS pixel
 
 
 @click.command("pencilbot")

@@ -37,6 +37,8 @@ from collections.abc import Sequence
 import numpy as np
 from scipy.spatial import cKDTree
 
+from pencilbot.units import DEFAULT_PEN_WIDTH
+
 _NEIGHBOURS = 10  # nearby ends per end: enough candidate moves, cheap to compute
 _MAX_RUN = 5  # Or-opt moves runs of up to this many paths
 _EPS = 1e-9  # mm: gains below this are float noise (decided in float64)
@@ -61,7 +63,7 @@ def order_paths(
     start: tuple[float, float] = (0.0, 0.0),
     join_tolerance: float | None = None,
     join_min_length: float = 0.0,
-    pen_width: float = 0.5,
+    pen_width: float = DEFAULT_PEN_WIDTH,
     rounds: int = DEFAULT_ROUNDS,
 ) -> list[np.ndarray]:
     """Reorder and reverse paths to shorten pen-up travel, then join paths that touch.
