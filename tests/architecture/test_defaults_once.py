@@ -27,7 +27,7 @@ HOMES = {
     "DEFAULT_PEN_WIDTH": "pencilbot/units.py",
     "MM_PER_INCH": "pencilbot/units.py",
     "CSS_PX_PER_INCH": "pencilbot/units.py",
-    "DEFAULT_DPI": "pencilbot/render.py",
+    "DEFAULT_DPI": "pencilbot/render/canvas.py",
     "DEFAULT_TIMEOUT": "pencilbot/driver/stream.py",
     "HATCH_ANGLES": "pencilbot/planning/hatching.py",
     "HATCH_COVERAGE": "pencilbot/planning/hatching.py",
