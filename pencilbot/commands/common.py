@@ -39,7 +39,8 @@ _MEMORY_SHARE = 0.75  # of the memory the system says is available
 MAX_RENDER_PIXELS = 1 << 30
 
 # Style keys a command-line option may override, by option name.
-_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
+_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width",
+                  "--hatch": "hatch"}
 
 
 def number(option: str, *, low: float | None = None, high: float, above: bool = False, whole: bool = False,
@@ -210,6 +211,8 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
+    photo.add_argument("--hatch", action=argparse.BooleanOptionalAction,
+                       help=f"draw the tone as hatching, or only the lines with --no-hatch ({_style_default('hatch')})")
 
 
 def _add_sheet_options(group, page_default: str, margin_default: str, pen_default: str) -> None:
@@ -339,7 +342,7 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
         An option that does not apply to this SVG, or the file cannot be read.
     """
     given = lambda *flags: [flag for flag in flags if _option(args, flag) not in (None, False)]  # noqa: E731
-    photo_only = given("--style", "--downscale", "--pens")
+    photo_only = given("--style", "--downscale", "--pens") + (["--hatch"] if _option(args, "--hatch") is not None else [])
     if is_plan_svg(path):
         sheet_flags = given("--page", "--orientation", "--margin", "--pen-width")
         if photo_only or sheet_flags:
@@ -421,7 +424,7 @@ def photo_style(args: argparse.Namespace) -> Style:
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:
     """Value of each style-overriding option by flag, in the order --help shows them."""
-    return {flag: getattr(args, key) for flag, key in _STYLE_OPTIONS.items()}
+    return {flag: getattr(args, key, None) for flag, key in _STYLE_OPTIONS.items()}
 
 
 def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False) -> None:
