@@ -197,3 +197,29 @@ def test_the_shortest_stroke_is_min_run_to_a_fraction_of_the_sample_step(min_run
     assert lengths.min() >= min_run - 1e-6
     # Runs just long enough are kept: the shortest stroke is the fewest sample steps that reach it.
     assert lengths.min() == pytest.approx(np.ceil(min_run / SAMPLE_STEP - 1e-9) * SAMPLE_STEP, abs=1e-6)
+
+
+def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
+    # A ramp with a pale square and a contour: what the ideal dither cannot know (dropped
+    # crumbs, crowding, a contour's own ink) leaves an error the loop must shrink, round by round.
+    from pencilbot.planning.flow import sample_image
+    from pencilbot.planning.shading import _blur, ink_on_grid
+
+    n = 100
+    layout = _layout((n, n))
+    dark = np.tile(np.clip(0.1 + 0.8 * np.arange(n) / n, 0, 1), (n, 1))
+    dark[30:70, 30:70] = 0.15
+    edges = [np.array([[25.0, 25.0], [45.0, 25.0], [45.0, 45.0]])]
+    grid = Grid(layout.drawing_box, 0.5)
+    sigma = 1.0 / grid.cell  # the loop's own judging scale: the default blur, 1 mm
+    goal = _blur(sample_image(dark, layout, grid), sigma)
+    edge_ink = ink_on_grid(edges, grid, 0.5)
+
+    def tone_error(rounds):
+        layers = shade(dark, layout, edges, rounds=rounds)
+        hatch_ink = ink_on_grid([p for layer in layers for p in layer.paths], grid, 0.5)
+        seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
+        return float(np.abs(seen - goal)[8:-8, 8:-8].mean())
+
+    uncorrected, once, twice = tone_error(1), tone_error(2), tone_error(3)
+    assert twice < once < uncorrected
