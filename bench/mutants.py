@@ -51,6 +51,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import threading
 import tomllib
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -363,14 +364,27 @@ def main(argv=None) -> None:
     started = time.monotonic()
     report: dict[str, dict] = {}
     try:
-        # The mapped tests must pass on the unmutated copy, and say how long they take.
+        # The mapped tests must pass on the unmutated copy, and say how long they take (each
+        # distinct set of tests once, on the workspaces side by side).
+        needed = sorted({m.module for ms in plan.values() for m in ms})
+        suites = sorted({tuple(TESTS[module]) for module in needed})
+
+        def clean_run(k_suite):
+            k, suite = k_suite
+            return suite, workspaces[k % len(workspaces)].run(list(suite), timeout=900)
+
+        by_suite = {}
+        for start in range(0, len(suites), len(workspaces)):
+            batch = list(enumerate(suites[start:start + len(workspaces)]))
+            with ThreadPoolExecutor(len(batch)) as pool:
+                by_suite.update(pool.map(clean_run, batch))
         clean = {}
-        for module in sorted({m.module for ms in plan.values() for m in ms}):
-            outcome, seconds = workspaces[0].run(TESTS[module], timeout=600)
+        for module in needed:
+            outcome, seconds = by_suite[tuple(TESTS[module])]
             if outcome != "survived":
                 raise SystemExit(f"mutants: error: {module}'s tests fail unmutated ({outcome}); fix them first")
             clean[module] = seconds
-        import threading
+
 
         lock = threading.Lock()
 
@@ -380,7 +394,10 @@ def main(argv=None) -> None:
             try:
                 source, _ = mutate(mutant.module, (ROOT / mutant.module).read_text(), mutant.number)
                 timeout = args.timeout or 3 * clean[mutant.module] + 20
-                return mutant, ws.run(TESTS[mutant.module], timeout, mutant.module, source)[0]
+                outcome, seconds = ws.run(TESTS[mutant.module], timeout, mutant.module, source)
+                print(f"{outcome.split(':')[0]:9s} {seconds:5.1f} s  {mutant.where()}  {mutant.operator}: "
+                      f"{mutant.before} -> {mutant.after}", file=sys.stderr, flush=True)
+                return mutant, outcome
             finally:
                 with lock:
                     free.append(ws)
