@@ -79,7 +79,7 @@ TESTS: dict[str, list[str]] = {
     "pencilbot/driver/journal.py": ["tests/driver/test_journal_progress.py", "tests/driver/test_stream_sim.py"],
     "pencilbot/driver/progress.py": ["tests/driver/test_journal_progress.py"],
     "pencilbot/driver/keys.py": ["tests/driver/test_keys.py"],
-    "pencilbot/driver/markers.py": ["tests/driver/test_job.py"],
+    "pencilbot/driver/markers.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
     "pencilbot/driver/port.py": ["tests/driver/test_port_in_use.py", "tests/driver/test_stream_sim.py"],
     "pencilbot/driver/position.py": ["tests/driver/test_stream_sim.py", "tests/driver/test_work_position_board.py",
                                      "tests/driver/test_draw_checks.py"],
