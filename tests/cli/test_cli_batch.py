@@ -14,6 +14,9 @@ from pencilbot.cli import build_parser, main
 from pencilbot.export.svg import read_svg
 
 NAMES = ["camera", "coins", "moon"]
+#: A small sheet where the sheet does not matter to what a test checks: a plan of a photo on A4
+#: costs a few seconds, and these tests run a dozen.
+SMALL = ["--page", "105x148"]
 
 
 @pytest.fixture(scope="module")
@@ -41,7 +44,7 @@ def pen_downs(path) -> int:
 
 def test_export_of_three_photos_and_a_broken_one(photos, tmp_path, capsys):
     out = tmp_path / "gcode"
-    assert main(["export", *files(photos, *NAMES, "broken"), "-o", str(out)]) == 2
+    assert main(["export", *files(photos, *NAMES, "broken"), "-o", str(out), *SMALL]) == 2
     assert sorted(p.name for p in out.iterdir()) == ["camera.gcode", "coins.gcode", "moon.gcode"]
     assert all(pen_downs(out / f"{name}.gcode") > 20 for name in NAMES)
     assert len({(out / f"{name}.gcode").read_bytes() for name in NAMES}) == 3  # each its own photo
@@ -77,14 +80,14 @@ def test_pool_and_one_by_one_write_the_same_files(photos, tmp_path, command):
     outputs = []
     for jobs in ([], ["--jobs", "1"]):
         out = tmp_path / f"out{len(jobs)}"
-        argv = [command, *files(photos, *NAMES), "-o", str(out), "-q", *jobs]
+        argv = [command, *files(photos, *NAMES), "-o", str(out), "-q", *SMALL, *jobs]
         assert main(argv) == 0
         outputs.append({p.name: p.read_bytes() for p in out.iterdir()})
     assert len(outputs[0]) == 3 and outputs[0] == outputs[1]
 
 
 def test_quiet_batch_prints_only_the_failure(photos, tmp_path, capsys):
-    assert main(["export", *files(photos, "moon", "broken"), "-o", str(tmp_path / "out"), "-q"]) == 2
+    assert main(["export", *files(photos, "moon", "broken"), "-o", str(tmp_path / "out"), "-q", *SMALL]) == 2
     captured = capsys.readouterr()
     assert captured.out == "" and captured.err.count("\n") == 1 and "broken.png" in captured.err
 

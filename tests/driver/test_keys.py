@@ -30,6 +30,7 @@ def test_keys_pause_and_stop_and_the_terminal_mode_comes_back():
         assert got == ["pause", "pause", "stop"]  # x is no key of ours
         keys.close()
         assert termios.tcgetattr(slave) == before
+        assert not keys._thread.is_alive()  # noqa: SLF001 - nothing reads the terminal after the plot
     os.close(master)
 
 

@@ -174,3 +174,18 @@ def test_locate_stop_finds_the_move_in_progress(position, expected):
 def test_locate_stop_never_looks_past_acknowledged_lines():
     # Acked up to G1X20Y0 (index 5): a position on a later move is not trusted.
     assert locate_stop(job_states(JOB), 5, (20.0, 5.0)) is None
+
+
+# A stroke drawn left to right along y = 0 (pen down), then a pen-up travel that crosses it at
+# (10, 0) on its way back: the latest move through the stop point is the travel.
+CROSSING = ["G21", "G90", "M5", "G0X0Y0", "M3S1000", "G1X20Y0F600", "M5", "G0X10Y-5", "G0X10Y5"]
+
+
+@pytest.mark.parametrize("pen_down, expected", [(True, (5, (10.0, 0.0))), (False, (8, (10.0, 0.0)))])
+def test_locate_stop_takes_the_move_drawn_with_the_pen_as_the_board_said(pen_down, expected):
+    # Stopped at (10, 0): with the pen down, inside the stroke (resend its rest from there), not
+    # inside the travel that crosses it; with the pen up, inside the travel.
+    states = job_states(CROSSING)
+    assert states[5].pen_down and not states[8].pen_down
+    assert locate_stop(states, len(CROSSING) - 1, (10.0, 0.0), pen_down=pen_down) == expected
+    assert locate_stop(job_states(CROSSING), len(CROSSING) - 1, (10.0, 0.0)) == (8, (10.0, 0.0))  # not known: the latest

@@ -172,3 +172,54 @@ def test_what_a_capped_family_cannot_lay_down_the_others_do():
     total = 1 - np.prod(1 - shares, axis=0)
     np.testing.assert_allclose(total, darkness, atol=1e-3)
     assert np.all(shares[:, 3] == 0)
+
+
+@pytest.mark.parametrize("min_run", [2.0, 2.2, 3.1, 4.0])
+def test_the_shortest_stroke_is_min_run_to_a_fraction_of_the_sample_step(min_run):
+    # Each stroke's length along its line, from the family's own arc lengths: the bound is
+    # checked far tighter than one sample step (0.4 mm), the size of an off-by-one in counting
+    # a run's samples (a polyline through every fourth sample would cut the traced line's wiggles).
+    from pencilbot.planning.flow import sample_image
+    from pencilbot.planning.hatching import SAMPLE_STEP, family_lines, hatch_strokes
+
+    layout = _layout((100, 100))
+    field_grid = Grid(layout.drawing_box, 2.0)
+    field = direction_field(np.full(field_grid.shape, 0.4), field_grid)
+    family = family_lines(field, pen_width=0.5, coverage=0.6)
+    grid = Grid(layout.drawing_box, 0.5)
+    request = sample_image(np.random.default_rng(3).random((100, 100)) * 0.6, layout, grid)
+    strokes = hatch_strokes(family, grid.sample(request, family.points), pen_width=0.5, min_run=min_run)
+    where = {tuple(p): i for i, p in enumerate(family.points)}
+    ends = np.array([(where[tuple(p[0])], where[tuple(p[-1])]) for p in strokes])
+    assert np.all(family.line[ends[:, 0]] == family.line[ends[:, 1]])
+    lengths = family.along[ends[:, 1]] - family.along[ends[:, 0]]
+    assert len(lengths) > 50
+    assert lengths.min() >= min_run - 1e-6
+    # Runs just long enough are kept: the shortest stroke is the fewest sample steps that reach it.
+    assert lengths.min() == pytest.approx(np.ceil(min_run / SAMPLE_STEP - 1e-9) * SAMPLE_STEP, abs=1e-6)
+
+
+def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
+    # A ramp with a pale square and a contour: what the ideal dither cannot know (dropped
+    # crumbs, crowding, a contour's own ink) leaves an error the loop must shrink, round by round.
+    from pencilbot.planning.flow import sample_image
+    from pencilbot.planning.shading import _blur, ink_on_grid
+
+    n = 100
+    layout = _layout((n, n))
+    dark = np.tile(np.clip(0.1 + 0.8 * np.arange(n) / n, 0, 1), (n, 1))
+    dark[30:70, 30:70] = 0.15
+    edges = [np.array([[25.0, 25.0], [45.0, 25.0], [45.0, 45.0]])]
+    grid = Grid(layout.drawing_box, 0.5)
+    sigma = 1.0 / grid.cell  # the loop's own judging scale: the default blur, 1 mm
+    goal = _blur(sample_image(dark, layout, grid), sigma)
+    edge_ink = ink_on_grid(edges, grid, 0.5)
+
+    def tone_error(rounds):
+        layers = shade(dark, layout, edges, rounds=rounds)
+        hatch_ink = ink_on_grid([p for layer in layers for p in layer.paths], grid, 0.5)
+        seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
+        return float(np.abs(seen - goal)[8:-8, 8:-8].mean())
+
+    uncorrected, once, twice = tone_error(1), tone_error(2), tone_error(3)
+    assert twice < once < uncorrected
