@@ -57,7 +57,8 @@ _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block dele
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
 _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
-FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold")
+FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt")
+_DEFAULT_CODE = {"interrupt": 2}  # SIGINT: Ctrl-C at the sender's terminal
 GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
 
@@ -73,7 +74,11 @@ class Faults:
     arrives (the port raises, the board keeps its state); ``reset@k`` reboots the board instead
     of running line k (a power cut); ``abort@k`` soft-resets it as line k arrives (a Ctrl-X
     from another program: ``ALARM:3`` if it was moving, the position kept if it was idle); ``garbage@k`` sends a line of noise before the reply to line k;
-    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``).
+    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``);
+    ``interrupt@k[:SIGNAL]`` is the person at the sender's terminal: once the board has taken
+    the bytes that brought line k, the sender's process gets signal SIGNAL (default 2, SIGINT:
+    Ctrl-C; 15 SIGTERM, 1 SIGHUP), so a stop lands at an exact line instead of at a moment of
+    the wall clock (the board runs line k as usual).
     """
 
     at: dict[int, tuple[str, int]] = field(default_factory=dict)
@@ -89,7 +94,7 @@ class Faults:
                     f"fault {item!r} is not KIND@LINE (KIND one of {', '.join(FAULT_KINDS)}; "
                     "error@LINE:CODE sets the error code)"
                 )
-            at[int(m.group(2))] = (m.group(1), int(m.group(3) or 20))
+            at[int(m.group(2))] = (m.group(1), int(m.group(3) or _DEFAULT_CODE.get(m.group(1), 20)))
         return cls(at)
 
 
@@ -205,6 +210,7 @@ class Firmware:
         self.lost_bytes = 0  # bytes dropped because the receive ring was full
         self.link_dropped = False
         self.silent = False
+        self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
         self.startup_lines = ["", ""]  # $N0, $N1 (EEPROM)
         self.build_info = ""  # $I= (EEPROM)
         self._rebooting = False
@@ -424,6 +430,8 @@ class Firmware:
             self.reset()
             self._rebooting = True  # what was in the receive buffer with it is flushed
             return
+        elif kind == "interrupt":
+            self.signal_due = code  # sent by whoever pumps the board, after this delivery
         elif kind == "hold" and self._held_index != index:
             self._held_index, self._held_line, self._hold = index, raw, True
             return

@@ -58,6 +58,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import math
+import signal
 import time
 import urllib.parse
 
@@ -177,6 +178,10 @@ class VirtualPlotter:
             self._pauses_answered = self.machine.pauses
             self.firmware.receive(_CYCLE_START)
         self._to_host.put(self.firmware.take_output(), now)
+        if self.firmware.signal_due is not None:
+            # An interrupt@ fault: the sender's terminal sends the signal once the bytes are in.
+            signum, self.firmware.signal_due = self.firmware.signal_due, None
+            signal.raise_signal(signum)
 
     def read(self) -> bytes:
         """What has reached the host so far."""

@@ -24,7 +24,7 @@ from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.resume import locate_stop, resume_preamble
+from pencilbot.driver.resume import flight_start, locate_stop, resume_preamble
 from pencilbot.driver.stream import Interrupted, Stream, StreamFault
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
@@ -35,7 +35,6 @@ JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always writt
 _PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
 #: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
 STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
-_WINDOW = 60  # job lines before the last one sent that may not have run (planner, receive buffer)
 
 
 @dataclass
@@ -348,12 +347,12 @@ class _Runner:
                 return located
         why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
         acked = job.index_of(journal.acked_line) if journal.acked_line else -1
-        here = self._reestablish(stream, why, alarm, max(acked - _WINDOW, 0))
+        here = self._reestablish(stream, why, alarm, self._flight_start(max(sent, acked)))
         located = self._locate(sent, self._job_units(here, sent))
         if located is None:
             raise PlotError(
                 f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
-                f"last lines the plotter was sent (file lines {job.number(max(sent - _WINDOW, 0))}-"
+                f"last lines the plotter was sent (file lines {job.number(self._flight_start(sent))}-"
                 f"{job.number(sent)}); the origin is set again, so continue from the line you see drawn last "
                 f"with: pencilbot draw {shlex.quote(str(journal.gcode))} --port {shlex.quote(self.port)} "
                 "--start-line N"
@@ -512,9 +511,16 @@ class _Runner:
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
-        first = max(last - _WINDOW, 0)
-        return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
-                           pen_down=pen_down, floor=floor)
+        first = self._flight_start(last)
+        # The state before the window's first line too: its move starts there.
+        return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
+                           window=last - first + 1, pen_down=pen_down, floor=floor)
+
+    def _flight_start(self, last: int) -> int:
+        """The earliest line the machine can have been running with lines up to ``last`` sent:
+        what the board's receive buffer and planner hold (its firmware's figures)."""
+        return flight_start(self.job, min(last, len(self.job) - 1), self.profile.receive_buffer,
+                            self.firmware.moves_in_flight())
 
     def _planner_floor(self, status) -> int | None:
         """The line the machine was running when it came to rest, from the planner count of the
@@ -522,10 +528,10 @@ class _Runner:
         planned are the moves of the last lines answered, one block per move."""
         if status is None or status.buffer is None or self.acked < 0:
             return None
-        queued = getattr(self.firmware.protocol, "BLOCK_BUFFER_SIZE", 0) - 1 - status.buffer[0]
+        queued = self.firmware.planner_blocks - status.buffer[0]
         if queued <= 0:
             return None
-        first = max(self.acked - _WINDOW, 0)
+        first = max(self._flight_start(self.acked) - 1, 0)
         states = self.job.states(first, self.acked + 1)
         moves = 0
         for i in range(self.acked, first, -1):
