@@ -16,10 +16,11 @@ import select
 import sys
 import threading
 
+from pencilbot.driver.position import FINE_JOG_STEP
 from pencilbot.errors import PlotError
 
 PAUSE_KEYS, STOP_KEYS = "p ", "s"
-_JOG_STEPS = {"1": 0.1, "2": 1.0, "3": 10.0}  # mm a jog key moves, by the step chosen
+_JOG_STEPS = {"1": FINE_JOG_STEP, "2": 1.0, "3": 10.0}  # mm a jog key moves, by the step chosen
 _JOG_KEYS = {"h": (-1, 0), "l": (1, 0), "j": (0, -1), "k": (0, 1)}
 
 

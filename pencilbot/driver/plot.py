@@ -193,6 +193,7 @@ class _Runner:
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
         self.operator, self.keys = operator, keys
         self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
+        self._count = None  # the board's count where it stopped (work mm), read by the stop
         self.acked = -1
         self._journal_at = 0.0
         self.announce = None
@@ -338,7 +339,7 @@ class _Runner:
             why = ("the plotter is in alarm" if alarm else
                    f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
                    "the plotter does not report its position")
-            self._reestablish(stream, why, alarm, recorded[0])
+            self._reestablish(stream, why, alarm, recorded[0], journal)
             return recorded
         if mpos is not None and not alarm and not restarted_at_zero:
             # The stop could not read the position; a board that kept its count tells it now.
@@ -347,8 +348,10 @@ class _Runner:
                 return located
         why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
         acked = job.index_of(journal.acked_line) if journal.acked_line else -1
-        here = self._reestablish(stream, why, alarm, self._flight_start(max(sent, acked)))
-        located = self._locate(sent, self._job_units(here, sent))
+        here = self._reestablish(stream, why, alarm, self._flight_start(max(sent, acked)), journal)
+        # Found by a hand (to its finest jog step), after a carriage that may have run on.
+        located = self._locate(sent, self._job_units(here, sent), tolerance=position.rezero_tolerance(),
+                               coast=position.coast_limit(self.profile.motion))
         if located is None:
             raise PlotError(
                 f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
@@ -359,7 +362,7 @@ class _Runner:
             )
         return located
 
-    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int) -> tuple[float, float]:
+    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int, journal) -> tuple[float, float]:
         """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
         to_mm = MM_PER_INCH if self.job.state_after(max(certain - 1, 0)).inches else 1.0
         mark = position.mark_before(self.job, certain, to_mm)
@@ -372,7 +375,8 @@ class _Runner:
             )
         if self.operator is None or not self.firmware.capabilities.realtime_protocol:
             raise position.refusal(why, mark, self._resume_command(), self.profile.bed.homing)
-        return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm)
+        count = tuple(journal.count_work) if journal.count_work else None
+        return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm, count)
 
     def _setup_command(self, stream: Stream, line, doing) -> None:
         reply = stream.command(line)
@@ -481,6 +485,9 @@ class _Runner:
             # (banner, no alarm) kept it if it was idle, unless it powered up counting from 0, 0.
             trusted = (at_rest or (fault.kind == "reset" and not alarm and not position.near(mpos, (0.0, 0.0))))
             proven = (work, mpos) if trusted and work is not None and mpos is not None else None
+            # Where the board counts the pen, proven or not; a board that restarted by itself
+            # unalarmed counts from where it powered up instead.
+            self._count = work if (alarm or fault.kind != "reset") else None
             if alarm and at_rest and fw.capabilities.unlock:
                 # Our own reset of a machine at rest: the position is exact, so the alarm
                 # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
@@ -506,15 +513,16 @@ class _Runner:
             return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
         return xy
 
-    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None):
-        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent)."""
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None, **how):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
+        can have been in flight (``how``: its tolerance and coast)."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
         first = self._flight_start(last)
         # The state before the window's first line too: its move starts there.
         return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
-                           window=last - first + 1, pen_down=pen_down, floor=floor)
+                           window=last - first + 1, pen_down=pen_down, floor=floor, **how)
 
     def _flight_start(self, last: int) -> int:
         """The earliest line the machine can have been running with lines up to ``last`` sent:
@@ -569,6 +577,7 @@ class _Runner:
         journal.stop_xy = list(stop_xy) if stop_xy is not None else None
         journal.stop_work = list(proven[0]) if proven is not None else None
         journal.stop_mpos = list(proven[1]) if proven is not None else None
+        journal.count_work = list(self._count) if proven is None and self._count is not None else None
         journal.status = "stopped"
         journal.message = str(fault)
         journal.resume = self._resume_command()

@@ -14,6 +14,8 @@ from pencilbot.driver.modal import ModalState, clean_line
 from pencilbot.machine.pen import PenModel
 
 _CHUNK = 256  # job lines tracked at a time when counting moves back
+#: mm: GRBL reports positions to 3 decimals, so a reported point is within this of the true one.
+REPORT_RESOLUTION = 0.001
 
 
 def resume_preamble(
@@ -110,7 +112,8 @@ def flight_start(job, last: int, receive_buffer: int, moves: int) -> int:
 
 def locate_stop(
     states, last: int, position: tuple[float, float] | None, *, window: int = 40,
-    tolerance: float = 0.005, pen_down: bool | None = None, floor: int | None = None,
+    tolerance: float = REPORT_RESOLUTION, pen_down: bool | None = None, floor: int | None = None,
+    coast: float = 0.0,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
     the last moves sent (unknown, or the machine was power-cycled or moved by hand).
@@ -136,7 +139,8 @@ def locate_stop(
     window : int
         How many lines back to look (:func:`flight_start` says how many can be in flight).
     tolerance : float
-        Distance (job units) under which the position counts as on a move.
+        Distance (job units) under which the position counts as on a move: the board's report
+        resolution for a position it reported, more for one found by a hand jog.
     pen_down : bool, optional
         Whether the pen was down when the machine stopped, if the board said (its spindle
         value or Z): a stop inside a move is only on a move drawn with the pen so (a travel
@@ -145,13 +149,18 @@ def locate_stop(
         A line the machine was running earlier (an earlier status report's position): it runs
         lines in order, so the earliest move from ``floor`` on that passes through the position
         is taken instead of the latest (a closed stroke begins and ends at the same point).
+    coast : float
+        How far (job units) the carriage may have run on past the end of a move, in its
+        direction, after the motors stopped (a reset or alarm in motion): such a point means
+        that move was finished (and overrun), so the next line is where to resume.
 
     Returns
     -------
     next_index : int
         First line to send on resume.
     stop_xy : (float, float) or None
-        Set when the machine stopped inside ``next_index``'s move.
+        Set when the machine stopped inside ``next_index``'s move: the point of the move
+        nearest ``position`` (a reported position is rounded; the resume stays on the move).
     """
     if position is None or last < 0:
         return None
@@ -168,8 +177,15 @@ def locate_stop(
         if seg == 0:
             continue
         t = ((p - start) / seg).real
-        if 0.0 <= t < 1.0 and abs(start + t * seg - p) <= tolerance:
-            if t > 0.0 and pen_down is not None and states[i].pen_down != pen_down:
+        on = start + t * seg
+        if abs(on - p) > tolerance:
+            continue
+        if 0.0 <= t < 1.0 and abs(on - start) > tolerance:
+            if pen_down is not None and states[i].pen_down != pen_down:
                 continue
-            return i, (position if t > 0.0 else None)
+            return i, (on.real, on.imag)
+        if abs(on - start) <= tolerance:
+            return i, None
+        if 1.0 <= t and abs(on - end) <= coast:
+            return i + 1, None  # ran on past the move's end
     return None
