@@ -57,7 +57,7 @@ _DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block dele
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
 _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
-FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt")
+FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt", "unplug")
 _DEFAULT_CODE = {"interrupt": 2}  # SIGINT: Ctrl-C at the sender's terminal
 GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
@@ -75,6 +75,10 @@ class Faults:
     of running line k (a power cut); ``abort@k`` soft-resets it as line k arrives (a Ctrl-X
     from another program: ``ALARM:3`` if it was moving, the position kept if it was idle); ``garbage@k`` sends a line of noise before the reply to line k;
     ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``);
+    ``unplug@k`` pulls the cable and the board's power with it as line k arrives: the link
+    drops, the board restarts (its count from 0, 0 where the carriage stands, as a power cut
+    leaves it) and its start-up banner goes to nobody, so a sender that reconnects without
+    resetting it (``reset=0``, a pty) finds it idle at 0, 0 with no banner, as a real one;
     ``interrupt@k[:SIGNAL]`` is the person at the sender's terminal: once the board has taken
     the bytes that brought line k, the sender's process gets signal SIGNAL (default 2, SIGINT:
     Ctrl-C; 15 SIGTERM, 1 SIGHUP), so a stop lands at an exact line instead of at a moment of
@@ -425,6 +429,12 @@ class Firmware:
         elif kind == "reset":
             self._reply(index, text, "-", emit=False)
             return self.power_cycle()
+        elif kind == "unplug":
+            self._reply(index, text, "-", emit=False)
+            self.power_cycle()
+            self.out.clear()  # the banner of the restart: no cable to carry it
+            self.link_dropped = True
+            return
         elif kind == "abort":
             self._reply(index, text, "-", emit=False)
             self.reset()

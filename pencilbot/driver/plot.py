@@ -194,6 +194,7 @@ class _Runner:
         self.operator, self.keys = operator, keys
         self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
         self._count = None  # the board's count where it stopped (work mm), read by the stop
+        self._mark = None  # the mark of a hand re-zero
         self.acked = -1
         self._journal_at = 0.0
         self.announce = None
@@ -339,7 +340,8 @@ class _Runner:
             why = ("the plotter is in alarm" if alarm else
                    f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
                    "the plotter does not report its position")
-            self._reestablish(stream, why, alarm, recorded[0], journal)
+            here = self._reestablish(stream, why, alarm, recorded[0], journal)
+            self._origin_from_stop(stream, here, tuple(journal.stop_work))
             return recorded
         if mpos is not None and not alarm and not restarted_at_zero:
             # The stop could not read the position; a board that kept its count tells it now.
@@ -349,9 +351,17 @@ class _Runner:
         why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
         acked = job.index_of(journal.acked_line) if journal.acked_line else -1
         here = self._reestablish(stream, why, alarm, self._flight_start(max(sent, acked)), journal)
-        # Found by a hand (to its finest jog step), after a carriage that may have run on.
-        located = self._locate(sent, self._job_units(here, sent), tolerance=position.rezero_tolerance(),
-                               coast=position.coast_limit(self.profile.motion))
+        tolerance = position.rezero_tolerance()
+        count = tuple(journal.count_work) if journal.count_work else None
+        located = None
+        if position.near(here, count, tolerance):
+            # The hand agrees with the board's count at the stop: its motors did not slip, and
+            # the count is exact where a hand is only as good as its finest step.
+            located = self._locate(sent, self._job_units(count, sent))
+        if located is None:
+            # Found by the hand, after a carriage that may have run on past a move's end.
+            located = self._locate(sent, self._job_units(here, sent), tolerance=tolerance,
+                                   coast=position.coast_limit(self.profile.motion))
         if located is None:
             raise PlotError(
                 f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
@@ -360,7 +370,22 @@ class _Runner:
                 f"with: pencilbot draw {shlex.quote(str(journal.gcode))} --port {shlex.quote(self.port)} "
                 "--start-line N"
             )
+        index, stop_xy = located
+        on_path = stop_xy if stop_xy is not None else (job.state_after(index - 1).x, job.state_after(index - 1).y)
+        to_mm = MM_PER_INCH if job.state_after(max(index - 1, 0)).inches else 1.0
+        self._origin_from_stop(stream, here, (on_path[0] * to_mm, on_path[1] * to_mm))
         return located
+
+    def _origin_from_stop(self, stream: Stream, here, stop) -> None:
+        """After a hand re-zero that put the stop at ``here`` (work mm): if the stop point on the
+        job's path (``stop``, mm: proven by the board, or the move the hand's point lies on) is
+        within the hand's tolerance of it, it is the better of the two (a vertex exactly, a
+        move across its width), so the origin is set again from it and the jog."""
+        if not position.near(here, stop, position.rezero_tolerance()) or self._mark is None:
+            return
+        mark = self._mark.xy
+        x, y = stop[0] + mark[0] - here[0], stop[1] + mark[1] - here[1]
+        self._setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}", "setting the origin from the stop point")
 
     def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int, journal) -> tuple[float, float]:
         """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
@@ -375,8 +400,8 @@ class _Runner:
             )
         if self.operator is None or not self.firmware.capabilities.realtime_protocol:
             raise position.refusal(why, mark, self._resume_command(), self.profile.bed.homing)
-        count = tuple(journal.count_work) if journal.count_work else None
-        return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm, count)
+        self._mark = mark
+        return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm)
 
     def _setup_command(self, stream: Stream, line, doing) -> None:
         reply = stream.command(line)
