@@ -71,6 +71,8 @@ CLOCKS = {"instant": "", "realtime": "&realtime=200"}
 class Hand:
     """Someone at the machine: jogs to the mark by where the carriage really is."""
 
+    jog_step = 0.0  # by the exact float: the driver's own error is what the sweep measures
+
     def __init__(self, name: str):
         self.name = name
 

@@ -78,6 +78,8 @@ class KeyReader:
 class TerminalOperator:
     """Prompts on standard error, answered with keys from a :class:`KeyReader`."""
 
+    jog_step = FINE_JOG_STEP  # the finest jog key: how close to a mark a person gets
+
     def __init__(self, keys: KeyReader, out=None):
         self.keys = keys
         self.out = out or sys.stderr

@@ -351,7 +351,7 @@ class _Runner:
         why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
         acked = job.index_of(journal.acked_line) if journal.acked_line else -1
         here = self._reestablish(stream, why, alarm, self._flight_start(max(sent, acked)), journal)
-        tolerance = position.rezero_tolerance()
+        tolerance = self._rezero_tolerance()
         count = tuple(journal.count_work) if journal.count_work else None
         located = None
         if position.near(here, count, tolerance):
@@ -376,12 +376,16 @@ class _Runner:
         self._origin_from_stop(stream, here, (on_path[0] * to_mm, on_path[1] * to_mm))
         return located
 
+    def _rezero_tolerance(self) -> float:
+        """How close to the stop a re-zero by this operator puts it (its finest jog step)."""
+        return position.rezero_tolerance(step=getattr(self.operator, "jog_step", position.FINE_JOG_STEP))
+
     def _origin_from_stop(self, stream: Stream, here, stop) -> None:
         """After a hand re-zero that put the stop at ``here`` (work mm): if the stop point on the
         job's path (``stop``, mm: proven by the board, or the move the hand's point lies on) is
         within the hand's tolerance of it, it is the better of the two (a vertex exactly, a
         move across its width), so the origin is set again from it and the jog."""
-        if not position.near(here, stop, position.rezero_tolerance()) or self._mark is None:
+        if not position.near(here, stop, self._rezero_tolerance()) or self._mark is None:
             return
         mark = self._mark.xy
         x, y = stop[0] + mark[0] - here[0], stop[1] + mark[1] - here[1]

@@ -42,7 +42,7 @@ def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JO
     width (``pen_width`` mm): an error that large would show as a gap or a doubled stretch.
     The stop point is then taken on the job's path, and the origin set again from it.
     """
-    return min(0.75 * step, pen_width / 2)
+    return max(min(0.75 * step, pen_width / 2), 1e-3)  # no finer than the board reports
 
 
 def coast_limit(motion) -> float:
@@ -63,7 +63,7 @@ def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JO
     width (``pen_width`` mm): an error that large would show as a gap or a doubled stretch.
     The resume starts on the move itself, at the vertex when the point is that close to one.
     """
-    return min(0.75 * step, pen_width / 2)
+    return max(min(0.75 * step, pen_width / 2), 1e-3)  # no finer than the board reports
 
 
 def coast_limit(motion) -> float:
@@ -91,7 +91,11 @@ def pen_down_in(status, pen) -> bool | None:
 
 
 class Operator(Protocol):
-    """Someone at the machine (the terminal of ``draw``, or ``simulate`` playing the part)."""
+    """Someone at the machine (the terminal of ``draw``, or ``simulate`` playing the part).
+
+    ``jog_step`` (optional attribute, mm): the finest step its jogs move, so how close to a mark
+    it can bring the pen (:func:`rezero_tolerance`); :data:`FINE_JOG_STEP` when not given.
+    """
 
     def pause(self, prompt: str) -> None:
         """Show ``prompt`` (a program pause: ``pen change: insert …``) and return to go on."""

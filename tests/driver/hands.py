@@ -43,6 +43,8 @@ class _Keys:
 class SteppedHand:
     """Answers pauses; re-zeroes with the terminal's jog keys (see the module docstring)."""
 
+    jog_step = FINE_JOG_STEP
+
     def __init__(self, plotter):
         self.plotter = plotter
         self.prompts: list[str] = []
