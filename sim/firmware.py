@@ -215,6 +215,7 @@ class Firmware:
         self.link_dropped = False
         self.silent = False
         self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
+        self.queries = 0  # status queries received (the line clock counts idle ones)
         self.startup_lines = ["", ""]  # $N0, $N1 (EEPROM)
         self.build_info = ""  # $I= (EEPROM)
         self._rebooting = False
@@ -302,6 +303,12 @@ class Firmware:
             self.machine.finish()
 
     @property
+    def waiting_on_motion(self) -> bool:
+        """A line is being executed and waits for the machine (planner room, a dwell), not for
+        a person (a hold, an ``M0``) or a reset (a critical alarm)."""
+        return self._task is not None and not (self._hold or self._critical or self._sleep or self.silent)
+
+    @property
     def _deaf(self) -> bool:
         """Nothing more of the bytes being received gets through: a hung board, a pulled
         cable, or a board rebooting (what was in flight is lost)."""
@@ -353,6 +360,7 @@ class Firmware:
                 self._resume()
 
     def _status_query(self) -> None:
+        self.queries += 1
         if self._critical:
             return  # GRBL's critical-alarm loop services nothing but reset
         if self._homing:
