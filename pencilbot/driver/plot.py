@@ -33,6 +33,8 @@ from pencilbot.units import MM_PER_INCH
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
 _PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
+#: A cleaned line a GRBL-protocol board answers only after every earlier move has run.
+_SYNCHRONIZING = re.compile(r"^(?:N\d+)?(?:[^G]*G0*4(?![0-9.])|[^M]*M0*[01](?![0-9.]))")
 #: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
 STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 
@@ -345,7 +347,8 @@ class _Runner:
             return recorded
         if mpos is not None and not alarm and not restarted_at_zero:
             # The stop could not read the position; a board that kept its count tells it now.
-            located = self._locate(sent, self._job_units(stream.work_position(), sent))
+            acked = job.index_of(journal.acked_line) if journal.acked_line else -1
+            located = self._locate(sent, self._job_units(stream.work_position(), sent), answered=acked)
             if located is not None:
                 return located
         why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
@@ -357,10 +360,10 @@ class _Runner:
         if position.near(here, count, tolerance):
             # The hand agrees with the board's count at the stop: its motors did not slip, and
             # the count is exact where a hand is only as good as its finest step.
-            located = self._locate(sent, self._job_units(count, sent))
+            located = self._locate(sent, self._job_units(count, sent), answered=acked)
         if located is None:
             # Found by the hand, after a carriage that may have run on past a move's end.
-            located = self._locate(sent, self._job_units(here, sent), tolerance=tolerance,
+            located = self._locate(sent, self._job_units(here, sent), answered=acked, tolerance=tolerance,
                                    coast=position.coast_limit(self.profile.motion))
         if located is None:
             raise PlotError(
@@ -469,7 +472,7 @@ class _Runner:
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
             floor = self._planner_floor(stream.rest_status)
             floor = self._floor(stream, last) if floor is None else floor
-            located = self._locate(last, self._job_units(proven[0], last), pen_down, floor)
+            located = self._locate(last, self._job_units(proven[0], last), pen_down, floor, answered=self.acked)
             if located is None:
                 proven = None  # where it stands is not on the lines it had: not a stop point
         if located is not None:
@@ -542,16 +545,32 @@ class _Runner:
             return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
         return xy
 
-    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None, **how):
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
+                answered: int | None = None, **how):
         """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
         can have been in flight (``how``: its tolerance and coast)."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
         first = self._flight_start(last)
+        # GRBL answers a dwell (or a program pause) only once every move before it has run:
+        # from the last one answered, the machine runs lines in order, so the first pass
+        # through the position after it is where it stood (a stroke that runs back over
+        # itself passes a point twice; strokes drawn before the dwell are finished).
+        sync = self._synchronized(min(last - 1 if answered is None else answered, last), first)
+        if sync is not None:
+            floor = max(floor if floor is not None else sync, sync)
         # The state before the window's first line too: its move starts there.
         return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
                            window=last - first + 1, pen_down=pen_down, floor=floor, **how)
+
+    def _synchronized(self, answered: int, first: int) -> int | None:
+        """The last line at or before ``answered`` (down to ``first``) that the firmware answers
+        only after all motion before it ran: a dwell or a program pause."""
+        for i in range(answered, max(first, 0) - 1, -1):
+            if _SYNCHRONIZING.match(self.job.line(i)):
+                return i
+        return None
 
     def _flight_start(self, last: int) -> int:
         """The earliest line the machine can have been running with lines up to ``last`` sent:
@@ -586,7 +605,8 @@ class _Runner:
             return None
         xy, status, answered = stream.seen
         bound = min(last, answered + 1)  # then, too, it ran only lines it had answered
-        found = self._locate(bound, self._job_units(xy, bound), position.pen_down_in(status, self.pen))
+        found = self._locate(bound, self._job_units(xy, bound), position.pen_down_in(status, self.pen),
+                             answered=answered)
         return None if found is None else found[0] - (found[1] is None and found[0] > 0)
 
     def _resume_command(self) -> str:
