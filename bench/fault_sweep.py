@@ -12,8 +12,10 @@ Fault kinds: Ctrl-C, SIGTERM, SIGHUP (signals the virtual plotter sends this pro
 line arrives: ``interrupt@LINE:SIGNAL``), a refused line, a hard-limit alarm, a soft reset
 (ALARM:3 in motion), the port vanishing (then plugged back: the board is reset by the open),
 and a power cycle. × GRBL and grblHAL × character counting and send-and-wait × the clock
-(``instant``: motion runs when the planner is full or a line waits for it; ``realtime``: 200×
-real time, moves still under way when the fault strikes).
+(``tick``, the default: the virtual plotter's line clock, 10 ms of machine time per line
+answered, so the machine is mid-move with its planner full when the fault strikes, the same in
+every run; ``instant``: motion runs when the planner is full or a line waits for it;
+``realtime``: 200× real time, which depends on the host's speed).
 
 Prints JSON: ``runs``; ``tracebacks`` (anything but a PlotError; must be 0) with the first few;
 ``exact`` (stopped, resumed without help, drawing exact); ``refused_then_exact`` (the first
@@ -25,8 +27,8 @@ those runs; the virtual plotter records that ink, which no sender can take back)
 line is put on the nearest dwell with character counting (the lines after it ran before the
 stop, so a refused move would change the path itself), anywhere with send-and-wait.
 
-Run: ``python bench/fault_sweep.py [--positions 50] [--clock instant,realtime]`` (``--positions 5``
-for a quick run).
+Run: ``python bench/fault_sweep.py [--positions 50] [--clock tick,instant,realtime] [--jobs 6]``
+(``--positions 5`` for a quick run).
 """
 
 from __future__ import annotations
@@ -65,7 +67,7 @@ KINDS = {
     "power cycle": "reset@{k}",
 }
 PROFILES = {"grbl": "grbl-servo-a4", "grblhal": "grblhal-servo-a3"}
-CLOCKS = {"instant": "", "realtime": "&realtime=200"}
+CLOCKS = {"tick": "&tick=0.01", "instant": "", "realtime": "&realtime=200"}
 
 
 class Hand:
@@ -164,7 +166,7 @@ def main() -> None:
     parser.add_argument("--positions", type=int, default=50, help="fault positions spread over the job")
     parser.add_argument("--kinds", default=",".join(KINDS), help="fault kinds, comma-separated")
     parser.add_argument("--firmware", default=",".join(PROFILES), help="grbl, grblhal")
-    parser.add_argument("--clock", default=",".join(CLOCKS), help="instant, realtime")
+    parser.add_argument("--clock", default="tick", help="tick (the line clock: deterministic), instant, realtime")
     parser.add_argument("--modes", default="counting,wait", help="counting, wait (send-and-wait)")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (runs mostly wait on the board)")
     args = parser.parse_args()
