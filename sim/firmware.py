@@ -56,7 +56,8 @@ _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # nee
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
 _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
-FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold")
+FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt", "unplug")
+_DEFAULT_CODE = {"interrupt": 2}  # SIGINT: Ctrl-C at the sender's terminal
 GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
 
@@ -72,7 +73,15 @@ class Faults:
     arrives (the port raises, the board keeps its state); ``reset@k`` reboots the board instead
     of running line k (a power cut); ``abort@k`` soft-resets it as line k arrives (a Ctrl-X
     from another program: ``ALARM:3`` if it was moving, the position kept if it was idle); ``garbage@k`` sends a line of noise before the reply to line k;
-    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``).
+    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``);
+    ``unplug@k`` pulls the cable and the board's power with it as line k arrives: the link
+    drops, the board restarts (its count from 0, 0 where the carriage stands, as a power cut
+    leaves it) and its start-up banner goes to nobody, so a sender that reconnects without
+    resetting it (``reset=0``, a pty) finds it idle at 0, 0 with no banner, as a real one;
+    ``interrupt@k[:SIGNAL]`` is the person at the sender's terminal: once the board has taken
+    the bytes that brought line k, the sender's process gets signal SIGNAL (default 2, SIGINT:
+    Ctrl-C; 15 SIGTERM, 1 SIGHUP), so a stop lands at an exact line instead of at a moment of
+    the wall clock (the board runs line k as usual).
     """
 
     at: dict[int, tuple[str, int]] = field(default_factory=dict)
@@ -88,7 +97,7 @@ class Faults:
                     f"fault {item!r} is not KIND@LINE (KIND one of {', '.join(FAULT_KINDS)}; "
                     "error@LINE:CODE sets the error code)"
                 )
-            at[int(m.group(2))] = (m.group(1), int(m.group(3) or 20))
+            at[int(m.group(2))] = (m.group(1), int(m.group(3) or _DEFAULT_CODE.get(m.group(1), 20)))
         return cls(at)
 
 
@@ -204,6 +213,8 @@ class Firmware:
         self.lost_bytes = 0  # bytes dropped because the receive ring was full
         self.link_dropped = False
         self.silent = False
+        self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
+        self.queries = 0  # status queries received (the line clock counts idle ones)
         self.startup_lines = ["", ""]  # $N0, $N1 (EEPROM)
         self.build_info = ""  # $I= (EEPROM)
         self._rebooting = False
@@ -291,6 +302,12 @@ class Firmware:
             self.machine.finish()
 
     @property
+    def waiting_on_motion(self) -> bool:
+        """A line is being executed and waits for the machine (planner room, a dwell), not for
+        a person (a hold, an ``M0``) or a reset (a critical alarm)."""
+        return self._task is not None and not (self._hold or self._critical or self._sleep or self.silent)
+
+    @property
     def _deaf(self) -> bool:
         """Nothing more of the bytes being received gets through: a hung board, a pulled
         cable, or a board rebooting (what was in flight is lost)."""
@@ -342,6 +359,7 @@ class Firmware:
                 self._resume()
 
     def _status_query(self) -> None:
+        self.queries += 1
         if self._critical:
             return  # GRBL's critical-alarm loop services nothing but reset
         if self._homing:
@@ -418,11 +436,19 @@ class Firmware:
         elif kind == "reset":
             self._reply(index, text, "-", emit=False)
             return self.power_cycle()
+        elif kind == "unplug":
+            self._reply(index, text, "-", emit=False)
+            self.power_cycle()
+            self.out.clear()  # the banner of the restart: no cable to carry it
+            self.link_dropped = True
+            return
         elif kind == "abort":
             self._reply(index, text, "-", emit=False)
             self.reset()
             self._rebooting = True  # what was in the receive buffer with it is flushed
             return
+        elif kind == "interrupt":
+            self.signal_due = code  # sent by whoever pumps the board, after this delivery
         elif kind == "hold" and self._held_index != index:
             self._held_index, self._held_line, self._hold = index, raw, True
             return

@@ -117,6 +117,9 @@ class Machine:
         self.offsets_changed = False  # a WCO change the next status report must show
         self.dwell_until = 0.0
         self.slip = (0.0, 0.0, 0.0)  # where the carriage is minus where GRBL counts it (mm)
+        #: Pen-down ink a coasting carriage laid past the end of its move (start, end X, Y in mm):
+        #: off the job's path, where no sender can take it back.
+        self.overruns: list[tuple[tuple[float, float], tuple[float, float]]] = []
         self.probe_position = (0.0, 0.0, 0.0)
         self.probe_succeeded = False
         self.servo_angle = self.pen.up
@@ -490,8 +493,9 @@ class Machine:
         p = self.planner
         moving = p.busy
         first = p.executing or (p.queue[0] if p.queue else None)
-        # In instant mode a queued move is taken to be under way at its cruising speed.
-        speed = self.current_speed() if p.executing is not None else (first.nominal if first else 0.0)
+        # In instant mode the machine stands at the start of the first queued move, at the speed
+        # the planner entered it with (never more than it can stop from by the move's end).
+        speed = self.current_speed() if p.executing is not None else (first.entry if first else 0.0)
         here = self.machine_position()  # moves not yet started are dropped, not reached
         cut = p.discard()
         if cut is not None:
@@ -503,6 +507,10 @@ class Machine:
             start = self.carriage_position()
             self.slip = tuple(s + u * coast for s, u in zip(self.slip, first.unit))
             self._record(start, self.carriage_position(), first.pen_down)
+            left = math.dist(here, first.end)  # of the move, before it runs past its end
+            if first.pen_down and coast > left:
+                end = self.carriage_position()
+                self.overruns.append((tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2]))
         self._close_stroke()
         return moving
 

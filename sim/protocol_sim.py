@@ -23,6 +23,13 @@ URL parts (all optional):
     ``0`` (default): instant — motion costs no wall time, the simulated clock still counts.
     ``r > 0``: the machine moves ``r`` times faster than real time (``1`` = real time), so the
     planner fills, ``ok`` waits for room and the receive buffer can overflow, as on hardware.
+``tick``
+    ``0`` (default): off. ``t > 0``: the line clock, for tests that must not depend on the host's
+    speed: each line the board answers lets ``t`` simulated seconds pass, a status query that
+    comes with no line since the last one lets 0.2 s pass (a sender waiting for the end), and a
+    line that waits for the machine (planner room, a dwell) runs on until it is answered. The
+    wall clock plays no part, so a fault at a line finds the machine at the same place, mid-move,
+    every run.
 ``faults``
     Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.firmware.Faults`.
 ``reset``
@@ -58,6 +65,7 @@ from __future__ import annotations
 import dataclasses
 import errno
 import math
+import signal
 import time
 import urllib.parse
 
@@ -69,7 +77,8 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
-_OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits", "operator")
+_OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator")
+_IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came
 _OPERATORS = ("none", "auto")
 _CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
 #: Option values a real GRBL board has: the default, so tests meet what a sender meets.
@@ -136,6 +145,8 @@ class VirtualPlotter:
         Emulated bit/s, 0 for unlimited.
     realtime : float
         0 for instant motion, else the speed-up over real time.
+    tick : float
+        > 0: the line clock (seconds a line takes; see the ``tick`` option), instead of either.
     faults : Faults
         Failures to inject.
     power, abort, limits : str
@@ -147,14 +158,16 @@ class VirtualPlotter:
     def __init__(self, profile: Profile, *, baud: int = 0, realtime: float = 0.0,
                  faults: Faults | None = None, power: str = DEFAULT_BOARD["power"],
                  abort: str = DEFAULT_BOARD["abort"], limits: str = DEFAULT_BOARD["limits"],
-                 operator: str = "none"):
+                 operator: str = "none", tick: float = 0.0):
         check_simulated(profile)
         self.operator = operator
         self._pauses_answered = 0
         self.profile = profile
         if limits == "bed":
             profile = dataclasses.replace(profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True))
-        self.machine = Machine(profile, instant=realtime == 0)
+        self.machine = Machine(profile, instant=realtime == 0 and tick == 0)
+        self.tick = tick
+        self._answered = self._queries = 0  # lines and queries the line clock has counted
         self.firmware = Firmware(self.machine, faults, power_zero=power == "zero", abort_loses=abort == "lose",
                                  init_lock=limits != "bed")
         self.realtime = realtime
@@ -172,11 +185,29 @@ class VirtualPlotter:
         now = time.monotonic()
         elapsed, self._last = now - self._last, now
         self.firmware.receive(self._to_board.take(now))
-        self.firmware.poll(elapsed * self.realtime)
+        if self.tick:
+            self._line_clock()
+        else:
+            self.firmware.poll(elapsed * self.realtime)
         if self.operator == "auto" and self.machine.pauses > self._pauses_answered:
             self._pauses_answered = self.machine.pauses
             self.firmware.receive(_CYCLE_START)
         self._to_host.put(self.firmware.take_output(), now)
+        if self.firmware.signal_due is not None:
+            # An interrupt@ fault: the sender's terminal sends the signal once the bytes are in.
+            signum, self.firmware.signal_due = self.firmware.signal_due, None
+            signal.raise_signal(signum)
+
+    def _line_clock(self) -> None:
+        """Let the simulated time of the lines and idle queries received pass (``tick``)."""
+        fw = self.firmware
+        for _ in range(1_000_000):
+            lines, queries = len(fw.log) - self._answered, fw.queries - self._queries
+            self._answered, self._queries = len(fw.log), fw.queries
+            seconds = lines * self.tick if lines else (_IDLE_QUERY if queries else 0.0)
+            if not seconds and not fw.waiting_on_motion:
+                return
+            fw.poll(seconds or self.tick)
 
     def read(self) -> bytes:
         """What has reached the host so far."""
@@ -235,11 +266,12 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     try:
         baud = int(options.get("baud", 0))
         realtime = float(options.get("realtime", 0))
+        tick = float(options.get("tick", 0))
         faults = Faults.parse(options.get("faults", ""))
     except ValueError as exc:
         raise SerialException(f"bad sim:// option: {exc}") from None
-    if baud < 0 or not 0 <= realtime < math.inf:
-        raise SerialException("sim:// baud and realtime must be 0 or positive (and realtime finite)")
+    if baud < 0 or not 0 <= realtime < math.inf or not 0 <= tick < math.inf:
+        raise SerialException("sim:// baud, realtime and tick must be 0 or positive (and finite)")
     board = {}
     for key, choices in _CHOICES.items():
         board[key] = options.get(key, DEFAULT_BOARD[key])
@@ -249,7 +281,8 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
-    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, **board)
+    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, tick=tick,
+                          **board)
 
 
 class Serial(SerialBase):

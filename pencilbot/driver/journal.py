@@ -48,6 +48,9 @@ class Journal:
         Where the pen stood when the job stopped, proven by the board at rest: work and machine
         position X, Y (mm). None: the position was lost (power cycle, reset or alarm in motion,
         a silent board or a lost port), and the resume must re-establish it.
+    count_work : list of float or None
+        Where the board counted the pen at a stop that could not prove it (a reset or alarm in
+        motion): work X, Y (mm). A re-zero whose jog agrees with it takes it as exact.
     pen : str
         The pen in use: the last pen change (``M0 (pen change: insert NAME)``) the job passed.
     options : dict
@@ -71,6 +74,7 @@ class Journal:
     stop_xy: list[float] | None = None
     stop_work: list[float] | None = None
     stop_mpos: list[float] | None = None
+    count_work: list[float] | None = None
     pen: str = ""
     options: dict = field(default_factory=dict)
     status: str = "running"

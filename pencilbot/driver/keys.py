@@ -16,10 +16,11 @@ import select
 import sys
 import threading
 
+from pencilbot.driver.position import FINE_JOG_STEP
 from pencilbot.errors import PlotError
 
 PAUSE_KEYS, STOP_KEYS = "p ", "s"
-_JOG_STEPS = {"1": 0.1, "2": 1.0, "3": 10.0}  # mm a jog key moves, by the step chosen
+_JOG_STEPS = {"1": FINE_JOG_STEP, "2": 1.0, "3": 10.0}  # mm a jog key moves, by the step chosen
 _JOG_KEYS = {"h": (-1, 0), "l": (1, 0), "j": (0, -1), "k": (0, 1)}
 
 
@@ -76,6 +77,8 @@ class KeyReader:
 
 class TerminalOperator:
     """Prompts on standard error, answered with keys from a :class:`KeyReader`."""
+
+    jog_step = FINE_JOG_STEP  # the finest jog key: how close to a mark a person gets
 
     def __init__(self, keys: KeyReader, out=None):
         self.keys = keys

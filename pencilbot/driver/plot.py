@@ -24,7 +24,7 @@ from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.resume import locate_stop, resume_preamble
+from pencilbot.driver.resume import flight_start, locate_stop, resume_preamble
 from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted, Stream, StreamFault
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
@@ -33,9 +33,10 @@ from pencilbot.units import MM_PER_INCH
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
 _PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
+#: A cleaned line a GRBL-protocol board answers only after every earlier move has run.
+_SYNCHRONIZING = re.compile(r"^(?:N\d+)?(?:[^G]*G0*4(?![0-9.])|[^M]*M0*[01](?![0-9.]))")
 #: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
 STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
-_WINDOW = 60  # job lines before the last one sent that may not have run (planner, receive buffer)
 
 
 @dataclass
@@ -195,6 +196,8 @@ class _Runner:
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
         self.operator, self.keys = operator, keys
         self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
+        self._count = None  # the board's count where it stopped (work mm), read by the stop
+        self._mark = None  # the mark of a hand re-zero
         self.acked = -1
         self._journal_at = 0.0
         self.announce = None
@@ -340,28 +343,59 @@ class _Runner:
             why = ("the plotter is in alarm" if alarm else
                    f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
                    "the plotter does not report its position")
-            self._reestablish(stream, why, alarm, recorded[0])
+            here = self._reestablish(stream, why, alarm, recorded[0], journal)
+            self._origin_from_stop(stream, here, tuple(journal.stop_work))
             return recorded
         if mpos is not None and not alarm and not restarted_at_zero:
             # The stop could not read the position; a board that kept its count tells it now.
-            located = self._locate(sent, self._job_units(stream.work_position(), sent))
+            acked = job.index_of(journal.acked_line) if journal.acked_line else -1
+            located = self._locate(sent, self._job_units(stream.work_position(), sent), answered=acked)
             if located is not None:
                 return located
         why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
         acked = job.index_of(journal.acked_line) if journal.acked_line else -1
-        here = self._reestablish(stream, why, alarm, max(acked - _WINDOW, 0))
-        located = self._locate(sent, self._job_units(here, sent))
+        here = self._reestablish(stream, why, alarm, self._flight_start(max(sent, acked)), journal)
+        tolerance = self._rezero_tolerance()
+        count = tuple(journal.count_work) if journal.count_work else None
+        located = None
+        if position.near(here, count, tolerance):
+            # The hand agrees with the board's count at the stop: its motors did not slip, and
+            # the count is exact where a hand is only as good as its finest step.
+            located = self._locate(sent, self._job_units(count, sent), answered=acked)
+        if located is None:
+            # Found by the hand, after a carriage that may have run on past a move's end.
+            located = self._locate(sent, self._job_units(here, sent), answered=acked, tolerance=tolerance,
+                                   coast=position.coast_limit(self.profile.motion))
         if located is None:
             raise PlotError(
                 f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
-                f"last lines the plotter was sent (file lines {job.number(max(sent - _WINDOW, 0))}-"
+                f"last lines the plotter was sent (file lines {job.number(self._flight_start(sent))}-"
                 f"{job.number(sent)}); the origin is set again, so continue from the line you see drawn last "
                 f"with: pencilbot draw {shlex.quote(str(journal.gcode))} --port {shlex.quote(self.port)} "
                 "--start-line N"
             )
+        index, stop_xy = located
+        on_path = stop_xy if stop_xy is not None else (job.state_after(index - 1).x, job.state_after(index - 1).y)
+        to_mm = MM_PER_INCH if job.state_after(max(index - 1, 0)).inches else 1.0
+        self._origin_from_stop(stream, here, (on_path[0] * to_mm, on_path[1] * to_mm))
         return located
 
-    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int) -> tuple[float, float]:
+    def _rezero_tolerance(self) -> float:
+        """How close to the stop a re-zero by this operator puts it (its finest jog step)."""
+        return position.rezero_tolerance(step=getattr(self.operator, "jog_step", position.FINE_JOG_STEP))
+
+    def _origin_from_stop(self, stream: Stream, here, stop) -> None:
+        """After a hand re-zero that put the stop at ``here`` (work mm): if the stop point on the
+        job's path (``stop``, mm: proven by the board, or the move the hand's point lies on) is
+        within the hand's tolerance of it, it is the better of the two (a vertex exactly, a
+        move across its width), so the origin is set again from it and the jog."""
+        if not position.near(here, stop, self._rezero_tolerance()) or self._mark is None:
+            return
+        mark = self._mark.xy
+        x, y = stop[0] + mark[0] - here[0], stop[1] + mark[1] - here[1]
+        self._setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}", "setting the origin from the stop point")
+
+    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int, journal) -> tuple[float, float]:
         """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
         to_mm = MM_PER_INCH if self.job.state_after(max(certain - 1, 0)).inches else 1.0
         mark = position.mark_before(self.job, certain, to_mm)
@@ -374,6 +408,7 @@ class _Runner:
             )
         if self.operator is None or not self.firmware.capabilities.realtime_protocol:
             raise position.refusal(why, mark, self._resume_command(), self.profile.bed.homing)
+        self._mark = mark
         return position.jog_to_mark(stream, self.profile, self.operator, mark, why, alarm)
 
     def _setup_command(self, stream: Stream, line, doing) -> None:
@@ -438,7 +473,7 @@ class _Runner:
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
             floor = self._planner_floor(stream.rest_status)
             floor = self._floor(stream, last) if floor is None else floor
-            located = self._locate(last, self._job_units(proven[0], last), pen_down, floor)
+            located = self._locate(last, self._job_units(proven[0], last), pen_down, floor, answered=self.acked)
             if located is None:
                 proven = None  # where it stands is not on the lines it had: not a stop point
         if located is not None:
@@ -483,6 +518,9 @@ class _Runner:
             # (banner, no alarm) kept it if it was idle, unless it powered up counting from 0, 0.
             trusted = (at_rest or (fault.kind == "reset" and not alarm and not position.near(mpos, (0.0, 0.0))))
             proven = (work, mpos) if trusted and work is not None and mpos is not None else None
+            # Where the board counts the pen, proven or not; a board that restarted by itself
+            # unalarmed counts from where it powered up instead.
+            self._count = work if (alarm or fault.kind != "reset") else None
             if alarm and at_rest and fw.capabilities.unlock:
                 # Our own reset of a machine at rest: the position is exact, so the alarm
                 # (GRBL's "reset with moves queued") is safe to clear to lift the pen.
@@ -508,14 +546,38 @@ class _Runner:
             return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
         return xy
 
-    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None):
-        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent)."""
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
+                answered: int | None = None, **how):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
+        can have been in flight (``how``: its tolerance and coast)."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
-        first = max(last - _WINDOW, 0)
-        return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
-                           pen_down=pen_down, floor=floor)
+        first = self._flight_start(last)
+        # GRBL answers a dwell (or a program pause) only once every move before it has run:
+        # from the last one answered, the machine runs lines in order, so the first pass
+        # through the position after it is where it stood (a stroke that runs back over
+        # itself passes a point twice; strokes drawn before the dwell are finished).
+        sync = self._synchronized(min(last - 1 if answered is None else answered, last), first)
+        if sync is not None:
+            floor = max(floor if floor is not None else sync, sync)
+        # The state before the window's first line too: its move starts there.
+        return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
+                           window=last - first + 1, pen_down=pen_down, floor=floor, **how)
+
+    def _synchronized(self, answered: int, first: int) -> int | None:
+        """The last line at or before ``answered`` (down to ``first``) that the firmware answers
+        only after all motion before it ran: a dwell or a program pause."""
+        for i in range(answered, max(first, 0) - 1, -1):
+            if _SYNCHRONIZING.match(self.job.line(i)):
+                return i
+        return None
+
+    def _flight_start(self, last: int) -> int:
+        """The earliest line the machine can have been running with lines up to ``last`` sent:
+        what the board's receive buffer and planner hold (its firmware's figures)."""
+        return flight_start(self.job, min(last, len(self.job) - 1), self.profile.receive_buffer,
+                            self.firmware.moves_in_flight())
 
     def _planner_floor(self, status) -> int | None:
         """The line the machine was running when it came to rest, from the planner count of the
@@ -523,10 +585,10 @@ class _Runner:
         planned are the moves of the last lines answered, one block per move."""
         if status is None or status.buffer is None or self.acked < 0:
             return None
-        queued = getattr(self.firmware.protocol, "BLOCK_BUFFER_SIZE", 0) - 1 - status.buffer[0]
+        queued = self.firmware.planner_blocks - status.buffer[0]
         if queued <= 0:
             return None
-        first = max(self.acked - _WINDOW, 0)
+        first = max(self._flight_start(self.acked) - 1, 0)
         states = self.job.states(first, self.acked + 1)
         moves = 0
         for i in range(self.acked, first, -1):
@@ -544,7 +606,8 @@ class _Runner:
             return None
         xy, status, answered = stream.seen
         bound = min(last, answered + 1)  # then, too, it ran only lines it had answered
-        found = self._locate(bound, self._job_units(xy, bound), position.pen_down_in(status, self.pen))
+        found = self._locate(bound, self._job_units(xy, bound), position.pen_down_in(status, self.pen),
+                             answered=answered)
         return None if found is None else found[0] - (found[1] is None and found[0] > 0)
 
     def _resume_command(self) -> str:
@@ -564,6 +627,7 @@ class _Runner:
         journal.stop_xy = list(stop_xy) if stop_xy is not None else None
         journal.stop_work = list(proven[0]) if proven is not None else None
         journal.stop_mpos = list(proven[1]) if proven is not None else None
+        journal.count_work = list(self._count) if proven is None and self._count is not None else None
         journal.status = "stopped"
         journal.message = str(fault)
         journal.resume = self._resume_command()

@@ -23,10 +23,54 @@ from typing import Protocol
 
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
+from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.paths import DEFAULT_PEN_WIDTH
 
 #: mm within which two positions the board reported (to 1 µm) are the same place.
 NEAR = 0.0015
 _SEARCH = 4096  # job lines tracked at a time when looking for the first stroke
+#: mm: the smallest step the jog keys move (:mod:`pencilbot.driver.keys`), so the closest a
+#: person can bring the pen to a mark: within half of it in X and in Y.
+FINE_JOG_STEP = 0.1
+
+
+def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JOG_STEP) -> float:
+    """How far (mm) from the true stop point a hand re-zero may put it and still find it.
+
+    A person jogging in ``step`` mm steps gets the pen within half a step of the mark in X and
+    in Y (at most ``step·√2/2`` away: 3/4 of a step covers it), never more than half the pen's
+    width (``pen_width`` mm): an error that large would show as a gap or a doubled stretch.
+    The stop point is then taken on the job's path, and the origin set again from it.
+    """
+    return max(min(0.75 * step, pen_width / 2), 1e-3)  # no finer than the board reports
+
+
+def coast_limit(motion) -> float:
+    """mm a carriage can run on after its motors stop dead (a reset or alarm in motion): from
+    the top speed (both axes at their rate) at the machine's acceleration, v²/2a."""
+    speed = motion.axis_rate / 60.0 * 2 ** 0.5
+    return speed * speed / (2.0 * motion.acceleration * 2 ** 0.5)
+#: mm: the smallest step the jog keys move (:mod:`pencilbot.driver.keys`), so the closest a
+#: person can bring the pen to a mark: within half of it in X and in Y.
+FINE_JOG_STEP = 0.1
+
+
+def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JOG_STEP) -> float:
+    """How far (mm) from the true stop point a hand re-zero may put it and still find it.
+
+    A person jogging in ``step`` mm steps gets the pen within half a step of the mark in X and
+    in Y (at most ``step·√2/2`` away: 3/4 of a step covers it), never more than half the pen's
+    width (``pen_width`` mm): an error that large would show as a gap or a doubled stretch.
+    The resume starts on the move itself, at the vertex when the point is that close to one.
+    """
+    return max(min(0.75 * step, pen_width / 2), 1e-3)  # no finer than the board reports
+
+
+def coast_limit(motion) -> float:
+    """mm a carriage can run on after its motors stop dead (a reset or alarm in motion): from
+    the top speed (both axes at their rate) at the machine's acceleration, v²/2a."""
+    speed = motion.axis_rate / 60.0 * 2 ** 0.5
+    return speed * speed / (2.0 * motion.acceleration * 2 ** 0.5)
 
 
 def near(a, b, tolerance: float = NEAR) -> bool:
@@ -47,7 +91,11 @@ def pen_down_in(status, pen) -> bool | None:
 
 
 class Operator(Protocol):
-    """Someone at the machine (the terminal of ``draw``, or ``simulate`` playing the part)."""
+    """Someone at the machine (the terminal of ``draw``, or ``simulate`` playing the part).
+
+    ``jog_step`` (optional attribute, mm): the finest step its jogs move, so how close to a mark
+    it can bring the pen (:func:`rezero_tolerance`); :data:`FINE_JOG_STEP` when not given.
+    """
 
     def pause(self, prompt: str) -> None:
         """Show ``prompt`` (a program pause: ``pen change: insert …``) and return to go on."""
@@ -94,8 +142,14 @@ def refusal(why: str, mark: Mark, resume_command: str, homing: bool) -> PlotErro
     )
 
 
-def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm: bool) -> tuple[float, float]:
+def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm: bool,
+                count: tuple[float, float] | None = None) -> tuple[float, float]:
     """Guided re-zero: the user jogs the pen from where it stopped to ``mark``.
+
+    ``count``: where the board counted the pen when the job stopped (work mm), kept although it
+    could not be proven (a reset or alarm in motion). When the jog puts the stop within
+    :func:`rezero_tolerance` of it, the motors did not slip: the count is exact where a hand is
+    only as good as its finest step, so it gives both the stop point and the origin.
 
     Returns
     -------
@@ -117,7 +171,8 @@ def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm
     feed = profile.motion.travel_feed
     operator.jog_to_mark(
         f"{why}. Jog the raised pen from where it stopped (do not move it by hand) until it stands exactly "
-        f"over {mark.text}, then confirm",
+        f"over {mark.text} (close enough: within {FINE_JOG_STEP / 2:g} mm of it in X and in Y, so finish "
+        f"with the {FINE_JOG_STEP:g} mm step), then confirm",
         mark,
         lambda dx, dy: stream.jog(dx, dy, feed),
     )
@@ -125,6 +180,11 @@ def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm
     after = stream.machine_position()
     if before is None or after is None:
         raise PlotError("the plotter did not report its position during the re-zero; nothing was drawn")
+    dx, dy = after[0] - before[0], after[1] - before[1]
     x, y = mark.xy
+    here = x - dx, y - dy
+    if count is not None and near(here, count, rezero_tolerance()):
+        here = tuple(count)
+        x, y = here[0] + dx, here[1] + dy  # where the pen is now, by the count and the jog
     setup(f"G10L20P0X{x:.4f}Y{y:.4f}", "setting the origin at the mark")
-    return x - (after[0] - before[0]), y - (after[1] - before[1])
+    return here

@@ -8,8 +8,14 @@ before it goes down again (if it was down there).
 
 from __future__ import annotations
 
+import numpy as np
+
 from pencilbot.driver.modal import ModalState, clean_line
 from pencilbot.machine.pen import PenModel
+
+_CHUNK = 256  # job lines tracked at a time when counting moves back
+#: mm: GRBL reports positions to 3 decimals, so a reported point is within this of the true one.
+REPORT_RESOLUTION = 0.001
 
 
 def resume_preamble(
@@ -58,9 +64,56 @@ def resume_preamble(
     return lines
 
 
+def flight_start(job, last: int, receive_buffer: int, moves: int) -> int:
+    """The earliest job line the machine can still have been running when it stopped, with
+    lines up to ``last`` (0-based) sent: what can be in flight follows from the firmware.
+
+    Going back from ``last``: the lines whose bytes fit in the board's receive buffer may not
+    have been read at all; before them, ``moves`` moves (:meth:`Firmware.moves_in_flight
+    <pencilbot.firmware.base.Firmware.moves_in_flight>`: its planner depth) may have been
+    answered and still not run, with any lines that are no moves between them.
+
+    Parameters
+    ----------
+    job : pencilbot.driver.job.Job
+    last : int
+        The last line sent (−1: none).
+    receive_buffer : int
+        Bytes of the board's receive buffer.
+    moves : int
+        Moves the board can hold answered and not yet run.
+
+    Returns
+    -------
+    int
+        A job line ≤ ``last`` (0 when the search reaches the start).
+    """
+    if last <= 0:
+        return 0
+    offsets = job.offsets
+    # Unread: the lines i..last whose bytes together fit in the receive buffer.
+    unread = int(np.searchsorted(offsets[: last + 2], offsets[last + 1] - receive_buffer, side="left"))
+    first = min(max(unread, 0), last)
+    found = 0
+    while first > 0 and found < moves:
+        lo = max(first - _CHUNK, 0)
+        states = job.states(max(lo - 1, 0), first)
+        x, y, z = (states.columns[axis] for axis in ("x", "y", "z"))
+        moved = (np.diff(x) != 0) | (np.diff(y) != 0) | (np.diff(z) != 0)  # lines lo..first-1
+        if lo == 0:
+            moved = np.r_[x[0] != 0 or y[0] != 0 or z[0] != 0, moved]
+        at = np.flatnonzero(moved)[::-1] + lo  # moves before ``first``, latest first
+        if len(at) >= moves - found:
+            return int(at[moves - found - 1])
+        found += len(at)
+        first = lo
+    return first
+
+
 def locate_stop(
     states, last: int, position: tuple[float, float] | None, *, window: int = 40,
-    tolerance: float = 0.005, pen_down: bool | None = None, floor: int | None = None,
+    tolerance: float = REPORT_RESOLUTION, pen_down: bool | None = None, floor: int | None = None,
+    coast: float = 0.0,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
     the last moves sent (unknown, or the machine was power-cycled or moved by hand).
@@ -70,21 +123,24 @@ def locate_stop(
     or not), so the stop position, not the acknowledgement count, tells what was drawn. The
     latest move (within ``window`` lines) that passes through the position is taken: the
     machine runs moves in order and a plot rarely passes the very same point twice within a
-    planner's length.
+    planner's length. Only lines whose start state ``states`` holds are searched: a window
+    larger than what was kept is cut to it, never read past.
 
     Parameters
     ----------
     states : indexable by job line
         ``states[i]`` is the :class:`ModalState` after job line ``i``, for ``i`` within
-        ``window`` lines of ``last`` (a :class:`~pencilbot.driver.modal.Track` of them).
+        ``window`` lines of ``last`` and the line before them (a
+        :class:`~pencilbot.driver.modal.Track` of them, whose ``first`` says where it starts).
     last : int
         Index of the last line sent.
     position : (float, float) or None
         Work position where the machine stopped (job units); ``None`` if unknown.
     window : int
-        How many lines back to look (a planner holds 15 moves, the receive buffer a few more).
+        How many lines back to look (:func:`flight_start` says how many can be in flight).
     tolerance : float
-        Distance (job units) under which the position counts as on a move.
+        Distance (job units) under which the position counts as on a move: the board's report
+        resolution for a position it reported, more for one found by a hand jog.
     pen_down : bool, optional
         Whether the pen was down when the machine stopped, if the board said (its spindle
         value or Z): a stop inside a move is only on a move drawn with the pen so (a travel
@@ -93,18 +149,25 @@ def locate_stop(
         A line the machine was running earlier (an earlier status report's position): it runs
         lines in order, so the earliest move from ``floor`` on that passes through the position
         is taken instead of the latest (a closed stroke begins and ends at the same point).
+    coast : float
+        How far (job units) the carriage may have run on past the end of a move, in its
+        direction, after the motors stopped (a reset or alarm in motion): such a point means
+        that move was finished (and overrun), so the next line is where to resume.
 
     Returns
     -------
     next_index : int
         First line to send on resume.
     stop_xy : (float, float) or None
-        Set when the machine stopped inside ``next_index``'s move.
+        Set when the machine stopped inside ``next_index``'s move: the point of the move
+        nearest ``position`` (a reported position is rounded; the resume stays on the move).
     """
-    if position is None:
+    if position is None or last < 0:
         return None
+    kept = getattr(states, "first", 0)
+    lowest = max(last - window + 1, kept + 1 if kept > 0 else 0, 0)
     p = complex(*position)
-    lines = range(last, max(last - window, -1), -1) if floor is None else range(max(floor, last - window + 1), last + 1)
+    lines = range(last, lowest - 1, -1) if floor is None else range(max(floor, lowest), last + 1)
     for i in lines:
         end = complex(states[i].x, states[i].y)
         start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
@@ -114,8 +177,15 @@ def locate_stop(
         if seg == 0:
             continue
         t = ((p - start) / seg).real
-        if 0.0 <= t < 1.0 and abs(start + t * seg - p) <= tolerance:
-            if t > 0.0 and pen_down is not None and states[i].pen_down != pen_down:
+        on = start + t * seg
+        if abs(on - p) > tolerance:
+            continue
+        if 0.0 <= t < 1.0 and abs(on - start) > tolerance:
+            if pen_down is not None and states[i].pen_down != pen_down:
                 continue
-            return i, (position if t > 0.0 else None)
+            return i, (on.real, on.imag)
+        if abs(on - start) <= tolerance:
+            return i, None
+        if 1.0 <= t and abs(on - end) <= coast:
+            return i + 1, None  # ran on past the move's end
     return None

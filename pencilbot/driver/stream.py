@@ -508,9 +508,11 @@ class Stream:
         return _Sent(index, len(frame), self.number, frame)
 
     def _write(self, entries: list[_Sent], data: bytes) -> None:
-        self.link.write(data)
+        # In flight before the write: a Ctrl-C or signal that lands inside it (the bytes gone
+        # out) must still find their answers expected, or what the board ran looks unanswered.
         self._sent.extend(entries)
         self._in_flight += sum(e.size for e in entries)
+        self.link.write(data)
 
     def _poll(self, force: bool = False) -> None:
         if not self.firmware.capabilities.status_reports:

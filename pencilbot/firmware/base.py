@@ -103,6 +103,10 @@ class Firmware:
     capabilities : Capabilities
     receive_buffer : int
         Bytes of the board's serial receive buffer: the default receive budget.
+    planner_blocks : int
+        Moves the board can hold planned and not yet run, the one running included (GRBL's
+        ``BLOCK_BUFFER_SIZE − 1``). With the receive buffer it bounds how far before the last
+        line sent the machine can be when it stops (:meth:`moves_in_flight`).
     line_limit : int
         Most characters of one line the board takes (what counts is the firmware's rule).
     dwell_units : float
@@ -133,6 +137,7 @@ class Firmware:
     capabilities: Capabilities
     receive_buffer: int
     line_limit: int
+    planner_blocks: int = 16
     dwell_units: float = 1.0
     rapids_take_feed: bool = False
     errors_then_ok: bool = False
@@ -146,6 +151,12 @@ class Firmware:
     check_command: str = ""
     drain_command: str = ""
     baud: int = DEFAULT_BAUD
+
+    def moves_in_flight(self) -> int:
+        """Most moves of lines the board has answered that may not have run yet: the planned
+        ones, and one more whose end the stepper's segment buffer may still be running after
+        the planner let it go."""
+        return self.planner_blocks + 1
 
     # --- writing G-code -------------------------------------------------------------------
 

@@ -31,6 +31,7 @@ class Grbl(Firmware):
     )
     receive_buffer = protocol.RX_BUFFER_SIZE
     line_limit = protocol.LINE_BUFFER_SIZE - 1  # significant characters; the NUL takes the last
+    planner_blocks = protocol.BLOCK_BUFFER_SIZE - 1  # the ring keeps one slot empty
     dwell_units = 1.0  # G4 P is seconds
     # A board that just reset on port open ignores its first bytes: line ends wake it harmlessly.
     wake_bytes = b"\r\n\r\n"

@@ -14,6 +14,7 @@ class GrblHal(Grbl):
     protocol = protocol
     receive_buffer = protocol.RX_BUFFER_SIZE
     line_limit = protocol.LINE_BUFFER_SIZE - 1
+    planner_blocks = protocol.BLOCK_BUFFER_SIZE - 1
     paused_states = ("Hold", "Door", "Tool")  # "Tool": a manual tool change waits for cycle start
 
 

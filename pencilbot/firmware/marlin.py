@@ -27,6 +27,7 @@ class Marlin(Firmware):
     capabilities = Capabilities(line_numbers=True)
     receive_buffer = 128  # Marlin's default RX_BUFFER_SIZE
     line_limit = protocol.MAX_CMD_SIZE - 1  # numbered and checksummed
+    planner_blocks = 16  # Marlin's default BLOCK_BUFFER_SIZE
     dwell_units = 1000.0  # G4 P is milliseconds
     rapids_take_feed = True
     errors_then_ok = True

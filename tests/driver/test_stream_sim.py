@@ -81,6 +81,8 @@ class HandOnTheMachine:
     """Someone at the virtual plotter: answers pauses, and jogs to a mark by looking at where
     the carriage really is (the board's own count may be wrong: that is why it is asked)."""
 
+    jog_step = 0.0  # it jogs by the exact float: no key steps
+
     def __init__(self, plotter):
         self.plotter = plotter
         self.prompts: list[str] = []
