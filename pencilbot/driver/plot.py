@@ -20,7 +20,7 @@ from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver import position
-from pencilbot.driver.bed_check import check_on_bed
+from pencilbot.driver.bed_check import check_on_bed, check_resumable
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
@@ -146,6 +146,7 @@ def draw(
         if not 1 <= start_line <= job.total_lines:
             raise PlotError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
         start = job.index_of(start_line)
+    check_resumable(job, start)  # a resume restores no work offset the file set up
     if path is not None and journal is None:
         journal = journal_mod.Journal(
             gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port, profile=profile,
