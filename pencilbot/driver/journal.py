@@ -10,12 +10,20 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+import shlex
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from pencilbot.driver.bed_check import TOLERANCE
 from pencilbot.errors import PlotError
 from pencilbot.fileio import write_atomic
+from pencilbot.units import MM_PER_INCH
+
+if TYPE_CHECKING:
+    from pencilbot.driver.job import Job
 
 SUFFIX = ".job.json"
 FORMAT = 1
@@ -140,4 +148,86 @@ def load_journal(path: str | Path) -> Journal:
     except (OSError, ValueError, TypeError) as exc:
         raise PlotError(f"job journal {path} is unreadable ({exc}); use --start-line N instead") from None
     journal.path = path
+    wrong = _wrong_field(journal)
+    if wrong is not None:
+        raise damaged(journal, wrong)
     return journal
+
+
+def damaged(journal: Journal, wrong: str) -> PlotError:
+    """The one message for a journal that cannot be trusted: what is wrong and how to go on."""
+    gcode = shlex.quote(journal.gcode) if isinstance(journal.gcode, str) else "FILE"
+    port = shlex.quote(journal.port) if isinstance(journal.port, str) else "PORT"
+    return PlotError(
+        f"job journal {journal.path} is unreadable or was edited: {wrong}; nothing was sent. Continue from "
+        f"the line you see drawn last with: pencilbot draw {gcode} --port {port} --start-line N, or draw "
+        f"the file again from line 1 with: pencilbot draw {gcode} --port {port} --restart"
+    )
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_point(value) -> bool:
+    return (isinstance(value, list) and len(value) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+
+
+def _wrong_field(journal: Journal) -> str | None:
+    """What is wrong with a journal's fields, read as user input (None: nothing)."""
+    for name in ("gcode", "sha256", "port", "profile", "pen", "status", "message", "resume"):
+        if not isinstance(getattr(journal, name), str):
+            return f"{name} is {getattr(journal, name)!r}, not text"
+    if journal.status not in ("running", "stopped"):
+        return f"status is {journal.status!r}, not 'running' or 'stopped'"
+    for name, least in (("total_lines", 1), ("next_line", 1), ("acked_line", 0), ("sent_line", 0)):
+        value = getattr(journal, name)
+        if not _is_int(value) or value < least:
+            return f"{name} is {value!r}, not a whole number of at least {least}"
+    if journal.next_line > journal.total_lines + 1:
+        return f"next_line {journal.next_line} is past the file's {journal.total_lines} lines"
+    for name in ("acked_line", "sent_line"):
+        if getattr(journal, name) > journal.total_lines:
+            return f"{name} {getattr(journal, name)} is past the file's {journal.total_lines} lines"
+    for name in ("stop_xy", "stop_work", "stop_mpos"):
+        value = getattr(journal, name)
+        if value is not None and not _is_point(value):
+            return f"{name} is {value!r}, not two finite numbers (X, Y)"
+    if (journal.stop_work is None) != (journal.stop_mpos is None):
+        return "stop_work and stop_mpos go together, and only one is set"
+    options = journal.options
+    if not isinstance(options, dict):
+        return f"options is {options!r}, not a table"
+    checks = {"baud": lambda v: _is_int(v) and v > 0,
+              "timeout": lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0,
+              "send_and_wait": lambda v: isinstance(v, bool), "on_error": lambda v: v in ("stop", "continue")}
+    for name, ok in checks.items():
+        if name in options and not ok(options[name]):
+            return f"options.{name} is {options[name]!r}"
+    return None
+
+
+def check_against(journal: Journal, job: Job) -> None:
+    """Refuse a journal whose lines or stop point do not fit ``job`` (its G-code, read again)
+    and the bed of ``job.profile``.
+
+    Raises
+    ------
+    PlotError
+        Saying what is wrong and how to go on (:func:`damaged`).
+    """
+    if journal.total_lines != job.total_lines:
+        raise damaged(journal, f"total_lines is {journal.total_lines}, and {job.source} has {job.total_lines} lines")
+    bed = job.profile.bed
+    (x0, x1), (y0, y1) = bed.machine_range()
+    where = f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)"
+    points = {"stop_work": journal.stop_work, "stop_mpos": journal.stop_mpos}
+    if journal.stop_xy is not None:  # job units, work coordinates at the line it stopped in
+        state = job.state_after(job.index_of(journal.next_line) - 1)
+        scale = MM_PER_INCH if state.inches else 1.0
+        offset = state.frames.offset()[:2]
+        points["stop_xy"] = [journal.stop_xy[0] * scale + offset[0], journal.stop_xy[1] * scale + offset[1]]
+    for name, xy in points.items():
+        if xy is not None and bed.outside([xy], TOLERANCE)[0]:
+            raise damaged(journal, f"{name} {getattr(journal, name)} is {where}")

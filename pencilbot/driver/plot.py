@@ -138,6 +138,8 @@ def draw(
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     job = load_job(gcode, machine, source)
     check_on_bed(job)  # before the port is opened: nothing is sent
+    if journal is not None:
+        journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point
 
     start = 0
     if journal is not None:
