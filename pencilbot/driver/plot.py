@@ -430,6 +430,8 @@ class _Runner:
     def _stop(self, stream: Stream, fault: StreamFault) -> str:
         """Stop the machine after ``fault``, record where to resume, and say so in one message."""
         pen_note, proven = self._halt_and_lift(stream, fault)
+        if fault.kind == "unexpected":
+            proven = None  # answers were counted one line off: what ran is not known from them
         job = self.job
         located = None
         if proven is not None:
@@ -474,7 +476,7 @@ class _Runner:
         fw = self.firmware
         try:
             at_rest = False
-            if fault.kind in ("error", "interrupt", "timeout"):
+            if fault.kind in ("error", "interrupt", "timeout", "unexpected"):
                 at_rest = stream.halt()
             elif fault.kind == "alarm":
                 stream.reset()  # a limit alarm blocks all input until a reset
