@@ -12,13 +12,14 @@ import hashlib
 import json
 import math
 import os
+import re
 import shlex
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pencilbot.driver.bed_check import TOLERANCE
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.fileio import write_atomic
 from pencilbot.units import MM_PER_INCH
 
@@ -115,8 +116,62 @@ def journal_path(gcode: Path) -> Path:
     gcode = Path(gcode).resolve()
     if os.access(gcode.parent, os.W_OK):
         return gcode.with_name(gcode.name + SUFFIX)
+    return _in_state_dir(gcode)
+
+
+def _in_state_dir(gcode: Path) -> Path:
     digest = hashlib.sha256(str(gcode).encode()).hexdigest()[:16]
     return state_dir() / f"{gcode.name}-{digest}{SUFFIX}"
+
+
+def resume_command(journal: Journal) -> str:
+    """The command that resumes the job ``journal`` (saved at ``journal.path``) records."""
+    return f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(journal.port)}"
+
+
+def save_stopped(journal: Journal) -> str:
+    """Save a stopped job's journal where it is, else in the user's state folder, and say how
+    to resume: a job must not be lost because its folder went or its disk filled up.
+
+    Returns
+    -------
+    str
+        The advice: the resume command; where the journal went instead; or, written nowhere,
+        everything it holds (the ``--start-line`` command, the stop point).
+    """
+    journal.resume = resume_command(journal)
+    try:
+        journal.save()
+        return f"Resume with: {journal.resume}"
+    except (OSError, PencilbotError) as exc:
+        first = f"at {journal.path} ({why_not(exc)})"
+    here, other = journal.path, _in_state_dir(Path(journal.gcode))
+    if other != here:
+        journal.path = other
+        journal.resume = resume_command(journal)
+        try:
+            journal.save()
+            return f"The job journal could not be written {first}, so it is at {other}. Resume with: {journal.resume}"
+        except (OSError, PencilbotError) as exc:
+            first += f" or at {other} ({why_not(exc)})"
+            journal.path = here
+    gcode, port, line = shlex.quote(journal.gcode), shlex.quote(journal.port), journal.next_line
+    stop = ""
+    if journal.stop_xy is not None:
+        x, y = journal.stop_xy
+        stop = (f" (the pen stopped at X{x:.4f} Y{y:.4f} inside line {line}'s move, and --start-line draws "
+                "that line whole)")
+    journal.resume = f"pencilbot draw {gcode} --port {port} --start-line {line}"
+    return (f"The job journal could not be written {first}; what it would hold: the job goes on at line {line} "
+            f"of {journal.gcode}{stop}. Resume with: {journal.resume}")
+
+
+def why_not(exc: Exception) -> str:
+    """What a failed write says, briefly: the system's words for an OSError."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    said = re.search(r"\(([^()]+)\)", str(exc))  # fileio's "cannot write PATH (REASON); …"
+    return said.group(1) if said else str(exc)
 
 
 def load_journal(path: str | Path) -> Journal:

@@ -26,7 +26,7 @@ from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import locate_stop, resume_preamble
 from pencilbot.driver.stream import Interrupted, Stream, StreamFault
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.firmware.base import ERROR
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.units import MM_PER_INCH
@@ -227,7 +227,11 @@ class _Runner:
         done0 = job.seconds_after(start - 1)
         total = job.seconds_after(len(job) - 1) - done0
         self.progress = Progress(self.progress_mode, len(job) - start, total)
-        self._save_journal(force=True)
+        try:
+            self._save_journal(force=True)
+        except StreamFault as fault:  # the journal cannot be written: stop as any fault does
+            self._stopping = True
+            raise PlotError(self._stop(stream, fault)) from None
 
         def on_ack(index, state):
             self.acked = index
@@ -256,7 +260,10 @@ class _Runner:
         self.progress.update(len(job) - start, total, stream.machine_state)  # drawn: now Idle
         self.progress.close("done")
         if self.journal is not None:
-            self.journal.path.unlink(missing_ok=True)  # a finished job has nothing to resume
+            try:
+                self.journal.path.unlink(missing_ok=True)  # a finished job has nothing to resume
+            except OSError:
+                pass  # its folder is gone: nothing left to remove
         return DrawResult(
             lines_sent=len(job) - start,
             rejected=[job.number(i) for i in rejected],
@@ -423,7 +430,12 @@ class _Runner:
         self.journal.next_line = self.job.number(self.acked + 1)
         if stream is not None and stream.sent >= 0:
             self.journal.sent_line = self.job.number(stream.sent)
-        self.journal.save()
+        try:
+            self.journal.save()
+        except (OSError, PencilbotError) as exc:
+            if not self._stopping:  # (the stop saves it last, wherever it can)
+                # Going on would leave no record of how far the job got: stop it now.
+                raise StreamFault("journal", self.acked + 1, journal_mod.why_not(exc)) from None
 
     # --- stopping ------------------------------------------------------------------------------
 
@@ -476,7 +488,7 @@ class _Runner:
         fw = self.firmware
         try:
             at_rest = False
-            if fault.kind in ("error", "interrupt", "timeout", "unexpected"):
+            if fault.kind in ("error", "interrupt", "timeout", "unexpected", "journal"):
                 at_rest = stream.halt()
             elif fault.kind == "alarm":
                 stream.reset()  # a limit alarm blocks all input until a reset
@@ -554,7 +566,7 @@ class _Runner:
     def _resume_command(self) -> str:
         if self.journal is None:
             return f"resume from the line named above ({self.job.source} has no journal)"
-        return f"pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {shlex.quote(self.port)}"
+        return journal_mod.resume_command(self.journal)
 
     def _resume_advice(self, stream: Stream, index, stop_xy, fault, proven) -> str:
         """Record where to resume in the journal and say how: the command, or the line."""
@@ -570,6 +582,4 @@ class _Runner:
         journal.stop_mpos = list(proven[1]) if proven is not None else None
         journal.status = "stopped"
         journal.message = str(fault)
-        journal.resume = self._resume_command()
-        journal.save()
-        return f"Resume with: {journal.resume}"
+        return journal_mod.save_stopped(journal)
