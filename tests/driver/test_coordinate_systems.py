@@ -128,8 +128,8 @@ _token = st.one_of(
 )
 
 
-@settings(max_examples=120, deadline=None)
-@given(st.lists(_token, min_size=1, max_size=25))
+@settings(max_examples=60, deadline=None)
+@given(st.lists(_token, min_size=1, max_size=15))
 def test_tracked_positions_equal_the_virtual_plotter_s_line_by_line(tokens):
     # Every stored position set first (the tracker takes what the file never set as unknown).
     setup = [f"G10L2P{p}X{3 * p}Y{-2 * p}" for p in range(1, 7)] + ["G28.1", "G30.1"]

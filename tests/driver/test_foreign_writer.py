@@ -2,11 +2,13 @@
 writing to the port mid-job (its line runs on the plotter and is answered with an ok too many),
 or a board that sends back the lines it gets."""
 
+import errno
 import os
 import select
 import threading
 
 from pty_board import PtyBoard
+from test_port_exclusive import other_program_opens
 from test_port_in_use import _catch
 from test_stream_sim import PROFILE, drawing
 
@@ -26,6 +28,7 @@ def test_another_program_writing_to_the_port_mid_job_stops_the_job_with_a_messag
     plotter = VirtualPlotter(load_profile(PROFILE), baud=115200, realtime=4)
     results = []
     with PtyServer(plotter) as server:
+        os.chmod(server.path, 0o666)  # as a USB adapter in the dialout group: others may open it
         sender = threading.Thread(target=lambda: _catch(
             results, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]))
         sender.start()
@@ -33,7 +36,10 @@ def test_another_program_writing_to_the_port_mid_job_stops_the_job_with_a_messag
             while sender.is_alive() and len(plotter.firmware.accepted_lines()) < 25:
                 sender.join(0.01)
             assert sender.is_alive(), "the job ended before the other program wrote"
-            # Another program (root passes TIOCEXCL) writes one line to the port the job holds.
+            # Another program that is not root cannot even open the port the job holds...
+            code, said = other_program_opens(server.path)
+            assert code != 0 and os.strerror(errno.EBUSY) in said, said
+            # ...root can (TIOCEXCL does not stop root), and writes one line to it.
             other = os.open(server.path, os.O_WRONLY | os.O_NOCTTY)
             try:
                 os.write(other, FOREIGN)
@@ -58,6 +64,7 @@ class EchoBoard(PtyBoard):
     """A GRBL board behind a port that sends every line back before answering it."""
 
     newline = "\r\n"
+    woken = False
 
     def _serve(self):
         line = b""
@@ -69,7 +76,10 @@ class EchoBoard(PtyBoard):
             except OSError:
                 return
             for byte in data:
-                if byte == ord("?"):
+                if byte == 0x18 or not self.woken:  # a reset, or the sender's first bytes: the banner
+                    self.woken = True
+                    self._say("Grbl 1.1h ['$' for help]")
+                elif byte == ord("?"):
                     self._say("<Idle|MPos:0.000,0.000,0.000|FS:0,0>")
                 elif byte in b"\r\n":
                     text, line = line.decode(), b""

@@ -21,7 +21,7 @@ from sim import protocol_sim
 
 
 def run_until_the_journal_breaks(path, url):
-    """Draw ``path`` in a thread; once it has acknowledged 15 lines, turn its journal into a folder."""
+    """Draw ``path`` in a thread; once it has acknowledged 10 lines, turn its journal into a folder."""
     journal = path.with_name(path.name + ".job.json")
     results = []
     sender = threading.Thread(target=lambda: _catch(results, main, ["draw", str(path), "--port", url,
@@ -31,7 +31,7 @@ def run_until_the_journal_breaks(path, url):
         broken = False
         while sender.is_alive() and not broken:
             try:
-                if json.loads(journal.read_text())["acked_line"] > 15:
+                if json.loads(journal.read_text())["acked_line"] > 10:
                     journal.unlink()
                     journal.mkdir()
                     (journal / "full").write_text("")  # a folder the new journal cannot replace
@@ -48,7 +48,7 @@ def run_until_the_journal_breaks(path, url):
 @pytest.fixture
 def job(tmp_path):
     path = tmp_path / "plot.gcode"
-    path.write_text("\n".join(drawing(strokes=24)) + "\n")
+    path.write_text("\n".join(drawing(strokes=12)) + "\n")
     return path
 
 
