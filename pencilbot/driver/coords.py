@@ -59,7 +59,7 @@ class Frames:
     def plain(self) -> bool:
         """Whether work coordinates are machine coordinates (``G54`` at zero, no ``G92``), as a
         board starts and as a resume sets it up."""
-        return self.select == 0 and not np.any(self.offset()[:2])  # NaN counts as not plain
+        return self.select == 0 and not np.any(self.offset())  # NaN counts as not plain
 
 
 def _array(axes: _Axes) -> np.ndarray:

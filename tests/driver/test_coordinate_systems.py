@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from test_stream_sim import PROFILE, accepted, drawn, fresh
 
 from pencilbot.cli import main
+from pencilbot.driver.drawn import drawn_paths
 from pencilbot.driver.job import load_job
 from pencilbot.driver.modal import ModalState, advance, clean_line, track
 from pencilbot.machine.profile import load_profile
@@ -97,6 +98,10 @@ def test_offsets_that_keep_the_drawing_on_the_bed_draw_where_the_board_puts_them
     machine = protocol_sim.plotter(name).machine
     assert machine.position[:2] == pytest.approx((30.0, 30.0))  # G28: the G28.1 point
     assert [clean_line(line) for line in lines] == accepted(name)
+    # `stat` reads the same pen-down paths from the file alone.
+    paths = drawn_paths(load_job(lines, GRBL))
+    assert sorted(np.round(paths.points[a:b], 3).tolist() for a, b in zip(paths.offsets[:-1], paths.offsets[1:])) \
+        == strokes
 
 
 def test_a_start_line_after_an_offset_is_refused_before_anything_is_sent(capsys, tmp_path):
