@@ -20,7 +20,8 @@ module (:mod:`pencilbot.firmware`), so nothing here knows a firmware by name. It
 ``done``
     The job ran to its end.
 
-Everything that can stop a stream (a refused line, an alarm, a reset, silence, a lost port,
+Everything that can stop a stream (a refused line, an alarm, a reset, silence, a lost port, a reply
+nobody asked for (an ok too many, a line sent back: another program on the port),
 Ctrl-C) becomes one :class:`StreamFault` naming the job line; the caller turns it into a message.
 A board in Hold (an ``M0`` of the job, the machine's button, the pause key) is served beside
 ``streaming``: the reason is shown once, cycle start goes when someone answers, and the wait
