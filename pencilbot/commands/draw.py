@@ -145,8 +145,12 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
         return
     try:
         journal = load_journal(path)
-    except PlotError:
-        return  # an unreadable journal is replaced
+    except PlotError as err:
+        # A journal that cannot be read may still be a stopped job's: drawing from line 1 would
+        # draw over what is on the paper, so that takes --restart too.
+        if "--restart" in str(err):
+            raise
+        raise PlotError(f"{err}; or draw {gcode} again from line 1 with --restart") from None
     if journal.status in ("stopped", "running"):  # "running": the sender itself was killed
         how = journal.resume or f"pencilbot draw --resume {path} --port {journal.port}"
         why = f" ({journal.message})" if journal.message else ""

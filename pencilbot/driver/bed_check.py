@@ -5,8 +5,11 @@ off the bed; `pencilbot export` never writes one, but a file from elsewhere (or 
 plotter) may. The moves are followed by the modal tracker (:mod:`pencilbot.driver.modal`):
 inch and relative moves become absolute millimetres, and an arc (G2/G3 in the XY plane, by
 ``I J`` centre offsets or radius ``R``) is checked at its end and at every point where it crosses
-an axis of its circle, so a bulge past the edge is caught too. Coordinates are taken as machine
-coordinates (no work offset), as pencilbot's G-code is written.
+an axis of its circle, so a bulge past the edge is caught too. The file's coordinate systems are
+followed as the board runs them (:mod:`pencilbot.driver.coords`: ``G53``, ``G54``–``G59``,
+``G10 L2/L20``, ``G92``/``G92.1``, ``G28``/``G30`` and their via points); the board is taken to
+start in machine coordinates (``G54`` at zero), as pencilbot's G-code is written, and a move that
+rests on an offset only the board knows (a ``G55`` the file never set) is refused by name.
 
 The moves are looked at while the job is read (:class:`BedWatch`, fed the tracker's pieces by
 :func:`~pencilbot.driver.job.load_job`), so the check costs no second pass over the file; a job
@@ -15,11 +18,12 @@ keeps the first move off the bed, and :func:`check_on_bed` refuses it before the
 
 from __future__ import annotations
 
+import re
 from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pencilbot.errors import OutOfBedError
+from pencilbot.errors import OutOfBedError, PlotError
 from pencilbot.units import MM_PER_INCH
 
 if TYPE_CHECKING:  # the job module feeds the watch: no import at run time
@@ -37,14 +41,16 @@ class BedWatch:
     Attributes
     ----------
     first : tuple or None
-        ``(job index, x, y, on_arc)`` of the first line that leaves the bed (machine mm, and
-        whether it is a point of the line's arc rather than its end); None while all are on it.
+        ``(job index, x, y, what)`` of the first line that leaves the bed (machine mm, and which
+        of its points: ``"end"``, ``"arc"`` (a point of its arc), ``"via"`` (a ``G28``/``G30``
+        line's via point) or ``"unknown"`` (its machine position rests on an offset the file never
+        set; x, y NaN)); None while all are on it.
     """
 
     def __init__(self, bed: Bed):
         self.bed = bed
         self.before = np.zeros(2)  # machine X, Y (mm) before the next piece: a job starts at 0, 0
-        self.first: tuple[int, float, float, bool] | None = None
+        self.first: tuple[int, float, float, str] | None = None
 
     def see(self, piece: Track, index: int) -> None:
         """Look at ``piece``, the states of job lines ``index`` onwards."""
@@ -52,17 +58,22 @@ class BedWatch:
             return
         c = piece.columns
         scale = np.where(c["inches"], MM_PER_INCH, 1.0)
-        end = np.column_stack([c["x_mm"], c["y_mm"]])
+        end = np.column_stack([c["mx"], c["my"]])
         start = np.vstack([self.before, end[:-1]])
         self.before = end[-1]
-        # Points to check per line: its end, and each of its arc's four axis crossings (NaN if none).
-        points = np.concatenate([end[:, None, :], _arc_extremes(start, end, c, scale)], axis=1)
+        # Points to check per line: its end, its via point (G28/G30) and each of its arc's four
+        # axis crossings (NaN if none).
+        via = np.column_stack([c["vx"], c["vy"]])
+        points = np.concatenate([end[:, None, :], via[:, None, :], _arc_extremes(start, end, c, scale)], axis=1)
         off = self.bed.outside(points.reshape(-1, 2), TOLERANCE).reshape(len(end), -1) & ~np.isnan(points[..., 0])
+        off[:, 0] |= np.isnan(end).any(axis=1)
         lines = np.flatnonzero(off.any(axis=1))
         if len(lines):
             line = int(lines[0])
-            x, y = points[line, np.flatnonzero(off[line])[0]]
-            self.first = (index + line, float(x), float(y), not off[line, 0])
+            which = int(np.flatnonzero(off[line])[0])
+            x, y = points[line, which]
+            what = "unknown" if np.isnan(end[line]).any() else "end" if which == 0 else "via" if which == 1 else "arc"
+            self.first = (index + line, float(x), float(y), what)
 
 
 def check_on_bed(job: Job) -> None:
@@ -74,9 +85,13 @@ def check_on_bed(job: Job) -> None:
         Naming the first offending file line, its text, the coordinate it reaches (mm) and the
         bed's range, and what to do.
     """
-    if job.off_bed is not None:
-        index, x, y, on_arc = job.off_bed
-        _refuse(job, index, x, y, reaches="its arc reaches" if on_arc else "moves to")
+    if job.off_bed is None:
+        return
+    index, x, y, what = job.off_bed
+    if what == "unknown":
+        _refuse_unknown(job, index)
+    reaches = {"end": "moves to", "arc": "its arc reaches", "via": "passes through"}[what]
+    _refuse(job, index, x, y, reaches=reaches)
 
 
 def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray) -> np.ndarray:
@@ -124,4 +139,49 @@ def _refuse(job: Job, index: int, x: float, y: float, reaches: str) -> None:
         f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm); "
         "nothing was sent. Draw it with the profile it was made for, or export it again for this one "
         "(pencilbot export keeps every move on the bed)"
+    )
+
+
+def _refuse_unknown(job: Job, index: int) -> None:
+    text = job.line(index)
+    state = job.state_after(index)
+    if re.search(r"G0*(28|30)(?![0-9.])", text):
+        code = re.search(r"G0*(28|30)(?![0-9.])", text).group(1)
+        what = (f"goes to the position the board stored with G{code}.1, which {job.source} does not set "
+                f"before it")
+        fix = f"set it in the file first (G{code}.1 where it should go), or move there with G0 X.. Y.."
+    elif any(v is None for v in state.frames.data[state.frames.select][:2]):
+        system = 54 + state.frames.select
+        what = (f"moves in coordinate system G{system}, whose offset the board keeps and {job.source} "
+                "does not set before it")
+        fix = (f"set it in the file first (G10 L2 P{state.frames.select + 1} X.. Y..), or draw in G54 "
+               "(machine coordinates, as pencilbot export writes)")
+    else:
+        what = (f"moves by a G92 offset that was set in a coordinate system {job.source} never set, so its "
+                "offset is the board's")
+        fix = "set that coordinate system in the file first (G10 L2 P.. X.. Y..), or use G54"
+    raise OutOfBedError(
+        f"line {job.number(index)} of {job.source} ({text!r}) {what}, so pencilbot cannot check it against "
+        f"the bed of plotter profile {job.profile.name}; nothing was sent. To draw it, {fix}"
+    )
+
+
+def check_resumable(job: Job, start: int) -> None:
+    """Refuse to start ``job`` at line ``start`` where the file has moved its coordinate system.
+
+    A resume wakes a board in machine coordinates (``G54``, no ``G92``: a reset clears it) and
+    re-sends none of the lines before ``start``, so a work offset those lines set up would be
+    missing and every move after it misplaced.
+
+    Raises
+    ------
+    PlotError
+        Naming the line and what to do.
+    """
+    if start <= 0 or start >= len(job) or job.state_after(start - 1).frames.plain:
+        return
+    raise PlotError(
+        f"line {job.number(start)} of {job.source} comes after lines that change the work coordinates "
+        "(G92, G10, G54-G59), which a resume cannot restore; nothing was sent. Draw the file from its "
+        "start (a stopped job: --restart), or split it where the coordinates are machine coordinates"
     )

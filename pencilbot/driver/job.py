@@ -71,7 +71,7 @@ class Job:
     total_lines: int
     profile: Profile
     pauses: dict
-    off_bed: tuple[int, float, float, bool] | None = None
+    off_bed: tuple[int, float, float, str] | None = None
 
     def __len__(self) -> int:
         return len(self.numbers)
@@ -106,7 +106,7 @@ class Job:
         full = self._track(base, stop)
         keep = first - base
         columns = {name: values[keep:] for name, values in full.columns.items()}
-        return Track(first, columns, full.seconds[keep:])
+        return Track(first, columns, full.seconds[keep:], full.frames)
 
     def state_after(self, index: int) -> ModalState:
         """The modal state after line ``index`` (the start state for ``index < 0``)."""

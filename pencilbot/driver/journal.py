@@ -10,12 +10,21 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
+import re
+import shlex
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from pencilbot.errors import PlotError
+from pencilbot.driver.bed_check import TOLERANCE
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.fileio import write_atomic
+from pencilbot.units import MM_PER_INCH
+
+if TYPE_CHECKING:
+    from pencilbot.driver.job import Job
 
 SUFFIX = ".job.json"
 FORMAT = 1
@@ -111,8 +120,62 @@ def journal_path(gcode: Path) -> Path:
     gcode = Path(gcode).resolve()
     if os.access(gcode.parent, os.W_OK):
         return gcode.with_name(gcode.name + SUFFIX)
+    return _in_state_dir(gcode)
+
+
+def _in_state_dir(gcode: Path) -> Path:
     digest = hashlib.sha256(str(gcode).encode()).hexdigest()[:16]
     return state_dir() / f"{gcode.name}-{digest}{SUFFIX}"
+
+
+def resume_command(journal: Journal) -> str:
+    """The command that resumes the job ``journal`` (saved at ``journal.path``) records."""
+    return f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(journal.port)}"
+
+
+def save_stopped(journal: Journal) -> str:
+    """Save a stopped job's journal where it is, else in the user's state folder, and say how
+    to resume: a job must not be lost because its folder went or its disk filled up.
+
+    Returns
+    -------
+    str
+        The advice: the resume command; where the journal went instead; or, written nowhere,
+        everything it holds (the ``--start-line`` command, the stop point).
+    """
+    journal.resume = resume_command(journal)
+    try:
+        journal.save()
+        return f"Resume with: {journal.resume}"
+    except (OSError, PencilbotError) as exc:
+        first = f"at {journal.path} ({why_not(exc)})"
+    here, other = journal.path, _in_state_dir(Path(journal.gcode))
+    if other != here:
+        journal.path = other
+        journal.resume = resume_command(journal)
+        try:
+            journal.save()
+            return f"The job journal could not be written {first}, so it is at {other}. Resume with: {journal.resume}"
+        except (OSError, PencilbotError) as exc:
+            first += f" or at {other} ({why_not(exc)})"
+            journal.path = here
+    gcode, port, line = shlex.quote(journal.gcode), shlex.quote(journal.port), journal.next_line
+    stop = ""
+    if journal.stop_xy is not None:
+        x, y = journal.stop_xy
+        stop = (f" (the pen stopped at X{x:.4f} Y{y:.4f} inside line {line}'s move, and --start-line draws "
+                "that line whole)")
+    journal.resume = f"pencilbot draw {gcode} --port {port} --start-line {line}"
+    return (f"The job journal could not be written {first}; what it would hold: the job goes on at line {line} "
+            f"of {journal.gcode}{stop}. Resume with: {journal.resume}")
+
+
+def why_not(exc: Exception) -> str:
+    """What a failed write says, briefly: the system's words for an OSError."""
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror
+    said = re.search(r"\(([^()]+)\)", str(exc))  # fileio's "cannot write PATH (REASON); …"
+    return said.group(1) if said else str(exc)
 
 
 def load_journal(path: str | Path) -> Journal:
@@ -144,4 +207,86 @@ def load_journal(path: str | Path) -> Journal:
     except (OSError, ValueError, TypeError) as exc:
         raise PlotError(f"job journal {path} is unreadable ({exc}); use --start-line N instead") from None
     journal.path = path
+    wrong = _wrong_field(journal)
+    if wrong is not None:
+        raise damaged(journal, wrong)
     return journal
+
+
+def damaged(journal: Journal, wrong: str) -> PlotError:
+    """The one message for a journal that cannot be trusted: what is wrong and how to go on."""
+    gcode = shlex.quote(journal.gcode) if isinstance(journal.gcode, str) else "FILE"
+    port = shlex.quote(journal.port) if isinstance(journal.port, str) else "PORT"
+    return PlotError(
+        f"job journal {journal.path} is unreadable or was edited: {wrong}; nothing was sent. Continue from "
+        f"the line you see drawn last with: pencilbot draw {gcode} --port {port} --start-line N, or draw "
+        f"the file again from line 1 with: pencilbot draw {gcode} --port {port} --restart"
+    )
+
+
+def _is_int(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _is_point(value) -> bool:
+    return (isinstance(value, list) and len(value) == 2
+            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+
+
+def _wrong_field(journal: Journal) -> str | None:
+    """What is wrong with a journal's fields, read as user input (None: nothing)."""
+    for name in ("gcode", "sha256", "port", "profile", "pen", "status", "message", "resume"):
+        if not isinstance(getattr(journal, name), str):
+            return f"{name} is {getattr(journal, name)!r}, not text"
+    if journal.status not in ("running", "stopped"):
+        return f"status is {journal.status!r}, not 'running' or 'stopped'"
+    for name, least in (("total_lines", 1), ("next_line", 1), ("acked_line", 0), ("sent_line", 0)):
+        value = getattr(journal, name)
+        if not _is_int(value) or value < least:
+            return f"{name} is {value!r}, not a whole number of at least {least}"
+    if journal.next_line > journal.total_lines + 1:
+        return f"next_line {journal.next_line} is past the file's {journal.total_lines} lines"
+    for name in ("acked_line", "sent_line"):
+        if getattr(journal, name) > journal.total_lines:
+            return f"{name} {getattr(journal, name)} is past the file's {journal.total_lines} lines"
+    for name in ("stop_xy", "stop_work", "stop_mpos"):
+        value = getattr(journal, name)
+        if value is not None and not _is_point(value):
+            return f"{name} is {value!r}, not two finite numbers (X, Y)"
+    if (journal.stop_work is None) != (journal.stop_mpos is None):
+        return "stop_work and stop_mpos go together, and only one is set"
+    options = journal.options
+    if not isinstance(options, dict):
+        return f"options is {options!r}, not a table"
+    checks = {"baud": lambda v: _is_int(v) and v > 0,
+              "timeout": lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0,
+              "send_and_wait": lambda v: isinstance(v, bool), "on_error": lambda v: v in ("stop", "continue")}
+    for name, ok in checks.items():
+        if name in options and not ok(options[name]):
+            return f"options.{name} is {options[name]!r}"
+    return None
+
+
+def check_against(journal: Journal, job: Job) -> None:
+    """Refuse a journal whose lines or stop point do not fit ``job`` (its G-code, read again)
+    and the bed of ``job.profile``.
+
+    Raises
+    ------
+    PlotError
+        Saying what is wrong and how to go on (:func:`damaged`).
+    """
+    if journal.total_lines != job.total_lines:
+        raise damaged(journal, f"total_lines is {journal.total_lines}, and {job.source} has {job.total_lines} lines")
+    bed = job.profile.bed
+    (x0, x1), (y0, y1) = bed.machine_range()
+    where = f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)"
+    points = {"stop_work": journal.stop_work, "stop_mpos": journal.stop_mpos}
+    if journal.stop_xy is not None:  # job units, work coordinates at the line it stopped in
+        state = job.state_after(job.index_of(journal.next_line) - 1)
+        scale = MM_PER_INCH if state.inches else 1.0
+        offset = state.frames.offset()[:2]
+        points["stop_xy"] = [journal.stop_xy[0] * scale + offset[0], journal.stop_xy[1] * scale + offset[1]]
+    for name, xy in points.items():
+        if xy is not None and bed.outside([xy], TOLERANCE)[0]:
+            raise damaged(journal, f"{name} {getattr(journal, name)} is {where}")

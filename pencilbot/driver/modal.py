@@ -21,15 +21,17 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from pencilbot.driver import coords
+from pencilbot.driver.coords import Frames
 from pencilbot.machine.pen import PenModel
 from pencilbot.units import MM_PER_INCH
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
-_LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJMPRSXYZ"}
+_LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJLMPRSXYZ"}
 _MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
 _POW10 = 10.0 ** np.arange(-_MAX_DIGITS, _MAX_DIGITS + 1)  # digit weights by exponent
 
@@ -42,7 +44,7 @@ def _bits(codes: dict[int, int]) -> np.ndarray:
 
 # The G and M codes the tracker reads, each a bit of a per-line mask.
 G0, G1, G4, G20, G21, G90, G91, NOT_A_MOVE, G2, G3 = (1 << b for b in range(10))
-_G_BITS = _bits({0: 0, 1: 1, 4: 2, 20: 3, 21: 4, 90: 5, 91: 6, 10: 7, 28: 7, 53: 7, 92: 7, 2: 8, 3: 9})
+_G_BITS = _bits({0: 0, 1: 1, 4: 2, 20: 3, 21: 4, 90: 5, 91: 6, 10: 7, 28: 7, 30: 7, 53: 7, 92: 7, 2: 8, 3: 9})
 M3, M4, M5, M280 = (1 << b for b in range(4))
 _M_BITS = _bits({3: 0, 4: 1, 5: 2, 280: 3})
 
@@ -79,6 +81,16 @@ class ModalState:
     s: float = 0.0
     servo: float | None = None
     pen_down: bool = False
+    frames: Frames = Frames()  # the coordinate systems (G54–G59, G92, G28/G30) the job set up
+    #: Work X, Y, Z in mm, as the board keeps them (``x`` … are the numbers as written, which a
+    #: G20/G21 switch reads anew); None: ``x`` … in the state's units.
+    mm: tuple[float, float, float] | None = field(default=None, compare=False)
+
+    def position_mm(self) -> np.ndarray:
+        """Work X, Y, Z in mm."""
+        if self.mm is not None:
+            return np.array(self.mm, dtype=float)
+        return np.array([self.x, self.y, self.z]) * (MM_PER_INCH if self.inches else 1.0)
 
 
 class Track:
@@ -86,14 +98,19 @@ class Track:
 
     ``track[i]`` is the :class:`ModalState` after line ``first + i`` of the job (indexing is by
     job line, so a window of a job reads like the job); ``seconds`` is each line's duration.
+    Besides the state's columns: ``x_mm``/``y_mm`` (work position in mm), ``mx``/``my`` (machine
+    position in mm, NaN where it rests on an offset the file never set), ``vx``/``vy`` (the
+    point a ``G28``/``G30`` passes through, else NaN) and ``frame`` (an index into ``frames``).
     """
 
     FIELDS = ("inches", "relative", "feed", "motion", "arc", "x", "y", "z", "spindle_on", "s", "servo", "pen_down")
 
-    def __init__(self, first: int, columns: dict[str, np.ndarray], seconds: np.ndarray) -> None:
+    def __init__(self, first: int, columns: dict[str, np.ndarray], seconds: np.ndarray,
+                 frames: Sequence[Frames] = (Frames(),)) -> None:
         self.first = first
         self.columns = columns
         self.seconds = seconds
+        self.frames = frames
 
     def __len__(self) -> int:
         return len(self.seconds)
@@ -105,7 +122,8 @@ class Track:
         c = {name: self.columns[name][i].item() for name in self.FIELDS}
         c["feed"] = None if np.isnan(c["feed"]) else c["feed"]
         c["servo"] = None if np.isnan(c["servo"]) else c["servo"]
-        return ModalState(**c)
+        mm = tuple(float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
+        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=mm)
 
     @property
     def last(self) -> ModalState:
@@ -145,7 +163,7 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     lines = words.lines
     g = _codes(words, "G", lines, _G_BITS)
     m = _codes(words, "M", lines, _M_BITS)
-    word = {letter: _first_value(words, letter, lines) for letter in "FIJPRSXYZ"}
+    word = {letter: _first_value(words, letter, lines) for letter in "FIJLPRSXYZ"}
     columns = {}
     columns["inches"] = _carry((g & (G20 | G21)) != 0, (g & G20) != 0, start.inches)
     relative = columns["relative"] = _carry((g & (G90 | G91)) != 0, (g & G91) != 0, start.relative)
@@ -162,26 +180,47 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     for axis in "xyz":
         columns[axis] = _position(word[axis.upper()], moves, relative, getattr(start, axis))
     # Also in mm, as the board keeps them: a G20/G21 in the middle of a file changes how later
-    # words read, not where the pen is (``x``/``y`` above take the numbers as written). Exact
-    # but for a file mixing units across a checkpoint, whose start is taken in the file's units.
+    # words read, not where the pen is (``x``/``y`` above take the numbers as written); the
+    # start state carries its own millimetres across a checkpoint.
     scale = np.where(columns["inches"], MM_PER_INCH, 1.0)
-    start_scale = MM_PER_INCH if start.inches else 1.0
-    mm = {axis: _position(word[axis.upper()] * scale, moves, relative, getattr(start, axis) * start_scale)
-          for axis in "xyz"}
-    columns["x_mm"], columns["y_mm"] = mm["x"], mm["y"]
+    start_mm = start.position_mm()
+    mm = {axis: _position(word[axis.upper()] * scale, moves, relative, start_mm[i]) for i, axis in enumerate("xyz")}
+    # Where the carriage goes: work coordinates plus the work offset, which lines that set up
+    # coordinate systems (G10, G53, G54-G59, G92, G28/G30; rare) change, followed one by one.
+    start_machine = start_mm + start.frames.offset()
+    code, select = _coordinate_codes(words, lines)
+    if (code > 0).any() or (select >= 0).any():
+        word_mm = np.column_stack([word[a.upper()] * scale for a in "xyz"])
+        machine, frame, frames, via = coords.machine_positions(
+            word_mm, moves, relative, code, select, word["L"], word["P"], start.frames, start_machine)
+        work = machine - np.array([f.offset() for f in frames])[frame]
+        event = (code > 0) | (select >= 0)
+        before = np.vstack([start_mm, work[:-1]])
+        for i, axis in enumerate("xyz"):
+            mm[axis] = work[:, i]
+            # In the job's units as the words are written (see above): an event line moves it by
+            # what it changed.
+            written = np.where(event, (work[:, i] - before[:, i]) / scale, word[axis.upper()])
+            columns[axis] = _position(written, moves | event, relative | event, getattr(start, axis))
+    else:
+        machine = np.column_stack([mm[a] for a in "xyz"]) + start.frames.offset()
+        frame, frames, via = np.zeros(lines, np.int64), (start.frames,), np.full((lines, 3), np.nan)
+    columns["x_mm"], columns["y_mm"], columns["z_mm"] = mm["x"], mm["y"], mm["z"]
+    columns["mx"], columns["my"], columns["vx"], columns["vy"] = machine[:, 0], machine[:, 1], via[:, 0], via[:, 1]
+    columns["frame"] = frame
     columns["pen_down"] = _pen_down(columns, pen)
     for letter in "IJR":  # an arc's centre, per line (not modal)
         columns[letter.lower()] = word[letter]
 
-    step = [np.diff(mm[a], prepend=getattr(start, a) * start_scale) for a in "xyz"]
-    distance = np.sqrt(step[0] ** 2 + step[1] ** 2 + step[2] ** 2)  # mm
+    step = np.nan_to_num(np.diff(machine, axis=0, prepend=start_machine[None, :]))
+    distance = np.sqrt(step[:, 0] ** 2 + step[:, 1] ** 2 + step[:, 2] ** 2)  # mm
     feed = columns["feed"]
     rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)
     rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * scale)
     seconds = np.where(distance > 0, distance / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
     dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
     seconds = np.where((g & G4) != 0, dwell, seconds)
-    return Track(first, columns, seconds)
+    return Track(first, columns, seconds, frames)
 
 
 # --- the numpy parts ---------------------------------------------------------------------------
@@ -255,6 +294,21 @@ def _codes(words: _Words, letter: str, lines: int, bits: np.ndarray) -> np.ndarr
     mask = np.zeros(lines, dtype=np.int64)
     np.bitwise_or.at(mask, words.line[pick][known], np.left_shift(1, bit[known]))
     return mask
+
+
+def _coordinate_codes(words: _Words, lines: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per line, its non-modal coordinate code in tenths (:data:`coords.CODES`, 0 for none) and
+    the coordinate system it selects (0 = G54 … 5 = G59, −1 for none)."""
+    pick = words.letter == _LETTER["G"]
+    tenths = np.round(words.value[pick] * 10).astype(np.int64)
+    line = words.line[pick]
+    code = np.zeros(lines, np.int64)
+    known = np.isin(tenths, coords.CODES)
+    code[line[known]] = tenths[known]
+    select = np.full(lines, -1, np.int64)
+    chosen = (tenths >= 540) & (tenths <= 590) & (tenths % 10 == 0)
+    select[line[chosen]] = tenths[chosen] // 10 - 54
+    return code, select
 
 
 def _carry(is_set: np.ndarray, value: np.ndarray, initial) -> np.ndarray:

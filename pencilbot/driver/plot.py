@@ -20,13 +20,13 @@ from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver import position
-from pencilbot.driver.bed_check import check_on_bed
+from pencilbot.driver.bed_check import check_on_bed, check_resumable
 from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import flight_start, locate_stop, resume_preamble
 from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted, Stream, StreamFault
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.firmware.base import ERROR
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.units import MM_PER_INCH
@@ -140,6 +140,8 @@ def draw(
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     job = load_job(gcode, machine, source)
     check_on_bed(job)  # before the port is opened: nothing is sent
+    if journal is not None:
+        journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point
 
     start = 0
     if journal is not None:
@@ -148,6 +150,7 @@ def draw(
         if not 1 <= start_line <= job.total_lines:
             raise PlotError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
         start = job.index_of(start_line)
+    check_resumable(job, start)  # a resume restores no work offset the file set up
     if path is not None and journal is None:
         journal = journal_mod.Journal(
             gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port, profile=profile,
@@ -228,7 +231,11 @@ class _Runner:
         done0 = job.seconds_after(start - 1)
         total = job.seconds_after(len(job) - 1) - done0
         self.progress = Progress(self.progress_mode, len(job) - start, total)
-        self._save_journal(force=True)
+        try:
+            self._save_journal(force=True)
+        except StreamFault as fault:  # the journal cannot be written: stop as any fault does
+            self._stopping = True
+            raise PlotError(self._stop(stream, fault)) from None
 
         def on_ack(index, state):
             self.acked = index
@@ -257,7 +264,10 @@ class _Runner:
         self.progress.update(len(job) - start, total, stream.machine_state)  # drawn: now Idle
         self.progress.close("done")
         if self.journal is not None:
-            self.journal.path.unlink(missing_ok=True)  # a finished job has nothing to resume
+            try:
+                self.journal.path.unlink(missing_ok=True)  # a finished job has nothing to resume
+            except OSError:
+                pass  # its folder is gone: nothing left to remove
         return DrawResult(
             lines_sent=len(job) - start,
             rejected=[job.number(i) for i in rejected],
@@ -456,13 +466,20 @@ class _Runner:
         self.journal.next_line = self.job.number(self.acked + 1)
         if stream is not None and stream.sent >= 0:
             self.journal.sent_line = self.job.number(stream.sent)
-        self.journal.save()
+        try:
+            self.journal.save()
+        except (OSError, PencilbotError) as exc:
+            if not self._stopping:  # (the stop saves it last, wherever it can)
+                # Going on would leave no record of how far the job got: stop it now.
+                raise StreamFault("journal", self.acked + 1, journal_mod.why_not(exc)) from None
 
     # --- stopping ------------------------------------------------------------------------------
 
     def _stop(self, stream: Stream, fault: StreamFault) -> str:
         """Stop the machine after ``fault``, record where to resume, and say so in one message."""
         pen_note, proven = self._halt_and_lift(stream, fault)
+        if fault.kind == "unexpected":
+            proven = None  # answers were counted one line off: what ran is not known from them
         job = self.job
         located = None
         if proven is not None:
@@ -507,7 +524,7 @@ class _Runner:
         fw = self.firmware
         try:
             at_rest = False
-            if fault.kind in ("error", "interrupt", "timeout"):
+            if fault.kind in ("error", "interrupt", "timeout", "unexpected", "journal"):
                 at_rest = stream.halt()
             elif fault.kind == "alarm":
                 stream.reset()  # a limit alarm blocks all input until a reset
@@ -613,7 +630,7 @@ class _Runner:
     def _resume_command(self) -> str:
         if self.journal is None:
             return f"resume from the line named above ({self.job.source} has no journal)"
-        return f"pencilbot draw --resume {shlex.quote(str(self.journal.path))} --port {shlex.quote(self.port)}"
+        return journal_mod.resume_command(self.journal)
 
     def _resume_advice(self, stream: Stream, index, stop_xy, fault, proven) -> str:
         """Record where to resume in the journal and say how: the command, or the line."""
@@ -630,6 +647,4 @@ class _Runner:
         journal.count_work = list(self._count) if proven is None and self._count is not None else None
         journal.status = "stopped"
         journal.message = str(fault)
-        journal.resume = self._resume_command()
-        journal.save()
-        return f"Resume with: {journal.resume}"
+        return journal_mod.save_stopped(journal)

@@ -9,9 +9,16 @@ path. The driver never imports the simulator: whoever wants ``sim://`` ports reg
 from __future__ import annotations
 
 import errno
+import os
 import time
 
 import serial
+
+try:  # POSIX ttys: the kernel's exclusive mode
+    import fcntl
+    import termios
+except ImportError:  # Windows opens a COM port exclusively by itself
+    fcntl = termios = None
 
 from pencilbot.errors import PlotError
 
@@ -36,9 +43,11 @@ def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
     baudrate : int
         Bits per second (ignored by sockets).
 
-    The port is ours alone while it is open (pyserial's ``exclusive``, an advisory lock other
-    senders that lock respect; ``sim://NAME`` refuses a second open the same way): two senders
-    on one board interleave their bytes, and each one's drawing is ruined.
+    The port is ours alone while it is open: two senders on one board interleave their bytes,
+    and each one's drawing is ruined. pyserial's ``exclusive`` takes an advisory lock (other
+    senders that lock respect it), and a POSIX tty is also put in the kernel's exclusive mode
+    (``TIOCEXCL``: any other open fails with EBUSY, whatever the program, unless it runs as
+    root), cleared again when the port is closed; ``sim://NAME`` refuses a second open itself.
 
     Raises
     ------
@@ -46,7 +55,9 @@ def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
         The port does not exist, is in use by another program, or the URL is malformed.
     """
     try:
-        return serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10, exclusive=True)
+        port = serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10, exclusive=True)
+        _hold_exclusively(port)
+        return port
     except (serial.SerialException, ValueError, OSError) as exc:
         if getattr(exc, "errno", None) in _BUSY:
             raise PlotError(
@@ -56,6 +67,33 @@ def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
             f"could not open port {url!r}: {exc}. Check the cable and the port name "
             "(list ports with: python -m serial.tools.list_ports) and that no other program has it open."
         ) from None
+
+
+def _hold_exclusively(port: serial.SerialBase) -> None:
+    """Put a tty port in exclusive mode (``TIOCEXCL``) until it is closed.
+
+    The mode belongs to the device, not to our handle: a pseudo-terminal whose other side
+    stays open would keep it after we close, so closing the port clears it first (a port of a
+    process that is killed loses it when the device's last handle closes).
+    """
+    fd = getattr(port, "fd", None)
+    if termios is None or not hasattr(termios, "TIOCEXCL") or not isinstance(fd, int) or not os.isatty(fd):
+        return  # a socket, rfc2217://, sim://, or a platform without it
+    try:
+        fcntl.ioctl(fd, termios.TIOCEXCL)
+    except OSError:
+        return  # a tty driver without it: the lock alone
+    close = port.close
+
+    def close_and_release() -> None:
+        if isinstance(port.fd, int):
+            try:
+                fcntl.ioctl(port.fd, termios.TIOCNXCL)
+            except OSError:
+                pass  # the device is gone: nothing holds it
+        close()
+
+    port.close = close_and_release
 
 
 class LineReader:

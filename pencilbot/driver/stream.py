@@ -20,7 +20,8 @@ module (:mod:`pencilbot.firmware`), so nothing here knows a firmware by name. It
 ``done``
     The job ran to its end.
 
-Everything that can stop a stream (a refused line, an alarm, a reset, silence, a lost port,
+Everything that can stop a stream (a refused line, an alarm, a reset, silence, a lost port, a reply
+nobody asked for (an ok too many, a line sent back: another program on the port),
 Ctrl-C) becomes one :class:`StreamFault` naming the job line; the caller turns it into a message.
 A board in Hold (an ``M0`` of the job, the machine's button, the pause key) is served beside
 ``streaming``: the reason is shown once, cycle start goes when someone answers, and the wait
@@ -30,6 +31,7 @@ never times out (a held board still answers status queries).
 from __future__ import annotations
 
 import logging
+import re
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
@@ -57,7 +59,14 @@ KINDS = {
     "timeout": "the plotter stopped answering",
     "port": "the serial port vanished",
     "interrupt": "stopped by",  # + who: Ctrl-C, SIGTERM, SIGHUP, the stop key
+    "journal": "the job journal could not be written",
+    "unexpected": ("the plotter answered a line pencilbot did not send: another program is writing to the "
+                   "port, and the plotter ran what it wrote (the drawing may hold a stray line); close that "
+                   "program before you resume"),
 }
+#: A command line coming back from the board: an echo (a loopback, a port echoing what it got),
+#: never a reply of any firmware's.
+_ECHO = re.compile(r"(?:N\d+)?(?:[GM]\d+(?:\.\d+)?|[XYZ][-+]?[\d.]+)(?:[A-Z][-+]?[\d.]+)*(?:\*\d+)?")
 
 
 @dataclass
@@ -428,6 +437,10 @@ class Stream:
                     self._complete(self._sent.popleft(), reply)
             elif self._sent:
                 self._complete(self._sent.popleft(), reply)
+            elif self.state in (STREAMING, DRAINING):
+                # Every line gets one answer: an ok too many answers a line someone else sent,
+                # and one of ours was taken as answered early (its bytes counted free too soon).
+                raise StreamFault("unexpected", index, "an ok too many")
             else:
                 log.debug("unexpected ok with nothing in flight")
         elif kind == ERROR:
@@ -444,6 +457,8 @@ class Stream:
             raise StreamFault("reset", index, f"{reply.detail} arrived mid-job")
         elif kind == BUSY:
             self.machine_state = "Busy"
+        elif self.state in (STREAMING, DRAINING) and _ECHO.fullmatch(reply.text.replace(" ", "").upper()):
+            raise StreamFault("unexpected", index, f"it sent back {reply.text.strip()!r}, a command line")
         else:
             log.debug("board: %s", reply.text)
 

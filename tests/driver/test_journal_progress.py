@@ -19,7 +19,7 @@ def make(tmp_path):
 
 def test_journal_sits_next_to_the_gcode_and_round_trips(tmp_path):
     gcode, journal = make(tmp_path)
-    journal.acked_line, journal.next_line, journal.stop_xy, journal.status = 7, 8, [1.5, 2.0], "stopped"
+    journal.acked_line, journal.next_line, journal.stop_xy, journal.status = 1, 2, [1.5, 2.0], "stopped"
     journal.save()
     assert journal.path == tmp_path / "job.gcode.job.json"
     for where in (journal.path, gcode):  # by journal or by the G-code it belongs to
