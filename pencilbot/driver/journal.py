@@ -18,7 +18,6 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pencilbot.driver.bed_check import TOLERANCE
 from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.fileio import write_atomic
 from pencilbot.units import MM_PER_INCH
@@ -28,6 +27,9 @@ if TYPE_CHECKING:
 
 SUFFIX = ".job.json"
 FORMAT = 1
+#: How far past the bed's edge (mm) a recorded stop point may lie: a carriage stopped by an
+#: alarm or a reset can coast a little past a corner on the edge.
+STOP_SLACK = 1.0
 
 
 @dataclass
@@ -281,12 +283,14 @@ def check_against(journal: Journal, job: Job) -> None:
     bed = job.profile.bed
     (x0, x1), (y0, y1) = bed.machine_range()
     where = f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)"
-    points = {"stop_work": journal.stop_work, "stop_mpos": journal.stop_mpos}
+    # (stop_mpos is the board's own count, which a restart-at-zero resume may have shifted: only
+    # finite. The others are the file's coordinates, which the bed check kept on the bed.)
+    points = {"stop_work": journal.stop_work}
     if journal.stop_xy is not None:  # job units, work coordinates at the line it stopped in
         state = job.state_after(job.index_of(journal.next_line) - 1)
         scale = MM_PER_INCH if state.inches else 1.0
         offset = state.frames.offset()[:2]
         points["stop_xy"] = [journal.stop_xy[0] * scale + offset[0], journal.stop_xy[1] * scale + offset[1]]
     for name, xy in points.items():
-        if xy is not None and bed.outside([xy], TOLERANCE)[0]:
+        if xy is not None and bed.outside([xy], STOP_SLACK)[0]:
             raise damaged(journal, f"{name} {getattr(journal, name)} is {where}")
