@@ -45,6 +45,10 @@ URL parts (all optional):
     edges, in a build without HOMING_INIT_LOCK (``$I`` shows ``OPT:VL``), so the board trusts
     the position it powers up with.
 
+``xonxoff``
+    ``1``: an HP-GL plotter sends XOFF / XON as its buffer fills and empties (default ``0``).
+    A profile whose firmware names a ``sim_board`` (HP-GL) gets that board
+    (:mod:`sim.hpgl_plotter`) instead of the GRBL one.
 ``operator``
     ``none`` (default): an ``M0`` pause holds until the host sends ``~``, as on a real board.
     ``auto``: a virtual person at the plotter presses cycle start as soon as the machine stops at
@@ -69,7 +73,7 @@ from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.render import Canvas, save_drawing_png
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
-_OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits", "operator")
+_OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff")
 _OPERATORS = ("none", "auto")
 _CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
 #: Option values a real GRBL board has: the default, so tests meet what a sender meets.
@@ -118,7 +122,7 @@ def simulated_profile(name_or_path: str) -> Profile:
 
 def check_simulated(profile: Profile) -> None:
     """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
-    if not profile.firmware.capabilities.realtime_protocol:
+    if not profile.firmware.capabilities.realtime_protocol and not getattr(profile.firmware, "sim_board", None):
         raise ProfileError(
             f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
             "GRBL's protocol only (GRBL 1.1, grblHAL): use such a profile (e.g. grbl-servo-a4)"
@@ -249,6 +253,10 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
+    if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
+        from sim.hpgl_plotter import HpglPlotter
+
+        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1")
     return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, **board)
 
 
@@ -272,7 +280,7 @@ class Serial(SerialBase):
         self._name = name
         firmware = self.plotter.firmware
         firmware.link_dropped = False  # plugged back in
-        if not fresh and options.get("reset", "1") != "0":
+        if not fresh and options.get("reset", "1") != "0" and getattr(firmware, "resets_on_open", True):
             firmware.power_cycle()
         self._rx = bytearray()
         self.is_open = True

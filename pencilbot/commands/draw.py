@@ -89,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
+    port = sim_port_for(port, profile or (journal.profile if journal else None))
     with ExitStack() as stack:
         keys = operator = None
         if sys.stdin.isatty() and not args.json_lines:
@@ -107,6 +108,16 @@ def run(args: argparse.Namespace) -> int:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def sim_port_for(port: str, profile: str | None) -> str:
+    """A ``sim://`` port without ``profile=`` plays the profile being drawn with (its firmware:
+    GRBL, grblHAL or HP-GL); any other port is returned as it is."""
+    if not port.startswith("sim://") or profile is None or "profile=" in port:
+        return port
+    from urllib.parse import quote
+
+    return f"{port}{'&' if '?' in port else '?'}profile={quote(str(profile), safe='')}"
 
 
 def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
