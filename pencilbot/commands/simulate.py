@@ -22,6 +22,7 @@ from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
+from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
 from pencilbot.machine.pens import load_pens
 from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.plan import BLACK
@@ -136,7 +137,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     """The G-code program for ``source`` and the pen width (mm) to render it with."""
     if not source.is_file():
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
-    if source.suffix.lower() in GCODE_SUFFIXES:
+    if source.suffix.lower() in (*GCODE_SUFFIXES, *HPGL_SUFFIXES):
         try:
             # Read as draw reads it (any text in comments; a command that is not ASCII is refused
             # by line), but as a program: a simulation keeps no job journal beside the file.
@@ -147,6 +148,8 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
+    if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL
+        return hpgl_program(plan, profile), args.pen_width or plan.pen_width
     return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
 
 
