@@ -120,6 +120,8 @@ class HpglBoard:
         self._flow()
 
     def _fill(self, chunk: bytes) -> None:
+        if chunk and not self.buffer and self.busy_until < self.now:
+            self.busy_until = self.now  # idle until these bytes came
         room = self.free
         if len(chunk) > room:
             self.overflows += len(chunk) - room
@@ -208,8 +210,6 @@ class HpglBoard:
             elif kind == "garbage":
                 self.out += _GARBAGE
         m, p = ins.mnemonic, ins.params
-        start = max(self.busy_until, self.now) if not math.isinf(self.now) else self.busy_until
-        self.busy_until = start
         if m == "IN":
             self._pen(False)
             self.relative, self.speed, self.error = False, self.top_speed, 0
