@@ -324,6 +324,11 @@ class HpglBoard:
     def stroke_pauses(self) -> list[int]:
         return self.stroke_pens
 
+    @property
+    def travel(self) -> list[np.ndarray]:
+        """Pen-up moves so far (machine mm), each a (2, 2) array."""
+        return list(self._travel)
+
     def bed_strokes(self) -> Paths:
         return self._view(self.drawn())
 
