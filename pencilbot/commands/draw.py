@@ -27,7 +27,8 @@ def add_parser(subparsers) -> None:
         "change) wait for Enter.",
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
-    p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
+    p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…; "
+                   "auto: the one plotter that answers (see pencilbot ports)")
     p.add_argument("--profile", help="plotter profile name or TOML file (default: the resumed job's, else the one "
                    f"the file's header names, else {default_profile()}); must be the header's if it names one")
     p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
@@ -89,6 +90,8 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
+    if port == "auto":
+        port = auto_port(args.quiet)
     port = sim_port_for(port, profile or (journal.profile if journal else None))
     with ExitStack() as stack:
         keys = operator = None
@@ -108,6 +111,23 @@ def run(args: argparse.Namespace) -> int:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def auto_port(quiet: bool = False) -> str:
+    """The port of the one plotter that answers (``--port auto``); says which on stderr."""
+    from pencilbot.driver.ports import find_plotters, list_ports
+
+    found = find_plotters()
+    if len(found) == 1:
+        if not quiet:
+            print(f"using {found[0].device}: {found[0].summary()}", file=sys.stderr, flush=True)
+        return found[0].device
+    if not found:
+        listed = ", ".join(p.device for p in list_ports()) or "none"
+        raise PlotError(f"--port auto: no plotter answered on the serial ports (listed: {listed}); "
+                        "check it is on and connected, or give --port (pencilbot ports PORT probes one)")
+    raise PlotError("--port auto: several plotters answered (" + "; ".join(f"{f.device}: {f.summary()}" for f in found)
+                    + "); choose one with --port")
 
 
 def sim_port_for(port: str, profile: str | None) -> str:
