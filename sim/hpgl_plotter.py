@@ -158,6 +158,8 @@ class HpglBoard:
         # ESC.J, ESC.@ and the handshake settings: accepted, nothing to emulate
 
     def _answer(self, text: str) -> None:
+        if self.link_dropped:
+            return  # nobody on the other end: the answer is lost
         if self._silent_next:
             self._silent_next = False
             return
@@ -173,7 +175,7 @@ class HpglBoard:
     def poll(self, seconds: float) -> None:
         """Let ``seconds`` of plotter time pass (``math.inf``: run everything buffered)."""
         self.now = self.busy_until if math.isinf(seconds) else self.now + seconds
-        while not self.link_dropped:
+        while True:  # a pulled cable does not stop the plotter: it draws what it holds
             if not math.isinf(seconds) and self.busy_until > self.now:
                 break
             try:
@@ -380,6 +382,9 @@ class HpglPlotter:
         elapsed, self._last = now - self._last, now
         self.board.receive(self._to_board.take(now))
         self.board.poll(math.inf if not self.realtime else elapsed * self.realtime)
+        if self.board.link_dropped:  # what was on its way in the cable is gone with it
+            self._to_host.buf.clear()
+            self.board.out.clear()
         self._to_host.put(self.board.take_output(), now)
 
     def read(self) -> bytes:

@@ -40,10 +40,12 @@ class _Lost(Exception):
 class _Answers:
     """CR- (or LF-) terminated answers from the port; XON/XOFF bytes noted, not returned."""
 
-    def __init__(self, port):
+    def __init__(self, port, parse_position=None):
         self.port = port
         self.partial = b""
         self.lines: list[str] = []
+        self.positions: list = []
+        self.parse_position = parse_position
         self.xoff = False
 
     def write(self, data: bytes) -> None:
@@ -63,7 +65,21 @@ class _Answers:
             self.xoff = data.rfind(b"\x13") > data.rfind(b"\x11")
             data = data.replace(b"\x13", b"").replace(b"\x11", b"")
         *done, self.partial = (self.partial + data).replace(b"\n", b"\r").split(b"\r")
-        self.lines += [d.decode("ascii", errors="replace").strip() for d in done if d.strip()]
+        for line in (d.decode("ascii", errors="replace").strip() for d in done if d.strip()):
+            position = self.parse_position(line) if self.parse_position else None
+            if position is not None:
+                self.positions.append(position)  # a sync point's answer, kept in order
+            else:
+                self.lines.append(line)
+
+    def position(self, timeout: float):
+        """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s."""
+        end = time.monotonic() + timeout
+        while not self.positions:
+            if time.monotonic() > end:
+                return None
+            self.pump()
+        return self.positions.pop(0)
 
     def wait(self, accept, timeout: float):
         """The first answer ``accept`` turns into something not None (others are dropped)."""
@@ -129,19 +145,24 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     restore = _catch_signals(stop, why)
     began = time.monotonic()
     link = None
-    sent = start
+    sent = floor = start
     try:
         try:
-            link = _Answers(open_port(port, baudrate=baud))
+            link = _Answers(open_port(port, baudrate=baud), fw.parse_position)
         except PlotError:
             raise
         size = machine.receive_buffer
+        try:
+            link.port.reset_input_buffer()  # nothing from before this job
+        except (serial.SerialException, OSError) as exc:
+            raise _Lost(str(exc)) from None
         link.write(fw.wake_bytes)
         if link.wait(lambda t: t if t.strip().lstrip("-").isdigit() else None, timeout) is None:
             raise PlotError(f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
                             "on a null-modem cable?")
         link.write(fw.identify_command)
         identity = link.wait(lambda t: t if fw.is_identity(t) else None, timeout)
+        link.positions.clear()
         if announce is not None:
             announce(f"banner '{identity or 'no answer to OI;'}'", None)
         if resuming:
@@ -150,6 +171,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         elif start > 0:
             link.write(program.preamble(start))
         sent_bytes = 0
+        checkpoints: list[int] = []  # entries after which a sync point was sent, not yet answered
         base = program.offsets[start]
         floor = start
         last_save = 0.0
@@ -165,18 +187,28 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 time.sleep(POLL_PAUSE)
                 continue
             chunk = b"".join(program.frames[sent:end])
+            if not checkpoints and end < len(program) and len(chunk) + len(fw.sync_command) <= room:
+                # A sync point now and then: its answer must be where the program put the pen,
+                # or the plotter lost it (a power cycle clears the buffer and homes the pen).
+                chunk += fw.sync_command
+                checkpoints.append(end)
             link.write(chunk)
             sent_bytes += len(chunk)
             sent = end
+            while link.positions and checkpoints:
+                _check_point(link.positions.pop(0), program, checkpoints.pop(0))
             if journal is not None and time.monotonic() - last_save > 0.2:
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
         # Drain: OA; is answered once everything before it ran (the buffer holds ≤ size bytes).
         link.write(fw.sync_command)
-        position = link.wait(fw.parse_position, timeout + 0.5 * (len(program) - floor))
-        if position is None:
-            raise _Silent()
+        checkpoints.append(len(program))
+        while checkpoints:
+            position = link.position(timeout + 0.5 * (len(program) - floor))
+            if position is None:
+                raise _Silent()
+            _check_point(position, program, checkpoints.pop(0))
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
         return DrawResult(lines_sent=len(program) - start, seconds=time.monotonic() - began)
@@ -185,6 +217,12 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
         _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
                  floor=floor)
+    except _Moved as exc:
+        try:
+            link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
+        except _Lost:
+            pass
+        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=floor, sent=None)
     except _Lost as exc:
         _stopped(journal, None, port, f"the port was lost ({exc})", name, program, proven=False, floor=floor, sent=sent)
     except _Silent:
@@ -208,6 +246,18 @@ class _Silent(Exception):
     pass
 
 
+class _Moved(Exception):
+    """A sync point's answer is not where the program put the pen."""
+
+
+def _check_point(position, program, after: int) -> None:
+    """``position`` answers a sync point sent after ``after`` entries: it must be their end."""
+    expected = (int(program.xy[after - 1, 0]), int(program.xy[after - 1, 1])) if after else (0, 0)
+    if (position[0], position[1]) != expected:
+        raise _Moved(f"the plotter's pen was at {position[0]},{position[1]} after instruction {after}, not at "
+                     f"{expected[0]},{expected[1]}: it lost its place (switched off and on, or reset)")
+
+
 def _poll(link: _Answers, fw, timeout: float) -> int:
     """Free buffer bytes; one lost answer is asked again, garbage is skipped."""
     for _ in range(2):
@@ -223,8 +273,11 @@ def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, ti
     try:
         free = _poll(link, fw, timeout)
         floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - (size - free), side="right")) - 1)
-        link.write(fw.abort_bytes + fw.lift_command + fw.sync_command)
-        position = link.wait(fw.parse_position, timeout)
+        link.write(fw.abort_bytes)
+        _poll(link, fw, timeout)  # answered after anything the plotter said before the abort
+        link.positions.clear()
+        link.write(fw.lift_command + fw.sync_command)
+        position = link.position(timeout)
     except (_Lost, _Silent):
         return None
     if position is None:
@@ -242,7 +295,7 @@ def _locate(program, xy, low: int, high: int) -> int | None:
 def _check_resume_position(link, fw, program, start, journal, timeout, name) -> None:
     """A resume trusts the journal only if the pen stands where the stop left it."""
     link.write(fw.lift_command + fw.sync_command)
-    position = link.wait(fw.parse_position, timeout)
+    position = link.position(timeout)
     expected = tuple(program.xy[start - 1]) if start > 0 else (0, 0)
     if not journal.stop_work or position is None or (position[0], position[1]) != expected:
         where = f"{position[0]},{position[1]}" if position else "unknown"

@@ -101,6 +101,7 @@ def test_ctrl_c_stops_and_the_resume_draws_the_rest_exactly_once(coffee, tmp_pat
     assert journal.status == "stopped" and journal.stop_work is not None
     board = protocol_sim.plotter("hpgl-stop").board
     assert not board.down and board.executed >= 300
+    assert journal.next_line < journal.total_lines  # the abort left part of the job undrawn
     draw(target, port, resume=str(journal.path))
     assert not journal.path.exists()
     assert drawing_differences(board.strokes, reference) == []
@@ -124,5 +125,38 @@ def test_a_resume_after_a_power_cycle_is_refused(coffee, tmp_path, monkeypatch):
         draw(target, port, profile="hp7475a")
     monkeypatch.setattr(HpglBoard, "_run", run)
     protocol_sim.plotter("hpgl-power").board.power_cycle()  # someone switched it off and on
+    with pytest.raises(PlotError, match="cannot resume .* exactly"):
+        draw(target, port, resume=str(target))
+
+
+def test_an_unplugged_cable_resumes_after_what_was_sent_exactly_once(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path)
+    draw(target, _fresh("hpgl-ref2"), profile="hp7475a")
+    reference = protocol_sim.plotter("hpgl-ref2").board.strokes
+    port = _fresh("hpgl-drop").replace("profile=", "faults=drop@400&profile=")
+    with pytest.raises(PlotError, match="the port was lost"):
+        draw(target, port, profile="hp7475a")
+    board = protocol_sim.plotter("hpgl-drop").board
+    draw(target, port, resume=str(target))  # plugged back in: the plotter drew what it held
+    assert drawing_differences(board.strokes, reference) == []
+
+
+def test_a_lost_answer_and_line_noise_cost_nothing(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path, count=30)
+    draw(target, _fresh("hpgl-ref3"), profile="hp7475a")
+    reference = protocol_sim.plotter("hpgl-ref3").board.strokes
+    draw(target, _fresh("hpgl-noise").replace("profile=", "faults=silent@50,garbage@120&profile="),
+         profile="hp7475a", timeout=1.0)
+    assert drawing_differences(protocol_sim.plotter("hpgl-noise").board.strokes, reference) == []
+
+
+def test_a_power_cycle_while_drawing_stops_the_job_and_its_resume_is_refused(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path, count=60)
+    port = _fresh("hpgl-reset").replace("profile=", "faults=reset@300&profile=")
+    with pytest.raises(PlotError, match="lost its place"):
+        draw(target, port, profile="hp7475a")
     with pytest.raises(PlotError, match="cannot resume .* exactly"):
         draw(target, port, resume=str(target))
