@@ -13,7 +13,7 @@ from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_verbosity, n
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.machine.profile import default_profile
 
 
@@ -62,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
     journal = load_journal(args.resume) if args.resume else None
     gcode = journal.gcode if journal else args.input
     if gcode is not None and Path(gcode).suffix.lower() in NOT_GCODE:
-        out = Path(gcode).with_suffix(".gcode")
+        out = Path(gcode).with_suffix(_suffix_for(args.profile))
         profile = f" --profile {args.profile}" if args.profile else ""
         raise PlotError(
             f"{gcode} is a picture, not G-code; make the G-code first (and look at it with "
@@ -90,9 +90,10 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
+    _check_file_kind(Path(gcode), profile or (journal.profile if journal else None))
     if port == "auto":
         port = auto_port(args.quiet)
-    port = sim_port_for(port, profile or (journal.profile if journal else None))
+    url = sim_port_for(port, profile or (journal.profile if journal else None))
     with ExitStack() as stack:
         keys = operator = None
         if sys.stdin.isatty() and not args.json_lines:
@@ -102,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
             stack.callback(keys.close)
             operator = TerminalOperator(keys)
         result = draw(
-            gcode, port, profile=profile, baud=baud,
+            gcode, url, profile=profile, baud=baud,
             unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
             start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
             operator=operator, keys=keys, announce=announce,
@@ -111,6 +112,38 @@ def run(args: argparse.Namespace) -> int:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def _suffix_for(profile: str | None) -> str:
+    """The file a profile's plotter draws: .hpgl for an HP-GL plotter, else .gcode."""
+    from pencilbot.machine.profile import load_profile
+
+    try:
+        return ".hpgl" if profile and getattr(load_profile(profile).firmware, "flow", "") == "polled" else ".gcode"
+    except PencilbotError:
+        return ".gcode"
+
+
+def _check_file_kind(path: Path, profile: str | None) -> None:
+    """An HP-GL file needs an HP-GL plotter's profile, G-code a G-code plotter's (the suffix says which)."""
+    from pencilbot.export.hpgl import HPGL_SUFFIXES
+    from pencilbot.machine.profile import list_profiles, load_profile
+
+    if profile is None:
+        return
+    try:
+        hpgl_profile = getattr(load_profile(profile).firmware, "flow", "") == "polled"
+    except PencilbotError:
+        return  # the driver says what is wrong with it
+    hpgl_file = path.suffix.lower() in HPGL_SUFFIXES
+    if hpgl_file and not hpgl_profile:
+        names = [n for n in list_profiles() if getattr(load_profile(n).firmware, "flow", "") == "polled"]
+        raise PlotError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
+                        f"--profile {' or '.join(names) or 'NAME'}")
+    if hpgl_profile and not hpgl_file:
+        raise PlotError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
+                        f"export the drawing for it: pencilbot export DRAWING.svg -o {path.with_suffix('.hpgl').name} "
+                        f"--profile {profile}")
 
 
 def auto_port(quiet: bool = False) -> str:
