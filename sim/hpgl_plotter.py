@@ -35,8 +35,8 @@ import numpy as np
 from firmware_protocol import ProtocolError
 from firmware_protocol import hpgl as protocol
 from pencilbot.machine.motion import block_duration
-from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
-from pencilbot.render import Canvas, save_drawing_png
+from pencilbot.paths import Paths
+from sim.protocol_sim import VirtualPlotter, _Wire
 
 MODEL = "7475A"
 _XOFF_BELOW, _XON_AT = 80, 128
@@ -345,9 +345,10 @@ class HpglBoard:
         return list(self.log)
 
 
-class HpglPlotter:
+class HpglPlotter(VirtualPlotter):
     """A virtual HP-GL plotter with its wires, driven like :class:`sim.protocol_sim.VirtualPlotter`
-    (the ``sim://`` port and the pty server take either).
+    (the ``sim://`` port and the pty server take either; writing, reading, the picture and the
+    clock are the same, its board is both ``firmware`` and ``machine``).
 
     Parameters
     ----------
@@ -363,19 +364,14 @@ class HpglPlotter:
     """
 
     def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, xonxoff: bool = False):
-        from sim.protocol_sim import _Wire
-
         self.profile = profile
         self.board = HpglBoard(profile, faults=faults, xonxoff=xonxoff)
         self.firmware = self.machine = self.board
+        self.operator = "none"
         self.realtime = realtime
         self._to_board = _Wire(baud)
         self._to_host = _Wire(baud)
         self._last = time.monotonic()
-
-    def write(self, data: bytes) -> None:
-        self._to_board.put(data, time.monotonic())
-        self.pump()
 
     def pump(self) -> None:
         now = time.monotonic()
@@ -386,27 +382,3 @@ class HpglPlotter:
             self._to_host.buf.clear()
             self.board.out.clear()
         self._to_host.put(self.board.take_output(), now)
-
-    def read(self) -> bytes:
-        self.pump()
-        return self._to_host.take(time.monotonic())
-
-    def save_png(self, path, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
-        """Write the bed as drawn so far to a PNG (buffered instructions run first)."""
-        self.board.finish()
-        bed = self.profile.bed
-        save_drawing_png(path, self.board.bed_strokes(), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
-                         travel=self.board.bed_travel() if travel else None)
-
-    def canvas(self, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
-        self.board.finish()
-        bed = self.profile.bed
-        canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
-        canvas.draw_paths(self.board.bed_strokes())
-        if travel:
-            canvas.draw_travel(self.board.bed_travel())
-        return canvas
-
-    @property
-    def seconds(self) -> float:
-        return self.board.clock

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 import signal
+from contextlib import contextmanager
 from dataclasses import replace
 
 import numpy as np
@@ -67,6 +68,23 @@ def test_coffee_round_trip_every_stroke_once_to_a_plotter_unit(coffee, tmp_path)
     assert len(back.paths()) == len(paths)
 
 
+@contextmanager
+def _ctrl_c_at(count: int, monkeypatch):
+    """Ctrl-C is pressed as the virtual plotter starts its ``count``-th instruction."""
+    from sim.hpgl_plotter import HpglBoard
+
+    run = HpglBoard._run
+
+    def pressing(self, ins):
+        run(self, ins)
+        if self.executed == count:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(HpglBoard, "_run", pressing)
+    yield
+    monkeypatch.setattr(HpglBoard, "_run", run)
+
+
 def _small_job(plan, profile, tmp_path, count=80):
     layer = plan.layers[0]
     small = replace(plan, layers=(replace(layer, paths=layer.paths[:count]),))
@@ -83,20 +101,9 @@ def test_ctrl_c_stops_and_the_resume_draws_the_rest_exactly_once(coffee, tmp_pat
 
     # The virtual plotter fast but not instant, so the buffer holds work when Ctrl-C comes; Ctrl-C
     # is pressed when the plotter starts its 300th instruction (a fixed point of the job).
-    from sim.hpgl_plotter import HpglBoard
-
-    run = HpglBoard._run
-
-    def pressing(self, ins):
-        run(self, ins)
-        if self.executed == 300:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    monkeypatch.setattr(HpglBoard, "_run", pressing)
     port = _fresh("hpgl-stop").replace("profile=", "realtime=200&profile=")
-    with pytest.raises(PlotError, match="stopped by Ctrl-C; stopped after instruction"):
+    with _ctrl_c_at(300, monkeypatch), pytest.raises(PlotError, match="stopped by Ctrl-C; stopped after instruction"):
         draw(target, port, profile="hp7475a")
-    monkeypatch.setattr(HpglBoard, "_run", run)
     journal = load_journal(target)
     assert journal.status == "stopped" and journal.stop_work is not None
     board = protocol_sim.plotter("hpgl-stop").board
@@ -110,20 +117,9 @@ def test_ctrl_c_stops_and_the_resume_draws_the_rest_exactly_once(coffee, tmp_pat
 def test_a_resume_after_a_power_cycle_is_refused(coffee, tmp_path, monkeypatch):
     plan, profile = coffee
     target = _small_job(plan, profile, tmp_path, count=40)
-    from sim.hpgl_plotter import HpglBoard
-
-    run = HpglBoard._run
-
-    def pressing(self, ins):
-        run(self, ins)
-        if self.executed == 100:
-            os.kill(os.getpid(), signal.SIGINT)
-
-    monkeypatch.setattr(HpglBoard, "_run", pressing)
     port = _fresh("hpgl-power").replace("profile=", "realtime=200&profile=")
-    with pytest.raises(PlotError, match="stopped by Ctrl-C"):
+    with _ctrl_c_at(100, monkeypatch), pytest.raises(PlotError, match="stopped by Ctrl-C"):
         draw(target, port, profile="hp7475a")
-    monkeypatch.setattr(HpglBoard, "_run", run)
     protocol_sim.plotter("hpgl-power").board.power_cycle()  # someone switched it off and on
     with pytest.raises(PlotError, match="cannot resume .* exactly"):
         draw(target, port, resume=str(target))
