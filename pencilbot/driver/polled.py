@@ -26,6 +26,7 @@ import serial
 
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver.port import open_port
+from pencilbot.driver.progress import Progress
 from pencilbot.errors import PlotError
 
 POLL_PAUSE = 0.02  # s between polls while the buffer is full
@@ -140,12 +141,16 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     if journal is not None:
         journal.port, journal.status, journal.options = port, "running", {"baud": baud, "timeout": timeout}
         journal.save()
+    seconds = _seconds_after(program, machine)
+    shown = Progress(progress, len(program) - start, float(seconds[-1] - (seconds[start - 1] if start else 0.0)))
+    done0 = seconds[start - 1] if start else 0.0
     stop = threading.Event()
     why: list[str] = []
     restore = _catch_signals(stop, why)
     began = time.monotonic()
     link = None
     sent = floor = start
+    finished = False
     try:
         try:
             link = _Answers(open_port(port, baudrate=baud), fw.parse_position)
@@ -197,6 +202,8 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             sent = end
             while link.positions and checkpoints:
                 _check_point(link.positions.pop(0), program, checkpoints.pop(0))
+            if floor > start:
+                shown.update(floor - start, float(seconds[floor - 1] - done0), "Run")
             if journal is not None and time.monotonic() - last_save > 0.2:
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
@@ -211,6 +218,9 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             _check_point(position, program, checkpoints.pop(0))
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
+        shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
+        shown.close("done")
+        finished = True
         return DrawResult(lines_sent=len(program) - start, seconds=time.monotonic() - began)
     except _Stop:
         assert link is not None
@@ -229,6 +239,8 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         _stopped(journal, None, port, f"the plotter did not answer for {timeout:g} s", name, program, proven=False,
                  floor=floor, sent=sent)
     finally:
+        if not finished:
+            shown.close("stopped")
         restore()
         if link is not None:
             try:
@@ -345,6 +357,20 @@ def _catch_signals(stop: threading.Event, why: list[str]):
         if signum is not None:
             old[signum] = signal.signal(signum, handler)
     return lambda: [signal.signal(s, h) for s, h in old.items()]
+
+
+def _seconds_after(program, machine) -> np.ndarray:
+    """A rough plot time (s) after each entry, for the progress display: each move at its speed
+    (VS pen down, else the profile's), each lift and drop its delay."""
+    if not len(program):
+        return np.zeros(1)
+    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * machine.firmware.unit_mm
+    speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, machine.motion.draw_speed),
+                     machine.motion.travel_speed)
+    pen = machine.pen_model
+    changed = np.diff(program.down.astype(np.int8), prepend=np.int8(0))
+    delays = np.where(changed > 0, pen.down_delay, np.where(changed < 0, pen.up_delay, 0.0))
+    return np.cumsum(np.hypot(*step.T) / speed + delays)
 
 
 def _check_limits(program, machine, fw, name) -> None:
