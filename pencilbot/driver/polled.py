@@ -185,23 +185,27 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 raise _Stop()
             free = _poll(link, fw, timeout)
             used = size - free
-            floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - used, side="right")) - 1)
+            # Bytes of the program not started yet: the buffer's, less the sync points still in it.
+            waiting = used - len(fw.sync_command) * len(checkpoints)
+            floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - waiting, side="right")) - 1)
+            if checkpoints and not link.positions and floor > checkpoints[0] + 1:
+                checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
             room = free - (0 if not link.xoff else free)
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
             if end <= sent:
                 time.sleep(POLL_PAUSE)
                 continue
             chunk = b"".join(program.frames[sent:end])
+            sent_bytes += len(chunk)
             if not checkpoints and end < len(program) and len(chunk) + len(fw.sync_command) <= room:
                 # A sync point now and then: its answer must be where the program put the pen,
                 # or the plotter lost it (a power cycle clears the buffer and homes the pen).
                 chunk += fw.sync_command
                 checkpoints.append(end)
             link.write(chunk)
-            sent_bytes += len(chunk)
             sent = end
             while link.positions and checkpoints:
-                _check_point(link.positions.pop(0), program, checkpoints.pop(0))
+                _check_point(link.positions.pop(0), program, checkpoints)
             if floor > start:
                 shown.update(floor - start, float(seconds[floor - 1] - done0), "Run")
             if journal is not None and time.monotonic() - last_save > 0.2:
@@ -215,7 +219,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             position = link.position(timeout + 0.5 * (len(program) - floor))
             if position is None:
                 raise _Silent()
-            _check_point(position, program, checkpoints.pop(0))
+            _check_point(position, program, checkpoints)
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
         shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
@@ -262,12 +266,20 @@ class _Moved(Exception):
     """A sync point's answer is not where the program put the pen."""
 
 
-def _check_point(position, program, after: int) -> None:
-    """``position`` answers a sync point sent after ``after`` entries: it must be their end."""
-    expected = (int(program.xy[after - 1, 0]), int(program.xy[after - 1, 1])) if after else (0, 0)
-    if (position[0], position[1]) != expected:
-        raise _Moved(f"the plotter's pen was at {position[0]},{position[1]} after instruction {after}, not at "
-                     f"{expected[0]},{expected[1]}: it lost its place (switched off and on, or reset)")
+def _check_point(position, program, checkpoints: list[int]) -> None:
+    """``position`` answers the first of the sync points ``checkpoints`` (entries after which
+    each was sent) still open: it must be their end. An answer that matches a later one means
+    the earlier answers were lost on the line; they are dropped with it."""
+    ends = [(int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1])) if k else (0, 0, False)
+            for k in checkpoints]
+    for j, end in enumerate(ends):
+        if tuple(position) == end:
+            del checkpoints[: j + 1]
+            return
+    after, expected = checkpoints[0], ends[0]
+    state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
+    raise _Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
+                 "it lost its place (switched off and on, or reset)")
 
 
 def _poll(link: _Answers, fw, timeout: float) -> int:
