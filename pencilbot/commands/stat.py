@@ -52,6 +52,9 @@ def run(args: argparse.Namespace) -> int:
         args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
     profile = load_profile(args.profile)
     if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL, ours or another tool's (vpype's)
+        if getattr(profile.firmware, "flow", "") != "polled":
+            raise PencilbotError(f"{source} is HP-GL and profile {profile.name} is not an HP-GL plotter's; "
+                                 "give its profile (e.g. --profile hp7475a)")
         plan = hpgl_plan(source, profile)
     else:
         plan = gcode_plan(source, profile) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)

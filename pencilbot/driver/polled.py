@@ -133,6 +133,8 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     except ValueError as exc:
         raise PlotError(f"{name}: {exc}") from None
     _check_limits(program, machine, fw, name)
+    if not 0 <= start < max(len(program), 1):
+        raise PlotError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
     baud = baud or getattr(fw, "default_baud", 9600)
     resuming = journal is not None
     if path is not None and journal is None:

@@ -58,3 +58,16 @@ def test_what_cannot_be_plotted_is_refused_before_a_file_exists(tmp_path):
     with pytest.raises(PencilbotError, match="not an HP-GL plotter"):
         write_hpgl(Plan(A4, [_layer("k", "", 50)]), load_profile("grbl-servo-a4"), target)
     assert not target.exists()
+
+
+def test_stat_and_draw_say_when_the_profile_is_not_an_hpgl_plotters(tmp_path, capsys):
+    from pencilbot.cli import main
+
+    target = tmp_path / "d.hpgl"
+    write_hpgl(Plan(A4, [_layer("k", "", 50)]), PROFILE, target)
+    assert main(["stat", str(target), "--profile", "grbl-servo-a4"]) != 0
+    assert "not an HP-GL plotter's" in capsys.readouterr().err
+    assert main(["draw", str(target), "--profile", "grbl-servo-a4", "--port", "sim://"]) != 0
+    assert "--profile hp7475a" in capsys.readouterr().err
+    assert main(["stat", str(target), "--profile", "hp7475a", "--json"]) == 0
+    assert '"paths": 2' in capsys.readouterr().out
