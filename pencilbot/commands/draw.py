@@ -21,7 +21,8 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "draw",
         help="stream G-code to a pen plotter over serial",
-        description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter. If the job stops (error, alarm, "
+        description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter (or an HP-GL file to an HP-GL "
+        "plotter such as the HP 7475A: its buffer polled with ESC.B, Ctrl-C aborts with ESC.K). If the job stops (error, alarm, "
         "reset, lost port, Ctrl-C, SIGTERM, SIGHUP) the message gives the exact command to resume it. In a "
         "terminal: p or space pauses and resumes (feed hold, cycle start), s stops safely; M0 pauses (a pen "
         "change) wait for Enter.",

@@ -28,6 +28,7 @@ from pencilbot.driver import journal as journal_mod
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.errors import PlotError
+from pencilbot.machine.motion import axis_scale, move_times
 
 POLL_PAUSE = 0.02  # s between polls while the buffer is full
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
@@ -374,17 +375,22 @@ def _catch_signals(stop: threading.Event, why: list[str]):
 
 
 def _seconds_after(program, machine) -> np.ndarray:
-    """A rough plot time (s) after each entry, for the progress display: each move at its speed
-    (VS pen down, else the profile's), each lift and drop its delay."""
+    """The plot time (s) after each entry, for the progress display: each move from rest to rest
+    at its speed (VS pen down, else the profile's) with the profile's acceleration, as the
+    virtual plotter times it, each lift and drop its delay."""
     if not len(program):
         return np.zeros(1)
     step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * machine.firmware.unit_mm
+    length = np.hypot(*step.T)
     speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, machine.motion.draw_speed),
                      machine.motion.travel_speed)
+    moving = length > 0
+    units = np.where(moving[:, None], step / np.where(moving, length, 1.0)[:, None], 1.0)
+    seconds = np.where(moving, move_times(length, 0.0, 0.0, speed, machine.motion.acceleration * axis_scale(units)), 0.0)
     pen = machine.pen_model
     changed = np.diff(program.down.astype(np.int8), prepend=np.int8(0))
     delays = np.where(changed > 0, pen.down_delay, np.where(changed < 0, pen.up_delay, 0.0))
-    return np.cumsum(np.hypot(*step.T) / speed + delays)
+    return np.cumsum(seconds + delays)
 
 
 def _check_limits(program, machine, fw, name) -> None:
