@@ -52,6 +52,10 @@ URL parts (all optional):
     edges, in a build without HOMING_INIT_LOCK (``$I`` shows ``OPT:VL``), so the board trusts
     the position it powers up with.
 
+``xonxoff``
+    ``1``: an HP-GL plotter sends XOFF / XON as its buffer fills and empties (default ``0``).
+    A profile whose firmware names a ``sim_board`` (HP-GL) gets that board
+    (:mod:`sim.hpgl_plotter`) instead of the GRBL one.
 ``operator``
     ``none`` (default): an ``M0`` pause holds until the host sends ``~``, as on a real board.
     ``auto``: a virtual person at the plotter presses cycle start as soon as the machine stops at
@@ -77,7 +81,7 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
-_OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator")
+_OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff")
 _IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came
 _OPERATORS = ("none", "auto")
 _CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
@@ -127,7 +131,7 @@ def simulated_profile(name_or_path: str) -> Profile:
 
 def check_simulated(profile: Profile) -> None:
     """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
-    if not profile.firmware.capabilities.realtime_protocol:
+    if not profile.firmware.capabilities.realtime_protocol and not getattr(profile.firmware, "sim_board", None):
         raise ProfileError(
             f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
             "GRBL's protocol only (GRBL 1.1, grblHAL): use such a profile (e.g. grbl-servo-a4)"
@@ -281,6 +285,10 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
+    if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
+        from sim.hpgl_plotter import HpglPlotter
+
+        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1")
     return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, tick=tick,
                           **board)
 
@@ -305,7 +313,7 @@ class Serial(SerialBase):
         self._name = name
         firmware = self.plotter.firmware
         firmware.link_dropped = False  # plugged back in
-        if not fresh and options.get("reset", "1") != "0":
+        if not fresh and options.get("reset", "1") != "0" and getattr(firmware, "resets_on_open", True):
             firmware.power_cycle()
         self._rx = bytearray()
         self.is_open = True

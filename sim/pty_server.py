@@ -23,7 +23,7 @@ import threading
 import tty
 from collections.abc import Callable
 
-from sim.protocol_sim import VirtualPlotter
+from sim.protocol_sim import VirtualPlotter  # or sim.hpgl_plotter.HpglPlotter: the same surface
 
 POLL = 0.002  # s: how often the machine clock advances while nobody talks
 _IN_OPEN, _IN_CLOSE = 0x20, 0x08 | 0x10  # IN_CLOSE_WRITE | IN_CLOSE_NOWRITE
@@ -116,7 +116,7 @@ class PtyServer:
                 if self.plotter.firmware.link_dropped:
                     self._replug()
                     out = b""  # what was on its way to the old cable is gone
-                if self._watch.opened() and self.reset_on_open:
+                if self._watch.opened() and self.reset_on_open and getattr(self.plotter.firmware, "resets_on_open", True):
                     self.plotter.firmware.power_cycle()
                 readable, _, _ = select.select([self._master], [], [], POLL)
                 if readable:

@@ -110,9 +110,16 @@ def run(args: argparse.Namespace) -> int:
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
-    gcode_path = out / "drawing.gcode"
-    stats = write_gcode(plan, profile, gcode_path, source=image.source).stats.total  # what its header says
-    step.done(f"drawing.gcode: {profile.name}", started)
+    hpgl = getattr(profile.firmware, "flow", "") == "polled"  # an HP-GL plotter draws an HP-GL file
+    if hpgl:
+        from pencilbot.export.hpgl import SheetPlacement, write_hpgl
+
+        gcode_path = out / "drawing.hpgl"
+        stats = write_hpgl(plan, profile, gcode_path).stats.total
+    else:
+        gcode_path = out / "drawing.gcode"
+        stats = write_gcode(plan, profile, gcode_path, source=image.source).stats.total  # what its header says
+    step.done(f"{gcode_path.name}: {profile.name}", started)
 
     started = time.perf_counter()
     simulated = agreement = simulated_up = None
@@ -121,8 +128,8 @@ def run(args: argparse.Namespace) -> int:
 
         draw(gcode_path, args.port, profile=args.profile, progress=_progress(args))
         step.done(f"streamed to {args.port}", started)
-    elif profile.firmware.capabilities.realtime_protocol:
-        placement = Placement.on_bed(page, profile.bed)
+    elif profile.firmware.capabilities.realtime_protocol or hpgl:
+        placement = SheetPlacement.of(page, profile) if hpgl else Placement.on_bed(page, profile.bed)
         simulated, simulated_up, agreement = _simulate(args, gcode_path, placement, preview, out)
         step.done("plot.png: what the virtual plotter drew", started)
     elif not step.quiet:

@@ -13,7 +13,7 @@ from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_profile_list
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.driver.stream import DEFAULT_TIMEOUT
 from pencilbot.machine.profile import default_profile, load_profile
 
@@ -22,13 +22,15 @@ def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
         "draw",
         help="stream G-code to a pen plotter over serial",
-        description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter. If the job stops (error, alarm, "
+        description="Stream a G-code file to a GRBL, grblHAL or Marlin plotter (or an HP-GL file to an HP-GL "
+        "plotter such as the HP 7475A: its buffer polled with ESC.B, Ctrl-C aborts with ESC.K). If the job stops (error, alarm, "
         "reset, lost port, Ctrl-C, SIGTERM, SIGHUP) the message gives the exact command to resume it. In a "
         "terminal: p or space pauses and resumes (feed hold, cycle start), s stops safely; M0 pauses (a pen "
         "change) wait for Enter.",
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
-    p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
+    p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…; "
+                   "auto: the one plotter that answers (see pencilbot ports)")
     p.add_argument("--profile", metavar="NAME|FILE.toml",
                    help="plotter profile: a name (see --list-profiles) or a .toml file (default: the resumed job's, "
                    f"else the one the file's header names, else {default_profile()}); must be the header's if it names one")
@@ -64,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
     journal = load_journal(args.resume) if args.resume else None
     gcode = journal.gcode if journal else args.input
     if gcode is not None and Path(gcode).suffix.lower() in NOT_GCODE:
-        out = Path(gcode).with_suffix(".gcode")
+        out = Path(gcode).with_suffix(_suffix_for(args.profile))
         profile = f" --profile {args.profile}" if args.profile else ""
         raise PlotError(
             f"{gcode} is a picture, not G-code; make the G-code first (and look at it with "
@@ -88,6 +90,10 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
+    _check_file_kind(Path(gcode), profile or (journal.profile if journal else None))
+    if port == "auto":
+        port = auto_port(args.quiet)
+    url = sim_port_for(port, profile or (journal.profile if journal else None))
     baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud
     with ExitStack() as stack:
         keys = operator = None
@@ -98,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
             stack.callback(keys.close)
             operator = TerminalOperator(keys)
         result = draw(
-            gcode, port, profile=profile, baud=baud,
+            gcode, url, profile=profile, baud=baud,
             unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
             start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
             operator=operator, keys=keys, announce=announce,
@@ -117,6 +123,65 @@ def connection_options(args: argparse.Namespace, options: dict) -> tuple[float, 
         args.send_and_wait or options.get("send_and_wait", False),
         args.on_error or options.get("on_error", "stop"),
     )
+
+
+def _suffix_for(profile: str | None) -> str:
+    """The file a profile's plotter draws: .hpgl for an HP-GL plotter, else .gcode."""
+    from pencilbot.machine.profile import load_profile
+
+    try:
+        return ".hpgl" if profile and getattr(load_profile(profile).firmware, "flow", "") == "polled" else ".gcode"
+    except PencilbotError:
+        return ".gcode"
+
+
+def _check_file_kind(path: Path, profile: str | None) -> None:
+    """An HP-GL file needs an HP-GL plotter's profile, G-code a G-code plotter's (the suffix says which)."""
+    from pencilbot.export.hpgl import HPGL_SUFFIXES
+    from pencilbot.machine.profile import list_profiles, load_profile
+
+    if profile is None:
+        return
+    try:
+        hpgl_profile = getattr(load_profile(profile).firmware, "flow", "") == "polled"
+    except PencilbotError:
+        return  # the driver says what is wrong with it
+    hpgl_file = path.suffix.lower() in HPGL_SUFFIXES
+    if hpgl_file and not hpgl_profile:
+        names = [n for n in list_profiles() if getattr(load_profile(n).firmware, "flow", "") == "polled"]
+        raise PlotError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
+                        f"--profile {' or '.join(names) or 'NAME'}")
+    if hpgl_profile and not hpgl_file:
+        raise PlotError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
+                        f"export the drawing for it: pencilbot export DRAWING.svg -o {path.with_suffix('.hpgl').name} "
+                        f"--profile {profile}")
+
+
+def auto_port(quiet: bool = False) -> str:
+    """The port of the one plotter that answers (``--port auto``); says which on stderr."""
+    from pencilbot.driver.ports import find_plotters, list_ports
+
+    found = find_plotters()
+    if len(found) == 1:
+        if not quiet:
+            print(f"using {found[0].device}: {found[0].summary()}", file=sys.stderr, flush=True)
+        return found[0].device
+    if not found:
+        listed = ", ".join(p.device for p in list_ports()) or "none"
+        raise PlotError(f"--port auto: no plotter answered on the serial ports (listed: {listed}); "
+                        "check it is on and connected, or give --port (pencilbot ports PORT probes one)")
+    raise PlotError("--port auto: several plotters answered (" + "; ".join(f"{f.device}: {f.summary()}" for f in found)
+                    + "); choose one with --port")
+
+
+def sim_port_for(port: str, profile: str | None) -> str:
+    """A ``sim://`` port without ``profile=`` plays the profile being drawn with (its firmware:
+    GRBL, grblHAL or HP-GL); any other port is returned as it is."""
+    if not port.startswith("sim://") or profile is None or "profile=" in port:
+        return port
+    from urllib.parse import quote
+
+    return f"{port}{'&' if '?' in port else '?'}profile={quote(str(profile), safe='')}"
 
 
 def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:

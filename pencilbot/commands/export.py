@@ -16,6 +16,7 @@ from pencilbot.commands.common import (
 )
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, write_gcode
+from pencilbot.export.hpgl import HPGL_SUFFIXES, write_hpgl
 from pencilbot.machine.profile import Profile, load_profile
 from pencilbot.planning.plan import Plan
 from pencilbot.planning.stats import duration_text
@@ -59,16 +60,21 @@ def run(args: argparse.Namespace) -> int:
     if any(p.suffix.lower() != ".svg" for p in inputs.paths):
         photo_style(args)
         photo_pens(args)
-    outputs = _outputs(inputs, args.output)
+    outputs = _outputs(inputs, args.output, suffixes=file_suffixes(profile))
     jobs = [(source, target, profile, args) for source, target in zip(inputs.paths, outputs)]
     return run_batch(export_one, jobs, workers=args.jobs, quiet=args.quiet, verbose=args.verbose)
 
 
-def _outputs(inputs: Inputs, output: str | None) -> list[Path]:
-    """The G-code file each input becomes (beside it when no -o is given)."""
+def file_suffixes(profile: Profile) -> tuple[str, ...]:
+    """The names the plotter's files go by: HP-GL for an HP-GL plotter, else G-code."""
+    return HPGL_SUFFIXES if getattr(profile.firmware, "flow", "") == "polled" else GCODE_SUFFIXES
+
+
+def _outputs(inputs: Inputs, output: str | None, suffixes: tuple[str, ...] = GCODE_SUFFIXES) -> list[Path]:
+    """The G-code (or HP-GL) file each input becomes (beside it when no -o is given)."""
     if output is None:
-        return distinct([p.with_suffix(GCODE_SUFFIXES[0]) for p in inputs.paths], inputs.paths)
-    outputs = output_paths(inputs, output, what="output", suffixes=GCODE_SUFFIXES)
+        return distinct([p.with_suffix(suffixes[0]) for p in inputs.paths], inputs.paths)
+    outputs = output_paths(inputs, output, what="output", suffixes=suffixes)
     if inputs.batch:
         make_folders(outputs)
     return outputs
@@ -77,6 +83,13 @@ def _outputs(inputs: Inputs, output: str | None) -> list[Path]:
 def export_one(source: Path, target: Path, profile: Profile, args: argparse.Namespace) -> str:
     """Write the G-code of ``source`` (photo or SVG) to ``target``; return the line reporting it."""
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
+    if target.suffix.lower() in HPGL_SUFFIXES:
+        summary = write_hpgl(plan, profile, target)
+        return (
+            f"wrote {summary.path} for {profile.name}: {summary.paths} paths, {summary.instructions} HP-GL "
+            f"instructions, {summary.bytes / 1e3:.0f} kB; about {duration_text(summary.stats.total.seconds)} to draw; "
+            f"{summary.placement.describe()}" + (f"; {reordered}" if reordered else "")
+        )
     if args.split_pens and len(plan.pens) > 1:
         return _export_split(plan, source, target, profile) + (f"; {reordered}" if reordered else "")
     summary = write_gcode(plan, profile, target, source=str(source))

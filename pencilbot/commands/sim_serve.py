@@ -16,9 +16,10 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "sim-serve",
-        help="serve the virtual GRBL plotter on a pseudo-terminal",
+        help="serve the virtual GRBL (or HP-GL) plotter on a pseudo-terminal",
         description=(
-            "Start a virtual GRBL 1.1 (or grblHAL, with such a profile) plotter on a new pseudo-terminal "
+            "Start a virtual GRBL 1.1 (or grblHAL, or an HP 7475A speaking HP-GL, with such a profile) plotter on a "
+            "new pseudo-terminal "
             "and print its device path; "
             "open that path with any sender (pencilbot draw --port PATH, Universal G-code Sender, "
             "a terminal). The board behaves like a real GRBL board on an Arduino: opening the port "
@@ -27,7 +28,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
         ),
     )
-    add_profile_option(parser, "GRBL or grblHAL plotter profile")
+    add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
     add_realtime_option(parser)
     parser.add_argument("--baud", type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"), default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",

@@ -22,6 +22,7 @@ from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
+from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
 from pencilbot.machine.pens import load_pens
 from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.planning.plan import BLACK
@@ -45,7 +46,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
-    add_profile_option(parser, "GRBL or grblHAL plotter profile")
+    add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
     parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     add_realtime_option(parser)
@@ -71,10 +72,10 @@ def run(args: argparse.Namespace) -> int:
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
     check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
                  travel=args.travel)
-    program, pen_width = _gcode(source, profile, args)
+    program, pen_width, carousel = _gcode(source, profile, args)
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
-    pens = pens_at_pauses(program)
+    pens = carousel or pens_at_pauses(program)  # HP-GL: SP n is the n-th pen
     if getattr(args, "pens", None) and any(pens):
         pens = _recoloured(pens, load_pens(args.pens))
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
@@ -130,21 +131,31 @@ def _recoloured(pens: list, pen_set) -> list:
             for p in pens]
 
 
-def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float]:
-    """The G-code program for ``source`` and the pen width (mm) to render it with."""
+def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float, list]:
+    """The program for ``source`` (G-code, or HP-GL for an HP-GL plotter), the pen width (mm) to
+    render it with, and for an HP-GL colour plan its pens by carousel slot (else empty)."""
     if not source.is_file():
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
-    if source.suffix.lower() in GCODE_SUFFIXES:
+    if source.suffix.lower() in (*GCODE_SUFFIXES, *HPGL_SUFFIXES):
         try:
             # Read as draw reads it (any text in comments; a command that is not ASCII is refused
             # by line), but as a program: a simulation keeps no job journal beside the file.
             program = source.read_bytes()
         except OSError as exc:
             raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return program, args.pen_width or DEFAULT_PEN_WIDTH
+        return program, args.pen_width or DEFAULT_PEN_WIDTH, []
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
-    return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width
+    if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL
+        program = hpgl_program(plan, profile)
+        if plan.pens:  # each pen of a colour plan in its carousel slot, in load order
+            first = {}
+            for layer in plan.layers:
+                first.setdefault(layer.pen, layer)
+            return program, args.pen_width or plan.pen_width, [
+                PenInFile(pen, first[pen].color, first[pen].pen_width) for pen in plan.pens]
+        return program, args.pen_width or plan.pen_width, []
+    return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width, []
 
 

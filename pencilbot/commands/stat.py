@@ -15,6 +15,7 @@ from pathlib import Path
 from pencilbot.commands.common import add_profile_option, add_svg_options, add_verbosity, read_drawing
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES
+from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_plan
 from pencilbot.machine.bed import Placement
 from pencilbot.machine.profile import Profile, load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -50,7 +51,13 @@ def run(args: argparse.Namespace) -> int:
 
         args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
     profile = load_profile(args.profile)
-    plan = gcode_plan(source, profile) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
+    if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL, ours or another tool's (vpype's)
+        if getattr(profile.firmware, "flow", "") != "polled":
+            raise PencilbotError(f"{source} is HP-GL and profile {profile.name} is not an HP-GL plotter's; "
+                                 "give its profile (e.g. --profile hp7475a)")
+        plan = hpgl_plan(source, profile)
+    else:
+        plan = gcode_plan(source, profile) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
     stats = estimate(plan, profile)
     if args.json:
         print(json.dumps({"plan": args.plan, "profile": args.profile, **stats.as_dict()}, indent=2))

@@ -132,6 +132,8 @@ def draw(
     machine = load_profile(profile)
     fw = machine.firmware
     baud = baud or fw.baud
+    if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
+        return _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source)
     if check and not fw.capabilities.check_mode:
         raise PlotError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
@@ -172,6 +174,24 @@ def draw(
             link.port.close()
         except Exception:  # noqa: BLE001 - a vanished port may fail to close; nothing to do
             pass
+
+
+def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source):
+    """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
+    from pencilbot.driver.polled import draw_polled
+
+    path = Path(gcode) if isinstance(gcode, (str, Path)) else None
+    if path is not None:
+        try:
+            data = path.read_bytes()
+        except OSError as exc:
+            raise PlotError(f"cannot read {path} ({exc.strerror or exc})") from None
+    else:
+        data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
+    start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)
+    return draw_polled(data, port, machine, path=path, profile_arg=profile, baud=baud if baud != 115200 else None,
+                       start=start, journal=journal, timeout=timeout, progress=progress, announce=announce,
+                       source=source)
 
 
 def _check_unchanged(journal, gcode: Path) -> None:

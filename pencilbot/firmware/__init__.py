@@ -10,9 +10,11 @@ from __future__ import annotations
 from pencilbot.firmware.base import Firmware
 from pencilbot.firmware.grbl import GRBL
 from pencilbot.firmware.grblhal import GRBLHAL
+from pencilbot.firmware.hpgl import HPGL
 from pencilbot.firmware.marlin import MARLIN
 
 REGISTRY: dict[str, Firmware] = {firmware.name: firmware for firmware in (GRBL, GRBLHAL, MARLIN)}
+REGISTRY[HPGL.name] = HPGL
 
 
 def names() -> tuple[str, ...]:

@@ -110,7 +110,7 @@ def axis_limited(unit, rates, accels) -> tuple[float, float]:
 def junction_speeds_squared(cos_theta: np.ndarray, accel: float, deviation: float) -> np.ndarray:
     """:func:`junction_speed` squared for an array of ``cos θ`` (inf: no limit)."""
     sin_half = np.sqrt(np.clip((1.0 - cos_theta) / 2.0, 0.0, 1.0))
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore"):  # 0 · ∞ where straight on (deviation 0)
         v2 = accel * deviation * sin_half / (1.0 - sin_half)
     return np.where(cos_theta > REVERSAL_COS, 0.0, np.where(cos_theta < STRAIGHT_COS, np.inf, v2))
 

@@ -40,6 +40,9 @@ in a wheel and in a source checkout); any TOML file with the same schema works b
     header = "G21\\nG90"             # template, before the first move
     footer = ""                     # template, after the return home
 
+    [paper]                         # optional: a plotter whose limits lie inside the sheet (HP-GL)
+    offset = [10.0, 4.0]            # mm from the sheet's bottom-left corner to machine (0, 0)
+
     [pen_change]                    # optional: how a colour plan asks for the next pen
     command = "M0 (pen change: insert {pen})"   # template; also {pen} and {number} (1, 2, ...)
     park = [0.0, 0.0]               # optional: machine X, Y (mm) to move to, pen up, first
@@ -118,6 +121,14 @@ class PenChange:
 
 
 @dataclass(frozen=True)
+class Paper:
+    """Where the sheet lies against machine (0, 0): ``offset`` mm from its bottom-left corner
+    (a plotter such as the HP 7475A whose hard-clip limits lie inside the sheet)."""
+
+    offset: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
 class Profile:
     """A validated plotter profile; ``source`` is where it was read from (for messages)."""
 
@@ -129,6 +140,7 @@ class Profile:
     pen: Pen
     gcode: GcodeFormat
     pen_change: PenChange = PenChange()
+    paper: Paper = Paper()
     source: str = "<profile>"
 
     @cached_property
@@ -220,6 +232,12 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         "receive_buffer": schema.whole(MAX_LINE + 1, 1 << 20, "bytes"),
         "header": _TEMPLATE,
         "footer": _TEMPLATE,
+    }),
+    "paper": (Paper, {
+        "offset": schema.Rule(
+            "a list of two numbers, mm from the sheet's bottom-left corner to machine (0, 0)",
+            lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
+            lambda value: (float(value[0]), float(value[1]))),
     }),
     "pen_change": (PenChange, {
         "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(

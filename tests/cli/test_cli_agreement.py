@@ -27,7 +27,11 @@ def run_json(argv, capsys) -> dict:
     return json.loads(capsys.readouterr().out)
 
 
-@pytest.mark.parametrize("name", list_profiles())
+def _hpgl(name: str) -> bool:
+    return getattr(load_profile(name).firmware, "flow", "") == "polled"
+
+
+@pytest.mark.parametrize("name", [n for n in list_profiles() if not _hpgl(n)])
 def test_demo_stat_header_and_simulator_agree(name, photo, tmp_path, capsys):
     out = tmp_path / "demo"
     demo = run_json(["demo", str(photo), "-o", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
@@ -54,3 +58,17 @@ def test_demo_stat_header_and_simulator_agree(name, photo, tmp_path, capsys):
         assert demo["simulated_pen_up_m"] == pytest.approx(demo["pen_up_m"], abs=0.01)
     else:
         assert demo["simulated_s"] is None  # its firmware is not one the virtual plotter speaks
+
+
+@pytest.mark.parametrize("name", [n for n in list_profiles() if _hpgl(n)])
+def test_hpgl_demo_stat_and_simulator_agree(name, photo, tmp_path, capsys):
+    """An HP-GL plotter: demo writes drawing.hpgl; stat of it reads back the plan's strokes (to a
+    plotter unit of 0.025 mm) and the virtual plotter takes the estimated time."""
+    out = tmp_path / "demo"
+    demo = run_json(["demo", "--input", str(photo), "--out", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
+    stat = run_json(["stat", str(out / "plan.svg"), "--profile", name, "--json"], capsys)["total"]
+    hpgl = run_json(["stat", str(out / "drawing.hpgl"), "--profile", name, "--json"], capsys)["total"]
+    assert hpgl["paths"] == stat["paths"] and hpgl["lifts"] == stat["lifts"]
+    assert hpgl["pen_down_mm"] == pytest.approx(stat["pen_down_mm"], rel=2e-3)
+    assert stat["seconds"] == pytest.approx(demo["estimated_s"], rel=1e-3, abs=0.05)
+    assert demo["simulated_s"] == pytest.approx(demo["estimated_s"], rel=0.02)

@@ -1,0 +1,406 @@
+"""Streaming to a plotter that acknowledges nothing (HP-GL): poll its free buffer bytes.
+
+The firmware module says how (``flow = "polled"``): ``free_query`` asks how many bytes of the
+input buffer are free (HP-GL ``ESC.B``, answered at once), ``sync_command`` is answered only
+once everything before it has run (HP-GL ``OA;``, with the pen position), ``abort_bytes``
+discard the buffer (``ESC.K``). The sender never writes more than the board said is free, so
+the buffer cannot overflow, whatever the wire does.
+
+What ran: the buffer holds the bytes not yet started, so ``sent − (size − free)`` bytes have
+run or are running. A stop polls once more, aborts, lifts the pen and asks the position; the
+first instruction at or after that floor whose end is that position is the last one drawn, and
+the job resumes after it — exactly once. If no instruction there ends where the pen is (the
+plotter was power-cycled, or the link was lost mid-job and the position does not match), the
+resume is refused until the user chooses ``--start-line``.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import serial
+
+from pencilbot.driver import journal as journal_mod
+from pencilbot.driver.port import open_port
+from pencilbot.driver.progress import Progress
+from pencilbot.errors import PlotError
+from pencilbot.machine.motion import axis_scale, move_times
+
+POLL_PAUSE = 0.02  # s between polls while the buffer is full
+_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
+_SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
+
+
+class _Lost(Exception):
+    """The port went away."""
+
+
+class _Answers:
+    """CR- (or LF-) terminated answers from the port; XON/XOFF bytes noted, not returned."""
+
+    def __init__(self, port, parse_position=None):
+        self.port = port
+        self.partial = b""
+        self.lines: list[str] = []
+        self.positions: list = []
+        self.parse_position = parse_position
+        self.xoff = False
+
+    def write(self, data: bytes) -> None:
+        try:
+            self.port.write(data)
+        except (serial.SerialException, OSError) as exc:
+            raise _Lost(str(exc)) from None
+
+    def pump(self) -> None:
+        try:
+            data = self.port.read(max(self.port.in_waiting, 1))
+        except (serial.SerialException, OSError) as exc:
+            raise _Lost(str(exc)) from None
+        if not data:
+            return
+        if b"\x13" in data or b"\x11" in data:
+            self.xoff = data.rfind(b"\x13") > data.rfind(b"\x11")
+            data = data.replace(b"\x13", b"").replace(b"\x11", b"")
+        *done, self.partial = (self.partial + data).replace(b"\n", b"\r").split(b"\r")
+        for line in (d.decode("ascii", errors="replace").strip() for d in done if d.strip()):
+            position = self.parse_position(line) if self.parse_position else None
+            if position is not None:
+                self.positions.append(position)  # a sync point's answer, kept in order
+            else:
+                self.lines.append(line)
+
+    def position(self, timeout: float):
+        """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s."""
+        end = time.monotonic() + timeout
+        while not self.positions:
+            if time.monotonic() > end:
+                return None
+            self.pump()
+        return self.positions.pop(0)
+
+    def wait(self, accept, timeout: float):
+        """The first answer ``accept`` turns into something not None (others are dropped)."""
+        end = time.monotonic() + timeout
+        while True:
+            while self.lines:
+                value = accept(self.lines.pop(0))
+                if value is not None:
+                    return value
+            if time.monotonic() > end:
+                return None
+            self.pump()
+
+
+def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_arg: str, baud: int | None,
+                start: int = 0, journal=None, timeout: float = 10.0, progress: str = "quiet",
+                announce=None, source: str | None = None):
+    """Stream an HP-GL program to a polled-flow plotter; see the module docstring.
+
+    Parameters
+    ----------
+    data : bytes
+        The program (a file's bytes).
+    port : str
+        Device or pyserial URL.
+    machine : Profile
+        The plotter (its firmware has ``flow = "polled"``).
+    path : Path or None
+        The file (only a file gets a journal and a resume).
+    start : int
+        First instruction (0-based, of :class:`~pencilbot.firmware.hpgl.Program`) to send.
+    journal : Journal, optional
+        The stopped job being resumed (its proven stop position is checked first).
+
+    Returns
+    -------
+    pencilbot.driver.plot.DrawResult
+
+    Raises
+    ------
+    PlotError
+        Any fault, with the command that resumes the job.
+    """
+    from pencilbot.driver.plot import DrawResult
+
+    fw = machine.firmware
+    name = source or (str(path) if path else "the program")
+    try:
+        program = fw.program(data)
+    except ValueError as exc:
+        raise PlotError(f"{name}: {exc}") from None
+    _check_limits(program, machine, fw, name)
+    if not 0 <= start < max(len(program), 1):
+        raise PlotError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
+    baud = baud or fw.baud
+    resuming = journal is not None
+    if path is not None and journal is None:
+        journal = journal_mod.Journal(gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port,
+                                      profile=profile_arg, total_lines=len(program), path=journal_mod.journal_path(path))
+    if journal is not None:
+        journal.port, journal.status, journal.options = port, "running", {"baud": baud, "timeout": timeout}
+        journal.save()
+    seconds = _seconds_after(program, machine)
+    shown = Progress(progress, len(program) - start, float(seconds[-1] - (seconds[start - 1] if start else 0.0)))
+    done0 = seconds[start - 1] if start else 0.0
+    stop = threading.Event()
+    why: list[str] = []
+    restore = _catch_signals(stop, why)
+    began = time.monotonic()
+    link = None
+    sent = floor = start
+    finished = False
+    try:
+        try:
+            link = _Answers(open_port(port, baudrate=baud), fw.parse_position)
+        except PlotError:
+            raise
+        size = machine.receive_buffer
+        try:
+            link.port.reset_input_buffer()  # nothing from before this job
+        except (serial.SerialException, OSError) as exc:
+            raise _Lost(str(exc)) from None
+        link.write(fw.wake_bytes)
+        if link.wait(lambda t: t if t.strip().lstrip("-").isdigit() else None, timeout) is None:
+            raise PlotError(f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
+                            "on a null-modem cable?")
+        link.write(fw.identify_command)
+        identity = link.wait(lambda t: t if fw.is_identity(t) else None, timeout)
+        link.positions.clear()
+        if announce is not None:
+            announce(f"banner '{identity or 'no answer to OI;'}'", None)
+        if resuming:
+            _check_resume_position(link, fw, program, start, journal, timeout, name)
+            link.write(program.preamble(start))
+        elif start > 0:
+            link.write(program.preamble(start))
+        sent_bytes = 0
+        checkpoints: list[int] = []  # entries after which a sync point was sent, not yet answered
+        base = program.offsets[start]
+        floor = start
+        last_save = 0.0
+        while sent < len(program):
+            if stop.is_set():
+                raise _Stop()
+            free = _poll(link, fw, timeout)
+            used = size - free
+            # Bytes of the program not started yet: the buffer's, less the sync points still in it.
+            waiting = used - len(fw.sync_command) * len(checkpoints)
+            floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - waiting, side="right")) - 1)
+            if checkpoints and not link.positions and floor > checkpoints[0] + 1:
+                checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
+            room = free - (0 if not link.xoff else free)
+            end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
+            if end <= sent:
+                time.sleep(POLL_PAUSE)
+                continue
+            chunk = b"".join(program.frames[sent:end])
+            sent_bytes += len(chunk)
+            if not checkpoints and end < len(program) and len(chunk) + len(fw.sync_command) <= room:
+                # A sync point now and then: its answer must be where the program put the pen,
+                # or the plotter lost it (a power cycle clears the buffer and homes the pen).
+                chunk += fw.sync_command
+                checkpoints.append(end)
+            link.write(chunk)
+            sent = end
+            while link.positions and checkpoints:
+                _check_point(link.positions.pop(0), program, checkpoints)
+            if floor > start:
+                shown.update(floor - start, float(seconds[floor - 1] - done0), "Run")
+            if journal is not None and time.monotonic() - last_save > 0.2:
+                journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
+                journal.save()
+                last_save = time.monotonic()
+        # Drain: OA; is answered once everything before it ran (the buffer holds ≤ size bytes).
+        link.write(fw.sync_command)
+        checkpoints.append(len(program))
+        while checkpoints:
+            position = link.position(timeout + 0.5 * (len(program) - floor))
+            if position is None:
+                raise _Silent()
+            _check_point(position, program, checkpoints)
+        if journal is not None and journal.path is not None:
+            journal.path.unlink(missing_ok=True)
+        shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
+        shown.close("done")
+        finished = True
+        return DrawResult(lines_sent=len(program) - start, seconds=time.monotonic() - began)
+    except _Stop:
+        assert link is not None
+        at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
+        _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
+                 floor=floor)
+    except _Moved as exc:
+        try:
+            link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
+        except _Lost:
+            pass
+        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=floor, sent=None)
+    except _Lost as exc:
+        _stopped(journal, None, port, f"the port was lost ({exc})", name, program, proven=False, floor=floor, sent=sent)
+    except _Silent:
+        _stopped(journal, None, port, f"the plotter did not answer for {timeout:g} s", name, program, proven=False,
+                 floor=floor, sent=sent)
+    finally:
+        if not finished:
+            shown.close("stopped")
+        restore()
+        if link is not None:
+            try:
+                link.port.close()
+            except Exception:  # noqa: BLE001 - a vanished port may fail to close
+                pass
+    raise AssertionError("unreachable")
+
+
+class _Stop(Exception):
+    pass
+
+
+class _Silent(Exception):
+    pass
+
+
+class _Moved(Exception):
+    """A sync point's answer is not where the program put the pen."""
+
+
+def _check_point(position, program, checkpoints: list[int]) -> None:
+    """``position`` answers the first of the sync points ``checkpoints`` (entries after which
+    each was sent) still open: it must be their end. An answer that matches a later one means
+    the earlier answers were lost on the line; they are dropped with it."""
+    ends = [(int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1])) if k else (0, 0, False)
+            for k in checkpoints]
+    for j, end in enumerate(ends):
+        if tuple(position) == end:
+            del checkpoints[: j + 1]
+            return
+    after, expected = checkpoints[0], ends[0]
+    state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
+    raise _Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
+                 "it lost its place (switched off and on, or reset)")
+
+
+def _poll(link: _Answers, fw, timeout: float) -> int:
+    """Free buffer bytes; one lost answer is asked again, garbage is skipped."""
+    for _ in range(2):
+        link.write(fw.free_query)
+        free = link.wait(fw.parse_free, timeout / 2)
+        if free is not None:
+            return free
+    raise _Silent()
+
+
+def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout) -> int | None:
+    """Abort, lift, and find the last instruction drawn (None: not found)."""
+    try:
+        free = _poll(link, fw, timeout)
+        floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - (size - free), side="right")) - 1)
+        link.write(fw.abort_bytes)
+        _poll(link, fw, timeout)  # answered after anything the plotter said before the abort
+        link.positions.clear()
+        link.write(fw.lift_command + fw.sync_command)
+        position = link.position(timeout)
+    except (_Lost, _Silent):
+        return None
+    if position is None:
+        return None
+    return _locate(program, (position[0], position[1]), max(floor - 2, start - 1), sent)
+
+
+def _locate(program, xy, low: int, high: int) -> int | None:
+    """The next instruction to send: after the first of entries ``low .. high - 1`` that ends at ``xy``."""
+    low = max(low, 0)
+    hits = np.flatnonzero(np.all(program.xy[low:high] == np.asarray(xy), axis=1))
+    return int(low + hits[0] + 1) if len(hits) else None
+
+
+def _check_resume_position(link, fw, program, start, journal, timeout, name) -> None:
+    """A resume trusts the journal only if the pen stands where the stop left it."""
+    link.write(fw.lift_command + fw.sync_command)
+    position = link.position(timeout)
+    expected = tuple(program.xy[start - 1]) if start > 0 else (0, 0)
+    if not journal.stop_work or position is None or (position[0], position[1]) != expected:
+        where = f"{position[0]},{position[1]}" if position else "unknown"
+        raise PlotError(
+            f"cannot resume {name} exactly: the plotter's pen is at {where} (plotter units), not where the job "
+            f"stopped; what it drew after instruction {journal.acked_line} is not known. Look at the sheet and "
+            f"restart from an instruction you choose: pencilbot draw {journal.gcode} --start-line N "
+            f"--port {journal.port} --profile {journal.profile}")
+
+
+def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None):
+    """Write the journal and raise the message that says how to resume."""
+    if journal is not None:
+        journal.status, journal.message = "stopped", why
+        journal.acked_line = floor
+        journal.sent_line = sent if sent is not None else journal.sent_line
+        if at is not None:
+            journal.next_line = at + 1
+            journal.stop_work = [float(v) for v in program.xy[at - 1]] if at > 0 else [0.0, 0.0]
+        else:
+            # Unproven: a lost link lets the plotter finish its buffer; the resume checks the pen stands
+            # at the end of what was sent, and refuses otherwise.
+            journal.next_line = (sent or floor) + 1
+            journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 else None
+        journal.resume = f"pencilbot draw --resume {journal.path} --port {port}"
+        journal.save()
+        how = f"resume with: {journal.resume}"
+    else:
+        how = "draw a file (not a program) to be able to resume"
+    state = f"stopped after instruction {at} of {len(program)} (pen up)" if at is not None else (
+        f"instructions up to {floor} ran; the pen position is not proven")
+    raise PlotError(f"{name}: {why}; {state}; {how}")
+
+
+def _catch_signals(stop: threading.Event, why: list[str]):
+    """Ctrl-C, SIGTERM and SIGHUP set ``stop`` (main thread only); returns the undo."""
+    if threading.current_thread() is not threading.main_thread():
+        return lambda: None
+    old = {}
+
+    def handler(signum, _frame):
+        if not why:
+            why.append(_SIGNAL_NAMES.get(signum, f"signal {signum}"))
+        stop.set()
+
+    for signum in _STOP_SIGNALS:
+        if signum is not None:
+            old[signum] = signal.signal(signum, handler)
+    return lambda: [signal.signal(s, h) for s, h in old.items()]
+
+
+def _seconds_after(program, machine) -> np.ndarray:
+    """The plot time (s) after each entry, for the progress display: each move from rest to rest
+    at its speed (VS pen down, else the profile's) with the profile's acceleration, as the
+    virtual plotter times it, each lift and drop its delay."""
+    if not len(program):
+        return np.zeros(1)
+    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * machine.firmware.unit_mm
+    length = np.hypot(*step.T)
+    speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, machine.motion.draw_speed),
+                     machine.motion.travel_speed)
+    moving = length > 0
+    units = np.where(moving[:, None], step / np.where(moving, length, 1.0)[:, None], 1.0)
+    seconds = np.where(moving, move_times(length, 0.0, 0.0, speed, machine.motion.acceleration * axis_scale(units)), 0.0)
+    pen = machine.pen_model
+    changed = np.diff(program.down.astype(np.int8), prepend=np.int8(0))
+    delays = np.where(changed > 0, pen.down_delay, np.where(changed < 0, pen.up_delay, 0.0))
+    return np.cumsum(seconds + delays)
+
+
+def _check_limits(program, machine, fw, name) -> None:
+    """Every position within the bed (the plotter's hard-clip limits), before the port opens."""
+    if not len(program):
+        return
+    w, h = round(machine.bed.width / fw.unit_mm), round(machine.bed.height / fw.unit_mm)
+    bad = np.flatnonzero((program.xy[:, 0] < 0) | (program.xy[:, 1] < 0) | (program.xy[:, 0] > w) | (program.xy[:, 1] > h))
+    if len(bad):
+        k = bad[0]
+        raise PlotError(
+            f"{name}: instruction {program.lines[k]} goes to {program.xy[k, 0]},{program.xy[k, 1]}, beyond the limits of "
+            f"{machine.name} (0..{w} x 0..{h} plotter units); export the drawing for this sheet")

@@ -1,0 +1,160 @@
+"""A plan of coffee exported as HP-GL and drawn over sim:// on the virtual HP 7475A: what the
+plotter draws is the plan to a plotter unit, every stroke once, in the estimated time; a job
+stopped by Ctrl-C resumes exactly once; a resume that cannot prove the pen's position is refused."""
+
+from __future__ import annotations
+
+import os
+import signal
+from contextlib import contextmanager
+from dataclasses import replace
+
+import numpy as np
+import pytest
+import skimage.data
+from segments import drawing_differences
+
+import sim
+from pencilbot import api
+from pencilbot.driver import draw
+from pencilbot.driver.journal import load_journal
+from pencilbot.errors import PlotError
+from pencilbot.export.hpgl import SheetPlacement, hpgl_plan, write_hpgl
+from pencilbot.machine.profile import load_profile
+from pencilbot.planning.stats import estimate
+from sim import protocol_sim
+
+UNIT = 0.025
+
+
+@pytest.fixture(scope="module")
+def coffee():
+    sim.register()
+    profile = load_profile("hp7475a")
+    return api.plan(skimage.data.coffee()[::2, ::2]), profile  # half size: the same picture, planned sooner
+
+
+def _fresh(name):
+    protocol_sim.forget(name)
+    return f"sim://{name}?profile=hp7475a"
+
+
+def test_coffee_round_trip_every_stroke_once_to_a_plotter_unit(coffee, tmp_path):
+    plan, profile = coffee
+    target = tmp_path / "coffee.hpgl"
+    write_hpgl(plan, profile, target)
+    draw(target, _fresh("hpgl-rt"), profile="hp7475a")
+    board = protocol_sim.plotter("hpgl-rt").board
+    drawn = board.strokes
+    paths = plan.paths()
+    assert len(drawn) == len(paths)  # every stroke once, in order
+    placement = SheetPlacement.of(plan.page, profile)
+    worst = 0.0
+    for got, want in zip(drawn, paths):
+        want = placement.to_machine(want)
+        units = np.rint(want / UNIT)
+        keep = np.ones(len(units), bool)
+        keep[1:] = np.any(units[1:] != units[:-1], axis=1)
+        want = want[keep]
+        assert got.shape == want.shape
+        worst = max(worst, float(np.abs(got - want).max()))
+    assert worst <= UNIT / 2 + 1e-9  # rounding to the nearest plotter unit, nothing more
+    # Plot time: the simulator's clock against the one estimate, within 2 %.
+    seconds = estimate(plan, profile).total.seconds
+    assert abs(board.clock / seconds - 1) < 0.02, (board.clock, seconds)
+    assert board.overflows == 0 and board.max_fill <= profile.receive_buffer
+    # stat reads the file back into the same strokes (page mm).
+    back = hpgl_plan(target, profile)
+    assert len(back.paths()) == len(paths)
+
+
+@contextmanager
+def _ctrl_c_at(count: int, monkeypatch, signum=signal.SIGINT):
+    """Ctrl-C (or ``signum``) comes as the virtual plotter starts its ``count``-th instruction."""
+    from sim.hpgl_plotter import HpglBoard
+
+    run = HpglBoard._run
+
+    def pressing(self, ins):
+        run(self, ins)
+        if self.executed == count:
+            os.kill(os.getpid(), signum)
+
+    monkeypatch.setattr(HpglBoard, "_run", pressing)
+    yield
+    monkeypatch.setattr(HpglBoard, "_run", run)
+
+
+def _small_job(plan, profile, tmp_path, count=80):
+    layer = plan.layers[0]
+    small = replace(plan, layers=(replace(layer, paths=layer.paths[:count]),))
+    target = tmp_path / "small.hpgl"
+    write_hpgl(small, profile, target)
+    return target
+
+
+@pytest.mark.parametrize("signum, name", [(signal.SIGINT, "Ctrl-C"), (signal.SIGTERM, "SIGTERM")])
+def test_ctrl_c_stops_and_the_resume_draws_the_rest_exactly_once(signum, name, coffee, tmp_path, monkeypatch):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path)
+    draw(target, _fresh("hpgl-ref"), profile="hp7475a")
+    reference = protocol_sim.plotter("hpgl-ref").board.strokes
+
+    # The virtual plotter fast but not instant, so the buffer holds work when Ctrl-C comes; Ctrl-C
+    # is pressed when the plotter starts its 300th instruction (a fixed point of the job).
+    port = _fresh("hpgl-stop").replace("profile=", "realtime=200&xonxoff=1&profile=")
+    with _ctrl_c_at(300, monkeypatch, signum), pytest.raises(PlotError, match=f"stopped by {name}; stopped after instruction"):
+        draw(target, port, profile="hp7475a")
+    journal = load_journal(target)
+    assert journal.status == "stopped" and journal.stop_work is not None
+    board = protocol_sim.plotter("hpgl-stop").board
+    assert not board.down and board.executed >= 300
+    assert journal.next_line < journal.total_lines  # the abort left part of the job undrawn
+    draw(target, port, resume=str(journal.path))
+    assert not journal.path.exists()
+    assert drawing_differences(board.strokes, reference) == []
+
+
+def test_a_resume_after_a_power_cycle_is_refused(coffee, tmp_path, monkeypatch):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path, count=40)
+    port = _fresh("hpgl-power").replace("profile=", "realtime=200&profile=")
+    with _ctrl_c_at(100, monkeypatch), pytest.raises(PlotError, match="stopped by Ctrl-C"):
+        draw(target, port, profile="hp7475a")
+    protocol_sim.plotter("hpgl-power").board.power_cycle()  # someone switched it off and on
+    with pytest.raises(PlotError, match="cannot resume .* exactly"):
+        draw(target, port, resume=str(target))
+
+
+def test_an_unplugged_cable_resumes_after_what_was_sent_exactly_once(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path)
+    draw(target, _fresh("hpgl-ref2"), profile="hp7475a")
+    reference = protocol_sim.plotter("hpgl-ref2").board.strokes
+    port = _fresh("hpgl-drop").replace("profile=", "faults=drop@400&profile=")
+    with pytest.raises(PlotError, match="the port was lost"):
+        draw(target, port, profile="hp7475a")
+    board = protocol_sim.plotter("hpgl-drop").board
+    draw(target, port, resume=str(target))  # plugged back in: the plotter drew what it held
+    assert drawing_differences(board.strokes, reference) == []
+
+
+def test_a_lost_answer_and_line_noise_cost_nothing(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path, count=30)
+    draw(target, _fresh("hpgl-ref3"), profile="hp7475a")
+    reference = protocol_sim.plotter("hpgl-ref3").board.strokes
+    draw(target, _fresh("hpgl-noise").replace("profile=", "faults=silent@50,garbage@120&profile="),
+         profile="hp7475a", timeout=1.0)
+    assert drawing_differences(protocol_sim.plotter("hpgl-noise").board.strokes, reference) == []
+
+
+def test_a_power_cycle_while_drawing_stops_the_job_and_its_resume_is_refused(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path, count=60)
+    halfway = len(profile.firmware.program(target.read_bytes())) // 2
+    port = _fresh("hpgl-reset").replace("profile=", f"faults=reset@{halfway}&profile=")
+    with pytest.raises(PlotError, match="lost its place"):
+        draw(target, port, profile="hp7475a")
+    with pytest.raises(PlotError, match="cannot resume .* exactly"):
+        draw(target, port, resume=str(target))

@@ -1,0 +1,41 @@
+"""`pencilbot ports` names what answers on each port, over pseudo-terminals served like
+`pencilbot sim-serve` serves them, without moving anything; `draw --port auto` refuses when no
+plotter answers."""
+
+from __future__ import annotations
+
+import pytest
+
+from pencilbot.cli import main
+from pencilbot.driver.ports import probe_all, PortInfo
+from sim.protocol_sim import plotter_from_options
+from sim.pty_server import PtyServer
+
+
+def test_ports_names_each_virtual_board(capsys):
+    boards = {name: plotter_from_options({"profile": name}) for name in ("hp7475a", "grbl-servo-a4", "grblhal-servo-a3")}
+    with PtyServer(boards["hp7475a"]) as hpgl, PtyServer(boards["grbl-servo-a4"]) as grbl, \
+            PtyServer(boards["grblhal-servo-a3"]) as grblhal:
+        assert main(["ports", hpgl.path, grbl.path, grblhal.path]) == 0
+        out = dict(line.split("\t")[::2] for line in capsys.readouterr().out.splitlines())
+        assert out[hpgl.path].startswith("HP-GL 7475A")
+        assert out[grbl.path].startswith("GRBL 1.1h")
+        assert out[grblhal.path].startswith("grblHAL")
+    # Nothing moved, nothing was drawn, no pen was taken.
+    assert boards["hp7475a"].board.strokes == [] and boards["hp7475a"].board.pen == 0
+    assert boards["grbl-servo-a4"].machine.position[:2] == (0.0, 0.0)
+
+
+def test_a_port_that_is_not_there_is_said_so():
+    (info,) = probe_all([PortInfo("/dev/nonexistent-pencilbot")])
+    assert info.plotter is None and info.error.startswith("cannot open")
+
+
+def test_draw_port_auto_without_a_plotter_says_what_to_do(tmp_path, capsys, monkeypatch):
+    from pencilbot.driver import ports
+
+    monkeypatch.setattr(ports, "list_ports", lambda: [])
+    job = tmp_path / "d.hpgl"
+    job.write_bytes(b"IN;SP1;PU0,0;PD40,0;PU;SP0;\n")
+    assert main(["draw", str(job), "--profile", "hp7475a", "--port", "auto"]) != 0
+    assert "no plotter answered" in capsys.readouterr().err
