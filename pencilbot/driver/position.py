@@ -23,8 +23,7 @@ from typing import Protocol
 
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
-from pencilbot.paths import DEFAULT_PEN_WIDTH
-from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 #: mm within which two positions the board reported (to 1 µm) are the same place.
 NEAR = 0.0015
@@ -41,27 +40,6 @@ def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JO
     in Y (at most ``step·√2/2`` away: 3/4 of a step covers it), never more than half the pen's
     width (``pen_width`` mm): an error that large would show as a gap or a doubled stretch.
     The stop point is then taken on the job's path, and the origin set again from it.
-    """
-    return max(min(0.75 * step, pen_width / 2), 1e-3)  # no finer than the board reports
-
-
-def coast_limit(motion) -> float:
-    """mm a carriage can run on after its motors stop dead (a reset or alarm in motion): from
-    the top speed (both axes at their rate) at the machine's acceleration, v²/2a."""
-    speed = motion.axis_rate / 60.0 * 2 ** 0.5
-    return speed * speed / (2.0 * motion.acceleration * 2 ** 0.5)
-#: mm: the smallest step the jog keys move (:mod:`pencilbot.driver.keys`), so the closest a
-#: person can bring the pen to a mark: within half of it in X and in Y.
-FINE_JOG_STEP = 0.1
-
-
-def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JOG_STEP) -> float:
-    """How far (mm) from the true stop point a hand re-zero may put it and still find it.
-
-    A person jogging in ``step`` mm steps gets the pen within half a step of the mark in X and
-    in Y (at most ``step·√2/2`` away: 3/4 of a step covers it), never more than half the pen's
-    width (``pen_width`` mm): an error that large would show as a gap or a doubled stretch.
-    The resume starts on the move itself, at the vertex when the point is that close to one.
     """
     return max(min(0.75 * step, pen_width / 2), 1e-3)  # no finer than the board reports
 
