@@ -172,6 +172,7 @@ class VirtualPlotter:
         self.machine = Machine(profile, instant=realtime == 0 and tick == 0)
         self.tick = tick
         self._answered = self._queries = 0  # lines and queries the line clock has counted
+        self._answered_at_query = -1  # lines answered when the last query came
         self.firmware = Firmware(self.machine, faults, power_zero=power == "zero", abort_loses=abort == "lose",
                                  init_lock=limits != "bed")
         self.realtime = realtime
@@ -208,7 +209,12 @@ class VirtualPlotter:
         for _ in range(1_000_000):
             lines, queries = len(fw.log) - self._answered, fw.queries - self._queries
             self._answered, self._queries = len(fw.log), fw.queries
-            seconds = lines * self.tick if lines else (_IDLE_QUERY if queries else 0.0)
+            # A query is idle when no line came since the one before it: the sender has none
+            # to send (a streaming sender always has, whatever its speed).
+            idle = queries and len(fw.log) == self._answered_at_query
+            if queries:
+                self._answered_at_query = len(fw.log)
+            seconds = lines * self.tick + (_IDLE_QUERY if idle else 0.0)
             if not seconds and not fw.waiting_on_motion:
                 return
             fw.poll(seconds or self.tick)

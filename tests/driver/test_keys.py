@@ -40,12 +40,14 @@ def test_a_pen_change_prompt_waits_for_enter_and_a_jog_follows_the_keys(tmp_path
         keys = KeyReader(terminal)
         operator = TerminalOperator(keys, out=out)
         done = threading.Event()
-        threading.Thread(target=lambda: (operator.pause("paused: pen change: insert red"), done.set()),
-                         daemon=True).start()
+        waiter = threading.Thread(target=lambda: (operator.pause("paused: pen change: insert red"), done.set()),
+                                  daemon=True)
+        waiter.start()
         os.write(master, b"p")
         assert not done.wait(0.2)  # only Enter goes on
         os.write(master, b"\n")
         assert done.wait(2)
+        waiter.join(timeout=2)
         moves = []
         os.write(master, b"3l2jk\n")
         operator.jog_to_mark("jog to the origin", None, lambda dx, dy: moves.append((dx, dy)))
@@ -84,10 +86,14 @@ def test_the_pause_key_holds_a_running_plot_without_timing_out_and_the_stop_key_
             _wait_for(lambda: len(firmware().log) > WAKE_LINES + MOVING + 1)
             os.write(master, b"s")
 
-        threading.Thread(target=press, daemon=True).start()
-        with pytest.raises(PlotError, match="stopped by the stop key .*pen raised"):
-            draw(path, "sim://keys1?realtime=100", profile=PROFILE, wake_wait=0.2, timeout=0.3, keys=keys)
-        keys.close()
+        presser = threading.Thread(target=press, daemon=True)
+        presser.start()
+        try:
+            with pytest.raises(PlotError, match="stopped by the stop key .*pen raised"):
+                draw(path, "sim://keys1?realtime=100", profile=PROFILE, wake_wait=0.2, timeout=0.3, keys=keys)
+        finally:
+            presser.join(timeout=10)
+            keys.close()
     os.close(master)
     assert held == [True]
     draw(path, "sim://keys1", resume=f"{path}.job.json", wake_wait=0.2,

@@ -189,3 +189,52 @@ def test_locate_stop_takes_the_move_drawn_with_the_pen_as_the_board_said(pen_dow
     assert states[5].pen_down and not states[8].pen_down
     assert locate_stop(states, len(CROSSING) - 1, (10.0, 0.0), pen_down=pen_down) == expected
     assert locate_stop(job_states(CROSSING), len(CROSSING) - 1, (10.0, 0.0)) == (8, (10.0, 0.0))  # not known: the latest
+
+
+# --- the search window: what the firmware can hold in flight, never read past -----------------
+
+
+def test_a_stop_point_before_the_kept_window_is_not_found_and_nothing_is_read_outside_it():
+    from pencilbot.driver.modal import track
+
+    lines = [clean_line(line) for line in JOB]
+    whole = track(lines, SPINDLE)
+    window = track(lines[4:], SPINDLE, start=whole[3], first=4)  # the states after lines 4..
+    # On line 3's move (G0X10Y0, before what was kept): not found, where the old search indexed
+    # the line before the window and raised IndexError.
+    assert locate_stop(window, len(JOB) - 1, (5.0, 0.0), window=100) is None
+    assert locate_stop(window, len(JOB) - 1, (15.0, 0.0), window=100) == (5, (15.0, 0.0))
+
+
+def test_the_window_follows_the_receive_buffer_and_the_planner_depth():
+    from pencilbot.driver.job import load_job
+    from pencilbot.driver.resume import flight_start
+    from pencilbot.machine.profile import load_profile
+
+    moves = [f"G1X{i % 50}.5Y{i // 50}.25F3000" for i in range(400)]
+    grbl, grblhal = load_profile("grbl-servo-a4"), load_profile("grblhal-servo-a3")
+    assert (grbl.firmware.planner_blocks, grblhal.firmware.planner_blocks) == (15, 35)
+    for profile in (grbl, grblhal):
+        job = load_job(["G21", "G90", *moves], profile)
+        last = len(job) - 1
+        first = flight_start(job, last, profile.receive_buffer, profile.firmware.moves_in_flight())
+        unread = sum(1 for i in range(last + 1) if job.offsets[last + 1] - job.offsets[i] <= profile.receive_buffer)
+        # Every line whose bytes can wait in the receive buffer, then the planner's moves.
+        assert last - first + 1 == unread + profile.firmware.moves_in_flight()
+    assert grblhal.receive_buffer > 5 * grbl.receive_buffer  # so its window is much longer
+
+
+def test_a_reported_stop_a_few_micrometres_before_a_moves_end_resumes_inside_that_move():
+    # GRBL reports 3 decimals: 4 µm before the end is inside the move, not after it.
+    states = job_states(JOB)
+    assert locate_stop(states, len(JOB) - 1, (19.996, 0.0)) == (5, (19.996, 0.0))
+    # A reported point off the move by rounding is taken on the move.
+    index, xy = locate_stop(states, len(JOB) - 1, (15.0, 0.0004))
+    assert index == 5 and xy == pytest.approx((15.0, 0.0))
+
+
+def test_a_carriage_that_ran_on_past_a_corner_resumes_at_the_next_line_only_within_its_coast():
+    states = job_states(JOB)
+    # 0.3 mm past the end of G1X20Y0 (index 5), along it: that move was finished.
+    assert locate_stop(states, 6, (20.3, 0.0), coast=1.0, tolerance=0.075) == (6, None)
+    assert locate_stop(states, 6, (20.3, 0.0), coast=0.2, tolerance=0.075) is None
