@@ -223,3 +223,12 @@ def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
 
     uncorrected, once, twice = tone_error(1), tone_error(2), tone_error(3)
     assert twice < once < uncorrected
+
+
+@pytest.mark.parametrize("coverage", [0.0, 1.0, 1.5, -0.2])
+def test_a_family_coverage_outside_zero_to_one_is_refused(coverage):
+    layout = _layout((40, 40))
+    grid = Grid(layout.drawing_box, 0.5)
+    field = direction_field(np.full(Grid(layout.drawing_box, 2.0).shape, 0.4), Grid(layout.drawing_box, 2.0))
+    with pytest.raises(ValueError, match=r"coverage must be in \(0, 1\)"):
+        hatch_layers(np.full(grid.shape, 0.5), grid, field, coverage=coverage)
