@@ -27,6 +27,7 @@ import serial
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
+from pencilbot.driver.stream import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.machine.motion import axis_scale, move_times
 
@@ -97,7 +98,7 @@ class _Answers:
 
 
 def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_arg: str, baud: int | None,
-                start: int = 0, journal=None, timeout: float = 10.0, progress: str = "quiet",
+                start: int = 0, journal=None, timeout: float = DEFAULT_TIMEOUT, progress: str = "quiet",
                 announce=None, source: str | None = None):
     """Stream an HP-GL program to a polled-flow plotter; see the module docstring.
 
