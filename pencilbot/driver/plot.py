@@ -189,7 +189,7 @@ def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeo
     else:
         data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
     start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)
-    return draw_polled(data, port, machine, path=path, profile_arg=profile, baud=baud if baud != 115200 else None,
+    return draw_polled(data, port, machine, path=path, profile_arg=profile, baud=baud,
                        start=start, journal=journal, timeout=timeout, progress=progress, announce=announce,
                        source=source)
 
