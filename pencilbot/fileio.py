@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -68,3 +69,34 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
         if isinstance(exc, OSError):
             raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the path and free space") from None
         raise
+
+
+
+def refuse_overwriting_inputs(inputs, outputs) -> None:
+    """Refuse to write any of ``outputs`` that is one of ``inputs``: the same path, a hard link
+    or a symbolic link to it (the same device and inode, as ``os.path.samefile`` compares), before
+    anything runs. Paths that do not exist (yet) are skipped: a new file cannot be an input.
+
+    Raises
+    ------
+    PencilbotError
+        Naming the output and the input it would replace.
+    """
+    sources = {}
+    for source in inputs:
+        if source is not None and (key := _file_key(source)) is not None:
+            sources.setdefault(key, Path(source))
+    for output in outputs:
+        if output is None or (source := sources.get(_file_key(output))) is None:
+            continue
+        also = "" if str(source) == str(output) else f" (the same file as the input {source})"
+        raise PencilbotError(f"the output {output} is an input{also}: writing it would destroy it; name another output")
+
+
+def _file_key(path) -> tuple[int, int] | None:
+    """(device, inode) of the regular file ``path`` (links followed), None if there is none."""
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino) if stat.S_ISREG(info.st_mode) else None

@@ -9,6 +9,7 @@ from pathlib import Path
 
 from pencilbot.configs_io import config_names, user_folder
 from pencilbot.errors import PencilbotError, ProfileError
+from pencilbot.fileio import refuse_overwriting_inputs
 from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.bed import MAX_BED
@@ -79,6 +80,30 @@ MAX_SVG_DPI = 100_000.0
 MAX_IMAGE_PIXELS = 10**10
 MAX_BAUD = 20_000_000  # bit/s: above any USB serial adapter
 MAX_REALTIME = 1e6  # speed-up over real time
+
+
+#: Options naming the files a command reads, and the files it writes (any command's).
+_INPUT_OPTIONS = ("input", "inputs", "plan", "texture", "style", "pens", "profile")
+_OUTPUT_OPTIONS = ("output", "preview")
+
+
+def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
+    """Refuse a run whose output (``-o``, ``--preview``, or one of ``outputs``) is one of its
+    inputs, or a hard or symbolic link to one, before anything runs. The CLI calls it for every
+    command; commands that write into a folder (``sketch --stages``, ``demo --out``) pass the
+    files they will write there.
+
+    Raises
+    ------
+    PencilbotError
+        Naming the output and the input.
+    """
+    def named(keys):
+        for key in keys:
+            value = getattr(args, key, None)
+            yield from (value if isinstance(value, (list, tuple)) else [value])
+
+    refuse_overwriting_inputs(list(named(_INPUT_OPTIONS)), [*named(_OUTPUT_OPTIONS), *outputs])
 
 
 def add_verbosity(parser: argparse.ArgumentParser) -> None:

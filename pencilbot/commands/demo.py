@@ -20,12 +20,14 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.commands.common import (
-    add_photo_options, add_profile_option, add_verbosity, check_plan, photo_pens, photo_style,
+    add_photo_options, add_profile_option, add_verbosity, check_plan, refuse_overwriting, photo_pens, photo_style,
 )
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
 
 DEFAULT_PHOTO = "coffee"
+#: The files the demo writes in its folder.
+DEMO_FILES = ("sketch.png", "plan.svg", "preview.png", "drawing.gcode", "plot.png")
 PREVIEW_DPI = 150.0
 
 
@@ -76,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.planning.stats import duration_text
     from pencilbot.render import write_png
 
+    refuse_overwriting(args, [Path(args.out) / name for name in DEMO_FILES])
     profile = load_profile(args.profile)  # a bad profile, style or pen set fails before any slow work
     style = photo_style(args)
     check_plan(style, PREVIEW_DPI)  # before the photo is read: a page too large for memory fails now
