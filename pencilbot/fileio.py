@@ -1,4 +1,5 @@
-"""Writing output files so that a failure never leaves a half-written file behind."""
+"""Files and the operating system: atomic writes (a failure never leaves a half-written file),
+outputs that would overwrite inputs, and the memory this process can still get."""
 
 from __future__ import annotations
 
@@ -100,3 +101,73 @@ def _file_key(path) -> tuple[int, int] | None:
     except (OSError, ValueError):
         return None
     return (info.st_dev, info.st_ino) if stat.S_ISREG(info.st_mode) else None
+
+
+def available_memory() -> tuple[int, str]:
+    """Bytes this process can still allocate now, and what sets that figure (for messages).
+
+    The least of: the memory the machine has available (``MemAvailable``), what is left of the
+    container's limit (cgroup v2 ``memory.max`` less ``memory.current``; v1's
+    ``memory.limit_in_bytes`` less its usage), and what is left of the process's address-space
+    limit (``RLIMIT_AS``, ``ulimit -v``, less its ``VmSize``). A process under an 8 GB ``ulimit``
+    on a 64 GB machine has under 8 GB, not 64.
+
+    Returns
+    -------
+    bytes : int
+    words : str
+        e.g. ``"this machine has free"``, ``"left under this process's limit, ulimit -v"``.
+    """
+    found = [(_meminfo("MemAvailable"), "this machine has free")]
+    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        limit, usage = _number_in(limit_file), _number_in(usage_file)
+        if limit is not None and usage is not None and limit < 1 << 60:
+            found.append((max(0, limit - usage), "left in the container's memory limit"))
+            break
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError):
+        soft = -1
+    if soft not in (-1, getattr(resource, "RLIM_INFINITY", -1)):
+        used = _status_bytes("VmSize") or 0
+        found.append((max(0, soft - used), "left under this process's limit, ulimit -v"))
+    known = [(size, words) for size, words in found if size is not None]
+    if not known:
+        try:
+            return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"), "this machine has free"
+        except (ValueError, OSError, AttributeError):
+            return 4 << 30, "a small machine has"  # unknown: assume one
+    return min(known)
+
+
+def _meminfo(key: str) -> int | None:
+    return _kilobytes_in("/proc/meminfo", key)
+
+
+def _status_bytes(key: str) -> int | None:
+    return _kilobytes_in("/proc/self/status", key)
+
+
+def _kilobytes_in(path: str, key: str) -> int | None:
+    """The ``key: N kB`` line of a /proc file, in bytes."""
+    try:
+        with open(path, encoding="ascii") as lines:
+            for line in lines:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _number_in(path: str) -> int | None:
+    """The number a cgroup file holds; None when it is missing or says ``max``."""
+    try:
+        with open(path, encoding="ascii") as handle:
+            return int(handle.read().strip())
+    except (OSError, ValueError):
+        return None

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 from pathlib import Path
 
 from pencilbot.configs_io import config_names, user_folder
 from pencilbot.errors import PencilbotError, ProfileError
+from pencilbot.fileio import available_memory as fileio_available_memory
 from pencilbot.fileio import refuse_overwriting_inputs
 from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
@@ -324,8 +324,7 @@ def check_plan(style: Style, preview_dpi: float | None = None) -> None:
         side = math.sqrt(budget / per_mm2)
         raise PencilbotError(
             f"a {page.width:g} x {page.height:g} mm page with a {style.pen_width:g} mm pen needs about "
-            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than this machine has free "
-            f"({budget / _MEMORY_SHARE / 1e9:.1f} GB); use a page of at most about {side:.0f} x {side:.0f} mm"
+            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than {memory_share(budget)}; use a page of at most about {side:.0f} x {side:.0f} mm"
             + (" (or a wider pen)" if planning > picture else ""))
 
 
@@ -454,21 +453,23 @@ def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float
     if need > budget:
         raise PencilbotError(
             f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels; rendering "
-            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than this machine has free "
-            f"({budget / _MEMORY_SHARE / 1e6:.0f} MB); free some memory or use a lower --dpi"
+            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than {memory_share(budget)}; free some memory or use a lower --dpi"
         )
 
 
 def available_memory() -> int:
-    """Bytes of memory the system can give a new allocation now (MemAvailable on Linux)."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return 4 << 30  # unknown: assume a small machine
+    """Bytes this process can allocate now: the machine's free memory, the container's and the
+    process's own limits considered (:func:`pencilbot.fileio.available_memory`)."""
+    return fileio_available_memory()[0]
+
+
+def memory_share(budget: float) -> str:
+    """Words for a memory ``budget`` (bytes, the share of :func:`available_memory` pencilbot
+    uses): ``"the 18.2 GB pencilbot may use (75 % of the 24.3 GB this machine has free)"``."""
+    return (f"the {_size_text(budget)} pencilbot may use ({_MEMORY_SHARE:.0%} of the "
+            f"{_size_text(budget / _MEMORY_SHARE)} {fileio_available_memory()[1]})")
+
+
+def _size_text(size: float) -> str:
+    """``"18.2 GB"``, ``"38 MB"``."""
+    return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.0f} MB"

@@ -315,7 +315,7 @@ def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, ca
     src.write_text(SQUARE)
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600"]) == 2
     err = capsys.readouterr().err
-    assert "a band of rows at a time needs about 160 MB, more than this machine has free (50 MB)" in err
+    assert "a band of rows at a time needs about 160 MB, more than the 38 MB pencilbot may use (75% of the 50 MB " in err
     assert not out.exists()
     monkeypatch.setattr(common, "available_memory", lambda: 400_000_000)  # a band fits: it runs
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600", "-q"]) == 0 and out.exists()
