@@ -20,6 +20,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
@@ -33,7 +34,10 @@ _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 def write_svg(plan: Plan, path: str | os.PathLike) -> None:
-    """Write ``plan`` as an SVG file at ``path`` (atomically: temporary file, then rename)."""
+    """Write ``plan`` as an SVG file at ``path`` (atomically: temporary file, then rename);
+    a plan with a coordinate that is not finite is refused, never written as ``L inf``."""
+    for layer in plan.layers:
+        check_drawing(layer.paths.points, f"layer {layer.name!r}")
     write_atomic(path, svg_text(plan).encode("utf-8"))
 
 
@@ -126,7 +130,7 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         vpype is not installed or cannot read it.
     """
     data = _read_bytes(path)
-    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width)
+    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data))
 
 
 def is_plan_svg(path: str | os.PathLike) -> bool:
@@ -262,8 +266,10 @@ _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script
 _CSS_PX_PER_INCH = 96.0  # vpype (svgelements) works in CSS pixels
 
 
-def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None) -> Plan:
+def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0) -> Plan:
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
+    check_numbers(root, path)  # NaN, infinities, 1e308: one message naming the element
+    check_uses(root, path, size)
     try:
         import vpype
     except ImportError:
@@ -306,6 +312,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
         layers.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
+        check_drawing(layers[-1][1], path)
     if height is None:  # no size at all: the page reaches to the drawing's far corner
         width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in layers] or [[1.0, 1.0]], axis=0))
     return Plan(
@@ -344,7 +351,7 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
         sizes = []
         for attr in ("width", "height"):
             number = float(_NUMBER.search(root.get(attr))[0]) * _UNITS_TO_MM[_size_unit(root)]
-            if not 0 < number < float("inf"):
+            if not 0 < number <= MAX_DRAWING_MM:
                 raise PencilbotError(f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm")
             sizes.append(number)
         return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[_size_unit(root)]
@@ -357,7 +364,7 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
         )
     unit = MM_PER_INCH / dpi
     numbers = [_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")]
-    if all(numbers) and all(0 < float(n[0]) < float("inf") for n in numbers):
+    if all(numbers) and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in numbers):
         width, height = (float(n[0]) * unit for n in numbers)
         return width, height, width / view[2] if view else unit
     if view:
