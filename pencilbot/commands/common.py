@@ -18,7 +18,7 @@ from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
 from pencilbot.planning.style import (
-    MIN_PEN_WIDTH, Style, default_style, list_styles, load_style, with_overrides,
+    MAX_PEN_WIDTH, MIN_PEN_WIDTH, Style, default_style, list_styles, load_style, with_overrides,
 )
 from pencilbot.render import BAND_PIXELS
 from pencilbot.units import MM_PER_INCH
@@ -27,7 +27,7 @@ from pencilbot.units import MM_PER_INCH
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 #: The widest pen a preview renders (mm): a broad marker, not a roller.
-MAX_RENDER_PEN_WIDTH = 50.0
+MAX_RENDER_PEN_WIDTH = MAX_PEN_WIDTH
 # A bed is rendered a band of rows at a time (pencilbot.render.Bands): peak bytes per pixel of
 # a band in flight (the float64 ink sums, the per-path maxima, the uint8 rows and their PNG
 # filter), about three times more with the travel overlay's second render and RGB rows.
