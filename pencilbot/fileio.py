@@ -73,6 +73,27 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
 
 
 
+def check_writable(path: str | os.PathLike) -> None:
+    """Make sure a file can be written at ``path`` later, by creating and removing a temporary
+    one beside it now: a session that saves its result only at exit must not learn then that
+    the folder is read-only or missing.
+
+    Raises
+    ------
+    PencilbotError
+        The folder does not exist or cannot be written.
+    """
+    try:
+        with atomic_writer(path):
+            raise _Probe  # the temporary file is made, then removed: nothing is written
+    except _Probe:
+        pass
+
+
+class _Probe(Exception):
+    """Abandons :func:`check_writable`'s temporary file (the block raising removes it)."""
+
+
 def refuse_overwriting_inputs(inputs, outputs) -> None:
     """Refuse to write any of ``outputs`` that is one of ``inputs``: the same path, a hard link
     or a symbolic link to it (the same device and inode, as ``os.path.samefile`` compares), before

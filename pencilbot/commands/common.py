@@ -80,6 +80,25 @@ MAX_SVG_DPI = 100_000.0
 MAX_IMAGE_PIXELS = 10**10
 MAX_BAUD = 20_000_000  # bit/s: above any USB serial adapter
 MAX_REALTIME = 1e6  # speed-up over real time
+MIN_REALTIME = 0.1  # slower than this a simulation only looks hung (1e-9 took 30 years a second)
+MIN_DPI = 1.0  # dots per inch of a rendered PNG: a bed at 1e-300 dpi is no pixel at all
+
+
+def realtime_option(option: str = "--realtime"):
+    """The argparse ``type`` of a speed-up over real time: 0 (instant) or from
+    :data:`MIN_REALTIME` to :data:`MAX_REALTIME`."""
+    parse_number = number(option, low=0, high=MAX_REALTIME, unit="times real time (0: instant)")
+
+    def parse(text: str) -> float:
+        value = parse_number(text)
+        if 0 < value < MIN_REALTIME:
+            raise PencilbotError(f"{option} must be 0 (instant) or from {MIN_REALTIME:g} to {MAX_REALTIME:g} times "
+                                 f"real time, not {text!r}")
+        return value
+
+    parse.__name__ = option.lstrip("-")
+    parse.bounds = parse_number.bounds
+    return parse
 
 
 #: Options naming the files a command reads, and the files it writes (any command's).

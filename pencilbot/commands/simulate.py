@@ -15,7 +15,7 @@ import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    MAX_DPI, MAX_REALTIME, add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, number,
+    MAX_DPI, MIN_DPI, add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, number, realtime_option,
     plan_for_input, reorder_drawing,
 )
 from pencilbot.driver import draw
@@ -46,9 +46,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     add_profile_option(parser, "GRBL or grblHAL plotter profile")
-    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
-    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
+    parser.add_argument("--realtime", type=realtime_option(),
                         default=0.0, metavar="R",
                         help="move R times faster than real time (default %(default)g: instant)")
     add_photo_options(parser)
