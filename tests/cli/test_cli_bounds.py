@@ -63,7 +63,7 @@ def test_a_bad_value_is_one_line_naming_the_option(capsys, command, option, boun
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["simulate", "x.gcode", "-o", "x.png", "--dpi", "30000"], "--dpi must be more than 0 and at most 10000"),
+    (["simulate", "x.gcode", "-o", "x.png", "--dpi", "30000"], "--dpi must be at least 1 and at most 10000"),
     (["simulate", "x.gcode", "-o", "x.png", "--dpi", "inf"], "--dpi must be"),
     (["simulate", "x.gcode", "-o", "x.png", "--pen-width", "1e9"], "--pen-width must be at least 0.05 and at most 50 mm"),
     (["simulate", "x.gcode", "-o", "x.png", "--realtime", "nan"], "--realtime must be at least 0"),

@@ -75,9 +75,9 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
         (["simulate", "{src}", "-o", "{out}", "--dpi", "0"], "--dpi"),
         # Without the bounds these grew to 22.5 GB, died in MemoryError / ZeroDivisionError, or hung.
         (["simulate", "{src}", "-o", "{out}", "--dpi", "5000"], "gigapixels pencilbot renders; use --dpi"),
-        (["simulate", "{src}", "-o", "{out}", "--dpi", "30000"], "--dpi must be more than 0 and at most 10000"),
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "30000"], "--dpi must be at least 1 and at most 10000"),
         (["simulate", "{src}", "-o", "{out}", "--pen-width", "1e9"], "--pen-width must be at least 0.05 and at most 50 mm"),
-        (["simulate", "{src}", "-o", "{out}", "--dpi", "inf"], "--dpi must be more than 0"),
+        (["simulate", "{src}", "-o", "{out}", "--dpi", "inf"], "--dpi must be at least 1"),
         (["simulate", "{src}", "-o", "{out}", "--realtime", "nan"], "--realtime must be at least 0"),
     ],
 )
@@ -288,7 +288,7 @@ def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["--dpi", "0", "-o", "x.png"], "--dpi must be more than 0"),
+    (["--dpi", "0", "-o", "x.png"], "--dpi must be at least 1"),
     (["--dpi", "9000", "-o", "x.png"], "use --dpi"),
     (["--realtime", "nan"], "--realtime must be at least 0"),
     (["-o", "no/such/folder/x.png"], "folder does not exist"),
