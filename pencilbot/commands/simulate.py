@@ -20,6 +20,7 @@ from pencilbot.commands.common import (
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
+from pencilbot.driver.job import read_gcode
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.machine.pens import load_pens
@@ -137,13 +138,10 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     if not source.is_file():
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
     if source.suffix.lower() in GCODE_SUFFIXES:
-        try:
-            # Read as draw reads it (any text in comments; a command that is not ASCII is refused
-            # by line), but as a program: a simulation keeps no job journal beside the file.
-            program = source.read_bytes()
-        except OSError as exc:
-            raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return program, args.pen_width or DEFAULT_PEN_WIDTH
+        # Read as draw reads it (any text in comments; a command that is not ASCII is refused
+        # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
+        # no job journal beside the file.
+        return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
