@@ -20,6 +20,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.export.svg_straight import read_straight
 from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
@@ -270,13 +271,6 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
     check_numbers(root, path)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
-    try:
-        import vpype
-    except ImportError:
-        raise PencilbotError(
-            f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
-            'pip install "pencilbot[vpype]"'
-        ) from None
     width, height, scale = _svg_size(root, path, dpi)
     # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
     # every top-level element a label by its place, the layer attributes having been read.
@@ -287,6 +281,22 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if element not in loose:
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
+    straight = read_straight(root, tops, loose) if height is not None else None
+    if straight is not None:  # straight lines only: read in whole arrays, as vpype would read them
+        layers = []
+        for place, points, offsets, stroke in straight:
+            check_drawing(points * scale, path)
+            layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
+                *groups.get(place, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
+                stroke * scale if stroke else None, pen_width, root)))
+        return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+    try:
+        import vpype
+    except ImportError:
+        raise PencilbotError(
+            f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
+            'pip install "pencilbot[vpype]"'
+        ) from None
     px_to_mm = MM_PER_INCH / (_CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
     # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
@@ -303,12 +313,9 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         lines = [line for line in document.layers[lid] if len(line)]
         if not lines:
             continue
-        attributes, declared = groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose)))
         vpype_pen = document.layers[lid].property("vp_pen_width")
-        if pen_width is None and vpype_pen and (declared or stylesheet or _declares_stroke([root], deep=False)):
-            attributes["pen_width"] = float(vpype_pen) * px_to_mm
-        else:
-            attributes["pen_width"] = pen_width or DEFAULT_PEN_WIDTH
+        attributes = _pen_of(*groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
+                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet)
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
         layers.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
@@ -321,6 +328,15 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
                 for attributes, mm, offsets in layers],
         meta=_meta(root),
     )
+
+
+def _pen_of(attributes: dict, declared: bool, stroke: float | None, pen_width: float | None, root: ET.Element,
+            stylesheet: bool = False) -> dict:
+    """A layer's attributes with its pen width (mm): ``pen_width`` if given, else the stroke
+    width all its shapes draw with (``stroke``, mm) where the file declares one, else the default."""
+    if pen_width is None and stroke and (declared or stylesheet or _declares_stroke([root], deep=False)):
+        return {**attributes, "pen_width": stroke}
+    return {**attributes, "pen_width": pen_width or DEFAULT_PEN_WIDTH}
 
 
 def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:

@@ -25,9 +25,25 @@ MIN_EXPANSION_BYTES = 20_000_000
 # Attributes that hold coordinates, sizes or transforms.
 _GEOMETRY = ("d", "points", "x", "y", "x1", "y1", "x2", "y2", "cx", "cy", "r", "rx", "ry", "width", "height",
              "transform", "viewBox", "stroke-width", "style")
-# NaN or infinity spelt out; an integer part of ten digits or more; an exponent of 10 or more.
+# NaN or infinity spelt out; an exponent of 10 or more; an integer part of ten digits or more.
 # Any of these in a coordinate is more than MAX_DRAWING_MM in any unit.
-_INSANE = re.compile(r"(?<![a-z-])(?:nan|inf(?:inity)?)(?![a-z-])|(?<![\d.])\d{10,}|(?<=[\d.])[eE]\+?0*[1-9]\d", re.I)
+_WORDS = re.compile(r"(?<![a-z-])(?:nan|inf(?:inity)?)(?![a-z-])", re.I)
+_EXPONENT = re.compile(r"[\d.][eE]\+?0*[1-9]\d")
+_LONG = re.compile(r"(?<![\d.])\d{10,}")
+_DIGITS = bytes(48 if 48 <= c <= 57 else 32 for c in range(256))
+
+
+def _insane(text: str) -> re.Match | None:
+    """The first insane number in ``text``. Each pattern runs only where a quick scan (``in``,
+    a byte translation) says it may match: 50 MB of path data in about a second, not ten."""
+    lower = text.lower()
+    if ("nan" in lower or "inf" in lower) and (found := _WORDS.search(text)):
+        return found
+    if "e" in lower and (found := _EXPONENT.search(text)):
+        return found
+    if b"0" * 10 not in text.encode("ascii", "replace").translate(_DIGITS):
+        return None
+    return _LONG.search(text)
 _XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
 
 
@@ -46,7 +62,7 @@ def check_numbers(root: ET.Element, path) -> None:
             text = element.get(attribute)
             if text is None:
                 continue
-            found = _INSANE.search(text)
+            found = _insane(text)
             if found:
                 raise PencilbotError(
                     f"{path}: the {attribute} of {describe(element)} holds {_around(text, found)!r}, not a finite "
