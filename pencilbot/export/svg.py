@@ -283,6 +283,8 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         element.set(_LABEL, f"pencilbot-{place}")
     straight = read_straight(root, tops, loose) if height is not None else None
     if straight is not None:  # straight lines only: read in whole arrays, as vpype would read them
+        if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
+            scale = MM_PER_INCH / (_CSS_PX_PER_INCH if _size_unit(root) else dpi)
         layers = []
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
