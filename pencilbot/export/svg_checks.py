@@ -82,7 +82,7 @@ def check_uses(root: ET.Element, path, file_bytes: int) -> None:
     PencilbotError
     """
     by_id = {element.get("id"): element for element in root.iter() if element.get("id") is not None}
-    if not any(_local(element.tag) == "use" for element in root.iter()):
+    if not any(local_name(element.tag) == "use" for element in root.iter()):
         return
     limit = max(4 * file_bytes, MIN_EXPANSION_BYTES)
     cost: dict[int, int] = {}
@@ -93,7 +93,7 @@ def check_uses(root: ET.Element, path, file_bytes: int) -> None:
         key = id(element)
         if key in cost:
             continue
-        target = by_id.get(_href(element)) if _local(element.tag) == "use" else None
+        target = by_id.get(_href(element)) if local_name(element.tag) == "use" else None
         parts = [*element, *([target] if target is not None else [])]
         if not done:
             if key in busy:
@@ -136,7 +136,7 @@ def check_drawing(points: np.ndarray, path) -> None:
 def describe(element: ET.Element) -> str:
     """``<path id="p3">`` or ``<path>``: an element as a message names it."""
     name = element.get("id")
-    return f"<{_local(element.tag)} id={name!r}>" if name else f"<{_local(element.tag)}>"
+    return f"<{local_name(element.tag)} id={name!r}>" if name else f"<{local_name(element.tag)}>"
 
 
 def _around(text: str, found: re.Match) -> str:
@@ -148,5 +148,6 @@ def _href(element: ET.Element) -> str:
     return (element.get("href") or element.get(_XLINK_HREF) or "").lstrip("#")
 
 
-def _local(tag) -> str:
+def local_name(tag) -> str:
+    """An element's tag without its namespace: ``path``."""
     return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""

@@ -17,6 +17,8 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
+from pencilbot.export.svg_checks import local_name
+
 # Elements a straight drawing may hold besides groups (and what draws nothing).
 _SHAPES = {"path", "polyline", "polygon", "line"}
 _QUIET = {"defs", "metadata", "title", "desc", "namedview"}
@@ -50,7 +52,7 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
         paths' starts, ``stroke`` the stroke width (user units) every shape of the layer has, or
         None when they differ.
     """
-    if _moves(root) or not _even_view(root) or any(_local(el.tag) == "style" for el in root.iter()):
+    if _moves(root) or not _even_view(root) or any(local_name(el.tag) == "style" for el in root.iter()):
         return None
     origin = _view_origin(root)
     found: dict[int, list] = {}
@@ -60,7 +62,7 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
         stack = [(top, _stroke(root, None))]
         while stack:
             element, inherited = stack.pop()
-            name = _local(element.tag)
+            name = local_name(element.tag)
             if name in _QUIET:
                 continue
             if _moves(element):
@@ -248,7 +250,3 @@ def _stroke(element: ET.Element, inherited):
         return 1.0 if inherited is None else inherited
     match = _STROKE_WIDTH.fullmatch(given)
     return float(match[1]) if match else False
-
-
-def _local(tag) -> str:
-    return tag.rsplit("}", 1)[-1] if isinstance(tag, str) else ""
