@@ -4,8 +4,8 @@ vpype's reader (svgelements) makes Python objects for every segment: about 25 µ
 kilobyte each, so a 50 MB drawing of one path (3 million segments) took over 300 s. Most plotter
 SVGs are nothing but straight polylines (``<path d="M … L …">``, ``<polyline>``, ``<polygon>``,
 ``<line>``) in groups without transforms; those are read here in numpy, the same lines vpype would
-give (repeated points dropped, a path with fewer than two points dropped, ``Z`` closing back to
-its start). Anything else in the file (a curve, a transform, a ``<use>``, a ``<style>``, text,
+give (a path's repeated points dropped, a polyline's kept, a line of fewer than two points
+dropped, ``Z`` and a polygon closing back to their start). Anything else in the file (a curve, a transform, a ``<use>``, a ``<style>``, text,
 a viewBox that does not scale evenly) returns None, and the file is read by vpype as before.
 """
 
@@ -108,9 +108,11 @@ def _shape_lines(element: ET.Element, name: str):
     if values is None or len(values) % 2:
         return None
     points = values.reshape(-1, 2)
-    if name == "polygon" and len(points):
+    # vpype keeps a polyline's points as they are (a repeated one too); a polygon closes unless
+    # its last point is its first.
+    if name == "polygon" and len(points) and not (points[-1] == points[0]).all():
         points = np.vstack([points, points[:1]])
-    return _tidy(points, np.array([0, len(points)]))
+    return (points, np.array([0, len(points)])) if len(points) >= 2 else (points.reshape(-1, 2)[:0], np.zeros(1, np.int64))
 
 
 def _path_lines(d: str):

@@ -291,8 +291,9 @@ _COORD = st.floats(-500, 500, allow_nan=False).map(lambda v: round(v, 3))
 @given(paths=st.lists(st.tuples(st.sampled_from(["M", "m"]), st.lists(st.tuples(
     st.sampled_from(["L", "l", "H", "h", "V", "v", ""]), _COORD, _COORD), min_size=1, max_size=6),
     st.booleans()), min_size=1, max_size=4), stroke=st.sampled_from([None, "0.5", "1.2"]),
-    view=st.sampled_from(["0 0 100 100", "-20 10 50 50", None]))
-def test_straight_lines_read_in_arrays_as_vpype_reads_them(tmp_path, paths, stroke, view):
+    view=st.sampled_from(["0 0 100 100", "-20 10 50 50", None]),
+    corners=st.lists(st.sampled_from([(0, 0), (1, 2), (5, 5)]), min_size=1, max_size=5), closed=st.booleans())
+def test_straight_lines_read_in_arrays_as_vpype_reads_them(tmp_path, paths, stroke, view, corners, closed):
     def data(moves, close):
         words = []
         for command, x, y in moves:
@@ -300,7 +301,9 @@ def test_straight_lines_read_in_arrays_as_vpype_reads_them(tmp_path, paths, stro
         return " ".join(words) + (" Z" if close and all(c.isupper() or c == "" for c, _, _ in moves) else "")
     d = " ".join(f"{start} 3 4 " + data(moves, close) for start, moves, close in paths)
     width = f' stroke-width="{stroke}"' if stroke else ""
-    body = f'<g id="one"{width}><path d="{d}" stroke="black"/></g><polygon points="1,2 30,40 5,60" stroke="red"/>'
+    shape = "polygon" if closed else "polyline"  # repeated corners: vpype keeps a polyline's
+    corners_text = " ".join(f"{x},{y}" for x, y in corners)
+    body = f'<g id="one"{width}><path d="{d}" stroke="black"/></g><{shape} points="{corners_text}" stroke="red"/>'
     text = _svg(body, view=view) if view else _svg(body).replace(' viewBox="0 0 100 100"', "")
     path = tmp_path / "s.svg"
     path.write_text(text)
