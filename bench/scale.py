@@ -30,6 +30,11 @@ Stages and their targets (issue 16):
   the same process, as ``pencilbot draw --port sim://`` and ``simulate`` run it) at 150k lines:
   what is held when it ends, per line, by the module that allocated it (tracemalloc).
 
+* ``svg_stat``, ``svg_export`` — ``pencilbot stat`` / ``export`` of another tool's SVG of one
+  straight path (a random walk on A4), 5 to 50 MB: <= 30 s CPU and <= 2 GB at 50 MB, linear;
+* ``simulate_gcode`` — ``pencilbot simulate JOB.gcode`` of the draw stage's G-code, 0.3M to 3M
+  lines: <= 30 s CPU and <= 2 GB at 3M, linear (issue 25).
+
 Photos are skimage's astronaut enlarged (cubic) and saved as JPEG quality 90, like a camera's.
 A new stage is one function decorated with ``@stage(...)``: it gets a size and a scratch folder
 and returns the argv to measure (and, for a library child, its own figures); see ``ordering``.
@@ -416,7 +421,46 @@ def draw_traced_child(job: str) -> dict:
     return {"lines": lines, **{part: round(size / lines, 1) for part, size in sorted(parts.items())}}
 
 
-CHILDREN = {"ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
+# -- stages on inputs at the door (issue 25) -----------------------------------------------------
+
+def walk_svg_child(spec: str) -> None:
+    """Another tool's SVG of SIZE MB: one path, a random walk of 0.6 mm steps over A4 (a
+    vpype- or hatching-tool-like straight-line file; 16 bytes a point)."""
+    import numpy as np
+
+    size, path = spec.split(":", 1)
+    steps = np.random.default_rng(1).normal(0, 0.6, (int(float(size) * 1e6 / 16), 2))
+    points = 10 + np.abs(np.cumsum(steps, axis=0) % 380 - 190)  # folded into 10..200 mm
+    with open(path, "w") as out:
+        out.write('<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" viewBox="0 0 210 297">'
+                  '<path stroke="black" fill="none" stroke-width="0.3" d="M')
+        for block in np.array_split(points, max(1, len(points) // 100_000)):
+            out.write(" L".join(f" {x:.2f} {y:.2f}" for x, y in block.tolist()) + " L")
+        out.write(f' {points[-1, 0]:.2f} {points[-1, 1]:.2f}"/></svg>')
+
+
+_SVG_MB = (5, 15, 50)
+
+
+@stage("svg_stat", unit="megabytes", sizes=_SVG_MB, quick=(5, 50), summary=_command_summary(50, 30.0, None, 2048, unit="megabytes"))
+def svg_stat_command(size: int, scratch: Path) -> list[str]:
+    return _pencilbot("stat", str(made_by_child("walk_svg", size, ".svg", scratch)), "-q")
+
+
+@stage("svg_export", unit="megabytes", sizes=_SVG_MB, quick=(5, 50), summary=_command_summary(50, 30.0, None, 2048, unit="megabytes"))
+def svg_export_command(size: int, scratch: Path) -> list[str]:
+    svg = made_by_child("walk_svg", size, ".svg", scratch)
+    return _pencilbot("export", str(svg), "-o", str(scratch / "walk.gcode"), "-q", "--profile", "grbl-servo-a4")
+
+
+@stage("simulate_gcode", unit="lines", sizes=(300_014, 1_000_014, 3_000_014), quick=(300_014, 3_000_014),
+       summary=_command_summary(3_000_014, 30.0, None, 2048, unit="lines"))
+def simulate_gcode_command(size: int, scratch: Path) -> list[str]:
+    job = made_by_child("job_gcode", (size - 14) // 6, ".gcode", scratch)  # 6 lines a stroke, 14 around
+    return _pencilbot("simulate", str(job), "-o", str(scratch / "job.png"), "-q")
+
+
+CHILDREN = {"walk_svg": walk_svg_child, "ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
             "job_gcode": job_gcode_child, "a0": a0_child, "draw_traced": draw_traced_child}
 
 

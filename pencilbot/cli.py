@@ -54,6 +54,9 @@ def main(argv: list[str] | None = None) -> int:
         if not getattr(args, "func", None):
             parser.print_help()
             return 1
+        from pencilbot.commands.common import refuse_overwriting
+
+        refuse_overwriting(args)  # an output that is an input: refused before anything runs
         # -v shows pencilbot's own debug messages, not those of every library (Pillow, ...).
         logging.basicConfig(level=logging.WARNING, format="%(levelname)s: %(message)s")
         if getattr(args, "verbose", 0):

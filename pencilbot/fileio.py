@@ -1,8 +1,10 @@
-"""Writing output files so that a failure never leaves a half-written file behind."""
+"""Files and the operating system: atomic writes (a failure never leaves a half-written file),
+outputs that would overwrite inputs, and the memory this process can still get."""
 
 from __future__ import annotations
 
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -68,3 +70,125 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
         if isinstance(exc, OSError):
             raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the path and free space") from None
         raise
+
+
+
+def check_writable(path: str | os.PathLike) -> None:
+    """Make sure a file can be written at ``path`` later, by creating and removing a temporary
+    one beside it now: a session that saves its result only at exit must not learn then that
+    the folder is read-only or missing.
+
+    Raises
+    ------
+    PencilbotError
+        The folder does not exist or cannot be written.
+    """
+    try:
+        with atomic_writer(path):
+            raise _Probe  # the temporary file is made, then removed: nothing is written
+    except _Probe:
+        pass
+
+
+class _Probe(Exception):
+    """Abandons :func:`check_writable`'s temporary file (the block raising removes it)."""
+
+
+def refuse_overwriting_inputs(inputs, outputs) -> None:
+    """Refuse to write any of ``outputs`` that is one of ``inputs``: the same path, a hard link
+    or a symbolic link to it (the same device and inode, as ``os.path.samefile`` compares), before
+    anything runs. Paths that do not exist (yet) are skipped: a new file cannot be an input.
+
+    Raises
+    ------
+    PencilbotError
+        Naming the output and the input it would replace.
+    """
+    sources = {}
+    for source in inputs:
+        if source is not None and (key := _file_key(source)) is not None:
+            sources.setdefault(key, Path(source))
+    for output in outputs:
+        if output is None or (source := sources.get(_file_key(output))) is None:
+            continue
+        also = "" if str(source) == str(output) else f" (the same file as the input {source})"
+        raise PencilbotError(f"the output {output} is an input{also}: writing it would destroy it; name another output")
+
+
+def _file_key(path) -> tuple[int, int] | None:
+    """(device, inode) of the regular file ``path`` (links followed), None if there is none."""
+    try:
+        info = os.stat(path)
+    except (OSError, ValueError):
+        return None
+    return (info.st_dev, info.st_ino) if stat.S_ISREG(info.st_mode) else None
+
+
+def available_memory() -> tuple[int, str]:
+    """Bytes this process can still allocate now, and what sets that figure (for messages).
+
+    The least of: the memory the machine has available (``MemAvailable``), what is left of the
+    container's limit (cgroup v2 ``memory.max`` less ``memory.current``; v1's
+    ``memory.limit_in_bytes`` less its usage), and what is left of the process's address-space
+    limit (``RLIMIT_AS``, ``ulimit -v``, less its ``VmSize``). A process under an 8 GB ``ulimit``
+    on a 64 GB machine has under 8 GB, not 64.
+
+    Returns
+    -------
+    bytes : int
+    words : str
+        e.g. ``"this machine has free"``, ``"left under this process's limit, ulimit -v"``.
+    """
+    found = [(_meminfo("MemAvailable"), "this machine has free")]
+    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
+                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+        limit, usage = _number_in(limit_file), _number_in(usage_file)
+        if limit is not None and usage is not None and limit < 1 << 60:
+            found.append((max(0, limit - usage), "left in the container's memory limit"))
+            break
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError):
+        soft = -1
+    if soft not in (-1, getattr(resource, "RLIM_INFINITY", -1)):
+        used = _status_bytes("VmSize") or 0
+        found.append((max(0, soft - used), "left under this process's limit, ulimit -v"))
+    known = [(size, words) for size, words in found if size is not None]
+    if not known:
+        try:
+            return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE"), "this machine has free"
+        except (ValueError, OSError, AttributeError):
+            return 4 << 30, "a small machine has"  # unknown: assume one
+    return min(known)
+
+
+def _meminfo(key: str) -> int | None:
+    return _kilobytes_in("/proc/meminfo", key)
+
+
+def _status_bytes(key: str) -> int | None:
+    return _kilobytes_in("/proc/self/status", key)
+
+
+def _kilobytes_in(path: str, key: str) -> int | None:
+    """The ``key: N kB`` line of a /proc file, in bytes."""
+    try:
+        with open(path, encoding="ascii") as lines:
+            for line in lines:
+                if line.startswith(key + ":"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _number_in(path: str) -> int | None:
+    """The number a cgroup file holds; None when it is missing or says ``max``."""
+    try:
+        with open(path, encoding="ascii") as handle:
+            return int(handle.read().strip())
+    except (OSError, ValueError):
+        return None

@@ -97,9 +97,12 @@ def kind(typ: type, expected: str) -> Rule:
 
 FLAG = kind(bool, "true or false")
 TEXT = kind(str, "a string")
+#: The most hatch families a style may have: each one is a pass over the page (1 000 took 150 s).
+MAX_ANGLES = 8
 ANGLES = Rule(
-    "a non-empty list of angles in degrees",
-    lambda value: isinstance(value, list) and bool(value) and all(map(_is_number, value)),
+    f"a list of 1 to {MAX_ANGLES} angles in degrees, each from -360 to 360",
+    lambda value: isinstance(value, list) and 1 <= len(value) <= MAX_ANGLES
+    and all(_is_number(v) and abs(v) <= 360 for v in value),
     lambda value: tuple(float(v) for v in value),
 )
 

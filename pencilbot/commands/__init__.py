@@ -10,9 +10,21 @@ import argparse
 import importlib
 
 from pencilbot import __version__
+from pencilbot.errors import PencilbotError
 
 # Order is the order shown in --help.
 COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "ports", "demo", "completion"]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose usage mistakes (a missing argument, ``--page -1x-1`` read as an
+    option) are one ``pencilbot: error:`` line like every other, not a usage dump."""
+
+    def error(self, message: str):
+        hint = f"; see {self.prog} --help"
+        if "expected one argument" in message:
+            hint += " (a value that starts with '-' is given as --option=VALUE)"
+        raise PencilbotError(message + hint)
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
@@ -23,7 +35,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     ProfileError
         The user's settings file (which gives the default profile and style) is not valid.
     """
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="pencilbot",
         description="Turn a photo into a pencil drawing and draw it with a pen plotter.",
     )

@@ -25,6 +25,7 @@ from tqdm import tqdm
 
 from pencilbot.commands.common import IMAGE_SUFFIXES, number
 from pencilbot.errors import PencilbotError
+from pencilbot.fileio import refuse_overwriting_inputs
 
 
 
@@ -115,6 +116,7 @@ def distinct(targets: list[Path], sources: Sequence[Path]) -> list[Path]:
         if target in seen:
             raise PencilbotError(f"{seen[target]} and {source} would both be written to {target}; rename one")
         seen[target] = source
+    refuse_overwriting_inputs(sources, targets)
     return targets
 
 

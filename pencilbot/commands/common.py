@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
 from pathlib import Path
 
 from pencilbot.configs_io import config_names, user_folder
 from pencilbot.errors import PencilbotError, ProfileError
+from pencilbot.fileio import available_memory as fileio_available_memory
+from pencilbot.fileio import refuse_overwriting_inputs
 from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.bed import MAX_BED
@@ -17,7 +18,7 @@ from pencilbot.machine.pens import PenSet, list_pen_sets, load_pens
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
 from pencilbot.planning.style import (
-    MIN_PEN_WIDTH, Style, default_style, list_styles, load_style, with_overrides,
+    MAX_PEN_WIDTH, MIN_PEN_WIDTH, Style, default_style, list_styles, load_style, with_overrides,
 )
 from pencilbot.render import BAND_PIXELS
 from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
@@ -26,7 +27,7 @@ from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
 
 #: The widest pen a preview renders (mm): a broad marker, not a roller.
-MAX_RENDER_PEN_WIDTH = 50.0
+MAX_RENDER_PEN_WIDTH = MAX_PEN_WIDTH
 # A bed is rendered a band of rows at a time (pencilbot.render.Bands): peak bytes per pixel of
 # a band in flight (the float64 ink sums, the per-path maxima, the uint8 rows and their PNG
 # filter), about three times more with the travel overlay's second render and RGB rows.
@@ -80,6 +81,49 @@ MAX_SVG_DPI = 100_000.0
 MAX_IMAGE_PIXELS = 10**10
 MAX_BAUD = 20_000_000  # bit/s: above any USB serial adapter
 MAX_REALTIME = 1e6  # speed-up over real time
+MIN_REALTIME = 0.1  # slower than this a simulation only looks hung (1e-9 took 30 years a second)
+MIN_DPI = 1.0  # dots per inch of a rendered PNG: a bed at 1e-300 dpi is no pixel at all
+
+
+def realtime_option(option: str = "--realtime"):
+    """The argparse ``type`` of a speed-up over real time: 0 (instant) or from
+    :data:`MIN_REALTIME` to :data:`MAX_REALTIME`."""
+    parse_number = number(option, low=0, high=MAX_REALTIME, unit="times real time (0: instant)")
+
+    def parse(text: str) -> float:
+        value = parse_number(text)
+        if 0 < value < MIN_REALTIME:
+            raise PencilbotError(f"{option} must be 0 (instant) or from {MIN_REALTIME:g} to {MAX_REALTIME:g} times "
+                                 f"real time, not {text!r}")
+        return value
+
+    parse.__name__ = option.lstrip("-")
+    parse.bounds = parse_number.bounds
+    return parse
+
+
+#: Options naming the files a command reads, and the files it writes (any command's).
+_INPUT_OPTIONS = ("input", "old_input", "inputs", "plan", "texture", "style", "pens", "profile")
+_OUTPUT_OPTIONS = ("output", "preview")
+
+
+def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
+    """Refuse a run whose output (``-o``, ``--preview``, or one of ``outputs``) is one of its
+    inputs, or a hard or symbolic link to one, before anything runs. The CLI calls it for every
+    command; commands that write into a folder (``sketch --stages``, ``demo --out``) pass the
+    files they will write there.
+
+    Raises
+    ------
+    PencilbotError
+        Naming the output and the input.
+    """
+    def named(keys):
+        for key in keys:
+            value = getattr(args, key, None)
+            yield from (value if isinstance(value, (list, tuple)) else [value])
+
+    refuse_overwriting_inputs(list(named(_INPUT_OPTIONS)), [*named(_OUTPUT_OPTIONS), *outputs])
 
 
 def add_verbosity(parser: argparse.ArgumentParser) -> None:
@@ -109,8 +153,7 @@ def add_profile_listing(parser: argparse.ArgumentParser) -> None:
 
 def add_realtime_option(parser: argparse.ArgumentParser) -> None:
     """``--realtime R``, the virtual plotter's speed, with one default wherever it is taken."""
-    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
-                        default=0.0, metavar="R",
+    parser.add_argument("--realtime", type=realtime_option(), default=0.0, metavar="R",
                         help="move R times faster than real time (default %(default)g: instant; 1: as fast as the real machine)")
 
 
@@ -327,8 +370,7 @@ def check_plan(style: Style, preview_dpi: float | None = None) -> None:
         side = math.sqrt(budget / per_mm2)
         raise PencilbotError(
             f"a {page.width:g} x {page.height:g} mm page with a {style.pen_width:g} mm pen needs about "
-            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than this machine has free "
-            f"({budget / _MEMORY_SHARE / 1e9:.1f} GB); use a page of at most about {side:.0f} x {side:.0f} mm"
+            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than {memory_share(budget)}; use a page of at most about {side:.0f} x {side:.0f} mm"
             + (" (or a wider pen)" if planning > picture else ""))
 
 
@@ -459,21 +501,23 @@ def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float
     if need > budget:
         raise PencilbotError(
             f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels; rendering "
-            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than this machine has free "
-            f"({budget / _MEMORY_SHARE / 1e6:.0f} MB); free some memory or use a lower --dpi"
+            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than {memory_share(budget)}; free some memory or use a lower --dpi"
         )
 
 
 def available_memory() -> int:
-    """Bytes of memory the system can give a new allocation now (MemAvailable on Linux)."""
-    try:
-        with open("/proc/meminfo", encoding="ascii") as meminfo:
-            for line in meminfo:
-                if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
-    except OSError:
-        pass
-    try:
-        return os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
-    except (ValueError, OSError, AttributeError):
-        return 4 << 30  # unknown: assume a small machine
+    """Bytes this process can allocate now: the machine's free memory, the container's and the
+    process's own limits considered (:func:`pencilbot.fileio.available_memory`)."""
+    return fileio_available_memory()[0]
+
+
+def memory_share(budget: float) -> str:
+    """Words for a memory ``budget`` (bytes, the share of :func:`available_memory` pencilbot
+    uses): ``"the 18.2 GB pencilbot may use (75 % of the 24.3 GB this machine has free)"``."""
+    return (f"the {_size_text(budget)} pencilbot may use ({_MEMORY_SHARE:.0%} of the "
+            f"{_size_text(budget / _MEMORY_SHARE)} {fileio_available_memory()[1]})")
+
+
+def _size_text(size: float) -> str:
+    """``"18.2 GB"``, ``"38 MB"``."""
+    return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.0f} MB"

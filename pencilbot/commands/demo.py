@@ -21,11 +21,14 @@ import numpy as np
 
 from pencilbot.commands.common import (
     Deprecated, add_photo_options, add_profile_option, add_verbosity, check_plan, photo_pens, photo_style,
+    refuse_overwriting,
 )
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
 
 DEFAULT_PHOTO = "coffee"
+#: The files the demo writes in its folder.
+DEMO_FILES = ("sketch.png", "plan.svg", "preview.png", "drawing.gcode", "plot.png")
 PREVIEW_DPI = 150.0
 
 
@@ -78,6 +81,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.planning.stats import duration_text
     from pencilbot.render import write_png
 
+    refuse_overwriting(args, [Path(args.output) / name for name in DEMO_FILES])
     profile = load_profile(args.profile)  # a bad profile, style or pen set fails before any slow work
     style = photo_style(args)
     check_plan(style, PREVIEW_DPI)  # before the photo is read: a page too large for memory fails now

@@ -7,9 +7,11 @@ import signal
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    MAX_BAUD, MAX_DPI, PLOT_DPI, add_profile_option, add_realtime_option, add_verbosity, check_render, number,
+    MAX_BAUD, MAX_DPI, MIN_DPI, PLOT_DPI, add_profile_option, add_realtime_option, add_verbosity, check_render,
+    number,
 )
 from pencilbot.errors import PencilbotError
+from pencilbot.fileio import check_writable
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 
@@ -44,7 +46,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-reset", action="store_true",
                         help="a board without auto-reset: opening the port does not reset it")
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
-    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="resolution of the saved drawing in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="resolution of the saved drawing in dots per inch (default %(default)g)")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -60,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"name the output {args.output} with .png")
     if args.output and not Path(args.output).resolve().parent.is_dir():
         raise PencilbotError(f"cannot save to {args.output}: its folder does not exist; create it first")
+    if args.output:
+        check_writable(args.output)  # a read-only folder: now, not when the session's drawing is saved
     options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
                "faults": args.faults, "power": args.power, "abort": args.abort, "limits": args.limits}
     try:

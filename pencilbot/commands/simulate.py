@@ -15,11 +15,12 @@ import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    MAX_DPI, PLOT_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options, add_verbosity,
-    check_render, number, plan_for_input, reorder_drawing,
+    MAX_DPI, MIN_DPI, PLOT_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options,
+    add_verbosity, check_render, number, plan_for_input, reorder_drawing,
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
+from pencilbot.driver.job import read_gcode
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
@@ -47,7 +48,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
-    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     add_realtime_option(parser)
     add_photo_options(parser)
@@ -136,14 +137,16 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     render it with, and for an HP-GL colour plan its pens by carousel slot (else empty)."""
     if not source.is_file():
         raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
-    if source.suffix.lower() in (*GCODE_SUFFIXES, *HPGL_SUFFIXES):
+    if source.suffix.lower() in GCODE_SUFFIXES:
+        # Read as draw reads it (any text in comments; a command that is not ASCII is refused
+        # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
+        # no job journal beside the file.
+        return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH, []
+    if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL has no lines to bound: one instruction after another
         try:
-            # Read as draw reads it (any text in comments; a command that is not ASCII is refused
-            # by line), but as a program: a simulation keeps no job journal beside the file.
-            program = source.read_bytes()
+            return source.read_bytes(), args.pen_width or DEFAULT_PEN_WIDTH, []
         except OSError as exc:
-            raise PencilbotError(f"cannot read G-code file {source} ({exc})") from None
-        return program, args.pen_width or DEFAULT_PEN_WIDTH, []
+            raise PencilbotError(f"cannot read HP-GL file {source} ({exc})") from None
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 import io
+import os
+import shutil
+import tempfile
 import zlib
 from pathlib import Path
 
@@ -11,7 +14,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_IMAGE_PIXELS, add_verbosity, number
+from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_IMAGE_PIXELS, add_verbosity, number, refuse_overwriting
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages
@@ -58,9 +61,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(func=run)
 
 
+#: The files ``--stages DIR`` holds, without their ``.png``.
+STAGE_NAMES = ("denoised", "gradient", "edges", "tone", "texture", "beta", "T", "lines")
+
+
 def run(args: argparse.Namespace) -> int:
     output = Path(args.output)
     _check_output(output)
+    if args.stages:
+        refuse_overwriting(args, [Path(args.stages) / f"{name}.png" for name in STAGE_NAMES])
     if args.lines_only and (args.color or args.texture):
         flag = "--color" if args.color else "--texture"
         raise PencilbotError(f"{flag} needs the tone layer; drop --lines-only or {flag}.")
@@ -95,15 +104,41 @@ def write_stages(directory: Path, stages: dict[str, np.ndarray]) -> None:
 
     The gradient and β (pencil passes) are shown white-on-black scaled to their maximum so faint
     edges and light shading stay visible; every other stage is already in [0, 1].
+
+    A new folder is filled under a temporary name beside it and renamed when every stage is in,
+    so a failure (a full disk) leaves no partial folder; in an existing one each file is replaced
+    whole.
     """
+    if directory.is_dir():
+        _write_stage_files(directory, stages)
+        return
     try:
-        directory.mkdir(parents=True, exist_ok=True)
+        directory.parent.mkdir(parents=True, exist_ok=True)
+        building = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
     except OSError as err:
         raise PencilbotError(f"cannot create the stages directory {directory}: {err.strerror}.") from None
+    try:
+        _write_stage_files(building, stages)
+        building.chmod(0o777 & ~_umask())
+        building.rename(directory)
+    except BaseException as exc:
+        shutil.rmtree(building, ignore_errors=True)
+        if isinstance(exc, OSError):
+            raise PencilbotError(f"cannot create the stages directory {directory}: {exc.strerror}.") from None
+        raise
+
+
+def _write_stage_files(directory: Path, stages: dict[str, np.ndarray]) -> None:
     for name, array in stages.items():
         peak = float(array.max(initial=0.0))
         shown = array / peak if name in ("gradient", "beta") and peak > 0 else array
         write_image(shown, directory / f"{name}.png")
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_image(array: np.ndarray, path: Path) -> None:

@@ -48,13 +48,20 @@ class MadeFor:
         return self.name
 
 
+def _head(handle):
+    """The lines of an open text file, each cut at 4 096 characters: a header line is short, and
+    a file of one 300 MB line must not be read whole to find that it has none."""
+    while line := handle.readline(4096):
+        yield line
+
+
 def made_for(path: str | Path) -> MadeFor | None:
     """The profile the header of the G-code file ``path`` names, or None (no such header, or
     the file cannot be read: loading the job reports that)."""
     found, source = None, None
     try:
         with open(path, encoding="utf-8", errors="replace") as handle:
-            for number, line in zip(range(1, _HEAD_LINES + 1), handle):
+            for number, line in zip(range(1, _HEAD_LINES + 1), _head(handle)):
                 line = line.lstrip("\ufeff")
                 if found is None and (match := _MADE_FOR.match(line)):
                     found = (match["name"], number)
@@ -70,7 +77,7 @@ def estimated_seconds(path: str | Path) -> float | None:
     """The plot time (s) the header of ``path`` estimates (acceleration included), or None."""
     try:
         with open(path, encoding="utf-8", errors="replace") as handle:
-            for _, line in zip(range(_HEAD_LINES), handle):
+            for _, line in zip(range(_HEAD_LINES), _head(handle)):
                 if match := _ESTIMATE.match(line):
                     return float(match["seconds"])
     except OSError:

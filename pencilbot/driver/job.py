@@ -27,6 +27,9 @@ from pencilbot.machine.profile import Profile
 #: Lines between stored modal states: a state is at most this many lines of tracking away.
 CHECKPOINT = 4096
 _READ_BLOCK = 1 << 20  # bytes read (and cleaned, and tracked) at a time
+#: The longest line a G-code file may have (bytes, comments included): no sender or board takes
+#: more than a few hundred; a longer one is another kind of file, refused as it is read.
+MAX_FILE_LINE = _READ_BLOCK
 _COMMENT = re.compile(rb"\([^)\n]*\)|;[^\n]*")
 #: A program pause (M0, M1) and what its line says: ``M0 (pen change: insert red)``.
 _PAUSE = re.compile(rb"(?im)^[^\n(;]*?M0*[01](?![0-9.])[^\n]*")
@@ -149,31 +152,69 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         except OSError as exc:
             raise PlotError(f"cannot read G-code file {path} ({exc})") from None
         with handle:
-            job = _prepare(_blocks(iter(lambda: handle.read(_READ_BLOCK), b"")), profile, source)
+            job = _prepare(_blocks(iter(lambda: handle.read(_READ_BLOCK), b""), source), profile, source)
     elif isinstance(gcode, bytes):
-        job = _prepare(_blocks([gcode]), profile, source or "<lines>")
+        job = _prepare(_blocks(_pieces(gcode), source or "<lines>"), profile, source or "<lines>")
     else:
         program = "".join(f"{line}\n" for line in gcode).encode("utf-8", errors="replace")
-        job = _prepare(_blocks([program]), profile, source or "<lines>")
+        job = _prepare(_blocks(_pieces(program), source or "<lines>"), profile, source or "<lines>")
     if not len(job):
         raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
     return job
 
 
-def _blocks(chunks: Iterable[bytes]) -> Iterator[bytes]:
-    """Whole lines, about a read block at a time (a line never straddles two blocks)."""
-    rest = b""
+def read_gcode(path: str | Path) -> bytes:
+    """A G-code file's bytes, read a block at a time with every line's length bounded
+    (:data:`MAX_FILE_LINE`): a 300 MB file of one line is refused after its first megabytes,
+    not after it has been read and split.
+
+    Raises
+    ------
+    PlotError
+        The file cannot be read, or a line is too long to be G-code.
+    """
+    path = Path(path)
+    try:
+        with path.open("rb") as handle:
+            return b"".join(_blocks(iter(lambda: handle.read(_READ_BLOCK), b""), str(path)))
+    except FileNotFoundError:
+        raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
+    except OSError as exc:
+        raise PlotError(f"cannot read G-code file {path} ({exc})") from None
+
+
+def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]:
+    """Whole lines, about a read block at a time (a line never straddles two blocks).
+
+    Raises
+    ------
+    PlotError
+        A line is longer than :data:`MAX_FILE_LINE` bytes.
+    """
+    rest, lines = b"", 0
     for chunk in chunks:
         data, start = rest + chunk, 0
         while True:
-            end = data.rfind(b"\n", start, start + _READ_BLOCK) + 1 or data.find(b"\n", start) + 1
+            end = data.rfind(b"\n", start, start + _READ_BLOCK) + 1 or data.find(b"\n", start, start + MAX_FILE_LINE + 1) + 1
             if end <= start:
                 break  # no whole line left: wait for the next chunk
+            lines += data.count(b"\n", start, end)
             yield data[start:end]
             start = end
         rest = data[start:]
+        if len(rest) > MAX_FILE_LINE:
+            raise PlotError(
+                f"line {lines + 1} of {source} is longer than {MAX_FILE_LINE >> 20} MB (a G-code line holds at most a "
+                "few hundred characters, comments included); is it a G-code file?")
     if rest:
         yield rest + b"\n"
+
+
+def _pieces(program: bytes) -> Iterator[bytes]:
+    """A whole program in read blocks, as a file is read."""
+    view = memoryview(program)
+    for start in range(0, len(program), _READ_BLOCK):
+        yield bytes(view[start:start + _READ_BLOCK])
 
 
 def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:

@@ -20,6 +20,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.export.svg_straight import read_straight
+from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
 from pencilbot.fileio import write_atomic
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
@@ -33,7 +35,10 @@ _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
 def write_svg(plan: Plan, path: str | os.PathLike) -> None:
-    """Write ``plan`` as an SVG file at ``path`` (atomically: temporary file, then rename)."""
+    """Write ``plan`` as an SVG file at ``path`` (atomically: temporary file, then rename);
+    a plan with a coordinate that is not finite is refused, never written as ``L inf``."""
+    for layer in plan.layers:
+        check_drawing(layer.paths.points, f"layer {layer.name!r}")
     write_atomic(path, svg_text(plan).encode("utf-8"))
 
 
@@ -126,7 +131,7 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         vpype is not installed or cannot read it.
     """
     data = _read_bytes(path)
-    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width)
+    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data))
 
 
 def is_plan_svg(path: str | os.PathLike) -> bool:
@@ -261,15 +266,10 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
 _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
 
 
-def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None) -> Plan:
+def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0) -> Plan:
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
-    try:
-        import vpype
-    except ImportError:
-        raise PencilbotError(
-            f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
-            'pip install "pencilbot[vpype]"'
-        ) from None
+    check_numbers(root, path)  # NaN, infinities, 1e308: one message naming the element
+    check_uses(root, path, size)
     width, height, scale = _svg_size(root, path, dpi)
     # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
     # every top-level element a label by its place, the layer attributes having been read.
@@ -280,6 +280,24 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if element not in loose:
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
+    straight = read_straight(root, tops, loose) if height is not None else None
+    if straight is not None:  # straight lines only: read in whole arrays, as vpype would read them
+        if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
+            scale = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)
+        layers = []
+        for place, points, offsets, stroke in straight:
+            check_drawing(points * scale, path)
+            layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
+                *groups.get(place, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
+                stroke * scale if stroke else None, pen_width, root)))
+        return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+    try:
+        import vpype
+    except ImportError:
+        raise PencilbotError(
+            f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
+            'pip install "pencilbot[vpype]"'
+        ) from None
     px_to_mm = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
     # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
@@ -296,15 +314,13 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         lines = [line for line in document.layers[lid] if len(line)]
         if not lines:
             continue
-        attributes, declared = groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose)))
         vpype_pen = document.layers[lid].property("vp_pen_width")
-        if pen_width is None and vpype_pen and (declared or stylesheet or _declares_stroke([root], deep=False)):
-            attributes["pen_width"] = float(vpype_pen) * px_to_mm
-        else:
-            attributes["pen_width"] = pen_width or DEFAULT_PEN_WIDTH
+        attributes = _pen_of(*groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
+                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet)
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
         layers.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
+        check_drawing(layers[-1][1], path)
     if height is None:  # no size at all: the page reaches to the drawing's far corner
         width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in layers] or [[1.0, 1.0]], axis=0))
     return Plan(
@@ -313,6 +329,15 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
                 for attributes, mm, offsets in layers],
         meta=_meta(root),
     )
+
+
+def _pen_of(attributes: dict, declared: bool, stroke: float | None, pen_width: float | None, root: ET.Element,
+            stylesheet: bool = False) -> dict:
+    """A layer's attributes with its pen width (mm): ``pen_width`` if given, else the stroke
+    width all its shapes draw with (``stroke``, mm) where the file declares one, else the default."""
+    if pen_width is None and stroke and (declared or stylesheet or _declares_stroke([root], deep=False)):
+        return {**attributes, "pen_width": stroke}
+    return {**attributes, "pen_width": pen_width or DEFAULT_PEN_WIDTH}
 
 
 def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
@@ -343,7 +368,7 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
         sizes = []
         for attr in ("width", "height"):
             number = float(_NUMBER.search(root.get(attr))[0]) * _UNITS_TO_MM[_size_unit(root)]
-            if not 0 < number < float("inf"):
+            if not 0 < number <= MAX_DRAWING_MM:
                 raise PencilbotError(f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm")
             sizes.append(number)
         return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[_size_unit(root)]
@@ -356,7 +381,7 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
         )
     unit = MM_PER_INCH / dpi
     numbers = [_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")]
-    if all(numbers) and all(0 < float(n[0]) < float("inf") for n in numbers):
+    if all(numbers) and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in numbers):
         width, height = (float(n[0]) * unit for n in numbers)
         return width, height, width / view[2] if view else unit
     if view:

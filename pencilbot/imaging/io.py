@@ -23,6 +23,7 @@ import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from pencilbot.errors import ImageLoadError
+from pencilbot.fileio import available_memory
 
 DEFAULT_MAX_PIXELS = 40_000_000
 #: More pixels than this are never decoded unless ``max_pixels`` allows more: Pillow's own
@@ -199,7 +200,8 @@ def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrin
             f"{name} is {width}×{height} = {width * height:,} pixels, more than the "
             f"limit of {max_pixels:,}. Use --downscale to shrink it, or raise --max-pixels."
         )
-    turned = img.getexif().get(_EXIF_ORIENTATION, 1) in (5, 6, 7, 8)  # a quarter turn upright
+    orientation = _orientation(img)
+    turned = orientation in (5, 6, 7, 8)  # a quarter turn upright
     upright = (height, width) if turned else (width, height)
     wanted = _fit_size(upright, max_pixels) if too_large else upright
     if shrink_to is not None:
@@ -215,8 +217,43 @@ def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrin
             f"{DECODE_LIMIT:,} is unsafe and only JPEG decodes at a reduced scale. Shrink it with an "
             "image editor first, or raise --max-pixels if this machine has the memory."
         )
+    _check_memory(name, img, wanted)
     img.load()
-    return _samples(ImageOps.exif_transpose(img)), wanted
+    return _samples(ImageOps.exif_transpose(img) if orientation != 1 else img), wanted
+
+
+def _orientation(img: Image.Image) -> int:
+    """The EXIF orientation (1-8) known without decoding pixels.
+
+    Pillow's ``getexif`` of a PNG decodes the whole picture to look for an ``eXIf`` chunk after
+    the pixels (a 2147483647 x 1 header asked for 8 GB before any size check); the orientation
+    of a PNG is read only from a chunk before them, as browsers do. Other formats keep EXIF in
+    their header.
+    """
+    if img.format == "PNG" and "exif" not in img.info:
+        return 1
+    try:
+        return int(img.getexif().get(_EXIF_ORIENTATION, 1))
+    except (TypeError, ValueError):
+        return 1
+
+
+# Peak bytes per decoded pixel while loading: Pillow's RGBA-sized buffer, its copy as an array,
+# a transposed or converted copy, and the area-averaging's input.
+_DECODE_BYTES_PER_PIXEL = 16
+# Bytes per pixel of the result: float32 RGB, float32 grey and the conversion's temporaries.
+_RESULT_BYTES_PER_PIXEL = 32
+
+
+def _check_memory(name: str, img: Image.Image, wanted: tuple[int, int]) -> None:
+    """Refuse a decode that needs more memory than this process can get, before it starts."""
+    need = img.size[0] * img.size[1] * _DECODE_BYTES_PER_PIXEL + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
+    have, words = available_memory()
+    if need > have:
+        raise ImageLoadError(
+            f"{name} is {img.size[0]}×{img.size[1]} pixels as decoded: loading it needs about "
+            f"{need / 1e9:.2g} GB, more than the {have / 1e9:.2g} GB {words}. Shrink it with an image "
+            "editor first, or lower --max-pixels with --downscale.")
 
 
 def _samples(img: Image.Image) -> np.ndarray:

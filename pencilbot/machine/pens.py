@@ -34,6 +34,8 @@ from pencilbot.errors import ProfileError
 
 #: Thinnest and widest pen a set may hold, mm (a plan's hatch spacing follows the width).
 PEN_WIDTH_RANGE = (0.05, 5.0)
+#: The most pens a set may hold (60 took 150 s and 6 GB to plan, 12 took 49 s).
+MAX_PENS = 8
 #: What a pen's name may be: it goes into G-code comments (``M0 (pen change: insert NAME)``),
 #: which allow no parentheses and must stay within GRBL's 80-character line.
 LONGEST_PEN_NAME = 24
@@ -114,6 +116,9 @@ def pens_from_mapping(table: dict, *, where: str = "<pens>", name: str = "custom
     found = table.get("pen")
     if not isinstance(found, list) or not found or not all(isinstance(p, dict) for p in found):
         raise ProfileError(f"{context}: expected one [[pen]] table per pen (name, color, width); found none")
+    if len(found) > MAX_PENS:
+        raise ProfileError(f"{context}: {len(found)} pens; a set holds at most {MAX_PENS} (each pen is a pass "
+                           "of planning and a pen change at the plotter)")
     pens = [_pen(entry, number, context) for number, entry in enumerate(found, start=1)]
     names = [pen.name for pen in pens]
     for pen in pens:

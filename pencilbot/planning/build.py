@@ -18,6 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
@@ -82,6 +83,7 @@ def sketch_and_plan(
         style = with_pens(style, pens)
     if page is None:
         page = page_size(style.page, style.orientation, image.shape, style.margin)
+    _check_drawable(image, page, style.pen_width)
     image = at_plot_resolution(image, page, style.pen_width)
     drawing = sketch(
         image,
@@ -94,6 +96,24 @@ def sketch_and_plan(
         lines_only=not style.hatch,
     )
     return drawing, plan_from_sketch(drawing, page, style, source=image.source, pens=pens)
+
+
+def _check_drawable(image: LoadedImage, page: Page, pen_width: float) -> None:
+    """Refuse a picture whose narrow side, fitted onto ``page``, is thinner than the pen (mm):
+    a 1 x 5000 pixel strip on A4 would be 0.06 mm wide and plan to nothing.
+
+    Raises
+    ------
+    PencilbotError
+        Saying how wide it would be and what to do.
+    """
+    height, width = image.shape[:2]
+    across = min(height, width) * Layout.fit((height, width), page).mm_per_px
+    if across < pen_width:
+        raise PencilbotError(
+            f"{image.source or 'the picture'} is {width} x {height} pixels (as planned): fitted onto the "
+            f"{page.width:g} x {page.height:g} mm page it is {across:.2g} mm across, thinner than the "
+            f"{pen_width:g} mm pen; crop or pad it to a wider shape")
 
 
 def with_pens(style: Style, pens: PenSet) -> Style:

@@ -176,7 +176,7 @@ def direction_field(
     cell = grid.cell
     # Gradients in page axes: +x along columns, +y up (against rows).
     smooth = ndi.gaussian_filter(tone, 0.5, mode="nearest")
-    gy_rows, gx = np.gradient(smooth, cell)
+    gy_rows, gx = grid_gradient(smooth, cell)
     gy = -gy_rows
     sigma = max(scale / cell, 0.5)
     jxx = ndi.gaussian_filter(gx * gx, sigma, mode="nearest")
@@ -308,3 +308,10 @@ def sample_image(image: np.ndarray, layout, grid: Grid) -> np.ndarray:
     # Pixel (c, r) of the shrunk image covers original pixels [c·f − ½, (c + 1)·f − ½).
     maps = ((px + 0.5) / factor - 0.5).reshape(*grid.shape, 2).astype(np.float32)
     return cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
+def grid_gradient(values: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """``np.gradient`` of a 2-D grid (per mm; along rows, along columns), zero along an axis the
+    grid is one cell across: the grid of a 1 x N picture's sheet has one row, with no slope."""
+    return tuple(np.gradient(values, spacing, axis=axis) if values.shape[axis] > 1 else np.zeros_like(values)
+                 for axis in (0, 1))

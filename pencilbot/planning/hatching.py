@@ -35,7 +35,7 @@ import cv2
 import numpy as np
 from scipy import ndimage as ndi
 
-from pencilbot.planning.flow import DirectionField, Grid, bilinear, stripe_phase
+from pencilbot.planning.flow import DirectionField, Grid, bilinear, grid_gradient, stripe_phase
 from pencilbot.planning.plan import Layer
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
@@ -179,7 +179,7 @@ def family_lines(
         rng = np.random.default_rng(seed)
         noise = ndi.gaussian_filter(rng.standard_normal(phase.shape), 6.0 / coarse.cell, mode="wrap")
         phase = phase + wobble * spacing * noise / max(noise.std(), 1e-12)
-    grad_r, grad_c = np.gradient(phase, coarse.cell)
+    grad_r, grad_c = grid_gradient(phase, coarse.cell)
     slope = np.hypot(grad_r, grad_c)  # |∇φ|: 1 where the field is curl-free
     # A fine grid of three cells per spacing resolves every stripe of width s.
     fine = Grid(coarse.box, spacing / 3.0)

@@ -15,6 +15,8 @@ demo, stat and the G-code header all report this one estimate.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -160,6 +162,9 @@ class _Program:
 
 
 def duration_text(seconds: float) -> str:
-    """``H:MM:SS`` for a duration in seconds (how plot times are shown everywhere)."""
+    """``H:MM:SS`` for a duration in seconds (how plot times are shown everywhere); ``?:??:??``
+    for one that is not finite (a plan with coordinates that are not)."""
+    if not math.isfinite(seconds):
+        return "?:??:??"
     hours, rest = divmod(round(seconds), 3600)
     return f"{hours}:{rest // 60:02d}:{rest % 60:02d}"

@@ -31,6 +31,14 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 # grid follow the pen width: a 0.01 mm pen on A4 would mean tens of thousands of hatch lines per
 # layer and gigabytes of memory, for detail no plotter can draw.
 MIN_PEN_WIDTH = 0.05
+#: Upper bounds of style values (what a preview renders, what planning costs stays sane): the
+#: widest pen (mm), the largest form the hatching follows and the widest tone blur (mm; a blur of
+#: 1e6 mm asked OpenCV for terabytes), a size on the page (mm), rounds of order improvement.
+MAX_PEN_WIDTH = 50.0
+MAX_FORM_MM = 100.0
+MAX_BLUR_MM = 20.0
+MAX_SIZE_MM = 10_000.0
+MAX_ORDER_ROUNDS = 1000
 #: The style a plan uses when none is named.
 DEFAULT_STYLE = "default"
 
@@ -202,27 +210,27 @@ def with_overrides(style: Style, values: dict, *, where: str = "command line") -
 STYLE_SCHEMA: dict[str, schema.Rule] = {
     "page": schema.TEXT,
     "orientation": schema.choice(ORIENTATIONS),
-    "margin": schema.number(0, unit="mm"),
-    "pen_width": schema.number(MIN_PEN_WIDTH, unit="mm"),
+    "margin": schema.number(0, MAX_SIZE_MM / 2, unit="mm"),
+    "pen_width": schema.number(MIN_PEN_WIDTH, MAX_PEN_WIDTH, unit="mm"),
     "line_length": schema.whole(2, LONGEST_LENGTH, "pixels"),
     "stroke_gamma": schema.number(*GAMMA_RANGE),
     "stroke_width": schema.number(*WIDTH_RANGE, unit="pixels"),
     "texture": schema.Rule("the path of a pencil texture image", lambda value: isinstance(value, str) and bool(value.strip())),
     "edge_threshold": schema.number(0, 1, unit="(or leave it out for automatic)"),
-    "min_edge_pixels": schema.whole(0, unit="pixels"),
-    "edge_join": schema.number(0, unit="stroke lengths"),
-    "edge_clutter": schema.number(0, above=True),
+    "min_edge_pixels": schema.whole(0, 1_000_000, unit="pixels"),
+    "edge_join": schema.number(0, 100, unit="stroke lengths"),
+    "edge_clutter": schema.number(0, 1000, above=True),
     "hatch": schema.FLAG,
     "hatch_angles": schema.ANGLES,
     "hatch_coverage": schema.number(0, 1, above=True, below=True),
-    "hatch_form": schema.number(0, unit="mm"),
-    "hatch_blur": schema.number(0, unit="mm"),
-    "min_hatch_run": schema.number(0, unit="mm"),
-    "hatch_join": schema.number(0, unit="mm"),
+    "hatch_form": schema.number(0, MAX_FORM_MM, unit="mm"),
+    "hatch_blur": schema.number(0, MAX_BLUR_MM, unit="mm"),
+    "min_hatch_run": schema.number(0, MAX_SIZE_MM, unit="mm"),
+    "hatch_join": schema.number(0, MAX_SIZE_MM, unit="mm"),
     "hatch_blank_below": schema.number(0, 1, below=True, unit="(darkness)"),
     "hatch_jitter": schema.number(0, 1, unit="(fraction of the hatch spacing)"),
-    "order_rounds": schema.whole(0),
-    "seed": schema.whole(0),
+    "order_rounds": schema.whole(0, MAX_ORDER_ROUNDS),
+    "seed": schema.whole(0, 2**32 - 1),
 }
 _FIELDS = [f.name for f in dataclasses.fields(Style) if f.name != "name"]
 if list(STYLE_SCHEMA) != _FIELDS:  # pragma: no cover - a programming error, caught on import

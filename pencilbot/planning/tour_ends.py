@@ -29,11 +29,15 @@ def dist32(points: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def morton_order(points: np.ndarray) -> np.ndarray:
     """Indices that sort ``points`` along a Z-order curve on a 65 536² grid over their extent."""
+    if not np.isfinite(points).all():  # no place on the curve: NaN ends first, infinities at the edges
+        points = np.nan_to_num(points, nan=-np.finfo(np.float64).max)
     low = points.min(axis=0)
     with np.errstate(over="ignore"):
         extent = float((points.max(axis=0) - low).max())
     if not np.isfinite(extent):  # ends near the float limit: their differences overflow, halves do not
-        return morton_order(points / 2)
+        points = points / 2
+        low = points.min(axis=0)
+        extent = float((points.max(axis=0) - low).max())
     cells = ((points - low) * (65535.0 / extent if extent > 0 else 0.0)).astype(np.uint64)
 
     def spread(v):  # 16 bits → every other of 32 bits

@@ -63,7 +63,7 @@ def test_a_bad_value_is_one_line_naming_the_option(capsys, command, option, boun
 
 
 @pytest.mark.parametrize("argv, words", [
-    (["simulate", "x.gcode", "-o", "x.png", "--dpi", "30000"], "--dpi must be more than 0 and at most 10000"),
+    (["simulate", "x.gcode", "-o", "x.png", "--dpi", "30000"], "--dpi must be at least 1 and at most 10000"),
     (["simulate", "x.gcode", "-o", "x.png", "--dpi", "inf"], "--dpi must be"),
     (["simulate", "x.gcode", "-o", "x.png", "--pen-width", "1e9"], "--pen-width must be at least 0.05 and at most 50 mm"),
     (["simulate", "x.gcode", "-o", "x.png", "--realtime", "nan"], "--realtime must be at least 0"),
@@ -95,7 +95,7 @@ def test_a_render_bigger_than_memory_is_refused_before_it_is_allocated(tmp_path,
 
 
 @pytest.mark.parametrize("argv", [
-    ["plan", "{photo}", "-o", "{out}", "--page", "3000x3000", "--pen-width", "50", "--preview", "{tmp}/p.png"],
+    ["plan", "{photo}", "-o", "{out}", "--page", "3000x3000", "--pen-width", "50", "--preview", "{tmp}/preview.png"],
     ["demo", "{photo}", "-o", "{tmp}/demo", "--page", "3000x3000", "--pen-width", "50"],
 ])
 def test_a_page_whose_preview_would_not_fit_is_refused_before_planning(tmp_path, capsys, monkeypatch, argv):

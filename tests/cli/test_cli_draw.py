@@ -45,8 +45,9 @@ def test_start_line_outside_the_file(capsys, tmp_path):
 
 
 def test_resume_and_start_line_exclude_each_other(capsys):
-    with pytest.raises(SystemExit):
-        main(["draw", "x.gcode", "--resume", "j", "--start-line", "3"])
+    assert main(["draw", "x.gcode", "--resume", "j", "--start-line", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("pencilbot: error: argument --start-line") and err.count("\n") == 1, err
 
 
 def test_a_line_grbl_cannot_take_is_named_before_anything_is_sent(capsys, tmp_path):

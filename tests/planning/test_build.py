@@ -182,7 +182,7 @@ def test_a_style_file_overrides_only_what_it_names(tmp_path):
         ("hatch_coverage = 1.0\n", ["bad.toml", "hatch_coverage"]),
         ("pen_width = \n", ["bad.toml", "TOML"]),
         ("pen_width = nan\n", ["bad.toml", "pen_width"]),
-        ("pen_width = 0.001\n", ["bad.toml", "pen_width", "0.05 mm"]),
+        ("pen_width = 0.001\n", ["bad.toml", "pen_width", "≥ 0.05"]),
         ("margin = inf\n", ["bad.toml", "margin"]),
         ("hatch_blur = nan\n", ["bad.toml", "hatch_blur"]),
         ("line_length = 100000\n", ["bad.toml", "line_length"]),
