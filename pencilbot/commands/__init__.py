@@ -12,7 +12,7 @@ import importlib
 from pencilbot import __version__
 
 # Order is the order shown in --help.
-COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "demo", "completion"]
+COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "studio", "demo", "completion"]
 
 
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:

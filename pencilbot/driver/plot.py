@@ -67,6 +67,7 @@ def draw(
     announce: Callable[[str, Job], None] | None = None,
     operator=None,
     keys=None,
+    on_progress: Callable[[dict], None] | None = None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -113,6 +114,11 @@ def draw(
         lost position is a refusal that says what to do.
     keys : pencilbot.driver.keys.KeyReader, optional
         The terminal's keys: pause / resume (feed hold, cycle start) and stop.
+    on_progress : callable, optional
+        ``on_progress(record)`` with each progress record (as ``progress="json"`` prints them,
+        whatever ``progress`` is), a progress record also saying where the machine is:
+        ``running`` the file line it is drawing (located from its reported position on the
+        lines sent, as a stop is; absent when not found) and ``xy`` its work position (mm).
 
     Raises
     ------
@@ -157,6 +163,7 @@ def draw(
 
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
+    runner.on_progress = on_progress
     link = LineReader(open_port(port, baudrate=baud))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
@@ -197,6 +204,7 @@ class _Runner:
         self.acked = -1
         self._journal_at = 0.0
         self.announce = None
+        self.on_progress = None
 
     def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed=None) -> DrawResult:
         """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
@@ -223,7 +231,7 @@ class _Runner:
         self.acked = start - 1
         done0 = job.seconds_after(start - 1)
         total = job.seconds_after(len(job) - 1) - done0
-        self.progress = Progress(self.progress_mode, len(job) - start, total)
+        self.progress = Progress(self.progress_mode, len(job) - start, total, listener=self.on_progress)
         self._save_journal(force=True)
 
         def on_ack(index, state):
@@ -231,7 +239,8 @@ class _Runner:
             if index in job.pauses and self.journal is not None:
                 pen = _PEN_CHANGE.search(job.pauses[index])
                 self.journal.pen = pen.group(1).strip() if pen else self.journal.pen
-            self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state)
+            self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state,
+                                 where=lambda: self._where(stream))
             self._save_journal(stream)
 
         def on_pause(reason):
@@ -500,6 +509,17 @@ class _Runner:
             return "pen raised", proven
         except StreamFault as exc:
             return f"could not raise the pen ({exc})", None
+
+    def _where(self, stream: Stream) -> dict:
+        """Where the machine is while streaming: its work position and the file line it runs."""
+        xy = stream.work_position()
+        if xy is None:
+            return {}
+        found = self._locate(self.acked, self._job_units(xy, self.acked), position.pen_down_in(stream.status, self.pen))
+        where = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
+        if found is not None:
+            where["running"] = self.job.number(found[0])
+        return where
 
     def _job_units(self, xy, index: int):
         """A work position X, Y (mm) in the units the job uses at line ``index``."""

@@ -1,0 +1,170 @@
+"""Planning for the page: a worker process per change, the newest change wins.
+
+Each change of the controls is a new *generation*. :meth:`Planner.submit` ends the process still
+planning an older one (terminated: its result can no longer arrive) and starts a new one, which
+sends a coarse stage first (the same style with a wider pen and plain nearest-neighbour order:
+about a tenth of the work) and then the full plan at the real pen width. A result is kept only
+if its generation is still the newest. Processes come from a fork server that has the planning
+stack imported already, so a new one starts in milliseconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import multiprocessing
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pencilbot.errors import PencilbotError
+from pencilbot.studio.options import DrawingOptions
+
+STAGES = ("coarse", "full")
+#: The coarse stage plans with a pen this many times wider (grids ~36 times smaller).
+COARSE_PEN_FACTOR = 6.0
+#: Pixels per inch of the previews: the full one shows the real pen width (0.3 mm is ~1 px).
+PREVIEW_DPI = {"coarse": 50.0, "full": 100.0}
+_PRELOAD = ["pencilbot.studio.warm"]
+
+
+@dataclass
+class StageResult:
+    """One stage of one generation: PNG previews, figures, and (full stage) the plan."""
+
+    generation: int
+    stage: str
+    preview_png: bytes = b""
+    sketch_png: bytes = b""
+    figures: dict = field(default_factory=dict)
+    plan: object = None
+    error: str = ""
+    seconds: float = 0.0  # from the change to this result
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """A grey or RGB uint8 (or float in [0, 1]) picture as PNG bytes."""
+    from PIL import Image
+
+    if image.dtype != np.uint8:
+        image = np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
+    buffer = io.BytesIO()
+    Image.fromarray(image).save(buffer, format="PNG", compress_level=1)
+    return buffer.getvalue()
+
+
+def plan_stage(photo: Path | np.ndarray, options: DrawingOptions, stage: str) -> dict:
+    """Plan ``photo`` (a file, or a picture) with ``options`` for one stage; what a
+    :class:`StageResult` carries."""
+    from pencilbot import api
+    from pencilbot.planning.fidelity import photo_likeness
+    from pencilbot.planning.preview import preview_image
+    from pencilbot.planning.stats import estimate
+
+    style = options.resolved_style()
+    pens = options.pen_set()
+    if stage == "coarse":
+        style = dataclasses.replace(style, pen_width=style.pen_width * COARSE_PEN_FACTOR, order_rounds=0)
+        if pens is not None:  # the pens' widths set the plan's: widen them as well
+            pens = dataclasses.replace(pens, pens=tuple(dataclasses.replace(pen, width=pen.width * COARSE_PEN_FACTOR)
+                                                        for pen in pens.pens))
+    drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
+    result = {"preview_png": png_bytes(preview_image(plan, PREVIEW_DPI[stage])),
+              "sketch_png": png_bytes(drawing.result)}
+    if stage == "full":
+        figures = {"paths": sum(len(layer.paths) for layer in plan.layers),
+                   "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
+                   "pens": list(plan.pens)}
+        try:
+            total = estimate(plan, options.plotter()).total
+            figures.update(pen_down_m=round(total.pen_down_mm / 1000, 2), pen_up_m=round(total.pen_up_mm / 1000, 2),
+                           lifts=total.lifts, seconds=round(total.seconds, 1))
+        except PencilbotError as err:
+            figures["estimate_error"] = str(err)
+        figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
+        result.update(figures=figures, plan=plan)
+    return result
+
+
+def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...]) -> None:
+    """The worker process: each stage's result (or the error) through ``conn``."""
+    for stage in stages:
+        try:
+            conn.send((stage, plan_stage(Path(photo), options, stage)))
+        except PencilbotError as err:
+            conn.send((stage, {"error": str(err)}))
+            return
+        except MemoryError:
+            conn.send((stage, {"error": "not enough memory to plan this; use a smaller page or a wider pen"}))
+            return
+    conn.close()
+
+
+class Planner:
+    """Plans the newest change; ``on_result(StageResult)`` is called (in a reader thread) for each
+    stage of the newest generation, never for an older one."""
+
+    def __init__(self, on_result: Callable[[StageResult], None], stages: tuple[str, ...] = STAGES):
+        self.on_result = on_result
+        self.stages = stages
+        self.generation = 0
+        self._lock = threading.Lock()
+        self._process = None
+        self._context = multiprocessing.get_context("forkserver")
+        self._context.set_forkserver_preload(_PRELOAD)
+
+    def warm_up(self) -> None:
+        """Start the fork server now (it imports the planning stack once, ~1 s)."""
+        process = self._context.Process(target=_idle, daemon=True)
+        process.start()
+        process.join()
+
+    def submit(self, photo: Path, options: DrawingOptions) -> int:
+        """Start planning ``photo`` with ``options``; end the older one. Returns the generation."""
+        with self._lock:
+            self.generation += 1
+            generation = self.generation
+            self._end_process()
+            receive, send = self._context.Pipe(duplex=False)
+            process = self._context.Process(target=_work, args=(send, str(photo), options, self.stages), daemon=True)
+            started = time.monotonic()
+            process.start()
+            send.close()
+            self._process = process
+        threading.Thread(target=self._read, args=(receive, generation, started, process), daemon=True,
+                         name=f"planner-{generation}").start()
+        return generation
+
+    def cancel(self) -> None:
+        """Drop the generation in flight (its process is ended)."""
+        with self._lock:
+            self.generation += 1
+            self._end_process()
+
+    def _end_process(self) -> None:
+        if self._process is not None and self._process.is_alive():
+            self._process.terminate()
+        self._process = None
+
+    def _read(self, receive, generation: int, started: float, process) -> None:
+        try:
+            while True:
+                try:
+                    stage, payload = receive.recv()
+                except (EOFError, OSError):
+                    break
+                with self._lock:
+                    if generation != self.generation:
+                        break  # a newer change: this result is dropped
+                self.on_result(StageResult(generation, stage, seconds=time.monotonic() - started, **payload))
+        finally:
+            receive.close()
+            process.join(timeout=5)
+
+
+def _idle() -> None:
+    pass
