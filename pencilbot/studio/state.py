@@ -7,6 +7,7 @@ plot and its journal); nothing the page sends is used as a path.
 from __future__ import annotations
 
 import shutil
+from dataclasses import asdict
 import tempfile
 import threading
 from pathlib import Path
@@ -108,7 +109,7 @@ class Studio:
     def summary(self) -> dict:
         stages = {name: {"generation": r.generation, "figures": r.figures, "error": r.error,
                          "seconds": round(r.seconds, 3)} for name, r in self.results.items()}
-        return {"version": self.version, "generation": self.planner.generation,
+        return {"version": self.version, "generation": self.planner.generation, "options": asdict(self.options),
                 "photo": self.photo_name if self.photo else None, "stages": stages,
                 "plots": self.plotters.summary()}
 
