@@ -36,6 +36,9 @@ _PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
 #: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
 STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 _WINDOW = 60  # job lines before the last one sent that may not have run (planner, receive buffer)
+# Job lines before the last one answered among which a progress record looks for the machine: its
+# last status report may be up to a poll old, and short hatch moves pass quickly.
+_SHOW_WINDOW = 600
 
 
 @dataclass
@@ -515,7 +518,10 @@ class _Runner:
         xy = stream.work_position()
         if xy is None:
             return {}
-        found = self._locate(self.acked, self._job_units(xy, self.acked), position.pen_down_in(stream.status, self.pen))
+        # The machine runs a line at most one past the last answered (GRBL answers once planned).
+        last = min(self.acked + 1, len(self.job) - 1)
+        found = self._locate(last, self._job_units(xy, last), position.pen_down_in(stream.status, self.pen),
+                             window=_SHOW_WINDOW)
         where = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
         if found is not None:
             where["running"] = self.job.number(found[0])
@@ -527,13 +533,15 @@ class _Runner:
             return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
         return xy
 
-    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None):
-        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent)."""
+    def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
+                window: int = _WINDOW):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the ``window`` lines up to ``last`` (sent)."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
-        first = max(last - _WINDOW, 0)
-        return locate_stop(self.job.states(first, last + 1), last, position_xy, window=last - first + 1,
+        first = max(last - window, 0)
+        # From the line before the window: a move of the window starts where that line ended.
+        return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy, window=last - first + 1,
                            pen_down=pen_down, floor=floor)
 
     def _planner_floor(self, status) -> int | None:
