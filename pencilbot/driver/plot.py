@@ -256,7 +256,8 @@ class _Runner:
         with self._stop_signals():
             try:
                 rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait,
-                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys)
+                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys,
+                                         on_hold=lambda reason: self.progress.show_state(f"paused: {reason}"))
             except StreamFault as fault:
                 self._stopping = True  # from here a second Ctrl-C must not cut the stop short
                 message = self._stop(stream, fault)
