@@ -57,9 +57,9 @@ def png_bytes(image: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
-def plan_stage(photo: Path | np.ndarray, options: DrawingOptions, stage: str) -> dict:
-    """Plan ``photo`` (a file, or a picture) with ``options`` for one stage; what a
-    :class:`StageResult` carries."""
+def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
+    """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`) with
+    ``options`` for one stage; what a :class:`StageResult` carries."""
     from pencilbot import api
     from pencilbot.planning.fidelity import photo_likeness
     from pencilbot.planning.preview import preview_image
@@ -90,11 +90,13 @@ def plan_stage(photo: Path | np.ndarray, options: DrawingOptions, stage: str) ->
     return result
 
 
-def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...]) -> None:
-    """The worker process: each stage's result (or the error) through ``conn``."""
+def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], small=None) -> None:
+    """The worker process: each stage's result (or the error) through ``conn``; the coarse stage
+    plans ``small`` (the photo already decoded small) when given, the full one the file."""
     for stage in stages:
         try:
-            conn.send((stage, plan_stage(Path(photo), options, stage)))
+            source = small if stage == "coarse" and small is not None else Path(photo)
+            conn.send((stage, plan_stage(source, options, stage)))
         except PencilbotError as err:
             conn.send((stage, {"error": str(err)}))
             return
@@ -123,14 +125,17 @@ class Planner:
         process.start()
         process.join()
 
-    def submit(self, photo: Path, options: DrawingOptions) -> int:
-        """Start planning ``photo`` with ``options``; end the older one. Returns the generation."""
+    def submit(self, photo: Path, options: DrawingOptions, small=None) -> int:
+        """Start planning ``photo`` with ``options`` (the coarse stage from ``small``, a
+        :class:`~pencilbot.imaging.io.LoadedImage` of it, if given); end the older one. Returns
+        the generation."""
         with self._lock:
             self.generation += 1
             generation = self.generation
             self._end_process()
             receive, send = self._context.Pipe(duplex=False)
-            process = self._context.Process(target=_work, args=(send, str(photo), options, self.stages), daemon=True)
+            process = self._context.Process(target=_work, args=(send, str(photo), options, self.stages, small),
+                                            daemon=True)
             started = time.monotonic()
             process.start()
             send.close()

@@ -32,6 +32,7 @@ class Studio:
         self.version = 0
         self._changed = threading.Condition()
         self.photo: Path | None = None
+        self.small = None
         self.photo_name = ""
         self.thumbnail = b""
         self.options = DrawingOptions(profile=profile)
@@ -79,6 +80,7 @@ class Studio:
         scale = min(1.0, (THUMBNAIL_PIXELS / max(width * height, 1)) ** 0.5)
         small = load_image(path, shrink_to=lambda shape: (max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale))))
         self.thumbnail = png_bytes(small.rgb)
+        self.small = small  # the coarse stage plans this, not the file: no decoding per change
         self.photo, self.photo_name = path, name[:200]
         self.plan()
         return {"name": self.photo_name, "width": width, "height": height}
@@ -90,7 +92,7 @@ class Studio:
     def plan(self) -> int:
         if self.photo is None:
             return 0
-        generation = self.planner.submit(self.photo, self.options)
+        generation = self.planner.submit(self.photo, self.options, self.small)
         self.changed()
         return generation
 

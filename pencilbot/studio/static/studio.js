@@ -4,7 +4,7 @@
 
 const $ = (id) => document.getElementById(id);
 const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage"];
-let state = null, choices = null, job = null, jobPort = null, shown = {}, sendTimer = null;
+let state = null, choices = null, job = null, loading = null, shown = {}, sendTimer = null;
 
 async function call(method, url, body, headers = {}) {
   const init = { method, headers: { "X-Studio": "1", ...headers } };
@@ -100,15 +100,21 @@ function showDrawing() {
 
 function plotOf(port) { return state && state.plots.find((p) => p.port === port); }
 
-async function loadJob(port) {
-  job = await call("GET", `/api/plot-paths?port=${encodeURIComponent(port)}`);
-  jobPort = port;
+async function loadJob(plot) {  // the pen-down paths of this plot's G-code, once per plot
+  const key = `${plot.port} ${plot.started}`;
+  if (loading === key || (job && job.key === key)) return;
+  loading = key;
+  try {
+    const drawing = await call("GET", `/api/plot-paths?port=${encodeURIComponent(plot.port)}`);
+    const now = plotOf(plot.port);
+    if (now && `${now.port} ${now.started}` === key) { drawing.key = key; job = drawing; }
+  } finally { if (loading === key) loading = null; }
 }
 
 function drawJob(plot) {
   const canvas = $("plot-canvas"), ctx = canvas.getContext("2d");
   ctx.clearRect(0, 0, canvas.width, canvas.height);
-  if (!job) return;
+  if (!job || job.key !== `${plot.port} ${plot.started}`) return;
   const [w, h] = job.bed, scale = Math.min(canvas.width / w, canvas.height / h);
   canvas.height = Math.round(h * scale);
   const X = (x) => x * scale, Y = (y) => canvas.height - y * scale;
@@ -148,7 +154,7 @@ async function showPlot() {
     : plot.active ? `plotting (${record.state || "starting"})` : plot.status;
   $("plot-line").textContent = record.running ? `${record.running} (${record.line} of ${record.total} acknowledged)` : record.line ? `${record.line} of ${record.total}` : "–";
   $("plot-percent").textContent = record.percent !== undefined ? `${record.percent.toFixed(1)} % of plot time` : "–";
-  $("plot-elapsed").textContent = duration(record.elapsed_s);
+  $("plot-elapsed").textContent = duration(plot && plot.active ? Date.now() / 1000 - plot.started : record.elapsed_s);
   $("plot-remaining").textContent = plot && plot.status === "done" ? "0:00:00" : duration(record.eta_s);
   $("plot-message").textContent = plot ? plot.message : "";
   $("pause").disabled = $("stop").disabled = !(plot && plot.active);
@@ -161,10 +167,14 @@ async function showPlot() {
     $("jog").hidden = $("prompt-giveup").hidden = plot.prompt.kind !== "rezero";
     if (!dialog.open) dialog.showModal();
   } else if (dialog.open) dialog.close();
-  if (plot && (jobPort !== plot.port || !job || job.started !== plot.started)) {
-    try { await loadJob(plot.port); job.started = plot.started; } catch (err) { job = null; }
+  if (plot) {
+    drawJob(plot);
+    if (!job || job.key !== `${plot.port} ${plot.started}`) {
+      try { await loadJob(plot); drawJob(plotOf(plot.port) || plot); } catch (err) { $("plot-message").textContent = err.message; }
+    }
+  } else {
+    const canvas = $("plot-canvas"); canvas.getContext("2d").clearRect(0, 0, canvas.width, canvas.height);
   }
-  if (plot) drawJob(plot);
 }
 
 function render() { showDrawing(); showPlot(); }
@@ -233,5 +243,7 @@ async function start() {
   render();
   listen();
 }
+
+setInterval(() => { const plot = state && plotOf($("port").value); if (plot && plot.active) showPlot(); }, 1000);
 
 start().catch((err) => { $("connection").textContent = `error: ${err.message}`; });
