@@ -51,7 +51,10 @@ class Guard:
         self.app, self.token = app, token
         hosts = {host, *names} | ({"localhost", "127.0.0.1"} if is_loopback(host) else set())
         self.hosts = {f"{name}:{port}" for name in hosts} | {f"[{host}]:{port}"}
-        self.origins = {f"http://{name}" for name in self.hosts}
+        # Listening on every address (0.0.0.0, ::), the page may be reached by any of the
+        # machine's names: any Host is taken, the token keeps others out (a rebinding site's
+        # page has neither the token nor the cookie), and the Origin must be that Host's.
+        self.any_host = host in ("0.0.0.0", "::") and token is not None
 
     async def __call__(self, scope, receive, send):
         if scope["type"] != "http":
@@ -64,10 +67,11 @@ class Guard:
 
     def refusal(self, scope, headers: dict) -> tuple[int, str] | None:
         """(status, why) for a request to refuse, else None."""
-        if headers.get("host", "") not in self.hosts:
+        host = headers.get("host", "")
+        if host not in self.hosts and not (self.any_host and host):
             return 403, "pencilbot studio answers only requests for its own address (Host refused)"
         origin = headers.get("origin")
-        if origin is not None and origin not in self.origins:
+        if origin is not None and origin != f"http://{host}":
             return 403, "pencilbot studio takes requests only from its own page (Origin refused)"
         if headers.get("sec-fetch-site") == "cross-site":
             return 403, "pencilbot studio takes requests only from its own page (cross-site request refused)"

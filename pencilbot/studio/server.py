@@ -50,6 +50,7 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     except OSError as err:
         sock.close()
         raise PencilbotError(f"cannot listen on {host}:{listen_port} ({err.strerror}); give another --listen-port") from None
+    sock.listen(128)  # the URL is said before uvicorn runs: a browser that comes at once waits in the backlog
     bound = sock.getsockname()[1]
     studio = Studio(ports=(port,) if port else (), profile=profile, sim_speed=sim_speed, stages=stages)
     try:

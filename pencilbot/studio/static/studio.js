@@ -150,7 +150,8 @@ async function showPlot() {
   const plot = plotOf($("port").value);
   const record = plot ? plot.record : {};
   const paused = plot && plot.active && (record.state || "").startsWith("paused");
-  $("plot-status").textContent = !plot ? "idle" : plot.prompt ? "waiting for you" : paused ? record.state
+  const pausedWords = (record.state || "").replace(/^paused: from the keyboard.*/, "paused (Resume goes on)");
+  $("plot-status").textContent = !plot ? "idle" : plot.prompt ? "waiting for you" : paused ? pausedWords
     : plot.active ? `plotting (${record.state || "starting"})` : plot.status;
   $("plot-line").textContent = record.running ? `${record.running} (${record.line} of ${record.total} acknowledged)` : record.line ? `${record.line} of ${record.total}` : "–";
   $("plot-percent").textContent = record.percent !== undefined ? `${record.percent.toFixed(1)} % of plot time` : "–";
