@@ -117,7 +117,7 @@ class PlotSession:
     def start(self, resume: bool = False) -> None:
         self.stop_requested.clear()
         self.keys = WebKeys()
-        self.set(status="running", message="", resumable=False, prompt=None)
+        self.set(status="running", message="", resumable=False, prompt=None, record={})
         self.thread = threading.Thread(target=self._run, args=(resume,), name=f"plot {self.port}", daemon=True)
         self.thread.start()
 
