@@ -2,8 +2,10 @@
 
 Each change of the controls is a new *generation*. :meth:`Planner.submit` ends the process still
 planning an older one (terminated: its result can no longer arrive) and starts a new one, which
-sends a coarse stage first (the same style with a wider pen and plain nearest-neighbour order:
-about a tenth of the work) and then the full plan at the real pen width. A result is kept only
+sends a coarse stage first and then the full plan at the real pen width. The coarse stage is the
+drawing at half scale (page, margin and every length of the style halved) with a pen six times
+wider at full scale, in plain nearest-neighbour order: a fraction of the work (the tone loop's
+grid has a fixed cell, so a smaller sheet is what makes it cheap), shown at the same size. A result is kept only
 if its generation is still the newest. Processes come from a fork server that has the planning
 stack imported already, so a new one starts in milliseconds.
 """
@@ -25,10 +27,13 @@ from pencilbot.errors import PencilbotError
 from pencilbot.studio.options import DrawingOptions
 
 STAGES = ("coarse", "full")
-#: The coarse stage plans with a pen this many times wider (grids ~36 times smaller).
+#: The coarse stage's pen, as drawn at full scale: this many times the real one.
 COARSE_PEN_FACTOR = 6.0
-#: Pixels per inch of the previews: the full one shows the real pen width (0.3 mm is ~1 px).
-PREVIEW_DPI = {"coarse": 50.0, "full": 100.0}
+#: The coarse stage plans on a sheet this many times smaller (every length of the style too).
+COARSE_SCALE = 2.0
+#: Pixels per mm of paper in the previews: the full one shows the real pen width (0.3 mm ~ 1 px).
+PREVIEW_DPI = 100.0
+_STYLE_LENGTHS = ("margin", "hatch_form", "hatch_blur", "min_hatch_run", "hatch_join")  # mm
 _PRELOAD = ["pencilbot.studio.warm"]
 
 
@@ -67,13 +72,12 @@ def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
 
     style = options.resolved_style()
     pens = options.pen_set()
+    dpi = PREVIEW_DPI
     if stage == "coarse":
-        style = dataclasses.replace(style, pen_width=style.pen_width * COARSE_PEN_FACTOR, order_rounds=0)
-        if pens is not None:  # the pens' widths set the plan's: widen them as well
-            pens = dataclasses.replace(pens, pens=tuple(dataclasses.replace(pen, width=pen.width * COARSE_PEN_FACTOR)
-                                                        for pen in pens.pens))
+        style, pens = coarse(style, pens)
+        dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
     drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
-    result = {"preview_png": png_bytes(preview_image(plan, PREVIEW_DPI[stage])),
+    result = {"preview_png": png_bytes(preview_image(plan, dpi)),
               "sketch_png": png_bytes(drawing.result)}
     if stage == "full":
         figures = {"paths": sum(len(layer.paths) for layer in plan.layers),
@@ -88,6 +92,22 @@ def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
         figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
         result.update(figures=figures, plan=plan)
     return result
+
+
+def coarse(style, pens):
+    """The coarse stage's style and pens: the drawing at 1 / ``COARSE_SCALE`` scale with a pen
+    ``COARSE_PEN_FACTOR`` times wider at full scale."""
+    from pencilbot.planning.layout import page_size
+
+    sheet = page_size(style.page, None, margin=style.margin)
+    widen = COARSE_PEN_FACTOR / COARSE_SCALE
+    lengths = {key: getattr(style, key) / COARSE_SCALE for key in _STYLE_LENGTHS}
+    style = dataclasses.replace(style, page=f"{sheet.width / COARSE_SCALE:g}x{sheet.height / COARSE_SCALE:g}",
+                                pen_width=style.pen_width * widen, order_rounds=0, **lengths)
+    if pens is not None:  # the pens' widths set the plan's: widen them as well
+        pens = dataclasses.replace(pens, pens=tuple(dataclasses.replace(pen, width=pen.width * widen)
+                                                    for pen in pens.pens))
+    return style, pens
 
 
 def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], small=None) -> None:
