@@ -136,7 +136,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
     async def events(request: Request):
         async def stream():
             seen = -1
-            while not await request.is_disconnected():
+            while not studio.closing and not await request.is_disconnected():
                 version = await run_in_threadpool(studio.wait_change, seen, 0.5)
                 if version != seen:
                     seen = version

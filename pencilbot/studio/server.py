@@ -31,6 +31,8 @@ class Running:
             self.sock.close()
 
     def stop(self) -> None:
+        self.studio.closing = True
+        self.studio.changed()
         self.server.should_exit = True
 
 
@@ -64,8 +66,15 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     app = create_app(studio, host=host, port=bound, token=token)
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
-    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=1)
-    return Running(studio, uvicorn.Server(config), url, sock)
+    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2)
+
+    class Server(uvicorn.Server):
+        def handle_exit(self, sig, frame):  # Ctrl-C: the page's event streams end first
+            studio.closing = True
+            studio.changed()
+            super().handle_exit(sig, frame)
+
+    return Running(studio, Server(config), url, sock)
 
 
 def serve(photo: Path | None = None, *, port: str | None = None, profile: str = "", host: str = "127.0.0.1",

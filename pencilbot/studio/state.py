@@ -30,6 +30,7 @@ class Studio:
         self.folder = Path(tempfile.mkdtemp(prefix="pencilbot-studio-"))
         self.ports, self.profile, self.sim_speed = ports, profile, sim_speed
         self.version = 0
+        self.closing = False  # the server is stopping: event streams end
         self._changed = threading.Condition()
         self.photo: Path | None = None
         self.small = None
@@ -53,7 +54,16 @@ class Studio:
             return self.version
 
     def close(self) -> None:
+        """Stop planning and every plot (pen up: a plot must not go on unwatched), remove the folder."""
+        self.closing = True
+        self.changed()
         self.planner.cancel()
+        for session in self.plotters.sessions.values():
+            if session.active:
+                session.press("stop")
+        for session in self.plotters.sessions.values():
+            if session.thread is not None:
+                session.thread.join(timeout=30)
         shutil.rmtree(self.folder, ignore_errors=True)
 
     # --- making the drawing ----------------------------------------------------------------
@@ -79,6 +89,8 @@ class Studio:
                            "pencilbot reads; shrink it first")
         scale = min(1.0, (THUMBNAIL_PIXELS / max(width * height, 1)) ** 0.5)
         small = load_image(path, shrink_to=lambda shape: (max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale))))
+        if self.photo is not None:
+            self.photo.unlink(missing_ok=True)  # the folder keeps one photo
         self.thumbnail = png_bytes(small.rgb)
         self.small = small  # the coarse stage plans this, not the file: no decoding per change
         self.photo, self.photo_name = path, name[:200]
