@@ -240,7 +240,7 @@ async function start() {
     if (name === "hatch") form.hatch.checked = value; else form[name].value = value;
   }
   showOutputs();
-  if (state.photo) $("photo").src = `/api/picture/photo.png?t=${Date.now()}`;
+  if (state.photo) { $("photo").src = `/api/picture/photo.png?t=${Date.now()}`; $("photo-name").textContent = state.photo; }
   render();
   listen();
 }
