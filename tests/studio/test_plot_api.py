@@ -21,7 +21,7 @@ class Plan:
     """Stands for the planner's full stage: the library's plan of a small photo."""
 
     def __init__(self, plan):
-        self.plan, self.generation = plan, 0
+        self.plan, self.generation, self.sketch_png = plan, 0, b""
 
 
 @pytest.fixture
@@ -82,3 +82,17 @@ def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
     wait(lambda: (session.record.get("running") or 0) > (stopped_at or 0) or not session.active, "the resumed plot")
     assert session.status == "running" or session.status == "done"
     assert client.post("/api/plot/nonsense", json={"port": "sim://"}, headers=OWN).status_code == 404
+
+
+def test_downloads_are_the_exporters_output(client, studio):
+    from pencilbot.export.gcode import gcode_program
+    from pencilbot.export.svg import svg_text
+    from pencilbot.machine.profile import load_profile
+
+    plan = studio.results["full"].plan
+    svg = client.get("/api/download/plan.svg")
+    assert svg.status_code == 200 and svg.text == svg_text(plan)
+    assert svg.headers["content-disposition"] == 'attachment; filename="plan.svg"'
+    gcode = client.get("/api/download/plan.gcode", params={"profile": "grbl-z-a3"})
+    assert gcode.status_code == 200 and gcode.content == gcode_program(plan, load_profile("grbl-z-a3"))
+    assert client.get("/api/download/sketch.png").status_code == 404  # no sketch planned
