@@ -96,3 +96,24 @@ def test_downloads_are_the_exporters_output(client, studio):
     gcode = client.get("/api/download/plan.gcode", params={"profile": "grbl-z-a3"})
     assert gcode.status_code == 200 and gcode.content == gcode_program(plan, load_profile("grbl-z-a3"))
     assert client.get("/api/download/sketch.png").status_code == 404  # no sketch planned
+
+
+def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_path):
+    """A reset in motion loses the position; the resume asks the page to jog the pen to a mark
+    (a dialog), takes its jogs, and a give-up is one plain message."""
+    from pencilbot.studio.plotting import Plotters
+
+    gcode = tmp_path / "job.gcode"
+    api.export_gcode(studio.results["full"].plan, "grbl-servo-a4", gcode)
+    plotters = Plotters()
+    session = plotters.start("sim://", "sim://t?profile=grbl-servo-a4&realtime=20&faults=abort@60", "grbl-servo-a4", gcode)
+    session.thread.join(timeout=60)
+    assert session.status == "stopped" and "ALARM:3" in session.message and session.resumable
+    plotters.resume("sim://")
+    wait(lambda: session.prompt is not None or not session.active, "the re-zero dialog")
+    assert session.prompt["kind"] == "rezero" and "Jog the raised pen" in session.prompt["text"]
+    session.press("jog", 1.0, 0.0)
+    session.press("give up")
+    session.thread.join(timeout=30)
+    assert session.status == "stopped" and session.message.startswith("re-zero abandoned")
+    assert session.prompt is None
