@@ -24,11 +24,12 @@ from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
-from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
 from pencilbot.machine.pens import PenSet, load_pens
-from pencilbot.planning.build import make_plan, plot_shape, with_pens
+from pencilbot.planning.build import plot_shape, with_pens
+from pencilbot.planning.build import sketch_and_plan as _sketch_and_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
@@ -69,6 +70,16 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
     name such as ``"cmyk"``, a pen set file or a PenSet) draws the colour sketch with those pens,
     one run of layers per pen in load order; their widths replace ``pen_width``.
     """
+    return sketch_and_plan(image, page=page, orientation=orientation, margin=margin, style=style,
+                           pen_width=pen_width, pens=pens)[1]
+
+
+def sketch_and_plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,
+                    margin: float | None = None, style: str | Path | Style | None = None,
+                    pen_width: float | None = None, pens: str | Path | PenSet | None = None,
+                    max_pixels: int = DEFAULT_MAX_PIXELS) -> tuple[Sketch, Plan]:
+    """:func:`plan`, also returning the pencil sketch the plan was made from (at the resolution
+    it was planned at); an image file larger than ``max_pixels`` is refused before decoding."""
     chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
     if pen_width is not None:
         chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
@@ -83,10 +94,11 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
                          chosen.margin if margin is None else margin)
 
     if isinstance(image, (str, Path)):  # decoded at the size the plan needs, not full size
-        loaded = load_image(image, shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width))
+        loaded = load_image(image, max_pixels=max_pixels,
+                            shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width))
     else:
         loaded = as_image(image)
-    return make_plan(loaded, page=sheet(loaded.shape), style=chosen, pens=pen_set)
+    return _sketch_and_plan(loaded, page=sheet(loaded.shape), style=chosen, pens=pen_set)
 
 
 def _profile(profile: str | Path | Profile) -> Profile:

@@ -31,8 +31,22 @@ def drawn_paths(job: Job) -> Paths:
     Paths
         Machine X and Y in mm; empty if the pen never goes down.
     """
+    return drawn_with_lines(job)[0]
+
+
+def drawn_with_lines(job: Job) -> tuple[Paths, np.ndarray]:
+    """:func:`drawn_paths`, and for each of their points the job line (0-based) that reaches it:
+    a front end that knows the line the machine runs shows what is on the paper so far.
+
+    Returns
+    -------
+    Paths
+        As :func:`drawn_paths`.
+    numpy.ndarray
+        ``(N,)`` int64, the job line index of each point.
+    """
     if not len(job):
-        return Paths.empty()
+        return Paths.empty(), np.zeros(0, dtype=np.int64)
     states = job.states(0, len(job)).columns
     # Where the board puts the pen: machine mm, work offsets (G92, G10, G54-G59, G53) included;
     # where the file leaves an offset to the board, its work coordinates.
@@ -47,6 +61,9 @@ def drawn_paths(job: Job) -> Paths:
     moved = np.any(np.diff(xy, axis=0, prepend=xy[:1]) != 0, axis=1)
     starts = down & ~before  # the pen touches the paper here
     drawn = down & before & moved  # and goes on to each of these points
-    points = xy[starts | drawn]
-    first = np.flatnonzero(starts[starts | drawn])
-    return Paths(points, np.append(first, len(points))) if len(points) else Paths.empty()
+    kept = starts | drawn
+    points = xy[kept]
+    first = np.flatnonzero(starts[kept])
+    if not len(points):
+        return Paths.empty(), np.zeros(0, dtype=np.int64)
+    return Paths(points, np.append(first, len(points))), np.flatnonzero(kept)

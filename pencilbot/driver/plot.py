@@ -37,6 +37,9 @@ _PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
 _SYNCHRONIZING = re.compile(r"^(?:N\d+)?(?:[^G]*G0*4(?![0-9.])|[^M]*M0*[01](?![0-9.]))")
 #: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
 STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
+# Job lines before the last one answered among which a progress record looks for the machine: its
+# last status report may be up to a poll old, and short hatch moves pass quickly.
+_SHOW_WINDOW = 600
 
 
 @dataclass
@@ -68,6 +71,7 @@ def draw(
     announce: Callable[[str, Job], None] | None = None,
     operator=None,
     keys=None,
+    on_progress: Callable[[dict], None] | None = None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -114,6 +118,11 @@ def draw(
         lost position is a refusal that says what to do.
     keys : pencilbot.driver.keys.KeyReader, optional
         The terminal's keys: pause / resume (feed hold, cycle start) and stop.
+    on_progress : callable, optional
+        ``on_progress(record)`` with each progress record (as ``progress="json"`` prints them,
+        whatever ``progress`` is), a progress record also saying where the machine is:
+        ``running`` the file line it is drawing (located from its reported position on the
+        lines sent, as a stop is; absent when not found) and ``xy`` its work position (mm).
 
     Raises
     ------
@@ -164,6 +173,7 @@ def draw(
 
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
+    runner.on_progress = on_progress
     link = LineReader(open_port(port, baudrate=baud))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
@@ -224,6 +234,7 @@ class _Runner:
         self.acked = -1
         self._journal_at = 0.0
         self.announce = None
+        self.on_progress = None
 
     def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed=None) -> DrawResult:
         """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
@@ -250,7 +261,7 @@ class _Runner:
         self.acked = start - 1
         done0 = job.seconds_after(start - 1)
         total = job.seconds_after(len(job) - 1) - done0
-        self.progress = Progress(self.progress_mode, len(job) - start, total)
+        self.progress = Progress(self.progress_mode, len(job) - start, total, listener=self.on_progress)
         try:
             self._save_journal(force=True)
         except StreamFault as fault:  # the journal cannot be written: stop as any fault does
@@ -262,7 +273,8 @@ class _Runner:
             if index in job.pauses and self.journal is not None:
                 pen = _PEN_CHANGE.search(job.pauses[index])
                 self.journal.pen = pen.group(1).strip() if pen else self.journal.pen
-            self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state)
+            self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state,
+                                 where=lambda: self._where(stream))
             self._save_journal(stream)
 
         def on_pause(reason):
@@ -275,7 +287,8 @@ class _Runner:
         with self._stop_signals():
             try:
                 rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait,
-                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys)
+                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys,
+                                         on_hold=lambda reason: self.progress.show_state(f"paused: {reason}"))
             except StreamFault as fault:
                 self._stopping = True  # from here a second Ctrl-C must not cut the stop short
                 message = self._stop(stream, fault)
@@ -577,6 +590,20 @@ class _Runner:
         except StreamFault as exc:
             return f"could not raise the pen ({exc})", None
 
+    def _where(self, stream: Stream) -> dict:
+        """Where the machine is while streaming: its work position and the file line it runs."""
+        xy = stream.work_position()
+        if xy is None:
+            return {}
+        # The machine runs a line at most one past the last answered (GRBL answers once planned).
+        last = min(self.acked + 1, len(self.job) - 1)
+        found = self._locate(last, self._job_units(xy, last), position.pen_down_in(stream.status, self.pen),
+                             window=_SHOW_WINDOW)
+        where = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
+        if found is not None:
+            where["running"] = self.job.number(found[0])
+        return where
+
     def _job_units(self, xy, index: int):
         """A work position X, Y (mm) in the units the job uses at line ``index``."""
         if xy is not None and self.job.state_after(max(index, 0)).inches:
@@ -584,13 +611,14 @@ class _Runner:
         return xy
 
     def _locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
-                answered: int | None = None, **how):
+                answered: int | None = None, window: int | None = None, **how):
         """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
-        can have been in flight (``how``: its tolerance and coast)."""
+        can have been in flight, or the ``window`` lines before it (``how``: its tolerance and
+        coast)."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
-        first = self._flight_start(last)
+        first = self._flight_start(last) if window is None else max(last - window, 0)
         # GRBL answers a dwell (or a program pause) only once every move before it has run:
         # from the last one answered, the machine runs lines in order, so the first pass
         # through the position after it is where it stood (a stroke that runs back over

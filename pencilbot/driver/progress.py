@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+from collections.abc import Callable
 from typing import TextIO
 
 from tqdm import tqdm
@@ -35,15 +36,21 @@ class Progress:
         Motion estimate of the whole job (s).
     out : file, optional
         Where JSON lines go (stdout by default).
+    listener : callable, optional
+        ``listener(record)`` with every record a JSON line would hold (``event``: progress, done
+        or stopped), whatever the mode, at the same pace: a front end such as the studio page
+        follows the plot through it.
     """
 
-    def __init__(self, mode: str, total_lines: int, total_seconds: float, out: TextIO | None = None):
+    def __init__(self, mode: str, total_lines: int, total_seconds: float, out: TextIO | None = None,
+                 listener: Callable[[dict], None] | None = None):
         if mode not in MODES:
             raise ValueError(f"progress mode must be one of {MODES}, not {mode!r}")
         self.mode = mode
         self.total_lines = total_lines
         self.total_seconds = total_seconds
         self.out = out or sys.stdout
+        self.listener = listener
         self.started = time.monotonic()
         self._last_emit = -1.0
         self._bar = None
@@ -68,16 +75,24 @@ class Progress:
             return min(100.0, 100.0 * done_seconds / self.total_seconds)
         return 100.0 * lines_done / max(self.total_lines, 1)
 
-    def update(self, lines_done: int, done_seconds: float, state: str, force: bool = False) -> None:
-        """Report progress: lines acknowledged, their motion estimate (s), machine state."""
+    def update(self, lines_done: int, done_seconds: float, state: str, force: bool = False,
+               where: Callable[[], dict] | None = None) -> None:
+        """Report progress: lines acknowledged, their motion estimate (s), machine state;
+        ``where()`` (asked only when a listener is told) adds where the machine is."""
         now = time.monotonic()
         self._done = (lines_done, done_seconds)
-        if self.mode == "quiet" or (now - self._last_emit < MIN_INTERVAL and lines_done < self.total_lines
-                                    and not force):
+        if (self.mode == "quiet" and self.listener is None) or (
+                now - self._last_emit < MIN_INTERVAL and lines_done < self.total_lines and not force):
             return
         self._last_emit = now
         eta = self.eta(done_seconds)
         percent = self.percent(done_seconds, lines_done)
+        if self.listener is not None:
+            self.listener(dict(event="progress", line=lines_done, total=self.total_lines, percent=round(percent, 2),
+                               state=state, elapsed_s=round(now - self.started, 1), eta_s=round(eta, 1),
+                               **(where() if where is not None else {})))
+        if self.mode == "quiet":
+            return
         if self._bar is not None:
             self._bar.n = round(percent, 1)
             self._bar.set_postfix_str(f"line {lines_done}/{self.total_lines}, {state or '?'}, "
@@ -100,6 +115,8 @@ class Progress:
 
     def close(self, status: str, message: str = "") -> None:
         """End the display: ``status`` is ``"done"`` or ``"stopped"``."""
+        if self.listener is not None:
+            self.listener(dict(event=status, elapsed_s=round(time.monotonic() - self.started, 2), message=message))
         if self._bar is not None:
             self._bar.close()
         elif self.mode == "json":

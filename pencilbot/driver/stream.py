@@ -268,7 +268,8 @@ class Stream:
     # --- streaming ---------------------------------------------------------------------------
 
     def stream(self, job: Job, start: int, on_ack: Callable[[int, str], None], *, send_and_wait: bool = False,
-               on_error: str = "stop", on_pause: Callable[[str], bool] | None = None, keys=None) -> list[int]:
+               on_error: str = "stop", on_pause: Callable[[str], bool] | None = None, keys=None,
+               on_hold: Callable[[str], None] | None = None) -> list[int]:
         """Send job lines ``start …`` and wait until the machine has run them.
 
         Parameters
@@ -289,6 +290,9 @@ class Stream:
             timing out: the board still answers) until the machine's own cycle start.
         keys : KeyReader, optional
             Requests from the keyboard: ``"pause"`` (feed hold, again: cycle start), ``"stop"``.
+        on_hold : callable, optional
+            ``on_hold(reason)`` once when the board holds at a ``"pause"`` key (a front end
+            shows it paused; the same key resumes it).
 
         Returns
         -------
@@ -329,14 +333,14 @@ class Stream:
                     self._handle(reply, self._oldest(nxt))
                 if keys is not None:
                     self._serve_keys(keys, self._oldest(nxt))
-                self._serve_pause(job, on_pause)
+                self._serve_pause(job, on_pause, on_hold)
                 self._check_alive(self._oldest(nxt))
                 if self.state == DRAINING and self._drained(drain):
                     self.state = DONE
         self.machine_state = self.status.state if self.status is not None else "Idle"
         return self._rejected
 
-    def _serve_pause(self, job: Job, on_pause) -> None:
+    def _serve_pause(self, job: Job, on_pause, on_hold=None) -> None:
         """A board in Hold: say why once (the M0 line's comment, the machine's button, our own
         key) and, if someone answers, send cycle start."""
         status = self.status
@@ -357,6 +361,8 @@ class Stream:
             self.paused = "from the keyboard (press the pause key to go on)" if self._held_by_us else "feed hold on the machine"
         self.machine_state = f"paused: {self.paused}"
         if self._held_by_us and index is None:
+            if on_hold is not None:
+                on_hold(self.paused)
             return  # the key that paused resumes
         if on_pause is not None and on_pause(self.paused):
             self._held_by_us = False

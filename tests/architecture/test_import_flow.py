@@ -40,7 +40,8 @@ ALLOWED: dict[str, set[str]] = {
 # The front ends may use everything below them; nothing below may use them.
 _BELOW = set(ALLOWED)
 ALLOWED["pencilbot.api"] = _BELOW
-ALLOWED["pencilbot.commands"] = _BELOW | {"pencilbot.api", "pencilbot"}
+ALLOWED["pencilbot.studio"] = _BELOW | {"pencilbot.api", "pencilbot"}  # the web page: the library API, no CLI
+ALLOWED["pencilbot.commands"] = _BELOW | {"pencilbot.api", "pencilbot", "pencilbot.studio"}
 ALLOWED["pencilbot.vpype_plugin"] = ALLOWED["pencilbot.commands"] | {"pencilbot.commands"}  # a front end too
 ALLOWED["pencilbot.cli"] = {"pencilbot.commands", "pencilbot"} | BASE
 ALLOWED["pencilbot"] = {"pencilbot.api"}  # the package itself: the lazy library API

@@ -151,7 +151,7 @@ def test_bash_completes_commands_options_choices_and_names(mine, tmp_path, capsy
     script = tmp_path / "pencilbot.bash"
     script.write_text(capsys.readouterr().out)
     (mine / "plotters" / "grbl-mine.toml").write_text(shipped("grbl-servo-a4"))  # added after the script was made
-    assert complete(script, "pencilbot", "s") == ["sketch", "stat", "simulate", "sim-serve"]
+    assert complete(script, "pencilbot", "s") == ["sketch", "stat", "simulate", "sim-serve", "studio"]
     assert complete(script, "pencilbot", "export", "--keep") == ["--keep-order"]
     assert complete(script, "pencilbot", "plan", "--keep") == []  # plan has no such option
     assert complete(script, "pencilbot", "export", "photo.jpg", "--profile", "grbl") == [

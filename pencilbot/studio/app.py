@@ -1,0 +1,222 @@
+"""The studio's HTTP routes (Starlette): the page, its JSON API, previews, downloads, events.
+
+Routes only read the request, call :class:`~pencilbot.studio.state.Studio` or the library, and
+answer; a user's mistake is a 4xx with one plain sentence (``{"error": ...}``).
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+from pathlib import Path
+
+from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import Request
+from starlette.responses import FileResponse, JSONResponse, Response, StreamingResponse
+from starlette.routing import Mount, Route
+from starlette.staticfiles import StaticFiles
+
+from pencilbot.errors import PencilbotError
+from pencilbot.studio.guard import COOKIE, MAX_UPLOAD_BYTES, Guard
+from pencilbot.studio.options import parse_options
+from pencilbot.studio.plotting import PlotBusy, pen_test
+from pencilbot.studio.ports import plotter_ports, port_url
+from pencilbot.studio.state import Studio, TooLarge
+
+STATIC = Path(__file__).parent / "static"
+EVENT_WAIT = 15.0  # s between keep-alive events
+
+
+def error(status: int, message: str) -> JSONResponse:
+    return JSONResponse({"error": message}, status_code=status)
+
+
+def _refusals(handler):
+    """A user's mistake as a 4xx answer, never a traceback."""
+    async def wrapped(request: Request):
+        try:
+            return await handler(request)
+        except TooLarge as err:
+            return error(413, str(err))
+        except PlotBusy as err:
+            return error(409, str(err))
+        except PencilbotError as err:
+            return error(400, str(err))
+        except (json.JSONDecodeError, UnicodeDecodeError):
+            return error(400, "the request body is not JSON")
+    return wrapped
+
+
+def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None,
+               names=()) -> Guard:
+    """The studio as an ASGI app, behind its :class:`~pencilbot.studio.guard.Guard`."""
+
+    async def index(request: Request):
+        response = FileResponse(STATIC / "index.html")
+        if token is not None and request.query_params.get("token"):
+            response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
+        return response
+
+    async def choices(request: Request):
+        from pencilbot.configs_io import config_names
+        from pencilbot.machine.pens import list_pen_sets
+        from pencilbot.machine.profile import default_profile
+        from pencilbot.planning.layout import ORIENTATIONS
+        from pencilbot.planning.style import default_style, list_styles, load_style
+
+        style = load_style(default_style())
+        return JSONResponse({
+            "styles": list_styles(), "style": default_style(), "pens": list_pen_sets(),
+            "profiles": list(config_names("plotters")), "profile": studio.profile or default_profile(),
+            "orientations": list(ORIENTATIONS), "pages": ["A5", "A4", "A3", "Letter"],
+            "defaults": {"page": style.page, "orientation": style.orientation, "margin": style.margin,
+                         "pen_width": style.pen_width, "hatch_coverage": style.hatch_coverage,
+                         "line_length": style.line_length, "hatch": style.hatch},
+            "ports": await run_in_threadpool(plotter_ports, studio.ports),
+        })
+
+    async def state(request: Request):
+        return JSONResponse(studio.summary())
+
+    async def upload(request: Request):
+        size = request.headers.get("content-length")
+        if size is None or not size.isdigit():
+            return error(411, "send the photo with its length (Content-Length)")
+        if int(size) > MAX_UPLOAD_BYTES:
+            return error(413, f"the photo is {int(size) / 1e6:.0f} MB, more than the {MAX_UPLOAD_BYTES / 1e6:.0f} MB the studio takes")
+        chunks, total = [], 0
+        async for chunk in request.stream():
+            total += len(chunk)
+            if total > MAX_UPLOAD_BYTES:
+                return error(413, "the photo is larger than it said")
+            chunks.append(chunk)
+        info = await run_in_threadpool(studio.set_photo, b"".join(chunks), request.headers.get("x-filename", ""))
+        return JSONResponse(info)
+
+    async def drawing(request: Request):
+        options = parse_options(await request.json())
+        if studio.photo is None:
+            studio.options = options
+            return JSONResponse({"generation": 0})
+        return JSONResponse({"generation": await run_in_threadpool(studio.set_options, options)})
+
+    async def picture(request: Request):
+        name = request.path_params["name"]
+        if name == "photo":
+            data = studio.thumbnail
+        else:
+            stage, _, kind = name.partition("-")
+            result = studio.results.get(stage)
+            data = getattr(result, f"{kind}_png", b"") if result is not None and kind in ("preview", "sketch") else b""
+        if not data:
+            return error(404, "no such picture yet")
+        return Response(data, media_type="image/png", headers={"Cache-Control": "no-store"})
+
+    async def download(request: Request):
+        what = request.path_params["what"]
+        if what == "sketch.png":
+            result = studio.results.get("full")
+            if result is None or not result.sketch_png:
+                return error(404, "the drawing is not planned yet")
+            return Response(result.sketch_png, media_type="image/png", headers=_attachment("sketch.png"))
+        plan = studio.full_plan()
+        if what == "plan.svg":
+            from pencilbot.export.svg import svg_text
+
+            return Response(svg_text(plan), media_type="image/svg+xml", headers=_attachment("plan.svg"))
+        if what == "plan.gcode":
+            from pencilbot.export.gcode import gcode_program
+
+            options = parse_options({"profile": request.query_params.get("profile", "")})
+            program = await run_in_threadpool(gcode_program, plan, options.plotter())
+            return Response(program, media_type="text/plain", headers=_attachment("plan.gcode"))
+        return error(404, f"no download called {what}")
+
+    async def events(request: Request):
+        async def stream():
+            seen = -1
+            while not studio.closing and not await request.is_disconnected():
+                version = await run_in_threadpool(studio.wait_change, seen, 0.5)
+                if version != seen:
+                    seen = version
+                    yield f"data: {json.dumps(studio.summary())}\n\n"
+        return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"})
+
+    def chosen_port(body: dict) -> str:
+        port = body.get("port")
+        if port not in {entry["port"] for entry in plotter_ports(studio.ports)}:
+            raise PencilbotError(f"port {port!r} is not one of the plotters found; pick one from the list")
+        return port
+
+    async def plot(request: Request):
+        body = await request.json()
+        port = chosen_port(body)
+        options = parse_options({"profile": body.get("profile", "")})
+        profile = options.plotter()
+        plan = studio.full_plan()
+        gcode = studio.folder / f"plot-{len(studio.plotters.sessions) + 1}-{id(plan):x}.gcode"
+
+        def write():
+            from pencilbot import api
+
+            api.export_gcode(plan, profile, gcode)
+        await run_in_threadpool(write)
+        session = studio.plotters.start(port, port_url(port, profile.name, studio.sim_speed), profile.name, gcode)
+        return JSONResponse(session.summary())
+
+    async def plot_button(request: Request):
+        body = await request.json()
+        port, button = chosen_port(body), request.path_params["button"]
+        if button == "resume-job":
+            return JSONResponse(studio.plotters.resume(port).summary())
+        if button not in ("pause", "stop", "go", "give up", "jog"):
+            return error(404, f"no plot button called {button}")
+        try:
+            session = studio.plotters.get(port)
+        except KeyError:
+            return error(409, f"{port} is not plotting")
+        dx, dy = (float(body.get(key, 0.0)) for key in ("dx", "dy"))
+        session.press(button, dx, dy)
+        return JSONResponse(session.summary())
+
+    async def pen(request: Request):
+        body = await request.json()
+        port = chosen_port(body)
+        profile = parse_options({"profile": body.get("profile", "")}).plotter().name
+        session = studio.plotters.sessions.get(port)
+        if session is not None and session.active:
+            raise PlotBusy(f"{port} is plotting; the pen test waits until it is done")
+        await run_in_threadpool(pen_test, port_url(port, profile, studio.sim_speed), profile, bool(body.get("down")))
+        return JSONResponse({"pen": "down" if body.get("down") else "up"})
+
+    async def plot_paths(request: Request):
+        from pencilbot.studio.drawn_json import job_drawing
+
+        port = request.query_params.get("port", "")
+        session = studio.plotters.sessions.get(port)
+        if session is None:
+            return error(404, f"{port} has no plot")
+        return JSONResponse(await run_in_threadpool(job_drawing, session.gcode, session.profile))
+
+    routes = [
+        Route("/", index),
+        Route("/api/choices", _refusals(choices)),
+        Route("/api/state", state),
+        Route("/api/photo", _refusals(upload), methods=["PUT", "POST"]),
+        Route("/api/drawing", _refusals(drawing), methods=["POST"]),
+        Route("/api/picture/{name}.png", picture),
+        Route("/api/download/{what}", _refusals(download)),
+        Route("/api/events", events),
+        Route("/api/plot", _refusals(plot), methods=["POST"]),
+        Route("/api/plot/{button}", _refusals(plot_button), methods=["POST"]),
+        Route("/api/pen", _refusals(pen), methods=["POST"]),
+        Route("/api/plot-paths", _refusals(plot_paths)),
+        Mount("/static", StaticFiles(directory=STATIC)),
+    ]
+    app = Starlette(routes=routes)
+    return Guard(app, host, port, token, names)
+
+
+def _attachment(name: str) -> dict:
+    return {"Content-Disposition": f'attachment; filename="{name}"', "Cache-Control": "no-store"}

@@ -1,0 +1,195 @@
+"""Planning for the page: a worker process per change, the newest change wins.
+
+Each change of the controls is a new *generation*. :meth:`Planner.submit` ends the process still
+planning an older one (terminated: its result can no longer arrive) and starts a new one, which
+sends a coarse stage first and then the full plan at the real pen width. The coarse stage is the
+drawing at half scale (page, margin and every length of the style halved) with a pen six times
+wider at full scale, in plain nearest-neighbour order: a fraction of the work (the tone loop's
+grid has a fixed cell, so a smaller sheet is what makes it cheap), shown at the same size. A result is kept only
+if its generation is still the newest. Processes come from a fork server that has the planning
+stack imported already, so a new one starts in milliseconds.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import io
+import multiprocessing
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from pencilbot.errors import PencilbotError
+from pencilbot.studio.options import DrawingOptions
+
+STAGES = ("coarse", "full")
+#: The coarse stage's pen, as drawn at full scale: this many times the real one.
+COARSE_PEN_FACTOR = 6.0
+#: The coarse stage plans on a sheet this many times smaller (every length of the style too).
+COARSE_SCALE = 2.0
+#: Pixels per mm of paper in the previews: the full one shows the real pen width (0.3 mm ~ 1 px).
+PREVIEW_DPI = 100.0
+_STYLE_LENGTHS = ("margin", "hatch_form", "hatch_blur", "min_hatch_run", "hatch_join")  # mm
+_PRELOAD = ["pencilbot.studio.warm"]
+
+
+@dataclass
+class StageResult:
+    """One stage of one generation: PNG previews, figures, and (full stage) the plan."""
+
+    generation: int
+    stage: str
+    preview_png: bytes = b""
+    sketch_png: bytes = b""
+    figures: dict = field(default_factory=dict)
+    plan: object = None
+    error: str = ""
+    seconds: float = 0.0  # from the change to this result
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """A grey or RGB uint8 (or float in [0, 1]) picture as PNG bytes."""
+    from PIL import Image
+
+    if image.dtype != np.uint8:
+        image = np.clip(np.rint(image * 255.0), 0, 255).astype(np.uint8)
+    buffer = io.BytesIO()
+    Image.fromarray(image).save(buffer, format="PNG", compress_level=1)
+    return buffer.getvalue()
+
+
+def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
+    """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`) with
+    ``options`` for one stage; what a :class:`StageResult` carries."""
+    from pencilbot import api
+    from pencilbot.planning.fidelity import photo_likeness
+    from pencilbot.planning.preview import preview_image
+    from pencilbot.planning.stats import estimate
+
+    style = options.resolved_style()
+    pens = options.pen_set()
+    dpi = PREVIEW_DPI
+    if stage == "coarse":
+        style, pens = coarse(style, pens)
+        dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
+    drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
+    result = {"preview_png": png_bytes(preview_image(plan, dpi)),
+              "sketch_png": png_bytes(drawing.result)}
+    if stage == "full":
+        figures = {"paths": sum(len(layer.paths) for layer in plan.layers),
+                   "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
+                   "pens": list(plan.pens)}
+        try:
+            total = estimate(plan, options.plotter()).total
+            figures.update(pen_down_m=round(total.pen_down_mm / 1000, 2), pen_up_m=round(total.pen_up_mm / 1000, 2),
+                           lifts=total.lifts, seconds=round(total.seconds, 1))
+        except PencilbotError as err:
+            figures["estimate_error"] = str(err)
+        figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
+        result.update(figures=figures, plan=plan)
+    return result
+
+
+def coarse(style, pens):
+    """The coarse stage's style and pens: the drawing at 1 / ``COARSE_SCALE`` scale with a pen
+    ``COARSE_PEN_FACTOR`` times wider at full scale."""
+    from pencilbot.planning.layout import page_size
+
+    sheet = page_size(style.page, None, margin=style.margin)
+    widen = COARSE_PEN_FACTOR / COARSE_SCALE
+    lengths = {key: getattr(style, key) / COARSE_SCALE for key in _STYLE_LENGTHS}
+    style = dataclasses.replace(style, page=f"{sheet.width / COARSE_SCALE:g}x{sheet.height / COARSE_SCALE:g}",
+                                pen_width=style.pen_width * widen, order_rounds=0, **lengths)
+    if pens is not None:  # the pens' widths set the plan's: widen them as well
+        pens = dataclasses.replace(pens, pens=tuple(dataclasses.replace(pen, width=pen.width * widen)
+                                                    for pen in pens.pens))
+    return style, pens
+
+
+def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], small=None) -> None:
+    """The worker process: each stage's result (or the error) through ``conn``; the coarse stage
+    plans ``small`` (the photo already decoded small) when given, the full one the file."""
+    for stage in stages:
+        try:
+            source = small if stage == "coarse" and small is not None else Path(photo)
+            conn.send((stage, plan_stage(source, options, stage)))
+        except PencilbotError as err:
+            conn.send((stage, {"error": str(err)}))
+            return
+        except MemoryError:
+            conn.send((stage, {"error": "not enough memory to plan this; use a smaller page or a wider pen"}))
+            return
+    conn.close()
+
+
+class Planner:
+    """Plans the newest change; ``on_result(StageResult)`` is called (in a reader thread) for each
+    stage of the newest generation, never for an older one."""
+
+    def __init__(self, on_result: Callable[[StageResult], None], stages: tuple[str, ...] = STAGES):
+        self.on_result = on_result
+        self.stages = stages
+        self.generation = 0
+        self._lock = threading.Lock()
+        self._process = None
+        self._context = multiprocessing.get_context("forkserver")
+        self._context.set_forkserver_preload(_PRELOAD)
+
+    def warm_up(self) -> None:
+        """Start the fork server now (it imports the planning stack once, ~1 s)."""
+        process = self._context.Process(target=_idle, daemon=True)
+        process.start()
+        process.join()
+
+    def submit(self, photo: Path, options: DrawingOptions, small=None) -> int:
+        """Start planning ``photo`` with ``options`` (the coarse stage from ``small``, a
+        :class:`~pencilbot.imaging.io.LoadedImage` of it, if given); end the older one. Returns
+        the generation."""
+        with self._lock:
+            self.generation += 1
+            generation = self.generation
+            self._end_process()
+            receive, send = self._context.Pipe(duplex=False)
+            process = self._context.Process(target=_work, args=(send, str(photo), options, self.stages, small),
+                                            daemon=True)
+            started = time.monotonic()
+            process.start()
+            send.close()
+            self._process = process
+        threading.Thread(target=self._read, args=(receive, generation, started, process), daemon=True,
+                         name=f"planner-{generation}").start()
+        return generation
+
+    def cancel(self) -> None:
+        """Drop the generation in flight (its process is ended)."""
+        with self._lock:
+            self.generation += 1
+            self._end_process()
+
+    def _end_process(self) -> None:
+        if self._process is not None and self._process.is_alive():
+            self._process.terminate()
+        self._process = None
+
+    def _read(self, receive, generation: int, started: float, process) -> None:
+        try:
+            while True:
+                try:
+                    stage, payload = receive.recv()
+                except (EOFError, OSError):
+                    break
+                with self._lock:
+                    if generation != self.generation:
+                        break  # a newer change: this result is dropped
+                self.on_result(StageResult(generation, stage, seconds=time.monotonic() - started, **payload))
+        finally:
+            receive.close()
+            process.join(timeout=5)
+
+
+def _idle() -> None:
+    pass

@@ -1,0 +1,209 @@
+"""Plots started from the page: :func:`pencilbot.api.draw` in a thread per plotter.
+
+The page's buttons reach the driver through the two interfaces it already has for a terminal:
+:class:`WebKeys` (pause / resume, stop, as :class:`~pencilbot.driver.keys.KeyReader` does) and
+:class:`WebOperator` (pen-change and re-zero prompts, as
+:class:`~pencilbot.driver.keys.TerminalOperator` does), answered from the page's dialogs. What the
+page shows comes from the driver's progress records (lines acknowledged, the line the machine
+is running, its position). A plot belongs to the server, not to a tab: closing the page does not
+stop it, and a new page sees it. One plot per plotter at a time.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pencilbot.driver.stream import Interrupted
+from pencilbot.errors import PencilbotError, PlotError
+
+STOP_BY = "the stop button of the studio page"
+_WAIT = 0.1  # s between looks at the page's requests while a prompt is open
+
+
+class WebKeys:
+    """The page's pause and stop buttons, polled by the stream (a :class:`KeyReader`'s interface)."""
+
+    def __init__(self):
+        self._requests: queue.Queue[str] = queue.Queue()
+
+    def press(self, request: str) -> None:
+        self._requests.put(request)
+
+    def poll(self) -> list[str]:
+        requests = []
+        while True:
+            try:
+                requests.append(self._requests.get_nowait())
+            except queue.Empty:
+                return requests
+
+
+class WebOperator:
+    """The person at the page: answers the driver's prompts through :attr:`PlotSession.prompt`."""
+
+    def __init__(self, session: PlotSession):
+        self.session = session
+        self.answers: queue.Queue[tuple] = queue.Queue()
+
+    def _ask(self, kind: str, text: str, **extra):
+        self.session.set(prompt={"kind": kind, "text": text, **extra})
+        try:
+            while True:
+                if self.session.stop_requested.is_set():
+                    raise Interrupted(STOP_BY)
+                try:
+                    yield self.answers.get(timeout=_WAIT)
+                except queue.Empty:
+                    continue
+        finally:
+            self.session.set(prompt=None)
+
+    def pause(self, prompt: str) -> None:
+        for answer in self._ask("pause", prompt):
+            if answer[0] == "go":
+                return
+
+    def jog_to_mark(self, prompt, mark, jog) -> None:
+        for answer in self._ask("rezero", prompt):
+            if answer[0] == "go":
+                return
+            if answer[0] == "give up":
+                raise PlotError("re-zero abandoned; nothing was drawn. Resume again when the pen can be jogged")
+            if answer[0] == "jog":
+                jog(answer[1], answer[2])
+
+
+@dataclass
+class PlotSession:
+    """One plot on one plotter, as the page sees it (``status``: running, done, stopped)."""
+
+    port: str
+    profile: str
+    gcode: Path
+    url: str
+    on_change: object = None
+    status: str = "starting"
+    record: dict = field(default_factory=dict)
+    prompt: dict | None = None
+    message: str = ""
+    resumable: bool = False
+    started: float = field(default_factory=time.time)
+    keys: WebKeys = field(default_factory=WebKeys)
+    stop_requested: threading.Event = field(default_factory=threading.Event)
+    thread: threading.Thread | None = None
+
+    def __post_init__(self):
+        self.operator = WebOperator(self)
+
+    @property
+    def active(self) -> bool:
+        return self.thread is not None and self.thread.is_alive()
+
+    def set(self, **values) -> None:
+        for key, value in values.items():
+            setattr(self, key, value)
+        if self.on_change is not None:
+            self.on_change()
+
+    def summary(self) -> dict:
+        return {"port": self.port, "profile": self.profile, "status": self.status, "record": self.record,
+                "prompt": self.prompt, "message": self.message, "resumable": self.resumable,
+                "active": self.active, "started": self.started}
+
+    def start(self, resume: bool = False) -> None:
+        self.stop_requested.clear()
+        self.keys = WebKeys()
+        self.set(status="running", message="", resumable=False, prompt=None, record={})
+        self.thread = threading.Thread(target=self._run, args=(resume,), name=f"plot {self.port}", daemon=True)
+        self.thread.start()
+
+    def _listen(self, record: dict) -> None:
+        if record.get("event") == "progress":
+            if "xy" in record:
+                from pencilbot.studio.drawn_json import view_of
+
+                record["view"] = view_of(self.profile, record["xy"])
+            self.set(record={**self.record, **record})
+
+    def _run(self, resume: bool) -> None:
+        from pencilbot import api
+        from pencilbot.driver.journal import journal_path
+
+        try:
+            result = api.draw(self.gcode if not resume else self.gcode, self.url, profile=self.profile,
+                              operator=self.operator, keys=self.keys, on_progress=self._listen,
+                              resume=journal_path(self.gcode) if resume else None)
+            self.set(status="done", message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",
+                     record={**self.record, "percent": 100.0, "eta_s": 0.0})
+        except PencilbotError as err:
+            self.set(status="stopped", message=str(err), resumable=journal_path(self.gcode).is_file())
+        except Exception as err:  # noqa: BLE001 - the page must hear of anything, not a silent thread
+            self.set(status="stopped", message=f"the plot stopped: {err!r}")
+
+    # --- the page's buttons ----------------------------------------------------------------
+
+    def press(self, button: str, dx: float = 0.0, dy: float = 0.0) -> None:
+        """``pause`` (toggles hold), ``stop``, ``go`` (answer a prompt), ``jog``, ``give up``."""
+        if button == "stop":
+            self.stop_requested.set()
+            self.keys.press("stop")
+        elif button == "pause":
+            self.keys.press("pause")
+        elif button in ("go", "give up"):
+            self.operator.answers.put((button,))
+        elif button == "jog":
+            self.operator.answers.put(("jog", dx, dy))
+
+
+class Plotters:
+    """The plot sessions by port: at most one running per plotter."""
+
+    def __init__(self, on_change=None):
+        self.sessions: dict[str, PlotSession] = {}
+        self.on_change = on_change
+        self._lock = threading.Lock()
+
+    def start(self, port: str, url: str, profile: str, gcode: Path) -> PlotSession:
+        with self._lock:
+            old = self.sessions.get(port)
+            if old is not None and old.active:
+                raise PlotBusy(f"{port} is plotting already; stop that plot first")
+            session = PlotSession(port, profile, gcode, url, on_change=self.on_change)
+            self.sessions[port] = session
+            session.start()
+            return session
+
+    def resume(self, port: str) -> PlotSession:
+        with self._lock:
+            session = self.sessions.get(port)
+            if session is None or session.active or not session.resumable:
+                raise PlotBusy(f"{port} has no stopped plot to resume")
+            session.start(resume=True)
+            return session
+
+    def get(self, port: str) -> PlotSession:
+        session = self.sessions.get(port)
+        if session is None:
+            raise KeyError(port)
+        return session
+
+    def summary(self) -> list[dict]:
+        return [session.summary() for session in self.sessions.values()]
+
+
+class PlotBusy(PencilbotError):
+    """A plotter that is plotting already (or has nothing to resume)."""
+
+
+def pen_test(url: str, profile: str, down: bool) -> None:
+    """Put the pen of the plotter at ``url`` down or up (the profile's own pen commands)."""
+    from pencilbot import api
+    from pencilbot.machine.profile import load_profile
+
+    pen = load_profile(profile).pen_model
+    lines = list(pen.down_lines if down else pen.up_lines)
+    api.draw(lines, url, profile=profile, source="the pen test")

@@ -1,0 +1,132 @@
+"""What one studio server holds: the photo, the newest plan's stages, the plots.
+
+Files live only in a temporary folder the server made (the photo as uploaded, the G-code of a
+plot and its journal); nothing the page sends is used as a path.
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import asdict
+import tempfile
+import threading
+from pathlib import Path
+
+from pencilbot.errors import PencilbotError
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
+from pencilbot.studio.options import DrawingOptions
+from pencilbot.studio.planner import Planner, StageResult, png_bytes
+from pencilbot.studio.plotting import Plotters
+
+#: Upright pixels of the photo thumbnail the page shows.
+THUMBNAIL_PIXELS = 160_000
+
+
+class Studio:
+    """The server's state; ``version`` grows with every change the page should see."""
+
+    def __init__(self, *, ports: tuple[str, ...] = (), profile: str = "", sim_speed: float = 1.0,
+                 stages=None):
+        self.folder = Path(tempfile.mkdtemp(prefix="pencilbot-studio-"))
+        self.ports, self.profile, self.sim_speed = ports, profile, sim_speed
+        self.version = 0
+        self.closing = False  # the server is stopping: event streams end
+        self._changed = threading.Condition()
+        self.photo: Path | None = None
+        self.small = None
+        self.photo_name = ""
+        self.thumbnail = b""
+        self.options = DrawingOptions(profile=profile)
+        self.results: dict[str, StageResult] = {}
+        self.planner = Planner(self._on_result, **({"stages": stages} if stages else {}))
+        self.plotters = Plotters(on_change=self.changed)
+        self._uploads = 0
+
+    def changed(self) -> None:
+        with self._changed:
+            self.version += 1
+            self._changed.notify_all()
+
+    def wait_change(self, seen: int, timeout: float) -> int:
+        """Wait until ``version`` passes ``seen`` (or ``timeout`` s); the version then."""
+        with self._changed:
+            self._changed.wait_for(lambda: self.version != seen, timeout=timeout)
+            return self.version
+
+    def close(self) -> None:
+        """Stop planning and every plot (pen up: a plot must not go on unwatched), remove the folder."""
+        self.closing = True
+        self.changed()
+        self.planner.cancel()
+        for session in self.plotters.sessions.values():
+            if session.active:
+                session.press("stop")
+        for session in self.plotters.sessions.values():
+            if session.thread is not None:
+                session.thread.join(timeout=30)
+        shutil.rmtree(self.folder, ignore_errors=True)
+
+    # --- making the drawing ----------------------------------------------------------------
+
+    def set_photo(self, data: bytes, name: str = "") -> dict:
+        """Keep an uploaded photo (checked: an image of at most the pixel limit) and plan it."""
+        from PIL import Image, UnidentifiedImageError
+
+        from pencilbot.imaging.io import load_image
+
+        self._uploads += 1
+        path = self.folder / f"photo-{self._uploads}"
+        path.write_bytes(data)
+        try:
+            with Image.open(path) as img:
+                width, height = img.size
+        except (UnidentifiedImageError, OSError, ValueError):
+            path.unlink(missing_ok=True)
+            raise PencilbotError("that file is not an image pencilbot can read; give a PNG, JPEG, TIFF, BMP or WebP file") from None
+        if width * height > DEFAULT_MAX_PIXELS:
+            path.unlink(missing_ok=True)
+            raise TooLarge(f"the photo has {width} × {height} pixels, more than the {DEFAULT_MAX_PIXELS:,} "
+                           "pencilbot reads; shrink it first")
+        scale = min(1.0, (THUMBNAIL_PIXELS / max(width * height, 1)) ** 0.5)
+        small = load_image(path, shrink_to=lambda shape: (max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale))))
+        if self.photo is not None:
+            self.photo.unlink(missing_ok=True)  # the folder keeps one photo
+        self.thumbnail = png_bytes(small.rgb)
+        self.small = small  # the coarse stage plans this, not the file: no decoding per change
+        self.photo, self.photo_name = path, name[:200]
+        self.plan()
+        return {"name": self.photo_name, "width": width, "height": height}
+
+    def set_options(self, options: DrawingOptions) -> int:
+        self.options = options
+        return self.plan()
+
+    def plan(self) -> int:
+        if self.photo is None:
+            return 0
+        generation = self.planner.submit(self.photo, self.options, self.small)
+        self.changed()
+        return generation
+
+    def _on_result(self, result: StageResult) -> None:
+        if result.stage == "coarse" or result.error:
+            self.results.pop("full", None)
+        self.results[result.stage] = result
+        self.changed()
+
+    def full_plan(self):
+        result = self.results.get("full")
+        if result is None or result.plan is None or result.generation != self.planner.generation:
+            raise PencilbotError("the drawing is not planned yet; wait until the full preview shows")
+        return result.plan
+
+    def summary(self) -> dict:
+        stages = {name: {"generation": r.generation, "figures": r.figures, "error": r.error,
+                         "seconds": round(r.seconds, 3)} for name, r in self.results.items()}
+        return {"version": self.version, "generation": self.planner.generation, "options": asdict(self.options),
+                "photo": self.photo_name if self.photo else None, "stages": stages,
+                "plots": self.plotters.summary()}
+
+
+class TooLarge(PencilbotError):
+    """An upload over the size or pixel limit (413)."""
