@@ -6,7 +6,6 @@ answer; a user's mistake is a 4xx with one plain sentence (``{"error": ...}``).
 
 from __future__ import annotations
 
-import asyncio
 import json
 from pathlib import Path
 
