@@ -168,6 +168,7 @@ def locate_stop(
     lowest = max(last - window + 1, kept + 1 if kept > 0 else 0, 0)
     p = complex(*position)
     lines = range(last, lowest - 1, -1) if floor is None else range(max(floor, lowest), last + 1)
+    ran_past = None  # a move the point is beyond the end of: only if it is on no move
     for i in lines:
         end = complex(states[i].x, states[i].y)
         start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
@@ -186,6 +187,6 @@ def locate_stop(
             return i, (on.real, on.imag)
         if abs(on - start) <= tolerance:
             return i, None
-        if 1.0 <= t and abs(on - end) <= coast:
-            return i + 1, None  # ran on past the move's end
-    return None
+        if 1.0 <= t and abs(on - end) <= coast and ran_past is None:
+            ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
+    return ran_past
