@@ -189,3 +189,12 @@ def test_locate_stop_takes_the_move_drawn_with_the_pen_as_the_board_said(pen_dow
     assert states[5].pen_down and not states[8].pen_down
     assert locate_stop(states, len(CROSSING) - 1, (10.0, 0.0), pen_down=pen_down) == expected
     assert locate_stop(job_states(CROSSING), len(CROSSING) - 1, (10.0, 0.0)) == (8, (10.0, 0.0))  # not known: the latest
+
+
+def test_positions_are_near_only_when_both_coordinates_agree():
+    from pencilbot.driver.position import NEAR, near
+
+    assert near((12.0, 34.0), (12.0, 34.0)) and near((12.0, 34.0), (12.0 + NEAR / 2, 34.0 - NEAR / 2))
+    assert not near((12.0, 34.0), (34.0, 12.0))
+    assert not near((0.0, 0.0), (5.0, 0.0)) and not near((0.0, 0.0), (0.0, 5.0))
+    assert not near(None, (0.0, 0.0)) and not near((0.0, 0.0), None)

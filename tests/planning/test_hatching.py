@@ -232,3 +232,15 @@ def test_a_family_coverage_outside_zero_to_one_is_refused(coverage):
     field = direction_field(np.full(Grid(layout.drawing_box, 2.0).shape, 0.4), Grid(layout.drawing_box, 2.0))
     with pytest.raises(ValueError, match=r"coverage must be in \(0, 1\)"):
         hatch_layers(np.full(grid.shape, 0.5), grid, field, coverage=coverage)
+
+
+def test_a_tall_picture_on_a_wide_sheet_is_hatched_to_its_bottom_edge():
+    # The drawing box starts further in across (x0) than up (y0): hatching must still reach the
+    # box's bottom, not stop where y reaches x0.
+    layout = Layout.fit((100, 30), Page(width=150, height=80, margin=10))
+    x0, y0, x1, y1 = layout.drawing_box
+    assert x0 > y0 + 20
+    layers = shade(np.full((100, 30), 0.5), layout, [], pen_width=0.5)
+    points = np.concatenate([p for layer in layers for p in layer.paths])
+    assert points[:, 1].min() < y0 + 3.0 and points[:, 1].max() > y1 - 3.0
+    assert points[:, 0].min() >= x0 - 1e-6 and points[:, 0].max() <= x1 + 1e-6
