@@ -238,3 +238,12 @@ def test_a_carriage_that_ran_on_past_a_corner_resumes_at_the_next_line_only_with
     # 0.3 mm past the end of G1X20Y0 (index 5), along it: that move was finished.
     assert locate_stop(states, 6, (20.3, 0.0), coast=1.0, tolerance=0.075) == (6, None)
     assert locate_stop(states, 6, (20.3, 0.0), coast=0.2, tolerance=0.075) is None
+
+
+def test_positions_are_near_only_when_both_coordinates_agree():
+    from pencilbot.driver.position import NEAR, near
+
+    assert near((12.0, 34.0), (12.0, 34.0)) and near((12.0, 34.0), (12.0 + NEAR / 2, 34.0 - NEAR / 2))
+    assert not near((12.0, 34.0), (34.0, 12.0))
+    assert not near((0.0, 0.0), (5.0, 0.0)) and not near((0.0, 0.0), (0.0, 5.0))
+    assert not near(None, (0.0, 0.0)) and not near((0.0, 0.0), None)

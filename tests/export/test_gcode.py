@@ -398,3 +398,15 @@ def test_feeds_of_any_length_are_written_whole(travel, draw):
     profile = dataclasses.replace(marlin, motion=dataclasses.replace(marlin.motion, travel_feed=travel, draw_feed=draw))
     reading = check_program(plan_of([np.array([[20.0, 20], [30, 30]]), np.array([[40.0, 40], [50, 50]])]), profile)
     assert reading.feeds_written == [travel, draw, travel, draw, travel]
+
+
+def test_a_pen_command_longer_than_every_move_is_written_whole():
+    # The writer lays every line into one table as wide as its longest line: a profile's pen
+    # command may be the longest (here with a comment), and must not be cut.
+    z = load_profile("grbl-z-a3")
+    down = "G1 Z{down} F300 (lower the pen slowly onto the paper)"
+    z = dataclasses.replace(z, pen=dataclasses.replace(z.pen, down_command=down))
+    lines = gcode_lines(plan_of([np.array([[20.0, 20], [30, 30]])]), z)
+    written = [line for line in lines if line.startswith("G1 Z")]
+    assert written and all(line.endswith("(lower the pen slowly onto the paper)") for line in written)
+    assert max(map(len, written)) > max(len(line) for line in lines if line.startswith(("G0 X", "G1 X")))

@@ -232,3 +232,37 @@ def test_a_family_coverage_outside_zero_to_one_is_refused(coverage):
     field = direction_field(np.full(Grid(layout.drawing_box, 2.0).shape, 0.4), Grid(layout.drawing_box, 2.0))
     with pytest.raises(ValueError, match=r"coverage must be in \(0, 1\)"):
         hatch_layers(np.full(grid.shape, 0.5), grid, field, coverage=coverage)
+
+
+def test_a_tall_picture_on_a_wide_sheet_is_hatched_to_its_bottom_edge():
+    # The drawing box starts further in across (x0) than up (y0): hatching must still reach the
+    # box's bottom, not stop where y reaches x0.
+    layout = Layout.fit((100, 30), Page(width=150, height=80, margin=10))
+    x0, y0, x1, y1 = layout.drawing_box
+    assert x0 > y0 + 20
+    layers = shade(np.full((100, 30), 0.5), layout, [], pen_width=0.5)
+    points = np.concatenate([p for layer in layers for p in layer.paths])
+    assert points[:, 1].min() < y0 + 3.0 and points[:, 1].max() > y1 - 3.0
+    assert points[:, 0].min() >= x0 - 1e-6 and points[:, 0].max() <= x1 + 1e-6
+
+
+def test_the_first_request_leaves_out_the_ink_a_contour_lays():
+    # No correction round: the hatching's request alone must already count a contour in the
+    # tone, laying less ink along it than where there is no contour.
+    from pencilbot.planning.shading import ink_on_grid
+
+    n = 100
+    layout = _layout((n, n))
+    x0, y0, x1, y1 = layout.drawing_box
+    ym = (y0 + y1) / 2
+    edges = [np.array([[x0 + 5 + k * 0.5, ym - 10.0], [x0 + 5 + k * 0.5, ym + 10.0]]) for k in range(8)]
+    dark = np.full((n, n), 0.5)
+    grid = Grid(layout.drawing_box, 0.5)
+    band = ink_on_grid(edges, grid, 0.5) > 0.5  # cells the contours cover
+    assert band.sum() > 100
+
+    def hatch_ink(with_edges):
+        layers = shade(dark, layout, edges if with_edges else [], rounds=1)
+        return ink_on_grid([p for layer in layers for p in layer.paths], grid, 0.5)[band].mean()
+
+    assert hatch_ink(True) < 0.5 * hatch_ink(False)
