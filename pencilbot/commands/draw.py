@@ -93,7 +93,6 @@ def run(args: argparse.Namespace) -> int:
     _check_file_kind(Path(gcode), profile or (journal.profile if journal else None))
     if port == "auto":
         port = auto_port(args.quiet)
-    url = sim_port_for(port, profile or (journal.profile if journal else None))
     baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud
     with ExitStack() as stack:
         keys = operator = None
@@ -104,7 +103,7 @@ def run(args: argparse.Namespace) -> int:
             stack.callback(keys.close)
             operator = TerminalOperator(keys)
         result = draw(
-            gcode, url, profile=profile, baud=baud,
+            gcode, port, profile=profile, baud=baud,
             unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
             start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
             operator=operator, keys=keys, announce=announce,
@@ -172,16 +171,6 @@ def auto_port(quiet: bool = False) -> str:
                         "check it is on and connected, or give --port (pencilbot ports PORT probes one)")
     raise PlotError("--port auto: several plotters answered (" + "; ".join(f"{f.device}: {f.summary()}" for f in found)
                     + "); choose one with --port")
-
-
-def sim_port_for(port: str, profile: str | None) -> str:
-    """A ``sim://`` port without ``profile=`` plays the profile being drawn with (its firmware:
-    GRBL, grblHAL or HP-GL); any other port is returned as it is."""
-    if not port.startswith("sim://") or profile is None or "profile=" in port:
-        return port
-    from urllib.parse import quote
-
-    return f"{port}{'&' if '?' in port else '?'}profile={quote(str(profile), safe='')}"
 
 
 def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:

@@ -174,7 +174,7 @@ def draw(
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     runner.on_progress = on_progress
-    link = LineReader(open_port(port, baudrate=baud))
+    link = LineReader(open_port(port, baudrate=baud, profile=profile))
     try:
         stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
         resumed = journal if resume is not None else None

@@ -157,7 +157,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     finished = False
     try:
         try:
-            link = _Answers(open_port(port, baudrate=baud), fw.parse_position)
+            link = _Answers(open_port(port, baudrate=baud, profile=profile_arg), fw.parse_position)
         except PlotError:
             raise
         size = machine.receive_buffer
@@ -348,9 +348,9 @@ def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None)
             # at the end of what was sent, and refuses otherwise.
             journal.next_line = (sent or floor) + 1
             journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 else None
-        journal.resume = f"pencilbot draw --resume {journal.path} --port {port}"
-        journal.save()
-        how = f"resume with: {journal.resume}"
+        # The plotter's own count is its position (HP-GL has no work offsets): the same point.
+        journal.stop_mpos = None if journal.stop_work is None else list(journal.stop_work)
+        how = journal_mod.save_stopped(journal)
     else:
         how = "draw a file (not a program) to be able to resume"
     state = f"stopped after instruction {at} of {len(program)} (pen up)" if at is not None else (

@@ -11,6 +11,7 @@ from __future__ import annotations
 import errno
 import os
 import time
+from urllib.parse import quote
 
 import serial
 
@@ -21,6 +22,7 @@ except ImportError:  # Windows opens a COM port exclusively by itself
     fcntl = termios = None
 
 from pencilbot.errors import PlotError
+from pencilbot.firmware.base import DEFAULT_BAUD
 
 #: How long one read waits for the first byte (s): short, so status polls keep their pace.
 READ_SLICE = 0.02
@@ -33,7 +35,13 @@ class PortLost(Exception):
     """The port stopped working (unplugged, pty closed, socket dropped)."""
 
 
-def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
+def _sim_with_profile(url: str, profile: str | None) -> str:
+    if not url.startswith("sim://") or profile is None or "profile=" in url:
+        return url
+    return f"{url}{'&' if '?' in url else '?'}profile={quote(str(profile), safe='')}"
+
+
+def open_port(url: str, *, baudrate: int = DEFAULT_BAUD, profile: str | None = None) -> serial.SerialBase:
     """Open ``url`` for streaming.
 
     Parameters
@@ -42,6 +50,9 @@ def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
         A device path or any pyserial URL (``sim://…`` once :func:`sim.register` ran).
     baudrate : int
         Bits per second (ignored by sockets).
+    profile : str, optional
+        The profile being drawn with: a ``sim://`` URL that names none plays it (its firmware:
+        GRBL, grblHAL, HP-GL, EBB), so the URL the user typed, and the journal, stay short.
 
     The port is ours alone while it is open: two senders on one board interleave their bytes,
     and each one's drawing is ruined. pyserial's ``exclusive`` takes an advisory lock (other
@@ -55,7 +66,8 @@ def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
         The port does not exist, is in use by another program, or the URL is malformed.
     """
     try:
-        port = serial.serial_for_url(url, baudrate=baudrate, timeout=READ_SLICE, write_timeout=10, exclusive=True)
+        port = serial.serial_for_url(_sim_with_profile(url, profile), baudrate=baudrate, timeout=READ_SLICE,
+                                     write_timeout=10, exclusive=True)
         _hold_exclusively(port)
         return port
     except (serial.SerialException, ValueError, OSError) as exc:
