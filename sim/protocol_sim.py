@@ -118,10 +118,10 @@ def simulated_profile(name_or_path: str) -> Profile:
 
 def check_simulated(profile: Profile) -> None:
     """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
-    if not profile.firmware.capabilities.realtime_protocol:
+    if not (profile.firmware.capabilities.realtime_protocol or profile.firmware.capabilities.host_motion):
         raise ProfileError(
             f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
-            "GRBL's protocol only (GRBL 1.1, grblHAL): use such a profile (e.g. grbl-servo-a4)"
+            "GRBL's protocol (GRBL 1.1, grblHAL) and the EBB's: use such a profile (e.g. grbl-servo-a4)"
         )
 
 
@@ -207,6 +207,20 @@ class VirtualPlotter:
         return self.machine.clock
 
 
+def for_profile(port: str, profile: str) -> str:
+    """``port``, and if it is a ``sim://`` URL naming no profile while ``profile`` is for a board
+    that takes no G-code (EBB), with ``profile=`` added: ``draw --profile axidraw-v3 --port
+    sim://`` reaches a virtual EBB, not the default GRBL board."""
+    if not port.startswith("sim://") or "profile=" in port:
+        return port
+    try:
+        if not load_profile(profile).firmware.capabilities.host_motion:
+            return port
+    except ProfileError:
+        return port  # the draw itself says what is wrong with the profile
+    return f"{port}{'&' if '?' in port else '?'}profile={urllib.parse.quote(str(profile))}"
+
+
 def plotter(name: str) -> VirtualPlotter:
     """The plotter a ``sim://NAME`` port reaches (``KeyError`` if none was opened)."""
     return _PLOTTERS[name]
@@ -249,6 +263,10 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
+    if profile.firmware.capabilities.host_motion:  # an EBB board: the firmware is chosen by the profile
+        from sim.ebb_plotter import VirtualEbb
+
+        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator)
     return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, **board)
 
 
@@ -272,7 +290,7 @@ class Serial(SerialBase):
         self._name = name
         firmware = self.plotter.firmware
         firmware.link_dropped = False  # plugged back in
-        if not fresh and options.get("reset", "1") != "0":
+        if not fresh and options.get("reset", "1") != "0" and getattr(firmware, "resets_on_open", True):
             firmware.power_cycle()
         self._rx = bytearray()
         self.is_open = True

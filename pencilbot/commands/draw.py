@@ -89,6 +89,9 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
+    from sim.protocol_sim import for_profile
+
+    port = for_profile(port, profile or journal.profile)
     with ExitStack() as stack:
         keys = operator = None
         if sys.stdin.isatty() and not args.json_lines:

@@ -69,7 +69,8 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"{exc}; see pencilbot sim-serve --help") from None
     if args.output:  # checked now, not on exit: a session's drawing must not be lost to a typo
         check_render(plotter.profile.bed.width, plotter.profile.bed.height, args.dpi, DEFAULT_PEN_WIDTH)
-    server = PtyServer(plotter, reset_on_open=not args.no_reset,
+    resets = getattr(plotter.firmware, "resets_on_open", True)  # an EBB (USB CDC) does not reset on open
+    server = PtyServer(plotter, reset_on_open=not args.no_reset and resets,
                        on_new_path=lambda path: print(path, flush=True))
     print(server.path, flush=True)
     # A closed terminal or a kill ends the session like Ctrl-C does: the drawing is saved.

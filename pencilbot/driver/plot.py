@@ -153,8 +153,14 @@ def draw(
         )
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
-        journal.options = {"baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
+        journal.options = {**(journal.options or {}),  # (an EBB stop keeps its step counters here)
+                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
 
+    if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
+        from pencilbot.driver.ebb_plot import draw_ebb
+
+        return draw_ebb(job, machine, port, journal, start=start, resumed=journal if resume is not None else None,
+                        baud=baud, progress=progress, timeout=timeout, operator=operator)
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     link = LineReader(open_port(port, baudrate=baud))

@@ -1,0 +1,322 @@
+"""Drawing a job on an EBB board (AxiDraw, NextDraw, iDraw): plan on the host, send step commands.
+
+The job's pen-down and pen-up moves (any G-code: pencilbot's own or another tool's; its modal
+state read by :mod:`pencilbot.driver.modal` with the profile's pen) become ``LM`` and ``SP``
+commands (:mod:`pencilbot.machine.ebb_motion`), sent one at a time: the board answers a motion
+command once it is in its FIFO, so with one command running, one waiting and one being parsed
+the motors never starve (the three in flight of :class:`pencilbot.firmware.ebb.Ebb`).
+
+What ran is read back, not guessed: a stop (Ctrl-C, SIGTERM, a refused command, a pause key)
+sends ``ES`` (stop now, flush the FIFO), lifts the pen, and reads the step counters (``QS``); the
+command whose segment holds that position is where the job stopped, and the journal keeps the
+position. A resume trusts the board only if its counters still read that position and ``QG``
+reports no loss of power; otherwise it refuses until the carriage is put back home.
+Both reply syntaxes are read (a board left in "future syntax", ``CU,10,1``, is recognised from
+its ``QG`` reply).
+"""
+
+from __future__ import annotations
+
+import shlex
+import signal
+import threading
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from firmware_protocol import ebb as protocol
+from pencilbot.driver.port import LineReader, PortLost, open_port
+from pencilbot.driver.progress import Progress
+from pencilbot.driver.stream import Interrupted
+from pencilbot.errors import PlotError
+from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb, plan_seconds
+from pencilbot.units import MM_PER_INCH
+
+POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
+_STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
+
+
+class EbbFault(Exception):
+    """The board refused a command, went silent or the port was lost."""
+
+
+class EbbLink:
+    """Commands and their replies over a port, in whichever syntax the board is in."""
+
+    def __init__(self, reader: LineReader, timeout: float):
+        self.reader, self.timeout = reader, timeout
+        self.future = False
+        self._lines: list[str] = []
+
+    def command(self, text: str, wait: float | None = None) -> protocol.Reply:
+        """Send one command and read its whole reply (a motion command's comes once the FIFO
+        has room: ``wait`` bounds that, default the link's timeout plus the queued motion)."""
+        name = text.split(",")[0].upper()
+        self.reader.write(text.encode("ascii") + b"\r")
+        want = protocol.reply_lines(name, future=self.future)
+        lines: list[str] = []
+        deadline = time.monotonic() + (wait if wait is not None else self.timeout)
+        while len(lines) < want:
+            if not self._lines:
+                self._lines = self.reader.read_lines()
+                if not self._lines:
+                    if time.monotonic() > deadline:
+                        raise EbbFault(f"the board did not answer {text[:24]} within {self.timeout:g} s")
+                    continue
+            line = self._lines.pop(0)
+            lines.append(line)
+            if "Err:" in line:
+                break
+        reply = protocol.read_reply(name, lines, future=self.future)
+        if reply.error:
+            raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
+        return reply
+
+    def status(self) -> int:
+        """The QG status byte."""
+        return int(self.command("QG").data, 16)
+
+    def steps(self) -> tuple[int, int]:
+        """The motors' step counters (QS)."""
+        a, b = self.command("QS").data.split(",")[:2]
+        return int(a), int(b)
+
+    def wait_idle(self, limit: float) -> None:
+        """Until no command runs and the FIFO is empty (QG's low four bits clear)."""
+        deadline = time.monotonic() + limit
+        while self.status() & 0x0F:
+            if time.monotonic() > deadline:
+                raise EbbFault(f"the board was still moving after {limit:.0f} s")
+            time.sleep(0.005)
+
+
+@dataclass
+class _Stop:
+    index: int  # job line to resume from
+    steps: tuple[int, int]
+    xy: tuple[float, float]
+
+
+def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = 115200,
+             progress: str = "quiet", timeout: float = 10.0, operator=None):
+    """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
+
+    Returns
+    -------
+    pencilbot.driver.plot.DrawResult
+
+    Raises
+    ------
+    PlotError
+        Any fault, with where the job stopped and how to resume it.
+    """
+    from pencilbot.driver.plot import DrawResult
+
+    t0 = time.monotonic()
+    xy, down = _rows(job)
+    reader = LineReader(open_port(port, baudrate=baud))
+    link = EbbLink(reader, timeout)
+    try:
+        here, pen_down = _wake(link, profile, job, resumed)
+        chunks = _chunks(job, start, len(job))
+        total = sum(plan_seconds(plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile)) for a, b in chunks)
+        bar = Progress(progress, len(job) - start, total)
+        if journal is not None:
+            journal.status, journal.message = "running", ""
+            journal.save()
+        sent: list[EbbMove] = []
+        acked = -1
+        done_seconds = 0.0
+        try:
+            with _stop_signals():
+                for a, b in chunks:
+                    if a in job.pauses and a >= start and sent:
+                        link.wait_idle(timeout + 60)
+                        _pause(link, operator, bar, job.pauses[a] or "program pause (M0)")
+                    moves = plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile,
+                                     start_steps=here, pen_down=pen_down)
+                    for move in moves:
+                        sent.append(move)
+                        link.command(move.command, wait=timeout + 2 * sum(m.seconds for m in sent[-3:]))
+                        acked = len(sent) - 1
+                        done_seconds += move.seconds
+                        bar.update(move.line + 1 - start, done_seconds, "Run")
+                    if moves:
+                        here, pen_down = moves[-1].end, moves[-1].down
+                link.wait_idle(timeout + 2 * sum(m.seconds for m in sent[-3:]) + 5)
+        except (Interrupted, EbbFault, PortLost) as exc:
+            message = _stop(link, exc, sent, acked, job, profile, journal, port)
+            bar.close("stopped", message)
+            raise PlotError(message) from None
+        bar.update(len(job) - start, total, "Idle")
+        bar.close("done")
+        if journal is not None:
+            journal.path.unlink(missing_ok=True)
+        return DrawResult(lines_sent=len(job) - start, seconds=time.monotonic() - t0)
+    finally:
+        try:
+            reader.port.close()
+        except Exception:  # noqa: BLE001 - a vanished port may fail to close
+            pass
+
+
+def _rows(job) -> tuple[np.ndarray, np.ndarray]:
+    """Machine mm and pen state after every job line (as :mod:`pencilbot.driver.drawn` reads them)."""
+    if not len(job):
+        return np.zeros((0, 2)), np.zeros(0, bool)
+    states = job.states(0, len(job)).columns
+    scale = np.where(states["inches"], MM_PER_INCH, 1.0)
+    xy = np.column_stack([states["x"] * scale, states["y"] * scale])
+    down = states["pen_down"].astype(bool)
+    down &= np.cumsum(down != down[0]) > 0  # before the first pen command: up
+    return xy, down
+
+
+def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:
+    """Job line ranges between program pauses (a pen change waits for the motion to end)."""
+    cuts = sorted(i for i in job.pauses if start < i < stop)
+    edges = [start, *cuts, stop]
+    return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool | None]:
+    """Greet the board, learn its syntax, and set it up; return the motors' position and pen."""
+    link.reader.write(b"\r")  # ends any half command left by another program
+    time.sleep(0.05)
+    link.reader.discard_input()
+    try:
+        status = link.status()
+    except EbbFault:
+        link.future = not link.future
+        status = link.status()
+    version = link.command("V").data or ""
+    if resumed is not None:
+        steps = link.steps()
+        wanted = tuple(resumed.options.get("ebb_steps") or ())
+        if status & protocol.QG_POWER_LOST or steps != wanted:
+            why = ("the board lost power" if status & protocol.QG_POWER_LOST
+                   else f"its step counters read {steps[0]},{steps[1]}, not {','.join(map(str, wanted)) or 'a known position'}")
+            raise PlotError(
+                f"the carriage's position is lost ({why}), so resuming could draw in the wrong place; "
+                f"nothing was sent. Push the carriage to its home corner (pen up) and draw the job again "
+                f"from the start, or from a line: pencilbot draw {shlex.quote(job.source)} --profile "
+                f"{shlex.quote(profile.name)} --start-line {resumed.next_line}")
+        pen_down = None
+    else:
+        mode = profile.ebb.microstep_mode
+        link.command(f"EM,{mode},{mode}")  # counters start at 0: the carriage stands at home
+        steps, pen_down = (0, 0), None
+    for text in pen_commands(profile):
+        link.command(text)
+    if version_at_least(version, (3, 0)):
+        link.command(f"CU,60,{POWER_THRESHOLD}")
+    return steps, pen_down
+
+
+def version_at_least(text: str, wanted: tuple[int, int]) -> bool:
+    """Whether an EBB version string (``... Firmware Version 3.0.3``) is at least ``wanted``."""
+    try:
+        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[:2])
+    except ValueError:
+        return False
+    return numbers >= wanted
+
+
+def _pause(link: EbbLink, operator, bar, reason: str) -> None:
+    """A program pause (a pen change): the pen is up and the motion has ended; wait for the
+    operator (the terminal), or for the board's PRG button without one."""
+    bar.show_state(f"paused: {reason}")
+    if operator is not None:
+        operator.pause(f"paused: {reason}")
+        return
+    link.command("QB")  # forget earlier presses
+    while link.command("QB").data.strip() != "1":
+        time.sleep(0.05)
+
+
+def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port) -> str:
+    """Stop the board, find where, record it, and say how to go on."""
+    why = f"stopped by {exc.by}" if isinstance(exc, Interrupted) else str(exc)
+    stop = None
+    if not isinstance(exc, PortLost):
+        try:
+            link.command("ES")
+            link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+            link.wait_idle(5)
+            stop = _locate(link.steps(), sent, acked, profile)
+        except (EbbFault, PortLost):
+            stop = None
+    if stop is None:
+        index = sent[max(acked - 2, 0)].line if sent else 0
+        where = "the pen's position is lost (the board did not report it)"
+    else:
+        index = stop.index
+        where = f"the pen stopped at X{stop.xy[0]:.3f} Y{stop.xy[1]:.3f} (pen up)"
+    line = job.number(min(index, len(job) - 1)) if len(job) else 0
+    text = f"{why}; {where}; line {line} of {job.source} was next."
+    if journal is None:
+        return f"{text} Resume from line {line} of {job.source}"
+    journal.next_line = line
+    journal.stop_xy = list(stop.xy) if stop is not None else None
+    journal.options["ebb_steps"] = list(stop.steps) if stop is not None else None
+    journal.status, journal.message = "stopped", text
+    journal.resume = f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(port)}"
+    journal.save()
+    return f"{text} Resume with: {journal.resume}"
+
+
+def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) -> _Stop:
+    """The job line to resume from, given where the motors stopped: the first command still in
+    flight (at most three: running, queued, being parsed) whose segment holds the position and
+    that had not finished."""
+    pos = np.array(steps, dtype=np.float64)
+    first = max(acked - 2, 0)
+    for k in range(first, len(sent)):
+        move = sent[k]
+        a, b = np.array(move.start, float), np.array(move.end, float)
+        if np.array_equal(pos, b):
+            continue  # ran to its end
+        if _on_segment(pos, a, b):
+            return _Stop(move.line, steps, _mm(profile, steps))
+    nxt = sent[-1].line + 1 if sent else 0
+    return _Stop(nxt, steps, _mm(profile, steps))
+
+
+def _on_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float = 2.0) -> bool:
+    d = b - a
+    n = float(np.hypot(*d))
+    if n == 0:
+        return bool(np.hypot(*(p - a)) <= tol)
+    along = float(np.dot(p - a, d)) / n
+    across = abs(float(d[0] * (p - a)[1] - d[1] * (p - a)[0])) / n
+    return -tol <= along <= n + tol and across <= tol
+
+
+def _mm(profile, steps) -> tuple[float, float]:
+    x, y = profile.ebb.to_machine(np.array([steps], dtype=float))[0]
+    return round(float(x), 4), round(float(y), 4)
+
+
+class _stop_signals:
+    """Ctrl-C and SIGTERM raise :class:`Interrupted` once (in the main thread)."""
+
+    def __enter__(self):
+        self.saved = {}
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        fired = []
+
+        def stop(signum, frame):
+            if not fired:
+                fired.append(signum)
+                raise Interrupted(_STOP_SIGNALS[signum])
+
+        for signum in _STOP_SIGNALS:
+            self.saved[signum] = signal.signal(signum, stop)
+        return self
+
+    def __exit__(self, *exc):
+        for signum, handler in self.saved.items():
+            signal.signal(signum, handler)
+        return False

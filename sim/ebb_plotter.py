@@ -1,0 +1,120 @@
+"""The virtual EBB plotter: an :class:`~sim.ebb_board.EbbBoard` behind wires, with a drawing.
+
+The same face as :class:`sim.protocol_sim.VirtualPlotter` (``write``/``read``/``pump``,
+``firmware``, ``canvas``/``save_png``, ``seconds``), so ``sim://`` and ``sim-serve`` serve it
+for any profile whose firmware has the host plan the motion (``capabilities.host_motion``).
+Pen-down stretches are recorded as polylines in machine mm and rasterised by
+:mod:`pencilbot.render`, as the GRBL simulator's are.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.render import Canvas, save_drawing_png
+from sim.ebb_board import EbbBoard
+from sim.machine import _Polylines
+
+
+class VirtualEbb:
+    """A virtual AxiDraw-class plotter (EBB board, CoreXY carriage, servo pen).
+
+    Parameters
+    ----------
+    profile : Profile
+        An EBB profile (``[ebb]`` geometry, bed, pen).
+    baud : int
+        Emulated bit/s, 0 for unlimited (USB CDC has no baud rate; kept for the URL's sake).
+    realtime : float
+        0: instant; r > 0: the motors run r times faster than real time.
+    faults : sim.firmware.Faults, optional
+        Failures keyed by the index of the command received (see :class:`~sim.ebb_board.EbbBoard`).
+    operator : {"none", "auto"}
+        ``auto``: the board's PRG button reads as pressed whenever the machine is idle (a pen
+        change done at once).
+    """
+
+    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none"):
+        from sim.protocol_sim import _Wire
+
+        self.profile = profile
+        self.realtime = realtime
+        self._strokes = _Polylines()
+        self._stroke: list[tuple[float, float]] = []
+        self._travel = _Polylines()
+        self.firmware = EbbBoard(profile, self._record, instant=realtime == 0, faults=faults, operator=operator)
+        self._to_board, self._to_host = _Wire(baud), _Wire(baud)
+        self._last = time.monotonic()
+
+    def _record(self, start, end, drawing: bool) -> None:
+        start, end = (float(start[0]), float(start[1])), (float(end[0]), float(end[1]))
+        if drawing:
+            if not self._stroke or self._stroke[-1] != start:
+                self._close()
+                self._stroke.append(start)
+            self._stroke.append(end)
+        else:
+            self._close()
+            self._travel.add((start, end))
+
+    def _close(self) -> None:
+        if len(self._stroke) >= 2:
+            self._strokes.add(self._stroke)
+        self._stroke = []
+
+    def write(self, data: bytes) -> None:
+        self._to_board.put(data, time.monotonic())
+        self.pump()
+
+    def pump(self) -> None:
+        now = time.monotonic()
+        elapsed, self._last = now - self._last, now
+        self.firmware.receive(self._to_board.take(now))
+        self.firmware.poll(elapsed * self.realtime)
+        self._to_host.put(self.firmware.take_output(), now)
+
+    def read(self) -> bytes:
+        self.pump()
+        return self._to_host.take(time.monotonic())
+
+    def drawn(self) -> Paths:
+        """Pen-down polylines so far, machine mm (the one being drawn last)."""
+        return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
+
+    def travel(self) -> Paths:
+        return self._travel.paths()
+
+    def _bed_view(self, paths: Paths) -> Paths:
+        return Paths(self.profile.bed.to_view(paths.points), paths.offsets) if len(paths.points) else paths
+
+    def canvas(self, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
+        self.firmware.finish()
+        bed = self.profile.bed
+        canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
+        canvas.draw_paths(self._bed_view(self.drawn()))
+        if travel:
+            canvas.draw_travel(self._bed_view(self.travel()))
+        return canvas
+
+    def save_png(self, path, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
+        self.firmware.finish()
+        bed = self.profile.bed
+        save_drawing_png(path, self._bed_view(self.drawn()), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
+                         travel=self._bed_view(self.travel()) if travel else None)
+
+    @property
+    def seconds(self) -> float:
+        """Board seconds so far (motion, servo waits and idle time)."""
+        return self.firmware.clock
+
+    @property
+    def busy_seconds(self) -> float:
+        """Board seconds something in the motion queue ran."""
+        return self.firmware.busy_time
+
+    def position(self) -> np.ndarray:
+        """The carriage's true position, machine mm."""
+        return self.profile.ebb.to_machine(self.firmware._true_steps()[None].astype(float))[0]
