@@ -79,13 +79,13 @@ COMMANDS: dict[str, Spec] = {
     "QP": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QS": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QU": Spec(((0, 65535),), 1, reply="data_ok"),
-    "QE": Spec((), 0, reply="data_ok"),
+    "QE": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QR": Spec((), 0, reply="data_ok", ending="\n\r"),
-    "QM": Spec((), 0, reply="data_ok"),
+    "QM": Spec((), 0, reply="data", ending="\n\r"),
     "QT": Spec((), 0, reply="data_ok"),
 }
 #: Replies whose legacy form repeats the command's name (``QM,0,0,0,0``, ``QU,32``).
-NAMED_LEGACY = ("QM", "QU", "QE", "QT")
+NAMED_LEGACY = ("QM", "QU")
 
 _ERRORS = {
     4: "Missing parameter(s)",
@@ -176,7 +176,7 @@ def format_reply(name: str, data: str | None, *, future: bool) -> bytes:
         return b"OK\r\n"
     text = f"{name},{data}" if name in NAMED_LEGACY else data
     if spec.reply == "data":
-        return f"{text}\r\n".encode()
+        return f"{text}{spec.ending}".encode()
     return f"{text}{spec.ending}OK\r\n".encode()
 
 

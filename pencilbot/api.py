@@ -106,5 +106,9 @@ def draw(gcode: str | Path | list[str], port: str, **options) -> DrawResult:
     :func:`pencilbot.driver.draw` for the options."""
     import sim
 
+    from sim.protocol_sim import for_profile
+
     sim.register()
+    if options.get("profile"):  # sim:// plays the profile's board (an EBB profile's EBB)
+        port = for_profile(port, options["profile"])
     return _draw(gcode, port, **options)

@@ -27,6 +27,7 @@ import numpy as np
 
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
+from pencilbot.firmware.ebb import MICROSTEPS
 
 QUERY_STEP = 0.005  # s an instant board runs per status query (so a polling sender sees progress)
 BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
@@ -94,6 +95,8 @@ class EbbBoard:
         self.servo_target = float(self.servo_up)
         self.servo_from, self.servo_t0, self.servo_t1 = self.servo_pos, 0.0, 0.0
         self.pen_up = True
+        self.enabled = (0, 0)  # QE: motors off at boot, so the carriage is free to move
+        self.microsteps = 16
         self.power_lost = False
         self.threshold = 0
         self.button = False
@@ -186,7 +189,9 @@ class EbbBoard:
         ticks = [k for k in run.axis_ticks if 0 < k < t]
         if len(ticks) == 1 or (len(ticks) == 2 and ticks[0] != ticks[1]):  # one axis finished first
             bend = self.origin + run.start + run.steps_at(min(ticks))
-            if not np.array_equal(bend, after):
+            chord = after - before
+            off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(float(np.hypot(*chord)), 1e-9)
+            if off > 1.5:  # a bend a sender should have avoided (within a step it is the step grid)
                 points.append(bend)
         points.append(after)
         setup = self.profile.ebb
@@ -298,7 +303,7 @@ class EbbBoard:
         elif name == "QM":
             data = ",".join(str(b) for b in self._qm())
         elif name == "QE":
-            data = "16,16" if self.counters is not None else "0,0"
+            data = f"{self.enabled[0]},{self.enabled[1]}"
         elif name == "QT":
             data = ""
         elif name == "QU":
@@ -358,10 +363,16 @@ class EbbBoard:
         name, args = command.name, command.args
         zero = np.zeros(2, dtype=np.int64)
         if name == "EM":
+            if args[0]:
+                self.microsteps = MICROSTEPS[args[0]]
+            second = args[1] if len(args) > 1 else (1 if self.enabled[1] else 0)
+            self.enabled = (self.microsteps if args[0] else 0, self.microsteps if second else 0)
             self.origin = self._true_steps()
             self.counters = zero.copy()
             self.carry = [0, 0]
             return None
+        if name in ("LM", "SM", "XM", "HM"):  # motion enables both motors (CU,50 default)
+            self.enabled = (self.microsteps, self.microsteps)
         if name in ("SP", "TP"):
             up = (not self.pen_up) if name == "TP" else args[0] == 1
             self._move_servo(up)

@@ -30,6 +30,7 @@ from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.stream import Interrupted
 from pencilbot.errors import PlotError
+from pencilbot.firmware.ebb import MICROSTEPS
 from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb, plan_seconds
 from pencilbot.units import MM_PER_INCH
 
@@ -47,6 +48,7 @@ class EbbLink:
     def __init__(self, reader: LineReader, timeout: float):
         self.reader, self.timeout = reader, timeout
         self.future = False
+        self.power_lost = False
         self._lines: list[str] = []
 
     def command(self, text: str, wait: float | None = None) -> protocol.Reply:
@@ -68,14 +70,17 @@ class EbbLink:
             lines.append(line)
             if "Err:" in line:
                 break
+        self.last_lines = lines
         reply = protocol.read_reply(name, lines, future=self.future)
         if reply.error:
             raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
         return reply
 
     def status(self) -> int:
-        """The QG status byte."""
-        return int(self.command("QG").data, 16)
+        """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
+        value = int(self.command("QG").data, 16)
+        self.power_lost = self.power_lost or bool(value & protocol.QG_POWER_LOST)
+        return value
 
     def steps(self) -> tuple[int, int]:
         """The motors' step counters (QS)."""
@@ -185,18 +190,18 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
     link.reader.write(b"\r")  # ends any half command left by another program
     time.sleep(0.05)
     link.reader.discard_input()
-    try:
-        status = link.status()
-    except EbbFault:
-        link.future = not link.future
-        status = link.status()
+    link.status()
+    link.future = link.last_lines[0].startswith("QG,")  # a board left in future syntax (CU,10,1)
     version = link.command("V").data or ""
     if resumed is not None:
         steps = link.steps()
         wanted = tuple(resumed.options.get("ebb_steps") or ())
-        if status & protocol.QG_POWER_LOST or steps != wanted:
-            why = ("the board lost power" if status & protocol.QG_POWER_LOST
-                   else f"its step counters read {steps[0]},{steps[1]}, not {','.join(map(str, wanted)) or 'a known position'}")
+        held = _motors_held(link, profile)
+        if link.power_lost or not held or steps != wanted:
+            why = ("the board's supply dropped" if link.power_lost
+                   else "its motors were switched off (a restart or power cut), so the carriage was free" if not held
+                   else f"its step counters read {steps[0]},{steps[1]}, not {','.join(map(str, wanted))}" if wanted
+                   else "the stop could not be located")
             raise PlotError(
                 f"the carriage's position is lost ({why}), so resuming could draw in the wrong place; "
                 f"nothing was sent. Push the carriage to its home corner (pen up) and draw the job again "
@@ -212,6 +217,16 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
     if version_at_least(version, (3, 0)):
         link.command(f"CU,60,{POWER_THRESHOLD}")
     return steps, pen_down
+
+
+def _motors_held(link: EbbLink, profile) -> bool:
+    """Both motors are on at the profile's microstepping (QE): the counters still mean the
+    carriage's position. A board that restarted has them off."""
+    try:
+        states = [int(v) for v in link.command("QE").data.split(",")[:2]]
+    except (EbbFault, ValueError):
+        return False
+    return states == [MICROSTEPS[profile.ebb.microstep_mode]] * 2
 
 
 def version_at_least(text: str, wanted: tuple[int, int]) -> bool:
@@ -244,7 +259,8 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
             link.command("ES")
             link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
             link.wait_idle(5)
-            stop = _locate(link.steps(), sent, acked, profile)
+            held = _motors_held(link, profile) and not link.power_lost
+            stop = _locate(link.steps(), sent, acked, profile) if held else None
         except (EbbFault, PortLost):
             stop = None
     if stop is None:
@@ -266,7 +282,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     return f"{text} Resume with: {journal.resume}"
 
 
-def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) -> _Stop:
+def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) -> _Stop | None:
     """The job line to resume from, given where the motors stopped: the first command still in
     flight (at most three: running, queued, being parsed) whose segment holds the position and
     that had not finished."""
@@ -279,8 +295,9 @@ def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) ->
             continue  # ran to its end
         if _on_segment(pos, a, b):
             return _Stop(move.line, steps, _mm(profile, steps))
-    nxt = sent[-1].line + 1 if sent else 0
-    return _Stop(nxt, steps, _mm(profile, steps))
+    if sent and np.array_equal(pos, np.array(sent[-1].end, float)):
+        return _Stop(sent[-1].line + 1, steps, _mm(profile, steps))  # all it was sent ran
+    return None  # on none of the commands in flight: the position is lost
 
 
 def _on_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float = 2.0) -> bool:
