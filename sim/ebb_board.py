@@ -70,7 +70,8 @@ class EbbBoard:
         self.silent = False
         self.clock = 0.0
         self.busy_time = 0.0  # seconds something ran (for gap measurements)
-        self.gaps: list[float] = []  # idle stretches between motion commands while the host had more
+        self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
+        self._moved = False
         self.log: list[str] = []
         self._rx = bytearray()
         self._out = bytearray()
@@ -138,6 +139,8 @@ class EbbBoard:
         while True:
             if self.running is None and self.fifo:
                 self._start(self.fifo.pop(0))
+                if not self.instant:
+                    self._process()  # room in the FIFO: a waiting command is parsed at this instant
                 continue
             if self.running is None:
                 if self._idle_since is None:
@@ -155,8 +158,9 @@ class EbbBoard:
             self._complete(self.running, self.running.ticks)
 
     def _start(self, command: protocol.Command) -> None:
-        if self._idle_since is not None and self.log:
+        if self._idle_since is not None and self._moved:
             self.gaps.append(self.clock - self._idle_since)
+        self._moved = self._moved or command.name in ("LM", "SM", "XM", "HM")
         self._idle_since = None
         self.running = self._execute(command)
         if self.running is None or self.running.ticks == 0:
