@@ -81,17 +81,25 @@ def name(request):
     protocol_sim.forget(key)
 
 
-def test_coffee_is_drawn_as_planned_every_stroke_once_in_the_estimated_time(coffee, name):
-    plan, profile, path, reference = coffee
-    pencilbot.draw(path, f"sim://{name}", profile=PROFILE)
-    board = protocol_sim.plotter(name)
+@pytest.fixture(scope="module")
+def clean(coffee):
+    """Coffee drawn without interruption: the board after it, finished."""
+    _, _, path, _ = coffee
+    pencilbot.draw(path, "sim://ebb-clean", profile=PROFILE)
+    board = protocol_sim.plotter("ebb-clean")
     board.firmware.finish()
-    got = list(board.drawn())
+    yield board
+    protocol_sim.forget("ebb-clean")
+
+
+def test_coffee_is_drawn_as_planned_every_stroke_once_in_the_estimated_time(coffee, clean):
+    plan, profile, _, reference = coffee
+    got = list(clean.drawn())
     assert drawing_differences(got, reference, tolerance=TOLERANCE) == []
     assert len(got) == len(reference)  # one pen-down stroke per planned path
     expected = estimate(plan, profile).total.seconds
-    assert abs(board.seconds / expected - 1) < 0.02
-    assert board.firmware.gaps == []  # the queue never ran dry once the first move ran
+    assert abs(clean.seconds / expected - 1) < 0.02
+    assert clean.firmware.gaps == []  # the queue never ran dry once the first move ran
 
 
 def test_a_board_left_in_future_syntax_draws_the_same(coffee, name):
@@ -112,11 +120,8 @@ def _journal(path):
     return where, json.loads(where.read_text())
 
 
-def test_a_stop_mid_job_resumes_exactly_once(coffee, name, tmp_path):
+def test_a_stop_mid_job_resumes_exactly_once(coffee, clean, name, tmp_path):
     _, _, path, reference = coffee
-    pencilbot.draw(path, f"sim://{name}-clean", profile=PROFILE)
-    clean = list(protocol_sim.plotter(f"{name}-clean").drawn())
-    protocol_sim.forget(f"{name}-clean")
     job = tmp_path / "coffee.gcode"
     job.write_bytes(path.read_bytes())
     port = f"sim://{name}?profile={PROFILE}&faults=error@700"
@@ -131,7 +136,7 @@ def test_a_stop_mid_job_resumes_exactly_once(coffee, name, tmp_path):
     assert record["status"] == "stopped" and record["options"]["ebb_steps"] is not None
     pencilbot.draw(job, f"sim://{name}", resume=journal)
     board.firmware.finish()
-    assert drawing_differences(list(board.drawn()), reference, TOLERANCE, clean=clean) == []
+    assert drawing_differences(list(board.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
 
 
 def test_a_power_cut_is_refused_until_the_position_is_known_again(coffee, name, tmp_path):
@@ -162,3 +167,52 @@ def test_plan_moves_never_shorter_than_the_boards_minimum(coffee):
     moves = plan_ebb(xy, down, np.arange(len(job)), profile)
     lm = [m.seconds for m in moves if m.command.startswith("LM")]
     assert min(lm) >= profile.ebb.min_move_ms / 1000 - 1e-9
+
+
+class _Operator:
+    """Someone at the plotter: notes each pause and where the pen was when it came."""
+
+    def __init__(self, name):
+        self.name, self.seen = name, []
+
+    def pause(self, prompt):
+        board = protocol_sim.plotter(self.name)
+        self.seen.append((prompt, board.firmware.pen_up, board.firmware.running is None and not board.firmware.fifo))
+
+
+def _colour_job(path):
+    from pencilbot.machine.pens import load_pens
+    from pencilbot.planning.plan import Layer, Page, Plan
+
+    inks = {pen.name: pen for pen in load_pens("cmyk").pens}
+    layers = []
+    for k, pen in enumerate(("yellow", "magenta", "black")):
+        x = 20.0 + 30.0 * k
+        lines = [np.array([[x, 20.0 + y], [x + 20.0, 20.0 + y]]) for y in np.arange(0.0, 6.0, 1.0)]
+        layers.append(Layer(f"{pen}-hatch", lines, pen_width=0.5, role="hatch", pen=pen, color=inks[pen].color))
+    plan = Plan(Page(120.0, 80.0, margin=5.0, name="test"), tuple(layers))
+    profile = load_profile(PROFILE)
+    write_gcode(plan, profile, path)
+    placement = Placement.on_bed(plan.page, profile.bed)
+    return [placement.to_machine(p) for p in plan.paths()]
+
+
+def test_pen_changes_pause_at_rest_with_the_pen_up_and_name_the_pen(name, tmp_path):
+    job = tmp_path / "colour.gcode"
+    reference = _colour_job(job)
+    operator = _Operator(name)
+    pencilbot.draw(job, f"sim://{name}", profile=PROFILE, operator=operator)
+    prompts = [prompt for prompt, _, _ in operator.seen]
+    assert [p.split("insert ")[-1] for p in prompts] == ["yellow", "magenta", "black"]
+    assert all(pen_up and idle for _, pen_up, idle in operator.seen)
+    board = protocol_sim.plotter(name)
+    assert drawing_differences(list(board.drawn()), reference, TOLERANCE) == []
+
+
+def test_without_an_operator_a_pause_waits_for_the_prg_button(name, tmp_path):
+    job = tmp_path / "colour.gcode"
+    reference = _colour_job(job)
+    pencilbot.draw(job, f"sim://{name}?profile={PROFILE}&operator=auto", profile=PROFILE)
+    board = protocol_sim.plotter(name)
+    assert board.firmware.log.count("QB") >= 2 * 3  # each pause: forget old presses, then wait for one
+    assert drawing_differences(list(board.drawn()), reference, TOLERANCE) == []
