@@ -72,6 +72,7 @@ class EbbBoard:
         self.busy_time = 0.0  # seconds something ran (for gap measurements)
         self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
         self._moved = False
+        self.presses = 0  # PRG presses read by a sender (the pauses it was let through)
         self.log: list[str] = []
         self._rx = bytearray()
         self._out = bytearray()
@@ -300,6 +301,7 @@ class EbbBoard:
         elif name == "QB":
             pressed = self.button or (self.operator == "auto" and self.running is None and not self.fifo)
             data, self.button = ("1" if pressed else "0"), False
+            self.presses += pressed
         elif name == "QP":
             data = "1" if self.pen_up else "0"
         elif name == "QR":

@@ -19,6 +19,64 @@ from sim.ebb_board import EbbBoard
 from sim.machine import _Polylines
 
 
+class EbbDrawing:
+    """What the pen drew and where it travelled (machine mm), in the GRBL machine's terms
+    (``drawn``, ``strokes``, ``stroke_pauses``, ``travel``, ``bed_strokes``, ``bed_travel``),
+    so ``simulate`` and ``demo`` read either simulator alike."""
+
+    def __init__(self, profile, pauses):
+        self.profile, self._pauses = profile, pauses
+        self._strokes = _Polylines()
+        self._stroke: list[tuple[float, float]] = []
+        self._stroke_pause = 0
+        self._stroke_pauses: list[int] = []
+        self._travel = _Polylines()
+
+    def record(self, start, end, drawing: bool) -> None:
+        start, end = (float(start[0]), float(start[1])), (float(end[0]), float(end[1]))
+        if drawing:
+            if not self._stroke or self._stroke[-1] != start:
+                self._close()
+                self._stroke.append(start)
+                self._stroke_pause = self._pauses()
+            self._stroke.append(end)
+        else:
+            self._close()
+            self._travel.add((start, end))
+
+    def _close(self) -> None:
+        if len(self._stroke) >= 2:
+            self._strokes.add(self._stroke)
+            self._stroke_pauses.append(self._stroke_pause)
+        self._stroke = []
+
+    def drawn(self) -> Paths:
+        """Pen-down polylines so far, machine mm (the one being drawn last)."""
+        return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
+
+    @property
+    def strokes(self) -> list[np.ndarray]:
+        return list(self.drawn())
+
+    @property
+    def stroke_pauses(self) -> list[int]:
+        """For each stroke, the pauses (PRG presses answered) passed when it began."""
+        return self._stroke_pauses + ([self._stroke_pause] if len(self._stroke) >= 2 else [])
+
+    @property
+    def travel(self) -> list[np.ndarray]:
+        return list(self._travel.paths())
+
+    def bed_strokes(self) -> Paths:
+        return self._bed_view(self.drawn())
+
+    def bed_travel(self) -> Paths:
+        return self._bed_view(self._travel.paths())
+
+    def _bed_view(self, paths: Paths) -> Paths:
+        return Paths(self.profile.bed.to_view(paths.points), paths.offsets) if len(paths.points) else paths
+
+
 class VirtualEbb:
     """A virtual AxiDraw-class plotter (EBB board, CoreXY carriage, servo pen).
 
@@ -42,28 +100,10 @@ class VirtualEbb:
 
         self.profile = profile
         self.realtime = realtime
-        self._strokes = _Polylines()
-        self._stroke: list[tuple[float, float]] = []
-        self._travel = _Polylines()
-        self.firmware = EbbBoard(profile, self._record, instant=realtime == 0, faults=faults, operator=operator)
+        self.machine = EbbDrawing(profile, lambda: self.firmware.presses)
+        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator)
         self._to_board, self._to_host = _Wire(baud), _Wire(baud)
         self._last = time.monotonic()
-
-    def _record(self, start, end, drawing: bool) -> None:
-        start, end = (float(start[0]), float(start[1])), (float(end[0]), float(end[1]))
-        if drawing:
-            if not self._stroke or self._stroke[-1] != start:
-                self._close()
-                self._stroke.append(start)
-            self._stroke.append(end)
-        else:
-            self._close()
-            self._travel.add((start, end))
-
-    def _close(self) -> None:
-        if len(self._stroke) >= 2:
-            self._strokes.add(self._stroke)
-        self._stroke = []
 
     def write(self, data: bytes) -> None:
         self._to_board.put(data, time.monotonic())
@@ -82,28 +122,22 @@ class VirtualEbb:
 
     def drawn(self) -> Paths:
         """Pen-down polylines so far, machine mm (the one being drawn last)."""
-        return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
-
-    def travel(self) -> Paths:
-        return self._travel.paths()
-
-    def _bed_view(self, paths: Paths) -> Paths:
-        return Paths(self.profile.bed.to_view(paths.points), paths.offsets) if len(paths.points) else paths
+        return self.machine.drawn()
 
     def canvas(self, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
         self.firmware.finish()
         bed = self.profile.bed
         canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
-        canvas.draw_paths(self._bed_view(self.drawn()))
+        canvas.draw_paths(self.machine.bed_strokes())
         if travel:
-            canvas.draw_travel(self._bed_view(self.travel()))
+            canvas.draw_travel(self.machine.bed_travel())
         return canvas
 
     def save_png(self, path, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
         self.firmware.finish()
         bed = self.profile.bed
-        save_drawing_png(path, self._bed_view(self.drawn()), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
-                         travel=self._bed_view(self.travel()) if travel else None)
+        save_drawing_png(path, self.machine.bed_strokes(), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
+                         travel=self.machine.bed_travel() if travel else None)
 
     @property
     def seconds(self) -> float:

@@ -119,7 +119,7 @@ def run(args: argparse.Namespace) -> int:
 
         draw(gcode_path, args.port, profile=args.profile, progress=_progress(args))
         step.done(f"streamed to {args.port}", started)
-    elif profile.firmware.capabilities.realtime_protocol:
+    elif profile.firmware.capabilities.realtime_protocol or profile.firmware.capabilities.host_motion:
         placement = Placement.on_bed(page, profile.bed)
         simulated, simulated_up, agreement = _simulate(args, gcode_path, placement, preview, out)
         step.done("plot.png: what the virtual plotter drew", started)
