@@ -123,7 +123,8 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
-        here, pen_down = _wake(link, profile, job, resumed)
+        here, pen_down, found = _wake(link, profile, job, resumed)
+        start = start if found is None else found
         chunks = _chunks(job, start, len(job))
         total = sum(plan_seconds(plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile)) for a, b in chunks)
         bar = Progress(progress, len(job) - start, total)
@@ -185,29 +186,34 @@ def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
-def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool | None]:
-    """Greet the board, learn its syntax, and set it up; return the motors' position and pen."""
+def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool | None, int | None]:
+    """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
+    (None: unknown) and, for a resume, the job line to go on from."""
     link.reader.write(b"\r")  # ends any half command left by another program
     time.sleep(0.05)
     link.reader.discard_input()
     link.status()
     link.future = link.last_lines[0].startswith("QG,")  # a board left in future syntax (CU,10,1)
     version = link.command("V").data or ""
+    start = None
     if resumed is not None:
+        link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
         steps = link.steps()
-        wanted = tuple(resumed.options.get("ebb_steps") or ())
+        # Where the carriage may stand and the line to go on from there: the stop the board
+        # reported, or (the port lost) the end of each command it may have run.
+        places = [(tuple(c[:2]), int(c[2])) for c in resumed.options.get("ebb_resume") or ()]
+        found = [line for where, line in places if where == steps]
         held = _motors_held(link, profile)
-        if link.power_lost or not held or steps != wanted:
+        if link.power_lost or not held or not found:
             why = ("the board's supply dropped" if link.power_lost
                    else "its motors were switched off (a restart or power cut), so the carriage was free" if not held
-                   else f"its step counters read {steps[0]},{steps[1]}, not {','.join(map(str, wanted))}" if wanted
-                   else "the stop could not be located")
+                   else f"its step counters read {steps[0]},{steps[1]}, where the job never left the pen")
             raise PlotError(
                 f"the carriage's position is lost ({why}), so resuming could draw in the wrong place; "
                 f"nothing was sent. Push the carriage to its home corner (pen up) and draw the job again "
                 f"from the start, or from a line: pencilbot draw {shlex.quote(job.source)} --profile "
                 f"{shlex.quote(profile.name)} --start-line {resumed.next_line}")
-        pen_down = None
+        pen_down, start = None, job.index_of(found[-1])
     else:
         mode = profile.ebb.microstep_mode
         link.command(f"EM,{mode},{mode}")  # counters start at 0: the carriage stands at home
@@ -216,7 +222,7 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
         link.command(text)
     if version_at_least(version, (3, 0)):
         link.command(f"CU,60,{POWER_THRESHOLD}")
-    return steps, pen_down
+    return steps, pen_down, start
 
 
 def _motors_held(link: EbbLink, profile) -> bool:
@@ -253,29 +259,38 @@ def _pause(link: EbbLink, operator, bar, reason: str) -> None:
 def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port) -> str:
     """Stop the board, find where, record it, and say how to go on."""
     why = f"stopped by {exc.by}" if isinstance(exc, Interrupted) else str(exc)
-    stop = None
+    number = lambda index: job.number(min(index, len(job) - 1)) if len(job) else 0  # noqa: E731
+    stop, answered, held = None, False, False
     if not isinstance(exc, PortLost):
         try:
             link.command("ES")
             link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
             link.wait_idle(5)
+            answered = True
             held = _motors_held(link, profile) and not link.power_lost
             stop = _locate(link.steps(), sent, acked, profile) if held else None
         except (EbbFault, PortLost):
-            stop = None
-    if stop is None:
-        index = sent[max(acked - 2, 0)].line if sent else 0
-        where = "the pen's position is lost (the board did not report it)"
-    else:
+            answered = False
+    index = sent[max(acked - 2, 0)].line if sent else 0
+    if stop is not None:
         index = stop.index
         where = f"the pen stopped at X{stop.xy[0]:.3f} Y{stop.xy[1]:.3f} (pen up)"
-    line = job.number(min(index, len(job) - 1)) if len(job) else 0
+        places = [[*stop.steps, number(stop.index)]]
+    elif not answered:
+        where = ("the board did not report where the pen stopped (the resume finds it from the step "
+                 "counters, or refuses)")
+        places = [[*m.end, number(m.line)] for m in sent[max(acked - 2, 0):]]
+    else:
+        where = ("the pen's position is lost (the board restarted or its supply dropped: the motors let go)"
+                 if not held else "the pen's position is lost (the step counters are on none of the moves sent)")
+        places = []
+    line = number(index)
     text = f"{why}; {where}; line {line} of {job.source} was next."
     if journal is None:
         return f"{text} Resume from line {line} of {job.source}"
     journal.next_line = line
     journal.stop_xy = list(stop.xy) if stop is not None else None
-    journal.options["ebb_steps"] = list(stop.steps) if stop is not None else None
+    journal.options["ebb_resume"] = places
     journal.status, journal.message = "stopped", text
     journal.resume = f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(port)}"
     journal.save()

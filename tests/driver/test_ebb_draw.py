@@ -133,8 +133,23 @@ def test_a_stop_mid_job_resumes_exactly_once(coffee, clean, name, tmp_path):
     partial = board.drawn()
     assert 0 < len(partial) < len(reference)
     journal, record = _journal(job)
-    assert record["status"] == "stopped" and record["options"]["ebb_steps"] is not None
+    assert record["status"] == "stopped" and len(record["options"]["ebb_resume"]) == 1
     pencilbot.draw(job, f"sim://{name}", resume=journal)
+    board.firmware.finish()
+    assert drawing_differences(list(board.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
+
+
+def test_a_lost_cable_resumes_exactly_once_from_the_step_counters(coffee, clean, name, tmp_path):
+    _, _, path, reference = coffee
+    job = tmp_path / "coffee.gcode"
+    job.write_bytes(path.read_bytes())
+    with pytest.raises(PlotError) as stopped:
+        pencilbot.draw(job, f"sim://{name}?profile={PROFILE}&faults=drop@900", profile=PROFILE)
+    assert "did not report where the pen stopped" in str(stopped.value)
+    journal, record = _journal(job)
+    assert len(record["options"]["ebb_resume"]) >= 2  # the ends of the commands in flight
+    pencilbot.draw(job, f"sim://{name}", resume=journal)
+    board = protocol_sim.plotter(name)
     board.firmware.finish()
     assert drawing_differences(list(board.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
 
