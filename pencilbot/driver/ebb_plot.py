@@ -49,32 +49,52 @@ class EbbLink:
         self.reader, self.timeout = reader, timeout
         self.future = False
         self.power_lost = False
+        self.pending: str | None = None  # the command whose answer is still to be read
+        self._got: list[str] = []
         self._lines: list[str] = []
 
     def command(self, text: str, wait: float | None = None) -> protocol.Reply:
         """Send one command and read its whole reply (a motion command's comes once the FIFO
-        has room: ``wait`` bounds that, default the link's timeout plus the queued motion)."""
-        name = text.split(",")[0].upper()
+        has room: ``wait`` bounds that, default the link's timeout)."""
+        self.pending, self._got = text, []  # kept if an interrupt cuts the wait short
         self.reader.write(text.encode("ascii") + b"\r")
+        return self._receive(wait)
+
+    def _receive(self, wait: float | None) -> protocol.Reply:
+        text = self.pending
+        name = text.split(",")[0].upper()
         want = protocol.reply_lines(name, future=self.future)
-        lines: list[str] = []
         deadline = time.monotonic() + (wait if wait is not None else self.timeout)
-        while len(lines) < want:
+        while len(self._got) < want:
             if not self._lines:
                 self._lines = self.reader.read_lines()
                 if not self._lines:
                     if time.monotonic() > deadline:
+                        self.pending = None  # its answer is lost: later answers are other commands'
                         raise EbbFault(f"the board did not answer {text[:24]} within {self.timeout:g} s")
                     continue
-            line = self._lines.pop(0)
-            lines.append(line)
-            if "Err:" in line:
+            self._got.append(self._lines.pop(0))
+            if "Err:" in self._got[-1]:
                 break
+        lines, self.pending = self._got, None
         self.last_lines = lines
         reply = protocol.read_reply(name, lines, future=self.future)
         if reply.error:
             raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
         return reply
+
+    def stop_now(self, wait: float) -> None:
+        """ES at once, even while a command is still waiting for its answer (the board reads ES
+        right after it): that answer first, then ES's."""
+        cut_short = self.pending
+        self.reader.write(b"ES\r")
+        if cut_short is not None:
+            try:
+                self._receive(wait)
+            except EbbFault:
+                self.pending = None  # refused or silent: ES's own answer follows all the same
+        self.pending, self._got = "ES", []
+        self._receive(None)
 
     def status(self) -> int:
         """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
@@ -263,7 +283,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     stop, answered, held = None, False, False
     if not isinstance(exc, PortLost):
         try:
-            link.command("ES")
+            link.stop_now(wait=link.timeout + 2 * sum(m.seconds for m in sent[-3:]))
             link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
             link.wait_idle(5)
             answered = True

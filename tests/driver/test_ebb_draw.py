@@ -231,3 +231,43 @@ def test_without_an_operator_a_pause_waits_for_the_prg_button(name, tmp_path):
     board = protocol_sim.plotter(name)
     assert board.firmware.log.count("QB") >= 2 * 3  # each pause: forget old presses, then wait for one
     assert drawing_differences(list(board.drawn()), reference, TOLERANCE) == []
+
+
+def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
+    """The real CLI in another process, the board on a pseudo-terminal at 20x real time."""
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from pencilbot.planning.plan import Layer, Page, Plan
+    from sim.ebb_plotter import VirtualEbb
+    from sim.pty_server import PtyServer
+
+    profile = load_profile(PROFILE)
+    lines = [np.array([[10.0, 10.0 + 2 * k], [40.0, 11.0 + 2 * k], [70.0, 10.0 + 2 * k]]) for k in range(12)]
+    plan = Plan(Page(100.0, 80.0, margin=5.0, name="test"), (Layer("hatch", lines, pen_width=0.5, role="hatch"),))
+    job = tmp_path / "lines.gcode"
+    write_gcode(plan, profile, job)
+    placement = Placement.on_bed(plan.page, profile.bed)
+    reference = [placement.to_machine(p) for p in plan.paths()]
+    pencilbot.draw(job, "sim://ebb-sigterm-clean", profile=PROFILE)
+    clean = protocol_sim.plotter("ebb-sigterm-clean")
+    clean.firmware.finish()
+    protocol_sim.forget("ebb-sigterm-clean")
+    plotter = VirtualEbb(profile, realtime=20)
+    cli = [sys.executable, "-m", "pencilbot.cli", "draw"]
+    with PtyServer(plotter, reset_on_open=False) as server:
+        proc = subprocess.Popen([*cli, str(job), "--profile", PROFILE, "-q", "--port", server.path],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 60
+        while len(plotter.drawn()) < 4 and proc.poll() is None and time.monotonic() < deadline:
+            time.sleep(0.005)
+        proc.send_signal(signal.SIGTERM)
+        _, err = proc.communicate(timeout=60)
+        assert proc.returncode != 0 and "stopped by SIGTERM" in err and "the pen stopped at X" in err, err
+        journal, _ = _journal(job)
+        done = subprocess.run([*cli, "--resume", str(journal), "-q"], capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+    plotter.firmware.finish()
+    assert drawing_differences(list(plotter.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
