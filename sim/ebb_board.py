@@ -20,7 +20,6 @@ per status query); otherwise :meth:`EbbBoard.poll` advances the clock.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +30,7 @@ from pencilbot.firmware.ebb import MICROSTEPS
 
 QUERY_STEP = 0.005  # s an instant board runs per status query (so a polling sender sees progress)
 BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
-_PRG_GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
+_GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 
 @dataclass
@@ -58,7 +57,15 @@ class _Run:
 class EbbBoard:
     """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
-    every stretch the carriage moves."""
+    every stretch the carriage moves.
+
+    Faults (:class:`sim.firmware.Faults`, keyed by the 1-based index of the command received):
+    ``error@k`` refuses command k (``!6``) without running it; ``silent@k`` runs it but its
+    answer is lost; ``drop@k`` pulls the cable as it arrives (the board keeps running its queue);
+    ``reset@k`` is a power cut (a reboot: counters 0 where the carriage stands, motors off);
+    ``abort@k`` a dip of the supply (the carriage slips, ``QG`` bit 6 once ``CU,60`` set a
+    threshold); ``garbage@k`` noise before the answer.
+    """
 
     resets_on_open = False  # USB CDC: opening the port does not reset an EBB (no DTR reset)
 
@@ -67,7 +74,6 @@ class EbbBoard:
         self.faults = faults.at if faults is not None else {}
         self.operator = operator
         self.link_dropped = False
-        self.silent = False
         self.clock = 0.0
         self.busy_time = 0.0  # seconds something ran (for gap measurements)
         self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
@@ -265,7 +271,7 @@ class EbbBoard:
                 self.power_lost = self.threshold > 0
                 self.origin = self.origin + np.array([40, -40])  # the carriage slips half a mm
             if fault == "garbage":
-                self._out += _PRG_GARBAGE
+                self._out += _GARBAGE
             self.log.append(text)
             reply = self._run(command)
             if fault != "silent" and reply is not None:
@@ -277,8 +283,7 @@ class EbbBoard:
         return kind
 
     def _reply(self, data: bytes) -> None:
-        if not self.silent:
-            self._out += data
+        self._out += data
 
     def _run(self, command: protocol.Command) -> bytes | None:
         """Answer one parsed command (queued ones join the FIFO)."""
@@ -423,7 +428,3 @@ class EbbBoard:
         return _Run(command, self.counters.copy(), np.array(steps, dtype=np.int64), tuple(rates), tuple(accels),
                     carry, axis_ticks, max(axis_ticks), self.clock)
 
-
-def plan_free_seconds(board: EbbBoard) -> float:
-    """Board seconds spent idle between motion commands (the gaps a slow sender leaves)."""
-    return math.fsum(board.gaps)

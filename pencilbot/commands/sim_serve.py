@@ -27,7 +27,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
         ),
     )
-    add_profile_option(parser, "GRBL or grblHAL plotter profile")
+    add_profile_option(parser, "GRBL, grblHAL or EBB (axidraw-v3, ...) plotter profile")
     parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
                         default=1.0, metavar="R",
                         help="move R times faster than real time; 0 = instant (default %(default)g)")

@@ -30,7 +30,7 @@ from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.stream import Interrupted
 from pencilbot.errors import PlotError
-from pencilbot.firmware.ebb import MICROSTEPS
+from pencilbot.firmware.ebb import EBB, MICROSTEPS
 from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb, plan_seconds
 from pencilbot.units import MM_PER_INCH
 
@@ -164,13 +164,13 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                                      start_steps=here, pen_down=pen_down)
                     for move in moves:
                         sent.append(move)
-                        link.command(move.command, wait=timeout + 2 * sum(m.seconds for m in sent[-3:]))
+                        link.command(move.command, wait=timeout + 2 * _in_flight_seconds(sent))
                         acked = len(sent) - 1
                         done_seconds += move.seconds
                         bar.update(move.line + 1 - start, done_seconds, "Run")
                     if moves:
                         here, pen_down = moves[-1].end, moves[-1].down
-                link.wait_idle(timeout + 2 * sum(m.seconds for m in sent[-3:]) + 5)
+                link.wait_idle(timeout + 2 * _in_flight_seconds(sent) + 5)
         except (Interrupted, EbbFault, PortLost) as exc:
             message = _stop(link, exc, sent, acked, job, profile, journal, port)
             bar.close("stopped", message)
@@ -185,6 +185,17 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
             reader.port.close()
         except Exception:  # noqa: BLE001 - a vanished port may fail to close
             pass
+
+
+def _oldest_in_flight(acked: int) -> int:
+    """The oldest command that may not have finished: the board answers a motion command once
+    it is in the FIFO, so of those answered only the last ``in_flight - 1`` can still run."""
+    return max(acked - (EBB.in_flight - 1), 0)
+
+
+def _in_flight_seconds(sent: list[EbbMove]) -> float:
+    """How long the commands that may still be queued keep the board busy, s."""
+    return sum(m.seconds for m in sent[-EBB.in_flight:])
 
 
 def _rows(job) -> tuple[np.ndarray, np.ndarray]:
@@ -283,7 +294,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     stop, answered, held = None, False, False
     if not isinstance(exc, PortLost):
         try:
-            link.stop_now(wait=link.timeout + 2 * sum(m.seconds for m in sent[-3:]))
+            link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent))
             link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
             link.wait_idle(5)
             answered = True
@@ -291,7 +302,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
             stop = _locate(link.steps(), sent, acked, profile) if held else None
         except (EbbFault, PortLost):
             answered = False
-    index = sent[max(acked - 2, 0)].line if sent else 0
+    index = sent[_oldest_in_flight(acked)].line if sent else 0
     if stop is not None:
         index = stop.index
         where = f"the pen stopped at X{stop.xy[0]:.3f} Y{stop.xy[1]:.3f} (pen up)"
@@ -299,7 +310,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     elif not answered:
         where = ("the board did not report where the pen stopped (the resume finds it from the step "
                  "counters, or refuses)")
-        places = [[*m.end, number(m.line)] for m in sent[max(acked - 2, 0):]]
+        places = [[*m.end, number(m.line)] for m in sent[_oldest_in_flight(acked):]]
     else:
         where = ("the pen's position is lost (the board restarted or its supply dropped: the motors let go)"
                  if not held else "the pen's position is lost (the step counters are on none of the moves sent)")
@@ -322,7 +333,7 @@ def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) ->
     flight (at most three: running, queued, being parsed) whose segment holds the position and
     that had not finished."""
     pos = np.array(steps, dtype=np.float64)
-    first = max(acked - 2, 0)
+    first = _oldest_in_flight(acked)
     for k in range(first, len(sent)):
         move = sent[k]
         a, b = np.array(move.start, float), np.array(move.end, float)
