@@ -35,6 +35,7 @@ from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb, plan_s
 from pencilbot.units import MM_PER_INCH
 
 POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
+POWER_CHECK = 0.5  # s between QG queries while streaming (one extra round trip each)
 _STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
 
 
@@ -49,6 +50,7 @@ class EbbLink:
         self.reader, self.timeout = reader, timeout
         self.future = False
         self.power_lost = False
+        self.watch_power = False  # CU,60 set: QG's bit 6 means something
         self.pending: str | None = None  # the command whose answer is still to be read
         self._got: list[str] = []
         self._lines: list[str] = []
@@ -154,6 +156,7 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         sent: list[EbbMove] = []
         acked = -1
         done_seconds = 0.0
+        checked = time.monotonic()
         try:
             with _stop_signals():
                 for a, b in chunks:
@@ -163,6 +166,11 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                     moves = plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile,
                                      start_steps=here, pen_down=pen_down)
                     for move in moves:
+                        if link.watch_power and time.monotonic() > checked + POWER_CHECK:
+                            checked = time.monotonic()
+                            link.status()
+                            if link.power_lost:
+                                raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
                         sent.append(move)
                         link.command(move.command, wait=timeout + 2 * _in_flight_seconds(sent))
                         acked = len(sent) - 1
@@ -171,6 +179,8 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                     if moves:
                         here, pen_down = moves[-1].end, moves[-1].down
                 link.wait_idle(timeout + 2 * _in_flight_seconds(sent) + 5)
+                if link.power_lost:  # seen while waiting for the last moves
+                    raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
         except (Interrupted, EbbFault, PortLost) as exc:
             message = _stop(link, exc, sent, acked, job, profile, journal, port)
             bar.close("stopped", message)
@@ -248,11 +258,13 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
     else:
         mode = profile.ebb.microstep_mode
         link.command(f"EM,{mode},{mode}")  # counters start at 0: the carriage stands at home
+        link.power_lost = False  # a dip before the job cost nothing: the job starts from home
         steps, pen_down = (0, 0), None
     for text in pen_commands(profile):
         link.command(text)
     if version_at_least(version, (3, 0)):
         link.command(f"CU,60,{POWER_THRESHOLD}")
+        link.watch_power = True
     return steps, pen_down, start
 
 

@@ -171,6 +171,19 @@ def test_a_power_cut_is_refused_until_the_position_is_known_again(coffee, name, 
     assert len(board.drawn().points) == drawn_before  # the refusal moved nothing
 
 
+def test_a_supply_dip_mid_job_stops_it_and_the_resume_is_refused(coffee, name, tmp_path):
+    _, _, path, _ = coffee
+    job = tmp_path / "coffee.gcode"
+    job.write_bytes(path.read_bytes())
+    with pytest.raises(PlotError) as stopped:  # the dip comes at command 700; QG finds it soon after
+        pencilbot.draw(job, f"sim://{name}?profile={PROFILE}&faults=abort@700", profile=PROFILE)
+    assert "supply dropped" in str(stopped.value) and "position is lost" in str(stopped.value)
+    journal, _ = _journal(job)
+    with pytest.raises(PlotError) as refused:
+        pencilbot.draw(job, f"sim://{name}", resume=journal)
+    assert "position is lost" in str(refused.value)
+
+
 def test_plan_moves_never_shorter_than_the_boards_minimum(coffee):
     from pencilbot.driver.ebb_plot import _rows
     from pencilbot.driver.job import load_job
