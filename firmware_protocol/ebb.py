@@ -230,6 +230,23 @@ def read_reply(name: str, lines: list[str], *, future: bool) -> Reply:
     return Reply(data=first)
 
 
+#: What the data line of a legacy reply looks like, per query (anything else is line noise).
+_DATA = {name: re.compile(pattern) for name, pattern in {
+    "QG": r"[0-9A-Fa-f]{2}", "QS": r"-?\d+,-?\d+", "QE": r"\d+,\d+", "ES": r"[01]", "QP": r"[01]",
+    "QB": r"[01]", "QR": r"[01]", "V": r"EBB.*|UBW.*", "QM": r"QM,\d,\d,\d,\d", "QU": r"QU,.*",
+}.items()}
+
+
+def plausible(name: str, line: str, *, future: bool) -> bool:
+    """Whether ``line`` can be part of the reply to ``name`` (noise on the wire is not)."""
+    if "Err:" in line or line == name or line.startswith(f"{name},") or line in ("OK", "CUOK"):
+        return True
+    if future or COMMANDS[name].reply == "ok":
+        return False
+    pattern = _DATA.get(name)
+    return bool(pattern.fullmatch(line)) if pattern is not None else True
+
+
 def lm_rate(step_hz: float) -> int:
     """LM's Rate for a step frequency (Hz), rounded."""
     return int(round(step_hz * RATE_PER_HZ))

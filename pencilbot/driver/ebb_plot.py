@@ -75,8 +75,11 @@ class EbbLink:
                         self.pending = None  # its answer is lost: later answers are other commands'
                         raise EbbFault(f"the board did not answer {text[:24]} within {self.timeout:g} s")
                     continue
-            self._got.append(self._lines.pop(0))
-            if "Err:" in self._got[-1]:
+            line = self._lines.pop(0)
+            if not protocol.plausible(name, line, future=self.future):
+                continue  # noise on the line (a glitch, another program's echo): not an answer
+            self._got.append(line)
+            if "Err:" in line:
                 break
         lines, self.pending = self._got, None
         self.last_lines = lines

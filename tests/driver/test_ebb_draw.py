@@ -76,7 +76,7 @@ def coffee(tmp_path_factory):
 
 @pytest.fixture
 def name(request):
-    key = f"ebb-{request.node.name}"
+    key = "ebb-" + "".join(c if c.isalnum() else "-" for c in request.node.name)
     yield key
     protocol_sim.forget(key)
 
@@ -182,6 +182,25 @@ def test_a_supply_dip_mid_job_stops_it_and_the_resume_is_refused(coffee, name, t
     with pytest.raises(PlotError) as refused:
         pencilbot.draw(job, f"sim://{name}", resume=journal)
     assert "position is lost" in str(refused.value)
+
+
+@pytest.mark.parametrize("fault, stops", [("garbage@700", False), ("silent@700", True)])
+def test_noise_is_ignored_and_a_lost_answer_stops_exactly(coffee, clean, name, tmp_path, fault, stops):
+    _, _, path, reference = coffee
+    job = tmp_path / "coffee.gcode"
+    job.write_bytes(path.read_bytes())
+    port = f"sim://{name}?profile={PROFILE}&faults={fault}"
+    if stops:
+        with pytest.raises(PlotError) as stopped:
+            pencilbot.draw(job, port, profile=PROFILE, timeout=0.5)
+        assert "did not answer" in str(stopped.value) and "the pen stopped at X" in str(stopped.value)
+        journal, _ = _journal(job)
+        pencilbot.draw(job, f"sim://{name}", resume=journal)
+    else:
+        pencilbot.draw(job, port, profile=PROFILE)
+    board = protocol_sim.plotter(name)
+    board.firmware.finish()
+    assert drawing_differences(list(board.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
 
 
 def test_plan_moves_never_shorter_than_the_boards_minimum(coffee):

@@ -119,3 +119,10 @@ def test_rate_constant_is_the_references():
 
 def test_servo_travel_uses_24_ms_updates():
     assert math.isclose(ebb.servo_travel_seconds(10000, 15000, 100), 1.2)  # the reference's FAQ
+
+
+def test_noise_is_not_taken_for_an_answer():
+    assert ebb.plausible("SM", "OK", future=False) and not ebb.plausible("SM", "\xfe\x13#~garb", future=False)
+    assert ebb.plausible("QS", "12,-3", future=False) and not ebb.plausible("QS", "garbage", future=False)
+    assert ebb.plausible("QS", "QS,12,-3", future=True) and not ebb.plausible("QS", "12,-3", future=True)
+    assert ebb.plausible("SM", "!4 Err: Missing parameter(s)", future=False)
