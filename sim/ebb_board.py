@@ -54,6 +54,19 @@ class _Run:
         return np.sign(self.steps) * np.array(done, dtype=np.int64)
 
 
+def _typed(raw: bytes) -> str:
+    """A command's characters as the firmware keeps them: control bytes dropped, a backspace
+    taking back the character before it."""
+    kept: list[str] = []
+    for byte in raw:
+        if byte == 8:
+            if kept:
+                kept.pop()
+        elif byte >= 32:
+            kept.append(chr(byte) if byte < 128 else "?")
+    return "".join(kept)
+
+
 class EbbBoard:
     """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
@@ -233,13 +246,14 @@ class EbbBoard:
     def _process(self) -> None:
         """Parse complete commands from the input while the FIFO lets them in."""
         while not self.link_dropped:
-            cut = self._rx.find(b"\r")
-            if cut < 0:
+            ends = [i for i in (self._rx.find(b"\r"), self._rx.find(b"\n")) if i >= 0]
+            if not ends:
                 if len(self._rx) >= protocol.MAX_COMMAND:
                     self._rx.clear()
                     self._reply(b"!3 Err: RX Buffer overrun\r\n" if not self.future else b"!3 Err: RX Buffer overrun\n")
                 return
-            text = self._rx[:cut].decode("ascii", errors="replace").strip("\n ")
+            cut = min(ends)  # CR or LF ends a command (UBW.c); a CR LF pair counts once
+            text = _typed(self._rx[:cut])
             if not text:
                 del self._rx[: cut + 1]
                 continue

@@ -114,3 +114,12 @@ def test_a_power_cycle_zeroes_the_counters_where_the_carriage_stands(board):
     assert ask(board, "QS") == b"0,0\n\rOK\r\n"
     assert ask(board, "QE") == b"0,0\n\rOK\r\n"  # motors off: the carriage is free
     assert list(board._true_steps()) == [800, 0]
+
+
+def test_lf_ends_a_command_too_and_probes_of_other_firmware_get_the_boards_errors(board):
+    board.receive(b"$I\n")
+    assert board.take_output() == b"!8 Err: Unknown command '$I:2449'\r\n"
+    board.receive(b"V\r\n")  # CR LF: one command, not an empty second one
+    assert board.take_output() == b"EBBv13_and_above EB Firmware Version 3.0.3\r\n"
+    board.receive(b"VX\x08\r")  # a backspace takes the X back
+    assert board.take_output().startswith(b"EBBv13")
