@@ -54,9 +54,14 @@ class _Run:
         return np.sign(self.steps) * np.array(done, dtype=np.int64)
 
 
+_CONTROL = bytes(range(32))
+
+
 def _typed(raw: bytes) -> str:
     """A command's characters as the firmware keeps them: control bytes dropped, a backspace
     taking back the character before it."""
+    if b"\x08" not in raw:
+        return bytes(raw).translate(None, _CONTROL).decode("ascii", errors="replace").replace("\ufffd", "?")
     kept: list[str] = []
     for byte in raw:
         if byte == 8:

@@ -150,8 +150,12 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     try:
         here, pen_down, found = _wake(link, profile, job, resumed)
         start = start if found is None else found
-        chunks = _chunks(job, start, len(job))
-        total = sum(plan_seconds(plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile)) for a, b in chunks)
+        plans = []  # each stretch between program pauses, planned from where the last one ends
+        for a, b in _chunks(job, start, len(job)):
+            plans.append((a, plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile, start_steps=here, pen_down=pen_down)))
+            if plans[-1][1]:
+                here, pen_down = plans[-1][1][-1].end, plans[-1][1][-1].down
+        total = sum(plan_seconds(moves) for _, moves in plans)
         bar = Progress(progress, len(job) - start, total)
         if journal is not None:
             journal.status, journal.message = "running", ""
@@ -162,12 +166,10 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         checked = time.monotonic()
         try:
             with _stop_signals():
-                for a, b in chunks:
+                for a, moves in plans:
                     if a in job.pauses and a >= start and sent:
                         link.wait_idle(timeout + 60)
                         _pause(link, operator, bar, job.pauses[a] or "program pause (M0)")
-                    moves = plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile,
-                                     start_steps=here, pen_down=pen_down)
                     for move in moves:
                         if link.watch_power and time.monotonic() > checked + POWER_CHECK:
                             checked = time.monotonic()
@@ -179,8 +181,6 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                         acked = len(sent) - 1
                         done_seconds += move.seconds
                         bar.update(move.line + 1 - start, done_seconds, "Run")
-                    if moves:
-                        here, pen_down = moves[-1].end, moves[-1].down
                 link.wait_idle(timeout + 2 * _in_flight_seconds(sent) + 5)
                 if link.power_lost:  # seen while waiting for the last moves
                     raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")

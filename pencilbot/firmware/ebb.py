@@ -70,6 +70,11 @@ class EbbSetup:
             return np.column_stack([k * (xy[:, 0] + xy[:, 1]), k * (xy[:, 0] - xy[:, 1])])
         return k * xy
 
+    def motor_of(self, x: float, y: float) -> tuple[float, float]:
+        """:meth:`to_motor` of one point (plain floats, for a planner's inner loop)."""
+        k = self.steps_per_mm
+        return (k * (x + y), k * (x - y)) if self.kinematics == "corexy" else (k * x, k * y)
+
     def to_machine(self, steps: np.ndarray) -> np.ndarray:
         """Motor step positions ``(N, 2)`` → machine mm ``(N, 2)``."""
         steps = np.asarray(steps, dtype=np.float64)

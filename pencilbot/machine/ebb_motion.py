@@ -91,35 +91,31 @@ def plan_ebb(xy: np.ndarray, down: np.ndarray, lines: np.ndarray, profile, *,
     """
     setup, pen = profile.ebb, profile.pen
     moves: list[EbbMove] = []
-    here = np.array(start_steps, dtype=np.int64)
-    here_mm = setup.to_machine(here[None].astype(float))[0]
+    here = (int(start_steps[0]), int(start_steps[1]))
+    xy, down = np.asarray(xy, dtype=np.float64).reshape(-1, 2), np.asarray(down, dtype=bool)
+    if not len(xy):
+        return moves
+    before = np.vstack([setup.to_machine(np.array([here], dtype=np.float64)), xy[:-1]])
+    moved = np.flatnonzero(np.any(np.abs(xy - before) > 1e-9, axis=1))
+    was = np.concatenate([[(not down[0]) if pen_down is None else pen_down], down[:-1]])
+    changes = np.flatnonzero(down != was)  # the pen changes before the row's move
+    edges = [0, *changes.tolist(), len(xy)]
     state = pen_down
-    run_pts: list[np.ndarray] = [here_mm]
-    run_lines: list[int] = []
-
-    def flush():
-        nonlocal here, run_pts, run_lines
-        if len(run_pts) > 1:
-            here = _plan_run(np.array(run_pts), np.array(run_lines), bool(state), here, profile, moves)
-        run_pts = [setup.to_machine(here[None].astype(float))[0]]
-        run_lines = []
-
-    for i in range(len(xy)):
-        if state is None or bool(down[i]) != state:
-            flush()
-            state = bool(down[i])
+    for first, stop in zip(edges[:-1], edges[1:]):
+        if first in changes:
+            state = bool(down[first])
             value, delay = (0, pen.down_delay) if state else (1, pen.up_delay)
             ms = max(int(round(delay * 1000)), 1)
-            moves.append(EbbMove(f"SP,{value},{ms}", int(lines[i]), tuple(here), tuple(here), ms / 1000.0, state))
-        if not np.allclose(xy[i], run_pts[-1], atol=1e-9):
-            run_pts.append(np.asarray(xy[i], dtype=np.float64))
-            run_lines.append(int(lines[i]))
-    flush()
+            moves.append(EbbMove(f"SP,{value},{ms}", int(lines[first]), here, here, ms / 1000.0, state))
+        rows = moved[(moved >= first) & (moved < stop)]
+        if len(rows):
+            points = np.vstack([setup.to_machine(np.array([here], dtype=np.float64)), xy[rows]])
+            here = _plan_run(points, np.asarray(lines)[rows], bool(state), here, profile, moves)
     return moves
 
 
-def _plan_run(points: np.ndarray, lines: np.ndarray, drawing: bool, here: np.ndarray, profile,
-              moves: list[EbbMove]) -> np.ndarray:
+def _plan_run(points: np.ndarray, lines: np.ndarray, drawing: bool, here: tuple[int, int], profile,
+              moves: list[EbbMove]) -> tuple[int, int]:
     """Plan one run of moves without a pen change (vertices ``points``, the first where the pen
     stands); append its commands to ``moves``; return the motor position at its end."""
     setup, motion = profile.ebb, profile.motion
@@ -132,17 +128,22 @@ def _plan_run(points: np.ndarray, lines: np.ndarray, drawing: bool, here: np.nda
     nominal = np.minimum(nominal, _motor_limit(units, setup))
     speeds = path_speeds(lengths, units, np.ones(len(lengths) - 1, bool), nominal, accel, motion.junction_deviation)
     min_t = setup.min_move_ms / 1000.0
-    goals = setup.to_motor(points)
-    for k in range(len(lengths)):
-        pieces = _pieces(lengths[k], speeds[k], speeds[k + 1], float(nominal[k]), float(accel[k]), min_t)
-        start_mm, along = points[k], 0.0
+    goals = np.rint(setup.to_motor(points)).astype(np.int64).tolist()
+    starts, vec = points.tolist(), vectors.tolist()
+    for k, (length_k, v_in, v_out, top, acc) in enumerate(zip(
+            lengths.tolist(), speeds[:-1].tolist(), speeds[1:].tolist(), nominal.tolist(), accel.tolist())):
+        pieces = _pieces(length_k, v_in, v_out, top, acc, min_t)
+        along = 0.0
         for n, (length, v0, v1) in enumerate(pieces):
             along += length
-            last = n == len(pieces) - 1
-            goal = goals[k + 1] if last else setup.to_motor((start_mm + vectors[k] * (along / lengths[k]))[None])[0]
-            end = np.rint(goal).astype(np.int64)
-            steps = end - here
-            if not steps.any():
+            if n == len(pieces) - 1:
+                end = tuple(goals[k + 1])
+            else:
+                f = along / length_k
+                m = setup.motor_of(starts[k][0] + vec[k][0] * f, starts[k][1] + vec[k][1] * f)
+                end = (round(m[0]), round(m[1]))
+            steps = (end[0] - here[0], end[1] - here[1])
+            if steps == (0, 0):
                 continue
             moves.append(_lm(steps, length, v0, v1, int(lines[k]), here, end, drawing))
             here = end
@@ -187,14 +188,14 @@ def _seconds(length: float, v0: float, v1: float) -> float:
     return 2.0 * length / (v0 + v1)
 
 
-def _lm(steps: np.ndarray, length: float, v0: float, v1: float, line: int, start: np.ndarray,
-        end: np.ndarray, drawing: bool) -> EbbMove:
+def _lm(steps: tuple[int, int], length: float, v0: float, v1: float, line: int, start: tuple[int, int],
+        end: tuple[int, int], drawing: bool) -> EbbMove:
     """One LM command: both motors at constant acceleration from ``v0`` to ``v1`` (mm/s along
     the path) over ``length`` mm, ``steps`` motor steps."""
     seconds = _seconds(length, v0, v1)
     ticks = max(seconds / protocol.TICK, 1.0)
     args = []
-    for n in steps.tolist():
+    for n in steps:
         if n == 0:
             args += [0, 0, 0]
             continue
@@ -206,7 +207,7 @@ def _lm(steps: np.ndarray, length: float, v0: float, v1: float, line: int, start
         r0, r1 = _rescale(r0, r1, mean)
         args += [r0, int(n), int(round((r1 - r0) / ticks))]
     text = "LM," + ",".join(str(a) for a in args)
-    return EbbMove(text, line, tuple(int(s) for s in start), tuple(int(e) for e in end), seconds, drawing)
+    return EbbMove(text, line, (int(start[0]), int(start[1])), (int(end[0]), int(end[1])), seconds, drawing)
 
 
 def _rescale(r0: int, r1: int, mean: float) -> tuple[int, int]:
