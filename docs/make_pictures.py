@@ -43,7 +43,7 @@ def main() -> None:
     out = HERE / "images"
     out.mkdir(exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "--out", tmp, "-q"], check=True)
+        subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "-o", tmp, "-q"], check=True)
         save_small(data.coffee(), out / "1-photo.png")
         save_small(cv2.imread(str(Path(tmp) / "sketch.png"), cv2.IMREAD_GRAYSCALE), out / "2-sketch.png")
         preview = cv2.imread(str(Path(tmp) / "preview.png"), cv2.IMREAD_GRAYSCALE)
@@ -55,7 +55,7 @@ def main() -> None:
         # The landscape sheet lies turned a quarter turn on the portrait bed: show it upright.
         save_small(crop_to_ink(np.rot90(bed, k=-1)), out / "4-plot.png")
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "--pens", "cmyk", "--out", tmp, "-q"], check=True)
+        subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "--pens", "cmyk", "-o", tmp, "-q"], check=True)
         save_small(cv2.cvtColor(cv2.imread(str(Path(tmp) / "sketch.png")), cv2.COLOR_BGR2RGB), out / "5-colour-sketch.png")
         plot = cv2.cvtColor(cv2.imread(str(Path(tmp) / "plot.png")), cv2.COLOR_BGR2RGB)  # on the page, upright
         save_small(crop_to_ink(plot), out / "6-colour-plot.png")

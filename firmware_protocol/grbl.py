@@ -22,6 +22,8 @@ RX_BUFFER_SIZE = 128
 #: GRBL's line buffer, in bytes, including the terminating NUL: a line may hold at most
 #: ``LINE_BUFFER_SIZE - 1`` significant characters (whitespace and comments are not stored).
 LINE_BUFFER_SIZE = 80
+#: Bytes GRBL's line buffer never stores: whitespace, control characters and block delete ``/``.
+DROPPED_BYTES = bytes(range(ord(" ") + 1)) + b"/"
 #: Planner ring size; GRBL reports ``BLOCK_BUFFER_SIZE - 1`` free blocks when empty.
 BLOCK_BUFFER_SIZE = 16
 

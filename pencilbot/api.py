@@ -5,6 +5,7 @@
 >>> plan = pencilbot.plan("photo.jpg", page="A4")        # pen strokes on a page (Plan)
 >>> pencilbot.export_gcode(plan, "grbl-servo-a4", "drawing.gcode")  # G-code for a plotter
 >>> pencilbot.draw("drawing.gcode", "/dev/ttyUSB0")      # stream it (or port="sim://")
+>>> lines = pencilbot.gcode(plan, "grbl-servo-a4")       # the G-code as lines
 
 Images may be a path, a numpy array (grey or RGB, uint8 or float in [0, 1]) or a
 :class:`~pencilbot.imaging.io.LoadedImage`. User mistakes raise
@@ -13,6 +14,9 @@ Images may be a path, a numpy array (grey or RGB, uint8 or float in [0, 1]) or a
 
 from __future__ import annotations
 
+import functools
+import inspect
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -86,29 +90,40 @@ def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str |
     return make_plan(loaded, page=sheet(loaded.shape), style=chosen, pens=pen_set)
 
 
+def _profile(profile: str | Path | Profile) -> Profile:
+    return profile if isinstance(profile, Profile) else load_profile(profile)
+
+
 def export_gcode(
     plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
     source: str = "",
-) -> list[str] | GcodeSummary:
-    """G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded ``Profile``).
-
-    With ``path``, writes the file atomically and returns its
-    :class:`~pencilbot.export.gcode.GcodeSummary`; without, returns the lines.
+) -> GcodeSummary:
+    """Write the G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded
+    ``Profile``) to ``path``, atomically, and return its
+    :class:`~pencilbot.export.gcode.GcodeSummary`. (The lines themselves: :func:`gcode`.)
     """
-    profile = profile if isinstance(profile, Profile) else load_profile(profile)
-    if path is None:
-        return gcode_lines(plan, profile, source=source)
-    return write_gcode(plan, profile, path, source=source)
+    if path is None:  # the old spelling for the lines: kept for one release
+        warnings.warn("export_gcode(plan, profile) without a path is deprecated; use gcode(plan, profile)",
+                      DeprecationWarning, stacklevel=2)
+        return gcode(plan, profile, source=source)
+    return write_gcode(plan, _profile(profile), path, source=source)
 
 
-def draw(gcode: str | Path | list[str], port: str, **options) -> DrawResult:
-    """Stream G-code to a plotter (``port="sim://"`` for the virtual one); see
-    :func:`pencilbot.driver.draw` for the options."""
+def gcode(plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, *, source: str = "") -> list[str]:
+    """The G-code lines of ``plan`` for a plotter profile, as :func:`export_gcode` writes them."""
+    return gcode_lines(plan, _profile(profile), source=source)
+
+
+@functools.wraps(_draw)
+def draw(*args, **kwargs) -> DrawResult:
+    # The driver's own signature and docstring (functools.wraps): its options are said once, there.
+    # This front door only makes ``port="sim://…"`` reach the virtual plotter.
     import sim
 
     from sim.protocol_sim import for_profile
 
     sim.register()
-    if options.get("profile"):  # sim:// plays the profile's board (an EBB profile's EBB)
-        port = for_profile(port, options["profile"])
-    return _draw(gcode, port, **options)
+    bound = inspect.signature(_draw).bind(*args, **kwargs)
+    if bound.arguments.get("profile"):  # sim:// plays the profile's board (an EBB profile's EBB)
+        bound.arguments["port"] = for_profile(bound.arguments["port"], bound.arguments["profile"])
+    return _draw(*bound.args, **bound.kwargs)

@@ -17,9 +17,6 @@ from collections.abc import Iterable, Iterator
 
 import numpy as np
 
-#: Pen width (mm) when nothing says otherwise: a common fineliner, and the default style's pen.
-DEFAULT_PEN_WIDTH = 0.5
-
 
 class Paths:
     """Polylines as ``points`` and ``offsets`` (see the module docstring).

@@ -28,45 +28,62 @@ import numpy as np
 import vpype
 import vpype_cli
 
-from pencilbot.commands.common import photo_style, plan_photo
+from pencilbot.commands.common import add_photo_options, photo_pens, photo_style, plan_photo
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
-from pencilbot.machine.pens import list_pen_sets, load_pens
-from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.plan import Plan
-from pencilbot.planning.style import default_style, list_styles, with_overrides
-from pencilbot.units import MM_PER_INCH
+from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
 
-PX_PER_MM = 96.0 / MM_PER_INCH  # vpype's unit is the CSS pixel
+PX_PER_MM = CSS_PX_PER_INCH / MM_PER_INCH  # vpype's unit is the CSS pixel
+
+
+def _photo_options(command):
+    """``command`` with `pencilbot plan`'s photo options as click options: the same flags, help,
+    defaults and checks (each value goes through the argparse option's own ``type``), declared
+    once in :func:`pencilbot.commands.common.add_photo_options`."""
+    parser = argparse.ArgumentParser(add_help=False)
+    add_photo_options(parser)
+    for action in reversed([a for a in parser._actions if a.option_strings and a.dest != "help"]):
+        if action.nargs == 0 and not isinstance(action, argparse.BooleanOptionalAction):
+            if action.const is not True:  # the listings (--list-styles, ...) belong to pencilbot's own CLI
+                continue
+            command = click.option(action.option_strings[0], action.dest, is_flag=True, help=action.help)(command)
+            continue
+        if isinstance(action, argparse.BooleanOptionalAction):
+            flag = action.option_strings[0]
+            command = click.option(f"{flag}/--no-{flag[2:]}", action.dest, default=None, help=action.help)(command)
+            continue
+        command = click.option(
+            action.option_strings[0], action.dest, metavar=action.metavar, help=action.help,
+            type=click.Choice(action.choices) if action.choices else None,
+            default=action.default, show_default=action.default is not None, callback=_checked(action),
+        )(command)
+    return command
+
+
+def _checked(action: argparse.Action):
+    def convert(ctx, param, value):
+        if value is None or action.type is None or not isinstance(value, str):
+            return value
+        try:
+            return action.type(value)
+        except PencilbotError as err:
+            raise click.BadParameter(str(err)) from None
+    return convert
 
 
 @click.command("pencilbot")
 @click.argument("photo", type=vpype_cli.PathType(exists=True, dir_okay=False))
-@click.option("--style", metavar="NAME|FILE.toml", help=f"drawing style: {', '.join(list_styles())} or a .toml file "
-              f"(default: {default_style()})")
-@click.option("--page", metavar="A4|WxH", help="paper: A5, A4, A3, Letter or WxH in mm (default: the style's)")
-@click.option("--orientation", type=click.Choice(ORIENTATIONS), help="auto turns the sheet to suit the photo")
-@click.option("--margin", type=float, metavar="MM", help="blank border in mm (default: the style's)")
-@click.option("--pen-width", type=float, metavar="MM", help="pen line width in mm (default: the style's)")
-@click.option("--pens", metavar="NAME|FILE.toml", help=f"draw in colour with a pen set: {', '.join(list_pen_sets())} "
-              "or a .toml file (one layer per pen)")
-@click.option("--hatch/--no-hatch", default=None, help="draw the tone as hatching (default: as the style says)")
-@click.option("--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, show_default=True, help="refuse larger images")
-@click.option("--downscale", is_flag=True, help="shrink a too-large image instead")
+@_photo_options
 @vpype_cli.global_processor
-def pencilbot(document: vpype.Document, photo, style, page, orientation, margin, pen_width, pens, hatch, max_pixels,
-              downscale) -> vpype.Document:
+def pencilbot(document: vpype.Document, photo, **options) -> vpype.Document:
     """Add pencilbot's pen drawing of PHOTO: its hatch layers and its edges, as new layers.
 
     The options are `pencilbot plan`'s, in mm; each layer gets its name, pen width and colour.
     """
-    sheet = argparse.Namespace(style=style, page=page, orientation=orientation, margin=margin, pen_width=pen_width)
+    args = argparse.Namespace(**options)
     try:
-        chosen = photo_style(sheet)
-        if hatch is not None:
-            chosen = with_overrides(chosen, {"hatch": hatch}, where="--hatch")
-        plan = plan_photo(photo, chosen, max_pixels=max_pixels, downscale=downscale,
-                          pens=None if pens is None else load_pens(pens))
+        plan = plan_photo(photo, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale,
+                          pens=photo_pens(args))
     except PencilbotError as err:
         raise click.ClickException(str(err)) from None
     return add_plan(document, plan)

@@ -13,8 +13,9 @@ import time
 
 import numpy as np
 
-from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
-from pencilbot.render import Canvas, save_drawing_png
+from pencilbot.paths import Paths
+from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
+from pencilbot.units import DEFAULT_PEN_WIDTH
 from sim.ebb_board import EbbBoard
 from sim.machine import _Polylines
 
@@ -124,7 +125,7 @@ class VirtualEbb:
         """Pen-down polylines so far, machine mm (the one being drawn last)."""
         return self.machine.drawn()
 
-    def canvas(self, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
+    def canvas(self, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
         self.firmware.finish()
         bed = self.profile.bed
         canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
@@ -133,7 +134,7 @@ class VirtualEbb:
             canvas.draw_travel(self.machine.bed_travel())
         return canvas
 
-    def save_png(self, path, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
+    def save_png(self, path, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
         self.firmware.finish()
         bed = self.profile.bed
         save_drawing_png(path, self.machine.bed_strokes(), bed.width, bed.height, dpi=dpi, pen_width=pen_width,

@@ -53,7 +53,6 @@ from sim.machine import DEFAULT_SETTINGS, PAUSE, Machine, MachineAlarm
 _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
 _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
-_DROPPED = bytes(range(33)) + b"/"  # whitespace, control characters, block delete
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
 _UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
 _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
@@ -167,7 +166,7 @@ def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | N
     """GRBL's protocol-loop filter: the significant characters, or ``None`` on overflow."""
     if b"(" in raw or b";" in raw:
         raw = re.sub(rb"\([^)]*\)?|;.*", b"", raw)
-    text = raw.translate(None, _DROPPED).upper()
+    text = raw.translate(None, grbl.DROPPED_BYTES).upper()
     if len(text) >= line_buffer:
         return None
     return text.decode("latin-1")

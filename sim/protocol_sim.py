@@ -65,8 +65,8 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Tim
 
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
-from pencilbot.paths import DEFAULT_PEN_WIDTH
-from pencilbot.render import Canvas, save_drawing_png
+from pencilbot.units import DEFAULT_PEN_WIDTH
+from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
 from sim.firmware import Faults, Firmware
 from sim.machine import Machine
 _OPTIONS = ("profile", "baud", "realtime", "faults", "reset", "power", "abort", "limits", "operator")
@@ -183,7 +183,7 @@ class VirtualPlotter:
         self.pump()
         return self._to_host.take(time.monotonic())
 
-    def canvas(self, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
+    def canvas(self, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
         """The bed as drawn so far (queued motion finished first in instant mode)."""
         self.firmware.finish()
         bed = self.profile.bed
@@ -193,7 +193,7 @@ class VirtualPlotter:
             canvas.draw_travel(self.machine.bed_travel())
         return canvas
 
-    def save_png(self, path, *, dpi: float = 100, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
+    def save_png(self, path, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
         """Write the bed as drawn so far to a PNG, a band of rows at a time: the picture
         :meth:`canvas` would give, with memory bounded by a band instead of the bed."""
         self.firmware.finish()

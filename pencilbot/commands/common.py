@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 from pathlib import Path
 
 from pencilbot.configs_io import config_names, user_folder
@@ -13,14 +14,13 @@ from pencilbot.export.svg import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.bed import MAX_BED
 from pencilbot.machine.pens import PenSet, list_pen_sets, load_pens
-from pencilbot.paths import DEFAULT_PEN_WIDTH
 from pencilbot.planning.layout import ORIENTATIONS, fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
 from pencilbot.planning.style import (
     MIN_PEN_WIDTH, Style, default_style, list_styles, load_style, with_overrides,
 )
 from pencilbot.render import BAND_PIXELS
-from pencilbot.units import MM_PER_INCH
+from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
 
 #: Image files the commands read as photos and write as pictures (the first is the default).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp", ".webp")
@@ -39,7 +39,8 @@ _MEMORY_SHARE = 0.75  # of the memory the system says is available
 MAX_RENDER_PIXELS = 1 << 30
 
 # Style keys a command-line option may override, by option name.
-_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
+_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width",
+                  "--hatch": "hatch"}
 
 
 def number(option: str, *, low: float | None = None, high: float, above: bool = False, whole: bool = False,
@@ -97,8 +98,33 @@ def add_profile_option(parser: argparse.ArgumentParser, what: str = "plotter pro
         "--profile", default=name, metavar="NAME|FILE.toml", action=_Given,
         help=f"{what}: a name (see --list-profiles) or a .toml file (default {name}; yours: $PENCILBOT_PROFILE "
              f"or profile = \"NAME\" in {user_folder() / 'config.toml'})")
+    add_profile_listing(parser)
+
+
+def add_profile_listing(parser: argparse.ArgumentParser) -> None:
+    """``--list-profiles``: print the plotter profiles, shipped and the user's, and exit."""
     parser.add_argument("--list-profiles", action=_Listing, listing=profile_listing,
                         help="list the plotter profiles, shipped and yours, and exit")
+
+
+def add_realtime_option(parser: argparse.ArgumentParser) -> None:
+    """``--realtime R``, the virtual plotter's speed, with one default wherever it is taken."""
+    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
+                        default=0.0, metavar="R",
+                        help="move R times faster than real time (default %(default)g: instant; 1: as fast as the real machine)")
+
+
+class Deprecated(argparse.Action):
+    """An old spelling of an option that still works for one release, with a note to use the new one."""
+
+    def __init__(self, option_strings, dest, new: str, **kwargs):
+        self.new = new
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"pencilbot: note: {option_string} is deprecated and goes in the next release; use {self.new}",
+              file=sys.stderr)
+        setattr(namespace, self.dest, values)
 
 
 class _Given(argparse.Action):
@@ -185,6 +211,8 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
+    photo.add_argument("--hatch", action=argparse.BooleanOptionalAction,
+                       help=f"draw the tone as hatching, or only the lines with --no-hatch ({_style_default('hatch')})")
 
 
 def _add_sheet_options(group, page_default: str, margin_default: str, pen_default: str) -> None:
@@ -314,7 +342,7 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
         An option that does not apply to this SVG, or the file cannot be read.
     """
     given = lambda *flags: [flag for flag in flags if _option(args, flag) not in (None, False)]  # noqa: E731
-    photo_only = given("--style", "--downscale", "--pens")
+    photo_only = given("--style", "--downscale", "--pens") + (["--hatch"] if _option(args, "--hatch") is not None else [])
     if is_plan_svg(path):
         sheet_flags = given("--page", "--orientation", "--margin", "--pen-width")
         if photo_only or sheet_flags:
@@ -339,7 +367,9 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
     return fit_plan(plan, sheet, _option(args, "--orientation") or "auto", DEFAULT_MARGIN if margin is None else margin)
 
 
-_ANY_DPI = 96.0  # a drawing fitted onto a sheet needs no size of its own: any will do
+#: Resolution (dots per inch) of a simulated plot's PNG (simulate, sim-serve).
+PLOT_DPI = 150.0
+_ANY_DPI = CSS_PX_PER_INCH  # a drawing fitted onto a sheet needs no size of its own: any will do
 
 
 def _option(args: argparse.Namespace, flag: str):
@@ -394,7 +424,7 @@ def photo_style(args: argparse.Namespace) -> Style:
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:
     """Value of each style-overriding option by flag, in the order --help shows them."""
-    return {flag: getattr(args, key) for flag, key in _STYLE_OPTIONS.items()}
+    return {flag: getattr(args, key, None) for flag, key in _STYLE_OPTIONS.items()}
 
 
 def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False) -> None:

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.commands.common import (
-    add_photo_options, add_profile_option, add_verbosity, check_plan, photo_pens, photo_style,
+    Deprecated, add_photo_options, add_profile_option, add_verbosity, check_plan, photo_pens, photo_style,
 )
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
@@ -35,12 +35,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         help="photo → sketch → plan → G-code → virtual plotter, in one go",
         description=(
             "Run the whole job: pencil sketch, plan SVG and preview, G-code, streaming to a plotter "
-            "(the built-in virtual one unless --port is given) and a summary. Without --input it "
+            "(the built-in virtual one unless --port is given) and a summary. Without a PHOTO it "
             f"uses scikit-image's {DEFAULT_PHOTO!r} photo."
         ),
     )
-    parser.add_argument("--input", metavar="PHOTO", help=f"photo to draw (default: skimage.data.{DEFAULT_PHOTO})")
-    parser.add_argument("--out", default="pencilbot-demo", metavar="DIR", help="folder for the outputs")
+    parser.add_argument("input", nargs="?", metavar="PHOTO", help=f"photo to draw (default: skimage.data.{DEFAULT_PHOTO})")
+    parser.add_argument("-o", "--output", default="pencilbot-demo", metavar="DIR", help="folder for the outputs (default %(default)s)")
+    parser.add_argument("--input", dest="old_input", action=Deprecated, new="a positional PHOTO")
+    parser.add_argument("--out", dest="output", action=Deprecated, new="-o/--output")
     parser.add_argument("--port", metavar="PORT",
                         help="plotter port or pyserial URL (default: the built-in virtual plotter)")
     add_profile_option(parser)
@@ -82,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
     pens = photo_pens(args)
     sized = style if pens is None else with_pens(style, pens)
     image = _photo(args, partial(load_image, shrink_to=plot_resolution(sized)), image_from_array)
-    out = Path(args.out)
+    out = Path(args.output)
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -159,8 +161,9 @@ def _figure(value: float | None, digits: int) -> float | None:
 
 
 def _photo(args: argparse.Namespace, load_image, image_from_array):
-    if args.input is not None:
-        return load_image(args.input, max_pixels=args.max_pixels, downscale=args.downscale)
+    photo = args.input if args.input is not None else args.old_input
+    if photo is not None:
+        return load_image(photo, max_pixels=args.max_pixels, downscale=args.downscale)
     from skimage import data
 
     return image_from_array(getattr(data, DEFAULT_PHOTO)(), source=f"skimage.data.{DEFAULT_PHOTO}")

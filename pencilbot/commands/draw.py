@@ -9,12 +9,13 @@ from pathlib import Path
 
 import sim
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_verbosity, number
+from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_profile_listing, add_verbosity, number
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
 from pencilbot.errors import PlotError
-from pencilbot.machine.profile import default_profile
+from pencilbot.driver.stream import DEFAULT_TIMEOUT
+from pencilbot.machine.profile import default_profile, load_profile
 
 
 def add_parser(subparsers) -> None:
@@ -28,21 +29,23 @@ def add_parser(subparsers) -> None:
     )
     p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…")
-    p.add_argument("--profile", help="plotter profile name or TOML file (default: the resumed job's, else the one "
-                   f"the file's header names, else {default_profile()}); must be the header's if it names one")
+    p.add_argument("--profile", metavar="NAME|FILE.toml",
+                   help="plotter profile: a name (see --list-profiles) or a .toml file (default: the resumed job's, "
+                   f"else the one the file's header names, else {default_profile()}); must be the header's if it names one")
+    add_profile_listing(p)
     p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
-                   help="serial speed in bit/s (default: the resumed job's, else 115200)")
+                   help="serial speed in bit/s (default: the resumed job's, else the firmware's: 115200 for GRBL)")
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
     p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
     p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
-    p.add_argument("--on-error", choices=("stop", "continue"), default="stop",
-                   help="on error:N stop (feed hold, pen up; default) or log it and continue")
+    p.add_argument("--on-error", choices=("stop", "continue"),
+                   help="on error:N stop (feed hold, pen up) or log it and continue (default: the resumed job's, else stop)")
     where = p.add_mutually_exclusive_group()
     where.add_argument("--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue")
     where.add_argument("--start-line", type=number("--start-line", low=1, high=2**31 - 1, whole=True), metavar="N",
                        help="start at file line N, restoring the state before it")
     p.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"),
-                   help="seconds of silence before giving up (default: the resumed job's, else 10)")
+                   help=f"seconds of silence before giving up (default: the resumed job's, else {DEFAULT_TIMEOUT:g})")
     p.add_argument("--restart", action="store_true",
                    help="draw a file whose job stopped from line 1 again (its journal is replaced)")
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
@@ -75,12 +78,8 @@ def run(args: argparse.Namespace) -> int:
         raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     if journal is None and args.start_line is None and not args.restart:
         _refuse_a_stopped_job(Path(gcode))
-    # A resume runs as the job did: its connection options, unless given again.
     options = journal.options if journal else {}
-    baud = args.baud or options.get("baud", 115200)
-    timeout = args.timeout or options.get("timeout", 10.0)
-    send_and_wait = args.send_and_wait or options.get("send_and_wait", False)
-    on_error = args.on_error if args.on_error != "stop" else options.get("on_error", "stop")
+    timeout, send_and_wait, on_error = connection_options(args, options)
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
     announce = None
     if args.verbose and not args.quiet:
@@ -89,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
+    baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud
     from sim.protocol_sim import for_profile
 
     port = for_profile(port, profile or journal.profile)
@@ -110,6 +110,16 @@ def run(args: argparse.Namespace) -> int:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def connection_options(args: argparse.Namespace, options: dict) -> tuple[float, bool, str]:
+    """Timeout, send-and-wait and on-error for this run: a resume runs as the job did (its
+    journal's ``options``), unless an option is given again, which wins either way."""
+    return (
+        args.timeout or options.get("timeout", DEFAULT_TIMEOUT),
+        args.send_and_wait or options.get("send_and_wait", False),
+        args.on_error or options.get("on_error", "stop"),
+    )
 
 
 def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:

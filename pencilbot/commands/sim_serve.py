@@ -7,10 +7,10 @@ import signal
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    MAX_BAUD, MAX_DPI, MAX_REALTIME, add_profile_option, add_verbosity, check_render, number,
+    MAX_BAUD, MAX_DPI, PLOT_DPI, add_profile_option, add_realtime_option, add_verbosity, check_render, number,
 )
 from pencilbot.errors import PencilbotError
-from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -28,9 +28,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     add_profile_option(parser, "GRBL, grblHAL or EBB (axidraw-v3, ...) plotter profile")
-    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
-                        default=1.0, metavar="R",
-                        help="move R times faster than real time; 0 = instant (default %(default)g)")
+    add_realtime_option(parser)
     parser.add_argument("--baud", type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"), default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
                         help="inject faults: error@K[:N], alarm@K, silent@K, drop@K, reset@K, garbage@K")
@@ -45,7 +43,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--no-reset", action="store_true",
                         help="a board without auto-reset: opening the port does not reset it")
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
-    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=150.0, help="resolution of the saved drawing in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="resolution of the saved drawing in dots per inch (default %(default)g)")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 

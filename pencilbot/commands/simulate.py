@@ -15,15 +15,15 @@ import urllib.parse
 from pathlib import Path
 
 from pencilbot.commands.common import (
-    MAX_DPI, MAX_REALTIME, add_photo_options, add_profile_option, add_svg_options, add_verbosity, check_render, number,
-    plan_for_input, reorder_drawing,
+    MAX_DPI, PLOT_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options, add_verbosity,
+    check_render, number, plan_for_input, reorder_drawing,
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.machine.pens import load_pens
-from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.planning.plan import BLACK
 from pencilbot.planning.stats import duration_text
 from pencilbot.render import save_colour_png
@@ -46,11 +46,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
     parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
     add_profile_option(parser, "GRBL or grblHAL plotter profile")
-    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=150.0, help="PNG resolution in dots per inch (default %(default)g)")
+    parser.add_argument("--dpi", type=number("--dpi", low=0, above=True, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
-    parser.add_argument("--realtime", type=number("--realtime", low=0, high=MAX_REALTIME, unit="times real time (0: instant)"),
-                        default=0.0, metavar="R",
-                        help="move R times faster than real time (default %(default)g: instant)")
+    add_realtime_option(parser)
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
     add_verbosity(parser)

@@ -28,8 +28,9 @@ import numpy as np
 from firmware_protocol import ebb as protocol
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.stream import Interrupted
+from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted
 from pencilbot.errors import PlotError
+from pencilbot.firmware.base import DEFAULT_BAUD
 from pencilbot.firmware.ebb import EBB, MICROSTEPS
 from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb, plan_seconds
 from pencilbot.units import MM_PER_INCH
@@ -128,8 +129,8 @@ class _Stop:
     xy: tuple[float, float]
 
 
-def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = 115200,
-             progress: str = "quiet", timeout: float = 10.0, operator=None):
+def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = DEFAULT_BAUD,
+             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None):
     """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
 
     Returns

@@ -25,7 +25,7 @@ from pencilbot.driver.job import Job, load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import locate_stop, resume_preamble
-from pencilbot.driver.stream import Interrupted, Stream, StreamFault
+from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted, Stream, StreamFault
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import ERROR
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
@@ -53,7 +53,7 @@ def draw(
     port: str,
     *,
     profile: str | None = None,
-    baud: int = 115200,
+    baud: int | None = None,
     unlock: bool = False,
     check: bool = False,
     send_and_wait: bool = False,
@@ -61,7 +61,7 @@ def draw(
     start_line: int | None = None,
     resume: str | Path | None = None,
     progress: str = "quiet",
-    timeout: float = 10.0,
+    timeout: float = DEFAULT_TIMEOUT,
     wake_wait: float = 2.5,
     source: str | None = None,
     announce: Callable[[str, Job], None] | None = None,
@@ -80,8 +80,8 @@ def draw(
     profile : str, optional
         Plotter profile name or TOML path (firmware, receive buffer, pen commands); by default the
         resumed job's, else :data:`~pencilbot.machine.profile.DEFAULT_PROFILE`.
-    baud : int
-        Serial speed in bit/s.
+    baud : int, optional
+        Serial speed in bit/s; by default the firmware's (:attr:`Firmware.baud`).
     unlock : bool
         Leave alarm lock if the board starts in it (GRBL ``$X``).
     check : bool
@@ -130,6 +130,7 @@ def draw(
         profile = str(Path(profile).resolve())  # the journal's resume works from any folder
     machine = load_profile(profile)
     fw = machine.firmware
+    baud = baud or fw.baud
     if check and not fw.capabilities.check_mode:
         raise PlotError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "

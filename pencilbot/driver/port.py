@@ -26,7 +26,7 @@ class PortLost(Exception):
     """The port stopped working (unplugged, pty closed, socket dropped)."""
 
 
-def open_port(url: str, *, baudrate: int = 115200) -> serial.SerialBase:
+def open_port(url: str, *, baudrate: int) -> serial.SerialBase:
     """Open ``url`` for streaming.
 
     Parameters

@@ -46,6 +46,7 @@ log = logging.getLogger(__name__)
 
 WAKING, STREAMING, DRAINING, HALTING, DONE = "waking", "streaming", "draining", "halting", "done"
 POLL_INTERVAL = 0.2  # s: status queries at 5 Hz, GRBL's recommended ceiling
+DEFAULT_TIMEOUT = 10.0  # s of silence from the board before a job counts as stuck
 _QUIET = 0.15  # s of silence after a banner before the board counts as awake
 
 #: Fault kinds → what happened, in words.
@@ -110,7 +111,7 @@ class Stream:
         the stream gives up.
     """
 
-    def __init__(self, link: LineReader, firmware: Firmware, *, receive_buffer: int, timeout: float = 10.0):
+    def __init__(self, link: LineReader, firmware: Firmware, *, receive_buffer: int, timeout: float = DEFAULT_TIMEOUT):
         self.link = link
         self.firmware = firmware
         self.receive_buffer = receive_buffer

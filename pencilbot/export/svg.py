@@ -21,9 +21,9 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
-from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
-from pencilbot.units import MM_PER_INCH
+from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
 
 SVG_NS = "http://www.w3.org/2000/svg"
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
@@ -111,7 +111,7 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         file is refused: nothing says how large it is meant to be.
     pen_width : float, optional
         Pen width in mm of every layer of a foreign file (default: its stroke width if it
-        declares one, else :data:`~pencilbot.paths.DEFAULT_PEN_WIDTH`); it also sets the
+        declares one, else :data:`~pencilbot.units.DEFAULT_PEN_WIDTH`); it also sets the
         flattening tolerance. A plan of ours keeps its own pen widths.
 
     Returns
@@ -259,7 +259,6 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
 
 #: Top-level elements that draw nothing, so are no layer.
 _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
-_CSS_PX_PER_INCH = 96.0  # vpype (svgelements) works in CSS pixels
 
 
 def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None) -> Plan:
@@ -281,7 +280,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if element not in loose:
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
-    px_to_mm = MM_PER_INCH / (_CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
+    px_to_mm = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
     # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
     try:
@@ -325,7 +324,7 @@ def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
 # --- what both readers share -------------------------------------------------------------------
 
 _UNITS_TO_MM = {"mm": 1.0, "cm": 10.0, "q": 0.25, "in": MM_PER_INCH, "pt": MM_PER_INCH / 72,
-                "pc": MM_PER_INCH / 6, "px": MM_PER_INCH / 96}
+                "pc": MM_PER_INCH / 6, "px": MM_PER_INCH / CSS_PX_PER_INCH}
 
 
 def _size_unit(root: ET.Element) -> str | None:

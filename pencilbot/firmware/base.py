@@ -13,6 +13,9 @@ from types import ModuleType
 
 from firmware_protocol import ProtocolError
 
+#: Serial speed (bit/s) of a board whose firmware says nothing else: GRBL's and most USB boards'.
+DEFAULT_BAUD = 115200
+
 #: What a reply from the board means to a sender.
 OK = "ok"  # a line was taken (GRBL: parsed and queued; Marlin: executed)
 ERROR = "error"  # a line was refused (``detail`` says why)
@@ -124,6 +127,8 @@ class Firmware:
         Lines for leaving alarm lock, toggling check mode, and waiting for the queued moves to
         finish ("" when the firmware has none; without a drain command a sender waits for an
         idle status report).
+    baud : int
+        Serial speed (bit/s) the board's firmware is built for, the default of ``draw --baud``.
     """
 
     name: str
@@ -144,6 +149,7 @@ class Firmware:
     unlock_command: str = ""
     check_command: str = ""
     drain_command: str = ""
+    baud: int = DEFAULT_BAUD
 
     # --- writing G-code -------------------------------------------------------------------
 

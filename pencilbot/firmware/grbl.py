@@ -13,7 +13,7 @@ _STILL = ("Idle", "Alarm", "Check", "Sleep")  # states in which nothing moves
 # Byte tables: what GRBL's line buffer drops (whitespace, control characters, block delete), and
 # what a line may not hold at all (non-ASCII, realtime commands).
 _DROPPED = np.zeros(256, dtype=bool)
-_DROPPED[: ord(" ") + 1] = _DROPPED[ord("/")] = True
+_DROPPED[list(protocol.DROPPED_BYTES)] = True
 _ODD = np.zeros(256, dtype=bool)
 _ODD[128:] = True
 _ODD[list(protocol.REALTIME_BYTES)] = True

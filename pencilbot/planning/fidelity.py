@@ -122,8 +122,7 @@ def photo_likeness(plan: Plan, drawing: Sketch) -> Likeness:
     darkness 1 − luma (at the resolution it was planned from).
     """
     layout = Layout.fit(drawing.line.edges.shape, plan.page)
-    pen_width = max((layer.pen_width for layer in plan.layers), default=0.5)
-    plotted = plotted_darkness(plan.paths(), layout.drawing_box, pen_width=pen_width)
+    plotted = plotted_darkness(plan.paths(), layout.drawing_box, pen_width=plan.pen_width)
     return likeness(plotted, 1.0 - drawing.gray)
 
 

@@ -37,6 +37,15 @@ from scipy import ndimage as ndi
 
 from pencilbot.planning.flow import DirectionField, Grid, bilinear, stripe_phase
 from pencilbot.planning.plan import Layer
+from pencilbot.units import DEFAULT_PEN_WIDTH
+
+#: Default hatching, the one place these are said (the style's fields and shade() start here):
+#: the families' angles (degrees; along the forms, then across and at 45° to them), the most one
+#: family covers, the share of a family's ramp the next one overlaps, the shortest stroke (mm).
+HATCH_ANGLES = (0.0, 90.0, 45.0, -45.0)
+HATCH_COVERAGE = 0.7
+HATCH_OVERLAP = 0.25
+MIN_HATCH_RUN = 2.0
 
 # Golden-ratio conjugate: ranks frac(k·GOLDEN) are as evenly spread as any sequence can be.
 GOLDEN = 0.6180339887498949
@@ -64,7 +73,7 @@ class Onset:
     ramp: float
 
     @classmethod
-    def spread(cls, families: int, coverage: float, overlap: float = 0.5) -> Onset:
+    def spread(cls, families: int, coverage: float, overlap: float) -> Onset:
         """Ramps of equal length, each starting when the one before is ``1 − overlap`` on."""
         ramp = 1.0 / (1.0 + (families - 1) * (1.0 - overlap))
         return cls(families, coverage, ramp * (1.0 - overlap), ramp)
@@ -286,11 +295,11 @@ def hatch_layers(
     grid: Grid,
     field: DirectionField,
     *,
-    pen_width: float = 0.5,
-    angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
-    coverage: float = 0.7,
-    overlap: float = 0.25,
-    min_run: float = 2.0,
+    pen_width: float = DEFAULT_PEN_WIDTH,
+    angles: tuple[float, ...] = HATCH_ANGLES,
+    coverage: float = HATCH_COVERAGE,
+    overlap: float = HATCH_OVERLAP,
+    min_run: float = MIN_HATCH_RUN,
     wobble: float = 0.0,
     seed: int = 0,
     lines: list[HatchLines] | None = None,

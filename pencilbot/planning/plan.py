@@ -17,7 +17,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 
-from pencilbot.paths import DEFAULT_PEN_WIDTH, Paths
+from pencilbot.paths import Paths
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 #: Blank border on every side of a page, mm, when nothing says otherwise (the default style's).
 DEFAULT_MARGIN = 15.0

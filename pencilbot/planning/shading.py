@@ -19,10 +19,18 @@ import cv2
 import numpy as np
 
 from pencilbot.planning.flow import Grid, direction_field, sample_image
-from pencilbot.planning.hatching import family_capacity, family_lines, hatch_layers
+from pencilbot.planning.hatching import (
+    HATCH_ANGLES, HATCH_COVERAGE, HATCH_OVERLAP, MIN_HATCH_RUN, family_capacity, family_lines, hatch_layers,
+)
 from pencilbot.planning.plan import Layer
-from pencilbot.render import MM_PER_INCH, render_paths
+from pencilbot.render import render_paths
+from pencilbot.units import DEFAULT_PEN_WIDTH, MM_PER_INCH
 
+#: Default scale (mm) of the forms the hatching follows, photo darkness under which the paper
+#: stays blank, and the blur (mm) at which the plot's tone is matched: the style starts here.
+FORM_SCALE = 8.0
+BLANK_BELOW = 0.04
+TONE_BLUR = 1.0
 #: A family is traced when more than SHORT_SHARE of the tone asks for more than the families
 #: before it reach, less SHORTFALL.
 SHORTFALL = 0.02
@@ -44,15 +52,15 @@ def shade(
     *,
     paper: np.ndarray | None = None,
     form: np.ndarray | None = None,
-    pen_width: float = 0.5,
-    angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0),
-    coverage: float = 0.7,
-    overlap: float = 0.25,
-    form_scale: float = 8.0,
-    min_run: float = 2.0,
-    blank_below: float = 0.04,
+    pen_width: float = DEFAULT_PEN_WIDTH,
+    angles: tuple[float, ...] = HATCH_ANGLES,
+    coverage: float = HATCH_COVERAGE,
+    overlap: float = HATCH_OVERLAP,
+    form_scale: float = FORM_SCALE,
+    min_run: float = MIN_HATCH_RUN,
+    blank_below: float = BLANK_BELOW,
     wobble: float = 0.0,
-    blur: float = 1.0,
+    blur: float = TONE_BLUR,
     rounds: int = 2,
     seed: int = 0,
 ) -> list[Layer]:

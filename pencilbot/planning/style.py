@@ -19,9 +19,13 @@ from pencilbot import schema
 from pencilbot.configs_io import config_names, read_config_table, user_setting
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.strokes import GAMMA_RANGE, LONGEST_LENGTH, WIDTH_RANGE
-from pencilbot.paths import DEFAULT_PEN_WIDTH
+from pencilbot.planning.hatching import HATCH_ANGLES, HATCH_COVERAGE, MIN_HATCH_RUN
 from pencilbot.planning.layout import ORIENTATIONS
+from pencilbot.planning.ordering import DEFAULT_ROUNDS
 from pencilbot.planning.plan import DEFAULT_MARGIN
+from pencilbot.planning.shading import BLANK_BELOW, FORM_SCALE, TONE_BLUR
+from pencilbot.planning.vectorize import CLUTTER, EDGE_JOIN, MIN_EDGE_PIXELS
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 # Thinnest pen accepted, mm (fineliners go down to about this). Hatch spacing and the planning
 # grid follow the pen width: a 0.01 mm pen on A4 would mean tens of thousands of hatch lines per
@@ -115,19 +119,19 @@ class Style:
     stroke_width: float = 1.0
     texture: str | None = None
     edge_threshold: float | None = None
-    min_edge_pixels: int = 3
-    edge_join: float = 0.5
-    edge_clutter: float = 2.0
+    min_edge_pixels: int = MIN_EDGE_PIXELS
+    edge_join: float = EDGE_JOIN
+    edge_clutter: float = CLUTTER
     hatch: bool = True
-    hatch_angles: tuple[float, ...] = (0.0, 90.0, 45.0, -45.0)
-    hatch_coverage: float = 0.7
-    hatch_form: float = 8.0
-    hatch_blur: float = 1.0
-    min_hatch_run: float = 2.0
+    hatch_angles: tuple[float, ...] = HATCH_ANGLES
+    hatch_coverage: float = HATCH_COVERAGE
+    hatch_form: float = FORM_SCALE
+    hatch_blur: float = TONE_BLUR
+    min_hatch_run: float = MIN_HATCH_RUN
     hatch_join: float = 2.5
-    hatch_blank_below: float = 0.04
+    hatch_blank_below: float = BLANK_BELOW
     hatch_jitter: float = 0.0
-    order_rounds: int = 40
+    order_rounds: int = DEFAULT_ROUNDS
     seed: int = 0
 
 

@@ -51,12 +51,17 @@ from scipy.spatial import cKDTree
 from skimage.filters import apply_hysteresis_threshold
 from skimage.morphology import skeletonize
 
+from pencilbot.units import DEFAULT_PEN_WIDTH
+
 if TYPE_CHECKING:
     from pencilbot.imaging.strokes import LineDrawing
 
 N_DIRECTIONS = 8
 #: Darkness of the raster line drawing (0..1) from which the pen draws the stroke.
 PEN_DARKNESS = 0.45
+#: Fewest pixels of a contour that is drawn, and how far (mm) chained strokes may be apart to join.
+MIN_EDGE_PIXELS = 3
+EDGE_JOIN = 0.5
 #: Clutter (crossing contours × incoherence of their directions) above which strokes are texture.
 CLUTTER = 2.0
 #: Gaussian σ of the clutter window, in stroke lengths ℓ.
@@ -93,11 +98,11 @@ def edge_strokes(
     line: LineDrawing,
     layout,
     *,
-    pen_width: float = 0.5,
+    pen_width: float = DEFAULT_PEN_WIDTH,
     threshold: float | None = None,
-    min_pixels: int = 3,
+    min_pixels: int = MIN_EDGE_PIXELS,
     piece_length: float = 2.0,
-    join: float = 0.5,
+    join: float = EDGE_JOIN,
     clutter: float = CLUTTER,
 ) -> list[np.ndarray]:
     """Pen paths that redraw the GMED line drawing, one chain of strokes per contour.

@@ -46,7 +46,7 @@ def test_plan_honours_page_and_pen_width(camera_small):
 
 def test_export_gcode_lines_equal_the_written_file(camera_small, tmp_path):
     plan = pencilbot.plan(camera_small, page="A5")
-    lines = pencilbot.export_gcode(plan, "grbl-servo-a4")
+    lines = pencilbot.gcode(plan, "grbl-servo-a4")
     summary = pencilbot.export_gcode(plan, "grbl-servo-a4", tmp_path / "out.gcode")
     assert (tmp_path / "out.gcode").read_text().splitlines() == lines
     assert summary.paths == len(plan.paths())
@@ -54,7 +54,7 @@ def test_export_gcode_lines_equal_the_written_file(camera_small, tmp_path):
 
 
 def test_draw_delivers_every_line_once_to_the_virtual_plotter(camera_small):
-    lines = pencilbot.export_gcode(pencilbot.plan(camera_small, page="A5"), "grbl-servo-a4")
+    lines = pencilbot.gcode(pencilbot.plan(camera_small, page="A5"), "grbl-servo-a4")
     result = pencilbot.draw(lines, "sim://api-test")
     try:
         accepted = protocol_sim.plotter("api-test").firmware.accepted_lines()
@@ -75,3 +75,21 @@ def test_user_mistakes_raise_pencilbot_errors(tmp_path):
         pencilbot.sketch(data.camera()[::8, ::8], stroke_gamma=-1)
     with pytest.raises(ImageLoadError, match="pencil texture: .*x.png"):
         pencilbot.sketch(data.camera()[::8, ::8], texture=tmp_path / "x.png")
+
+
+def test_the_api_says_each_signature_once():
+    """``draw``'s options are the driver's (one signature, typed); export_gcode always writes,
+    and its old lines-without-a-path spelling still works for a release, with a warning."""
+    import inspect
+    import warnings
+
+    from pencilbot.driver import draw as driver_draw
+
+    assert inspect.signature(pencilbot.draw) == inspect.signature(driver_draw)
+    assert "on_error" in inspect.signature(pencilbot.draw).parameters
+    plan = pencilbot.plan(np.ones((40, 60)), page="A5")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        old = pencilbot.export_gcode(plan, "grbl-servo-a4")
+    assert old == pencilbot.gcode(plan, "grbl-servo-a4")
+    assert any(issubclass(w.category, DeprecationWarning) for w in caught)

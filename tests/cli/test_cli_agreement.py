@@ -30,7 +30,7 @@ def run_json(argv, capsys) -> dict:
 @pytest.mark.parametrize("name", list_profiles())
 def test_demo_stat_header_and_simulator_agree(name, photo, tmp_path, capsys):
     out = tmp_path / "demo"
-    demo = run_json(["demo", "--input", str(photo), "--out", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
+    demo = run_json(["demo", str(photo), "-o", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
     header = (out / "drawing.gcode").read_text()
     header_seconds = int(re.search(r"; estimated time: \d+:\d\d:\d\d \((\d+) s\)", header).group(1))
     header_up = float(re.search(r"; pen down [\d.]+ mm, pen up ([\d.]+) mm", header).group(1))

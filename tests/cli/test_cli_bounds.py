@@ -96,7 +96,7 @@ def test_a_render_bigger_than_memory_is_refused_before_it_is_allocated(tmp_path,
 
 @pytest.mark.parametrize("argv", [
     ["plan", "{photo}", "-o", "{out}", "--page", "3000x3000", "--pen-width", "50", "--preview", "{tmp}/p.png"],
-    ["demo", "--input", "{photo}", "--out", "{tmp}/demo", "--page", "3000x3000", "--pen-width", "50"],
+    ["demo", "{photo}", "-o", "{tmp}/demo", "--page", "3000x3000", "--pen-width", "50"],
 ])
 def test_a_page_whose_preview_would_not_fit_is_refused_before_planning(tmp_path, capsys, monkeypatch, argv):
     from PIL import Image

@@ -118,7 +118,7 @@ def test_demo_with_cmyk_plots_in_colour_close_to_the_colour_sketch(tmp_path, pho
     import json
 
     out = tmp_path / "demo"
-    assert main(["demo", "--input", str(photo), "--pens", "cmyk", "--page", "120x90", "--out", str(out), "--json"]) == 0
+    assert main(["demo", str(photo), "--pens", "cmyk", "--page", "120x90", "-o", str(out), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["pens"][-1] == "black" and set(summary["pens"]) <= {"yellow", "cyan", "magenta", "black"}
     assert summary["colour_delta_e00_3mm"] < 8.0

@@ -18,7 +18,7 @@ PROFILE = "grbl-servo-a4"
 
 
 def run_demo(out, capsys) -> dict:
-    assert main(["demo", "--out", str(out), "--json"]) == 0
+    assert main(["demo", "-o", str(out), "--json"]) == 0
     return json.loads(capsys.readouterr().out)
 
 
@@ -85,14 +85,14 @@ def test_demo_writes_valid_outputs_that_agree(tmp_path, capsys):
 def test_demo_with_a_broken_photo_is_one_clear_error(tmp_path, capsys):
     bad = tmp_path / "photo.jpg"
     bad.write_bytes(b"\xff\xd8\xff\xe0 not really a jpeg")
-    assert main(["demo", "--input", str(bad), "--out", str(tmp_path / "out")]) == 2
+    assert main(["demo", str(bad), "-o", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "photo.jpg" in err and "Traceback" not in err
     assert not (tmp_path / "out" / "drawing.gcode").exists()
 
 
 def test_demo_refuses_an_unknown_profile_before_any_work(tmp_path, capsys):
-    assert main(["demo", "--profile", "no-such-plotter", "--out", str(tmp_path / "o")]) == 2
+    assert main(["demo", "--profile", "no-such-plotter", "-o", str(tmp_path / "o")]) == 2
     assert "no-such-plotter" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 
@@ -102,7 +102,7 @@ def test_a_blank_photo_gives_valid_json_and_no_warning(tmp_path, capsys):
     # (which is not JSON), and without numpy's divide warning on stderr.
     blank = tmp_path / "blank.png"
     skio.imsave(blank, np.full((32, 48), 255, np.uint8), check_contrast=False)
-    assert main(["demo", "--input", str(blank), "--style", "outline", "--out", str(tmp_path / "o"), "--json"]) == 0
+    assert main(["demo", str(blank), "--style", "outline", "-o", str(tmp_path / "o"), "--json"]) == 0
     captured = capsys.readouterr()
     summary = json.loads(captured.out, parse_constant=lambda name: pytest.fail(f"{name} in JSON"))
     assert summary["paths"] == 0 and summary["plot_vs_preview_r"] is None

@@ -79,3 +79,28 @@ def test_a_mistake_is_one_plain_message(photo, tmp_path):
     assert done.returncode != 0
     assert "Traceback" not in done.stderr
     assert "no style named 'nonesuch'" in done.stderr and done.stderr.strip().count("\n") == 0
+
+
+def test_the_plugin_takes_the_plan_command_s_photo_options_declared_once():
+    """Every photo option of `pencilbot plan` (but its listings) is an option of the plugin, with
+    the same check: the plugin does not declare them a second time."""
+    import argparse
+
+    from pencilbot.commands.common import add_photo_options
+    from pencilbot.vpype_plugin import pencilbot as plugin
+
+    parser = argparse.ArgumentParser(add_help=False)
+    add_photo_options(parser)
+    cli = {flag for action in parser._actions for flag in action.option_strings if not flag.startswith("--list-")}
+    plugin_flags = {flag for param in plugin.params for flag in (*param.opts, *param.secondary_opts)}
+    assert cli <= plugin_flags and plugin_flags - cli <= {"--help", "photo"}
+
+
+def test_no_hatch_draws_only_the_edges_in_the_plugin_and_in_plan(photo, tmp_path):
+    done = vpype("pencilbot", "--no-hatch", str(photo), "write", "x.svg", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert main(["plan", str(photo), "--no-hatch", "-o", str(tmp_path / "p.svg"), "-q"]) == 0
+    assert [l.name for l in read_svg(tmp_path / "p.svg").layers] == ["edges"]
+    assert [l.name for l in read_svg(tmp_path / "x.svg").layers] == ["edges"]
+    bad = vpype("pencilbot", "--margin", "nan", str(photo), "stat", cwd=tmp_path)
+    assert bad.returncode != 0 and "--margin" in bad.stderr and "Traceback" not in bad.stderr

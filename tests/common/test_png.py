@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from PIL import Image
 
-from pencilbot.png import write_png_bands
+from pencilbot.render.png import write_png_bands
 
 
 @settings(max_examples=25, deadline=None)

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import pencilbot.render as canvas_module
+import pencilbot.render.coverage as coverage_module
 from pencilbot.errors import PencilbotError
 from pencilbot.render import Canvas, render_paths
 
@@ -150,7 +151,7 @@ def test_chunking_does_not_change_the_result(monkeypatch):
     paths[100:100] = [np.tile([[2.0, 2.0], [28.0, 28.0]], (20, 1)), np.tile([[2.0, 28.0], [28.0, 2.0]], (15, 1))]
     whole = render_paths(paths, 30, 30, dpi=100, pen_width=0.4)
     for chunk in (5000, 500, 50):
-        monkeypatch.setattr(canvas_module, "_CHUNK_CANDIDATES", chunk)
+        monkeypatch.setattr(coverage_module, "_CHUNK_CANDIDATES", chunk)
         np.testing.assert_allclose(render_paths(paths, 30, 30, dpi=100, pen_width=0.4), whole, atol=1e-6)
     once = render_paths([paths[100][:2]], 30, 30, dpi=100, pen_width=0.4)
     np.testing.assert_allclose(render_paths([paths[100]], 30, 30, dpi=100, pen_width=0.4), once, atol=1e-6)

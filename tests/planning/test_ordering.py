@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pencilbot.planning import ordering
+from pencilbot.planning import ordering, tour_ends, tour_search
 from pencilbot.planning.ordering import (
     greedy_order,
     join_touching,
@@ -225,8 +225,8 @@ def random_tour(seed, n):
     rng = np.random.default_rng(seed)
     ps = [rng.uniform(0, 100, 2) + np.cumsum(rng.normal(0, 3, (rng.integers(1, 4), 2)), 0) for _ in range(n)]
     first, last = ordering._path_ends(ps)
-    ends = ordering._Ends(first, last, (0.0, 0.0))
-    return ps, ordering._Tour(ends, ordering._greedy_matching(ends))
+    ends = tour_ends.Ends(first, last, (0.0, 0.0))
+    return ps, tour_search.Tour(ends, tour_ends.greedy_matching(ends))
 
 
 def tour_travel(ps, tour):
@@ -283,7 +283,7 @@ def test_short_paths_are_never_joined_even_when_they_touch():
 def test_interval_set_accepts_exactly_the_intervals_that_nest_or_stay_apart(size, proposed):
     """The 2-opt interval test against a direct check over every accepted interval (the block
     prefix XORs span several blocks once size > 16, and position 0 is the home's edge)."""
-    intervals, accepted = ordering._Intervals(size), []
+    intervals, accepted = tour_search.Intervals(size), []
     for a, b in proposed:
         a, b = sorted((a % size, b % size))
         used = {t for iv in accepted for t in iv}
