@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from firmware_protocol import ebb as protocol
+from pencilbot.driver.bed_check import arc_geometry
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted
@@ -145,7 +146,7 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     from pencilbot.driver.plot import DrawResult
 
     t0 = time.monotonic()
-    xy, down = _rows(job)
+    xy, down, rows_line = _rows(job)
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
@@ -153,7 +154,9 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         start = start if found is None else found
         plans = []  # each stretch between program pauses, planned from where the last one ends
         for a, b in _chunks(job, start, len(job)):
-            plans.append((a, plan_ebb(xy[a:b], down[a:b], np.arange(a, b), profile, start_steps=here, pen_down=pen_down)))
+            ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
+            plans.append((a, plan_ebb(xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile,
+                                      start_steps=here, pen_down=pen_down)))
             if plans[-1][1]:
                 here, pen_down = plans[-1][1][-1].end, plans[-1][1][-1].down
         total = sum(plan_seconds(moves) for _, moves in plans)
@@ -212,16 +215,38 @@ def _in_flight_seconds(sent: list[EbbMove]) -> float:
     return sum(m.seconds for m in sent[-EBB.in_flight:])
 
 
-def _rows(job) -> tuple[np.ndarray, np.ndarray]:
-    """Machine mm and pen state after every job line (as :mod:`pencilbot.driver.drawn` reads them)."""
+ARC_TOLERANCE = 0.002  # mm a chord of an arc may stray from it (GRBL's $12 default)
+
+
+def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Machine mm and pen state after every job line, and each row's job line: arcs (G2/G3)
+    become chords within :data:`ARC_TOLERANCE`, one row per chord end (as
+    :mod:`pencilbot.driver.drawn` reads the pen)."""
     if not len(job):
-        return np.zeros((0, 2)), np.zeros(0, bool)
-    states = job.states(0, len(job)).columns
-    scale = np.where(states["inches"], MM_PER_INCH, 1.0)
-    xy = np.column_stack([states["x"] * scale, states["y"] * scale])
-    down = states["pen_down"].astype(bool)
+        return np.zeros((0, 2)), np.zeros(0, bool), np.zeros(0, np.int64)
+    c = job.states(0, len(job)).columns
+    xy = np.column_stack([c["x_mm"], c["y_mm"]])
+    down = c["pen_down"].astype(bool)
     down &= np.cumsum(down != down[0]) > 0  # before the first pen command: up
-    return xy, down
+    lines = np.arange(len(job))
+    rows, centre, radius, a0, sweep, ccw = arc_geometry(
+        np.vstack([np.zeros(2), xy[:-1]]), xy, c, np.where(c["inches"], MM_PER_INCH, 1.0))
+    if not len(rows):
+        return xy, down, lines
+    with np.errstate(invalid="ignore"):
+        step = 2 * np.arccos(np.clip(1 - ARC_TOLERANCE / np.maximum(radius, ARC_TOLERANCE), -1, 1))
+    count = np.maximum(np.ceil(sweep / np.maximum(step, 1e-6)).astype(np.int64), 1)
+    extra = np.zeros(len(job), np.int64)
+    extra[rows] = count - 1  # points inside each arc, before its end
+    at = np.repeat(np.arange(len(job)), extra + 1)
+    out_xy = xy[at].copy()
+    first = np.cumsum(extra + 1) - (extra + 1)  # where each line's rows begin
+    for k, row in enumerate(rows.tolist()):
+        n = int(count[k])
+        turn = np.where(ccw[k], 1.0, -1.0) * sweep[k] * np.arange(1, n) / n
+        angle = a0[k] + turn
+        out_xy[first[row]: first[row] + n - 1] = centre[k] + radius[k] * np.column_stack([np.cos(angle), np.sin(angle)])
+    return out_xy, down[at], lines[at]
 
 
 def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:

@@ -210,8 +210,8 @@ def test_plan_moves_never_shorter_than_the_boards_minimum(coffee):
 
     _, profile, path, _ = coffee
     job = load_job(path, profile)
-    xy, down = _rows(job)
-    moves = plan_ebb(xy, down, np.arange(len(job)), profile)
+    xy, down, lines = _rows(job)
+    moves = plan_ebb(xy, down, lines, profile)
     lm = [m.seconds for m in moves if m.command.startswith("LM")]
     assert min(lm) >= profile.ebb.min_move_ms / 1000 - 1e-9
 
@@ -303,3 +303,20 @@ def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
         assert done.returncode == 0, done.stderr
     plotter.firmware.finish()
     assert drawing_differences(list(plotter.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
+
+
+def test_arcs_from_other_tools_are_drawn_as_arcs(name, tmp_path):
+    """G2/G3 by I J and by R, as another tool writes them: the pen follows the circle."""
+    job = tmp_path / "arcs.gcode"
+    job.write_text("G21\nG90\nM280 P0 S60\nG0 X60 Y50\nM280 P0 S30\nG2 X60 Y50 I20 J0 F3000\n"
+                   "G3 X100 Y50 R20\nM280 P0 S60\nG0 X0 Y0\n")
+    pencilbot.draw(job, f"sim://{name}", profile=PROFILE)
+    board = protocol_sim.plotter(name)
+    board.firmware.finish()
+    (stroke,) = list(board.drawn())
+    # Both arcs lie on the circle of centre (80, 50), radius 20 (the R arc's centre computed as GRBL does).
+    assert np.allclose(np.hypot(stroke[:, 0] - 80, stroke[:, 1] - 50), 20, atol=0.02)
+    angles = np.degrees(np.arctan2(stroke[:, 1] - 50, stroke[:, 0] - 80))
+    assert np.ptp(angles) > 350 and len(stroke) > 100  # all the way round, in many chords
+    length = float(np.hypot(*np.diff(stroke, axis=0).T).sum())
+    assert length == pytest.approx(2 * np.pi * 20 + np.pi * 20, abs=0.1)  # a circle, then half of one
