@@ -206,8 +206,9 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
 
 def _oldest_in_flight(acked: int) -> int:
     """The oldest command that may not have finished: the board answers a motion command once
-    it is in the FIFO, so of those answered only the last ``in_flight - 1`` can still run."""
-    return max(acked - (EBB.in_flight - 1), 0)
+    it is in the FIFO, so when ``acked`` was answered the FIFO's ``fifo_depth`` commands before
+    it had moved on to the motors, and all but the last of those had run."""
+    return max(acked - EBB.fifo_depth, 0)
 
 
 def _in_flight_seconds(sent: list[EbbMove]) -> float:
