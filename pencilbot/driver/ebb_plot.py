@@ -21,6 +21,7 @@ import shlex
 import signal
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -33,7 +34,7 @@ from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
 from pencilbot.firmware.ebb import EBB, MICROSTEPS
-from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb, plan_seconds
+from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
 from pencilbot.units import MM_PER_INCH
 
 POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
@@ -131,7 +132,7 @@ class _Stop:
 
 
 def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = DEFAULT_BAUD,
-             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None):
+             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None):
     """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
 
     Returns
@@ -152,14 +153,8 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     try:
         here, pen_down, found = _wake(link, profile, job, resumed)
         start = start if found is None else found
-        plans = []  # each stretch between program pauses, planned from where the last one ends
-        for a, b in _chunks(job, start, len(job)):
-            ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
-            plans.append((a, plan_ebb(xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile,
-                                      start_steps=here, pen_down=pen_down)))
-            if plans[-1][1]:
-                here, pen_down = plans[-1][1][-1].end, plans[-1][1][-1].down
-        total = sum(plan_seconds(moves) for _, moves in plans)
+        work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down)
+        total = sum(item.seconds for item in work if isinstance(item, EbbMove))
         bar = Progress(progress, len(job) - start, total)
         if journal is not None:
             journal.status, journal.message = "running", ""
@@ -170,21 +165,27 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         checked = time.monotonic()
         try:
             with _stop_signals():
-                for a, moves in plans:
-                    if a in job.pauses and a >= start and sent:
-                        link.wait_idle(timeout + 60)
-                        _pause(link, operator, bar, job.pauses[a] or "program pause (M0)")
-                    for move in moves:
-                        if link.watch_power and time.monotonic() > checked + POWER_CHECK:
-                            checked = time.monotonic()
-                            link.status()
-                            if link.power_lost:
-                                raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
-                        sent.append(move)
-                        link.command(move.command, wait=timeout + 2 * _in_flight_seconds(sent))
-                        acked = len(sent) - 1
-                        done_seconds += move.seconds
-                        bar.update(move.line + 1 - start, done_seconds, "Run")
+                while work:
+                    item = work.popleft()
+                    if not isinstance(item, EbbMove):  # a program pause (pen change) before job line item
+                        if sent:
+                            link.wait_idle(timeout + 60)
+                            _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
+                        continue
+                    if link.watch_power and time.monotonic() > checked + POWER_CHECK:
+                        checked = time.monotonic()
+                        link.status()
+                        if link.power_lost:
+                            raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+                    if keys is not None and _keys_say_pause(keys):
+                        stop = _hold(link, sent, acked, profile, operator, keys, bar)
+                        work = _plan_from(job, xy, down, rows_line, profile, stop.index, stop.steps, None)
+                        continue
+                    sent.append(item)
+                    link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent))
+                    acked = len(sent) - 1
+                    done_seconds += item.seconds
+                    bar.update(item.line + 1 - start, done_seconds, "Run")
                 link.wait_idle(timeout + 2 * _in_flight_seconds(sent) + 5)
                 if link.power_lost:  # seen while waiting for the last moves
                     raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
@@ -248,6 +249,47 @@ def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         angle = a0[k] + turn
         out_xy[first[row]: first[row] + n - 1] = centre[k] + radius[k] * np.column_stack([np.cos(angle), np.sin(angle)])
     return out_xy, down[at], lines[at]
+
+
+def _plan_from(job, xy, down, rows_line, profile, first: int, here, pen_down) -> deque:
+    """The commands from job line ``first`` on, from motor position ``here``: the stretches
+    between program pauses planned one after the other, each pause (its job line) in between."""
+    work: deque = deque()
+    for a, b in _chunks(job, first, len(job)):
+        if a in job.pauses:
+            work.append(a)
+        ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
+        moves = plan_ebb(xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile, start_steps=here, pen_down=pen_down)
+        work.extend(moves)
+        if moves:
+            here, pen_down = moves[-1].end, moves[-1].down
+    return work
+
+
+def _keys_say_pause(keys) -> bool:
+    """The terminal's keys: the stop key stops (as Ctrl-C), the pause key asks for a hold."""
+    requests = keys.poll()
+    if "stop" in requests:
+        raise Interrupted("the stop key")
+    return "pause" in requests
+
+
+def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, keys, bar) -> _Stop:
+    """The pause key: stop at once (ES), lift the pen, find where from the step counters, and
+    wait for the operator (or the pause key again); the job goes on from that very point."""
+    link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent))
+    link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+    link.wait_idle(5)
+    stop = _locate(link.steps(), sent, acked, profile)
+    if stop is None:
+        raise EbbFault("after the pause the step counters are on none of the moves sent")
+    bar.show_state("paused: the pause key")
+    if operator is not None:
+        operator.pause("paused: the pause key")
+    else:
+        while not _keys_say_pause(keys):
+            time.sleep(0.05)
+    return stop
 
 
 def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:

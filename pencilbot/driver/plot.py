@@ -161,7 +161,7 @@ def draw(
         from pencilbot.driver.ebb_plot import draw_ebb
 
         return draw_ebb(job, machine, port, journal, start=start, resumed=journal if resume is not None else None,
-                        baud=baud, progress=progress, timeout=timeout, operator=operator)
+                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys)
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     link = LineReader(open_port(port, baudrate=baud))

@@ -16,7 +16,6 @@ plan's.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -220,7 +219,3 @@ def _rescale(r0: int, r1: int, mean: float) -> tuple[int, int]:
     cap = protocol.ACCUMULATOR - 1
     return min(max(r0, 1), cap), min(max(r1, 1), cap)
 
-
-def plan_seconds(moves: list[EbbMove]) -> float:
-    """Planned time of a list of moves, s."""
-    return math.fsum(m.seconds for m in moves)

@@ -320,3 +320,25 @@ def test_arcs_from_other_tools_are_drawn_as_arcs(name, tmp_path):
     assert np.ptp(angles) > 350 and len(stroke) > 100  # all the way round, in many chords
     length = float(np.hypot(*np.diff(stroke, axis=0).T).sum())
     assert length == pytest.approx(2 * np.pi * 20 + np.pi * 20, abs=0.1)  # a circle, then half of one
+
+
+class _Keys:
+    """The terminal's keys: the pause key pressed once, at the ``at``-th look."""
+
+    def __init__(self, at):
+        self.at, self.looks = at, 0
+
+    def poll(self):
+        self.looks += 1
+        return ["pause"] if self.looks == self.at else []
+
+
+def test_the_pause_key_holds_mid_stroke_and_goes_on_from_the_very_point(coffee, clean, name):
+    _, _, path, reference = coffee
+    operator = _Operator(name)
+    pencilbot.draw(path, f"sim://{name}?profile={PROFILE}", profile=PROFILE, operator=operator, keys=_Keys(900))
+    assert [prompt for prompt, _, _ in operator.seen] == ["paused: the pause key"]
+    assert all(pen_up and idle for _, pen_up, idle in operator.seen)  # held: the pen up, nothing moving
+    board = protocol_sim.plotter(name)
+    board.firmware.finish()
+    assert drawing_differences(list(board.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
