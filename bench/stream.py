@@ -17,8 +17,15 @@ its one buffer of lines and its arrays), for ``draw`` of the file and for ``simu
 streaming all of it to the instant virtual plotter (simulator included). Targets: preparation
 ≤ 1 s and ≤ 60 MB; ≤ 120 bytes per line; CPU no worse than 65 ms per 1 000 lines.
 
-Run: ``python bench/stream.py [--segments 2000] [--strokes 100000]`` (0 skips a case). Timings on a
-shared 2-core machine are noisy.
+EBB profiles (``--profile axidraw-v3``): the same 2 000-segment drawing, planned on the host and
+sent as LM/SP commands one at a time to the virtual EBB in real time (its FIFO one deep: three
+commands in flight). ``ratio`` = wall time / the board's busy time (the sum of what its motion
+queue ran), target ≤ 1.02; ``gaps`` = idle stretches of the board between motion commands once
+the job started (a starved queue), which must be none; ``shortest_move_ms`` the shortest command
+the host sent (the board's minimum for LM moves without a gap is 4 ms).
+
+Run: ``python bench/stream.py [--segments 2000] [--strokes 100000] [--profile NAME]`` (0 skips a
+case; the large case runs for GRBL profiles). Timings on a shared 2-core machine are noisy.
 """
 
 from __future__ import annotations
@@ -48,17 +55,18 @@ def drawing_lines(segments: int, per_path: int = 20, seed: int = 0) -> list[str]
     """G-code for ``segments`` pen-down segments of 1–2 mm in random-walk paths of ``per_path``,
     each path starting a few mm from the last (like ordered pencil strokes)."""
     profile = load_profile(PROFILE)
+    top_x, top_y = min(200.0, profile.bed.width - 10), min(290.0, profile.bed.height - 10)
     rng = np.random.default_rng(seed)
     up, down = profile.render(profile.pen.up_command), profile.render(profile.pen.down_command)
     lines = ["G21", "G90", *up]
-    x, y = 100.0, 150.0
+    x, y = 100.0, min(150.0, top_y / 2)
     for _ in range(math.ceil(segments / per_path)):
-        x, y = float(np.clip(x + rng.uniform(-6, 6), 10, 200)), float(np.clip(y + rng.uniform(-6, 6), 10, 290))
+        x, y = float(np.clip(x + rng.uniform(-6, 6), 10, top_x)), float(np.clip(y + rng.uniform(-6, 6), 10, top_y))
         lines.append(f"G0 X{x:.3f} Y{y:.3f}")
         lines.extend(down)
         for _ in range(per_path):
             angle, step = rng.uniform(0, 2 * np.pi), rng.uniform(1, 2)
-            x, y = float(np.clip(x + step * np.cos(angle), 10, 200)), float(np.clip(y + step * np.sin(angle), 10, 290))
+            x, y = float(np.clip(x + step * np.cos(angle), 10, top_x)), float(np.clip(y + step * np.sin(angle), 10, top_y))
             lines.append(f"G1 X{x:.3f} Y{y:.3f} F{profile.motion.draw_feed:.0f}")
         lines.extend(up)
     return lines
@@ -142,11 +150,20 @@ def until_first_byte(gcode, *, traced: bool) -> tuple[float, int, int]:
 
 
 def main() -> None:
+    global PROFILE
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--segments", type=int, default=2000, help="real-time streaming case (0: skip)")
     parser.add_argument("--strokes", type=int, default=100_000, help="large job case (0: skip)")
+    parser.add_argument("--profile", default=PROFILE, help=f"plotter profile (default {PROFILE}); an EBB one "
+                        "(e.g. axidraw-v3) measures host-planned streaming to the virtual EBB")
     args = parser.parse_args()
-    report = {}
+    PROFILE = args.profile
+    report = {"profile": PROFILE}
+    if load_profile(PROFILE).firmware.capabilities.host_motion:
+        if args.segments:
+            report.update(realtime_ebb(args.segments))
+        print(json.dumps(report, indent=1))
+        return
     if args.segments:
         report.update(realtime(args.segments))
     if args.strokes:
@@ -176,6 +193,69 @@ def realtime(segments: int) -> dict:
         "note": "wall = whole draw() incl. wake; motion = the plotter's simulated clock; the simulator "
                 "runs in the same process, so CPU includes it (an upper bound); shared 2-core machine",
     }
+
+
+def realtime_ebb(segments: int) -> dict:
+    """The 2 000-segment case on an EBB board: host-planned LM moves, three in flight, real time."""
+    from sim import protocol_sim
+
+    lines = drawing_lines(segments)
+    sent = []
+    original = LineReader.write
+
+    def spy(reader, data):
+        sent.append(data)
+        return original(reader, data)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "bench.gcode"
+        path.write_text("\n".join(lines) + "\n")
+        name = f"bench-ebb-{time.monotonic_ns()}"
+        LineReader.write = spy
+        try:
+            wall0, cpu0 = time.perf_counter(), time.process_time()
+            draw(path, f"sim://{name}?profile={PROFILE}&realtime=1", profile=PROFILE, progress="quiet")
+            wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+        finally:
+            LineReader.write = original
+        board = protocol_sim.plotter(name)
+        busy, gaps = board.busy_seconds, board.firmware.gaps  # idle stretches once the first move ran
+        protocol_sim.forget(name)
+    profile = load_profile(PROFILE)
+    moves = [d for d in sent if d[:3] in (b"LM,", b"SP,")]
+    shortest = _shortest_lm_ms(moves)
+    return {
+        "segments": segments,
+        "lines": len(lines),
+        "commands": len(moves),
+        "wall_s": round(wall, 2),
+        "busy_s": round(busy, 2),
+        "ratio": round(wall / busy, 4),
+        "target": 1.02,
+        "met": wall / busy <= 1.02,
+        "gaps": len([g for g in gaps if g > 0]),
+        "longest_gap_ms": round(1000 * max(gaps, default=0.0), 3),
+        "shortest_move_ms": shortest,
+        "board_minimum_ms": profile.ebb.min_move_ms,
+        "cpu_s": round(cpu, 2),
+        "note": "wall = whole draw() incl. wake and set-up; busy = what the board's motion queue ran "
+                "(its clock at 25 kHz ticks); simulator in the same process; shared 2-core machine",
+    }
+
+
+def _shortest_lm_ms(commands: list[bytes]) -> float:
+    """Duration of the shortest LM among ``commands`` (from its words, as the board runs it), ms."""
+    from firmware_protocol import ebb
+
+    shortest = math.inf
+    for data in commands:
+        if not data.startswith(b"LM,"):
+            continue
+        words = [int(w) for w in data[3:].strip().split(b",")]
+        ticks = max(ebb.lm_ticks(abs(words[3 * i + 1]), words[3 * i], words[3 * i + 2]) if words[3 * i + 1] else 0
+                    for i in range(2))
+        shortest = min(shortest, ticks * ebb.TICK * 1000)
+    return round(shortest, 3)
 
 
 if __name__ == "__main__":

@@ -131,10 +131,11 @@ def simulated_profile(name_or_path: str) -> Profile:
 
 def check_simulated(profile: Profile) -> None:
     """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
-    if not profile.firmware.capabilities.realtime_protocol and not getattr(profile.firmware, "sim_board", None):
+    if not (profile.firmware.capabilities.realtime_protocol or profile.firmware.capabilities.host_motion
+            or getattr(profile.firmware, "sim_board", None)):
         raise ProfileError(
             f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
-            "GRBL's protocol only (GRBL 1.1, grblHAL): use such a profile (e.g. grbl-servo-a4)"
+            "GRBL's protocol (GRBL 1.1, grblHAL) and the EBB's: use such a profile (e.g. grbl-servo-a4)"
         )
 
 
@@ -291,6 +292,10 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
+    if profile.firmware.capabilities.host_motion:  # an EBB board: the firmware is chosen by the profile
+        from sim.ebb_plotter import VirtualEbb
+
+        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator)
     if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
         from sim.hpgl_plotter import HpglPlotter
 

@@ -132,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
 
         draw(gcode_path, args.port, profile=args.profile, progress=_progress(args))
         step.done(f"streamed to {args.port}", started)
-    elif profile.firmware.capabilities.realtime_protocol or hpgl:
+    elif profile.firmware.capabilities.realtime_protocol or hpgl or profile.firmware.capabilities.host_motion:
         placement = SheetPlacement.of(page, profile) if hpgl else Placement.on_bed(page, profile.bed)
         simulated, simulated_up, agreement = _simulate(args, gcode_path, placement, preview, out)
         step.done("plot.png: what the virtual plotter drew", started)

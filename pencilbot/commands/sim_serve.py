@@ -30,7 +30,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
         ),
     )
-    add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
+    add_profile_option(parser, "GRBL, grblHAL, HP-GL or EBB (axidraw-v3, ...) plotter profile")
     add_realtime_option(parser)
     parser.add_argument("--baud", type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"), default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
@@ -72,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"{exc}; see pencilbot sim-serve --help") from None
     if args.output:  # checked now, not on exit: a session's drawing must not be lost to a typo
         check_render(plotter.profile.bed.width, plotter.profile.bed.height, args.dpi, DEFAULT_PEN_WIDTH)
-    server = PtyServer(plotter, reset_on_open=not args.no_reset,
+    resets = getattr(plotter.firmware, "resets_on_open", True)  # an EBB (USB CDC) does not reset on open
+    server = PtyServer(plotter, reset_on_open=not args.no_reset and resets,
                        on_new_path=lambda path: print(path, flush=True))
     print(server.path, flush=True)
     # A closed terminal or a kill ends the session like Ctrl-C does: the drawing is saved.

@@ -94,22 +94,34 @@ def check_on_bed(job: Job) -> None:
     _refuse(job, index, x, y, reaches=reaches)
 
 
-def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray) -> np.ndarray:
-    """``(N, 4, 2)`` mm: where each arc line's arc crosses +X, +Y, −X, −Y of its centre; NaN
-    where a line is no arc or its arc does not get there."""
-    n = len(end)
-    out = np.full((n, 4, 2), np.nan)
+def arc_geometry(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray):
+    """The arcs among job lines (G2/G3 in the XY plane) as GRBL draws them.
+
+    Parameters
+    ----------
+    start, end : (N, 2) arrays
+        Machine mm before and after each line.
+    c : dict of arrays
+        The lines' modal columns (``arc``, ``i``, ``j``, ``r``).
+    scale : (N,) array
+        mm per unit of each line (25.4 in inch mode).
+
+    Returns
+    -------
+    rows, centre, radius, a0, sweep, ccw
+        The arc lines' indices; per arc its centre (mm), radius (mm), start angle and sweep
+        (rad, > 0; a full circle when start and end coincide) and whether it runs
+        counter-clockwise (G3). The centre is given by ``I J`` offsets or computed from ``R``
+        as GRBL does (negative R: the longer way round).
+    """
     arc = c["arc"]
     # An arc line names its centre (a modal arc without one is an error the board reports).
     has_centre = ~np.isnan(c["i"]) | ~np.isnan(c["j"]) | ~np.isnan(c["r"])
     rows = np.flatnonzero((arc > 0) & has_centre)
-    if not len(rows):
-        return out
     p0, p1, k = start[rows], end[rows], scale[rows]
     ccw = arc[rows] == 3
     r_word = c["r"][rows] * k
     by_radius = ~np.isnan(r_word)
-    # Centre by offsets, or by radius as GRBL computes it (negative R: the longer way round).
     centre = p0 + np.column_stack([np.nan_to_num(c["i"][rows]), np.nan_to_num(c["j"][rows])]) * k[:, None]
     d = p1 - p0
     chord = np.hypot(d[:, 0], d[:, 1])
@@ -124,6 +136,16 @@ def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], 
     a1 = np.arctan2(*(p1 - centre).T[::-1])
     full = np.where(ccw, a1 - a0, a0 - a1) % (2 * np.pi)
     sweep = np.where(np.isclose(full, 0.0, atol=1e-9), 2 * np.pi, full)  # same start and end: a circle
+    return rows, centre, radius, a0, sweep, ccw
+
+
+def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray) -> np.ndarray:
+    """``(N, 4, 2)`` mm: where each arc line's arc crosses +X, +Y, −X, −Y of its centre; NaN
+    where a line is no arc or its arc does not get there."""
+    out = np.full((len(end), 4, 2), np.nan)
+    rows, centre, radius, a0, sweep, ccw = arc_geometry(start, end, c, scale)
+    if not len(rows):
+        return out
     axes = np.arange(4) * (np.pi / 2)
     along = np.where(ccw[:, None], axes[None, :] - a0[:, None], a0[:, None] - axes[None, :]) % (2 * np.pi)
     reached = along <= sweep[:, None]

@@ -22,7 +22,7 @@ from pencilbot.driver import journal as journal_mod
 from pencilbot.driver import position
 from pencilbot.driver.bed_check import check_on_bed, check_resumable
 from pencilbot.driver.job import Job, load_job
-from pencilbot.driver.port import LineReader, open_port
+from pencilbot.driver.port import LineReader, open_port, sim_url
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.resume import flight_start, locate_stop, resume_preamble
 from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted, Stream, StreamFault
@@ -169,8 +169,14 @@ def draw(
         )
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
-        journal.options = {"baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
+        journal.options = {**(journal.options or {}),  # (an EBB stop keeps its step counters here)
+                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
 
+    if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
+        from pencilbot.driver.ebb_plot import draw_ebb
+
+        return draw_ebb(job, machine, sim_url(port, profile), journal, start=start, resumed=journal if resume is not None else None,
+                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys)
     runner = _Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     runner.on_progress = on_progress

@@ -35,7 +35,9 @@ class PortLost(Exception):
     """The port stopped working (unplugged, pty closed, socket dropped)."""
 
 
-def _sim_with_profile(url: str, profile: str | None) -> str:
+def sim_url(url: str, profile: str | None) -> str:
+    """``url``; a ``sim://`` URL that names no profile with ``profile=`` added, so the virtual
+    plotter plays the board of the profile being drawn with (GRBL, grblHAL, HP-GL or EBB)."""
     if not url.startswith("sim://") or profile is None or "profile=" in url:
         return url
     return f"{url}{'&' if '?' in url else '?'}profile={quote(str(profile), safe='')}"
@@ -66,7 +68,7 @@ def open_port(url: str, *, baudrate: int = DEFAULT_BAUD, profile: str | None = N
         The port does not exist, is in use by another program, or the URL is malformed.
     """
     try:
-        port = serial.serial_for_url(_sim_with_profile(url, profile), baudrate=baudrate, timeout=READ_SLICE,
+        port = serial.serial_for_url(sim_url(url, profile), baudrate=baudrate, timeout=READ_SLICE,
                                      write_timeout=10, exclusive=True)
         _hold_exclusively(port)
         return port

@@ -8,13 +8,13 @@ protocol to speak) look a firmware up here by a profile's ``dialect`` and never 
 from __future__ import annotations
 
 from pencilbot.firmware.base import Firmware
+from pencilbot.firmware.ebb import EBB
 from pencilbot.firmware.grbl import GRBL
 from pencilbot.firmware.grblhal import GRBLHAL
 from pencilbot.firmware.hpgl import HPGL
 from pencilbot.firmware.marlin import MARLIN
 
-REGISTRY: dict[str, Firmware] = {firmware.name: firmware for firmware in (GRBL, GRBLHAL, MARLIN)}
-REGISTRY[HPGL.name] = HPGL
+REGISTRY: dict[str, Firmware] = {firmware.name: firmware for firmware in (GRBL, GRBLHAL, MARLIN, HPGL, EBB)}
 
 
 def names() -> tuple[str, ...]:

@@ -78,6 +78,9 @@ class Capabilities:
     realtime_protocol : bool
         Speaks GRBL's realtime protocol (``?`` ``!`` ``~`` 0x18, ``<…>`` reports): what the
         virtual plotter emulates.
+    host_motion : bool
+        Takes no G-code: the host plans every move and sends the board step commands (EBB);
+        the driver translates a job's pen-down and pen-up moves for it.
     """
 
     status_reports: bool = False
@@ -87,6 +90,7 @@ class Capabilities:
     unlock: bool = False
     line_numbers: bool = False
     realtime_protocol: bool = False
+    host_motion: bool = False
 
 
 class Firmware:

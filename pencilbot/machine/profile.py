@@ -71,6 +71,7 @@ from pencilbot import schema
 from pencilbot.configs_io import config_names, read_config_table, user_setting
 from pencilbot.errors import ProfileError
 from pencilbot.firmware.base import Firmware
+from pencilbot.firmware.ebb import EbbSetup
 from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
 from pencilbot.machine.motion import Motion
 from pencilbot.machine.pen import PEN_KINDS, PenModel
@@ -143,6 +144,7 @@ class Profile:
     pen_change: PenChange = PenChange()
     paper: Paper = Paper()
     source: str = "<profile>"
+    ebb: EbbSetup = EbbSetup()  # an EBB machine's steps and servo ([ebb]); unused by others
 
     @cached_property
     def pen_model(self) -> PenModel:
@@ -247,6 +249,16 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
             "a list of two numbers, machine X and Y in mm",
             lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
             lambda value: (float(value[0]), float(value[1]))),
+    }),
+    "ebb": (EbbSetup, {
+        "kinematics": schema.choice(("corexy", "xy")),
+        "steps_per_mm": schema.number(0, 1e5, above=True, unit="motor steps per mm", as_given=True),
+        "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
+        "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
+        "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
+        "servo_rate_up": schema.whole(0, 65535, "servo units per 24 ms"),
+        "servo_rate_down": schema.whole(0, 65535, "servo units per 24 ms"),
+        "min_move_ms": schema.number(0, 100, unit="ms", as_given=True),
     }),
 }
 

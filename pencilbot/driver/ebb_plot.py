@@ -1,0 +1,469 @@
+"""Drawing a job on an EBB board (AxiDraw, NextDraw, iDraw): plan on the host, send step commands.
+
+The job's pen-down and pen-up moves (any G-code: pencilbot's own or another tool's; its modal
+state read by :mod:`pencilbot.driver.modal` with the profile's pen) become ``LM`` and ``SP``
+commands (:mod:`pencilbot.machine.ebb_motion`), sent one at a time: the board answers a motion
+command once it is in its FIFO, so with one command running, one waiting and one being parsed
+the motors never starve (the three in flight of :class:`pencilbot.firmware.ebb.Ebb`).
+
+What ran is read back, not guessed: a stop (Ctrl-C, SIGTERM, a refused command, a pause key)
+sends ``ES`` (stop now, flush the FIFO), lifts the pen, and reads the step counters (``QS``); the
+command whose segment holds that position is where the job stopped, and the journal keeps the
+position. A resume trusts the board only if its counters still read that position and ``QG``
+reports no loss of power; otherwise it refuses until the carriage is put back home.
+Both reply syntaxes are read (a board left in "future syntax", ``CU,10,1``, is recognised from
+its ``QG`` reply).
+"""
+
+from __future__ import annotations
+
+import shlex
+import signal
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from firmware_protocol import ebb as protocol
+from pencilbot.driver.bed_check import arc_geometry
+from pencilbot.driver.port import LineReader, PortLost, open_port
+from pencilbot.driver.progress import Progress
+from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted
+from pencilbot.errors import PlotError
+from pencilbot.firmware.base import DEFAULT_BAUD
+from pencilbot.firmware.ebb import EBB, MICROSTEPS
+from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
+from pencilbot.units import MM_PER_INCH
+
+POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
+POWER_CHECK = 0.5  # s between QG queries while streaming (one extra round trip each)
+_STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
+
+
+class EbbFault(Exception):
+    """The board refused a command, went silent or the port was lost."""
+
+
+class EbbLink:
+    """Commands and their replies over a port, in whichever syntax the board is in."""
+
+    def __init__(self, reader: LineReader, timeout: float):
+        self.reader, self.timeout = reader, timeout
+        self.future = False
+        self.power_lost = False
+        self.watch_power = False  # CU,60 set: QG's bit 6 means something
+        self.pending: str | None = None  # the command whose answer is still to be read
+        self._got: list[str] = []
+        self._lines: list[str] = []
+
+    def command(self, text: str, wait: float | None = None) -> protocol.Reply:
+        """Send one command and read its whole reply (a motion command's comes once the FIFO
+        has room: ``wait`` bounds that, default the link's timeout)."""
+        self.pending, self._got = text, []  # kept if an interrupt cuts the wait short
+        self.reader.write(text.encode("ascii") + b"\r")
+        return self._receive(wait)
+
+    def _receive(self, wait: float | None) -> protocol.Reply:
+        text = self.pending
+        name = text.split(",")[0].upper()
+        want = protocol.reply_lines(name, future=self.future)
+        deadline = time.monotonic() + (wait if wait is not None else self.timeout)
+        while len(self._got) < want:
+            if not self._lines:
+                self._lines = self.reader.read_lines()
+                if not self._lines:
+                    if time.monotonic() > deadline:
+                        self.pending = None  # its answer is lost: later answers are other commands'
+                        raise EbbFault(f"the board did not answer {text[:24]} within {self.timeout:g} s")
+                    continue
+            line = self._lines.pop(0)
+            if not protocol.plausible(name, line, future=self.future):
+                continue  # noise on the line (a glitch, another program's echo): not an answer
+            self._got.append(line)
+            if "Err:" in line:
+                break
+        lines, self.pending = self._got, None
+        self.last_lines = lines
+        reply = protocol.read_reply(name, lines, future=self.future)
+        if reply.error:
+            raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
+        return reply
+
+    def stop_now(self, wait: float) -> None:
+        """ES at once, even while a command is still waiting for its answer (the board reads ES
+        right after it): that answer first, then ES's."""
+        cut_short = self.pending
+        self.reader.write(b"ES\r")
+        if cut_short is not None:
+            try:
+                self._receive(wait)
+            except EbbFault:
+                self.pending = None  # refused or silent: ES's own answer follows all the same
+        self.pending, self._got = "ES", []
+        self._receive(None)
+
+    def status(self) -> int:
+        """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
+        value = int(self.command("QG").data, 16)
+        self.power_lost = self.power_lost or bool(value & protocol.QG_POWER_LOST)
+        return value
+
+    def steps(self) -> tuple[int, int]:
+        """The motors' step counters (QS)."""
+        a, b = self.command("QS").data.split(",")[:2]
+        return int(a), int(b)
+
+    def wait_idle(self, limit: float) -> None:
+        """Until no command runs and the FIFO is empty (QG's low four bits clear)."""
+        deadline = time.monotonic() + limit
+        while self.status() & 0x0F:
+            if time.monotonic() > deadline:
+                raise EbbFault(f"the board was still moving after {limit:.0f} s")
+            time.sleep(0.005)
+
+
+@dataclass
+class _Stop:
+    index: int  # job line to resume from
+    steps: tuple[int, int]
+    xy: tuple[float, float]
+
+
+def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = DEFAULT_BAUD,
+             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None):
+    """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
+
+    Returns
+    -------
+    pencilbot.driver.plot.DrawResult
+
+    Raises
+    ------
+    PlotError
+        Any fault, with where the job stopped and how to resume it.
+    """
+    from pencilbot.driver.plot import DrawResult
+
+    t0 = time.monotonic()
+    xy, down, rows_line = _rows(job)
+    reader = LineReader(open_port(port, baudrate=baud))
+    link = EbbLink(reader, timeout)
+    try:
+        here, pen_down, found = _wake(link, profile, job, resumed)
+        start = start if found is None else found
+        work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down)
+        total = sum(item.seconds for item in work if isinstance(item, EbbMove))
+        bar = Progress(progress, len(job) - start, total)
+        if journal is not None:
+            journal.status, journal.message = "running", ""
+            journal.save()
+        sent: list[EbbMove] = []
+        acked = -1
+        done_seconds = 0.0
+        checked = time.monotonic()
+        try:
+            with _stop_signals():
+                while work:
+                    item = work.popleft()
+                    if not isinstance(item, EbbMove):  # a program pause (pen change) before job line item
+                        if sent:
+                            link.wait_idle(timeout + 60)
+                            _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
+                        continue
+                    if link.watch_power and time.monotonic() > checked + POWER_CHECK:
+                        checked = time.monotonic()
+                        link.status()
+                        if link.power_lost:
+                            raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+                    if keys is not None and _keys_say_pause(keys):
+                        stop = _hold(link, sent, acked, profile, operator, keys, bar)
+                        work = _plan_from(job, xy, down, rows_line, profile, stop.index, stop.steps, None)
+                        continue
+                    sent.append(item)
+                    link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent))
+                    acked = len(sent) - 1
+                    done_seconds += item.seconds
+                    bar.update(item.line + 1 - start, done_seconds, "Run")
+                link.wait_idle(timeout + 2 * _in_flight_seconds(sent) + 5)
+                if link.power_lost:  # seen while waiting for the last moves
+                    raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+        except (Interrupted, EbbFault, PortLost) as exc:
+            message = _stop(link, exc, sent, acked, job, profile, journal, port)
+            bar.close("stopped", message)
+            raise PlotError(message) from None
+        bar.update(len(job) - start, total, "Idle")
+        bar.close("done")
+        if journal is not None:
+            journal.path.unlink(missing_ok=True)
+        return DrawResult(lines_sent=len(job) - start, seconds=time.monotonic() - t0)
+    finally:
+        try:
+            reader.port.close()
+        except Exception:  # noqa: BLE001 - a vanished port may fail to close
+            pass
+
+
+def _oldest_in_flight(acked: int) -> int:
+    """The oldest command that may not have finished: the board answers a motion command once
+    it is in the FIFO, so when ``acked`` was answered the FIFO's ``fifo_depth`` commands before
+    it had moved on to the motors, and all but the last of those had run."""
+    return max(acked - EBB.fifo_depth, 0)
+
+
+def _in_flight_seconds(sent: list[EbbMove]) -> float:
+    """How long the commands that may still be queued keep the board busy, s."""
+    return sum(m.seconds for m in sent[-EBB.in_flight:])
+
+
+ARC_TOLERANCE = 0.002  # mm a chord of an arc may stray from it (GRBL's $12 default)
+
+
+def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Machine mm and pen state after every job line, and each row's job line: arcs (G2/G3)
+    become chords within :data:`ARC_TOLERANCE`, one row per chord end (as
+    :mod:`pencilbot.driver.drawn` reads the pen)."""
+    if not len(job):
+        return np.zeros((0, 2)), np.zeros(0, bool), np.zeros(0, np.int64)
+    c = job.states(0, len(job)).columns
+    xy = np.column_stack([c["x_mm"], c["y_mm"]])
+    down = c["pen_down"].astype(bool)
+    down &= np.cumsum(down != down[0]) > 0  # before the first pen command: up
+    lines = np.arange(len(job))
+    rows, centre, radius, a0, sweep, ccw = arc_geometry(
+        np.vstack([np.zeros(2), xy[:-1]]), xy, c, np.where(c["inches"], MM_PER_INCH, 1.0))
+    if not len(rows):
+        return xy, down, lines
+    with np.errstate(invalid="ignore"):
+        step = 2 * np.arccos(np.clip(1 - ARC_TOLERANCE / np.maximum(radius, ARC_TOLERANCE), -1, 1))
+    count = np.maximum(np.ceil(sweep / np.maximum(step, 1e-6)).astype(np.int64), 1)
+    extra = np.zeros(len(job), np.int64)
+    extra[rows] = count - 1  # points inside each arc, before its end
+    at = np.repeat(np.arange(len(job)), extra + 1)
+    out_xy = xy[at].copy()
+    first = np.cumsum(extra + 1) - (extra + 1)  # where each line's rows begin
+    for k, row in enumerate(rows.tolist()):
+        n = int(count[k])
+        turn = np.where(ccw[k], 1.0, -1.0) * sweep[k] * np.arange(1, n) / n
+        angle = a0[k] + turn
+        out_xy[first[row]: first[row] + n - 1] = centre[k] + radius[k] * np.column_stack([np.cos(angle), np.sin(angle)])
+    return out_xy, down[at], lines[at]
+
+
+def _plan_from(job, xy, down, rows_line, profile, first: int, here, pen_down) -> deque:
+    """The commands from job line ``first`` on, from motor position ``here``: the stretches
+    between program pauses planned one after the other, each pause (its job line) in between."""
+    work: deque = deque()
+    for a, b in _chunks(job, first, len(job)):
+        if a in job.pauses:
+            work.append(a)
+        ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
+        moves = plan_ebb(xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile, start_steps=here, pen_down=pen_down)
+        work.extend(moves)
+        if moves:
+            here, pen_down = moves[-1].end, moves[-1].down
+    return work
+
+
+def _keys_say_pause(keys) -> bool:
+    """The terminal's keys: the stop key stops (as Ctrl-C), the pause key asks for a hold."""
+    requests = keys.poll()
+    if "stop" in requests:
+        raise Interrupted("the stop key")
+    return "pause" in requests
+
+
+def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, keys, bar) -> _Stop:
+    """The pause key: stop at once (ES), lift the pen, find where from the step counters, and
+    wait for the operator (or the pause key again); the job goes on from that very point."""
+    link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent))
+    link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+    link.wait_idle(5)
+    stop = _locate(link.steps(), sent, acked, profile)
+    if stop is None:
+        raise EbbFault("after the pause the step counters are on none of the moves sent")
+    bar.show_state("paused: the pause key")
+    if operator is not None:
+        operator.pause("paused: the pause key")
+    else:
+        while not _keys_say_pause(keys):
+            time.sleep(0.05)
+    return stop
+
+
+def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:
+    """Job line ranges between program pauses (a pen change waits for the motion to end)."""
+    cuts = sorted(i for i in job.pauses if start < i < stop)
+    edges = [start, *cuts, stop]
+    return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool | None, int | None]:
+    """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
+    (None: unknown) and, for a resume, the job line to go on from."""
+    link.reader.write(b"\r")  # ends any half command left by another program
+    time.sleep(0.05)
+    link.reader.discard_input()
+    link.status()
+    link.future = link.last_lines[0].startswith("QG,")  # a board left in future syntax (CU,10,1)
+    version = link.command("V").data or ""
+    start = None
+    if resumed is not None:
+        link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
+        steps = link.steps()
+        # Where the carriage may stand and the line to go on from there: the stop the board
+        # reported, or (the port lost) the end of each command it may have run.
+        places = [(tuple(c[:2]), int(c[2])) for c in resumed.options.get("ebb_resume") or ()]
+        found = [line for where, line in places if where == steps]
+        held = _motors_held(link, profile)
+        if link.power_lost or not held or not found:
+            why = ("the board's supply dropped" if link.power_lost
+                   else "its motors were switched off (a restart or power cut), so the carriage was free" if not held
+                   else f"its step counters read {steps[0]},{steps[1]}, where the job never left the pen")
+            raise PlotError(
+                f"the carriage's position is lost ({why}), so resuming could draw in the wrong place; "
+                f"nothing was sent. Push the carriage to its home corner (pen up) and draw the job again "
+                f"from the start, or from a line: pencilbot draw {shlex.quote(job.source)} --profile "
+                f"{shlex.quote(profile.name)} --start-line {resumed.next_line}")
+        pen_down, start = None, job.index_of(found[-1])
+    else:
+        mode = profile.ebb.microstep_mode
+        link.command(f"EM,{mode},{mode}")  # counters start at 0: the carriage stands at home
+        link.power_lost = False  # a dip before the job cost nothing: the job starts from home
+        steps, pen_down = (0, 0), None
+    for text in pen_commands(profile):
+        link.command(text)
+    if version_at_least(version, (3, 0)):
+        link.command(f"CU,60,{POWER_THRESHOLD}")
+        link.watch_power = True
+    return steps, pen_down, start
+
+
+def _motors_held(link: EbbLink, profile) -> bool:
+    """Both motors are on at the profile's microstepping (QE): the counters still mean the
+    carriage's position. A board that restarted has them off."""
+    try:
+        states = [int(v) for v in link.command("QE").data.split(",")[:2]]
+    except (EbbFault, ValueError):
+        return False
+    return states == [MICROSTEPS[profile.ebb.microstep_mode]] * 2
+
+
+def version_at_least(text: str, wanted: tuple[int, int]) -> bool:
+    """Whether an EBB version string (``... Firmware Version 3.0.3``) is at least ``wanted``."""
+    try:
+        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[:2])
+    except ValueError:
+        return False
+    return numbers >= wanted
+
+
+def _pause(link: EbbLink, operator, bar, reason: str) -> None:
+    """A program pause (a pen change): the pen is up and the motion has ended; wait for the
+    operator (the terminal), or for the board's PRG button without one."""
+    bar.show_state(f"paused: {reason}")
+    if operator is not None:
+        operator.pause(f"paused: {reason}")
+        return
+    link.command("QB")  # forget earlier presses
+    while link.command("QB").data.strip() != "1":
+        time.sleep(0.05)
+
+
+def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port) -> str:
+    """Stop the board, find where, record it, and say how to go on."""
+    why = f"stopped by {exc.by}" if isinstance(exc, Interrupted) else str(exc)
+    number = lambda index: job.number(min(index, len(job) - 1)) if len(job) else 0  # noqa: E731
+    stop, answered, held = None, False, False
+    if not isinstance(exc, PortLost):
+        try:
+            link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent))
+            link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+            link.wait_idle(5)
+            answered = True
+            held = _motors_held(link, profile) and not link.power_lost
+            stop = _locate(link.steps(), sent, acked, profile) if held else None
+        except (EbbFault, PortLost):
+            answered = False
+    index = sent[_oldest_in_flight(acked)].line if sent else 0
+    if stop is not None:
+        index = stop.index
+        where = f"the pen stopped at X{stop.xy[0]:.3f} Y{stop.xy[1]:.3f} (pen up)"
+        places = [[*stop.steps, number(stop.index)]]
+    elif not answered:
+        where = ("the board did not report where the pen stopped (the resume finds it from the step "
+                 "counters, or refuses)")
+        places = [[*m.end, number(m.line)] for m in sent[_oldest_in_flight(acked):]]
+    else:
+        where = ("the pen's position is lost (the board restarted or its supply dropped: the motors let go)"
+                 if not held else "the pen's position is lost (the step counters are on none of the moves sent)")
+        places = []
+    line = number(index)
+    text = f"{why}; {where}; line {line} of {job.source} was next."
+    if journal is None:
+        return f"{text} Resume from line {line} of {job.source}"
+    journal.next_line = line
+    journal.stop_xy = list(stop.xy) if stop is not None else None
+    journal.options["ebb_resume"] = places
+    journal.status, journal.message = "stopped", text
+    journal.resume = f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(port)}"
+    journal.save()
+    return f"{text} Resume with: {journal.resume}"
+
+
+def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) -> _Stop | None:
+    """The job line to resume from, given where the motors stopped: the first command still in
+    flight (at most three: running, queued, being parsed) whose segment holds the position and
+    that had not finished."""
+    pos = np.array(steps, dtype=np.float64)
+    first = _oldest_in_flight(acked)
+    for k in range(first, len(sent)):
+        move = sent[k]
+        a, b = np.array(move.start, float), np.array(move.end, float)
+        if np.array_equal(pos, b):
+            continue  # ran to its end
+        if _on_segment(pos, a, b):
+            return _Stop(move.line, steps, _mm(profile, steps))
+    if sent and np.array_equal(pos, np.array(sent[-1].end, float)):
+        return _Stop(sent[-1].line + 1, steps, _mm(profile, steps))  # all it was sent ran
+    return None  # on none of the commands in flight: the position is lost
+
+
+def _on_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float = 2.0) -> bool:
+    d = b - a
+    n = float(np.hypot(*d))
+    if n == 0:
+        return bool(np.hypot(*(p - a)) <= tol)
+    along = float(np.dot(p - a, d)) / n
+    across = abs(float(d[0] * (p - a)[1] - d[1] * (p - a)[0])) / n
+    return -tol <= along <= n + tol and across <= tol
+
+
+def _mm(profile, steps) -> tuple[float, float]:
+    x, y = profile.ebb.to_machine(np.array([steps], dtype=float))[0]
+    return round(float(x), 4), round(float(y), 4)
+
+
+class _stop_signals:
+    """Ctrl-C and SIGTERM raise :class:`Interrupted` once (in the main thread)."""
+
+    def __enter__(self):
+        self.saved = {}
+        if threading.current_thread() is not threading.main_thread():
+            return self
+        fired = []
+
+        def stop(signum, frame):
+            if not fired:
+                fired.append(signum)
+                raise Interrupted(_STOP_SIGNALS[signum])
+
+        for signum in _STOP_SIGNALS:
+            self.saved[signum] = signal.signal(signum, stop)
+        return self
+
+    def __exit__(self, *exc):
+        for signum, handler in self.saved.items():
+            signal.signal(signum, handler)
+        return False

@@ -1,0 +1,449 @@
+"""A virtual EiBotBoard: the EBB command set (firmware 3.0.3), its motion FIFO, steps, servo.
+
+What a sender meets (all from the EBB reference and the firmware source, see
+:mod:`firmware_protocol.ebb`): replies in legacy syntax until ``CU,10,1`` switches to future
+syntax; a motion command is parsed, and answered, only once the FIFO (1 deep at boot, ``CU,4``)
+has room, and everything behind it waits; ``LM`` steps at the 25 kHz tick from its rate and
+acceleration words exactly as the firmware's accumulators do, ``SM``/``XM`` at constant rates,
+``HM`` in a straight line at the given step rate; the servo sweeps at its ``SC,11``/``SC,12``
+rates (24 ms per update) while ``SP``'s Duration holds the queue; ``QG`` status byte, ``QS``
+counters, ``ES`` stop and flush, ``EM`` (counters back to 0), ``CU,60`` power-lost flag.
+
+The carriage's true position is kept apart from the step counters, so a power cycle (counters
+back to 0 where the carriage stands) or lost steps show up in the drawing. Pen-down moves are
+drawn only once the servo has reached the pen-down position: a sender that moves before the
+pen lands leaves those moves out of the drawing, as the paper would.
+
+Time: ``instant`` boards run motion only as far as a sender needs (to make FIFO room, or 5 ms
+per status query); otherwise :meth:`EbbBoard.poll` advances the clock.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from firmware_protocol import ebb as protocol
+from firmware_protocol.ebb import CommandError
+from pencilbot.firmware.ebb import MICROSTEPS
+
+QUERY_STEP = 0.005  # s an instant board runs per status query (so a polling sender sees progress)
+BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
+_GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
+
+
+@dataclass
+class _Run:
+    """A queued command being executed: motion (per-axis steps, rates, accels, ticks) or a
+    servo move / delay (``ticks`` of waiting)."""
+
+    command: protocol.Command
+    start: np.ndarray  # counters when it started (int64)
+    steps: np.ndarray  # signed per axis
+    rates: tuple[int, int]
+    accels: tuple[int, int]
+    carry: tuple[int, int]
+    axis_ticks: tuple[int, int]
+    ticks: int
+    t0: float  # board clock when it started
+
+    def steps_at(self, t: int) -> np.ndarray:
+        done = [protocol.lm_steps_at(min(t, self.axis_ticks[i]), abs(int(self.steps[i])), self.rates[i],
+                                     self.accels[i], self.carry[i]) if self.steps[i] else 0 for i in range(2)]
+        return np.sign(self.steps) * np.array(done, dtype=np.int64)
+
+
+_CONTROL = bytes(range(32))
+
+
+def _typed(raw: bytes) -> str:
+    """A command's characters as the firmware keeps them: control bytes dropped, a backspace
+    taking back the character before it."""
+    if b"\x08" not in raw:
+        return bytes(raw).translate(None, _CONTROL).decode("ascii", errors="replace").replace("\ufffd", "?")
+    kept: list[str] = []
+    for byte in raw:
+        if byte == 8:
+            if kept:
+                kept.pop()
+        elif byte >= 32:
+            kept.append(chr(byte) if byte < 128 else "?")
+    return "".join(kept)
+
+
+class EbbBoard:
+    """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
+    :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
+    every stretch the carriage moves.
+
+    Faults (:class:`sim.firmware.Faults`, keyed by the 1-based index of the command received):
+    ``error@k`` refuses command k (``!6``) without running it; ``silent@k`` runs it but its
+    answer is lost; ``drop@k`` pulls the cable as it arrives (the board keeps running its queue);
+    ``reset@k`` is a power cut (a reboot: counters 0 where the carriage stands, motors off);
+    ``abort@k`` a dip of the supply (the carriage slips, ``QG`` bit 6 once ``CU,60`` set a
+    threshold); ``garbage@k`` noise before the answer.
+    """
+
+    resets_on_open = False  # USB CDC: opening the port does not reset an EBB (no DTR reset)
+
+    def __init__(self, profile, record, *, instant: bool = True, faults=None, operator: str = "none"):
+        self.profile, self.record, self.instant = profile, record, instant
+        self.faults = faults.at if faults is not None else {}
+        self.operator = operator
+        self.link_dropped = False
+        self.clock = 0.0
+        self.busy_time = 0.0  # seconds something ran (for gap measurements)
+        self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
+        self._moved = False
+        self.presses = 0  # PRG presses read by a sender (the pauses it was let through)
+        self.log: list[str] = []
+        self._rx = bytearray()
+        self._out = bytearray()
+        self._received = 0
+        self.carriage = np.zeros(2)  # true position, motor steps from the bed's origin
+        self.power_cycle()
+
+    # --- power and wires --------------------------------------------------------------------
+
+    def power_cycle(self) -> None:
+        """A reboot: counters 0 wherever the carriage stands, FIFO empty, legacy syntax."""
+        self.future = False
+        self.fifo_size = 1
+        self.fifo: list[protocol.Command] = []
+        self.running: _Run | None = None
+        self.counters = np.zeros(2, dtype=np.int64)
+        self.origin = self.carriage.copy()  # counters are relative to where they were zeroed
+        self.carry = [0, 0]
+        self.servo_up, self.servo_down = BOOT_SERVO
+        self.rate_up = self.rate_down = 0
+        self.servo_pos = float(self.servo_up)
+        self.servo_target = float(self.servo_up)
+        self.servo_from, self.servo_t0, self.servo_t1 = self.servo_pos, 0.0, 0.0
+        self.pen_up = True
+        self.enabled = (0, 0)  # QE: motors off at boot, so the carriage is free to move
+        self.microsteps = 16
+        self.power_lost = False
+        self.threshold = 0
+        self.button = False
+        self._rx.clear()
+        self._idle_since: float | None = None
+
+    def receive(self, data: bytes) -> None:
+        self._rx += data
+        self._process()
+
+    def take_output(self) -> bytes:
+        out, self._out = bytes(self._out), bytearray()
+        return out
+
+    def accepted_lines(self) -> list[str]:
+        return list(self.log)
+
+    def finish(self) -> None:
+        """Run everything queued to its end."""
+        while self.running is not None or self.fifo:
+            self._advance(self._remaining() + 1e-9)
+        self._process()
+
+    # --- time ----------------------------------------------------------------------------------
+
+    def poll(self, dt: float) -> None:
+        if dt > 0:
+            self._advance(dt)
+        self._process()
+
+    def _remaining(self) -> float:
+        if self.running is None:
+            return 0.0
+        return max(self.running.t0 + self.running.ticks * protocol.TICK - self.clock, 0.0)
+
+    def _advance(self, dt: float) -> None:
+        """Run the queue for ``dt`` seconds of board time."""
+        end = self.clock + dt
+        while True:
+            if self.running is None and self.fifo:
+                self._start(self.fifo.pop(0))
+                if not self.instant:
+                    self._process()  # room in the FIFO: a waiting command is parsed at this instant
+                continue
+            if self.running is None:
+                if self._idle_since is None:
+                    self._idle_since = self.clock
+                self.clock = end
+                return
+            finish = self.running.t0 + self.running.ticks * protocol.TICK
+            if finish > end:
+                self.busy_time += end - self.clock
+                self.clock = end
+                self._place(self.running, int((end - self.running.t0) / protocol.TICK))
+                return
+            self.busy_time += finish - self.clock
+            self.clock = finish
+            self._complete(self.running, self.running.ticks)
+
+    def _start(self, command: protocol.Command) -> None:
+        if self._idle_since is not None and self._moved:
+            self.gaps.append(self.clock - self._idle_since)
+        self._moved = self._moved or command.name in ("LM", "SM", "XM", "HM")
+        self._idle_since = None
+        self.running = self._execute(command)
+        if self.running is None or self.running.ticks == 0:
+            if self.running is not None:
+                self._complete(self.running, 0)
+            self.running = None
+
+    def _place(self, run: _Run, t: int) -> None:
+        self.counters = run.start + run.steps_at(t)
+
+    def _complete(self, run: _Run, t: int) -> None:
+        """``run`` ends (after ``t`` ticks: all of it, or where ES cut it)."""
+        before = self.origin + run.start
+        self.counters = run.start + run.steps_at(t)
+        if run.steps.any():
+            self._record_move(before, run, t)
+        for i in range(2):  # the accumulators keep their remainders for the next command
+            if run.steps[i] and run.command.name == "LM" and t >= run.axis_ticks[i]:
+                self.carry[i] = run.carry[i] + run.rates[i] * t + run.accels[i] * t * t // 2 - abs(int(run.steps[i])) * protocol.ACCUMULATOR
+        self.running = None
+
+    # --- the pen and the drawing ---------------------------------------------------------------
+
+    def _true_steps(self) -> np.ndarray:
+        return self.origin + self.counters
+
+    def _record_move(self, before: np.ndarray, run: _Run, t: int) -> None:
+        after = self._true_steps()
+        points = [before]
+        ticks = [k for k in run.axis_ticks if 0 < k < t]
+        if len(ticks) == 1 or (len(ticks) == 2 and ticks[0] != ticks[1]):  # one axis finished first
+            bend = self.origin + run.start + run.steps_at(min(ticks))
+            chord = after - before
+            off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(float(np.hypot(*chord)), 1e-9)
+            if off > 1.5:  # a bend a sender should have avoided (within a step it is the step grid)
+                points.append(bend)
+        points.append(after)
+        setup = self.profile.ebb
+        mm = setup.to_machine(np.array(points, dtype=np.float64))
+        drawing = self._pen_landed(run.t0)
+        for a, b in zip(mm[:-1], mm[1:]):
+            self.record(a, b, drawing)
+
+    def _pen_landed(self, when: float) -> bool:
+        """The pen touches the paper at ``when``: the servo has reached the pen-down position."""
+        return (not self.pen_up) and self.servo_target == self.servo_down and when >= self.servo_t1 - 1e-9
+
+    def _servo_at(self, when: float) -> float:
+        if when >= self.servo_t1 or self.servo_t1 <= self.servo_t0:
+            return self.servo_target
+        f = (when - self.servo_t0) / (self.servo_t1 - self.servo_t0)
+        return self.servo_from + f * (self.servo_target - self.servo_from)
+
+    def _move_servo(self, up: bool) -> None:
+        target, rate = (self.servo_up, self.rate_up) if up else (self.servo_down, self.rate_down)
+        start = self._servo_at(self.clock)
+        self.servo_from, self.servo_target, self.servo_t0 = start, float(target), self.clock
+        self.servo_t1 = self.clock + protocol.servo_travel_seconds(int(round(start)), target, rate)
+        self.pen_up = up
+
+    # --- commands ------------------------------------------------------------------------------
+
+    def _process(self) -> None:
+        """Parse complete commands from the input while the FIFO lets them in."""
+        while not self.link_dropped:
+            ends = [i for i in (self._rx.find(b"\r"), self._rx.find(b"\n")) if i >= 0]
+            if not ends:
+                if len(self._rx) >= protocol.MAX_COMMAND:
+                    self._rx.clear()
+                    self._reply(b"!3 Err: RX Buffer overrun\r\n" if not self.future else b"!3 Err: RX Buffer overrun\n")
+                return
+            cut = min(ends)  # CR or LF ends a command (UBW.c); a CR LF pair counts once
+            text = _typed(self._rx[:cut])
+            if not text:
+                del self._rx[: cut + 1]
+                continue
+            try:
+                command = protocol.parse_command(text)
+            except CommandError as exc:
+                del self._rx[: cut + 1]
+                self._count(text)
+                self._reply(protocol.format_error(exc, future=self.future))
+                continue
+            if command.queued and (len(self.fifo) >= self.fifo_size or (self.running and self.fifo_size == 0)):
+                if not self.instant:
+                    return  # parsed only when there is room: the sender's bytes wait
+                self._advance(self._remaining() + 1e-9)  # an instant board makes room at once
+                continue
+            del self._rx[: cut + 1]
+            fault = self._count(text)
+            if fault == "drop":
+                self.link_dropped = True
+                return
+            if fault == "reset":
+                self.carriage = self._true_steps().astype(float)
+                self.power_cycle()
+                return
+            if fault == "error":
+                self._reply(protocol.format_error(CommandError(command.name, 6, "Invalid parameter value"), future=self.future))
+                continue
+            if fault == "abort":  # the supply dips: the motors lose their hold and the board notices
+                self.power_lost = self.threshold > 0
+                self.origin = self.origin + np.array([40, -40])  # the carriage slips half a mm
+            if fault == "garbage":
+                self._out += _GARBAGE
+            self.log.append(text)
+            reply = self._run(command)
+            if fault != "silent" and reply is not None:
+                self._reply(reply)
+
+    def _count(self, text: str) -> str | None:
+        self._received += 1
+        kind = self.faults.get(self._received, (None, 0))[0]
+        return kind
+
+    def _reply(self, data: bytes) -> None:
+        self._out += data
+
+    def _run(self, command: protocol.Command) -> bytes | None:
+        """Answer one parsed command (queued ones join the FIFO)."""
+        name, args, future = command.name, command.args, self.future
+        if command.queued:
+            self.fifo.append(command)
+            if self.running is None:
+                self._start(self.fifo.pop(0))
+            return protocol.format_reply(name, None, future=future)
+        if name in ("QG", "QS", "QB", "QP") and self.instant:
+            self._advance(min(QUERY_STEP, self._remaining() + 1e-9) if (self.running or self.fifo) else 0.0)
+        data = None
+        if name == "V":
+            data = protocol.VERSION_TEXT
+        elif name == "QG":
+            data = f"{self._status():02X}"
+            self.button = self.power_lost = False
+        elif name == "QS":
+            data = f"{self.counters[0]},{self.counters[1]}"
+        elif name == "QB":
+            pressed = self.button or (self.operator == "auto" and self.running is None and not self.fifo)
+            data, self.button = ("1" if pressed else "0"), False
+            self.presses += pressed
+        elif name == "QP":
+            data = "1" if self.pen_up else "0"
+        elif name == "QR":
+            data = "1"
+        elif name == "QM":
+            data = ",".join(str(b) for b in self._qm())
+        elif name == "QE":
+            data = f"{self.enabled[0]},{self.enabled[1]}"
+        elif name == "QT":
+            data = ""
+        elif name == "QU":
+            data = {2: str(protocol.FIFO_MAX), 3: str(self.fifo_size), 6: f"{len(self.fifo):02d}",
+                    60: str(self.threshold)}.get(args[0], "0")
+        elif name == "ES":
+            interrupted = self.running is not None or bool(self.fifo)
+            if self.running is not None:
+                self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
+            self.fifo.clear()
+            data = "1" if interrupted else "0"
+        elif name == "CS":
+            self.origin = self._true_steps()
+            self.counters[:] = 0
+            self.carry = [0, 0]
+        elif name == "SC":
+            key, value = args
+            if key == 4:
+                self.servo_up = value
+            elif key == 5:
+                self.servo_down = value
+            elif key == 10:
+                self.rate_up = self.rate_down = value
+            elif key == 11:
+                self.rate_up = value
+            elif key == 12:
+                self.rate_down = value
+        elif name == "SR":
+            pass
+        elif name == "R":
+            pass
+        elif name == "CU":
+            key, value = args
+            if key == 10:
+                self.future = bool(value)
+                return protocol.syntax_switch_reply(bool(value), future=future)
+            if key == 4:
+                self.finish()
+                self.fifo_size = max(1, min(value, protocol.FIFO_MAX))
+            if key == 60:
+                self.threshold = value
+        return protocol.format_reply(name, data, future=future)
+
+    def _status(self) -> int:
+        qm = self._qm()
+        bits = (qm[0] << 3) | (qm[1] << 2) | (qm[2] << 1) | qm[3]
+        return bits | (protocol.QG_PEN_UP if self.pen_up else 0) | (protocol.QG_BUTTON if self.button else 0) \
+            | (protocol.QG_POWER_LOST if self.power_lost else 0)
+
+    def _qm(self) -> tuple[int, int, int, int]:
+        run = self.running
+        moving = run.steps != 0 if run is not None else np.zeros(2, bool)
+        return int(run is not None), int(bool(moving[0])), int(bool(moving[1])), int(bool(self.fifo))
+
+    def _execute(self, command: protocol.Command) -> _Run | None:
+        """Start a queued command: its steps and how long it lasts."""
+        name, args = command.name, command.args
+        zero = np.zeros(2, dtype=np.int64)
+        if name == "EM":
+            if args[0]:
+                self.microsteps = MICROSTEPS[args[0]]
+            second = args[1] if len(args) > 1 else (1 if self.enabled[1] else 0)
+            self.enabled = (self.microsteps if args[0] else 0, self.microsteps if second else 0)
+            self.origin = self._true_steps()
+            self.counters = zero.copy()
+            self.carry = [0, 0]
+            return None
+        if name in ("LM", "SM", "XM", "HM"):  # motion enables both motors (CU,50 default)
+            self.enabled = (self.microsteps, self.microsteps)
+        if name in ("SP", "TP"):
+            up = (not self.pen_up) if name == "TP" else args[0] == 1
+            self._move_servo(up)
+            ms = args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
+            ticks = int(round(ms / 1000 / protocol.TICK))
+            return _Run(command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock)
+        if name == "LM":
+            steps, rates, accels = [], [], []
+            for i in range(2):
+                rate, n, accel = args[3 * i: 3 * i + 3]
+                if rate < 0:  # deprecated: the rate's sign gives the direction
+                    rate, n = -rate, -abs(n)
+                steps.append(n)
+                rates.append(rate)  # (the firmware starts at Rate − Accel/2: its sum is the closed form)
+                accels.append(accel)
+            clear = args[6] if len(args) > 6 else 0
+            carry = tuple(0 if clear & (1 << i) else self.carry[i] for i in range(2))
+        else:  # SM, XM, HM: constant rate
+            if name == "HM":
+                rate = args[0]
+                target = np.array(args[1:3] if len(args) == 3 else (0, 0), dtype=np.int64)
+                n = target - self.counters
+                seconds = max(abs(int(n[0])), abs(int(n[1]))) / rate if n.any() else 0.0
+            else:
+                seconds = args[0] / 1000.0
+                a = args[1]
+                b = args[2] if len(args) > 2 else 0
+                n = np.array((a + b, a - b) if name == "XM" else (a, b), dtype=np.int64)
+            ticks = max(int(round(seconds / protocol.TICK)), 1)
+            steps = [int(v) for v in n]
+            rates = [int(abs(v) * protocol.ACCUMULATOR // ticks) + 1 if v else 0 for v in steps]
+            if max(abs(v) for v in steps) / max(seconds, 1e-12) > protocol.MAX_STEP_RATE and name != "HM":
+                rates = [min(r, protocol.ACCUMULATOR - 1) for r in rates]
+            accels = [0, 0]
+            carry = (0, 0)
+            if not any(steps):  # a delay
+                return _Run(command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock)
+        axis_ticks = tuple(protocol.lm_ticks(abs(steps[i]), rates[i], accels[i], carry[i]) if steps[i] else 0
+                           for i in range(2))
+        if min(axis_ticks) < 0:  # an axis that never arrives: the board would hang; refuse to pretend
+            axis_ticks = tuple(t if t >= 0 else 0 for t in axis_ticks)
+        return _Run(command, self.counters.copy(), np.array(steps, dtype=np.int64), tuple(rates), tuple(accels),
+                    carry, axis_ticks, max(axis_ticks), self.clock)
+
