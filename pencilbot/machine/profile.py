@@ -424,7 +424,7 @@ def _check_sendable(profile: Profile, where: str, label: str, lines: list[str]) 
         problem = None
         if "%" in command:
             problem = "a '%', which GRBL refuses and senders take for a tape marker"
-        elif command.strip():
+        elif command.strip() and not profile.firmware.capabilities.host_motion:  # (EBB: the host reads it)
             try:
                 profile.firmware.frame(command.strip(), 1)
             except ValueError as exc:  # firmware_protocol.ProtocolError: the board cannot take it

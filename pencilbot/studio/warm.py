@@ -10,7 +10,7 @@ def warm() -> None:
     from pencilbot.studio.options import DrawingOptions
     from pencilbot.studio.planner import plan_stage
 
-    ramp = np.linspace(0.0, 1.0, 96 * 128, dtype=np.float32).reshape(96, 128)
+    ramp = np.linspace(0.0, 1.0, 80 * 128, dtype=np.float32).reshape(80, 128)  # a tiny picture
     for stage in ("coarse", "full"):
         plan_stage(ramp, DrawingOptions(), stage)
 
