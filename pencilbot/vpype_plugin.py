@@ -51,16 +51,19 @@ PX_PER_MM = 96.0 / MM_PER_INCH  # vpype's unit is the CSS pixel
 @click.option("--pens", metavar="NAME|FILE.toml", help=f"draw in colour with a pen set: {', '.join(list_pen_sets())} "
               "or a .toml file (one layer per pen)")
 @click.option("--hatch/--no-hatch", default=None, help="draw the tone as hatching (default: as the style says)")
+@click.option("--faces/--no-faces", default=None, help="draw faces with finer features and hatching (default: as the "
+              "style says)")
 @click.option("--max-pixels", type=int, default=DEFAULT_MAX_PIXELS, show_default=True, help="refuse larger images")
 @click.option("--downscale", is_flag=True, help="shrink a too-large image instead")
 @vpype_cli.global_processor
-def pencilbot(document: vpype.Document, photo, style, page, orientation, margin, pen_width, pens, hatch, max_pixels,
-              downscale) -> vpype.Document:
+def pencilbot(document: vpype.Document, photo, style, page, orientation, margin, pen_width, pens, hatch, faces,
+              max_pixels, downscale) -> vpype.Document:
     """Add pencilbot's pen drawing of PHOTO: its hatch layers and its edges, as new layers.
 
     The options are `pencilbot plan`'s, in mm; each layer gets its name, pen width and colour.
     """
-    sheet = argparse.Namespace(style=style, page=page, orientation=orientation, margin=margin, pen_width=pen_width)
+    sheet = argparse.Namespace(style=style, page=page, orientation=orientation, margin=margin, pen_width=pen_width,
+                               faces=faces)
     try:
         chosen = photo_style(sheet)
         if hatch is not None:

@@ -39,7 +39,8 @@ _MEMORY_SHARE = 0.75  # of the memory the system says is available
 MAX_RENDER_PIXELS = 1 << 30
 
 # Style keys a command-line option may override, by option name.
-_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width"}
+_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width",
+                  "--no-faces": "faces"}
 
 
 def number(option: str, *, low: float | None = None, high: float, above: bool = False, whole: bool = False,
@@ -180,6 +181,10 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
                        help="list the pen sets, shipped and yours, and exit")
     _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
                        f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
+    photo.add_argument(
+        "--no-faces", dest="faces", action="store_const", const=False, default=None,
+        help="do not look for faces (by default faces found are drawn with finer features and hatching, "
+             "and the plan's metadata lists them)")
     photo.add_argument(
         "--max-pixels", type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True),
         default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
@@ -394,7 +399,7 @@ def photo_style(args: argparse.Namespace) -> Style:
 
 def _overrides(args: argparse.Namespace) -> dict[str, object]:
     """Value of each style-overriding option by flag, in the order --help shows them."""
-    return {flag: getattr(args, key) for flag, key in _STYLE_OPTIONS.items()}
+    return {flag: getattr(args, key, None) for flag, key in _STYLE_OPTIONS.items()}
 
 
 def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False) -> None:
