@@ -74,19 +74,18 @@ class Style:
         directions; about 0.1 along contours, 2–3 in dense texture) above which a region is
         texture, not contour: there only long chains of strokes are drawn, and the hatching
         carries the texture's darkness. Larger keeps more detail (100 keeps every stroke).
-        1.0 by default (was 2.0): on the bench's busy photos (baboon, starry_night) fewer
-        scribbles follow the photo better, rho 0.933 → 0.937 and 0.885 → 0.894.
     edge_lines : int
         Most touching pen lines a contour is drawn with where the raster's stroke is that many
         pen widths wide (1 to 3). 1, the default: a bold contour laid in two or three lines is
         darker than the photo there, and on the bench's 13 photos one line follows them better
-        (``bench/fidelity.py``: rho 0.909 → 0.94 on grace_hopper, 0.935 → 0.958 on coffee).
+        (``bench/fidelity.py``, before the budget: rho 0.909 → 0.936 on grace_hopper,
+        0.935 → 0.955 on coffee).
     edge_budget : float
         Most contour length per area, mm per cm² of drawing (0: no limit). A picture that is
         texture through and through (a painting's brush strokes) would otherwise be drawn as
         an even scribble of edge strokes; past the budget the most cluttered contours go
-        first. Of the bench's 13 photos it trims the busiest (starry_night: plot 50 → 29 min,
-        pen-up 10.7 → 8.6 m; grace_hopper's flag loses some of its stars).
+        first. On the bench's painting (starry_night) plot time 50 → 25 min, pen-up 10.7 →
+        7.1 m; it trims the busier photos too (grace_hopper's flag loses some of its stars).
     hatch : bool
         Whether tone is drawn as hatching at all (False: outline drawing only).
     hatch_angles : tuple of float
@@ -135,7 +134,7 @@ class Style:
     edge_threshold: float | None = None
     min_edge_pixels: int = 3
     edge_join: float = 0.5
-    edge_clutter: float = 1.0
+    edge_clutter: float = 2.0
     edge_lines: int = 1
     edge_budget: float = 5.0
     hatch: bool = True

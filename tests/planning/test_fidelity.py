@@ -23,10 +23,7 @@ def planned():
 def test_a_plan_is_faithful_to_its_own_sketch(planned):
     drawing, plan = planned
     faithful = fidelity(plan, drawing)
-    # Contours are one pen line (edge_lines = 1) and the texture's scribble is left to the
-    # hatching (edge_clutter, edge_budget): the plan follows the photo better (issue 23) and
-    # the raster's bold and textured lines less, 0.79 here (0.8 before).
-    assert faithful.line_r > 0.75 and faithful.tone_r > 0.85 and faithful.tone_mae < 0.1
+    assert faithful.line_r > 0.8 and faithful.tone_r > 0.85 and faithful.tone_mae < 0.1
 
 
 def test_shifted_edges_and_missing_hatching_lower_the_figures(planned):
