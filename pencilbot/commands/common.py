@@ -41,7 +41,7 @@ MAX_RENDER_PIXELS = 1 << 30
 
 # Style keys a command-line option may override, by option name.
 _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width",
-                  "--hatch": "hatch"}
+                  "--hatch": "hatch", "--faces": "faces"}
 
 
 def number(option: str, *, low: float | None = None, high: float, above: bool = False, whole: bool = False,
@@ -250,6 +250,10 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
     _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
                        f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
     photo.add_argument(
+        "--faces", action=argparse.BooleanOptionalAction,
+        help="draw the faces found with finer features and hatching, listed in the plan's metadata; "
+             f"--no-faces: do not look for them ({_style_default('faces')})")
+    photo.add_argument(
         "--max-pixels", type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True),
         default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
     )
@@ -384,7 +388,7 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
         An option that does not apply to this SVG, or the file cannot be read.
     """
     given = lambda *flags: [flag for flag in flags if _option(args, flag) not in (None, False)]  # noqa: E731
-    photo_only = given("--style", "--downscale", "--pens") + (["--hatch"] if _option(args, "--hatch") is not None else [])
+    photo_only = given("--style", "--downscale", "--pens") + [flag for flag in ("--hatch", "--faces") if _option(args, flag) is not None]
     if is_plan_svg(path):
         sheet_flags = given("--page", "--orientation", "--margin", "--pen-width")
         if photo_only or sheet_flags:

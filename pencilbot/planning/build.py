@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
@@ -34,6 +35,10 @@ from pencilbot.render import render_paths
 from pencilbot.units import MM_PER_INCH
 
 HOME = (0.0, 0.0)
+#: Darkness of the raster line drawing from which a face's features are drawn with the pen
+#: (elsewhere :data:`~pencilbot.planning.vectorize.PEN_DARKNESS`): an eyelid, a brow, the
+#: corner of a mouth are faint edges that carry a likeness.
+FACE_PEN_DARKNESS = 0.35
 log = logging.getLogger(__name__)
 
 
@@ -194,6 +199,8 @@ def plan_from_sketch(
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
     threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
+    faces = find_faces(drawing.gray) if style.faces else []
+    important = face_mask(line.edges.shape, faces) if faces else None
     strokes = edge_strokes(
         line,
         layout,
@@ -202,6 +209,10 @@ def plan_from_sketch(
         min_pixels=style.min_edge_pixels,
         join=style.edge_join,
         clutter=style.edge_clutter,
+        max_lines=style.edge_lines,
+        budget=style.edge_budget / 100 if style.edge_budget > 0 else None,
+        important=important,
+        fine_threshold=min(threshold, edge_threshold(line, FACE_PEN_DARKNESS)),
     )
     layers = []
     colour = pens is not None and len(pens.pens) > 1
@@ -229,6 +240,7 @@ def plan_from_sketch(
             wobble=style.hatch_jitter,
             blur=style.hatch_blur,
             seed=style.seed,
+            important=important,
         )
         layers += [layer for layer in hatches if layer.paths]
     if pens is None:
@@ -272,6 +284,10 @@ def plan_from_sketch(
         "hatch_coverage": f"{style.hatch_coverage:g}",
         "texture": style.texture or "synthesised",
         "texture_seed": str(style.seed),
+        "edge_lines": str(style.edge_lines),
+        "edge_budget_mm_per_cm2": f"{style.edge_budget:g}",
+        # Faces treated with care, "x,y,size" in px of the image as planned (image_px).
+        "faces": "; ".join(face.describe() for face in faces) if faces else ("none" if style.faces else "off"),
     }
     if pens is not None:
         meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)

@@ -161,6 +161,51 @@ def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = Y
     return Likeness(rho=rho, r=pearson(sa, sb), ssim=ssim)
 
 
+def region_rho(
+    plotted: np.ndarray, reference: np.ndarray, region: tuple[float, float, float, float], *,
+    sigma_mm: float = YARDSTICK_SIGMA_MM, px_per_mm: float = YARDSTICK_PX_PER_MM,
+) -> float:
+    """Spearman's ρ of plotted and reference darkness inside one region (a face), at one blur.
+
+    Both pictures are blurred whole (so the region's border sees its surroundings, as an eye
+    does), then compared inside the region only.
+
+    Parameters
+    ----------
+    plotted : (H, W) float array in [0, 1]
+        Ink over the drawing box at ``px_per_mm`` (:func:`plotted_darkness`).
+    reference : (h, w) float array in [0, 1]
+        The picture it should look like over the same box (e.g. 1 − luma of the photo).
+    region : (x, y, width, height)
+        The region as fractions of the box (0 to 1; x from the left, y from the top).
+    sigma_mm : float
+        Gaussian blur, mm (1 mm: the tone at arm's length; 0.5 mm: features, lines).
+    px_per_mm : float
+        Resolution of ``plotted``.
+
+    Returns
+    -------
+    float
+        ρ, or NaN when either picture is flat in the region.
+    """
+    height, width = plotted.shape
+    ref = cv2.resize(np.asarray(reference, np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    sigma = sigma_mm * px_per_mm
+    x, y, w, h = region
+    c0, c1 = int(round(x * width)), int(round((x + w) * width))
+    r0, r1 = int(round(y * height)), int(round((y + h) * height))
+    pad = int(4 * sigma) + 1  # blur a window around the region only: a whole A4 box is slow
+    window = (slice(max(0, r0 - pad), min(height, r1 + pad)), slice(max(0, c0 - pad), min(width, c1 + pad)))
+    a = ndi.gaussian_filter(np.asarray(plotted, np.float32)[window], sigma)
+    b = ndi.gaussian_filter(ref[window], sigma)
+    inner = (slice(r0 - window[0].start, r1 - window[0].start), slice(c0 - window[1].start, c1 - window[1].start))
+    stride = max(1, int(sigma // 3))
+    sa, sb = a[inner][::stride, ::stride].ravel(), b[inner][::stride, ::stride].ravel()
+    if sa.size < 3 or np.ptp(sa) == 0 or np.ptp(sb) == 0:
+        return float("nan")
+    return float(spearmanr(sa, sb).statistic)
+
+
 def plan_colour(plan: Plan, shape: tuple[int, int], *, cell: float = COLOUR_CELL) -> tuple[np.ndarray, int]:
     """The plan's inks stacked on paper over the drawing box of an image of ``shape``.
 

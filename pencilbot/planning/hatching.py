@@ -57,6 +57,10 @@ CROSS_RUN = 2.5
 SAMPLE_STEP = 0.4
 # Points of an output stroke are kept about this far apart (mm): the lines are smooth curves.
 POINT_SPACING = 1.6
+#: Where the picture matters most (a face), the hatching is finer by this factor: shortest
+#: stroke, dash cell and widest gap between lines are this share of elsewhere's (a light face
+#: gets short dashes on lines about a millimetre apart instead of 4 mm dashes 3 mm apart).
+FINE = 0.35
 
 
 @dataclass(frozen=True)
@@ -230,7 +234,8 @@ def family_lines(
 
 
 def hatch_strokes(
-    lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 2.0, offset: float = 0.0
+    lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 2.0, offset: float = 0.0,
+    fine: np.ndarray | None = None,
 ) -> list[np.ndarray]:
     """The pen strokes of one family for a per-sample coverage request.
 
@@ -245,6 +250,10 @@ def hatch_strokes(
         Shortest stroke kept, mm; gaps shorter than half of it are bridged.
     offset : float
         Shift of the dither ranks in [0, 1), so families switch on different lines.
+    fine : (N,) float array in [0, 1], optional
+        How much each sample lies where the picture matters most (a face): there strokes,
+        dashes and the widest gap between lines shrink towards ``FINE`` of their size, so
+        tone changes over shorter distances and light tones are closer lines.
 
     Returns
     -------
@@ -253,15 +262,28 @@ def hatch_strokes(
     """
     if lines.points.size == 0:
         return []
+    if fine is not None and not np.any(fine > 0):
+        fine = None  # exactly the plain path: no rounding of cell counts differs
+    scale = np.ones(len(lines.points)) if fine is None else 1.0 - (1.0 - FINE) * np.clip(fine, 0.0, 1.0)
     # The share of lines needed, smoothed along each line over a shortest stroke: a line
     # switches on or off where the tone really changes, not at every ripple of the request.
-    share = _along_mean(np.asarray(request, np.float64) / np.maximum(lines.full, 1e-6), lines.line, min_run)
+    raw = np.asarray(request, np.float64) / np.maximum(lines.full, 1e-6)
+    share = _along_mean(raw, lines.line, min_run)
+    if fine is not None:
+        share = np.where(scale < 1.0, _along_mean(raw, lines.line, FINE * min_run), share)
     # Local line spacing w / full; lines may not be switched off below MAX_GAP apart.
-    least = np.minimum(1.0, pen_width / (np.maximum(lines.full, 1e-6) * MAX_GAP))
+    least = np.minimum(1.0, pen_width / (np.maximum(lines.full, 1e-6) * MAX_GAP * scale))
     line_share = np.maximum(share, least)
     level_rank = np.mod(lines.level * GOLDEN + offset, 1.0)
-    # Dash cells are all on or all off, by the cell's mean duty.
-    cell = np.floor(lines.along / (2.0 * min_run)).astype(np.int64)
+    # Dash cells are all on or all off, by the cell's mean duty. A cell is 2 · min_run long
+    # (shorter where ``fine``): cells are counted along the line by the integral of 1 / length.
+    if fine is None:
+        cell = np.floor(lines.along / (2.0 * min_run)).astype(np.int64)
+    else:
+        count = np.cumsum(SAMPLE_STEP / (2.0 * min_run * scale))
+        first = np.flatnonzero(np.append(True, lines.line[1:] != lines.line[:-1]))
+        owner = np.cumsum(np.append(True, lines.line[1:] != lines.line[:-1])) - 1
+        cell = np.floor(count - count[first][owner]).astype(np.int64)
     key = np.cumsum(np.append(True, (cell[1:] != cell[:-1]) | (lines.line[1:] != lines.line[:-1]))) - 1
     duty = np.bincount(key, weights=share / line_share) / np.bincount(key)
     dash_rank = np.mod(cell * GOLDEN + lines.level * 0.7548776662 + offset, 1.0)
@@ -273,11 +295,11 @@ def hatch_strokes(
     # Bridge gaps shorter than half a minimum run, then drop runs shorter than one.
     gap = (starts[1:] - stops[:-1] - 1) * SAMPLE_STEP
     same_line = lines.line[starts[1:]] == lines.line[stops[:-1]]
-    merged = np.append(False, same_line & (gap < min_run / 2))
+    merged = np.append(False, same_line & (gap < min_run * scale[starts[1:]] / 2))
     keep_start = np.flatnonzero(~merged)
     run_start = starts[keep_start]
     run_stop = stops[np.append(keep_start[1:], starts.size) - 1]
-    long_enough = (run_stop - run_start) * SAMPLE_STEP >= min_run
+    long_enough = (run_stop - run_start) * SAMPLE_STEP >= min_run * np.minimum(scale[run_start], scale[run_stop])
     run_start, run_stop = run_start[long_enough], run_stop[long_enough]
     if run_start.size == 0:
         return []
@@ -304,6 +326,7 @@ def hatch_layers(
     seed: int = 0,
     lines: list[HatchLines] | None = None,
     capacity: np.ndarray | None = None,
+    fine: np.ndarray | None = None,
 ) -> list[Layer]:
     """Hatch layers whose ink follows ``darkness`` (one layer per family).
 
@@ -334,6 +357,8 @@ def hatch_layers(
         hold only the first families (the tone never needs the others): those are not drawn.
     capacity : (families, rows, cols) array, optional
         :func:`family_capacity` of ``lines`` on ``grid``, when it was computed before.
+    fine : (rows, cols) array in [0, 1], optional
+        Where on ``grid`` the hatching is finer (faces; see :func:`hatch_strokes`).
 
     Returns
     -------
@@ -354,7 +379,8 @@ def hatch_layers(
         # Cross-hatching in a narrow band would be a comb of short ticks: later families need
         # longer strokes, and the loop hands what they leave to the first.
         shortest = min_run * (1.0 if j == 0 else CROSS_RUN)
-        strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=shortest, offset=j * GOLDEN / 3)
+        where = None if fine is None else grid.sample(fine, family.points)
+        strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=shortest, offset=j * GOLDEN / 3, fine=where)
         layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
 

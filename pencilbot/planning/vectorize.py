@@ -23,7 +23,10 @@ The raster line drawing paints, for every edge pixel labelled with direction i, 
    texture; averaged over a chain of strokes (step 4) it decides: a chain of clutter c above
    ``clutter`` (2) must be at least ℓ · (c / ``clutter``)⁴ long to be drawn. Long coherent
    contours through a textured region stay, its knots of short strokes go, and the hatching
-   carries its darkness.
+   carries its darkness. A picture that is texture through and through (a painting's brush
+   strokes) keeps few chains of low clutter each, but very many: there a *budget* of contour
+   length per area holds; past it chains go by (1 + clutter) / length, short cluttered ones
+   first and long coherent contours last, never those in an ``important`` region (a face).
 4. **Chains.** A stroke's end and the next stroke's along the same contour lie within a pixel
    or two; mutual best pairs of such ends (continuing in direction, within ``join`` · ℓ) are
    chained into one pen-down path that goes out to the first stroke's tip, back to the crossing
@@ -104,6 +107,10 @@ def edge_strokes(
     piece_length: float = 2.0,
     join: float = EDGE_JOIN,
     clutter: float = CLUTTER,
+    max_lines: int = MAX_LINES,
+    budget: float | None = None,
+    important: np.ndarray | None = None,
+    fine_threshold: float | None = None,
 ) -> list[np.ndarray]:
     """Pen paths that redraw the GMED line drawing, one chain of strokes per contour.
 
@@ -128,6 +135,18 @@ def edge_strokes(
     clutter : float
         Clutter above which short chains of strokes are dropped as texture (see the module
         docstring); ``inf`` keeps every chain.
+    max_lines : int
+        Most touching pen lines a bold contour is drawn with (1: every contour one line).
+    budget : float, optional
+        Most contour length, mm per mm² of the image on the page; past it the most cluttered
+        chains are dropped first (see the module docstring). None: no budget.
+    important : (H, W) float array in [0, 1], optional
+        Where the picture matters most (faces: :func:`pencilbot.imaging.faces.face_mask`).
+        There the threshold falls towards ``fine_threshold`` (the edge map is raised by their
+        ratio, so hysteresis and skeleton stay one pass: an eyelid, a brow, the corner of a
+        mouth are faint edges), and no chain there is dropped for the budget.
+    fine_threshold : float, optional
+        The edge threshold where ``important`` is 1 (default: ``threshold``).
 
     Returns
     -------
@@ -138,6 +157,8 @@ def edge_strokes(
     edges = np.asarray(line.edges, dtype=np.float32)
     ell = float(line.length)
     thr = edge_threshold(line) if threshold is None else float(threshold)
+    if important is not None and fine_threshold is not None and 0 < fine_threshold < thr:
+        edges = edges * (1.0 + (thr / fine_threshold - 1.0) * np.asarray(important, np.float32))
     # Hysteresis, as Canny: a contour goes on through stretches down to half the threshold
     # (a rim where the light grazes it), while weak texture on its own draws nothing.
     mask = apply_hysteresis_threshold(edges, _weaker(line, thr), thr)
@@ -150,7 +171,7 @@ def edge_strokes(
     comp, direction, u, v, rows, cols = found
     pen_px = pen_width / layout.mm_per_px
     width = _raster_width(line.drawing, skeleton, comp, rows, cols, ell)
-    lines = np.clip(np.rint(width / pen_px), 1, MAX_LINES).astype(np.intp)
+    lines = np.clip(np.rint(width / pen_px), 1, max(1, max_lines)).astype(np.intp)
     v = v - ((lines - 1) * pen_px / 2)[comp]  # the first of n touching lines; the rest follow
     strokes = _strokes(comp, direction, u, v, ell, piece_length)
     reach = max(2.0, join * ell)
@@ -158,9 +179,14 @@ def edge_strokes(
     pixels = np.bincount(comp)
     texture = np.bincount(comp, weights=_clutter(skeleton, direction, rows, cols, ell)) / pixels
     keep = _contours(strokes, links, pixels, texture, ell, min_pixels, clutter)
+    if budget is not None:
+        allowed = budget * edges.size * layout.mm_per_px  # mm per mm² × mm² / (mm per px): px
+        protected = None if important is None else np.bincount(
+            comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
+        keep &= _within_budget(strokes, links, texture, keep, allowed, protected)
     strokes, links, lines = _select(strokes, keep), _relinked(links, keep), lines[keep]
     paths_px = _chains(strokes, links, edges.shape)
-    for k in range(1, MAX_LINES):  # the further lines of bold contours, chained alike
+    for k in range(1, max(1, max_lines)):  # the further lines of bold contours, chained alike
         extra = _select(strokes, lines > k, shift_px=k * pen_px)
         paths_px += _chains(extra, _links(extra, reach) if join >= 0 else _NO_LINKS, edges.shape)
     if not paths_px:
@@ -379,6 +405,32 @@ def _contours(strokes, links, pixels, texture, ell, min_pixels, clutter) -> np.n
     keep_chain = np.bincount(chain, weights=pixels) >= min_pixels
     keep_chain &= (chain_clutter <= clutter) | (length >= ell * (chain_clutter / clutter) ** CLUTTER_POWER)
     return keep_chain[chain]
+
+
+def _within_budget(strokes, links, texture, keep, allowed, protected) -> np.ndarray:
+    """Which components stay when the kept chains may be ``allowed`` px long in all.
+
+    Chains are dropped by (1 + clutter) / length, most first (short and cluttered) until the rest fit;
+    ``protected`` components (a face) are never dropped and count against the budget first.
+    """
+    chain = _chain_ids(strokes.n, links)
+    length = np.bincount(chain, weights=strokes.extent * keep)
+    if length.sum() <= allowed:
+        return np.ones(strokes.n, bool)
+    weight = np.maximum(strokes.extent, 1e-9)
+    clutter = np.bincount(chain, weights=texture * weight) / np.bincount(chain, weights=weight)
+    safe = np.zeros(len(length), bool)
+    if protected is not None:
+        safe = np.bincount(chain, weights=protected.astype(np.float64)) > 0
+    # Long and coherent first: the chains kept are a prefix of the order of (1 + clutter) / length.
+    rank = (1.0 + clutter) / np.maximum(length, 1e-9)
+    rank[safe] = -np.inf
+    order = np.argsort(rank, kind="stable")
+    within = np.cumsum(length[order]) <= allowed
+    stay = np.zeros(len(length), bool)
+    stay[order[within]] = True
+    stay |= safe
+    return stay[chain]
 
 
 def _chain_ids(n: int, links: np.ndarray) -> np.ndarray:

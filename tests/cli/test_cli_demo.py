@@ -79,7 +79,10 @@ def test_demo_writes_valid_outputs_that_agree(tmp_path, capsys):
     assert np.corrcoef(plot.ravel(), preview.ravel())[0, 1] > 0.99
     assert plot.mean() == pytest.approx(preview.mean(), rel=0.01)
     assert summary["simulated_s"] == pytest.approx(summary["estimated_s"], rel=0.15)
-    assert summary["line_fidelity_r"] >= 0.85 and summary["tone_fidelity_r"] >= 0.90
+    # Line fidelity is to the raster's lines, which are bold and keep texture's strokes; since
+    # issue 23 a contour is one pen line and a painting's scribble is trimmed (the plan follows
+    # the photo better): coffee 0.83, was 0.89.
+    assert summary["line_fidelity_r"] >= 0.78 and summary["tone_fidelity_r"] >= 0.90
 
 
 def test_demo_with_a_broken_photo_is_one_clear_error(tmp_path, capsys):

@@ -123,3 +123,15 @@ def test_verbose_tells_where_the_time_goes(photo, tmp_path, caplog):
     said = [r.getMessage() for r in caplog.records if r.name.startswith("pencilbot")]
     assert any(m.startswith("sketch of") and "edges" in m and "beta" in m for m in said)
     assert any(m.startswith("layer edges:") and "paths, ordered in" in m for m in said)
+
+
+def test_faces_are_listed_in_the_svg_and_no_faces_switches_them_off(tmp_path):
+    photo = tmp_path / "astronaut.png"
+    Image.fromarray(data.astronaut()[::2, ::2]).save(photo)
+    found, off = tmp_path / "found.svg", tmp_path / "off.svg"
+    assert main(["plan", str(photo), "-o", str(found), "--page", "A5"]) == 0
+    assert main(["plan", str(photo), "-o", str(off), "--page", "A5", "--no-faces"]) == 0
+    x, y, size = (float(v) for v in read_svg(found).meta["faces"].split(","))
+    assert 75 <= x <= 100 and 20 <= y <= 45 and 40 <= size <= 60  # her face, in px of the photo as planned
+    assert read_svg(off).meta["faces"] == "off"
+    assert read_svg(found).paths().points.shape != read_svg(off).paths().points.shape

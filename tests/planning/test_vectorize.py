@@ -274,3 +274,48 @@ def test_strokes_stay_inside_the_drawing_box(seed, shape, rotate, pen):
         assert p.ndim == 2 and p.shape[1] == 2 and len(p) >= 2
         assert np.all((p[:, 0] >= x0 - 1e-9) & (p[:, 0] <= x1 + 1e-9))
         assert np.all((p[:, 1] >= y0 - 1e-9) & (p[:, 1] <= y1 + 1e-9))
+
+
+def test_a_picture_of_texture_keeps_its_clean_contour_within_the_budget():
+    # Texture all over (brush strokes of a painting: each coherent enough to pass the clutter
+    # rule at the old 2.0), and one clean dark disk on it. The budget caps the contour length;
+    # short texture chains go first, the disk's long outline stays.
+    rng = np.random.default_rng(7)
+    clean = np.full((240, 320), 0.75, np.float32)
+    clean[disk((120, 160), 45)] = 0.1
+    gray = clean.copy()
+    for x, y, angle, half, grey in zip(
+        *rng.uniform((0, 0, 0, 4, 0.35), (320, 240, np.pi, 12, 0.6), (900, 5)).T, strict=True
+    ):
+        dx, dy = half * np.cos(angle), half * np.sin(angle)
+        cv2.line(gray, (round(x - dx), round(y - dy)), (round(x + dx), round(y + dy)), float(grey), 2)
+    gray[disk((120, 160), 45)] = 0.1
+    line = line_drawing(edge_map(gray))
+    layout = _layout(gray.shape)
+    budget = 0.008  # mm of contour cores per mm²
+    free = edge_strokes(line, layout, clutter=2.0, max_lines=1)
+    capped = edge_strokes(line, layout, clutter=2.0, max_lines=1, budget=budget)
+    area = gray.size * layout.mm_per_px**2
+
+    def length(paths):
+        return sum(float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) for p in paths)
+
+    assert length(free) > 0.2 * area  # without the budget: a scribble
+    # Drawn strokes overshoot their cores: within three times the budget, a tenth of the scribble.
+    assert length(capped) <= 3 * budget * area and length(capped) < 0.1 * length(free)
+    # The disk's outline is drawn as on the clean picture.
+    rows, cols = np.ogrid[:240, :320]
+    rim = np.abs(np.hypot(rows - 120, cols - 160) - 45) <= 3
+
+    def on_rim(paths):
+        return ink_on_image_grid(paths, layout, pen_width=0.5)[rim].sum()
+
+    assert on_rim(capped) >= 0.9 * on_rim(edge_strokes(line_drawing(edge_map(clean)), layout, clutter=2.0, max_lines=1))
+    # An important region (a face) is never trimmed: the texture inside one stays drawn.
+    important = np.zeros(gray.shape, np.float32)
+    important[:, :80] = 1.0
+    kept = edge_strokes(line, layout, clutter=2.0, max_lines=1, budget=budget, important=important)
+    left = np.zeros(gray.shape, bool)
+    left[:, :70] = True
+    drawn = ink_on_image_grid(kept, layout, pen_width=0.5)
+    assert drawn[left].sum() >= 0.9 * ink_on_image_grid(free, layout, pen_width=0.5)[left].sum()

@@ -1,0 +1,73 @@
+"""Faces drawn with care (issue 23): denser, finer hatching in a face; nothing of it without faces."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from skimage import data
+
+from pencilbot.imaging.io import image_from_array
+from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.imaging.pencil import sketch
+from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.style import Style
+
+FAST = Style(order_rounds=2)
+
+
+@pytest.fixture(scope="module")
+def astronaut():
+    image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
+    page = page_size("A5", "portrait", image.shape, 10.0)
+    drawing = sketch(at_plot_resolution(image, page, FAST.pen_width))
+    on = plan_from_sketch(drawing, page, FAST)
+    off = plan_from_sketch(drawing, page, Style(order_rounds=2, faces=False))
+    return drawing, page, on, off
+
+
+def _inside(paths, layout, box):
+    """Points of ``paths`` whose image pixel lies in ``box`` (x0, y0, x1, y1), and their count."""
+    pts = layout.mm_to_px(np.concatenate(list(paths)))
+    x0, y0, x1, y1 = box
+    return int(np.sum((pts[:, 0] >= x0) & (pts[:, 0] <= x1) & (pts[:, 1] >= y0) & (pts[:, 1] <= y1)))
+
+
+def test_the_metadata_says_which_faces(astronaut):
+    _, _, on, off = astronaut
+    x, y, size = (float(v) for v in on.meta["faces"].split(","))
+    assert 75 <= x <= 100 and 20 <= y <= 45 and 40 <= size <= 60  # her face, at half size
+    assert off.meta["faces"] == "off"
+
+
+def test_a_face_gets_finer_hatching_than_without(astronaut):
+    drawing, page, on, off = astronaut
+    layout = Layout.fit(drawing.gray.shape, page)
+    x, y, size = (float(v) for v in on.meta["faces"].split(","))
+    core = (x + 0.2 * size, y + 0.2 * size, x + 0.8 * size, y + 0.8 * size)
+
+    def hatch_paths(plan):
+        return [p for layer in plan.layers if layer.role == "hatch" for p in layer.paths]
+
+    def strokes_in_face(plan):
+        return sum(1 for p in hatch_paths(plan) if _inside([p], layout, core))
+
+    # Shorter dashes on closer lines: more strokes in the face ...
+    assert strokes_in_face(on) > 1.3 * strokes_in_face(off)
+    # ... and far from the face the hatching is the same drawing.
+    far = (0, drawing.gray.shape[0] * 0.75, drawing.gray.shape[1], drawing.gray.shape[0])
+    assert _inside(hatch_paths(on), layout, far) == pytest.approx(_inside(hatch_paths(off), layout, far), rel=0.05)
+
+
+def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
+    # faces = false plans exactly what a picture without a face would: same layers, same points.
+    drawing, page, on, off = astronaut
+    coffee = image_from_array(data.coffee()[::3, ::3].copy())
+    coffee_drawing = sketch(at_plot_resolution(coffee, page, FAST.pen_width))
+    plain = plan_from_sketch(coffee_drawing, page, FAST)
+    no_faces = plan_from_sketch(coffee_drawing, page, Style(order_rounds=2, faces=False))
+    assert plain.meta["faces"] == "none" and no_faces.meta["faces"] == "off"
+    assert [layer.name for layer in plain.layers] == [layer.name for layer in no_faces.layers]
+    for a, b in zip(plain.layers, no_faces.layers, strict=True):
+        assert np.array_equal(a.paths.points, b.paths.points) and np.array_equal(a.paths.offsets, b.paths.offsets)
+    # And on the astronaut, with a face, the two differ.
+    assert not all(np.array_equal(a.paths.points, b.paths.points) for a, b in zip(on.layers, off.layers))
