@@ -527,7 +527,7 @@ class _Runner:
             # one can have run (lines still in its receive buffer were dropped by the reset).
             last = min(stream.sent, self.acked + 1)
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
-            floor = self._planner_floor(stream.rest_status)
+            floor = self._planner_floor(stream.rest_status, fault.index if fault.kind == "error" else None)
             floor = self._floor(stream, last) if floor is None else floor
             located = self._locate(last, self._job_units(proven[0], last), pen_down, floor, answered=self.acked)
             if located is None:
@@ -650,10 +650,11 @@ class _Runner:
         return flight_start(self.job, min(last, len(self.job) - 1), self.profile.receive_buffer,
                             self.firmware.moves_in_flight())
 
-    def _planner_floor(self, status) -> int | None:
+    def _planner_floor(self, status, refused: int | None = None) -> int | None:
         """The line the machine was running when it came to rest, from the planner count of the
         status report (GRBL's ``Bf:``, reported when ``$10`` asks for it): the blocks still
-        planned are the moves of the last lines answered, one block per move."""
+        planned are the moves of the last lines answered, one block per move (a ``refused``
+        line planned none)."""
         if status is None or status.buffer is None or self.acked < 0:
             return None
         queued = self.firmware.planner_blocks - status.buffer[0]
@@ -664,7 +665,7 @@ class _Runner:
         moves = 0
         for i in range(self.acked, first, -1):
             state, before = states[i], states[i - 1]
-            if (state.x, state.y, state.z) != (before.x, before.y, before.z):
+            if i != refused and (state.x, state.y, state.z) != (before.x, before.y, before.z):
                 moves += 1
                 if moves == queued:
                     return i

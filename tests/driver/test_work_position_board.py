@@ -50,10 +50,8 @@ def test_the_board_reports_work_position_and_the_offset_shifts_the_drawing(refer
     assert_same_drawing(drawn(name), reference)
 
 
-@pytest.mark.parametrize("report_mask", [0, 1, pytest.param(2, marks=pytest.mark.xfail(strict=True, reason=(
-    "issue 21, found by bench/mutants.py: with the planner count reported ($10 bit 2, Bf:), _planner_floor "
-    "puts the floor after the line the machine stopped on (floor 33 from acked 36 and Bf:11; the stop lies "
-    "before it), the proven stop is dropped and the resume refuses; to fix in plot.py")))])
+# 2 and 3: the planner count (Bf:) too, from which the stop finds the line it was running.
+@pytest.mark.parametrize("report_mask", [0, 1, 2, 3])
 def test_a_stop_and_resume_with_a_work_offset_comes_out_exact(tmp_path, reference, report_mask):
     lines = drawing()
     path = tmp_path / "offset.gcode"

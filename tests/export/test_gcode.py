@@ -410,3 +410,15 @@ def test_a_pen_command_longer_than_every_move_is_written_whole():
     written = [line for line in lines if line.startswith("G1 Z")]
     assert written and all(line.endswith("(lower the pen slowly onto the paper)") for line in written)
     assert max(map(len, written)) > max(len(line) for line in lines if line.startswith(("G0 X", "G1 X")))
+
+
+@pytest.mark.parametrize("first", [True, False])
+def test_a_repeated_point_gives_no_move_even_at_the_start_of_the_plan(first):
+    # A drawing move that lands where the pen already is goes nowhere: not written, also when
+    # it is the second point of the first path of the plan.
+    profile = load_profile("grbl-servo-a4")
+    doubled = np.array([[20.0, 20.0], [20.0, 20.0], [30.0, 30.0]])
+    other = np.array([[50.0, 50.0], [60.0, 50.0]])
+    lines = gcode_lines(plan_of([doubled, other] if first else [other, doubled]), profile)
+    draws = [line for line in lines if line.startswith("G1 X")]
+    assert len(draws) == 2  # one drawing move per path

@@ -266,3 +266,24 @@ def test_the_first_request_leaves_out_the_ink_a_contour_lays():
         return ink_on_grid([p for layer in layers for p in layer.paths], grid, 0.5)[band].mean()
 
     assert hatch_ink(True) < 0.5 * hatch_ink(False)
+
+
+def test_a_gap_shorter_than_half_the_shortest_stroke_is_bridged():
+    # One straight line sampled every SAMPLE_STEP, asking for ink everywhere but a short stretch:
+    # along-line smoothing leaves 2 samples off (a 0.8 mm gap), under half of min_run (1 mm), so
+    # the line is drawn through; a longer gap splits it.
+    from pencilbot.planning.hatching import SAMPLE_STEP, HatchLines, hatch_strokes
+
+    n = 30
+    lines = HatchLines(np.column_stack([np.arange(n) * SAMPLE_STEP, np.zeros(n)]), np.zeros(n, np.int64),
+                       np.zeros(n, np.int64), np.arange(n) * SAMPLE_STEP, np.ones(n), np.zeros((1, 1)))
+
+    def strokes_with_gap(first, last):
+        request = np.ones(n)
+        request[first:last + 1] = 0.0
+        return hatch_strokes(lines, request, pen_width=0.5, min_run=2.0)
+
+    bridged = strokes_with_gap(3, 8)
+    assert len(bridged) == 1 and bridged[0][0, 0] == 0.0 and bridged[0][-1, 0] == pytest.approx((n - 1) * SAMPLE_STEP)
+    split = strokes_with_gap(12, 18)  # 3 samples off: 1.2 mm, not bridged
+    assert len(split) == 2
