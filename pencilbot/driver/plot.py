@@ -603,8 +603,10 @@ class _Runner:
             return {}
         # The machine runs a line at most one past the last answered (GRBL answers once planned).
         last = min(self.acked + 1, len(self.job) - 1)
+        # The report may be a poll old, older than the answers since: no floor from the answered
+        # dwells (answered=-1), the latest pass through the point in the window.
         found = self._locate(last, self._job_units(xy, last), position.pen_down_in(stream.status, self.pen),
-                             window=_SHOW_WINDOW)
+                             window=_SHOW_WINDOW, answered=-1)
         where = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
         if found is not None:
             where["running"] = self.job.number(found[0])

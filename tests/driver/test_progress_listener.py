@@ -41,7 +41,7 @@ def test_records_say_which_line_the_machine_runs_and_where(tmp_path):
     gcode = tmp_path / "zigzag.gcode"
     api.export_gcode(zigzag_plan(), PROFILE, gcode)
     records = []
-    api.draw(gcode, f"sim://t?profile={PROFILE}&realtime=200", profile=PROFILE, on_progress=records.append)
+    api.draw(gcode, f"sim://listener-records?profile={PROFILE}&realtime=200", profile=PROFILE, on_progress=records.append)
     assert records[-1]["event"] == "done"
     moving = [r for r in records if r["event"] == "progress" and r.get("running") is not None]
     assert len(moving) >= 2
@@ -80,7 +80,9 @@ def test_a_position_off_the_window_is_not_found_rather_than_a_crash(tmp_path):
     # Where the first stroke is: far before the last 60 lines sent (it used to read a line
     # before the window and raise IndexError, inside the stop sequence of a plot).
     assert runner._locate(last, (20.0, 20.0)) is None
-    found = runner._locate(last, (20.0, 20.0), window=last)
+    # Searched over every line, with only the first lines answered (the pen-down dwell answered
+    # later would put the machine past it).
+    found = runner._locate(last, (20.0, 20.0), window=last, answered=5)
     assert found is not None and found[0] < 20
 
 
@@ -95,4 +97,4 @@ def test_the_stop_key_stops_a_plot_whose_machine_trails(tmp_path):
             return ["stop"] if time.monotonic() - self.started > 1.0 else []
 
     with pytest.raises(PlotError, match="stopped by the stop key.*pen raised"):
-        api.draw(gcode, f"sim://t?profile={PROFILE}&realtime=20", profile=PROFILE, keys=StopSoon())
+        api.draw(gcode, f"sim://listener-stop?profile={PROFILE}&realtime=20", profile=PROFILE, keys=StopSoon())

@@ -259,7 +259,7 @@ def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
     lines.insert(12, "G1 X900 Y10 F3000")  # soft limits still alarm in check mode
     path = tmp_path / "far.gcode"
     path.write_text("\n".join(lines) + "\n")
-    url, name = fresh("limits=bed")  # a board with homing and soft limits
+    url, name = fresh(f"limits=bed&profile={PROFILE}")  # a board with homing and soft limits: the shipped bed
     mine = tmp_path / "wide.toml"  # a profile whose bed takes the move, on a board whose limits do not
     mine.write_text((config_folder("plotters") / f"{PROFILE}.toml").read_text().replace("width = 220.0", "width = 1000.0"))
     with pytest.raises(PlotError, match=r"check mode \(\$C\) stopped at line 13 of .*'G1X900Y10F3000'.*ALARM:2.*nothing was drawn"):

@@ -106,9 +106,9 @@ def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_pa
     gcode = tmp_path / "job.gcode"
     api.export_gcode(studio.results["full"].plan, "grbl-servo-a4", gcode)
     plotters = Plotters()
-    session = plotters.start("sim://", "sim://t?profile=grbl-servo-a4&realtime=20&faults=abort@60", "grbl-servo-a4", gcode)
+    session = plotters.start("sim://", "sim://studio-rezero?profile=grbl-servo-a4&realtime=20&faults=abort@60", "grbl-servo-a4", gcode)
     session.thread.join(timeout=60)
-    assert session.status == "stopped" and "ALARM:3" in session.message and session.resumable
+    assert session.status == "stopped" and "ALARM:3" in session.message and session.resumable, session.message
     plotters.resume("sim://")
     wait(lambda: session.prompt is not None or not session.active, "the re-zero dialog")
     assert session.prompt["kind"] == "rezero" and "Jog the raised pen" in session.prompt["text"]
