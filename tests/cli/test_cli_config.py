@@ -70,7 +70,8 @@ def test_a_users_profile_is_found_by_name_before_the_shipped_one(mine, plan_svg,
     assert load_profile("slow").name == "slow"
     listing(["export", "--list-profiles"])
     listed = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()}
-    assert set(listed) == {"grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4", "hp7475a", "hp7475a-a3", "slow"}
+    assert set(listed) == {"grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4", "hp7475a", "hp7475a-a3",
+                           "axidraw-v3", "axidraw-a3", "nextdraw-8511", "idraw-a4", "slow"}
     assert f"(yours: {mine / 'plotters' / 'slow.toml'})" in listed["slow"]
     assert "(yours:" in listed["grbl-servo-a4"] and "(yours:" not in listed["grbl-z-a3"]
     assert main(["stat", str(plan_svg), "--profile", "slow", "--json"]) == 0

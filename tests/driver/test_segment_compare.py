@@ -78,7 +78,7 @@ def overlapping(strokes):
 
 def test_a_real_plot_is_the_same_as_itself_and_as_its_real_time_run(real):
     instant, realtime = real
-    assert sum(len(s) - 1 for s in instant) > 500 and max(len(s) for s in instant) > 10
+    assert sum(len(s) - 1 for s in instant) > 400 and max(len(s) for s in instant) > 10  # a real, multi-segment plan
     assert drawing_differences(instant, instant) == []
     assert drawing_differences(realtime, instant) == []
     assert drawing_differences(instant, realtime) == []
