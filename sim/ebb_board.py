@@ -77,7 +77,7 @@ class EbbBoard:
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
     every stretch the carriage moves.
 
-    Faults (:class:`sim.firmware.Faults`, keyed by the 1-based index of the command received):
+    Faults (:class:`sim.faults.Faults`, keyed by the 1-based index of the command received):
     ``error@k`` refuses command k (``!6``) without running it; ``silent@k`` runs it but its
     answer is lost; ``drop@k`` pulls the cable as it arrives (the board keeps running its queue);
     ``reset@k`` is a power cut (a reboot: counters 0 where the carriage stands, motors off);

@@ -17,7 +17,7 @@ from pencilbot.paths import Paths
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
 from pencilbot.units import DEFAULT_PEN_WIDTH
 from sim.ebb_board import EbbBoard
-from sim.machine import _Polylines
+from sim.recorder import Polylines
 
 
 class EbbDrawing:
@@ -27,11 +27,11 @@ class EbbDrawing:
 
     def __init__(self, profile, pauses):
         self.profile, self._pauses = profile, pauses
-        self._strokes = _Polylines()
+        self._strokes = Polylines()
         self._stroke: list[tuple[float, float]] = []
         self._stroke_pause = 0
         self._stroke_pauses: list[int] = []
-        self._travel = _Polylines()
+        self._travel = Polylines()
 
     def record(self, start, end, drawing: bool) -> None:
         start, end = (float(start[0]), float(start[1])), (float(end[0]), float(end[1]))
@@ -89,7 +89,7 @@ class VirtualEbb:
         Emulated bit/s, 0 for unlimited (USB CDC has no baud rate; kept for the URL's sake).
     realtime : float
         0: instant; r > 0: the motors run r times faster than real time.
-    faults : sim.firmware.Faults, optional
+    faults : sim.faults.Faults, optional
         Failures keyed by the index of the command received (see :class:`~sim.ebb_board.EbbBoard`).
     operator : {"none", "auto"}
         ``auto``: the board's PRG button reads as pressed whenever the machine is idle (a pen

@@ -6,7 +6,8 @@ module (the profile's firmware says which).
 
 :class:`Firmware` behaves like GRBL's serial interrupt, protocol loop and system commands
 (``serial.c``, ``protocol.c``, ``system.c``, ``settings.c``, ``report.c``) in front of a
-:class:`sim.machine.Machine`:
+:class:`sim.machine.Machine`; the ``$`` commands live in :mod:`sim.system_commands`, the
+settings in :mod:`sim.settings`, the state word and ``?`` report in :mod:`sim.status_report`:
 
 * realtime bytes ``?`` ``!`` ``~`` 0x18 and jog cancel 0x85 act the moment they arrive; other
   bytes ≥ 0x80 (overrides, a UTF-8 BOM) never reach a line, as GRBL's interrupt drops them;
@@ -36,129 +37,28 @@ module (the profile's firmware says which).
 
 Every complete line received is logged with its 1-based index and the reply (``ok``,
 ``error:N``, ``ALARM:N`` or ``-`` when a fault swallowed it), so tests can prove exactly-once
-delivery. :class:`Faults` injects failures keyed by that index.
+delivery (:class:`sim.line_log.LineLog`). :class:`sim.faults.Faults` injects failures keyed by
+that index.
 """
 
 from __future__ import annotations
 
 import re
-from array import array
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from firmware_protocol import grbl
-from sim import gcode_parser as gp
-from sim.machine import DEFAULT_SETTINGS, PAUSE, Machine, MachineAlarm
+from sim.faults import GARBAGE, Faults
+from sim.line_log import LineLog
+from sim.machine import Machine
+from sim.motion_control import PAUSE, MachineAlarm
+from sim.status_report import StatusReport
+from sim.system_commands import SystemCommands
 
 _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
 _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
-_NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)")
-_UINT8_SETTINGS = frozenset({0, 1, 2, 3, 10, 23, 26})
-_FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
-FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt", "unplug")
-_DEFAULT_CODE = {"interrupt": 2}  # SIGINT: Ctrl-C at the sender's terminal
-GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
-
-
-@dataclass(frozen=True)
-class Faults:
-    """Failures to inject, keyed by the 1-based index of the complete line received (blank
-    lines count too: the index is the one in :attr:`Firmware.log`).
-
-    ``error@k[:N]`` answers line k with ``error:N`` (default 20) without running it;
-    ``alarm@k`` raises ALARM:1 (hard limit) instead of running line k; ``silent@k`` stops
-    answering anything from line k on (a hung board); ``drop@k`` drops the link when line k
-    arrives (the port raises, the board keeps its state); ``reset@k`` reboots the board instead
-    of running line k (a power cut); ``abort@k`` soft-resets it as line k arrives (a Ctrl-X
-    from another program: ``ALARM:3`` if it was moving, the position kept if it was idle); ``garbage@k`` sends a line of noise before the reply to line k;
-    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``);
-    ``unplug@k`` pulls the cable and the board's power with it as line k arrives: the link
-    drops, the board restarts (its count from 0, 0 where the carriage stands, as a power cut
-    leaves it) and its start-up banner goes to nobody, so a sender that reconnects without
-    resetting it (``reset=0``, a pty) finds it idle at 0, 0 with no banner, as a real one;
-    ``interrupt@k[:SIGNAL]`` is the person at the sender's terminal: once the board has taken
-    the bytes that brought line k, the sender's process gets signal SIGNAL (default 2, SIGINT:
-    Ctrl-C; 15 SIGTERM, 1 SIGHUP), so a stop lands at an exact line instead of at a moment of
-    the wall clock (the board runs line k as usual).
-    """
-
-    at: dict[int, tuple[str, int]] = field(default_factory=dict)
-
-    @classmethod
-    def parse(cls, spec: str) -> Faults:
-        """From ``"error@5:22,silent@40"``; raises ``ValueError`` with a readable message."""
-        at = {}
-        for item in filter(None, (s.strip() for s in spec.split(","))):
-            m = re.fullmatch(r"([a-z]+)@(\d+)(?::(\d+))?", item)
-            if m is None or m.group(1) not in FAULT_KINDS:
-                raise ValueError(
-                    f"fault {item!r} is not KIND@LINE (KIND one of {', '.join(FAULT_KINDS)}; "
-                    "error@LINE:CODE sets the error code)"
-                )
-            at[int(m.group(2))] = (m.group(1), int(m.group(3) or _DEFAULT_CODE.get(m.group(1), 20)))
-        return cls(at)
-
-
-@dataclass(frozen=True)
-class LoggedLine:
-    """A complete line the board received: 1-based ``index``, the text, and its reply."""
-
-    index: int
-    text: str
-    reply: str
-
-
-class LineLog:
-    """Every complete line the board received, with its reply, in the order they were answered.
-
-    A sequence of :class:`LoggedLine`, held as flat arrays (the texts in one byte string, each
-    reply as a number into the few distinct replies): a million-line job costs tens of bytes a
-    line, not the ~200 an object per line took.
-    """
-
-    def __init__(self) -> None:
-        self._texts = bytearray()
-        self._ends = array("Q")  # where each line's text ends in _texts
-        self._index = array("L")
-        self._reply = array("H")  # into _replies
-        self._replies: list[str] = []
-        self._reply_code: dict[str, int] = {}
-
-    def append(self, index: int, text: str, reply: str) -> None:
-        code = self._reply_code.get(reply)
-        if code is None:
-            code = self._reply_code[reply] = len(self._replies)
-            self._replies.append(reply)
-        self._texts += text.encode("latin-1")
-        self._ends.append(len(self._texts))
-        self._index.append(index)
-        self._reply.append(code)
-
-    def __len__(self) -> int:
-        return len(self._ends)
-
-    def __getitem__(self, i: int) -> LoggedLine:
-        n = len(self._ends)
-        if not -n <= i < n:
-            raise IndexError(f"line {i} of a log of {n}")
-        i %= n
-        start = self._ends[i - 1] if i else 0
-        text = self._texts[start:self._ends[i]].decode("latin-1")
-        return LoggedLine(self._index[i], text, self._replies[self._reply[i]])
-
-    def __iter__(self) -> Iterator[LoggedLine]:
-        return (self[i] for i in range(len(self)))
-
-    def texts_answered(self, reply: str) -> list[str]:
-        """Texts of the non-blank lines answered ``reply``, in order."""
-        code = self._reply_code.get(reply)
-        if code is None:
-            return []
-        texts = self._texts.decode("latin-1")
-        starts = [0, *self._ends[:-1]]
-        return [texts[a:b] for a, b, r in zip(starts, self._ends, self._reply) if r == code and b > a]
 
 
 @dataclass
@@ -181,7 +81,7 @@ def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | N
     return text.decode("latin-1")
 
 
-class Firmware:
+class Firmware(SystemCommands, StatusReport):
     """GRBL 1.1h protocol front end of a virtual plotter.
 
     Parameters
@@ -528,263 +428,3 @@ class Firmware:
         """Texts of the non-blank lines answered ``ok``, in order (the exactly-once record;
         blank lines, such as a sender's wake-up line ends, carry nothing to deliver)."""
         return self.log.texts_answered("ok")
-
-    def _startup_steps(self):
-        """The ``$N`` lines, run after a reset or homing; each reports ``>line:status``."""
-        m = self.machine
-        for stored in self.startup_lines:
-            if stored:
-                block = m.parse(stored)
-                if not isinstance(block, int):
-                    yield from m.execute(block)
-                self._machine_output()
-                self._emit(f">{stored}:" + (f"error:{block}" if isinstance(block, int) else "ok"))
-
-    # --- $ commands -------------------------------------------------------------------------
-
-    def _system(self, index: int, text: str, line: str) -> None:
-        """A ``$`` line, under GRBL's state rules (system.c's system_execute_line)."""
-        if self.machine.instant and not self._hold:
-            self.machine.finish()
-        kind = line[1:2]
-        if kind == "J":
-            self._jog_line(index, text, line)
-        elif kind in ("", "$", "G", "C", "X"):
-            self._report_or_toggle(index, text, line)
-        else:
-            self._settings_or_homing(index, text, line)
-
-    def _jog_line(self, index: int, text: str, line: str) -> None:
-        """``$J=``: Idle or jogging only; checked as a jog block, refused past the soft limits."""
-        m = self.machine
-        if self.state() not in ("Idle", "Jog"):
-            return self._status(index, text, 8)
-        if line[2:3] != "=":
-            return self._status(index, text, 3)
-        block = m.parse(line[3:], jog=True)
-        code = block if isinstance(block, int) else m.jog_target_allowed(block)
-        if code:
-            return self._status(index, text, code)
-        self._jog = True
-        self._start(m.jog(block), self._answer(index, text), (index, text))
-
-    def _report_or_toggle(self, index: int, text: str, line: str) -> None:
-        """``$``, ``$$``, ``$G``, ``$C``, ``$X``: answered in any state but these few."""
-        m, kind, state = self.machine, line[1:2], self.state()
-        if len(line) > 2:
-            return self._status(index, text, 3)
-        if kind == "":
-            self._emit(self.protocol.HELP)
-        elif kind == "$":
-            if state in ("Run", "Hold:0"):
-                return self._status(index, text, 8)  # takes too long to print mid-cycle
-            for number, value in m.settings.items():
-                self._emit(grbl.format_message(grbl.Setting(number, value)))
-        elif kind == "G":
-            self._emit(f"[GC:{m.gcode_state(inches=bool(m.settings[13]))}]")
-        elif kind == "C":
-            if m.check_mode:
-                self._emit("[MSG:Disabled]")
-                self._reply(index, text, "ok")
-                return self.reset()
-            if state != "Idle":
-                return self._status(index, text, 8)
-            m.check_mode = True
-            self._emit("[MSG:Enabled]")
-        elif self._locked:  # $X
-            self._emit("[MSG:Caution: Unlocked]")
-            self._locked = False
-        self._reply(index, text, "ok")
-
-    def _settings_or_homing(self, index: int, text: str, line: str) -> None:
-        """``$#``, ``$H``, ``$SLP``, ``$I``, ``$RST=``, ``$N``, ``$x=``: Idle or Alarm only."""
-        m, kind, state = self.machine, line[1:2], self.state()
-        if state not in ("Idle", "Alarm"):
-            return self._status(index, text, 8)
-        if kind == "#":
-            if len(line) > 2:
-                return self._status(index, text, 3)
-            self._report_parameters()
-        elif kind == "H":
-            if not m.settings[22]:
-                return self._status(index, text, 5)
-            if len(line) > 2:
-                return self._status(index, text, 3)
-            self._homing = True
-            return self._start(self._homing_steps(), self._answer(index, text), (index, text))
-        elif kind == "S":
-            if line != "$SLP":
-                return self._status(index, text, 3)
-            self._reply(index, text, "ok")
-            self._emit("[MSG:Sleeping]")
-            self._sleep = True
-            return
-        elif kind == "I":
-            if len(line) == 2:
-                for report in self.protocol.build_report(self.build_info, "V" + ("" if self.init_lock else "L")):
-                    self._emit(report)
-            elif line[2] != "=":
-                return self._status(index, text, 3)
-            else:
-                self.build_info = line[3:]
-        elif kind == "R":
-            return self._restore(index, text, line)
-        elif kind == "N" and len(line) == 2:
-            for n, stored in enumerate(self.startup_lines):
-                self._emit(f"$N{n}={stored}")
-        elif kind == "N":
-            if state != "Idle":
-                return self._status(index, text, 8)
-            return self._store_startup_line(index, text, line)
-        else:
-            return self._status(index, text, self._store_setting(line))
-        self._reply(index, text, "ok")
-
-    def _homing_steps(self):
-        yield from self.machine.home()
-        self._homing = self._locked = False
-        if self._report_due:
-            self._report_due = False
-            self._emit(self.status_report())
-        yield from self._startup_steps()
-
-    def _restore(self, index: int, text: str, line: str) -> None:
-        """``$RST=$`` settings, ``$RST=#`` offsets, ``$RST=*`` everything back to GRBL's defaults."""
-        m = self.machine
-        if line[2:5] != "ST=" or len(line) != 6 or line[5] not in "$#*":
-            return self._status(index, text, 3)
-        if line[5] in "$*":
-            m.settings = dict(DEFAULT_SETTINGS)
-        if line[5] in "#*":
-            m.coord_data[:] = [(0.0, 0.0, 0.0)] * len(m.coord_data)
-        if line[5] == "*":
-            self.startup_lines = ["", ""]
-            self.build_info = ""
-        self._emit("[MSG:Restoring defaults]")
-        self._reply(index, text, "ok")
-        self.reset()
-
-    def _store_startup_line(self, index: int, text: str, line: str) -> None:
-        """``$Nx=line``: the line is run now (to check it), then stored for every reset."""
-        number = _NUMBER.match(line, 2)
-        if number is None:
-            return self._status(index, text, 2)
-        if line[number.end():number.end() + 1] != "=":
-            return self._status(index, text, 3)
-        stored = line[number.end() + 1:]
-        block = self.machine.parse(stored)
-        if isinstance(block, int):
-            return self._status(index, text, block)
-        slot = int(float(number.group()))
-
-        def store() -> None:
-            if slot < len(self.startup_lines):  # GRBL writes past its two slots; not emulated
-                self.startup_lines[slot] = stored
-            self._reply(index, text, "ok")
-
-        self._start(self.machine.execute(block), store, (index, text))
-
-    def _store_setting(self, line: str) -> int:
-        """``$x=val`` as GRBL's settings_store_global_setting; the status code."""
-        settings = self.machine.settings
-        key = _NUMBER.match(line, 1)
-        if key is None:
-            return 2
-        if line[key.end():key.end() + 1] != "=":
-            return 3
-        value_match = _NUMBER.match(line, key.end() + 1)
-        if value_match is None:
-            return 2
-        number, value = float(key.group()), float(value_match.group())
-        if value_match.end() != len(line) or number > 255:
-            return 3
-        number = int(number) % 256
-        if value < 0:
-            return 4
-        if number not in settings:
-            return 3
-        whole = int(value) % 256
-        if number == 0 and whole < 3:
-            return 6
-        if number == 20 and whole and not settings[22]:
-            return 10
-        if number in _FLAG_SETTINGS:
-            settings[number] = 1 if whole else 0
-            if number == 22 and not whole:
-                settings[20] = 0  # no soft limits without homing
-        elif number in _UINT8_SETTINGS:
-            settings[number] = whole
-        else:
-            settings[number] = value
-        if number == 13:
-            self.machine.offsets_changed = True
-        return 0
-
-    def _report_parameters(self) -> None:
-        """``$#``: G54–G59, G28, G30 (EEPROM), G92, tool length offset, last probe."""
-        m = self.machine
-        inches = bool(m.settings[13])
-        names = [f"G{54 + i}" for i in range(gp.COORD_SYSTEMS)] + ["G28", "G30"]
-        for name, values in zip(names, m.coord_data):
-            self._emit(f"[{name}:{grbl.format_coords(values, inches=inches)}]")
-        self._emit(f"[G92:{grbl.format_coords(m.state.coord_offset, inches=inches)}]")
-        self._emit(f"[TLO:{grbl.format_coords((m.state.tool_length_offset,), inches=inches)}]")
-        self._emit(f"[PRB:{grbl.format_coords(m.probe_position, inches=inches)}:{int(m.probe_succeeded)}]")
-
-    # --- status -----------------------------------------------------------------------------
-
-    def state(self) -> str:
-        """GRBL's state word for the status report."""
-        m = self.machine
-        if self._sleep:
-            return "Sleep"
-        if self._locked:
-            return "Alarm"
-        if self._homing:
-            return "Home"
-        if self._hold:
-            return "Hold:0"
-        if m.check_mode:
-            return "Check"
-        if m.planner.busy:
-            return "Jog" if self._jogging else "Run"
-        return "Idle"  # also during a dwell: GRBL's cycle has ended by then
-
-    def status_report(self) -> str:
-        """The ``<…>`` line GRBL prints for ``?``, honouring ``$10``, ``$13`` and the WCO/Ov cadence."""
-        m = self.machine
-        state = self.state()
-        busy = state in ("Run", "Hold:0", "Jog", "Home")
-        mask = int(m.settings[10])
-        pos = m.machine_position()
-        wco = m.work_offset()
-        spindle = m.state.modal.spindle
-        speed = m.spindle_output() if spindle != 5 else 0.0
-        fields = dict(
-            mpos=pos if mask & 1 else None,
-            wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, wco)),
-            buffer=(m.planner.free_blocks, self._ring_size - len(self._ring)) if mask & 2 else None,
-            feed=m.current_speed() * 60.0 if state in ("Run", "Jog") else 0.0,
-            spindle=speed,
-            pins=m.limit_pins() or None,
-        )
-        if m.offsets_changed:
-            m.offsets_changed = False
-            self._wco_counter = 0
-        if self._wco_counter > 0:
-            self._wco_counter -= 1
-        else:
-            self._wco_counter = (30 if busy else 10) - 1
-            self._ovr_counter = self._ovr_counter or 1  # overrides on the next report
-            fields["wco"] = wco
-        if self._ovr_counter > 0:
-            self._ovr_counter -= 1
-        else:
-            self._ovr_counter = (20 if busy else 10) - 1
-            fields["overrides"] = (100, 100, 100)
-            lit = {3: "S", 4: "C"}.get(spindle, "") if speed > 0 else ""
-            fields["accessories"] = (lit + ("F" if m.state.modal.coolant == 8 else "")) or None
-        name, _, sub = state.partition(":")
-        return grbl.format_status(grbl.Status(name, int(sub) if sub else None, **fields),
-                                  inches=bool(m.settings[13]))
-

@@ -358,7 +358,7 @@ class HpglPlotter(VirtualPlotter):
         Emulated bit/s, 0 for unlimited.
     realtime : float
         0: instant; ``r > 0``: r times faster than real time.
-    faults : sim.firmware.Faults, optional
+    faults : sim.faults.Faults, optional
     xonxoff : bool
         Send XOFF / XON as the buffer fills and empties.
     """

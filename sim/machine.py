@@ -6,8 +6,8 @@ checks it as GRBL 1.1h's parser does (:mod:`sim.gcode_parser`: the status code o
 failing check, or a :class:`~sim.gcode_parser.Block`); :meth:`Machine.execute` carries a block
 out in GRBL's order of execution (feed, spindle, coolant, dwell, plane, units, tool length,
 coordinate system, distance, G10/G28/G30/G92, motion, program flow). Execution is a generator
-that yields :data:`WAIT` wherever GRBL's main loop would block (planner full, a buffer
-synchronise for a pen change, dwell, offset change or program stop) and :data:`PAUSE` for an
+that yields :data:`~sim.motion_control.WAIT` wherever GRBL's main loop would block (planner full, a buffer
+synchronise for a pen change, dwell, offset change or program stop) and :data:`~sim.motion_control.PAUSE` for an
 ``M0``, so the firmware answers ``ok`` when GRBL would.
 
 Motion: G0/G1, G2/G3 arcs cut into chords by ``$12`` (:mod:`sim.arcs`), G38.2–G38.5 probes
@@ -20,72 +20,37 @@ The machine is a profile (:mod:`pencilbot.machine`, the neutral description) and
 profile's :class:`~pencilbot.machine.pen.PenModel`: a *spindle* pen is down while M3/M4 is on
 with S closer to the profile's ``down`` than ``up``; a *z* pen while Z is closer to ``down``; a
 *servo* pen while the last ``M280`` angle is (``M280`` is refused as by real GRBL unless the machine is made with
-``servo=True``). Moves are planned (:mod:`sim.planner`) and, as they complete, pen-down moves
-become :attr:`Machine.strokes` and pen-up moves :attr:`Machine.travel`.
+``servo=True``). Moves are queued by GRBL's motion control (:mod:`sim.motion_control`: soft
+limits, dwell, homing, stop), planned (:mod:`sim.planner`) and, as they complete, recorded
+(:mod:`sim.recorder`): pen-down moves become :attr:`Machine.strokes` and pen-up moves
+:attr:`Machine.travel`. Its ``$`` settings start from the profile's (:mod:`sim.settings`).
 
 Machine coordinates run from 0 to the bed size (negative if the profile inverts an axis) when
 the machine's position is true. Where the carriage really is differs by :attr:`Machine.slip`
 once the position is lost: a power cycle restarts the count at 0, 0, 0 wherever the carriage
 stands (:meth:`power_on`), a stop in motion lets it coast on (:meth:`stop` with ``lose``);
 homing (``$H``) makes the two agree again. Strokes are recorded where the pen really went.
-With soft limits on (``$20=1``) a target outside the travel raises :class:`MachineAlarm`.
+With soft limits on (``$20=1``) a target outside the travel raises :class:`~sim.motion_control.MachineAlarm`.
 """
 
 from __future__ import annotations
 
 import math
-from array import array
-
-import numpy as np
 
 from firmware_protocol import grbl
-from pencilbot.machine.motion import axis_limited
 from pencilbot.machine.profile import Profile
-from pencilbot.paths import Paths
 from sim import gcode_parser as gp
 from sim.arcs import arc_chords
+from sim.motion_control import PAUSE, WAIT, MotionControl
 from sim.planner import Block, Planner
+from sim.recorder import StrokeRecorder
+from sim.settings import grbl_settings
 
-SOFT_LIMIT_ALARM, PROBE_INITIAL_ALARM, PROBE_CONTACT_ALARM = 2, 4, 5
+PROBE_INITIAL_ALARM, PROBE_CONTACT_ALARM = 4, 5
 TRAVEL_EXCEEDED = 15
-WAIT, PAUSE = "wait", "pause"  # what an execution yields: blocked on the machine, or M0
-
-#: GRBL 1.1 factory settings (defaults.h, DEFAULTS_GENERIC); a profile overrides the machine's.
-DEFAULT_SETTINGS: dict[int, float] = {
-    0: 10, 1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 1, 11: 0.010, 12: 0.002, 13: 0,
-    20: 0, 21: 0, 22: 0, 23: 0, 24: 25.0, 25: 500.0, 26: 250, 27: 1.0, 30: 1000, 31: 0, 32: 0,
-    100: 250.0, 101: 250.0, 102: 250.0, 110: 500.0, 111: 500.0, 112: 500.0,
-    120: 10.0, 121: 10.0, 122: 10.0, 130: 200.0, 131: 200.0, 132: 200.0,
-}
 
 
-class MachineAlarm(Exception):
-    """Motion stopped with GRBL alarm ``code`` (e.g. 2: soft limit)."""
-
-    def __init__(self, code: int):
-        super().__init__(f"ALARM:{code}")
-        self.code = code
-
-
-def grbl_settings(profile: Profile) -> dict[int, float]:
-    """GRBL settings for the machine ``profile`` describes: homing and soft limits as its bed
-    says, its rates, acceleration, junction deviation, travel and homing directions."""
-    motion, bed, pen = profile.motion, profile.bed, profile.pen_model
-    s = dict(DEFAULT_SETTINGS)
-    s.update({
-        11: motion.junction_deviation, 20: int(bed.soft_limits), 22: int(bed.homing),
-        110: motion.axis_rate, 111: motion.axis_rate, 112: motion.axis_rate,
-        120: motion.acceleration, 121: motion.acceleration, 122: motion.acceleration,
-        130: bed.width, 131: bed.height,
-    })
-    # $23 set bits home towards negative: the axes whose machine coordinates grow into the bed.
-    s[23] = (0 if bed.invert_x else 1) | (0 if bed.invert_y else 2)
-    if pen.kind == "spindle":
-        s[30] = max(s[30], pen.up, pen.down)
-    return s
-
-
-class Machine:
+class Machine(MotionControl, StrokeRecorder):
     """A GRBL 1.1h interpreter driving a planner and a virtual clock.
 
     Parameters
@@ -101,6 +66,7 @@ class Machine:
     """
 
     def __init__(self, profile: Profile, *, instant: bool = True, servo: bool = False):
+        super().__init__()
         self.profile = profile
         self.pen = profile.pen_model
         self.instant = instant
@@ -108,10 +74,7 @@ class Machine:
         self.settings = grbl_settings(profile)
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
-        self._strokes = _Polylines()  # finished pen-down polylines, machine mm
-        self._travel = _Polylines()  # pen-up moves, same frame
         self.pauses = 0  # M0 pauses the program has reached (a colour job: its pen changes)
-        self._stroke_pauses: list[int] = []  # for each stroke, the pauses reached before it began
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
         self.offsets_changed = False  # a WCO change the next status report must show
@@ -124,8 +87,6 @@ class Machine:
         self.probe_succeeded = False
         self.servo_angle = self.pen.up
         self.check_mode = False
-        self._stroke: list[tuple[float, float]] = []
-        self._stroke_pause = 0
         self.state = gp.ParserState(self.coord_data)
         self.reset_modes()
 
@@ -391,236 +352,10 @@ class Machine:
         """A ``$J=`` move at its own F that leaves the parser's modes untouched (a generator)."""
         yield from self._queue_line(block.target, rapid=False, feed=block.feed, checked=True)
 
-    def home(self):
-        """``$H``: seek the switches at ``$25``, locate at ``$24``, pull off ``$27`` (a generator).
-
-        The carriage ends at the origin corner (X and Y; a pen plotter homes no Z) and GRBL's
-        count agrees with it again. Non-inverted axes read 0 there (a positive work space needs
-        HOMING_FORCE_SET_ORIGIN), inverted ones −``$27`` (GRBL's negative space).
-        """
-        pulloff, seek, feed = self.settings[27], self.settings[25], self.settings[24]
-        start = self.carriage_position()
-        bed = self.profile.bed
-        home = (-pulloff if bed.invert_x else 0.0, -pulloff if bed.invert_y else 0.0, start[2])
-        distance = math.dist(start[:2], home[:2])
-        seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
-        yield from self._dwell(seconds)
-        self._record(start, home, self.pen_down)
-        self._close_stroke()
-        self.slip = (0.0, 0.0, self.slip[2])
-        self.position = (home[0], home[1], start[2] - self.slip[2])
-
-    def _soft_limit_exceeded(self, target) -> bool:
-        if not self.settings[20]:
-            return False
-        eps = 1e-6
-        for value, travel, inverted in (
-            (target[0], self.settings[130], self.profile.bed.invert_x),
-            (target[1], self.settings[131], self.profile.bed.invert_y),
-        ):
-            lo, hi = (-travel, 0.0) if inverted else (0.0, travel)
-            if not lo - eps <= value <= hi + eps:
-                return True
-        return False
-
-    def _queue_line(self, target, *, rapid: bool, feed: float | None = None, checked: bool = False):
-        """GRBL's mc_line: soft limits, check mode, wait for a planner slot, plan the move."""
-        if not checked and self._soft_limit_exceeded(target):
-            self.stop()
-            raise MachineAlarm(SOFT_LIMIT_ALARM)
-        if self.check_mode:
-            self.position = target
-            return
-        while self.planner.free_blocks == 0:
-            if self.instant:
-                self._complete([self.planner.finish_one()])
-            else:
-                yield WAIT
-        self._line(target, rapid=rapid, feed=feed)
-
-    def _line(self, target: tuple[float, float, float], *, rapid: bool, feed: float | None = None) -> None:
-        start = self.position
-        delta = (target[0] - start[0], target[1] - start[1], target[2] - start[2])
-        length = math.hypot(*delta)
-        pen_before = self.pen_down
-        self.position = target
-        if length < 1e-9:
-            return
-        unit = (delta[0] / length, delta[1] / length, delta[2] / length)
-        settings = self.settings
-        rate, accel = axis_limited(unit, (settings[110], settings[111], settings[112]),
-                                   (settings[120], settings[121], settings[122]))
-        rate /= 60.0
-        nominal = rate if rapid else min((self.state.feed if feed is None else feed) / 60.0, rate)
-        pen = pen_before and (self.pen.kind != "z" or self.pen_down)
-        self.planner.add(Block(start, target, length, unit, nominal, accel, pen), settings[11])
-
-    @property
-    def dwelling(self) -> bool:
-        """Real-time mode: a G4 (or a homing cycle) is still counting down."""
-        return self.planner.clock < self.dwell_until
-
-    def _dwell(self, seconds: float):
-        if self.check_mode:
-            return
-        yield from self._synchronize()
-        if self.instant:
-            self.planner.clock += seconds
-            return
-        self.dwell_until = self.planner.clock + seconds
-        while self.dwelling:
-            yield WAIT
-
-    def _synchronize(self):
-        """GRBL's protocol_buffer_synchronize: wait until every queued move has run."""
-        if self.instant:
-            self._complete(self.planner.finish_all())
-        while self.planner.busy:
-            yield WAIT
-
-    def advance(self, seconds: float) -> None:
-        """Real-time mode: let ``seconds`` of machine time pass."""
-        self._complete(self.planner.advance(seconds))
-        if not self.planner.busy and self.planner.clock < self.dwell_until:
-            self.planner.clock = min(self.dwell_until, self.planner.clock + seconds)
-
-    def stop(self, *, lose: bool = False) -> bool:
-        """Halt at once (reset, alarm): drop planned moves. True if the machine was moving.
-
-        ``lose``: the motors stop dead but the carriage coasts on for its stopping distance
-        (v²/2a along the move), so GRBL's count no longer says where it is.
-        """
-        p = self.planner
-        moving = p.busy
-        first = p.executing or (p.queue[0] if p.queue else None)
-        # In instant mode the machine stands at the start of the first queued move, at the speed
-        # the planner entered it with (never more than it can stop from by the move's end).
-        speed = self.current_speed() if p.executing is not None else (first.entry if first else 0.0)
-        here = self.machine_position()  # moves not yet started are dropped, not reached
-        cut = p.discard()
-        if cut is not None:
-            self._complete([cut])
-        self.position = here
-        self.dwell_until = p.clock
-        if lose and first is not None and speed > 0:
-            coast = speed * speed / (2.0 * first.accel)
-            start = self.carriage_position()
-            self.slip = tuple(s + u * coast for s, u in zip(self.slip, first.unit))
-            self._record(start, self.carriage_position(), first.pen_down)
-            left = math.dist(here, first.end)  # of the move, before it runs past its end
-            if first.pen_down and coast > left:
-                end = self.carriage_position()
-                self.overruns.append((tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2]))
-        self._close_stroke()
-        return moving
-
-    # --- what was drawn -------------------------------------------------------------------
-
-    def _complete(self, blocks: list[Block]) -> None:
-        slip = self.slip
-        for b in blocks:
-            start = (b.start[0] + slip[0], b.start[1] + slip[1])
-            end = (b.end[0] + slip[0], b.end[1] + slip[1])
-            self._record(start, end, b.pen_down)
-
-    def _record(self, start, end, pen_down: bool) -> None:
-        """A stretch the carriage really moved (mm, machine frame of a homed machine)."""
-        start, end = (start[0], start[1]), (end[0], end[1])
-        if pen_down:
-            if not self._stroke or self._stroke[-1] != start:
-                self._close_stroke()
-                self._stroke.append(start)
-                self._stroke_pause = self.pauses
-            self._stroke.append(end)
-        else:
-            self._close_stroke()
-            self._travel.add((start, end))
-
-    def _close_stroke(self) -> None:
-        """The pen has left the paper: the polyline being drawn is finished."""
-        if len(self._stroke) >= 2:
-            self._strokes.add(self._stroke)
-            self._stroke_pauses.append(self._stroke_pause)
-        self._stroke = []
-
-    def finish(self) -> None:
-        """Complete all queued motion (instant mode)."""
-        if self.instant and not self.check_mode:
-            self._complete(self.planner.finish_all())
-
-    @property
-    def strokes(self) -> list[np.ndarray]:
-        """Pen-down polylines drawn so far (machine mm), the one still being drawn last."""
-        return list(self.drawn())
-
-    @property
-    def travel(self) -> list[np.ndarray]:
-        """Pen-up moves so far (machine mm), each a (2, 2) array."""
-        return list(self._travel.paths())
-
-    def drawn(self) -> Paths:
-        """:attr:`strokes` as one :class:`~pencilbot.paths.Paths` (no array per stroke)."""
-        return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
-
-    @property
-    def stroke_pauses(self) -> list[int]:
-        """For each of :attr:`strokes`, how many ``M0`` pauses the program had passed when it
-        began: a colour job's pen changes are pauses, so this says which pen drew it."""
-        if len(self._stroke) >= 2:
-            return self._stroke_pauses + [self._stroke_pause]
-        return list(self._stroke_pauses)
-
     @property
     def clock(self) -> float:
         """Simulated seconds of motion and dwell since power-on."""
         return self.planner.clock
-
-    def bed_strokes(self) -> Paths:
-        """Pen-down polylines in bed mm (bottom-left origin, Y up) for :mod:`pencilbot.render`."""
-        return self._bed_view(self.drawn())
-
-    def bed_travel(self) -> Paths:
-        """Pen-up moves in bed mm, as :meth:`bed_strokes`."""
-        return self._bed_view(self._travel.paths())
-
-    def _bed_view(self, paths: Paths) -> Paths:
-        return Paths(self.profile.bed.to_view(paths.points), paths.offsets)
-
-
-class _Polylines:
-    """Polylines appended one by one into a single growing (N, 2) float64 point array.
-
-    A million-line job draws hundreds of thousands of strokes and moves: as one array they cost
-    16 bytes a point and 8 a polyline, where an array per polyline cost about 130 bytes more.
-    """
-
-    def __init__(self) -> None:
-        self._points = np.empty((1024, 2))
-        self._size = 0
-        self._ends = array("q")
-
-    def __len__(self) -> int:
-        return len(self._ends)
-
-    def add(self, points) -> None:
-        """Append one polyline (a sequence of (x, y), at least one point)."""
-        points = np.asarray(points, dtype=np.float64)
-        end = self._size + len(points)
-        if end > len(self._points):  # grow by doubling: appends stay amortised O(1)
-            grown = np.empty((max(end, 2 * len(self._points)), 2))
-            grown[: self._size] = self._points[: self._size]
-            self._points = grown
-        self._points[self._size : end] = points
-        self._size = end
-        self._ends.append(end)
-
-    def paths(self, last=None) -> Paths:
-        """Every polyline (a copy), and ``last`` (points, if given) after them."""
-        points, ends = self._points[: self._size], np.array(self._ends, dtype=np.int64)
-        if last is not None:
-            points = np.concatenate([points, np.asarray(last, dtype=np.float64)])
-            ends = np.append(ends, len(points))
-        return Paths(points.copy(), np.concatenate([[0], ends]))
 
 
 def _speed_at(block: Block, t: float) -> float:

@@ -31,7 +31,7 @@ URL parts (all optional):
     wall clock plays no part, so a fault at a line finds the machine at the same place, mid-move,
     every run.
 ``faults``
-    Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.firmware.Faults`.
+    Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.faults.Faults`.
 ``reset``
     ``1`` (default): opening the port resets the board like an Arduino's DTR line does (a
     power-up: banner, motion stopped, modes reset; see ``power``). ``0``: a board without
@@ -79,7 +79,8 @@ from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
-from sim.firmware import Faults, Firmware
+from sim.faults import Faults
+from sim.firmware import Firmware
 from sim.machine import Machine
 _OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff")
 _IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came

@@ -34,7 +34,7 @@ from pencilbot.driver.modal import clean_line, track
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
-from sim.firmware import Faults
+from sim.faults import Faults
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
 from segments import assert_same_drawing, drawing_differences

@@ -6,7 +6,7 @@ import pytest
 
 from pencilbot.machine.profile import load_profile
 from sim.ebb_board import EbbBoard
-from sim.firmware import Faults
+from sim.faults import Faults
 
 
 @pytest.fixture

@@ -9,7 +9,8 @@ from machines import description
 
 from firmware_protocol import grbl
 from pencilbot.machine.pen import PenModel
-from sim.firmware import GARBAGE, Faults, Firmware, filter_line
+from sim.faults import GARBAGE, Faults
+from sim.firmware import Firmware, filter_line
 from sim.machine import Machine
 
 BANNER = "\r\nGrbl 1.1h ['$' for help]\r\n"
@@ -395,7 +396,7 @@ def test_dollar_dollar_is_answered_while_jogging_but_not_while_running():
 @given(st.lists(st.tuples(st.integers(1, 2**31), st.text(st.characters(max_codepoint=255), max_size=12),
                           st.sampled_from(["ok", "error:20", "-", "error:1"])), max_size=30))
 def test_the_line_log_gives_back_every_line_as_it_was_logged(entries):
-    from sim.firmware import LineLog, LoggedLine
+    from sim.line_log import LineLog, LoggedLine
 
     log = LineLog()
     for entry in entries:

@@ -10,7 +10,8 @@ from machines import description
 
 from firmware_protocol import grbl
 from sim.gcode_parser import Block, ParserState, _grbl_float, parse_block
-from sim.machine import Machine, MachineAlarm
+from sim.machine import Machine
+from sim.motion_control import MachineAlarm
 
 WORDS = st.one_of(
     st.sampled_from(["G0", "G1", "G2", "G3", "G4", "G10", "G17", "G18", "G19", "G20", "G21", "G28", "G28.1",

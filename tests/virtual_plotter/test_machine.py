@@ -10,7 +10,8 @@ from hypothesis import strategies as st
 from machines import description
 
 from pencilbot.machine.pen import PenModel
-from sim.machine import Machine, MachineAlarm
+from sim.machine import Machine
+from sim.motion_control import MachineAlarm
 from sim.planner import block_duration, junction_speed
 
 

@@ -11,7 +11,7 @@ from firmware_protocol import grbl
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from sim import protocol_sim
-from sim.firmware import Faults
+from sim.faults import Faults
 from sim.protocol_sim import VirtualPlotter, plotter
 from sim.pty_server import PtyServer
 

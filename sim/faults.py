@@ -1,0 +1,53 @@
+"""Failures a virtual GRBL board can be made to show, keyed by the line they strike.
+
+:class:`Faults` is parsed from the ``faults=`` option of a ``sim://`` URL (``KIND@LINE[:CODE]``);
+:class:`sim.firmware.Firmware` delivers each as the line with that index arrives.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt", "unplug")
+_DEFAULT_CODE = {"interrupt": 2}  # SIGINT: Ctrl-C at the sender's terminal
+GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
+
+
+@dataclass(frozen=True)
+class Faults:
+    """Failures to inject, keyed by the 1-based index of the complete line received (blank
+    lines count too: the index is the one in :attr:`Firmware.log`).
+
+    ``error@k[:N]`` answers line k with ``error:N`` (default 20) without running it;
+    ``alarm@k`` raises ALARM:1 (hard limit) instead of running line k; ``silent@k`` stops
+    answering anything from line k on (a hung board); ``drop@k`` drops the link when line k
+    arrives (the port raises, the board keeps its state); ``reset@k`` reboots the board instead
+    of running line k (a power cut); ``abort@k`` soft-resets it as line k arrives (a Ctrl-X
+    from another program: ``ALARM:3`` if it was moving, the position kept if it was idle); ``garbage@k`` sends a line of noise before the reply to line k;
+    ``hold@k`` presses the machine's feed-hold button as line k arrives (it runs after ``~``);
+    ``unplug@k`` pulls the cable and the board's power with it as line k arrives: the link
+    drops, the board restarts (its count from 0, 0 where the carriage stands, as a power cut
+    leaves it) and its start-up banner goes to nobody, so a sender that reconnects without
+    resetting it (``reset=0``, a pty) finds it idle at 0, 0 with no banner, as a real one;
+    ``interrupt@k[:SIGNAL]`` is the person at the sender's terminal: once the board has taken
+    the bytes that brought line k, the sender's process gets signal SIGNAL (default 2, SIGINT:
+    Ctrl-C; 15 SIGTERM, 1 SIGHUP), so a stop lands at an exact line instead of at a moment of
+    the wall clock (the board runs line k as usual).
+    """
+
+    at: dict[int, tuple[str, int]] = field(default_factory=dict)
+
+    @classmethod
+    def parse(cls, spec: str) -> Faults:
+        """From ``"error@5:22,silent@40"``; raises ``ValueError`` with a readable message."""
+        at = {}
+        for item in filter(None, (s.strip() for s in spec.split(","))):
+            m = re.fullmatch(r"([a-z]+)@(\d+)(?::(\d+))?", item)
+            if m is None or m.group(1) not in FAULT_KINDS:
+                raise ValueError(
+                    f"fault {item!r} is not KIND@LINE (KIND one of {', '.join(FAULT_KINDS)}; "
+                    "error@LINE:CODE sets the error code)"
+                )
+            at[int(m.group(2))] = (m.group(1), int(m.group(3) or _DEFAULT_CODE.get(m.group(1), 20)))
+        return cls(at)
