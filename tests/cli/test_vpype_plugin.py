@@ -13,7 +13,7 @@ from skimage import data
 from skimage import io as skio
 
 from pencilbot.cli import main
-from pencilbot.export.svg import read_svg
+from pencilbot.export.svg_read import read_svg
 
 PX_PER_MM = 96 / 25.4
 VPYPE = shutil.which("vpype", path=str(Path(sys.executable).parent))
