@@ -30,7 +30,8 @@ import numpy as np
 
 from pencilbot.machine.profile import load_profile
 from pencilbot.export.gcode import write_gcode
-from pencilbot.export.svg import read_svg, write_svg
+from pencilbot.export.svg import write_svg
+from pencilbot.export.svg_read import read_svg
 from pencilbot.planning.stats import estimate
 from pencilbot.planning.plan import Layer, Page, Plan
 

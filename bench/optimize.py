@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 from skimage import data, measure
 
-from pencilbot.export.svg import read_svg
+from pencilbot.export.svg_read import read_svg
 from pencilbot.imaging.io import image_from_array
 from pencilbot.machine.bed import Placement
 from pencilbot.machine.profile import load_profile

@@ -33,7 +33,8 @@ from pencilbot.planning.build import sketch_and_plan as _sketch_and_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
-from pencilbot.export.svg import read_svg, write_svg  # noqa: F401 (the library API)
+from pencilbot.export.svg import write_svg  # noqa: F401 (the library API)
+from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
 

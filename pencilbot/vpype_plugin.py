@@ -28,7 +28,8 @@ import numpy as np
 import vpype
 import vpype_cli
 
-from pencilbot.commands.common import add_photo_options, photo_pens, photo_style, plan_photo
+from pencilbot.commands.common import photo_pens, photo_style, plan_photo
+from pencilbot.commands.options import add_photo_options
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.plan import Plan
 from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
@@ -39,7 +40,7 @@ PX_PER_MM = CSS_PX_PER_INCH / MM_PER_INCH  # vpype's unit is the CSS pixel
 def _photo_options(command):
     """``command`` with `pencilbot plan`'s photo options as click options: the same flags, help,
     defaults and checks (each value goes through the argparse option's own ``type``), declared
-    once in :func:`pencilbot.commands.common.add_photo_options`."""
+    once in :func:`pencilbot.commands.options.add_photo_options`."""
     parser = argparse.ArgumentParser(add_help=False)
     add_photo_options(parser)
     for action in reversed([a for a in parser._actions if a.option_strings and a.dest != "help"]):

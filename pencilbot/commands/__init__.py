@@ -1,6 +1,7 @@
 """One module per CLI subcommand; each defines ``add_parser(subparsers)``.
 
-Shared option helpers live in :mod:`pencilbot.commands.common`. :func:`build_parser` is here, not
+Shared options are built in :mod:`pencilbot.commands.options`, shared helpers (a photo's plan, the
+memory checks) live in :mod:`pencilbot.commands.common`. :func:`build_parser` is here, not
 in :mod:`pencilbot.cli`, because a command (``completion``) describes all the others.
 """
 

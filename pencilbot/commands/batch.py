@@ -23,7 +23,8 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, number
+from pencilbot.commands.common import IMAGE_SUFFIXES
+from pencilbot.commands.options import number
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import refuse_overwriting_inputs
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import argparse
 import shlex
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.options import add_verbosity
 from pencilbot.errors import PencilbotError
 
 SHELLS = ("bash", "zsh", "fish")

@@ -19,10 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.commands.common import (
-    Deprecated, add_photo_options, add_profile_option, add_verbosity, check_plan, photo_pens, photo_style,
-    refuse_overwriting,
-)
+from pencilbot.commands.common import check_plan, photo_pens, photo_style, refuse_overwriting
+from pencilbot.commands.options import Deprecated, add_photo_options, add_profile_option, add_verbosity
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
 

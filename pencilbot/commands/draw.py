@@ -9,7 +9,8 @@ from pathlib import Path
 
 import sim
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_BAUD, add_profile_listing, add_verbosity, number
+from pencilbot.commands.common import IMAGE_SUFFIXES
+from pencilbot.commands.options import MAX_BAUD, add_profile_listing, add_verbosity, number
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal

@@ -10,10 +10,8 @@ from pathlib import Path
 from pencilbot.commands.batch import (
     Inputs, add_jobs_option, collect_inputs, distinct, make_folders, output_paths, run_batch,
 )
-from pencilbot.commands.common import (
-    add_photo_options, add_profile_option, add_svg_options, add_verbosity, photo_pens, photo_style,
-    plan_for_input, reorder_drawing,
-)
+from pencilbot.commands.common import photo_pens, photo_style, plan_for_input, reorder_drawing
+from pencilbot.commands.options import add_photo_options, add_profile_option, add_svg_options, add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, write_gcode
 from pencilbot.export.hpgl import HPGL_SUFFIXES, write_hpgl

@@ -7,9 +7,8 @@ import dataclasses
 import json
 from pathlib import Path
 
-from pencilbot.commands.common import (
-    add_profile_option, add_svg_options, add_verbosity, change_summary, number, read_drawing, reorder_on,
-)
+from pencilbot.commands.common import change_summary, read_drawing, reorder_on
+from pencilbot.commands.options import add_profile_option, add_svg_options, add_verbosity, number
 
 MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
 from pencilbot.errors import PencilbotError

@@ -6,11 +6,11 @@ import argparse
 from pathlib import Path
 
 from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folders, output_paths, run_batch
-from pencilbot.commands.common import (
-    add_photo_options, add_verbosity, check_plan, photo_pens, photo_style, plan_for_input,
-)
+from pencilbot.commands.common import check_plan, photo_pens, photo_style, plan_for_input
+from pencilbot.commands.options import add_photo_options, add_verbosity
 from pencilbot.errors import PencilbotError
-from pencilbot.export.svg import is_plan_svg, write_svg
+from pencilbot.export.svg import write_svg
+from pencilbot.export.svg_read import is_plan_svg
 from pencilbot.planning.preview import preview_image
 from pencilbot.render import write_png
 

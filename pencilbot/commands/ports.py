@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from pencilbot.commands.common import add_verbosity
+from pencilbot.commands.options import add_verbosity
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

@@ -14,9 +14,10 @@ import os
 import urllib.parse
 from pathlib import Path
 
-from pencilbot.commands.common import (
-    MAX_DPI, MIN_DPI, PLOT_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options,
-    add_verbosity, check_render, number, plan_for_input, reorder_drawing,
+from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
+from pencilbot.commands.options import (
+    MAX_DPI, MIN_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options, add_verbosity,
+    number,
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for

@@ -14,7 +14,8 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, MAX_IMAGE_PIXELS, add_verbosity, number, refuse_overwriting
+from pencilbot.commands.common import IMAGE_SUFFIXES, refuse_overwriting
+from pencilbot.commands.options import MAX_IMAGE_PIXELS, add_verbosity, number
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.imaging.gmed import gmed_stages

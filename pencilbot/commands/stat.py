@@ -12,7 +12,8 @@ import argparse
 import json
 from pathlib import Path
 
-from pencilbot.commands.common import add_profile_option, add_svg_options, add_verbosity, read_drawing
+from pencilbot.commands.common import read_drawing
+from pencilbot.commands.options import add_profile_option, add_svg_options, add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_plan

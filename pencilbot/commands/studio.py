@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pencilbot.commands.common import MAX_REALTIME, add_profile_option, add_verbosity, number
+from pencilbot.commands.options import MAX_REALTIME, add_profile_option, add_verbosity, number
 from pencilbot.errors import PencilbotError
 
 

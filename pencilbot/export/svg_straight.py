@@ -47,7 +47,7 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
     Returns
     -------
     list of (place, points, offsets, stroke) or None
-        ``place`` as :func:`~pencilbot.export.svg._read_any` numbers layers (a group's place
+        ``place`` as :func:`~pencilbot.export.svg_read._read_any` numbers layers (a group's place
         from 2, the loose shapes 1), ``points`` ``(N, 2)`` user units (Y down), ``offsets`` the
         paths' starts, ``stroke`` the stroke width (user units) every shape of the layer has, or
         None when they differ.

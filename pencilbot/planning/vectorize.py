@@ -27,13 +27,8 @@ The raster line drawing paints, for every edge pixel labelled with direction i, 
    strokes) keeps few chains of low clutter each, but very many: there a *budget* of contour
    length per area holds; past it chains go by (1 + clutter) / length, short cluttered ones
    first and long coherent contours last, never those in an ``important`` region (a face).
-4. **Chains.** A stroke's end and the next stroke's along the same contour lie within a pixel
-   or two; mutual best pairs of such ends (continuing in direction, within ``join`` · ℓ) are
-   chained into one pen-down path that goes out to the first stroke's tip, back to the crossing
-   point of the two strokes and out along the second: the ends still cross, as in the raster and
-   as a hand draws, the pen retraces its own overshoot instead of drawing a chord, and it lifts
-   once per contour rather than once per stroke. Collinear pieces (a straight contour broken by a
-   weak spot or by label flicker) chain the same way into one longer stroke.
+4. **Chains.** Strokes that continue each other along one contour are chained into one pen-down
+   path through their crossing points (:mod:`pencilbot.planning.chaining`).
 5. **Bold.** A contour is drawn with as many touching pen lines (up to ``MAX_LINES``) as the
    raster's width across it (its darkness per skeleton pixel over a window of ℓ) is pen widths.
 
@@ -48,12 +43,10 @@ from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components, depth_first_order
-from scipy.spatial import cKDTree
 from skimage.filters import apply_hysteresis_threshold
 from skimage.morphology import skeletonize
 
+from pencilbot.planning.chaining import NO_LINKS, Strokes, chain_ids, chain_polylines, link_strokes, ramps, relinked
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 if TYPE_CHECKING:
@@ -73,9 +66,6 @@ CLUTTER_SIGMA = 1.5
 CLUTTER_POWER = 4
 #: Most touching pen lines one contour is drawn with, for the widest raster strokes.
 MAX_LINES = 3
-#: Largest turn between two chained strokes, degrees (two of the 22.5° direction steps).
-MAX_TURN = 50.0
-_NO_LINKS = np.zeros((0, 4))
 
 
 def edge_threshold(line: LineDrawing, darkness: float = PEN_DARKNESS) -> float:
@@ -175,7 +165,7 @@ def edge_strokes(
     v = v - ((lines - 1) * pen_px / 2)[comp]  # the first of n touching lines; the rest follow
     strokes = _strokes(comp, direction, u, v, ell, piece_length)
     reach = max(2.0, join * ell)
-    links = _links(strokes, reach) if join >= 0 else _NO_LINKS
+    links = link_strokes(strokes, reach) if join >= 0 else NO_LINKS
     pixels = np.bincount(comp)
     texture = np.bincount(comp, weights=_clutter(skeleton, direction, rows, cols, ell)) / pixels
     keep = _contours(strokes, links, pixels, texture, ell, min_pixels, clutter)
@@ -184,11 +174,11 @@ def edge_strokes(
         protected = None if important is None else np.bincount(
             comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
         keep &= _within_budget(strokes, links, texture, keep, allowed, protected)
-    strokes, links, lines = _select(strokes, keep), _relinked(links, keep), lines[keep]
-    paths_px = _chains(strokes, links, edges.shape)
+    strokes, links, lines = _select(strokes, keep), relinked(links, keep), lines[keep]
+    paths_px = chain_polylines(strokes, links, edges.shape)
     for k in range(1, max(1, max_lines)):  # the further lines of bold contours, chained alike
         extra = _select(strokes, lines > k, shift_px=k * pen_px)
-        paths_px += _chains(extra, _links(extra, reach) if join >= 0 else _NO_LINKS, edges.shape)
+        paths_px += chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape)
     if not paths_px:
         return []
     sizes = [len(p) for p in paths_px]
@@ -287,26 +277,7 @@ def _raster_width(drawing, skeleton, comp, rows, cols, ell):
     return np.bincount(comp, weights=width) / np.bincount(comp)
 
 
-class _Strokes:
-    """Per component: its polyline in pixels, its two core ends and its direction.
-
-    ``points`` (M, 2) (col, row) of all polylines back to back, ``offsets`` (n + 1) into it;
-    ``core`` (n, 2, 2) where each component's pixels start and stop (before the overshoot);
-    ``outward`` (n, 2, 2) the unit direction in which each end's tip leaves its core end;
-    ``unit`` (n, 2) the direction of its label in (col, row); ``extent`` (n,) its length
-    along that direction and ``overshoot`` (n,) how far its tips reach past the core, px.
-    """
-
-    def __init__(self, points, offsets, core, outward, unit, extent, overshoot):
-        self.points, self.offsets, self.core, self.outward = points, offsets, core, outward
-        self.unit, self.extent, self.overshoot = unit, extent, overshoot
-
-    @property
-    def n(self) -> int:
-        return len(self.unit)
-
-
-def _strokes(comp, direction, u, v, ell, piece_length) -> _Strokes:
+def _strokes(comp, direction, u, v, ell, piece_length) -> Strokes:
     """Each component's polyline: tip, core end, piece centres (if bent), core end, tip.
 
     The core ends are where the component's pixels start and stop (at the mean across-position
@@ -366,9 +337,9 @@ def _strokes(comp, direction, u, v, ell, piece_length) -> _Strokes:
     points[offsets[:-1]] = tips[:, 0]
     points[offsets[1:] - 1] = tips[:, 1]
     keep_inner = np.repeat(bent, n_inner)
-    target = (np.repeat(offsets[:-1] + 1, n_inner) + _ramp(n_inner))[keep_inner]
+    target = (np.repeat(offsets[:-1] + 1, n_inner) + ramps(n_inner))[keep_inner]
     points[target] = inner[keep_inner]
-    return _Strokes(points, offsets, core, outward, unit, u1 - u0 + 1, overshoot)
+    return Strokes(points, offsets, core, outward, unit, u1 - u0 + 1, overshoot)
 
 
 def _unit_or(vectors: np.ndarray, fallback: np.ndarray) -> np.ndarray:
@@ -377,16 +348,16 @@ def _unit_or(vectors: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     return np.where((length >= 0.5)[:, None], vectors / np.maximum(length, 1e-12)[:, None], fallback)
 
 
-def _select(strokes: _Strokes, which: np.ndarray, shift_px: float = 0.0) -> _Strokes:
+def _select(strokes: Strokes, which: np.ndarray, shift_px: float = 0.0) -> Strokes:
     """The ``which`` components (boolean mask), moved ``shift_px`` across their direction."""
     keep = np.flatnonzero(which)
     sizes = np.diff(strokes.offsets)[keep]
-    index = np.repeat(strokes.offsets[keep], sizes) + _ramp(sizes)
+    index = np.repeat(strokes.offsets[keep], sizes) + ramps(sizes)
     across = np.column_stack([-strokes.unit[:, 1], strokes.unit[:, 0]])  # (sin θ, cos θ): +v
     points = strokes.points[index] + shift_px * np.repeat(across[keep], sizes, axis=0)
     offsets = np.append(0, np.cumsum(sizes))
     core = strokes.core[keep] + shift_px * across[keep][:, None, :]
-    return _Strokes(
+    return Strokes(
         points, offsets, core, strokes.outward[keep], strokes.unit[keep], strokes.extent[keep], strokes.overshoot[keep]
     )
 
@@ -399,7 +370,7 @@ def _contours(strokes, links, pixels, texture, ell, min_pixels, clutter) -> np.n
     only if it is at least ℓ · (c / ``clutter``)^CLUTTER_POWER long. Judging chains, not
     components, keeps the short strokes that turn a corner or close a small circle.
     """
-    chain = _chain_ids(strokes.n, links)
+    chain = chain_ids(strokes.n, links)
     length = np.bincount(chain, weights=strokes.extent)
     chain_clutter = np.bincount(chain, weights=texture * strokes.extent) / length
     keep_chain = np.bincount(chain, weights=pixels) >= min_pixels
@@ -413,7 +384,7 @@ def _within_budget(strokes, links, texture, keep, allowed, protected) -> np.ndar
     Chains are dropped by (1 + clutter) / length, most first (short and cluttered) until the rest fit;
     ``protected`` components (a face) are never dropped and count against the budget first.
     """
-    chain = _chain_ids(strokes.n, links)
+    chain = chain_ids(strokes.n, links)
     length = np.bincount(chain, weights=strokes.extent * keep)
     if length.sum() <= allowed:
         return np.ones(strokes.n, bool)
@@ -431,172 +402,6 @@ def _within_budget(strokes, links, texture, keep, allowed, protected) -> np.ndar
     stay[order[within]] = True
     stay |= safe
     return stay[chain]
-
-
-def _chain_ids(n: int, links: np.ndarray) -> np.ndarray:
-    """Index of the chain (connected component of the link graph) of each of ``n`` components."""
-    ca, cb = links[:, 0].astype(np.intp) // 2, links[:, 1].astype(np.intp) // 2
-    graph = coo_matrix((np.ones(len(ca)), (ca, cb)), shape=(n, n))
-    return connected_components(graph, directed=False)[1]
-
-
-def _relinked(links: np.ndarray, keep: np.ndarray) -> np.ndarray:
-    """``links`` between kept components only, their end ids renumbered for the kept ones."""
-    new = np.cumsum(keep) - 1
-    ends = links[:, :2].astype(np.intp)
-    both = keep[ends[:, 0] // 2] & keep[ends[:, 1] // 2]
-    ends = 2 * new[ends[both] // 2] + ends[both] % 2
-    return np.column_stack([ends, links[both, 2:]])
-
-
-def _links(strokes: _Strokes, reach: float) -> np.ndarray:
-    """Pairs of core ends that continue one contour: rows (end a, end b, X col, X row).
-
-    End id ``2 · component + side`` (side 0 = start, 1 = end). Candidates lie within ``reach`` px,
-    point away from each other within ``MAX_TURN``, and do not run back past each other; every
-    end keeps its best candidate (nearest, then straightest) and only mutual choices are linked,
-    for a few rounds so that an end whose choice went elsewhere can take its next best. X is the
-    crossing point of the two strokes' lines, or the middle of the two core ends where the lines
-    are (nearly) parallel or cross far away.
-    """
-    if strokes.n < 2:
-        return _NO_LINKS
-    ends = strokes.core.reshape(-1, 2)  # end id e: component e // 2, side e % 2
-    outward = strokes.outward.reshape(-1, 2)
-    pairs = cKDTree(ends).query_pairs(reach, output_type="ndarray")
-    pairs = pairs[pairs[:, 0] // 2 != pairs[:, 1] // 2]
-    if pairs.size == 0:
-        return _NO_LINKS
-    a, b = pairs[:, 0], pairs[:, 1]
-    gap = ends[b] - ends[a]
-    dist = np.hypot(gap[:, 0], gap[:, 1])
-    facing = np.einsum("ij,ij->i", outward[a], outward[b])
-    ahead_a = np.einsum("ij,ij->i", gap, outward[a])
-    ahead_b = -np.einsum("ij,ij->i", gap, outward[b])
-    lateral = np.abs(gap[:, 0] * outward[a, 1] - gap[:, 1] * outward[a, 0])
-    ok = (facing <= -math.cos(math.radians(MAX_TURN))) & (ahead_a >= -1.5) & (ahead_b >= -1.5)
-    ok &= lateral <= 1.5 + 0.5 * np.maximum(ahead_a, 0)
-    a, b, dist, facing = a[ok], b[ok], dist[ok], facing[ok]
-    cost = dist + 2.0 * (1.0 + facing)  # straighter continuations win near-ties
-    linked = np.zeros((0, 2), np.intp)
-    free = np.ones(len(ends), bool)
-    for _ in range(3):  # rounds of mutual-best matching (each a handful of array passes)
-        live = free[a] & free[b]
-        if not live.any():
-            break
-        la, lb, lc = a[live], b[live], cost[live]
-        both = np.concatenate([la, lb])
-        other = np.concatenate([lb, la])
-        order = np.lexsort((np.concatenate([lc, lc]), both))
-        both, other = both[order], other[order]
-        head = np.append(True, both[1:] != both[:-1])
-        best = np.full(len(ends), -1)
-        best[both[head]] = other[head]
-        mutual = np.flatnonzero((best >= 0) & (best[np.maximum(best, 0)] == np.arange(len(ends))))
-        mutual = mutual[mutual < best[mutual]]
-        if mutual.size == 0:
-            break
-        linked = np.concatenate([linked, np.column_stack([mutual, best[mutual]])])
-        free[mutual] = free[best[mutual]] = False
-    if linked.size == 0:
-        return _NO_LINKS
-    # Two strokes linked at both ends (a small closed curve) keep one link: a chain, not a loop
-    # whose pen order the depth-first walk could not tell.
-    pair = np.sort(linked // 2, axis=1)
-    _, once = np.unique(pair[:, 0] * (len(ends) // 2) + pair[:, 1], return_index=True)
-    linked = linked[np.sort(once)]
-    reach_past = np.repeat(strokes.overshoot, 2)
-    return np.column_stack([linked, _crossing(ends, outward, linked, reach_past)])
-
-
-def _crossing(ends, outward, linked, overshoot):
-    """Crossing point of each linked pair's lines; the middle of the core ends if none nearby.
-
-    ``overshoot`` per end: how far its tip reaches past it (the crossing must lie within that).
-    """
-    pa, pb = ends[linked[:, 0]], ends[linked[:, 1]]
-    da, db = outward[linked[:, 0]], outward[linked[:, 1]]
-    denom = da[:, 0] * db[:, 1] - da[:, 1] * db[:, 0]
-    gap = pb - pa
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = (gap[:, 0] * db[:, 1] - gap[:, 1] * db[:, 0]) / denom
-        cross = pa + t[:, None] * da
-    middle = (pa + pb) / 2
-    near = (np.abs(denom) > 0.05) & (np.abs(t) <= overshoot[linked[:, 0]])
-    near &= np.hypot(*(cross - pb).T) <= overshoot[linked[:, 1]]
-    return np.where(near[:, None], cross, middle)
-
-
-def _chains(strokes: _Strokes, links: np.ndarray, shape) -> list[np.ndarray]:
-    """Polylines (px) of the strokes, linked ones joined through their crossing points.
-
-    The links make a graph of degree ≤ 2 on the components (each end has at most one partner):
-    paths and cycles. A virtual root joined to one end component of every chain (any member for
-    a cycle) makes one depth-first order in which every chain is a contiguous run, in order.
-    """
-    n = strokes.n
-    if n == 0:
-        return []
-    ca, cb = links[:, 0].astype(np.intp) // 2, links[:, 1].astype(np.intp) // 2
-    member = _chain_ids(n, links)
-    degree = np.bincount(np.concatenate([ca, cb]), minlength=n)
-    # Start each chain at its lowest-degree member (a path's end), lowest index on ties.
-    pick = np.lexsort((np.arange(n), degree, member))
-    starts = pick[np.append(True, member[pick][1:] != member[pick][:-1])]
-    root = np.full(starts.size, n)
-    rows = np.concatenate([ca, root])
-    cols = np.concatenate([cb, starts])
-    graph = coo_matrix((np.ones(rows.size), (rows, cols)), shape=(n + 1, n + 1)).tocsr()
-    order, pred = depth_first_order(graph, n, directed=False, return_predecessors=True)
-    order = order[1:]  # drop the root
-    parent = pred[order]
-    new_chain = parent == n
-
-    # Which side of each component its predecessor is linked to (that is where the pen enters).
-    partner = np.full(2 * n, -1)
-    partner[links[:, 0].astype(np.intp)] = links[:, 1].astype(np.intp)
-    partner[links[:, 1].astype(np.intp)] = links[:, 0].astype(np.intp)
-    partner_comp = np.where(partner >= 0, partner // 2, -1)
-    enter_at_end = partner_comp[2 * order + 1] == parent
-    # A chain's first component leaves towards its successor; it enters at the other side.
-    nxt = np.append(order[1:], -1)
-    has_next = np.append(~new_chain[1:], False)
-    leave_at_start = partner_comp[2 * order] == nxt
-    enter_at_end = np.where(new_chain, has_next & leave_at_start, enter_at_end)
-    crossing = np.full((2 * n, 2), np.nan)
-    crossing[links[:, 0].astype(np.intp)] = links[:, 2:]
-    crossing[links[:, 1].astype(np.intp)] = links[:, 2:]
-
-    # Flat list of point indices: each component's polyline (reversed if entered at its end),
-    # then, if the chain goes on, the crossing point at the side the pen leaves by.
-    sizes = np.diff(strokes.offsets)[order]
-    ramp = _ramp(sizes)
-    index = np.repeat(strokes.offsets[order], sizes) + np.where(
-        np.repeat(enter_at_end, sizes), np.repeat(sizes - 1, sizes) - ramp, ramp
-    )
-    points = strokes.points[index]
-    leave_side = 2 * order + np.where(enter_at_end, 0, 1)
-    joint = crossing[leave_side]
-    has_joint = has_next
-    # Interleave: after the last point of component k comes its joint (when it has one).
-    ends_at = np.cumsum(sizes)
-    insert_at = ends_at[has_joint]
-    points = np.insert(points, insert_at, joint[has_joint], axis=0)
-    points = _clip_points(points, shape)
-    chain_sizes = np.bincount(np.cumsum(new_chain) - 1, weights=sizes + has_joint).astype(np.intp)
-    return np.split(points, np.cumsum(chain_sizes)[:-1])
-
-
-def _clip_points(points: np.ndarray, shape) -> np.ndarray:
-    """Points moved into the image rectangle (overshooting tips stop at the frame)."""
-    height, width = shape
-    return np.column_stack([np.clip(points[:, 0], 0, width - 1), np.clip(points[:, 1], 0, height - 1)])
-
-
-def _ramp(sizes: np.ndarray) -> np.ndarray:
-    """0, 1, …, s − 1 for every s in ``sizes``, back to back."""
-    sizes = np.asarray(sizes, np.intp)
-    return np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)
 
 
 def _direction_components(mask: np.ndarray, labels: np.ndarray) -> np.ndarray:

@@ -11,7 +11,7 @@ from PIL import Image
 from skimage.transform import resize
 
 from pencilbot.cli import build_parser, main
-from pencilbot.export.svg import read_svg
+from pencilbot.export.svg_read import read_svg
 
 NAMES = ["camera", "coins", "moon"]
 #: A small sheet where the sheet does not matter to what a test checks: a plan of a photo on A4

@@ -13,7 +13,7 @@ from pencilbot.commands import COMMANDS, build_parser
 
 
 def numeric_options() -> list[tuple[str, str, tuple]]:
-    """``(command, option, bounds)`` for every option read through ``common.number``."""
+    """``(command, option, bounds)`` for every option read through ``options.number``."""
     found = []
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
     for command, parser in sub.choices.items():

@@ -14,7 +14,8 @@ import pytest
 from pencilbot import configs_io
 from pencilbot.cli import main
 from pencilbot.configs_io import config_folder, user_folder
-from pencilbot.export.svg import read_svg, write_svg
+from pencilbot.export.svg import write_svg
+from pencilbot.export.svg_read import read_svg
 from pencilbot.machine.profile import default_profile, load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.style import default_style, load_style

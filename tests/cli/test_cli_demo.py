@@ -12,7 +12,7 @@ from skimage import io as skio
 from pencilbot.cli import main
 from pencilbot.machine.profile import load_profile
 from pencilbot.machine.bed import Placement
-from pencilbot.export.svg import read_svg
+from pencilbot.export.svg_read import read_svg
 
 PROFILE = "grbl-servo-a4"
 

@@ -10,7 +10,7 @@ from gcodeparser import parse_gcode_lines
 
 import drawings
 from pencilbot.cli import main
-from pencilbot.export.svg import is_plan_svg, read_svg
+from pencilbot.export.svg_read import is_plan_svg, read_svg
 
 # name → (write the file, options it needs to have a size)
 DRAWINGS = {

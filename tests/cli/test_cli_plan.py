@@ -11,7 +11,7 @@ from skimage import data
 from skimage.transform import resize
 
 from pencilbot.cli import main
-from pencilbot.export.svg import read_svg
+from pencilbot.export.svg_read import read_svg
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,8 @@ from pencilbot.cli import main
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.planning.stats import estimate
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.export.svg import read_svg, write_svg
+from pencilbot.export.svg import write_svg
+from pencilbot.export.svg_read import read_svg
 
 
 @pytest.fixture

@@ -13,7 +13,7 @@ from skimage import data
 from skimage import io as skio
 
 from pencilbot.cli import main
-from pencilbot.export.svg import read_svg
+from pencilbot.export.svg_read import read_svg
 
 PX_PER_MM = 96 / 25.4
 VPYPE = shutil.which("vpype", path=str(Path(sys.executable).parent))
@@ -86,7 +86,7 @@ def test_the_plugin_takes_the_plan_command_s_photo_options_declared_once():
     the same check: the plugin does not declare them a second time."""
     import argparse
 
-    from pencilbot.commands.common import add_photo_options
+    from pencilbot.commands.options import add_photo_options
     from pencilbot.vpype_plugin import pencilbot as plugin
 
     parser = argparse.ArgumentParser(add_help=False)

@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 
 from pencilbot.errors import OutOfBedError, ProfileError
 from pencilbot.export.gcode import gcode_lines, gcode_program, pens_at_pauses
-from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, read_svg, write_svg
+from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, write_svg
+from pencilbot.export.svg_read import read_svg
 from pencilbot.machine.pens import load_pens
 from pencilbot.machine.profile import PenChange, load_profile, profile_from_mapping
 from pencilbot.planning.plan import Layer, Page, Plan

@@ -6,7 +6,8 @@ import pytest
 
 import drawings
 from pencilbot.errors import PencilbotError
-from pencilbot.export.svg import _read_any, _read_own, _parse, is_plan_svg, read_svg, write_svg
+from pencilbot.export.svg import write_svg
+from pencilbot.export.svg_read import _read_any, _read_own, _parse, is_plan_svg, read_svg
 from pencilbot.planning.plan import Layer, Page, Plan
 
 PX = 25.4 / 96  # mm per CSS pixel
@@ -163,6 +164,6 @@ def test_an_edited_plan_of_ours_is_read_as_any_svg_and_keeps_its_metadata(tmp_pa
 @pytest.mark.parametrize("garbage", ["1.2.3", "-", "1 2 3", "e5"])
 def test_malformed_numbers_in_our_own_layout_fall_back_to_the_general_reader(garbage):
     cut = f'\n<path d="M 1 2 L {garbage}"/>\n'.encode()
-    from pencilbot.export.svg import _own_paths
+    from pencilbot.export.svg_read import _own_paths
 
     assert _own_paths(cut, 1.0, 10.0) is None

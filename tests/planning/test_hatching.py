@@ -6,7 +6,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.planning.flow import Grid, direction_field
-from pencilbot.planning.hatching import Onset, hatch_layers, trace_families
+from pencilbot.planning.hatching import hatch_layers, trace_families
+from pencilbot.planning.onset import Onset
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
 from pencilbot.planning.shading import shade

@@ -63,7 +63,7 @@ def test_load_a_photo_move_a_control_see_preview_and_figures_change(server, brow
 
 def test_the_downloaded_svg_is_pencilbot_plan_of_the_same_options(server, browser, photo, downloads, tmp_path):
     from pencilbot.cli import main
-    from pencilbot.export.svg import read_svg
+    from pencilbot.export.svg_read import read_svg
 
     if not full_generation(browser):
         load_photo(server, browser, photo)
