@@ -1,6 +1,5 @@
 """`pencilbot draw` argument handling: every user mistake is one plain message, never a traceback."""
 
-import pytest
 
 from pencilbot.cli import main
 

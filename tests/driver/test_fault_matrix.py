@@ -21,7 +21,6 @@ import itertools
 import re
 import json
 import pathlib
-import signal
 import threading
 
 import numpy as np

@@ -4,7 +4,6 @@ plotter answers."""
 
 from __future__ import annotations
 
-import pytest
 
 from pencilbot.cli import main
 from pencilbot.driver.ports import probe_all, PortInfo
