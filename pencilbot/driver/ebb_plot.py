@@ -28,9 +28,10 @@ import numpy as np
 
 from firmware_protocol import ebb as protocol
 from pencilbot.driver.bed_check import arc_geometry
+from pencilbot.driver.faults import Interrupted
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted
+from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
 from pencilbot.firmware.ebb import EBB, MICROSTEPS
@@ -137,14 +138,14 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
 
     Returns
     -------
-    pencilbot.driver.plot.DrawResult
+    pencilbot.driver.runner.DrawResult
 
     Raises
     ------
     PlotError
         Any fault, with where the job stopped and how to resume it.
     """
-    from pencilbot.driver.plot import DrawResult
+    from pencilbot.driver.runner import DrawResult
 
     t0 = time.monotonic()
     xy, down, rows_line = _rows(job)
