@@ -66,6 +66,7 @@ _DRIVER_STREAM = ["tests/driver/test_receive_buffer_boundary.py", "tests/driver/
 #: Module → the fast tests that cover it (run with -x; the first failure kills).
 TESTS: dict[str, list[str]] = {
     "pencilbot/driver/stream.py": _DRIVER_STREAM,
+    "pencilbot/driver/session.py": _DRIVER_STREAM,
     "pencilbot/driver/plot.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
                                                   "tests/driver/test_pen_change_draw.py"],
     "pencilbot/driver/runner.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
