@@ -1,7 +1,8 @@
 """A plot job from start to end: :func:`draw` reads the options, the profile and the journal,
-checks the job, and hands it to the driver its firmware needs (a board that acknowledges lines:
-:class:`~pencilbot.driver.runner.Runner`; one that takes step commands:
-:mod:`~pencilbot.driver.ebb_plot`; one that answers nothing per line: :mod:`~pencilbot.driver.polled`).
+checks the job, and hands it to the driver its firmware needs: a board that acknowledges lines
+to :class:`~pencilbot.driver.runner.Runner`, one that takes step commands to
+:mod:`~pencilbot.driver.ebb_plot`, one that answers nothing per line to
+:mod:`~pencilbot.driver.polled`.
 """
 
 from __future__ import annotations

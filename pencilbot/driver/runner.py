@@ -41,8 +41,9 @@ _SHOW_WINDOW = 600
 
 @dataclass
 class DrawResult:
-    """What :func:`~pencilbot.driver.plot.draw` did: lines sent, rejected line numbers (``--on-error continue``), time.
-    (A finished job's journal is removed: there is nothing left to resume.)"""
+    """What :func:`~pencilbot.driver.plot.draw` did: lines sent, rejected line numbers
+    (``--on-error continue``), time. (A finished job's journal is removed: there is nothing left
+    to resume.)"""
 
     lines_sent: int
     rejected: list[int] = field(default_factory=list)
