@@ -66,8 +66,13 @@ _DRIVER_STREAM = ["tests/driver/test_receive_buffer_boundary.py", "tests/driver/
 #: Module → the fast tests that cover it (run with -x; the first failure kills).
 TESTS: dict[str, list[str]] = {
     "pencilbot/driver/stream.py": _DRIVER_STREAM,
+    "pencilbot/driver/session.py": _DRIVER_STREAM,
     "pencilbot/driver/plot.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
                                                   "tests/driver/test_pen_change_draw.py"],
+    "pencilbot/driver/runner.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
+                                                    "tests/driver/test_pen_change_draw.py"],
+    "pencilbot/driver/messages.py": ["tests/driver/test_stream_sim.py", "tests/driver/test_draw_checks.py"],
+    "pencilbot/driver/resume_point.py": ["tests/driver/test_work_position_board.py", "tests/driver/test_stream_sim.py"],
     "pencilbot/driver/resume.py": ["tests/driver/test_modal_resume.py", "tests/driver/test_stream_sim.py",
                                    "tests/driver/test_work_position_board.py"],
     "pencilbot/driver/modal.py": ["tests/driver/test_modal_resume.py", "tests/driver/test_job.py"],

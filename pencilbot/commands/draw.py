@@ -15,7 +15,7 @@ from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
 from pencilbot.errors import PencilbotError, PlotError
-from pencilbot.driver.stream import DEFAULT_TIMEOUT
+from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.machine.profile import default_profile, load_profile
 
 

@@ -3,10 +3,13 @@
 ``draw(gcode, port, ...)`` is the one entry point for scripts; ``pencilbot draw`` is its CLI.
 The pieces: :mod:`~pencilbot.driver.job` (a file ready to stream), :mod:`~pencilbot.driver.stream`
 (the one streaming core, over any firmware of the registry), :mod:`~pencilbot.driver.plot` (a job
-from start to end, faults turned into messages), :mod:`~pencilbot.driver.resume` and
-:mod:`~pencilbot.driver.journal` (continuing a stopped job).
+from start to end), :mod:`~pencilbot.driver.runner` (its run on the board, faults turned into
+messages by :mod:`~pencilbot.driver.messages`), :mod:`~pencilbot.driver.resume`,
+:mod:`~pencilbot.driver.resume_point` and :mod:`~pencilbot.driver.journal` (continuing a stopped
+job).
 """
 
-from pencilbot.driver.plot import DrawResult, draw
+from pencilbot.driver.plot import draw
+from pencilbot.driver.runner import DrawResult
 
 __all__ = ["DrawResult", "draw"]

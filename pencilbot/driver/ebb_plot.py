@@ -26,11 +26,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_protocol import ebb as protocol
 from pencilbot.driver.bed_check import arc_geometry
+from pencilbot.driver.ebb_link import EbbFault, EbbLink
+from pencilbot.driver.faults import Interrupted
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.stream import DEFAULT_TIMEOUT, Interrupted
+from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
 from pencilbot.firmware.ebb import EBB, MICROSTEPS
@@ -40,88 +41,6 @@ from pencilbot.units import MM_PER_INCH
 POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
 POWER_CHECK = 0.5  # s between QG queries while streaming (one extra round trip each)
 _STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
-
-
-class EbbFault(Exception):
-    """The board refused a command, went silent or the port was lost."""
-
-
-class EbbLink:
-    """Commands and their replies over a port, in whichever syntax the board is in."""
-
-    def __init__(self, reader: LineReader, timeout: float):
-        self.reader, self.timeout = reader, timeout
-        self.future = False
-        self.power_lost = False
-        self.watch_power = False  # CU,60 set: QG's bit 6 means something
-        self.pending: str | None = None  # the command whose answer is still to be read
-        self._got: list[str] = []
-        self._lines: list[str] = []
-
-    def command(self, text: str, wait: float | None = None) -> protocol.Reply:
-        """Send one command and read its whole reply (a motion command's comes once the FIFO
-        has room: ``wait`` bounds that, default the link's timeout)."""
-        self.pending, self._got = text, []  # kept if an interrupt cuts the wait short
-        self.reader.write(text.encode("ascii") + b"\r")
-        return self._receive(wait)
-
-    def _receive(self, wait: float | None) -> protocol.Reply:
-        text = self.pending
-        name = text.split(",")[0].upper()
-        want = protocol.reply_lines(name, future=self.future)
-        deadline = time.monotonic() + (wait if wait is not None else self.timeout)
-        while len(self._got) < want:
-            if not self._lines:
-                self._lines = self.reader.read_lines()
-                if not self._lines:
-                    if time.monotonic() > deadline:
-                        self.pending = None  # its answer is lost: later answers are other commands'
-                        raise EbbFault(f"the board did not answer {text[:24]} within {self.timeout:g} s")
-                    continue
-            line = self._lines.pop(0)
-            if not protocol.plausible(name, line, future=self.future):
-                continue  # noise on the line (a glitch, another program's echo): not an answer
-            self._got.append(line)
-            if "Err:" in line:
-                break
-        lines, self.pending = self._got, None
-        self.last_lines = lines
-        reply = protocol.read_reply(name, lines, future=self.future)
-        if reply.error:
-            raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
-        return reply
-
-    def stop_now(self, wait: float) -> None:
-        """ES at once, even while a command is still waiting for its answer (the board reads ES
-        right after it): that answer first, then ES's."""
-        cut_short = self.pending
-        self.reader.write(b"ES\r")
-        if cut_short is not None:
-            try:
-                self._receive(wait)
-            except EbbFault:
-                self.pending = None  # refused or silent: ES's own answer follows all the same
-        self.pending, self._got = "ES", []
-        self._receive(None)
-
-    def status(self) -> int:
-        """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
-        value = int(self.command("QG").data, 16)
-        self.power_lost = self.power_lost or bool(value & protocol.QG_POWER_LOST)
-        return value
-
-    def steps(self) -> tuple[int, int]:
-        """The motors' step counters (QS)."""
-        a, b = self.command("QS").data.split(",")[:2]
-        return int(a), int(b)
-
-    def wait_idle(self, limit: float) -> None:
-        """Until no command runs and the FIFO is empty (QG's low four bits clear)."""
-        deadline = time.monotonic() + limit
-        while self.status() & 0x0F:
-            if time.monotonic() > deadline:
-                raise EbbFault(f"the board was still moving after {limit:.0f} s")
-            time.sleep(0.005)
 
 
 @dataclass
@@ -137,14 +56,14 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
 
     Returns
     -------
-    pencilbot.driver.plot.DrawResult
+    pencilbot.driver.runner.DrawResult
 
     Raises
     ------
     PlotError
         Any fault, with where the job stopped and how to resume it.
     """
-    from pencilbot.driver.plot import DrawResult
+    from pencilbot.driver.runner import DrawResult
 
     t0 = time.monotonic()
     xy, down, rows_line = _rows(job)

@@ -27,7 +27,7 @@ import serial
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.stream import DEFAULT_TIMEOUT
+from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.machine.motion import axis_scale, move_times
 
@@ -119,14 +119,14 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
 
     Returns
     -------
-    pencilbot.driver.plot.DrawResult
+    pencilbot.driver.runner.DrawResult
 
     Raises
     ------
     PlotError
         Any fault, with the command that resumes the job.
     """
-    from pencilbot.driver.plot import DrawResult
+    from pencilbot.driver.runner import DrawResult
 
     fw = machine.firmware
     name = source or (str(path) if path else "the program")

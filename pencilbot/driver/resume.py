@@ -3,15 +3,20 @@
 A resumed job must look, to the paper, like the job never stopped: the lines before the resume
 point are not sent again, but their lasting effects are — units, absolute/relative mode, feed,
 the motion mode — and the pen travels *up* from wherever the machine is to the resume point
-before it goes down again (if it was down there).
+before it goes down again (if it was down there). Where that point is comes from where the
+machine stopped, located on the job's lines (:func:`locate_stop`, :class:`StopLocator`).
 """
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 
+from pencilbot.driver import position
 from pencilbot.driver.modal import ModalState, clean_line
 from pencilbot.machine.pen import PenModel
+from pencilbot.units import MM_PER_INCH
 
 _CHUNK = 256  # job lines tracked at a time when counting moves back
 #: mm: GRBL reports positions to 3 decimals, so a reported point is within this of the true one.
@@ -190,3 +195,98 @@ def locate_stop(
         if 1.0 <= t and abs(on - end) <= coast and ran_past is None:
             ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
     return ran_past
+
+
+#: A cleaned line a GRBL-protocol board answers only after every earlier move has run.
+_SYNCHRONIZING = re.compile(r"^(?:N\d+)?(?:[^G]*G0*4(?![0-9.])|[^M]*M0*[01](?![0-9.]))")
+
+
+class StopLocator:
+    """Where on a job's lines a machine stands, from the position it reports: the lines that can
+    have been in flight (its receive buffer and planner), the dwells it answered, its planner
+    count, and the last report taken while it moved.
+
+    Parameters
+    ----------
+    job : Job
+        The job being drawn.
+    profile : Profile
+        The plotter's profile: its receive buffer, firmware and pen.
+    """
+
+    def __init__(self, job, profile):
+        self.job, self.profile = job, profile
+        self.firmware = profile.firmware
+        self.pen = profile.pen_model
+
+    def job_units(self, xy, index: int):
+        """A work position X, Y (mm) in the units the job uses at line ``index``."""
+        if xy is not None and self.job.state_after(max(index, 0)).inches:
+            return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
+        return xy
+
+    def locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
+               answered: int | None = None, window: int | None = None, **how):
+        """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
+        can have been in flight, or the ``window`` lines before it (``how``: its tolerance and
+        coast)."""
+        if position_xy is None or last < 0:
+            return None
+        last = min(last, len(self.job) - 1)
+        first = self.flight_start(last) if window is None else max(last - window, 0)
+        # GRBL answers a dwell (or a program pause) only once every move before it has run:
+        # from the last one answered, the machine runs lines in order, so the first pass
+        # through the position after it is where it stood (a stroke that runs back over
+        # itself passes a point twice; strokes drawn before the dwell are finished).
+        sync = self.synchronized(min(last - 1 if answered is None else answered, last), first)
+        if sync is not None:
+            floor = max(floor if floor is not None else sync, sync)
+        # The state before the window's first line too: its move starts there.
+        return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
+                           window=last - first + 1, pen_down=pen_down, floor=floor, **how)
+
+    def synchronized(self, answered: int, first: int) -> int | None:
+        """The last line at or before ``answered`` (down to ``first``) that the firmware answers
+        only after all motion before it ran: a dwell or a program pause."""
+        for i in range(answered, max(first, 0) - 1, -1):
+            if _SYNCHRONIZING.match(self.job.line(i)):
+                return i
+        return None
+
+    def flight_start(self, last: int) -> int:
+        """The earliest line the machine can have been running with lines up to ``last`` sent:
+        what the board's receive buffer and planner hold (its firmware's figures)."""
+        return flight_start(self.job, min(last, len(self.job) - 1), self.profile.receive_buffer,
+                            self.firmware.moves_in_flight())
+
+    def planner_floor(self, status, acked: int, refused: int | None = None) -> int | None:
+        """The line the machine was running when it came to rest, from the planner count of the
+        status report (GRBL's ``Bf:``, reported when ``$10`` asks for it): the blocks still
+        planned are the moves of the lines answered up to ``acked``, one block per move (a
+        ``refused`` line planned none)."""
+        if status is None or status.buffer is None or acked < 0:
+            return None
+        queued = self.firmware.planner_blocks - status.buffer[0]
+        if queued <= 0:
+            return None
+        first = max(self.flight_start(acked) - 1, 0)
+        states = self.job.states(first, acked + 1)
+        moves = 0
+        for i in range(acked, first, -1):
+            state, before = states[i], states[i - 1]
+            if i != refused and (state.x, state.y, state.z) != (before.x, before.y, before.z):
+                moves += 1
+                if moves == queued:
+                    return i
+        return None
+
+    def floor(self, stream, last: int) -> int | None:
+        """The line the machine was running at the last status report of the stream (it can
+        only have moved on from there), if that report's position is on the lines sent."""
+        if stream.seen is None:
+            return None
+        xy, status, answered = stream.seen
+        bound = min(last, answered + 1)  # then, too, it ran only lines it had answered
+        found = self.locate(bound, self.job_units(xy, bound), position.pen_down_in(status, self.pen),
+                            answered=answered)
+        return None if found is None else found[0] - (found[1] is None and found[0] > 0)

@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pencilbot.driver.stream import Interrupted
+from pencilbot.driver.faults import Interrupted
 from pencilbot.errors import PencilbotError, PlotError
 
 STOP_BY = "the stop button of the studio page"

@@ -11,8 +11,8 @@ import pytest
 from pencilbot import api
 from pencilbot.driver.drawn import drawn_paths, drawn_with_lines
 from pencilbot.driver.job import load_job
-from pencilbot.driver.plot import _Runner
 from pencilbot.driver.progress import Progress
+from pencilbot.driver.resume import StopLocator
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
@@ -75,14 +75,14 @@ def test_a_position_off_the_window_is_not_found_rather_than_a_crash(tmp_path):
     api.export_gcode(zigzag_plan(), PROFILE, gcode)
     profile = load_profile(PROFILE)
     job = load_job(gcode, profile)
-    runner = _Runner(job, profile, "sim://", None, "quiet", False, "stop", False)
+    locator = StopLocator(job, profile)
     last = len(job) - 1
     # Where the first stroke is: far before the last 60 lines sent (it used to read a line
     # before the window and raise IndexError, inside the stop sequence of a plot).
-    assert runner._locate(last, (20.0, 20.0)) is None
+    assert locator.locate(last, (20.0, 20.0)) is None
     # Searched over every line, with only the first lines answered (the pen-down dwell answered
     # later would put the machine past it).
-    found = runner._locate(last, (20.0, 20.0), window=last, answered=5)
+    found = locator.locate(last, (20.0, 20.0), window=last, answered=5)
     assert found is not None and found[0] < 20
 
 
