@@ -164,5 +164,5 @@ def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm
     if count is not None and near(here, count, rezero_tolerance()):
         here = tuple(count)
         x, y = here[0] + dx, here[1] + dy  # where the pen is now, by the count and the jog
-    setup(f"G10L20P0X{x:.4f}Y{y:.4f}", "setting the origin at the mark")
+    setup(fw.set_origin(x, y), "setting the origin at the mark")
     return here

@@ -66,10 +66,10 @@ class ResumePointFinder:
                 x, y = journal.stop_work
                 # A Z pen's count restarted too; the stop raised it to its up height.
                 z = f"Z{self.pen.up:.4f}" if self.pen.kind == "z" else ""
-                self.setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}{z}", "restoring the origin at the stop point")
+                self.setup_command(stream, self.firmware.set_origin(x, y, z), "restoring the origin at the stop point")
                 return recorded
             if alarm and self.profile.bed.homing:
-                self.setup_command(stream, "$H", "homing")
+                self.setup_command(stream, self.firmware.home_command, "homing")
                 return recorded
             why = ("the plotter is in alarm" if alarm else
                    f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
@@ -124,7 +124,7 @@ class ResumePointFinder:
             return
         mark = self._mark.xy
         x, y = stop[0] + mark[0] - here[0], stop[1] + mark[1] - here[1]
-        self.setup_command(stream, f"G10L20P0X{x:.4f}Y{y:.4f}", "setting the origin from the stop point")
+        self.setup_command(stream, self.firmware.set_origin(x, y), "setting the origin from the stop point")
 
     def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int, journal) -> tuple[float, float]:
         """Re-zero with the user (or refuse without one); where the pen stood, work mm."""

@@ -409,8 +409,8 @@ class BoardSession:
         return None
 
     def jog(self, dx: float, dy: float, feed: float) -> Reply:
-        """Jog by ``dx``, ``dy`` mm at ``feed`` mm/min (GRBL ``$J=``) and wait until it stands."""
-        reply = self.command(f"$J=G91G21X{dx:.4f}Y{dy:.4f}F{feed:g}")
+        """Jog by ``dx``, ``dy`` mm at ``feed`` mm/min (the firmware's jog) and wait until it stands."""
+        reply = self.command(self.firmware.jog(dx, dy, feed))
         self.wait_until_still()
         return reply
 

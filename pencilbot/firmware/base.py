@@ -162,6 +162,22 @@ class Firmware:
         the planner let it go."""
         return self.planner_blocks + 1
 
+    # --- re-establishing a position (what a resume asks of the board) ------------------------
+
+    #: The line that homes the machine on its switches ("" when the firmware has none).
+    home_command: str = ""
+
+    def set_origin(self, x: float, y: float, z: str = "") -> str:
+        """The line that makes the machine's present position read ``x``, ``y`` (mm) in the work
+        coordinates the job uses (``z``: the Z word to set too, already formatted); "" when the
+        firmware cannot."""
+        return ""
+
+    def jog(self, dx: float, dy: float, feed: float) -> str:
+        """The line that moves the carriage by ``dx``, ``dy`` mm at ``feed`` mm/min without
+        touching the job's modal state ("" when the firmware has no such command)."""
+        return ""
+
     # --- writing G-code -------------------------------------------------------------------
 
     def dwell(self, seconds: float) -> str:

@@ -41,11 +41,18 @@ class Grbl(Firmware):
     soft_reset = protocol.SOFT_RESET
     unlock_command = "$X"
     check_command = "$C"
+    home_command = "$H"
     moving_states = ("Run", "Jog", "Home")
     paused_states = ("Hold", "Door")
 
     def frame(self, command: str, number: int = 0) -> bytes:
         return self.protocol.encode_line(command)
+
+    def set_origin(self, x: float, y: float, z: str = "") -> str:
+        return f"G10L20P0X{x:.4f}Y{y:.4f}{z}"  # the active system's offset, from the position
+
+    def jog(self, dx: float, dy: float, feed: float) -> str:
+        return f"$J=G91G21X{dx:.4f}Y{dy:.4f}F{feed:g}"  # relative, mm: the job's G90/G20 untouched
 
     def check_lines(self, job) -> tuple[int, str] | None:
         a = np.frombuffer(job.frames, dtype=np.uint8)

@@ -34,6 +34,10 @@ class Marlin(Firmware):
     frame_room = len("N1234567 ") + len("*255")
     wake_bytes = b"\n"
     drain_command = "M400"  # returns once every queued move has run
+    home_command = "G28XY"
+
+    def set_origin(self, x: float, y: float, z: str = "") -> str:
+        return f"G92X{x:.4f}Y{y:.4f}{z}"  # Marlin's work offset: the position reads x, y
 
     def frame(self, command: str, number: int) -> bytes:
         return self.protocol.frame_line(number, command)

@@ -147,3 +147,20 @@ def test_the_checker_catches_an_import_against_the_flow(tmp_path, module, source
     (tmp_path / module).write_text(source)
     found = violations(tmp_path)
     assert len(found) == 1 and complaint in found[0] and module in found[0]
+
+
+
+def test_the_firmware_neutral_driver_speaks_no_firmware_s_words():
+    """Homing, setting an origin and jogging are asked of the firmware registry (issue 20): a GRBL
+    command written in the driver would be sent to an EBB, HP-GL or Marlin board too."""
+    commands = ("$H", "$J=", "G10L20")
+    found = []
+    for path in sorted((ROOT / "pencilbot" / "driver").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        docstrings = {id(node.body[0].value) for node in ast.walk(tree)
+                      if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef)) and node.body
+                      and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
+        found += [f"{path.relative_to(ROOT)}:{node.lineno}: {node.value!r}" for node in ast.walk(tree)
+                  if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings
+                  and any(word in node.value.replace(" ", "") for word in commands)]
+    assert not found, "firmware commands in the driver:\n" + "\n".join(found)
