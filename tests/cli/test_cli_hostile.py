@@ -30,7 +30,8 @@ from pencilbot.cli import main
 from pencilbot.commands import build_parser
 from pencilbot.configs_io import config_folder
 from pencilbot.errors import PencilbotError
-from pencilbot.export import svg, svg_straight
+from pencilbot.export import svg_read
+from pencilbot.export import svg_straight
 from pencilbot.export.svg_checks import MAX_DRAWING_MM
 
 LIMIT = 2 << 30  # bytes of address space the child may have
@@ -234,7 +235,7 @@ def test_a_picture_bomb_is_refused_from_its_header_in_a_process_of_its_own(input
 def test_a_strip_a_few_pixels_wide_is_drawn(tmp_path, capsys):
     Image.fromarray(np.full((3, 1), 90, np.uint8)).save(tmp_path / "three.png")
     assert main(["plan", str(tmp_path / "three.png"), "-o", str(tmp_path / "t.svg"), "-q"]) == 0
-    assert svg.read_svg(tmp_path / "t.svg").layers
+    assert svg_read.read_svg(tmp_path / "t.svg").layers
 
 
 def test_stages_that_fail_leave_no_folder(tmp_path, monkeypatch, capsys):
@@ -275,7 +276,7 @@ def test_any_svg_number_gives_a_sane_plan_or_one_message(tmp_path, x, y, factor,
     path = tmp_path / "w.svg"
     path.write_text(_svg(shape + _LINE, width=f"{_text(factor)}mm" if where == "width" else "100mm"))
     try:
-        plan = svg.read_svg(path)
+        plan = svg_read.read_svg(path)
     except PencilbotError as err:
         assert "\n" not in str(err)
         return
@@ -309,17 +310,17 @@ def test_straight_lines_read_in_arrays_as_vpype_reads_them(tmp_path, paths, stro
     path.write_text(text)
     original = svg_straight.read_straight
     taken = []
-    svg.read_straight = lambda *a: taken.append(original(*a)) or taken[-1]
+    svg_read.read_straight = lambda *a: taken.append(original(*a)) or taken[-1]
     try:
-        fast = svg.read_svg(path)
+        fast = svg_read.read_svg(path)
     finally:
-        svg.read_straight = original
+        svg_read.read_straight = original
     assert taken and (taken[0] is not None or ("Z" in d and any(c in d for c in "mlhv")))  # arrays, not vpype
     try:
-        svg.read_straight = lambda *_: None  # the same file through vpype
-        slow = svg.read_svg(path)
+        svg_read.read_straight = lambda *_: None  # the same file through vpype
+        slow = svg_read.read_svg(path)
     finally:
-        svg.read_straight = original
+        svg_read.read_straight = original
     assert [(l.name, l.role, l.color) for l in fast.layers] == [(l.name, l.role, l.color) for l in slow.layers]
     for a, b in zip(fast.layers, slow.layers):
         # svgelements rounds its mm-per-pixel factor (about 1e-6 relative): a micrometre at most here
