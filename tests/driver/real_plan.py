@@ -20,7 +20,7 @@ import pencilbot
 def plan_lines(profile: str = "grbl-servo-a4", step: int = 12, page: str = "40x30") -> tuple[str, ...]:
     """The G-code lines of coffee (every ``step``-th pixel) planned on a ``page`` (mm) sheet."""
     plan = pencilbot.plan(data.coffee()[::step, ::step], page=page, margin=2)
-    return tuple(pencilbot.export_gcode(plan, profile))
+    return tuple(pencilbot.gcode(plan, profile))
 
 
 def pen_down_moves(lines, pen_down_text: str = "M3S90") -> np.ndarray:
