@@ -17,6 +17,7 @@ from pencilbot.paths import Paths
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
 from pencilbot.units import DEFAULT_PEN_WIDTH
 from sim.ebb_board import EbbBoard
+from sim.protocol_sim import VirtualPlotter
 from sim.recorder import Polylines
 
 
@@ -78,7 +79,7 @@ class EbbDrawing:
         return Paths(self.profile.bed.to_view(paths.points), paths.offsets) if len(paths.points) else paths
 
 
-class VirtualEbb:
+class VirtualEbb(VirtualPlotter):
     """A virtual AxiDraw-class plotter (EBB board, CoreXY carriage, servo pen).
 
     Parameters
@@ -97,18 +98,12 @@ class VirtualEbb:
     """
 
     def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none"):
-        from sim.protocol_sim import _Wire
-
         self.profile = profile
         self.realtime = realtime
+        self.operator = operator
         self.machine = EbbDrawing(profile, lambda: self.firmware.presses)
         self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator)
-        self._to_board, self._to_host = _Wire(baud), _Wire(baud)
-        self._last = time.monotonic()
-
-    def write(self, data: bytes) -> None:
-        self._to_board.put(data, time.monotonic())
-        self.pump()
+        self._connect(baud)
 
     def pump(self) -> None:
         now = time.monotonic()
@@ -116,10 +111,6 @@ class VirtualEbb:
         self.firmware.receive(self._to_board.take(now))
         self.firmware.poll(elapsed * self.realtime)
         self._to_host.put(self.firmware.take_output(), now)
-
-    def read(self) -> bytes:
-        self.pump()
-        return self._to_host.take(time.monotonic())
 
     def drawn(self) -> Paths:
         """Pen-down polylines so far, machine mm (the one being drawn last)."""

@@ -36,7 +36,7 @@ from firmware_protocol import ProtocolError
 from firmware_protocol import hpgl as protocol
 from pencilbot.machine.motion import block_duration
 from pencilbot.paths import Paths
-from sim.protocol_sim import VirtualPlotter, _Wire
+from sim.protocol_sim import VirtualPlotter
 
 MODEL = "7475A"
 _XOFF_BELOW, _XON_AT = 80, 128
@@ -369,9 +369,7 @@ class HpglPlotter(VirtualPlotter):
         self.firmware = self.machine = self.board
         self.operator = "none"
         self.realtime = realtime
-        self._to_board = _Wire(baud)
-        self._to_host = _Wire(baud)
-        self._last = time.monotonic()
+        self._connect(baud)
 
     def pump(self) -> None:
         now = time.monotonic()

@@ -178,8 +178,11 @@ class VirtualPlotter:
         self.firmware = Firmware(self.machine, faults, power_zero=power == "zero", abort_loses=abort == "lose",
                                  init_lock=limits != "bed")
         self.realtime = realtime
-        self._to_board = _Wire(baud)
-        self._to_host = _Wire(baud)
+        self._connect(baud)
+
+    def _connect(self, baud: int) -> None:
+        """The two wires between host and board, at ``baud`` bit/s (0: instant), and the clock."""
+        self._to_board, self._to_host = _Wire(baud), _Wire(baud)
         self._last = time.monotonic()
 
     def write(self, data: bytes) -> None:
