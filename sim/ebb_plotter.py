@@ -14,8 +14,6 @@ import time
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
-from pencilbot.units import DEFAULT_PEN_WIDTH
 from sim.ebb_board import EbbBoard
 from sim.protocol_sim import VirtualPlotter
 from sim.recorder import Polylines
@@ -115,21 +113,6 @@ class VirtualEbb(VirtualPlotter):
     def drawn(self) -> Paths:
         """Pen-down polylines so far, machine mm (the one being drawn last)."""
         return self.machine.drawn()
-
-    def canvas(self, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
-        self.firmware.finish()
-        bed = self.profile.bed
-        canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
-        canvas.draw_paths(self.machine.bed_strokes())
-        if travel:
-            canvas.draw_travel(self.machine.bed_travel())
-        return canvas
-
-    def save_png(self, path, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
-        self.firmware.finish()
-        bed = self.profile.bed
-        save_drawing_png(path, self.machine.bed_strokes(), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
-                         travel=self.machine.bed_travel() if travel else None)
 
     @property
     def seconds(self) -> float:
