@@ -1,10 +1,12 @@
 """A scripted serial board on a real pseudo-terminal, for protocols the virtual plotter lacks.
 
 Subclasses implement ``_serve`` (run in a thread until ``_stop`` is set) and answer with
-``_say``; the driver opens ``path`` like a USB serial port.
+``_say``; the driver opens ``path`` like a USB serial port. A GRBL-like board serves with
+:meth:`PtyBoard._serve_lines` and implements ``_realtime`` and ``_line``.
 """
 
 import os
+import select
 import threading
 import tty
 
@@ -34,3 +36,23 @@ class PtyBoard:
 
     def _serve(self):
         raise NotImplementedError
+
+    def _serve_lines(self):
+        """Read as GRBL does: a byte ``_realtime`` takes is acted on at once, the rest gathered
+        into lines for ``_line`` (the line's text, without its end)."""
+        line = b""
+        while not self._stop.is_set():
+            if not select.select([self.master], [], [], 0.05)[0]:
+                continue
+            try:
+                data = os.read(self.master, 1024)
+            except OSError:
+                return
+            for byte in data:
+                if self._realtime(byte):
+                    continue
+                if byte in b"\r\n":
+                    text, line = line.decode(), b""
+                    self._line(text)
+                else:
+                    line += bytes([byte])

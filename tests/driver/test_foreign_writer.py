@@ -4,7 +4,6 @@ or a board that sends back the lines it gets."""
 
 import errno
 import os
-import select
 import threading
 
 from pty_board import PtyBoard
@@ -67,25 +66,20 @@ class EchoBoard(PtyBoard):
     woken = False
 
     def _serve(self):
-        line = b""
-        while not self._stop.is_set():
-            if not select.select([self.master], [], [], 0.05)[0]:
-                continue
-            try:
-                data = os.read(self.master, 1024)
-            except OSError:
-                return
-            for byte in data:
-                if byte == 0x18 or not self.woken:  # a reset, or the sender's first bytes: the banner
-                    self.woken = True
-                    self._say("Grbl 1.1h ['$' for help]")
-                elif byte == ord("?"):
-                    self._say("<Idle|MPos:0.000,0.000,0.000|FS:0,0>")
-                elif byte in b"\r\n":
-                    text, line = line.decode(), b""
-                    self._say(*([text] if text else []), "ok")
-                else:
-                    line += bytes([byte])
+        self._serve_lines()
+
+    def _realtime(self, byte) -> bool:
+        if byte == 0x18 or not self.woken:  # a reset, or the sender's first bytes: the banner
+            self.woken = True
+            self._say("Grbl 1.1h ['$' for help]")
+            return True
+        if byte == ord("?"):
+            self._say("<Idle|MPos:0.000,0.000,0.000|FS:0,0>")
+            return True
+        return False
+
+    def _line(self, text):
+        self._say(*([text] if text else []), "ok")
 
 
 def test_a_board_that_sends_back_the_lines_it_gets_stops_the_job(tmp_path, capsys):

@@ -7,9 +7,6 @@ The virtual plotter runs its lines atomically and cannot show this window, so th
 small scripted GRBL on a real pty that always answers the last line that way.
 """
 
-import os
-import select
-
 from pty_board import PtyBoard
 
 from pencilbot.driver import draw
@@ -44,25 +41,19 @@ class LateCycleStartBoard(PtyBoard):
             self._say(IDLE.format("30.000" if self.started else "0.000"))
 
     def _serve(self):
-        line = b""
-        while not self._stop.is_set():
-            if not select.select([self.master], [], [], 0.05)[0]:
-                continue
-            try:
-                data = os.read(self.master, 1024)
-            except OSError:
-                return
-            for byte in data:
-                if byte == ord("?"):
-                    self._status()
-                elif byte in b"\r\n":
-                    text, line = line.decode(), b""
-                    if text == JOB[-1]:
-                        self.holding_last, self.started = True, True
-                    else:
-                        self._say("ok")
-                else:
-                    line += bytes([byte])
+        self._serve_lines()
+
+    def _realtime(self, byte) -> bool:
+        if byte == ord("?"):
+            self._status()
+            return True
+        return False
+
+    def _line(self, text):
+        if text == JOB[-1]:
+            self.holding_last, self.started = True, True
+        else:
+            self._say("ok")
 
 
 def test_a_stale_idle_report_after_the_last_ok_does_not_end_the_job():
