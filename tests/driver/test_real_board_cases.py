@@ -14,6 +14,7 @@ a step of the mark is corrected by the count.
 """
 
 import itertools
+import threading
 
 import pytest
 from hands import SteppedHand
@@ -95,6 +96,11 @@ def test_over_a_pty_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_
     with PtyServer(plotter, reset_on_open=False) as server:
         with pytest.raises(PlotError, match="Resume with"):
             draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+        # An unplugged cable: the server plugs the board back in on a new pty, in its own thread;
+        # the resume goes to that one (its path is set before the dropped link is cleared).
+        replugged = threading.Event()
+        server.on_new_path = lambda _: replugged.set()
+        assert not plotter.firmware.link_dropped or replugged.wait(10)
         plotter.firmware.faults.at.clear()
         resume_twice(path, server.path, plotter)
     plotter.firmware.finish()
