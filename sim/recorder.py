@@ -113,6 +113,17 @@ class Polylines:
         self._size = end
         self._ends.append(end)
 
+    def extend(self, points: np.ndarray, ends: np.ndarray) -> None:
+        """Append many polylines at once: ``points`` (M, 2) and each one's end in it (K,)."""
+        end = self._size + len(points)
+        if end > len(self._points):
+            grown = np.empty((max(end, 2 * len(self._points)), 2))
+            grown[: self._size] = self._points[: self._size]
+            self._points = grown
+        self._points[self._size : end] = points
+        self._ends.extend((np.asarray(ends, dtype=np.int64) + self._size).tolist())
+        self._size = end
+
     def paths(self, last=None) -> Paths:
         """Every polyline (a copy), and ``last`` (points, if given) after them."""
         points, ends = self._points[: self._size], np.array(self._ends, dtype=np.int64)

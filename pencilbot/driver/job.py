@@ -173,10 +173,16 @@ def read_gcode(path: str | Path) -> bytes:
     PlotError
         The file cannot be read, or a line is too long to be G-code.
     """
+    return b"".join(gcode_blocks(path))
+
+
+def gcode_blocks(path: str | Path) -> Iterator[bytes]:
+    """:func:`read_gcode`'s file a block of whole lines at a time (about a megabyte each), for a
+    reader that never holds it whole (the simulator's fast path); the same errors."""
     path = Path(path)
     try:
         with path.open("rb") as handle:
-            return b"".join(_blocks(iter(lambda: handle.read(_READ_BLOCK), b""), str(path)))
+            yield from _blocks(iter(lambda: handle.read(_READ_BLOCK), b""), str(path))
     except FileNotFoundError:
         raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
     except OSError as exc:
