@@ -21,7 +21,7 @@ from pencilbot.commands.options import (
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
-from pencilbot.driver.job import read_gcode
+from pencilbot.driver.job import gcode_blocks, read_gcode
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
@@ -74,6 +74,11 @@ def run(args: argparse.Namespace) -> int:
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
     check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
                  travel=args.travel)
+    plotter = _fast_plot(source, profile, args)
+    if plotter is not None:  # a plain job run at once on the virtual machine, no pen changes
+        _save_plot(output, plotter, [], args, args.pen_width or DEFAULT_PEN_WIDTH)
+        _report(output, plotter, [], profile, args)
+        return 0
     program, pen_width, carousel = _gcode(source, profile, args)
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
@@ -89,18 +94,42 @@ def run(args: argparse.Namespace) -> int:
         draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
              progress="quiet" if args.quiet else "bar", operator=AutoOperator())
         plotter = protocol_sim.plotter(name)
-        if any(pens):
-            _save_colour_plot(output, plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
-        else:
-            plotter.save_png(output, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+        _save_plot(output, plotter, pens, args, pen_width)
     finally:
         protocol_sim.forget(name)
+    _report(output, plotter, pens, profile, args)
+    return 0
+
+
+def _fast_plot(source: Path, profile, args: argparse.Namespace):
+    """The virtual plotter after a plain G-code job ran on it at once (:mod:`sim.bulk`), or None
+    when the job must go the full way: through the driver, line by line (another clock than the
+    instant one, a pen that is not on the spindle, a line of another form, a refused line or an
+    alarm, whose message the full way gives)."""
+    from sim import bulk, protocol_sim
+
+    if source.suffix.lower() not in GCODE_SUFFIXES or args.realtime or not source.is_file():
+        return None
+    # The board the full way would open (see run's URL), made the same way.
+    plotter = protocol_sim.plotter_from_options({"profile": args.profile, "realtime": "0", "limits": "bed"})
+    if type(plotter) is not protocol_sim.VirtualPlotter or not bulk.fast_path_possible(plotter.machine):
+        return None
+    return plotter if bulk.run_blocks(plotter.machine, gcode_blocks(source)) is None else None
+
+
+def _save_plot(output: Path, plotter, pens: list, args: argparse.Namespace, pen_width: float) -> None:
+    if any(pens):
+        _save_colour_plot(output, plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+    else:
+        plotter.save_png(output, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+
+
+def _report(output: Path, plotter, pens: list, profile, args: argparse.Namespace) -> None:
     if not args.quiet:
         strokes = len(plotter.machine.drawn())
         in_pens = f" with {len({p.name for p in pens if p})} pens" if any(pens) else ""
         print(f"wrote {output}: {strokes} pen-down strokes{in_pens}, simulated drawing time "
               f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
-    return 0
 
 
 def _save_colour_plot(output: Path, plotter, pens: list, *, dpi: float, pen_width: float, travel: bool) -> None:

@@ -1,0 +1,186 @@
+"""The virtual plotter's fast path (sim.bulk) against the full interpreter, line by line.
+
+The reference is the GRBL front end itself: every line of the file through
+``Firmware.receive`` (filter, parser, execution, planner, recorder). The fast path must leave
+the machine with the same strokes, travel, clock and position, bit for bit, and stop at the
+line where the board first answers anything but ``ok`` (an error, an alarm), or at the first
+line it does not take. ``pencilbot simulate`` through either way gives the same PNG and words.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from pencilbot.cli import main
+from pencilbot.commands import simulate as simulate_command
+from sim import bulk, protocol_sim
+
+PROFILE = "grbl-servo-a4"  # a servo pen on the spindle: M3 S30 up, M3 S90 down; bed 220 x 310 mm
+
+
+def _plotter():
+    return protocol_sim.plotter_from_options({"profile": PROFILE, "realtime": "0", "limits": "bed"})
+
+
+def _full(text: bytes):
+    """The machine after each line through the firmware, and the first line not answered ok."""
+    plotter = _plotter()
+    for line in text.splitlines(keepends=True):
+        plotter.firmware.receive(line)
+    plotter.firmware.finish()
+    refused = next(((e.index, e.reply) for e in plotter.firmware.log if e.reply != "ok"), None)
+    return plotter.machine, refused
+
+
+def _fast(text: bytes, block_lines: int):
+    """The machine after the fast path, fed ``block_lines`` lines at a time (block edges vary)."""
+    plotter = _plotter()
+    assert bulk.fast_path_possible(plotter.machine)
+    lines = text.splitlines(keepends=True)
+    blocks = [b"".join(lines[i:i + block_lines]) for i in range(0, len(lines), block_lines)]
+    stop = bulk.run_blocks(plotter.machine, blocks)
+    plotter.firmware.finish()
+    return plotter.machine, stop
+
+
+def _same_machine(fast, full) -> None:
+    a, b = fast.drawn(), full.drawn()
+    assert np.array_equal(a.points, b.points) and np.array_equal(a.offsets, b.offsets)
+    ta, tb = fast.bed_travel(), full.bed_travel()
+    assert np.array_equal(ta.points, tb.points) and np.array_equal(ta.offsets, tb.offsets)
+    assert fast.stroke_pauses == full.stroke_pauses
+    assert fast.clock == full.clock  # the same additions in the same order: equal, not close
+    assert fast.state.position == full.state.position
+
+
+_coord = st.integers(0, 200_000).map(lambda v: v / 1000)  # 0 .. 200 mm in µm, inside the bed
+_pen = st.sampled_from(["M3 S30", "M3 S90", "M3 S90", "M5", "M3", "M4 S90", "S"])
+
+
+@st.composite
+def plain_lines(draw) -> list[str]:
+    """A job of the plain forms: pen changes, dwells, moves alone and runs of moves (longer than
+    the planner), modal moves, zero-length moves, feeds, comments, blank lines, lower case."""
+    lines = ["G21 ; mm", "G90", "G94", "g17"]
+    if draw(st.integers(0, 3)):  # mostly a feed first (else a G1 before any F is refused: error 22)
+        lines.append(draw(st.sampled_from(["F3000", "G1 F1500", "G0 F600"])))
+    x = y = 0.0
+    for _ in range(draw(st.integers(1, 12))):
+        kind = draw(st.sampled_from(["pen", "dwell", "move", "run", "blank", "feed"]))
+        if kind == "pen":
+            pen = draw(_pen)
+            lines.append(pen if pen != "S" else "M3 S" + str(draw(st.integers(0, 120))))
+        elif kind == "dwell":
+            lines.append(f"G4 P{draw(st.sampled_from(['0', '0.15', '0.2', '1.5']))}")
+        elif kind == "blank":
+            lines.append(draw(st.sampled_from(["", "; a comment", "   "])))
+        elif kind == "feed":
+            lines.append(f"F{draw(st.sampled_from(['500', '3000', '12000']))}")
+        else:
+            for i in range(1 if kind == "move" else draw(st.integers(2, 40))):
+                g = draw(st.sampled_from(["G0 ", "G1 ", "g1", "G01 ", ""]))
+                same = draw(st.integers(0, 9)) == 0
+                nx, ny = (x, y) if same else (draw(_coord), draw(_coord))
+                words = draw(st.sampled_from(["XY", "X", "Y", "XYZ"]))
+                text = g + " ".join(f"{a}{v:g}" for a, v in (("X", nx), ("Y", ny), ("Z", 0.0)) if a in words)
+                if words == "X":
+                    ny = y
+                if words == "Y":
+                    nx = x
+                x, y = nx, ny
+                if draw(st.integers(0, 3)) == 0:
+                    text += f" F{draw(st.sampled_from(['800', '3000', '20000']))}"
+                lines.append(text)
+    return lines
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(lines=plain_lines(), block_lines=st.integers(1, 50))
+def test_fast_path_leaves_the_machine_as_the_full_interpreter(lines, block_lines):
+    text = ("\n".join(lines) + "\n").encode()
+    full, refused = _full(text)
+    fast, stop = _fast(text, block_lines)
+    if refused is None:
+        assert stop is None
+        _same_machine(fast, full)
+    else:  # only a G1 before any feed is refused here: the fast path stops at that very line
+        assert stop == bulk.Stop(refused[0], refused[1])
+
+
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(lines=plain_lines(), at=st.integers(0, 10_000), bad=st.sampled_from([
+    ("G1 X10 Y10", "error:22"),  # a feed move before any F
+    ("G0 X230 Y10", "ALARM:2"),  # past the bed's 220 mm: the soft limit
+    ("G1 X-5 F3000", "ALARM:2"),
+    ("G0 Y310.5", "ALARM:2"),
+]))
+def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
+    at = at % (len(lines) + 1)
+    line, answer = bad
+    if answer == "error:22":
+        lines = [text for text in lines if "F" not in text.upper()]  # no feed yet anywhere
+    else:
+        lines = ["F3000", *lines]  # no G1 is refused before
+    lines = lines[:at] + [line] + lines[at:]
+    text = ("\n".join(lines) + "\n").encode()
+    _, refused = _full(text)
+    _, stop = _fast(text, 7)
+    assert refused is not None and refused[1] == answer  # the board's own answer
+    assert stop == bulk.Stop(refused[0], answer)  # at the same line
+
+
+@pytest.mark.parametrize("other", ["G2 X10 Y0 I5 J0 F100", "G91", "M0", "$H", "G92 X0", "(note) G0 X1", "%",
+                                   "G1 X1.234567891 F100", "G0 X1 X2"])
+def test_fast_path_stops_at_a_line_of_another_form(other):
+    text = f"G21\nG0 X10 Y10\n{other}\nG0 X20 Y20\n".encode()
+    _, stop = _fast(text, 2)
+    assert stop == bulk.Stop(3, "unsupported")
+
+
+def test_an_empty_job_goes_the_full_way():
+    _, stop = _fast(b"; nothing\n\n", 5)
+    assert stop == bulk.Stop(0, "empty")
+
+
+def _simulate(tmp_path, capsys, text: str, *options: str):
+    src = tmp_path / "job.gcode"
+    src.write_text(text)
+    out = tmp_path / "plot.png"
+    code = main(["simulate", str(src), "-o", str(out), "--dpi", "60", *options])
+    said = capsys.readouterr()
+    return code, (out.read_bytes() if out.exists() else None), said.out, [line for line in said.err.splitlines() if line.startswith("pencilbot:")]
+
+
+JOB = """G21
+G90
+M3 S30
+G0 X20 Y20
+M3 S90
+G4 P0.2
+G1 X60 Y22 F3000
+G1 X61 Y60
+G1 X20 Y58
+G1 X20 Y20
+M3 S30
+G0 X100 Y100
+M3 S90
+G1 X120 Y140
+M3 S30
+G0 X0 Y0
+"""
+
+
+@pytest.mark.parametrize("job", [JOB, JOB.replace("G1 X120 Y140", "G1 X120 Y140\nG1 X300 Y10"),
+                                 JOB.replace("F3000", "")])
+def test_simulate_says_and_draws_the_same_either_way(tmp_path, capsys, monkeypatch, job):
+    """The fast path's PNG and words are the full way's; a job it stops in (a move off the bed, a
+    move without a feed) gets the full way's message naming the line."""
+    fast = _simulate(tmp_path, capsys, job, "--travel")
+    monkeypatch.setattr(simulate_command, "_fast_plot", lambda *args: None)
+    full = _simulate(tmp_path, capsys, job, "--travel")
+    assert fast == full
+    if job != JOB:
+        assert fast[0] != 0 and fast[3][0].startswith("pencilbot: error: ") and "line" in fast[3][0]
