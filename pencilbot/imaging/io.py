@@ -24,6 +24,7 @@ from PIL import Image, ImageOps, UnidentifiedImageError
 
 from pencilbot.errors import ImageLoadError
 from pencilbot.fileio import available_memory
+from pencilbot.imaging.png_strips import STRIP_BYTES, PngLayout, png_layout, reduced_png
 
 DEFAULT_MAX_PIXELS = 40_000_000
 #: More pixels than this are never decoded unless ``max_pixels`` allows more: Pillow's own
@@ -207,6 +208,14 @@ def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrin
     if shrink_to is not None:
         h, w = shrink_to((wanted[1], wanted[0]))
         wanted = (min(wanted[0], w), min(wanted[1], h))
+    if wanted != upright and img.format == "PNG" and orientation == 1:
+        # PNG has no reduced decode: read it a strip of rows at a time, shrinking as it goes.
+        factor = min(width // wanted[0], height // wanted[1])
+        layout = png_layout(name) if factor >= 2 else None
+        if layout is not None:
+            reduced = (math.ceil(width / factor), math.ceil(height / factor))
+            _check_memory(name, img, wanted, need=_strip_bytes(layout, factor, reduced, wanted))
+            return reduced_png(name, layout, factor), wanted
     if wanted != upright:
         # JPEG can decode at 1/2, 1/4, 1/8 scale directly, keeping at least the size asked for.
         img.draft(img.mode, wanted[::-1] if turned else wanted)
@@ -214,7 +223,7 @@ def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrin
     if decoded > max(max_pixels, DECODE_LIMIT):
         raise ImageLoadError(
             f"{name} is {width}×{height} = {width * height:,} pixels; decoding more than "
-            f"{DECODE_LIMIT:,} is unsafe and only JPEG decodes at a reduced scale. Shrink it with an "
+            f"{DECODE_LIMIT:,} is unsafe and only JPEG and PNG (not interlaced, not 16-bit colour) decode at a reduced scale. Shrink it with an "
             "image editor first, or raise --max-pixels if this machine has the memory."
         )
     _check_memory(name, img, wanted)
@@ -245,9 +254,18 @@ _DECODE_BYTES_PER_PIXEL = 16
 _RESULT_BYTES_PER_PIXEL = 32
 
 
-def _check_memory(name: str, img: Image.Image, wanted: tuple[int, int]) -> None:
-    """Refuse a decode that needs more memory than this process can get, before it starts."""
-    need = img.size[0] * img.size[1] * _DECODE_BYTES_PER_PIXEL + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
+def _strip_bytes(layout: PngLayout, factor: int, reduced: tuple[int, int], wanted: tuple[int, int]) -> int:
+    """Peak bytes of a PNG read in strips: a strip's copies, the picture at 1/factor (premultiplied
+    uint16 RGBA, and its copy as the strips join), the result."""
+    strip = factor * max(1, STRIP_BYTES // ((layout.stride + 1) * factor)) * layout.width * _DECODE_BYTES_PER_PIXEL
+    return strip + reduced[0] * reduced[1] * 16 + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
+
+
+def _check_memory(name: str, img: Image.Image, wanted: tuple[int, int], need: int | None = None) -> None:
+    """Refuse a decode that needs more memory than this process can get, before it starts
+    (``need``: bytes, when not the whole picture's decode)."""
+    if need is None:
+        need = img.size[0] * img.size[1] * _DECODE_BYTES_PER_PIXEL + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
     have, words = available_memory()
     if need > have:
         raise ImageLoadError(
@@ -277,7 +295,7 @@ def _reduce(pixels: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     holding colour × alpha and alpha × 255, for :func:`_from_samples`)."""
     if (pixels.shape[1], pixels.shape[0]) == size:
         return pixels
-    if pixels.ndim == 3 and pixels.shape[2] == 4:
+    if pixels.ndim == 3 and pixels.shape[2] == 4 and pixels.dtype == np.uint8:  # (uint16: premultiplied)
         alpha = pixels[:, :, 3:].astype(np.uint16)
         pixels = np.concatenate([pixels[:, :, :3] * alpha, alpha * 255], axis=2)
     return cv2.resize(pixels, size, interpolation=cv2.INTER_AREA)
