@@ -33,7 +33,11 @@ Stages and their targets (issue 16):
 * ``svg_stat``, ``svg_export`` — ``pencilbot stat`` / ``export`` of another tool's SVG of one
   straight path (a random walk on A4), 5 to 50 MB: <= 30 s CPU and <= 2 GB at 50 MB, linear;
 * ``simulate_gcode`` — ``pencilbot simulate JOB.gcode`` of the draw stage's G-code, 0.3M to 3M
-  lines: <= 30 s CPU and <= 2 GB at 3M, linear (issue 25).
+  lines: <= 30 s CPU and <= 2 GB at 3M, linear (issue 25; a plain job runs through the
+  simulator's fast path, sim.bulk);
+* ``downscale_png`` — ``pencilbot sketch BIG.png --downscale --max-pixels 1000000`` of a 10 000²
+  and a 30 000² RGB PNG (the astronaut enlarged): peak memory <= a quarter of the whole
+  picture's decode (Pillow's 4 bytes a pixel), since a PNG is shrunk as it is read (issue 25).
 
 Photos are skimage's astronaut enlarged (cubic) and saved as JPEG quality 90, like a camera's.
 A new stage is one function decorated with ``@stage(...)``: it gets a size and a scratch folder
@@ -460,8 +464,53 @@ def simulate_gcode_command(size: int, scratch: Path) -> list[str]:
     return _pencilbot("simulate", str(job), "-o", str(scratch / "job.png"), "-q")
 
 
+def big_png_child(spec: str) -> None:
+    """A SIZE x SIZE RGB PNG of skimage's astronaut (nearest-neighbour enlarged), written a strip
+    of rows at a time with PNG's Up filter (this process never holds the picture either)."""
+    import struct
+    import zlib
+
+    import numpy as np
+    from skimage import data
+
+    size, path = spec.split(":", 1)
+    side = int(size)
+    source = data.astronaut()
+    columns = np.arange(side) * source.shape[1] // side
+
+    def chunk(kind: bytes, body: bytes) -> bytes:
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    squeeze = zlib.compressobj(1)
+    with open(path, "wb") as out:
+        out.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0)))
+        previous = np.zeros(side * 3, np.uint8)
+        for top in range(0, side, 1000):
+            rows = source[np.arange(top, min(top + 1000, side)) * source.shape[0] // side][:, columns].reshape(-1, side * 3)
+            up = np.diff(np.vstack([previous, rows]), axis=0)  # uint8: modulo 256, as the Up filter
+            previous = rows[-1]
+            out.write(chunk(b"IDAT", squeeze.compress(np.hstack([np.full((len(up), 1), 2, np.uint8), up]).tobytes())))
+        out.write(chunk(b"IDAT", squeeze.flush()) + chunk(b"IEND", b""))
+
+
+def _downscale_summary(runs: list[dict]) -> dict:
+    big = runs[-1]
+    full = big["pixels"] * 4 / 2**20  # Pillow's RGBA-sized buffer of the whole picture, MB
+    return {"full_picture_mb": round(full), "targets": {"peak_rss_mb_max": round(full / 4)},
+            "met": {"memory": big["peak_rss_mb"] <= full / 4}}
+
+
+@stage("downscale_png", unit="pixels", sizes=(100_000_000, 900_000_000), quick=(900_000_000,),
+       summary=_downscale_summary)
+def downscale_png_command(size: int, scratch: Path) -> list[str]:
+    png = made_by_child("big_png", round(math.sqrt(size)), ".png", scratch)
+    return _pencilbot("sketch", str(png), "-o", str(scratch / "big-sketch.png"), "-q", "--downscale",
+                      "--max-pixels", "1000000")
+
+
 CHILDREN = {"walk_svg": walk_svg_child, "ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
-            "job_gcode": job_gcode_child, "a0": a0_child, "draw_traced": draw_traced_child}
+            "job_gcode": job_gcode_child, "a0": a0_child, "draw_traced": draw_traced_child,
+            "big_png": big_png_child}
 
 
 def main() -> None:

@@ -208,8 +208,9 @@ def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrin
     if shrink_to is not None:
         h, w = shrink_to((wanted[1], wanted[0]))
         wanted = (min(wanted[0], w), min(wanted[1], h))
-    if wanted != upright and img.format == "PNG" and orientation == 1:
-        # PNG has no reduced decode: read it a strip of rows at a time, shrinking as it goes.
+    if wanted != upright and img.format == "PNG" and orientation == 1 and (too_large or width * height > DECODE_LIMIT):
+        # PNG has no reduced decode: a picture too large to hold is read a strip of rows at a
+        # time, shrunk as it goes (a whole factor, then the rest as any picture).
         factor = min(width // wanted[0], height // wanted[1])
         layout = png_layout(name) if factor >= 2 else None
         if layout is not None:

@@ -242,9 +242,16 @@ def test_pillow_decompression_bomb_checks_give_way_to_ours(tmp_path, monkeypatch
 
 def test_too_many_pixels_to_decode_even_with_downscale_is_one_message(tmp_path, monkeypatch):
     monkeypatch.setattr(image_io, "DECODE_LIMIT", 5000)
-    path = save(tmp_path, Image.new("L", (100, 60)), "big.png")  # PNG cannot decode at 1/8 scale
+    path = save(tmp_path, Image.new("L", (100, 60)), "big.bmp")  # BMP cannot decode at a reduced scale
     with pytest.raises(ImageLoadError, match=r"decoding more than 5,000 is unsafe.*image editor"):
         load_image(path, max_pixels=1000, downscale=True)
+    deep = tmp_path / "deep.png"  # nor a 16-bit colour PNG (read whole, as Pillow reads it)
+    cv2.imwrite(str(deep), np.zeros((60, 100, 3), np.uint16))
+    with pytest.raises(ImageLoadError, match=r"decoding more than 5,000 is unsafe"):
+        load_image(deep, max_pixels=1000, downscale=True)
+    png = save(tmp_path, Image.new("L", (100, 60)), "big.png")  # an 8-bit PNG can: read in strips
+    height, width = load_image(png, max_pixels=1000, downscale=True).shape
+    assert height * width <= 1000
     jpeg = save(tmp_path, Image.new("L", (400, 240)), "big.jpg")  # JPEG can: 1/8 scale is 1 500
     height, width = load_image(jpeg, max_pixels=1000, downscale=True).shape
     assert height * width <= 1000
