@@ -149,15 +149,17 @@ def reduced_png(path, layout: PngLayout, factor: int) -> np.ndarray:
     out_w, out_h = math.ceil(width / factor), math.ceil(height / factor)
     rows_per_strip = factor * max(1, STRIP_BYTES // ((layout.stride + 1) * factor))
     previous = b"\0" * (layout.stride + 1)  # the row before the first: all zero, as PNG says
-    parts, done = [], 0
+    parts = []
     for raw in _filtered_strips(path, layout, rows_per_strip):
         rows = len(raw) // (layout.stride + 1)
         unfiltered = _unfilter(previous + raw, layout, rows + 1)
         previous = b"\0" + unfiltered[-1].tobytes()
         samples = _samples(unfiltered[1:], layout)
-        strip_h = math.ceil(rows / factor) if done + rows == height else rows // factor
-        parts.append(cv2.resize(samples, (out_w, strip_h), interpolation=cv2.INTER_AREA))
-        done += rows
+        whole = rows // factor * factor  # rows in whole blocks; the last strip may end with fewer
+        for block in (samples[:whole], samples[whole:]):
+            if len(block):
+                size = (out_w, math.ceil(len(block) / factor))
+                parts.append(cv2.resize(block, size, interpolation=cv2.INTER_AREA))
     return np.concatenate(parts) if len(parts) > 1 else parts[0]
 
 
