@@ -160,7 +160,10 @@ def reduced_png(path, layout: PngLayout, factor: int) -> np.ndarray:
             if len(block):
                 size = (out_w, math.ceil(len(block) / factor))
                 parts.append(cv2.resize(block, size, interpolation=cv2.INTER_AREA))
-    return np.concatenate(parts) if len(parts) > 1 else parts[0]
+    reduced = np.concatenate(parts) if len(parts) > 1 else parts[0]
+    if reduced.ndim == 2 and reduced.dtype == np.uint8:  # 8-bit grey (or fewer bits): as RGB
+        reduced = np.repeat(reduced[..., None], 3, axis=2)
+    return reduced
 
 
 def _filtered_strips(path, layout: PngLayout, rows: int) -> Iterator[bytes]:
@@ -230,10 +233,12 @@ def _samples(rows: np.ndarray, layout: PngLayout) -> np.ndarray:
         grey = values if colour == 0 else values[..., 0]
         if depth < 8:
             grey = grey * np.uint8(255 // ((1 << depth) - 1))
-        rgb = np.repeat(grey[..., None], 3, axis=2)
         alpha = values[..., 1] if colour == 4 else None
         if colour == 0 and key is not None and len(key) >= 2:
             alpha = np.where(values == struct.unpack(">H", key[:2])[0], 0, 255).astype(np.uint8)
+        if alpha is None:
+            return np.ascontiguousarray(grey)  # one channel while shrinking; RGB at the end
+        rgb = np.repeat(grey[..., None], 3, axis=2)
     else:
         rgb = values[..., :3]
         alpha = values[..., 3] if colour == 6 else None
