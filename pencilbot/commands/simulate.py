@@ -1,7 +1,9 @@
 """``pencilbot simulate``: draw G-code, a plan SVG or a photo on the virtual plotter, save a PNG.
 
 The G-code goes the way it would to hardware: through the driver, over pyserial, to the
-``sim://`` port of an in-process virtual GRBL 1.1 plotter. What the pen drew is rendered at the
+``sim://`` port of an in-process virtual GRBL 1.1 plotter. A plain job (what pencilbot exports
+for a spindle-driven pen) runs on that plotter's machine at once instead (:mod:`sim.bulk`, which
+leaves it as the line-by-line way would); whatever the fast path does not take goes the full way. What the pen drew is rendered at the
 chosen dpi over the whole bed, a band of rows at a time straight into the PNG (an A0 bed at
 600 dpi is half a gigapixel), and the simulated drawing time is reported.
 """
