@@ -33,8 +33,8 @@ from sim.gcode_parser import UNDEFINED_FEED
 from sim.motion_control import SOFT_LIMIT_ALARM
 from sim.planner import Block, Planner
 
-#: A number the fast path reads: at most 9 characters, so at most 8 significant digits and GRBL's
-#: read_float gives what float() gives; no sign on F, S, P (a negative one is error 4).
+#: A number the fast path reads (no sign on F, S, P: a negative one is error 4); with at most 8
+#: digits (:func:`_too_long`), GRBL's read_float gives what float() gives.
 _NUM = rb"[+-]?(?:\d+\.?\d*|\.\d+)"
 _UNUM = rb"(?:\d+\.?\d*|\.\d+)"
 #: One filtered line (upper case, no spaces or comments) and its end: a move, modal G0/G1 or a
@@ -47,7 +47,11 @@ _LINE = re.compile(
     rb"|(G(?:21|90|94|17))"
     rb"|([^\n]*))\n"
 )
-_NUMBER_CHARS = 9
+
+
+def _too_long(number: bytes) -> bool:
+    """More than the 8 digits read_float keeps (counted as :func:`sim.gcode_parser._grbl_float` does)."""
+    return len(number) > 8 and len(number) - (b"." in number) - (number[:1] in (b"+", b"-")) > 8
 #: Bytes a plain job's lines are made of (after ``;`` comments): anything else (parentheses,
 #: realtime bytes, ``$``, ``%``, non-ASCII) goes the full way.
 _PLAIN_BYTES = re.compile(rb"[^A-Za-z0-9.+\- \t\n]")
@@ -128,6 +132,8 @@ class _Run:
     def _block(self, block: bytes) -> Stop | None:
         if not block.endswith(b"\n"):
             block += b"\n"
+        if b"\r" in block:
+            block = block.replace(b"\r\n", b"\n")  # a lone \r ends a line too: another form
         if b";" in block:
             block = _COMMENT.sub(b"", block)
         bad = _PLAIN_BYTES.search(block)
@@ -140,12 +146,12 @@ class _Run:
                 return Stop(self.lines, "unsupported")
             if mcode:
                 self.commands += 1
-                if len(s) > _NUMBER_CHARS:
+                if _too_long(s):
                     return Stop(self.lines, "unsupported")
                 self._spindle(int(mcode), float(s) if s else self.speed)
             elif p:
                 self.commands += 1
-                if len(p) > _NUMBER_CHARS:
+                if _too_long(p):
                     return Stop(self.lines, "unsupported")
                 self._synchronize()
                 self.increments.append(float(p))
@@ -159,7 +165,7 @@ class _Run:
         return None
 
     def _move(self, g: bytes, x: bytes, y: bytes, z: bytes, f: bytes) -> Stop | None:
-        if max(len(x), len(y), len(z), len(f)) > _NUMBER_CHARS:
+        if _too_long(x) or _too_long(y) or _too_long(z) or _too_long(f):
             return Stop(self.lines, "unsupported")
         if f:
             self.feed = float(f)

@@ -133,11 +133,23 @@ def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
 
 
 @pytest.mark.parametrize("other", ["G2 X10 Y0 I5 J0 F100", "G91", "M0", "$H", "G92 X0", "(note) G0 X1", "%",
-                                   "G1 X1.234567891 F100", "G0 X1 X2"])
+                                   "G1 X1.234567891 F100", "G1 X123456789 F100", "G0 X1 X2",
+                                   "G0 X1\rG0 X2"])
 def test_fast_path_stops_at_a_line_of_another_form(other):
     text = f"G21\nG0 X10 Y10\n{other}\nG0 X20 Y20\n".encode()
     _, stop = _fast(text, 2)
     assert stop == bulk.Stop(3, "unsupported")
+
+
+@pytest.mark.parametrize("text", [
+    b"G21\r\nM3 S90\r\nG1 X10 Y10 F3000\r\nG1 X20\r\nM3 S30\r\n",  # CRLF line ends
+    b"F3000\nM3 S90\nG1 X1.2345678 Y012.34567\nG1 X+7.9999999 Y.12345678\nM5\n",  # 8 digits: read exactly
+])
+def test_fast_path_takes_what_the_board_reads_the_same(text):
+    full, refused = _full(text)
+    fast, stop = _fast(text, 2)
+    assert refused is None and stop is None
+    _same_machine(fast, full)
 
 
 def test_an_empty_job_goes_the_full_way():
