@@ -2,8 +2,8 @@
 
 ``pencilbot simulate JOB.gcode`` of a job pencilbot exported (millions of lines) need not go
 line by line through the serial protocol and the interpreter: such a job is made of a few plain
-forms (``G0``/``G1`` with ``X Y Z F``, ``M3``/``M4``/``M5`` with ``S`` for a spindle-driven pen,
-``G4 P`` dwells, the ``G21 G90 G94 G17`` header). :func:`run_blocks` reads a file's text a block
+forms (``G0``/``G1`` with ``X Y Z F``, ``M3``/``M4``/``M5`` with ``S``: a pen on the spindle or on
+Z, ``G4 P`` dwells, the ``G21 G90 G94 G17`` header). :func:`run_blocks` reads a file's text a block
 of lines at a time, classifies every line with one regular expression over the block, follows
 the parser's state through the lines in one lean loop and leaves the motion to the one motion
 model: a move alone between two synchronisations (a pen change or a dwell empties GRBL's planner,
@@ -69,10 +69,10 @@ class Stop:
 
 
 def fast_path_possible(machine) -> bool:
-    """Whether :func:`run_blocks` can play ``machine``: instant clock, a spindle-driven pen, a
+    """Whether :func:`run_blocks` can play ``machine``: instant clock, a pen on the spindle or Z, a
     machine fresh from power-up (nothing queued, no offsets, GRBL's default modes)."""
     s = machine.state
-    return (machine.instant and machine.pen.kind == "spindle" and not machine.planner.busy
+    return (machine.instant and machine.pen.kind in ("spindle", "z") and not machine.planner.busy
             and not machine.check_mode and s.work_offset() == (0.0, 0.0, 0.0) and s.modal.units_mm
             and s.modal.absolute and not s.modal.inverse_time and machine.slip == (0.0, 0.0, 0.0))
 
@@ -94,6 +94,7 @@ class _Run:
         self.feed, self.motion = s.feed, s.modal.motion
         self.spindle, self.speed = s.modal.spindle, s.spindle_speed
         self.pen_down = machine.pen_down
+        self.z_pen = machine.pen.kind == "z"  # else on the spindle: down while M3/M4 S is near "down"
         settings = machine.settings
         self.rates = (settings[110], settings[111], settings[112])
         self.accels = (settings[120], settings[121], settings[122])
@@ -181,16 +182,21 @@ class _Run:
             return Stop(self.lines, f"ALARM:{SOFT_LIMIT_ALARM}")
         start = (self.x, self.y, self.z)
         self.x, self.y, self.z = target
+        was_down = self.pen_down
+        if self.z_pen:
+            self.pen_down = self.m.pen.is_down(target[2])
         delta = (target[0] - start[0], target[1] - start[1], target[2] - start[2])
         length = math.hypot(*delta)
         if length < 1e-9:
+            if was_down and not self.pen_down and not (self.chain or self.planner):
+                self.close_pending = True  # as Machine.execute: lifted with nothing queued
             return None
         # As MotionControl._line: the move's unit, its axis-limited rate and acceleration, nominal.
         unit = (delta[0] / length, delta[1] / length, delta[2] / length)
         rate, accel = axis_limited(unit, self.rates, self.accels)
         rate /= 60.0
         nominal = rate if motion == 0 else min(self.feed / 60.0, rate)
-        move = (start, target, length, unit, nominal, accel, self.pen_down)
+        move = (start, target, length, unit, nominal, accel, was_down and (not self.z_pen or self.pen_down))
         if self.planner is not None:
             self._plan(move)
         elif self.chain:  # a second move before a synchronisation: the look-ahead planner plans them
@@ -209,7 +215,8 @@ class _Run:
         self.spindle, self.speed = mode, speed
         state = self.m.state
         state.modal.spindle, state.spindle_speed = mode, speed
-        self.pen_down = self.m.pen_down
+        if not self.z_pen:
+            self.pen_down = self.m.pen_down
         if was_down and not self.pen_down:
             self.close_pending = True  # lifted in place (motion has ended): the stroke is finished
 

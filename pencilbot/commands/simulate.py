@@ -2,7 +2,7 @@
 
 The G-code goes the way it would to hardware: through the driver, over pyserial, to the
 ``sim://`` port of an in-process virtual GRBL 1.1 plotter. A plain job (what pencilbot exports
-for a spindle-driven pen) runs on that plotter's machine at once instead (:mod:`sim.bulk`, which
+for a pen on the spindle or on Z) runs on that plotter's machine at once instead (:mod:`sim.bulk`, which
 leaves it as the line-by-line way would); whatever the fast path does not take goes the full way. What the pen drew is rendered at the
 chosen dpi over the whole bed, a band of rows at a time straight into the PNG (an A0 bed at
 600 dpi is half a gigapixel), and the simulated drawing time is reported.
@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
 def _fast_plot(source: Path, profile, args: argparse.Namespace):
     """The virtual plotter after a plain G-code job ran on it at once (:mod:`sim.bulk`), or None
     when the job must go the full way: through the driver, line by line (another clock than the
-    instant one, a pen that is not on the spindle, a line of another form, a refused line or an
+    instant one, a pen that is neither on the spindle nor on Z, a line of another form, a refused line or an
     alarm, whose message the full way gives)."""
     from sim import bulk, protocol_sim
 

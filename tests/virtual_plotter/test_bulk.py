@@ -19,15 +19,18 @@ from pencilbot.commands import simulate as simulate_command
 from sim import bulk, protocol_sim
 
 PROFILE = "grbl-servo-a4"  # a servo pen on the spindle: M3 S30 up, M3 S90 down; bed 220 x 310 mm
+#: The two pens the fast path plays; a Z pen (up 4 mm, down 0) on a bed whose origin is top-right
+#: (machine X and Y run negative): every X and Y is this sign times a distance from the origin.
+SIGNS = {"grbl-servo-a4": 1, "grbl-z-a3": -1}
 
 
-def _plotter():
-    return protocol_sim.plotter_from_options({"profile": PROFILE, "realtime": "0", "limits": "bed"})
+def _plotter(profile: str = PROFILE):
+    return protocol_sim.plotter_from_options({"profile": profile, "realtime": "0", "limits": "bed"})
 
 
-def _full(text: bytes):
+def _full(text: bytes, profile: str = PROFILE):
     """The machine after each line through the firmware, and the first line not answered ok."""
-    plotter = _plotter()
+    plotter = _plotter(profile)
     for line in text.splitlines(keepends=True):
         plotter.firmware.receive(line)
     plotter.firmware.finish()
@@ -35,9 +38,9 @@ def _full(text: bytes):
     return plotter.machine, refused
 
 
-def _fast(text: bytes, block_lines: int):
+def _fast(text: bytes, block_lines: int, profile: str = PROFILE):
     """The machine after the fast path, fed ``block_lines`` lines at a time (block edges vary)."""
-    plotter = _plotter()
+    plotter = _plotter(profile)
     assert bulk.fast_path_possible(plotter.machine)
     lines = text.splitlines(keepends=True)
     blocks = [b"".join(lines[i:i + block_lines]) for i in range(0, len(lines), block_lines)]
@@ -57,21 +60,23 @@ def _same_machine(fast, full) -> None:
 
 
 _coord = st.integers(0, 200_000).map(lambda v: v / 1000)  # 0 .. 200 mm in µm, inside the bed
-_pen = st.sampled_from(["M3 S30", "M3 S90", "M3 S90", "M5", "M3", "M4 S90", "S"])
+#: Pen lines by profile: what lifts and lowers it, and what does not (M3 for a Z pen, Z for a servo).
+_PENS = {1: ["M3 S30", "M3 S90", "M3 S90", "M5", "M3", "M4 S90", "S", "G0 Z4"],
+         -1: ["G0 Z0", "G0 Z4.0", "G1 Z1.9", "G1 Z2.1", "G0 Z0", "M3 S90", "M5"]}
 
 
 @st.composite
-def plain_lines(draw) -> list[str]:
+def plain_lines(draw, sign: int = 1) -> list[str]:
     """A job of the plain forms: pen changes, dwells, moves alone and runs of moves (longer than
     the planner), modal moves, zero-length moves, feeds, comments, blank lines, lower case."""
     lines = ["G21 ; mm", "G90", "G94", "g17"]
     if draw(st.integers(0, 3)):  # mostly a feed first (else a G1 before any F is refused: error 22)
         lines.append(draw(st.sampled_from(["F3000", "G1 F1500", "G0 F600"])))
     x = y = 0.0
-    for _ in range(draw(st.integers(1, 12))):
-        kind = draw(st.sampled_from(["pen", "dwell", "move", "run", "blank", "feed"]))
+    for _ in range(draw(st.integers(3, 14))):
+        kind = draw(st.sampled_from(["pen", "pen", "dwell", "move", "run", "run", "blank", "feed"]))
         if kind == "pen":
-            pen = draw(_pen)
+            pen = draw(st.sampled_from(_PENS[sign]))
             lines.append(pen if pen != "S" else "M3 S" + str(draw(st.integers(0, 120))))
         elif kind == "dwell":
             lines.append(f"G4 P{draw(st.sampled_from(['0', '0.15', '0.2', '1.5']))}")
@@ -85,7 +90,8 @@ def plain_lines(draw) -> list[str]:
                 same = draw(st.integers(0, 9)) == 0
                 nx, ny = (x, y) if same else (draw(_coord), draw(_coord))
                 words = draw(st.sampled_from(["XY", "X", "Y", "XYZ"]))
-                text = g + " ".join(f"{a}{v:g}" for a, v in (("X", nx), ("Y", ny), ("Z", 0.0)) if a in words)
+                z = draw(st.sampled_from([0.0, 4.0]))
+                text = g + " ".join(f"{a}{v:g}" for a, v in (("X", sign * nx), ("Y", sign * ny), ("Z", z)) if a in words)
                 if words == "X":
                     ny = y
                 if words == "Y":
@@ -98,11 +104,12 @@ def plain_lines(draw) -> list[str]:
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(lines=plain_lines(), block_lines=st.integers(1, 50))
-def test_fast_path_leaves_the_machine_as_the_full_interpreter(lines, block_lines):
+@given(data=st.data(), profile=st.sampled_from(sorted(SIGNS)), block_lines=st.integers(1, 50))
+def test_fast_path_leaves_the_machine_as_the_full_interpreter(data, profile, block_lines):
+    lines = data.draw(plain_lines(SIGNS[profile]))
     text = ("\n".join(lines) + "\n").encode()
-    full, refused = _full(text)
-    fast, stop = _fast(text, block_lines)
+    full, refused = _full(text, profile)
+    fast, stop = _fast(text, block_lines, profile)
     if refused is None:
         assert stop is None
         _same_machine(fast, full)
