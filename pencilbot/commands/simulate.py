@@ -13,8 +13,11 @@ from __future__ import annotations
 import argparse
 import itertools
 import os
+import sys
 import urllib.parse
 from pathlib import Path
+
+from tqdm import tqdm
 
 from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
 from pencilbot.commands.options import (
@@ -116,7 +119,16 @@ def _fast_plot(source: Path, profile, args: argparse.Namespace):
     plotter = protocol_sim.plotter_from_options({"profile": args.profile, "realtime": "0", "limits": "bed"})
     if type(plotter) is not protocol_sim.VirtualPlotter or not bulk.fast_path_possible(plotter.machine):
         return None
-    return plotter if bulk.run_blocks(plotter.machine, gcode_blocks(source)) is None else None
+    with tqdm(total=source.stat().st_size, unit="B", unit_scale=True, desc=f"simulating {source.name}",
+              file=sys.stderr, disable=args.quiet, leave=False) as bar:
+        return plotter if bulk.run_blocks(plotter.machine, _counted(gcode_blocks(source), bar)) is None else None
+
+
+def _counted(blocks, bar):
+    """The blocks, each counted on the bar as it is taken."""
+    for block in blocks:
+        bar.update(len(block))
+        yield block
 
 
 def _save_plot(output: Path, plotter, pens: list, args: argparse.Namespace, pen_width: float) -> None:
