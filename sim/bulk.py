@@ -48,15 +48,16 @@ _LINE = re.compile(
     rb"|([^\n]*))\n"
 )
 
-
-def _too_long(number: bytes) -> bool:
-    """More than the 8 digits read_float keeps (counted as :func:`sim.gcode_parser._grbl_float` does)."""
-    return len(number) > 8 and len(number) - (b"." in number) - (number[:1] in (b"+", b"-")) > 8
 #: Bytes a plain job's lines are made of (after ``;`` comments): anything else (parentheses,
 #: realtime bytes, ``$``, ``%``, non-ASCII) goes the full way.
 _PLAIN_BYTES = re.compile(rb"[^A-Za-z0-9.+\- \t\n]")
 _COMMENT = re.compile(rb";[^\n]*")
 _SPACES = bytes(b for b in grbl.DROPPED_BYTES if b != ord("\n"))
+
+
+def _too_long(number: bytes) -> bool:
+    """More than the 8 digits read_float keeps (counted as :func:`sim.gcode_parser._grbl_float` does)."""
+    return len(number) > 8 and len(number) - (b"." in number) - (number[:1] in (b"+", b"-")) > 8
 
 
 @dataclass(frozen=True)
@@ -111,7 +112,7 @@ class _Run:
         # the stroke before it; the clock's increments in order (a move alone: None, timed later).
         self.done: list[tuple] = []
         self.closed_before: list[bool] = []
-        self.single: list[tuple] = []  # (length, unit, nominal) of each move alone, in order
+        self.single: list[tuple] = []  # (length, accel, nominal) of each move alone, in order
         self.increments: list[float | None] = []
         self.close_pending = False
 
