@@ -216,7 +216,7 @@ class HpglBoard:
             self._pen(False)
             self.relative, self.speed, self.error = False, self.top_speed, 0
         elif m == "SP":
-            if len(p) > 1 or (p and not 0 <= p[0] <= 8):
+            if len(p) > 1 or (p and not 0 <= p[0] <= self.profile.paper.carousel):  # no such slot
                 self.error = 2 if len(p) > 1 else 3
                 return
             self._pen(False)

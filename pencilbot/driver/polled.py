@@ -12,6 +12,11 @@ first instruction at or after that floor whose end is that position is the last 
 the job resumes after it — exactly once. If no instruction there ends where the pen is (the
 plotter was power-cycled, or the link was lost mid-job and the position does not match), the
 resume is refused until the user chooses ``--start-line``.
+
+Pauses: the pause key stops at once as a stop does (abort, lift, locate), waits for the person
+(the terminal's prompt, or the pause key again) and goes on from the very instruction; a pen the
+carousel lacks (a plan with more pens than ``[paper] carousel``) waits until everything before
+it has run (a sync point), puts the pen away and asks for the pen to be put in its slot.
 """
 
 from __future__ import annotations
@@ -99,7 +104,7 @@ class _Answers:
 
 def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_arg: str, baud: int | None,
                 start: int = 0, journal=None, timeout: float = DEFAULT_TIMEOUT, progress: str = "quiet",
-                announce=None, source: str | None = None):
+                announce=None, source: str | None = None, operator=None, keys=None):
     """Stream an HP-GL program to a polled-flow plotter; see the module docstring.
 
     Parameters
@@ -116,6 +121,10 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         First instruction (0-based, of :class:`~pencilbot.firmware.hpgl.Program`) to send.
     journal : Journal, optional
         The stopped job being resumed (its proven stop position is checked first).
+    operator : pencilbot.driver.position.Operator, optional
+        Someone at the machine: answers the pauses (the pause key, a pen change).
+    keys : pencilbot.driver.keys.KeyReader, optional
+        The terminal's keys: pause / resume and stop.
 
     Returns
     -------
@@ -131,7 +140,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     fw = machine.firmware
     name = source or (str(path) if path else "the program")
     try:
-        program = fw.program(data)
+        program, changes = fw.program(data).in_carousel(machine.paper.carousel)
     except ValueError as exc:
         raise PlotError(f"{name}: {exc}") from None
     _check_limits(program, machine, fw, name)
@@ -184,9 +193,35 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         base = program.offsets[start]
         floor = start
         last_save = 0.0
+        paused_at = -1  # the pen change answered (not asked again)
+        pending = sorted(changes)
         while sent < len(program):
             if stop.is_set():
                 raise _Stop()
+            if keys is not None and _keys_say_pause(keys, stop, why):
+                at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
+                if at is None:
+                    raise _Moved("after the pause key the pen stood on none of the instructions sent")
+                _hold(operator, keys, stop, why, shown, "paused: the pause key")
+                sent = floor = at
+                base, sent_bytes = program.offsets[at], 0
+                checkpoints.clear()
+                continue
+            if sent in changes and paused_at != sent:
+                if sent_bytes:
+                    _drain(link, fw, program, checkpoints, sent, floor, timeout)
+                else:  # nothing of the program sent since the resume's preamble (pen up): it ran
+                    link.write(fw.sync_command)
+                    if link.position(timeout) is None:
+                        raise _Silent()
+                floor = sent
+                link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
+                if operator is None and keys is None:
+                    why.append(f"a pen change ({changes[sent]}) with nobody at the terminal to do it")
+                    raise _Stop()
+                _hold(operator, keys, stop, why, shown, f"paused: {changes[sent]}")
+                paused_at = sent
+                continue
             free = _poll(link, fw, timeout)
             used = size - free
             # Bytes of the program not started yet: the buffer's, less the sync points still in it.
@@ -196,6 +231,8 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
             room = free - (0 if not link.xoff else free)
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
+            later = [k for k in pending[int(np.searchsorted(pending, sent, side="right")):][:1]]
+            end = min([end, *later])  # a pen change waits for everything before it
             if end <= sent:
                 time.sleep(POLL_PAUSE)
                 continue
@@ -216,14 +253,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        # Drain: OA; is answered once everything before it ran (the buffer holds ≤ size bytes).
-        link.write(fw.sync_command)
-        checkpoints.append(len(program))
-        while checkpoints:
-            position = link.position(timeout + 0.5 * (len(program) - floor))
-            if position is None:
-                raise _Silent()
-            _check_point(position, program, checkpoints)
+        _drain(link, fw, program, checkpoints, len(program), floor, timeout)
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
         shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
@@ -284,6 +314,43 @@ def _check_point(position, program, checkpoints: list[int]) -> None:
     state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
     raise _Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
                  "it lost its place (switched off and on, or reset)")
+
+
+def _drain(link: _Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float) -> None:
+    """Until everything sent (entries before ``upto``) has run: a sync point is answered once
+    everything before it ran (the buffer holds ≤ its size in bytes)."""
+    link.write(fw.sync_command)
+    checkpoints.append(upto)
+    while checkpoints:
+        position = link.position(timeout + 0.5 * (upto - floor))
+        if position is None:
+            raise _Silent()
+        _check_point(position, program, checkpoints)
+
+
+def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
+    """The terminal's keys: the stop key stops (as Ctrl-C), the pause key asks for a pause."""
+    requests = keys.poll()
+    if "stop" in requests:
+        if not why:
+            why.append("the stop key")
+        stop.set()
+        raise _Stop()
+    return "pause" in requests
+
+
+def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: str) -> None:
+    """Wait for the person: the operator's answer, or the pause key again (Ctrl-C stops)."""
+    shown.show_state(prompt)
+    if operator is not None:
+        operator.pause(prompt)
+    else:
+        while not _keys_say_pause(keys, stop, why):
+            if stop.is_set():
+                raise _Stop()
+            time.sleep(0.05)
+    if stop.is_set():
+        raise _Stop()
 
 
 def _poll(link: _Answers, fw, timeout: float) -> int:
