@@ -80,7 +80,10 @@ class EbbBoard:
     Faults (:class:`sim.faults.Faults`, keyed by the 1-based index of the command received):
     ``error@k`` refuses command k (``!6``) without running it; ``silent@k`` runs it but its
     answer is lost; ``drop@k`` pulls the cable as it arrives (the board keeps running its queue);
-    ``reset@k`` is a power cut (a reboot: counters 0 where the carriage stands, motors off);
+    ``reset@k`` is a power cut (a reboot: the carriage stops where it is, counters 0 there,
+    motors off); ``unplug@k`` pulls the USB cable, which powers the board's logic: the link drops
+    and the board reboots as in a power cut; ``interrupt@k[:SIGNAL]`` runs command k and has the
+    sender's process get SIGNAL (default SIGINT: Ctrl-C at its terminal) once it is taken;
     ``abort@k`` a dip of the supply (the carriage slips, ``QG`` bit 6 once ``CU,60`` set a
     threshold); ``garbage@k`` noise before the answer.
     """
@@ -97,6 +100,7 @@ class EbbBoard:
         self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
         self._moved = False
         self.presses = 0  # PRG presses read by a sender (the pauses it was let through)
+        self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
         self.log: list[str] = []
         self._rx = bytearray()
         self._out = bytearray()
@@ -275,14 +279,19 @@ class EbbBoard:
                 self._advance(self._remaining() + 1e-9)  # an instant board makes room at once
                 continue
             del self._rx[: cut + 1]
-            fault = self._count(text)
+            fault, code = self._count(text)
             if fault == "drop":
                 self.link_dropped = True
                 return
-            if fault == "reset":
+            if fault in ("reset", "unplug"):
+                if self.running is not None:  # the motors stop where they are: drawn so far
+                    self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
                 self.carriage = self._true_steps().astype(float)
                 self.power_cycle()
+                self.link_dropped = fault == "unplug"
                 return
+            if fault == "interrupt":
+                self.signal_due = code
             if fault == "error":
                 self._reply(protocol.format_error(CommandError(command.name, 6, "Invalid parameter value"), future=self.future))
                 continue
@@ -296,10 +305,10 @@ class EbbBoard:
             if fault != "silent" and reply is not None:
                 self._reply(reply)
 
-    def _count(self, text: str) -> str | None:
+    def _count(self, text: str) -> tuple[str | None, int]:
+        """Count a command received; the fault (kind, code) that strikes it, if any."""
         self._received += 1
-        kind = self.faults.get(self._received, (None, 0))[0]
-        return kind
+        return self.faults.get(self._received, (None, 0))
 
     def _reply(self, data: bytes) -> None:
         self._out += data

@@ -9,6 +9,7 @@ Pen-down stretches are recorded as polylines in machine mm and rasterised by
 
 from __future__ import annotations
 
+import signal
 import time
 
 import numpy as np
@@ -109,6 +110,9 @@ class VirtualEbb(VirtualPlotter):
         self.firmware.receive(self._to_board.take(now))
         self.firmware.poll(elapsed * self.realtime)
         self._to_host.put(self.firmware.take_output(), now)
+        if self.firmware.signal_due is not None:  # an interrupt@ fault: once the command is taken
+            signum, self.firmware.signal_due = self.firmware.signal_due, None
+            signal.raise_signal(signum)
 
     def drawn(self) -> Paths:
         """Pen-down polylines so far, machine mm (the one being drawn last)."""

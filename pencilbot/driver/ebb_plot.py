@@ -39,7 +39,7 @@ from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
 from pencilbot.units import MM_PER_INCH
 
 POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
-POWER_CHECK = 0.5  # s between QG queries while streaming (one extra round trip each)
+POWER_CHECK = 0.5  # s of motion sent between QG queries while streaming (one extra round trip each)
 _STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
 
 
@@ -70,7 +70,7 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
-        here, pen_down, found = _wake(link, profile, job, resumed)
+        here, pen_down, found = _wake(link, profile, job, resumed, operator)
         start = start if found is None else found
         work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down)
         total = sum(item.seconds for item in work if isinstance(item, EbbMove))
@@ -81,7 +81,7 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         sent: list[EbbMove] = []
         acked = -1
         done_seconds = 0.0
-        checked = time.monotonic()
+        checked = 0.0  # motion seconds sent at the last QG: by the plan, not the clock (the same every run)
         try:
             with _stop_signals():
                 while work:
@@ -91,8 +91,8 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                             link.wait_idle(timeout + 60)
                             _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
                         continue
-                    if link.watch_power and time.monotonic() > checked + POWER_CHECK:
-                        checked = time.monotonic()
+                    if link.watch_power and done_seconds > checked + POWER_CHECK:
+                        checked = done_seconds
                         link.status()
                         if link.power_lost:
                             raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
@@ -218,9 +218,10 @@ def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
-def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool | None, int | None]:
+def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[int, int], bool | None, int | None]:
     """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
-    (None: unknown) and, for a resume, the job line to go on from."""
+    (None: unknown) and, for a resume, the job line to go on from. A resume whose position is
+    lost is re-zeroed with ``operator`` (:mod:`pencilbot.driver.ebb_rezero`), or refused."""
     link.reader.write(b"\r")  # ends any half command left by another program
     time.sleep(0.05)
     link.reader.discard_input()
@@ -230,6 +231,7 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
     start = None
     if resumed is not None:
         link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
+        link.origin = tuple(resumed.options.get("ebb_origin") or (0, 0))  # a re-zeroed job's counters
         steps = link.steps()
         # Where the carriage may stand and the line to go on from there: the stop the board
         # reported, or (the port lost) the end of each command it may have run.
@@ -240,11 +242,19 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
             why = ("the board's supply dropped" if link.power_lost
                    else "its motors were switched off (a restart or power cut), so the carriage was free" if not held
                    else f"its step counters read {steps[0]},{steps[1]}, where the job never left the pen")
+            if operator is not None:
+                from pencilbot.driver.ebb_rezero import rezero
+
+                steps, start = rezero(link, profile, job, resumed, operator, f"the carriage's position is lost ({why})")
+                _power_watch(link, version)
+                return steps, False, start
             raise PlotError(
                 f"the carriage's position is lost ({why}), so resuming could draw in the wrong place; "
-                f"nothing was sent. Push the carriage to its home corner (pen up) and draw the job again "
-                f"from the start, or from a line: pencilbot draw {shlex.quote(job.source)} --profile "
-                f"{shlex.quote(profile.name)} --start-line {resumed.next_line}")
+                f"nothing was sent. Run the resume in a terminal, without moving the carriage: it asks you to jog "
+                f"the raised pen from where it stopped to a mark, and takes the stop point from that jog: "
+                f"{resumed.resume or 'pencilbot draw --resume ' + shlex.quote(str(resumed.path))}. Or push the carriage "
+                f"to its home corner (pen up) and draw again from a line: pencilbot draw {shlex.quote(job.source)} "
+                f"--profile {shlex.quote(profile.name)} --start-line {resumed.next_line}")
         pen_down, start = None, job.index_of(found[-1])
     else:
         mode = profile.ebb.microstep_mode
@@ -253,10 +263,15 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
         steps, pen_down = (0, 0), None
     for text in pen_commands(profile):
         link.command(text)
+    _power_watch(link, version)
+    return steps, pen_down, start
+
+
+def _power_watch(link: EbbLink, version: str) -> None:
+    """Have QG's bit 6 report a supply drop (firmware 3.x)."""
     if version_at_least(version, (3, 0)):
         link.command(f"CU,60,{POWER_THRESHOLD}")
         link.watch_power = True
-    return steps, pen_down, start
 
 
 def _motors_held(link: EbbLink, profile) -> bool:
@@ -325,6 +340,9 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     journal.next_line = line
     journal.stop_xy = list(stop.xy) if stop is not None else None
     journal.options["ebb_resume"] = places
+    # The moves that may have been running: where a guided re-zero looks for the stop point.
+    journal.options["ebb_moves"] = [[*m.start, *m.end, number(m.line)] for m in sent[_oldest_in_flight(acked):]]
+    journal.options["ebb_origin"] = list(link.origin)
     journal.status, journal.message = "stopped", text
     journal.resume = f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(port)}"
     journal.save()
