@@ -30,6 +30,7 @@ import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver.polled_link import Answers, Lost, Moved, Silent, check_point, drain, poll_free
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
@@ -39,67 +40,6 @@ from pencilbot.machine.motion import axis_scale, move_times
 POLL_PAUSE = 0.02  # s between polls while the buffer is full
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
 _SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
-
-
-class _Lost(Exception):
-    """The port went away."""
-
-
-class _Answers:
-    """CR- (or LF-) terminated answers from the port; XON/XOFF bytes noted, not returned."""
-
-    def __init__(self, port, parse_position=None):
-        self.port = port
-        self.partial = b""
-        self.lines: list[str] = []
-        self.positions: list = []
-        self.parse_position = parse_position
-        self.xoff = False
-
-    def write(self, data: bytes) -> None:
-        try:
-            self.port.write(data)
-        except (serial.SerialException, OSError) as exc:
-            raise _Lost(str(exc)) from None
-
-    def pump(self) -> None:
-        try:
-            data = self.port.read(max(self.port.in_waiting, 1))
-        except (serial.SerialException, OSError) as exc:
-            raise _Lost(str(exc)) from None
-        if not data:
-            return
-        if b"\x13" in data or b"\x11" in data:
-            self.xoff = data.rfind(b"\x13") > data.rfind(b"\x11")
-            data = data.replace(b"\x13", b"").replace(b"\x11", b"")
-        *done, self.partial = (self.partial + data).replace(b"\n", b"\r").split(b"\r")
-        for line in (d.decode("ascii", errors="replace").strip() for d in done if d.strip()):
-            position = self.parse_position(line) if self.parse_position else None
-            if position is not None:
-                self.positions.append(position)  # a sync point's answer, kept in order
-            else:
-                self.lines.append(line)
-
-    def position(self, timeout: float):
-        """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s."""
-        end = time.monotonic() + timeout
-        while not self.positions:
-            if time.monotonic() > end:
-                return None
-            self.pump()
-        return self.positions.pop(0)
-
-    def wait(self, accept, timeout: float):
-        """The first answer ``accept`` turns into something not None (others are dropped)."""
-        end = time.monotonic() + timeout
-        while True:
-            while self.lines:
-                value = accept(self.lines.pop(0))
-                if value is not None:
-                    return value
-            if time.monotonic() > end:
-                return None
-            self.pump()
 
 
 def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_arg: str, baud: int | None,
@@ -166,14 +106,14 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     finished = False
     try:
         try:
-            link = _Answers(open_port(port, baudrate=baud, profile=profile_arg), fw.parse_position)
+            link = Answers(open_port(port, baudrate=baud, profile=profile_arg), fw.parse_position)
         except PlotError:
             raise
         size = machine.receive_buffer
         try:
             link.port.reset_input_buffer()  # nothing from before this job
         except (serial.SerialException, OSError) as exc:
-            raise _Lost(str(exc)) from None
+            raise Lost(str(exc)) from None
         link.write(fw.wake_bytes)
         if link.wait(lambda t: t if t.strip().lstrip("-").isdigit() else None, timeout) is None:
             raise PlotError(f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
@@ -201,7 +141,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             if keys is not None and _keys_say_pause(keys, stop, why):
                 at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
                 if at is None:
-                    raise _Moved("after the pause key the pen stood on none of the instructions sent")
+                    raise Moved("after the pause key the pen stood on none of the instructions sent")
                 _hold(operator, keys, stop, why, shown, "paused: the pause key")
                 sent = floor = at
                 base, sent_bytes = program.offsets[at], 0
@@ -209,11 +149,11 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 continue
             if sent in changes and paused_at != sent:
                 if sent_bytes:
-                    _drain(link, fw, program, checkpoints, sent, floor, timeout)
+                    drain(link, fw, program, checkpoints, sent, floor, timeout)
                 else:  # nothing of the program sent since the resume's preamble (pen up): it ran
                     link.write(fw.sync_command)
                     if link.position(timeout) is None:
-                        raise _Silent()
+                        raise Silent()
                 floor = sent
                 link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
                 if operator is None and keys is None:
@@ -222,7 +162,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 _hold(operator, keys, stop, why, shown, f"paused: {changes[sent]}")
                 paused_at = sent
                 continue
-            free = _poll(link, fw, timeout)
+            free = poll_free(link, fw, timeout)
             used = size - free
             # Bytes of the program not started yet: the buffer's, less the sync points still in it.
             waiting = used - len(fw.sync_command) * len(checkpoints)
@@ -246,14 +186,14 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             link.write(chunk)
             sent = end
             while link.positions and checkpoints:
-                _check_point(link.positions.pop(0), program, checkpoints)
+                check_point(link.positions.pop(0), program, checkpoints)
             if floor > start:
                 shown.update(floor - start, float(seconds[floor - 1] - done0), "Run")
             if journal is not None and time.monotonic() - last_save > 0.2:
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        _drain(link, fw, program, checkpoints, len(program), floor, timeout)
+        drain(link, fw, program, checkpoints, len(program), floor, timeout)
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
         shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
@@ -265,15 +205,15 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
         _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
                  floor=floor)
-    except _Moved as exc:
+    except Moved as exc:
         try:
             link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
-        except _Lost:
+        except Lost:
             pass
         _stopped(journal, None, port, str(exc), name, program, proven=False, floor=floor, sent=None)
-    except _Lost as exc:
+    except Lost as exc:
         _stopped(journal, None, port, f"the port was lost ({exc})", name, program, proven=False, floor=floor, sent=sent)
-    except _Silent:
+    except Silent:
         _stopped(journal, None, port, f"the plotter did not answer for {timeout:g} s", name, program, proven=False,
                  floor=floor, sent=sent)
     finally:
@@ -290,42 +230,6 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
 
 class _Stop(Exception):
     pass
-
-
-class _Silent(Exception):
-    pass
-
-
-class _Moved(Exception):
-    """A sync point's answer is not where the program put the pen."""
-
-
-def _check_point(position, program, checkpoints: list[int]) -> None:
-    """``position`` answers the first of the sync points ``checkpoints`` (entries after which
-    each was sent) still open: it must be their end. An answer that matches a later one means
-    the earlier answers were lost on the line; they are dropped with it."""
-    ends = [(int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1])) if k else (0, 0, False)
-            for k in checkpoints]
-    for j, end in enumerate(ends):
-        if tuple(position) == end:
-            del checkpoints[: j + 1]
-            return
-    after, expected = checkpoints[0], ends[0]
-    state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
-    raise _Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
-                 "it lost its place (switched off and on, or reset)")
-
-
-def _drain(link: _Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float) -> None:
-    """Until everything sent (entries before ``upto``) has run: a sync point is answered once
-    everything before it ran (the buffer holds ≤ its size in bytes)."""
-    link.write(fw.sync_command)
-    checkpoints.append(upto)
-    while checkpoints:
-        position = link.position(timeout + 0.5 * (upto - floor))
-        if position is None:
-            raise _Silent()
-        _check_point(position, program, checkpoints)
 
 
 def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
@@ -353,27 +257,17 @@ def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: 
         raise _Stop()
 
 
-def _poll(link: _Answers, fw, timeout: float) -> int:
-    """Free buffer bytes; one lost answer is asked again, garbage is skipped."""
-    for _ in range(2):
-        link.write(fw.free_query)
-        free = link.wait(fw.parse_free, timeout / 2)
-        if free is not None:
-            return free
-    raise _Silent()
-
-
 def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout) -> int | None:
     """Abort, lift, and find the last instruction drawn (None: not found)."""
     try:
-        free = _poll(link, fw, timeout)
+        free = poll_free(link, fw, timeout)
         floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - (size - free), side="right")) - 1)
         link.write(fw.abort_bytes)
-        _poll(link, fw, timeout)  # answered after anything the plotter said before the abort
+        poll_free(link, fw, timeout)  # answered after anything the plotter said before the abort
         link.positions.clear()
         link.write(fw.lift_command + fw.sync_command)
         position = link.position(timeout)
-    except (_Lost, _Silent):
+    except (Lost, Silent):
         return None
     if position is None:
         return None
