@@ -29,7 +29,7 @@ URL parts (all optional):
     comes with no line since the last one lets 0.2 s pass (a sender waiting for the end), and a
     line that waits for the machine (planner room, a dwell) runs on until it is answered. The
     wall clock plays no part, so a fault at a line finds the machine at the same place, mid-move,
-    every run.
+    every run. On an HP-GL plotter, the poll clock: ``t`` seconds per ``ESC.B`` it answers.
 ``faults``
     Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.faults.Faults`.
 ``reset``
@@ -303,7 +303,8 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
         from sim.hpgl_plotter import HpglPlotter
 
-        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1")
+        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1",
+                           tick=tick)
     return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, tick=tick,
                           **board)
 

@@ -30,14 +30,13 @@ import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.polled_link import Answers, Lost, Moved, Silent, check_point, drain, poll_free
+from pencilbot.driver.polled_link import POLL_PAUSE, Answers, Lost, Moved, Silent, check_point, drain, poll_free
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.machine.motion import axis_scale, move_times
 
-POLL_PAUSE = 0.02  # s between polls while the buffer is full
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
 _SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 
@@ -124,8 +123,15 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         if announce is not None:
             announce(f"banner '{identity or 'no answer to OI;'}'", None)
         if resuming:
-            _check_resume_position(link, fw, program, start, journal, timeout, name)
-            link.write(program.preamble(start))
+            _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
+            lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)
+            at = None
+            if lost is not None:  # someone at the plotter shows where the drawing on the sheet ends
+                from pencilbot.driver.polled_refind import refind
+
+                start, at = refind(link, fw, program, journal, operator, machine, timeout, lost)
+                sent = floor = start
+            link.write(program.preamble(start, at))
         elif start > 0:
             link.write(program.preamble(start))
         sent_bytes = 0
@@ -134,6 +140,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         floor = start
         last_save = 0.0
         paused_at = -1  # the pen change answered (not asked again)
+        proven = start  # entries before it ran, by a sync point's answer (in this power-on)
         pending = sorted(changes)
         while sent < len(program):
             if stop.is_set():
@@ -152,7 +159,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                     drain(link, fw, program, checkpoints, sent, floor, timeout)
                 else:  # nothing of the program sent since the resume's preamble (pen up): it ran
                     link.write(fw.sync_command)
-                    if link.position(timeout) is None:
+                    if link.position(fw, timeout) is None:
                         raise Silent()
                 floor = sent
                 link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
@@ -186,7 +193,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             link.write(chunk)
             sent = end
             while link.positions and checkpoints:
-                check_point(link.positions.pop(0), program, checkpoints)
+                proven = check_point(link.positions.pop(0), program, checkpoints)
             if floor > start:
                 shown.update(floor - start, float(seconds[floor - 1] - done0), "Run")
             if journal is not None and time.monotonic() - last_save > 0.2:
@@ -210,7 +217,8 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
         except Lost:
             pass
-        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=floor, sent=None)
+        # What ran after the last sync point the plotter answered right is not known: its buffer went.
+        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=proven, sent=sent, lost=True)
     except Lost as exc:
         _stopped(journal, None, port, f"the port was lost ({exc})", name, program, proven=False, floor=floor, sent=sent)
     except Silent:
@@ -266,7 +274,7 @@ def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, ti
         poll_free(link, fw, timeout)  # answered after anything the plotter said before the abort
         link.positions.clear()
         link.write(fw.lift_command + fw.sync_command)
-        position = link.position(timeout)
+        position = link.position(fw, timeout)
     except (Lost, Silent):
         return None
     if position is None:
@@ -281,22 +289,39 @@ def _locate(program, xy, low: int, high: int) -> int | None:
     return int(low + hits[0] + 1) if len(hits) else None
 
 
-def _check_resume_position(link, fw, program, start, journal, timeout, name) -> None:
-    """A resume trusts the journal only if the pen stands where the stop left it."""
+def _wait_empty(link, fw, size: int, timeout: float) -> None:
+    """Until the plotter's buffer is empty (its free bytes the whole buffer), then forget what it
+    answered meanwhile (sync points of the run that stopped)."""
+    deadline = time.monotonic() + timeout + 600.0  # a full buffer of slow moves
+    while poll_free(link, fw, timeout) < size:
+        if time.monotonic() > deadline:
+            raise Silent()
+        time.sleep(POLL_PAUSE)
+    link.positions.clear()
+
+
+def _check_resume_position(link, fw, program, start, journal, timeout, name, refuse: bool) -> str | None:
+    """A resume trusts the journal only if the pen stands where the stop left it; otherwise it
+    is refused (``refuse``: nobody at the terminal), or this says why the stop must be found."""
     link.write(fw.lift_command + fw.sync_command)
-    position = link.position(timeout)
+    position = link.position(fw, timeout)
     expected = tuple(program.xy[start - 1]) if start > 0 else (0, 0)
-    if not journal.stop_work or position is None or (position[0], position[1]) != expected:
-        where = f"{position[0]},{position[1]}" if position else "unknown"
+    if journal.stop_work and position is not None and (position[0], position[1]) == expected:
+        return None
+    where = f"{position[0]},{position[1]}" if position else "unknown"
+    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped; what it drew after "
+           f"instruction {journal.acked_line} is not known")
+    if position is None or refuse:
         raise PlotError(
-            f"cannot resume {name} exactly: the plotter's pen is at {where} (plotter units), not where the job "
-            f"stopped; what it drew after instruction {journal.acked_line} is not known. Look at the sheet and "
-            f"restart from an instruction you choose: pencilbot draw {journal.gcode} --start-line N "
-            f"--port {journal.port} --profile {journal.profile}")
+            f"cannot resume {name} exactly: {why}. Run the resume in a terminal: it asks you to jog the raised pen to "
+            f"where the last line on the sheet ends, and goes on from there. Or restart from an instruction you "
+            f"choose: pencilbot draw {journal.gcode} --start-line N --port {journal.port} --profile {journal.profile}")
+    return why
 
 
-def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None):
-    """Write the journal and raise the message that says how to resume."""
+def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None, lost=False):
+    """Write the journal and raise the message that says how to resume (``lost``: the plotter
+    lost its place, so no position it reports later proves anything)."""
     if journal is not None:
         journal.status, journal.message = "stopped", why
         journal.acked_line = floor
@@ -308,7 +333,8 @@ def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None)
             # Unproven: a lost link lets the plotter finish its buffer; the resume checks the pen stands
             # at the end of what was sent, and refuses otherwise.
             journal.next_line = (sent or floor) + 1
-            journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 else None
+            journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 and not lost \
+                else None
         # The plotter's own count is its position (HP-GL has no work offsets): the same point.
         journal.stop_mpos = None if journal.stop_work is None else list(journal.stop_work)
         how = journal_mod.save_stopped(journal)

@@ -8,6 +8,8 @@ import time
 
 import serial
 
+POLL_PAUSE = 0.02  # s between polls while the buffer is full, or a sync point's answer is awaited
+
 
 class Lost(Exception):
     """The port went away."""
@@ -48,13 +50,17 @@ class Answers:
             else:
                 self.lines.append(line)
 
-    def position(self, timeout: float):
-        """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s."""
+    def position(self, fw, timeout: float):
+        """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s. The
+        free bytes are polled meanwhile: a plotter that stops answering is caught sooner, and a
+        plotter on a poll clock (the virtual one in tests) goes on as the sender waits."""
         end = time.monotonic() + timeout
         while not self.positions:
             if time.monotonic() > end:
                 return None
-            self.pump()
+            poll_free(self, fw, timeout)
+            if not self.positions:
+                time.sleep(POLL_PAUSE)
         return self.positions.pop(0)
 
     def wait(self, accept, timeout: float):
@@ -78,16 +84,18 @@ class Moved(Exception):
     """A sync point's answer is not where the program put the pen."""
 
 
-def check_point(position, program, checkpoints: list[int]) -> None:
+def check_point(position, program, checkpoints: list[int]) -> int:
     """``position`` answers the first of the sync points ``checkpoints`` (entries after which
     each was sent) still open: it must be their end. An answer that matches a later one means
-    the earlier answers were lost on the line; they are dropped with it."""
+    the earlier answers were lost on the line; they are dropped with it. Returns the entry the
+    answer proves ran (all before it did)."""
     ends = [(int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1])) if k else (0, 0, False)
             for k in checkpoints]
     for j, end in enumerate(ends):
         if tuple(position) == end:
+            proven = checkpoints[j]
             del checkpoints[: j + 1]
-            return
+            return proven
     after, expected = checkpoints[0], ends[0]
     state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
     raise Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
@@ -100,7 +108,7 @@ def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: 
     link.write(fw.sync_command)
     checkpoints.append(upto)
     while checkpoints:
-        position = link.position(timeout + 0.5 * (upto - floor))
+        position = link.position(fw, timeout + 0.5 * (upto - floor))
         if position is None:
             raise Silent()
         check_point(position, program, checkpoints)

@@ -68,9 +68,10 @@ class Program:
     def __len__(self) -> int:
         return len(self.frames)
 
-    def preamble(self, start: int) -> bytes:
+    def preamble(self, start: int, at: tuple[int, int] | None = None) -> bytes:
         """What brings a freshly initialised plotter to the state before entry ``start``:
-        ``IN;``, the pen, the speed, and a pen-up move to where the pen was."""
+        ``IN;``, the pen, the speed, and a pen-up move to where the pen was (or to ``at``, a
+        point on entry ``start``'s move where it stopped)."""
         out = [b"IN;"]
         if start > 0:
             i = start - 1
@@ -78,7 +79,8 @@ class Program:
                 out.append(protocol.encode("SP", int(self.pen[i])))
             if self.speed[i]:
                 out.append(protocol.encode("VS", float(self.speed[i])))
-            out.append(protocol.encode("PU", int(self.xy[i, 0]), int(self.xy[i, 1])))
+            x, y = at if at is not None else (int(self.xy[i, 0]), int(self.xy[i, 1]))
+            out.append(protocol.encode("PU", x, y))
         return b"".join(out) + b"\n"
 
     def in_carousel(self, slots: int) -> tuple[Program, dict[int, str]]:
