@@ -94,14 +94,18 @@ class VirtualEbb(VirtualPlotter):
     operator : {"none", "auto"}
         ``auto``: the board's PRG button reads as pressed whenever the machine is idle (a pen
         change done at once).
+    version : str, optional
+        The firmware it plays (default 3.0.3; e.g. ``2.8.1``: no ``QU``, a FIFO one deep).
     """
 
-    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none"):
+    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none",
+                 version: str | None = None):
         self.profile = profile
         self.realtime = realtime
         self.operator = operator
         self.machine = EbbDrawing(profile, lambda: self.firmware.presses)
-        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator)
+        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator,
+                                 **({"version": version} if version else {}))
         self._connect(baud)
 
     def pump(self) -> None:

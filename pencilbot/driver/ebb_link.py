@@ -21,6 +21,7 @@ class EbbLink:
         self.future = False
         self.power_lost = False
         self.watch_power = False  # CU,60 set: QG's bit 6 means something
+        self.fifo_depth = 1  # the board's motion FIFO (1 at boot; CU,4 deepens it on firmware 3.x)
         #: Motor steps from home where the counters read 0 (not home after a guided re-zero).
         self.origin: tuple[int, int] = (0, 0)
         self.pending: str | None = None  # the command whose answer is still to be read
