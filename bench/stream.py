@@ -24,8 +24,8 @@ queue ran), target ≤ 1.02; ``gaps`` = idle stretches of the board between moti
 the job started (a starved queue), which must be none; ``shortest_move_ms`` the shortest command
 the host sent (the board's minimum for LM moves without a gap is 4 ms).
 
-Run: ``python bench/stream.py [--segments 2000] [--strokes 100000] [--profile NAME]`` (0 skips a
-case; the large case runs for GRBL profiles). Timings on a shared 2-core machine are noisy.
+Run: ``python bench/stream.py [--segments 2000] [--strokes 100000] [--profile NAME]
+[--firmware 2.8.1]`` (0 skips a case; the large case runs for GRBL profiles). Timings on a shared 2-core machine are noisy.
 """
 
 from __future__ import annotations
