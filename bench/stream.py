@@ -18,14 +18,14 @@ streaming all of it to the instant virtual plotter (simulator included). Targets
 ≤ 1 s and ≤ 60 MB; ≤ 120 bytes per line; CPU no worse than 65 ms per 1 000 lines.
 
 EBB profiles (``--profile axidraw-v3``): the same 2 000-segment drawing, planned on the host and
-sent as LM/SP commands one at a time to the virtual EBB in real time (its FIFO one deep: three
-commands in flight). ``ratio`` = wall time / the board's busy time (the sum of what its motion
+sent as LM/SP commands one at a time to the virtual EBB (firmware 3.0.3) in real time (its FIFO
+deepened with ``CU,4`` to ``fifo_depth``; ``--firmware 2.8.1``: one deep, three commands in flight). ``ratio`` = wall time / the board's busy time (the sum of what its motion
 queue ran), target ≤ 1.02; ``gaps`` = idle stretches of the board between motion commands once
 the job started (a starved queue), which must be none; ``shortest_move_ms`` the shortest command
 the host sent (the board's minimum for LM moves without a gap is 4 ms).
 
-Run: ``python bench/stream.py [--segments 2000] [--strokes 100000] [--profile NAME]`` (0 skips a
-case; the large case runs for GRBL profiles). Timings on a shared 2-core machine are noisy.
+Run: ``python bench/stream.py [--segments 2000] [--strokes 100000] [--profile NAME]
+[--firmware 2.8.1]`` (0 skips a case; the large case runs for GRBL profiles). Timings on a shared 2-core machine are noisy.
 """
 
 from __future__ import annotations
@@ -156,12 +156,13 @@ def main() -> None:
     parser.add_argument("--strokes", type=int, default=100_000, help="large job case (0: skip)")
     parser.add_argument("--profile", default=PROFILE, help=f"plotter profile (default {PROFILE}); an EBB one "
                         "(e.g. axidraw-v3) measures host-planned streaming to the virtual EBB")
+    parser.add_argument("--firmware", default="3.0.3", help="the virtual EBB's firmware (2.8.1: a FIFO one deep)")
     args = parser.parse_args()
     PROFILE = args.profile
     report = {"profile": PROFILE}
     if load_profile(PROFILE).firmware.capabilities.host_motion:
         if args.segments:
-            report.update(realtime_ebb(args.segments))
+            report.update(realtime_ebb(args.segments, args.firmware))
         print(json.dumps(report, indent=1))
         return
     if args.segments:
@@ -185,6 +186,8 @@ def realtime(segments: int) -> dict:
     # time of a full planner too.
     waiting["ratio_to_counting_motion"] = round(waiting["wall_s"] / counting["motion_s"], 4)
     return {
+        "firmware": firmware,
+        "fifo_depth": depth,
         "segments": segments,
         "lines": len(lines),
         "character_counting": counting,
@@ -195,8 +198,8 @@ def realtime(segments: int) -> dict:
     }
 
 
-def realtime_ebb(segments: int) -> dict:
-    """The 2 000-segment case on an EBB board: host-planned LM moves, three in flight, real time."""
+def realtime_ebb(segments: int, firmware: str = "3.0.3") -> dict:
+    """The 2 000-segment case on an EBB board: host-planned LM moves, the FIFO full, real time."""
     from sim import protocol_sim
 
     lines = drawing_lines(segments)
@@ -214,17 +217,21 @@ def realtime_ebb(segments: int) -> dict:
         LineReader.write = spy
         try:
             wall0, cpu0 = time.perf_counter(), time.process_time()
-            draw(path, f"sim://{name}?profile={PROFILE}&realtime=1", profile=PROFILE, progress="quiet")
+            draw(path, f"sim://{name}?profile={PROFILE}&realtime=1&firmware={firmware}", profile=PROFILE,
+                 progress="quiet")
             wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         finally:
             LineReader.write = original
         board = protocol_sim.plotter(name)
         busy, gaps = board.busy_seconds, board.firmware.gaps  # idle stretches once the first move ran
+        depth = board.firmware.fifo_size
         protocol_sim.forget(name)
     profile = load_profile(PROFILE)
     moves = [d for d in sent if d[:3] in (b"LM,", b"SP,")]
     shortest = _shortest_lm_ms(moves)
     return {
+        "firmware": firmware,
+        "fifo_depth": depth,
         "segments": segments,
         "lines": len(lines),
         "commands": len(moves),

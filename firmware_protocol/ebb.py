@@ -35,6 +35,26 @@ SERVO_TICK = 1 / 12e6  # s per servo position unit (83.3 ns)
 SERVO_PERIOD = 0.024  # s: the servo channel fires (and its rate is applied) every 24 ms
 VERSION = "3.0.3"
 VERSION_TEXT = f"EBBv13_and_above EB Firmware Version {VERSION}"
+#: Commands and ``CU`` parameters firmware before this version does not have: ``QU`` is an
+#: unknown command (``!8``), ``CU,4`` (FIFO depth), ``CU,10`` (future syntax) and ``CU,60``
+#: (power-lost threshold) are taken and do nothing (v2.8.1's ``parse_CU_packet`` acts on 1 and
+#: 2 only); the FIFO stays one deep.
+SINCE = {"QU": (3, 0)}
+CU_SINCE = {4: (3, 0), 10: (3, 0), 60: (3, 0)}
+MAX_DELAY_MS = 100_000  # SM,ms,0,0 (a delay) is capped at 100 s
+
+
+def version_text(version: str = VERSION) -> str:
+    """What ``V`` answers on a board with firmware ``version`` (an EBB v1.3 or later board)."""
+    return f"EBBv13_and_above EB Firmware Version {version}"
+
+
+def version_tuple(version: str) -> tuple[int, ...]:
+    """``"2.8.1"`` → ``(2, 8, 1)``; raises ``ValueError`` for anything else."""
+    parts = tuple(int(p) for p in version.split("."))
+    if len(parts) != 3:
+        raise ValueError(f"an EBB firmware version is three numbers (3.0.3), not {version!r}")
+    return parts
 USB_ID = (0x04D8, 0xFD92)
 FIFO_MAX = 32  # what QU,2 reports on the emulated board
 #: Bit masks of the QG status byte (firmware 3.x meanings).

@@ -14,62 +14,23 @@ back to 0 where the carriage stands) or lost steps show up in the drawing. Pen-d
 drawn only once the servo has reached the pen-down position: a sender that moves before the
 pen lands leaves those moves out of the drawing, as the paper would.
 
-Time: ``instant`` boards run motion only as far as a sender needs (to make FIFO room, or 5 ms
-per status query); otherwise :meth:`EbbBoard.poll` advances the clock.
+Time: ``instant`` boards run motion only as far as a sender needs: to make FIFO room, and the
+command running to its end per status query (a polling sender sees progress, a command at a
+time, whatever the host's speed); otherwise :meth:`EbbBoard.poll` advances the clock.
 """
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
 from pencilbot.firmware.ebb import MICROSTEPS
+from sim.ebb_run import Run as _Run
+from sim.ebb_run import typed as _typed
 
-QUERY_STEP = 0.005  # s an instant board runs per status query (so a polling sender sees progress)
 BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
 _GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
-
-
-@dataclass
-class _Run:
-    """A queued command being executed: motion (per-axis steps, rates, accels, ticks) or a
-    servo move / delay (``ticks`` of waiting)."""
-
-    command: protocol.Command
-    start: np.ndarray  # counters when it started (int64)
-    steps: np.ndarray  # signed per axis
-    rates: tuple[int, int]
-    accels: tuple[int, int]
-    carry: tuple[int, int]
-    axis_ticks: tuple[int, int]
-    ticks: int
-    t0: float  # board clock when it started
-
-    def steps_at(self, t: int) -> np.ndarray:
-        done = [protocol.lm_steps_at(min(t, self.axis_ticks[i]), abs(int(self.steps[i])), self.rates[i],
-                                     self.accels[i], self.carry[i]) if self.steps[i] else 0 for i in range(2)]
-        return np.sign(self.steps) * np.array(done, dtype=np.int64)
-
-
-_CONTROL = bytes(range(32))
-
-
-def _typed(raw: bytes) -> str:
-    """A command's characters as the firmware keeps them: control bytes dropped, a backspace
-    taking back the character before it."""
-    if b"\x08" not in raw:
-        return bytes(raw).translate(None, _CONTROL).decode("ascii", errors="replace").replace("\ufffd", "?")
-    kept: list[str] = []
-    for byte in raw:
-        if byte == 8:
-            if kept:
-                kept.pop()
-        elif byte >= 32:
-            kept.append(chr(byte) if byte < 128 else "?")
-    return "".join(kept)
 
 
 class EbbBoard:
@@ -80,15 +41,20 @@ class EbbBoard:
     Faults (:class:`sim.faults.Faults`, keyed by the 1-based index of the command received):
     ``error@k`` refuses command k (``!6``) without running it; ``silent@k`` runs it but its
     answer is lost; ``drop@k`` pulls the cable as it arrives (the board keeps running its queue);
-    ``reset@k`` is a power cut (a reboot: counters 0 where the carriage stands, motors off);
+    ``reset@k`` is a power cut (a reboot: the carriage stops where it is, counters 0 there,
+    motors off); ``unplug@k`` pulls the USB cable, which powers the board's logic: the link drops
+    and the board reboots as in a power cut; ``interrupt@k[:SIGNAL]`` runs command k and has the
+    sender's process get SIGNAL (default SIGINT: Ctrl-C at its terminal) once it is taken;
     ``abort@k`` a dip of the supply (the carriage slips, ``QG`` bit 6 once ``CU,60`` set a
     threshold); ``garbage@k`` noise before the answer.
     """
 
     resets_on_open = False  # USB CDC: opening the port does not reset an EBB (no DTR reset)
 
-    def __init__(self, profile, record, *, instant: bool = True, faults=None, operator: str = "none"):
+    def __init__(self, profile, record, *, instant: bool = True, faults=None, operator: str = "none",
+                 version: str = protocol.VERSION):
         self.profile, self.record, self.instant = profile, record, instant
+        self.version, self._version = version, protocol.version_tuple(version)
         self.faults = faults.at if faults is not None else {}
         self.operator = operator
         self.link_dropped = False
@@ -97,6 +63,7 @@ class EbbBoard:
         self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
         self._moved = False
         self.presses = 0  # PRG presses read by a sender (the pauses it was let through)
+        self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
         self.log: list[str] = []
         self._rx = bytearray()
         self._out = bytearray()
@@ -264,6 +231,9 @@ class EbbBoard:
                 continue
             try:
                 command = protocol.parse_command(text)
+                if self._version < protocol.SINCE.get(command.name, ()):  # not in this firmware
+                    code = "".join(f"{ord(c):02X}" for c in command.name[:2])
+                    raise CommandError(command.name, 8, f"Unknown command '{command.name[:2]}:{code}'")
             except CommandError as exc:
                 del self._rx[: cut + 1]
                 self._count(text)
@@ -275,14 +245,19 @@ class EbbBoard:
                 self._advance(self._remaining() + 1e-9)  # an instant board makes room at once
                 continue
             del self._rx[: cut + 1]
-            fault = self._count(text)
+            fault, code = self._count(text)
             if fault == "drop":
                 self.link_dropped = True
                 return
-            if fault == "reset":
+            if fault in ("reset", "unplug"):
+                if self.running is not None:  # the motors stop where they are: drawn so far
+                    self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
                 self.carriage = self._true_steps().astype(float)
                 self.power_cycle()
+                self.link_dropped = fault == "unplug"
                 return
+            if fault == "interrupt":
+                self.signal_due = code
             if fault == "error":
                 self._reply(protocol.format_error(CommandError(command.name, 6, "Invalid parameter value"), future=self.future))
                 continue
@@ -296,10 +271,10 @@ class EbbBoard:
             if fault != "silent" and reply is not None:
                 self._reply(reply)
 
-    def _count(self, text: str) -> str | None:
+    def _count(self, text: str) -> tuple[str | None, int]:
+        """Count a command received; the fault (kind, code) that strikes it, if any."""
         self._received += 1
-        kind = self.faults.get(self._received, (None, 0))[0]
-        return kind
+        return self.faults.get(self._received, (None, 0))
 
     def _reply(self, data: bytes) -> None:
         self._out += data
@@ -313,10 +288,10 @@ class EbbBoard:
                 self._start(self.fifo.pop(0))
             return protocol.format_reply(name, None, future=future)
         if name in ("QG", "QS", "QB", "QP") and self.instant:
-            self._advance(min(QUERY_STEP, self._remaining() + 1e-9) if (self.running or self.fifo) else 0.0)
+            self._advance(self._remaining() + 1e-9 if (self.running or self.fifo) else 0.0)  # see "Time"
         data = None
         if name == "V":
-            data = protocol.VERSION_TEXT
+            data = protocol.version_text(self.version)
         elif name == "QG":
             data = f"{self._status():02X}"
             self.button = self.power_lost = False
@@ -367,13 +342,15 @@ class EbbBoard:
             pass
         elif name == "CU":
             key, value = args
-            if key == 10:
+            if self._version < protocol.CU_SINCE.get(key, ()):
+                pass  # an older firmware takes it and does nothing
+            elif key == 10:
                 self.future = bool(value)
                 return protocol.syntax_switch_reply(bool(value), future=future)
-            if key == 4:
+            elif key == 4:
                 self.finish()
                 self.fifo_size = max(1, min(value, protocol.FIFO_MAX))
-            if key == 60:
+            elif key == 60:
                 self.threshold = value
         return protocol.format_reply(name, data, future=future)
 
@@ -430,6 +407,8 @@ class EbbBoard:
                 seconds = args[0] / 1000.0
                 a = args[1]
                 b = args[2] if len(args) > 2 else 0
+                if name == "SM" and not (a or b):
+                    seconds = min(seconds, protocol.MAX_DELAY_MS / 1000.0)
                 n = np.array((a + b, a - b) if name == "XM" else (a, b), dtype=np.int64)
             ticks = max(int(round(seconds / protocol.TICK)), 1)
             steps = [int(v) for v in n]

@@ -9,6 +9,7 @@ Pen-down stretches are recorded as polylines in machine mm and rasterised by
 
 from __future__ import annotations
 
+import signal
 import time
 
 import numpy as np
@@ -93,14 +94,18 @@ class VirtualEbb(VirtualPlotter):
     operator : {"none", "auto"}
         ``auto``: the board's PRG button reads as pressed whenever the machine is idle (a pen
         change done at once).
+    version : str, optional
+        The firmware it plays (default 3.0.3; e.g. ``2.8.1``: no ``QU``, a FIFO one deep).
     """
 
-    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none"):
+    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none",
+                 version: str | None = None):
         self.profile = profile
         self.realtime = realtime
         self.operator = operator
         self.machine = EbbDrawing(profile, lambda: self.firmware.presses)
-        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator)
+        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator,
+                                 **({"version": version} if version else {}))
         self._connect(baud)
 
     def pump(self) -> None:
@@ -109,6 +114,9 @@ class VirtualEbb(VirtualPlotter):
         self.firmware.receive(self._to_board.take(now))
         self.firmware.poll(elapsed * self.realtime)
         self._to_host.put(self.firmware.take_output(), now)
+        if self.firmware.signal_due is not None:  # an interrupt@ fault: once the command is taken
+            signum, self.firmware.signal_due = self.firmware.signal_due, None
+            signal.raise_signal(signum)
 
     def drawn(self) -> Paths:
         """Pen-down polylines so far, machine mm (the one being drawn last)."""

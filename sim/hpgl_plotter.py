@@ -17,9 +17,14 @@ What a sender meets on the real machine:
   ``VS`` speed, pen up at the profile's travel speed), a pen lift or drop costs the profile's
   delay; ``realtime=0`` runs it all at once (the clock still counts), ``r > 0`` runs r times
   faster than real time, so the buffer fills as on hardware.
-* Faults (``KIND@K``, K the 1-based count of executed instructions): ``drop`` pulls the cable,
-  ``reset`` is a power cycle (buffer lost, pen home and put away), ``silent`` loses the next
-  answer, ``garbage`` sends a line of noise.
+* Time on the poll clock (``tick=t``): each ``ESC.B`` answered lets ``t`` plotter seconds pass,
+  and nothing else does, so a sender that polls as it waits finds the plotter at the same place
+  every run, whatever the host's speed (what the fault tests use).
+* Faults (``KIND@K``, K the 1-based count of executed instructions): ``drop`` (or ``unplug``:
+  the plotter has its own mains supply) pulls the RS-232 cable, ``reset`` is a power cycle
+  (buffer lost, pen home and put away), ``silent`` loses the next answer, ``garbage`` sends a
+  line of noise, ``interrupt[:SIGNAL]`` has the sender's process get SIGNAL (default SIGINT:
+  Ctrl-C) as the plotter starts instruction K.
 
 Pen-down vectors are recorded as polylines in machine mm, the way the GRBL simulator records
 them, so the same renderer draws both.
@@ -28,6 +33,7 @@ them, so the same renderer draws both.
 from __future__ import annotations
 
 import math
+import signal
 import time
 
 import numpy as np
@@ -70,6 +76,9 @@ class HpglBoard:
         self._travel: list[np.ndarray] = []
         self._silent_next = False
         self.pauses = 0  # pen changes (the colour preview's "which pen drew it")
+        self.polls = 0  # ESC.B answered (the poll clock counts them)
+        self.discarded = 0  # bytes ESC.K threw away
+        self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
         self.power_cycle(first=True)
 
     # --- power and buffer --------------------------------------------------------------
@@ -143,6 +152,7 @@ class HpglBoard:
     def _device_control(self, letter: bytes, params: bytes) -> None:
         if letter == b"B":
             self._answer(str(self.free))
+            self.polls += 1
         elif letter == b"E":
             self._answer(str(self.io_error))
             self.io_error = 0
@@ -152,6 +162,7 @@ class HpglBoard:
         elif letter == b"A":
             self._answer(f"{MODEL},A")
         elif letter == b"K":
+            self.discarded += len(self.buffer)
             self.buffer.clear()  # the vector being drawn finishes; nothing after it runs
         elif letter == b"R":
             self._xoff = False
@@ -202,8 +213,10 @@ class HpglBoard:
         fault = self.faults.at.get(self.executed) if self.faults else None
         if fault is not None:
             kind = fault[0]
-            if kind == "drop":
+            if kind in ("drop", "unplug"):
                 self.link_dropped = True
+            elif kind == "interrupt":
+                self.signal_due = fault[1]
             elif kind == "reset":
                 self.power_cycle()
                 return
@@ -216,7 +229,7 @@ class HpglBoard:
             self._pen(False)
             self.relative, self.speed, self.error = False, self.top_speed, 0
         elif m == "SP":
-            if len(p) > 1 or (p and not 0 <= p[0] <= 8):
+            if len(p) > 1 or (p and not 0 <= p[0] <= self.profile.paper.carousel):  # no such slot
                 self.error = 2 if len(p) > 1 else 3
                 return
             self._pen(False)
@@ -361,22 +374,36 @@ class HpglPlotter(VirtualPlotter):
     faults : sim.faults.Faults, optional
     xonxoff : bool
         Send XOFF / XON as the buffer fills and empties.
+    tick : float
+        > 0: the poll clock, ``tick`` plotter seconds per ``ESC.B`` answered (instead of either).
     """
 
-    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, xonxoff: bool = False):
+    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, xonxoff: bool = False,
+                 tick: float = 0.0):
         self.profile = profile
         self.board = HpglBoard(profile, faults=faults, xonxoff=xonxoff)
         self.firmware = self.machine = self.board
         self.operator = "none"
         self.realtime = realtime
+        self.tick = tick
+        self._polls = 0
         self._connect(baud)
 
     def pump(self) -> None:
         now = time.monotonic()
         elapsed, self._last = now - self._last, now
         self.board.receive(self._to_board.take(now))
-        self.board.poll(math.inf if not self.realtime else elapsed * self.realtime)
+        if self.tick:
+            polls, self._polls = self.board.polls - self._polls, self.board.polls
+            self.board.poll(polls * self.tick)
+            if self.board.link_dropped:  # a pulled cable does not stop the plotter: it draws what it holds
+                self.board.poll(math.inf)
+        else:
+            self.board.poll(math.inf if not self.realtime else elapsed * self.realtime)
         if self.board.link_dropped:  # what was on its way in the cable is gone with it
             self._to_host.buf.clear()
             self.board.out.clear()
         self._to_host.put(self.board.take_output(), now)
+        if self.board.signal_due is not None:  # an interrupt@ fault: as the instruction starts
+            signum, self.board.signal_due = self.board.signal_due, None
+            signal.raise_signal(signum)

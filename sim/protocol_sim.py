@@ -29,7 +29,7 @@ URL parts (all optional):
     comes with no line since the last one lets 0.2 s pass (a sender waiting for the end), and a
     line that waits for the machine (planner room, a dwell) runs on until it is answered. The
     wall clock plays no part, so a fault at a line finds the machine at the same place, mid-move,
-    every run.
+    every run. On an HP-GL plotter, the poll clock: ``t`` seconds per ``ESC.B`` it answers.
 ``faults``
     Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.faults.Faults`.
 ``reset``
@@ -56,6 +56,9 @@ URL parts (all optional):
     ``1``: an HP-GL plotter sends XOFF / XON as its buffer fills and empties (default ``0``).
     A profile whose firmware names a ``sim_board`` (HP-GL) gets that board
     (:mod:`sim.hpgl_plotter`) instead of the GRBL one.
+``firmware``
+    An EBB board's firmware version (default 3.0.3; ``2.8.1``: no ``QU``, ``CU,4`` does nothing,
+    the FIFO stays one deep).
 ``operator``
     ``none`` (default): an ``M0`` pause holds until the host sends ``~``, as on a real board.
     ``auto``: a virtual person at the plotter presses cycle start as soon as the machine stops at
@@ -82,7 +85,8 @@ from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
 from sim.faults import Faults
 from sim.firmware import Firmware
 from sim.machine import Machine
-_OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff")
+_OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff",
+            "firmware")
 _IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came
 _OPERATORS = ("none", "auto")
 _CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
@@ -299,11 +303,20 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if profile.firmware.capabilities.host_motion:  # an EBB board: the firmware is chosen by the profile
         from sim.ebb_plotter import VirtualEbb
 
-        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator)
+        version = options.get("firmware")
+        if version is not None:
+            from firmware_protocol.ebb import version_tuple
+
+            try:
+                version_tuple(version)
+            except ValueError as exc:
+                raise SerialException(f"bad sim:// option firmware: {exc}") from None
+        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, version=version)
     if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
         from sim.hpgl_plotter import HpglPlotter
 
-        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1")
+        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1",
+                           tick=tick)
     return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, tick=tick,
                           **board)
 

@@ -21,6 +21,9 @@ class EbbLink:
         self.future = False
         self.power_lost = False
         self.watch_power = False  # CU,60 set: QG's bit 6 means something
+        self.fifo_depth = 1  # the board's motion FIFO (1 at boot; CU,4 deepens it on firmware 3.x)
+        #: Motor steps from home where the counters read 0 (not home after a guided re-zero).
+        self.origin: tuple[int, int] = (0, 0)
         self.pending: str | None = None  # the command whose answer is still to be read
         self._got: list[str] = []
         self._lines: list[str] = []
@@ -78,9 +81,9 @@ class EbbLink:
         return value
 
     def steps(self) -> tuple[int, int]:
-        """The motors' step counters (QS)."""
+        """Where the motors are, steps from home: the step counters (QS) from their origin."""
         a, b = self.command("QS").data.split(",")[:2]
-        return int(a), int(b)
+        return int(a) + self.origin[0], int(b) + self.origin[1]
 
     def wait_idle(self, limit: float) -> None:
         """Until no command runs and the FIFO is empty (QG's low four bits clear)."""

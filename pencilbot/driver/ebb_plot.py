@@ -2,9 +2,10 @@
 
 The job's pen-down and pen-up moves (any G-code: pencilbot's own or another tool's; its modal
 state read by :mod:`pencilbot.driver.modal` with the profile's pen) become ``LM`` and ``SP``
-commands (:mod:`pencilbot.machine.ebb_motion`), sent one at a time: the board answers a motion
-command once it is in its FIFO, so with one command running, one waiting and one being parsed
-the motors never starve (the three in flight of :class:`pencilbot.firmware.ebb.Ebb`).
+commands (:mod:`pencilbot.machine.ebb_motion`), and its ``G4`` dwells ``SM,ms,0,0`` delays, sent
+one at a time: the board answers a motion command once it is in its FIFO, so with one command
+running, the FIFO full (one deep at boot; :data:`FIFO_DEPTH` set with ``CU,4`` on firmware 3.x,
+within what ``QU,2`` allows) and one being parsed the motors never starve.
 
 What ran is read back, not guessed: a stop (Ctrl-C, SIGTERM, a refused command, a pause key)
 sends ``ES`` (stop now, flush the FIFO), lifts the pen, and reads the step counters (``QS``); the
@@ -17,6 +18,7 @@ its ``QG`` reply).
 
 from __future__ import annotations
 
+import re
 import shlex
 import signal
 import threading
@@ -34,12 +36,15 @@ from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
-from pencilbot.firmware.ebb import EBB, MICROSTEPS
+from pencilbot.firmware.ebb import MICROSTEPS
 from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
 from pencilbot.units import MM_PER_INCH
 
 POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
-POWER_CHECK = 0.5  # s between QG queries while streaming (one extra round trip each)
+#: Commands the motion FIFO holds on firmware 3.x (CU,4): 16 moves of the 4 ms minimum keep the
+#: motors busy through a 64 ms stall of the host or the USB link.
+FIFO_DEPTH = 16
+POWER_CHECK = 0.5  # s of motion sent between QG queries while streaming (one extra round trip each)
 _STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
 
 
@@ -70,9 +75,10 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
-        here, pen_down, found = _wake(link, profile, job, resumed)
+        here, pen_down, found = _wake(link, profile, job, resumed, operator)
         start = start if found is None else found
-        work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down)
+        dwells = _dwells(job)
+        work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down, dwells)
         total = sum(item.seconds for item in work if isinstance(item, EbbMove))
         bar = Progress(progress, len(job) - start, total)
         if journal is not None:
@@ -81,7 +87,7 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         sent: list[EbbMove] = []
         acked = -1
         done_seconds = 0.0
-        checked = time.monotonic()
+        checked = 0.0  # motion seconds sent at the last QG: by the plan, not the clock (the same every run)
         try:
             with _stop_signals():
                 while work:
@@ -91,21 +97,21 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                             link.wait_idle(timeout + 60)
                             _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
                         continue
-                    if link.watch_power and time.monotonic() > checked + POWER_CHECK:
-                        checked = time.monotonic()
+                    if link.watch_power and done_seconds > checked + POWER_CHECK:
+                        checked = done_seconds
                         link.status()
                         if link.power_lost:
                             raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
                     if keys is not None and _keys_say_pause(keys):
                         stop = _hold(link, sent, acked, profile, operator, keys, bar)
-                        work = _plan_from(job, xy, down, rows_line, profile, stop.index, stop.steps, None)
+                        work = _plan_from(job, xy, down, rows_line, profile, stop.index, stop.steps, None, dwells)
                         continue
                     sent.append(item)
-                    link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent))
+                    link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent, link))
                     acked = len(sent) - 1
                     done_seconds += item.seconds
                     bar.update(item.line + 1 - start, done_seconds, "Run")
-                link.wait_idle(timeout + 2 * _in_flight_seconds(sent) + 5)
+                link.wait_idle(timeout + 2 * _in_flight_seconds(sent, link) + 5)
                 if link.power_lost:  # seen while waiting for the last moves
                     raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
         except (Interrupted, EbbFault, PortLost) as exc:
@@ -124,16 +130,17 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
             pass
 
 
-def _oldest_in_flight(acked: int) -> int:
+def _oldest_in_flight(acked: int, link: EbbLink) -> int:
     """The oldest command that may not have finished: the board answers a motion command once
     it is in the FIFO, so when ``acked`` was answered the FIFO's ``fifo_depth`` commands before
     it had moved on to the motors, and all but the last of those had run."""
-    return max(acked - EBB.fifo_depth, 0)
+    return max(acked - link.fifo_depth, 0)
 
 
-def _in_flight_seconds(sent: list[EbbMove]) -> float:
-    """How long the commands that may still be queued keep the board busy, s."""
-    return sum(m.seconds for m in sent[-EBB.in_flight:])
+def _in_flight_seconds(sent: list[EbbMove], link: EbbLink) -> float:
+    """How long the commands that may still be queued keep the board busy, s: the one running,
+    the FIFO's and the one being parsed."""
+    return sum(m.seconds for m in sent[-(link.fifo_depth + 2):])
 
 
 ARC_TOLERANCE = 0.002  # mm a chord of an arc may stray from it (GRBL's $12 default)
@@ -170,13 +177,17 @@ def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return out_xy, down[at], lines[at]
 
 
-def _plan_from(job, xy, down, rows_line, profile, first: int, here, pen_down) -> deque:
+def _plan_from(job, xy, down, rows_line, profile, first: int, here, pen_down, dwells=None) -> deque:
     """The commands from job line ``first`` on, from motor position ``here``: the stretches
-    between program pauses planned one after the other, each pause (its job line) in between."""
+    between program pauses and dwells planned one after the other (each from rest to rest),
+    each pause (its job line) and each dwell (``SM,ms,0,0``: the board waits) in between."""
     work: deque = deque()
-    for a, b in _chunks(job, first, len(job)):
+    dwells = dwells or {}
+    for a, b in _chunks(job, first, len(job), dwells):
         if a in job.pauses:
             work.append(a)
+        for ms in _dwell_pieces(dwells.get(a, 0.0)):
+            work.append(EbbMove(f"SM,{ms},0,0", a, tuple(here), tuple(here), ms / 1000.0, bool(pen_down)))
         ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
         moves = plan_ebb(xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile, start_steps=here, pen_down=pen_down)
         work.extend(moves)
@@ -196,10 +207,10 @@ def _keys_say_pause(keys) -> bool:
 def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, keys, bar) -> _Stop:
     """The pause key: stop at once (ES), lift the pen, find where from the step counters, and
     wait for the operator (or the pause key again); the job goes on from that very point."""
-    link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent))
+    link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
     link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
     link.wait_idle(5)
-    stop = _locate(link.steps(), sent, acked, profile)
+    stop = _locate(link.steps(), sent, acked, profile, link)
     if stop is None:
         raise EbbFault("after the pause the step counters are on none of the moves sent")
     bar.show_state("paused: the pause key")
@@ -211,16 +222,37 @@ def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, key
     return stop
 
 
-def _chunks(job, start: int, stop: int) -> list[tuple[int, int]]:
-    """Job line ranges between program pauses (a pen change waits for the motion to end)."""
-    cuts = sorted(i for i in job.pauses if start < i < stop)
+_G4 = re.compile(rb"G0*4(?![0-9.])")  # a dwell word in a cleaned job line (not G40..G49, not G4.1)
+MAX_DELAY_MS = 100_000  # SM as a delay is capped at 100 s (EBB reference, SM)
+
+
+def _dwells(job) -> dict[int, float]:
+    """The job lines that dwell (``G4``) and for how long, s (read only when the job has any)."""
+    at = [m.start() for m in _G4.finditer(job.frames)]
+    if not at:
+        return {}
+    seconds = job.states(0, len(job)).seconds
+    lines = np.unique(np.searchsorted(job.offsets, at, side="right") - 1)
+    return {int(i): float(seconds[i]) for i in lines if seconds[i] > 0}
+
+
+def _dwell_pieces(seconds: float) -> list[int]:
+    """A dwell as ``SM`` delays, ms (none for a dwell under half a millisecond)."""
+    ms = int(round(seconds * 1000))
+    return [min(MAX_DELAY_MS, ms - k) for k in range(0, ms, MAX_DELAY_MS)]
+
+
+def _chunks(job, start: int, stop: int, dwells=None) -> list[tuple[int, int]]:
+    """Job line ranges between program pauses (a pen change waits for the motion to end) and dwells."""
+    cuts = sorted(i for i in (*job.pauses, *(dwells or ())) if start < i < stop)
     edges = [start, *cuts, stop]
     return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
-def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool | None, int | None]:
+def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[int, int], bool | None, int | None]:
     """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
-    (None: unknown) and, for a resume, the job line to go on from."""
+    (None: unknown) and, for a resume, the job line to go on from. A resume whose position is
+    lost is re-zeroed with ``operator`` (:mod:`pencilbot.driver.ebb_rezero`), or refused."""
     link.reader.write(b"\r")  # ends any half command left by another program
     time.sleep(0.05)
     link.reader.discard_input()
@@ -230,6 +262,7 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
     start = None
     if resumed is not None:
         link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
+        link.origin = tuple(resumed.options.get("ebb_origin") or (0, 0))  # a re-zeroed job's counters
         steps = link.steps()
         # Where the carriage may stand and the line to go on from there: the stop the board
         # reported, or (the port lost) the end of each command it may have run.
@@ -240,11 +273,19 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
             why = ("the board's supply dropped" if link.power_lost
                    else "its motors were switched off (a restart or power cut), so the carriage was free" if not held
                    else f"its step counters read {steps[0]},{steps[1]}, where the job never left the pen")
+            if operator is not None:
+                from pencilbot.driver.ebb_rezero import rezero
+
+                steps, start = rezero(link, profile, job, resumed, operator, f"the carriage's position is lost ({why})")
+                _configure(link, version)
+                return steps, False, start
             raise PlotError(
                 f"the carriage's position is lost ({why}), so resuming could draw in the wrong place; "
-                f"nothing was sent. Push the carriage to its home corner (pen up) and draw the job again "
-                f"from the start, or from a line: pencilbot draw {shlex.quote(job.source)} --profile "
-                f"{shlex.quote(profile.name)} --start-line {resumed.next_line}")
+                f"nothing was sent. Run the resume in a terminal, without moving the carriage: it asks you to jog "
+                f"the raised pen from where it stopped to a mark, and takes the stop point from that jog: "
+                f"{resumed.resume or 'pencilbot draw --resume ' + shlex.quote(str(resumed.path))}. Or push the carriage "
+                f"to its home corner (pen up) and draw again from a line: pencilbot draw {shlex.quote(job.source)} "
+                f"--profile {shlex.quote(profile.name)} --start-line {resumed.next_line}")
         pen_down, start = None, job.index_of(found[-1])
     else:
         mode = profile.ebb.microstep_mode
@@ -253,10 +294,21 @@ def _wake(link: EbbLink, profile, job, resumed) -> tuple[tuple[int, int], bool |
         steps, pen_down = (0, 0), None
     for text in pen_commands(profile):
         link.command(text)
-    if version_at_least(version, (3, 0)):
-        link.command(f"CU,60,{POWER_THRESHOLD}")
-        link.watch_power = True
+    _configure(link, version)
     return steps, pen_down, start
+
+
+def _configure(link: EbbLink, version: str) -> None:
+    """On firmware 3.x: have QG's bit 6 report a supply drop, and deepen the motion FIFO
+    (``CU,4``, at most what ``QU,2`` says; older firmware has one place and no ``QU``)."""
+    if not version_at_least(version, (3, 0)):
+        link.fifo_depth = 1
+        return
+    link.command(f"CU,60,{POWER_THRESHOLD}")
+    link.watch_power = True
+    depth = max(1, min(int(link.command("QU,2").data), FIFO_DEPTH))
+    link.command(f"CU,4,{depth}")  # waits for the queue to empty: before any motion
+    link.fifo_depth = depth
 
 
 def _motors_held(link: EbbLink, profile) -> bool:
@@ -297,15 +349,15 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     stop, answered, held = None, False, False
     if not isinstance(exc, PortLost):
         try:
-            link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent))
+            link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
             link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
             link.wait_idle(5)
             answered = True
             held = _motors_held(link, profile) and not link.power_lost
-            stop = _locate(link.steps(), sent, acked, profile) if held else None
+            stop = _locate(link.steps(), sent, acked, profile, link) if held else None
         except (EbbFault, PortLost):
             answered = False
-    index = sent[_oldest_in_flight(acked)].line if sent else 0
+    index = sent[_oldest_in_flight(acked, link)].line if sent else 0
     if stop is not None:
         index = stop.index
         where = f"the pen stopped at X{stop.xy[0]:.3f} Y{stop.xy[1]:.3f} (pen up)"
@@ -313,7 +365,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     elif not answered:
         where = ("the board did not report where the pen stopped (the resume finds it from the step "
                  "counters, or refuses)")
-        places = [[*m.end, number(m.line)] for m in sent[_oldest_in_flight(acked):]]
+        places = [[*m.end, number(m.line)] for m in sent[_oldest_in_flight(acked, link):]]
     else:
         where = ("the pen's position is lost (the board restarted or its supply dropped: the motors let go)"
                  if not held else "the pen's position is lost (the step counters are on none of the moves sent)")
@@ -325,18 +377,21 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     journal.next_line = line
     journal.stop_xy = list(stop.xy) if stop is not None else None
     journal.options["ebb_resume"] = places
+    # The moves that may have been running: where a guided re-zero looks for the stop point.
+    journal.options["ebb_moves"] = [[*m.start, *m.end, number(m.line)] for m in sent[_oldest_in_flight(acked, link):]]
+    journal.options["ebb_origin"] = list(link.origin)
     journal.status, journal.message = "stopped", text
     journal.resume = f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(port)}"
     journal.save()
     return f"{text} Resume with: {journal.resume}"
 
 
-def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile) -> _Stop | None:
+def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile, link: EbbLink) -> _Stop | None:
     """The job line to resume from, given where the motors stopped: the first command still in
-    flight (at most three: running, queued, being parsed) whose segment holds the position and
+    flight (running, in the FIFO, being parsed) whose segment holds the position and
     that had not finished."""
     pos = np.array(steps, dtype=np.float64)
-    first = _oldest_in_flight(acked)
+    first = _oldest_in_flight(acked, link)
     for k in range(first, len(sent)):
         move = sent[k]
         a, b = np.array(move.start, float), np.array(move.end, float)

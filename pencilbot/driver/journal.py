@@ -262,11 +262,20 @@ def _wrong_field(journal: Journal) -> str | None:
         return f"options is {options!r}, not a table"
     checks = {"baud": lambda v: _is_int(v) and v > 0,
               "timeout": lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0,
-              "send_and_wait": lambda v: isinstance(v, bool), "on_error": lambda v: v in ("stop", "continue")}
+              "send_and_wait": lambda v: isinstance(v, bool), "on_error": lambda v: v in ("stop", "continue"),
+              # an EBB stop: step positions (and file lines) of where it may stand and what was in flight
+              "ebb_resume": lambda v: _int_rows(v, 3), "ebb_moves": lambda v: _int_rows(v, 5),
+              "ebb_origin": lambda v: _int_rows([v], 2)}
     for name, ok in checks.items():
         if name in options and not ok(options[name]):
             return f"options.{name} is {options[name]!r}"
     return None
+
+
+def _int_rows(value, width: int) -> bool:
+    """A list of lists of ``width`` whole numbers."""
+    return isinstance(value, list) and all(isinstance(row, list) and len(row) == width and all(map(_is_int, row))
+                                           for row in value)
 
 
 def check_against(journal: Journal, job: Job) -> None:

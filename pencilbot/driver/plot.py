@@ -112,7 +112,8 @@ def draw(
     fw = machine.firmware
     baud = baud or fw.baud
     if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
-        return _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source)
+        return _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source,
+                            operator, keys)
     if check and not fw.capabilities.check_mode:
         raise PlotError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
@@ -162,7 +163,8 @@ def draw(
             pass
 
 
-def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source):
+def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source,
+                 operator=None, keys=None):
     """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
     from pencilbot.driver.polled import draw_polled
 
@@ -177,4 +179,4 @@ def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeo
     start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)
     return draw_polled(data, port, machine, path=path, profile_arg=profile, baud=baud,
                        start=start, journal=journal, timeout=timeout, progress=progress, announce=announce,
-                       source=source)
+                       source=source, operator=operator, keys=keys)

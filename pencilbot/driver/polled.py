@@ -12,6 +12,11 @@ first instruction at or after that floor whose end is that position is the last 
 the job resumes after it — exactly once. If no instruction there ends where the pen is (the
 plotter was power-cycled, or the link was lost mid-job and the position does not match), the
 resume is refused until the user chooses ``--start-line``.
+
+Pauses: the pause key stops at once as a stop does (abort, lift, locate), waits for the person
+(the terminal's prompt, or the pause key again) and goes on from the very instruction; a pen the
+carousel lacks (a plan with more pens than ``[paper] carousel``) waits until everything before
+it has run (a sync point), puts the pen away and asks for the pen to be put in its slot.
 """
 
 from __future__ import annotations
@@ -25,81 +30,20 @@ import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver.polled_link import POLL_PAUSE, Answers, Lost, Moved, Silent, check_point, drain, poll_free
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.machine.motion import axis_scale, move_times
 
-POLL_PAUSE = 0.02  # s between polls while the buffer is full
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
 _SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 
 
-class _Lost(Exception):
-    """The port went away."""
-
-
-class _Answers:
-    """CR- (or LF-) terminated answers from the port; XON/XOFF bytes noted, not returned."""
-
-    def __init__(self, port, parse_position=None):
-        self.port = port
-        self.partial = b""
-        self.lines: list[str] = []
-        self.positions: list = []
-        self.parse_position = parse_position
-        self.xoff = False
-
-    def write(self, data: bytes) -> None:
-        try:
-            self.port.write(data)
-        except (serial.SerialException, OSError) as exc:
-            raise _Lost(str(exc)) from None
-
-    def pump(self) -> None:
-        try:
-            data = self.port.read(max(self.port.in_waiting, 1))
-        except (serial.SerialException, OSError) as exc:
-            raise _Lost(str(exc)) from None
-        if not data:
-            return
-        if b"\x13" in data or b"\x11" in data:
-            self.xoff = data.rfind(b"\x13") > data.rfind(b"\x11")
-            data = data.replace(b"\x13", b"").replace(b"\x11", b"")
-        *done, self.partial = (self.partial + data).replace(b"\n", b"\r").split(b"\r")
-        for line in (d.decode("ascii", errors="replace").strip() for d in done if d.strip()):
-            position = self.parse_position(line) if self.parse_position else None
-            if position is not None:
-                self.positions.append(position)  # a sync point's answer, kept in order
-            else:
-                self.lines.append(line)
-
-    def position(self, timeout: float):
-        """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s."""
-        end = time.monotonic() + timeout
-        while not self.positions:
-            if time.monotonic() > end:
-                return None
-            self.pump()
-        return self.positions.pop(0)
-
-    def wait(self, accept, timeout: float):
-        """The first answer ``accept`` turns into something not None (others are dropped)."""
-        end = time.monotonic() + timeout
-        while True:
-            while self.lines:
-                value = accept(self.lines.pop(0))
-                if value is not None:
-                    return value
-            if time.monotonic() > end:
-                return None
-            self.pump()
-
-
 def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_arg: str, baud: int | None,
                 start: int = 0, journal=None, timeout: float = DEFAULT_TIMEOUT, progress: str = "quiet",
-                announce=None, source: str | None = None):
+                announce=None, source: str | None = None, operator=None, keys=None):
     """Stream an HP-GL program to a polled-flow plotter; see the module docstring.
 
     Parameters
@@ -116,6 +60,10 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         First instruction (0-based, of :class:`~pencilbot.firmware.hpgl.Program`) to send.
     journal : Journal, optional
         The stopped job being resumed (its proven stop position is checked first).
+    operator : pencilbot.driver.position.Operator, optional
+        Someone at the machine: answers the pauses (the pause key, a pen change).
+    keys : pencilbot.driver.keys.KeyReader, optional
+        The terminal's keys: pause / resume and stop.
 
     Returns
     -------
@@ -131,7 +79,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     fw = machine.firmware
     name = source or (str(path) if path else "the program")
     try:
-        program = fw.program(data)
+        program, changes = fw.program(data).in_carousel(machine.paper.carousel)
     except ValueError as exc:
         raise PlotError(f"{name}: {exc}") from None
     _check_limits(program, machine, fw, name)
@@ -157,14 +105,14 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     finished = False
     try:
         try:
-            link = _Answers(open_port(port, baudrate=baud, profile=profile_arg), fw.parse_position)
+            link = Answers(open_port(port, baudrate=baud, profile=profile_arg), fw.parse_position)
         except PlotError:
             raise
         size = machine.receive_buffer
         try:
             link.port.reset_input_buffer()  # nothing from before this job
         except (serial.SerialException, OSError) as exc:
-            raise _Lost(str(exc)) from None
+            raise Lost(str(exc)) from None
         link.write(fw.wake_bytes)
         if link.wait(lambda t: t if t.strip().lstrip("-").isdigit() else None, timeout) is None:
             raise PlotError(f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
@@ -175,8 +123,15 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         if announce is not None:
             announce(f"banner '{identity or 'no answer to OI;'}'", None)
         if resuming:
-            _check_resume_position(link, fw, program, start, journal, timeout, name)
-            link.write(program.preamble(start))
+            _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
+            lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)
+            at = None
+            if lost is not None:  # someone at the plotter shows where the drawing on the sheet ends
+                from pencilbot.driver.polled_refind import refind
+
+                start, at = refind(link, fw, program, journal, operator, machine, timeout, lost)
+                sent = floor = start
+            link.write(program.preamble(start, at))
         elif start > 0:
             link.write(program.preamble(start))
         sent_bytes = 0
@@ -184,10 +139,37 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         base = program.offsets[start]
         floor = start
         last_save = 0.0
+        paused_at = -1  # the pen change answered (not asked again)
+        proven = start  # entries before it ran, by a sync point's answer (in this power-on)
+        pending = sorted(changes)
         while sent < len(program):
             if stop.is_set():
                 raise _Stop()
-            free = _poll(link, fw, timeout)
+            if keys is not None and _keys_say_pause(keys, stop, why):
+                at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
+                if at is None:
+                    raise Moved("after the pause key the pen stood on none of the instructions sent")
+                _hold(operator, keys, stop, why, shown, "paused: the pause key")
+                sent = floor = at
+                base, sent_bytes = program.offsets[at], 0
+                checkpoints.clear()
+                continue
+            if sent in changes and paused_at != sent:
+                if sent_bytes:
+                    drain(link, fw, program, checkpoints, sent, floor, timeout)
+                else:  # nothing of the program sent since the resume's preamble (pen up): it ran
+                    link.write(fw.sync_command)
+                    if link.position(fw, timeout) is None:
+                        raise Silent()
+                floor = sent
+                link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
+                if operator is None and keys is None:
+                    why.append(f"a pen change ({changes[sent]}) with nobody at the terminal to do it")
+                    raise _Stop()
+                _hold(operator, keys, stop, why, shown, f"paused: {changes[sent]}")
+                paused_at = sent
+                continue
+            free = poll_free(link, fw, timeout)
             used = size - free
             # Bytes of the program not started yet: the buffer's, less the sync points still in it.
             waiting = used - len(fw.sync_command) * len(checkpoints)
@@ -196,6 +178,8 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
                 checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
             room = free - (0 if not link.xoff else free)
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
+            later = [k for k in pending[int(np.searchsorted(pending, sent, side="right")):][:1]]
+            end = min([end, *later])  # a pen change waits for everything before it
             if end <= sent:
                 time.sleep(POLL_PAUSE)
                 continue
@@ -209,21 +193,14 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             link.write(chunk)
             sent = end
             while link.positions and checkpoints:
-                _check_point(link.positions.pop(0), program, checkpoints)
+                proven = check_point(link.positions.pop(0), program, checkpoints)
             if floor > start:
                 shown.update(floor - start, float(seconds[floor - 1] - done0), "Run")
             if journal is not None and time.monotonic() - last_save > 0.2:
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        # Drain: OA; is answered once everything before it ran (the buffer holds ≤ size bytes).
-        link.write(fw.sync_command)
-        checkpoints.append(len(program))
-        while checkpoints:
-            position = link.position(timeout + 0.5 * (len(program) - floor))
-            if position is None:
-                raise _Silent()
-            _check_point(position, program, checkpoints)
+        drain(link, fw, program, checkpoints, len(program), floor, timeout)
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
         shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
@@ -235,15 +212,16 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
         _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
                  floor=floor)
-    except _Moved as exc:
+    except Moved as exc:
         try:
             link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
-        except _Lost:
+        except Lost:
             pass
-        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=floor, sent=None)
-    except _Lost as exc:
+        # What ran after the last sync point the plotter answered right is not known: its buffer went.
+        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=proven, sent=sent, lost=True)
+    except Lost as exc:
         _stopped(journal, None, port, f"the port was lost ({exc})", name, program, proven=False, floor=floor, sent=sent)
-    except _Silent:
+    except Silent:
         _stopped(journal, None, port, f"the plotter did not answer for {timeout:g} s", name, program, proven=False,
                  floor=floor, sent=sent)
     finally:
@@ -262,51 +240,42 @@ class _Stop(Exception):
     pass
 
 
-class _Silent(Exception):
-    pass
+def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
+    """The terminal's keys: the stop key stops (as Ctrl-C), the pause key asks for a pause."""
+    requests = keys.poll()
+    if "stop" in requests:
+        if not why:
+            why.append("the stop key")
+        stop.set()
+        raise _Stop()
+    return "pause" in requests
 
 
-class _Moved(Exception):
-    """A sync point's answer is not where the program put the pen."""
-
-
-def _check_point(position, program, checkpoints: list[int]) -> None:
-    """``position`` answers the first of the sync points ``checkpoints`` (entries after which
-    each was sent) still open: it must be their end. An answer that matches a later one means
-    the earlier answers were lost on the line; they are dropped with it."""
-    ends = [(int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1])) if k else (0, 0, False)
-            for k in checkpoints]
-    for j, end in enumerate(ends):
-        if tuple(position) == end:
-            del checkpoints[: j + 1]
-            return
-    after, expected = checkpoints[0], ends[0]
-    state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
-    raise _Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
-                 "it lost its place (switched off and on, or reset)")
-
-
-def _poll(link: _Answers, fw, timeout: float) -> int:
-    """Free buffer bytes; one lost answer is asked again, garbage is skipped."""
-    for _ in range(2):
-        link.write(fw.free_query)
-        free = link.wait(fw.parse_free, timeout / 2)
-        if free is not None:
-            return free
-    raise _Silent()
+def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: str) -> None:
+    """Wait for the person: the operator's answer, or the pause key again (Ctrl-C stops)."""
+    shown.show_state(prompt)
+    if operator is not None:
+        operator.pause(prompt)
+    else:
+        while not _keys_say_pause(keys, stop, why):
+            if stop.is_set():
+                raise _Stop()
+            time.sleep(0.05)
+    if stop.is_set():
+        raise _Stop()
 
 
 def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout) -> int | None:
     """Abort, lift, and find the last instruction drawn (None: not found)."""
     try:
-        free = _poll(link, fw, timeout)
+        free = poll_free(link, fw, timeout)
         floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - (size - free), side="right")) - 1)
         link.write(fw.abort_bytes)
-        _poll(link, fw, timeout)  # answered after anything the plotter said before the abort
+        poll_free(link, fw, timeout)  # answered after anything the plotter said before the abort
         link.positions.clear()
         link.write(fw.lift_command + fw.sync_command)
-        position = link.position(timeout)
-    except (_Lost, _Silent):
+        position = link.position(fw, timeout)
+    except (Lost, Silent):
         return None
     if position is None:
         return None
@@ -320,22 +289,39 @@ def _locate(program, xy, low: int, high: int) -> int | None:
     return int(low + hits[0] + 1) if len(hits) else None
 
 
-def _check_resume_position(link, fw, program, start, journal, timeout, name) -> None:
-    """A resume trusts the journal only if the pen stands where the stop left it."""
+def _wait_empty(link, fw, size: int, timeout: float) -> None:
+    """Until the plotter's buffer is empty (its free bytes the whole buffer), then forget what it
+    answered meanwhile (sync points of the run that stopped)."""
+    deadline = time.monotonic() + timeout + 600.0  # a full buffer of slow moves
+    while poll_free(link, fw, timeout) < size:
+        if time.monotonic() > deadline:
+            raise Silent()
+        time.sleep(POLL_PAUSE)
+    link.positions.clear()
+
+
+def _check_resume_position(link, fw, program, start, journal, timeout, name, refuse: bool) -> str | None:
+    """A resume trusts the journal only if the pen stands where the stop left it; otherwise it
+    is refused (``refuse``: nobody at the terminal), or this says why the stop must be found."""
     link.write(fw.lift_command + fw.sync_command)
-    position = link.position(timeout)
+    position = link.position(fw, timeout)
     expected = tuple(program.xy[start - 1]) if start > 0 else (0, 0)
-    if not journal.stop_work or position is None or (position[0], position[1]) != expected:
-        where = f"{position[0]},{position[1]}" if position else "unknown"
+    if journal.stop_work and position is not None and (position[0], position[1]) == expected:
+        return None
+    where = f"{position[0]},{position[1]}" if position else "unknown"
+    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped; what it drew after "
+           f"instruction {journal.acked_line} is not known")
+    if position is None or refuse:
         raise PlotError(
-            f"cannot resume {name} exactly: the plotter's pen is at {where} (plotter units), not where the job "
-            f"stopped; what it drew after instruction {journal.acked_line} is not known. Look at the sheet and "
-            f"restart from an instruction you choose: pencilbot draw {journal.gcode} --start-line N "
-            f"--port {journal.port} --profile {journal.profile}")
+            f"cannot resume {name} exactly: {why}. Run the resume in a terminal: it asks you to jog the raised pen to "
+            f"where the last line on the sheet ends, and goes on from there. Or restart from an instruction you "
+            f"choose: pencilbot draw {journal.gcode} --start-line N --port {journal.port} --profile {journal.profile}")
+    return why
 
 
-def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None):
-    """Write the journal and raise the message that says how to resume."""
+def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None, lost=False):
+    """Write the journal and raise the message that says how to resume (``lost``: the plotter
+    lost its place, so no position it reports later proves anything)."""
     if journal is not None:
         journal.status, journal.message = "stopped", why
         journal.acked_line = floor
@@ -347,7 +333,8 @@ def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None)
             # Unproven: a lost link lets the plotter finish its buffer; the resume checks the pen stands
             # at the end of what was sent, and refuses otherwise.
             journal.next_line = (sent or floor) + 1
-            journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 else None
+            journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 and not lost \
+                else None
         # The plotter's own count is its position (HP-GL has no work offsets): the same point.
         journal.stop_mpos = None if journal.stop_work is None else list(journal.stop_work)
         how = journal_mod.save_stopped(journal)

@@ -2,7 +2,8 @@
 
 The program: ``IN;`` (initialise), ``VS`` (the profile's pen-down speed, cm/s), then for each pen
 of the plan ``SP n`` (carousel slot ``n`` in load order: a colour plan is drawn without a
-pause, the plotter fetches each pen itself), and for each path a pen-up move to its first point
+pause, the plotter fetches each pen itself; pens beyond the profile's ``[paper] carousel`` keep
+their numbers, and ``draw`` pauses for each to be put in a slot by hand), and for each path a pen-up move to its first point
 and one ``PD x,y;`` per further point; finally ``PU0,0;`` (home, as the estimate counts it) and
 ``SP0;`` (the pen back in the carousel). One instruction a line, in absolute plotter units
 (0.025 mm, rounded); a point that rounds onto the previous one is dropped. Every coordinate is
@@ -25,10 +26,7 @@ from pencilbot.machine.profile import Profile
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.stats import PlanStats, estimate
 
-__all__ = ["HPGL_SUFFIXES", "HpglSummary", "hpgl_program", "write_hpgl", "hpgl_plan", "CAROUSEL"]
-
-#: Pens a 7475A's carousel holds.
-CAROUSEL = 6
+__all__ = ["HPGL_SUFFIXES", "HpglSummary", "hpgl_program", "write_hpgl", "hpgl_plan"]
 
 
 @dataclass(frozen=True)
@@ -75,7 +73,7 @@ def write_hpgl(plan: Plan, profile: Profile, path: str | Path) -> HpglSummary:
     OutOfBedError
         A coordinate falls outside the plotter's limits; nothing is written.
     PencilbotError
-        Not an HP-GL profile, more pens than the carousel holds, or NaN coordinates.
+        Not an HP-GL profile, or NaN coordinates.
     """
     program, placement = _program(plan, profile)
     target = Path(path)
@@ -92,10 +90,7 @@ def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
     if getattr(profile.firmware, "flow", "") != HPGL.flow:
         raise PencilbotError(f"profile {profile.name} is for {profile.firmware.title}, not an HP-GL plotter; "
                              "give an HP-GL profile (e.g. --profile hp7475a) or write .gcode")
-    pens = plan.pens
-    if len(pens) > CAROUSEL:
-        raise PencilbotError(f"the plan uses {len(pens)} pens and the carousel holds {CAROUSEL}; "
-                             f"plan with at most {CAROUSEL} pens (--pens)")
+    pens = plan.pens  # more than the carousel holds: SP 7, 8, ... (draw pauses for each)
     placement = SheetPlacement.of(plan.page, profile)
     unit = HPGL.unit_mm
     out = [b"IN;\n", f"VS{profile.motion.draw_feed / 600:g};\n".encode()]

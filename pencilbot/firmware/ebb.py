@@ -2,12 +2,13 @@
 
 The board takes no G-code: it runs step commands (``LM`` constant-acceleration moves, ``SM``/
 ``XM`` constant-rate moves, ``HM`` home), servo moves (``SP``) and queries (``QG`` status byte,
-``QS`` step counters). A sender keeps about three motion commands in flight: the one running,
-one in the FIFO (one deep at boot) and the one the board is parsing, which it answers only when
-the FIFO has room; send-and-wait therefore never starves the motors as long as each move lasts
-longer than a reply's round trip. What ran is read back exactly: ``ES`` stops and flushes, then
-``QS`` gives the motors' step counters. ``QG`` bit 6 says the supply dropped (with ``CU,60``
-set), after which the counters no longer tell where the pen is.
+``QS`` step counters). A sender keeps its motion commands in flight: the one running, those in
+the FIFO (one deep at boot; ``CU,4`` deepens it on firmware 3.x, up to ``QU,2``) and the one the
+board is parsing, which it answers only when the FIFO has room; send-and-wait therefore never
+starves the motors as long as the queue outlasts a reply's round trip. What ran is read back
+exactly: ``ES`` stops and flushes, then ``QS`` gives the motors' step counters. ``SM,ms,0,0`` is
+a timed wait in the queue (a ``G4``). ``QG`` bit 6 says the supply dropped (with ``CU,60`` set),
+after which the counters no longer tell where the pen is.
 
 The machine's geometry (:class:`EbbSetup`, a profile's ``[ebb]`` table): a mixed-axis (CoreXY)
 machine moves motor 1 by ``k·(x + y)`` and motor 2 by ``k·(x − y)`` steps, ``k`` the steps per mm
@@ -100,9 +101,9 @@ class Ebb(Firmware):
     line_limit = protocol.MAX_COMMAND - 1
     rapids_take_feed = True  # the host moves pen-up at the profile's travel feed
     wake_bytes = b"\r"  # ends whatever half command a previous program left
-    #: Motion commands in flight: running, waiting in the FIFO, being parsed (not yet answered).
-    in_flight = 3
-    fifo_depth = 1  # at boot; CU,4 deepens it up to QU,2
+    #: The motion FIFO's depth at boot (firmware 3.x deepens it with CU,4, up to QU,2). In
+    #: flight: the command running, the FIFO's, and the one being parsed (not yet answered).
+    fifo_depth = 1
     home_command = "HM"
 
     def dwell(self, seconds: float) -> str:

@@ -13,7 +13,7 @@ driver can say what ran from what the buffer still holds and resume after it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -68,9 +68,10 @@ class Program:
     def __len__(self) -> int:
         return len(self.frames)
 
-    def preamble(self, start: int) -> bytes:
+    def preamble(self, start: int, at: tuple[int, int] | None = None) -> bytes:
         """What brings a freshly initialised plotter to the state before entry ``start``:
-        ``IN;``, the pen, the speed, and a pen-up move to where the pen was."""
+        ``IN;``, the pen, the speed, and a pen-up move to where the pen was (or to ``at``, a
+        point on entry ``start``'s move where it stopped)."""
         out = [b"IN;"]
         if start > 0:
             i = start - 1
@@ -78,8 +79,33 @@ class Program:
                 out.append(protocol.encode("SP", int(self.pen[i])))
             if self.speed[i]:
                 out.append(protocol.encode("VS", float(self.speed[i])))
-            out.append(protocol.encode("PU", int(self.xy[i, 0]), int(self.xy[i, 1])))
+            x, y = at if at is not None else (int(self.xy[i, 0]), int(self.xy[i, 1]))
+            out.append(protocol.encode("PU", x, y))
         return b"".join(out) + b"\n"
+
+    def in_carousel(self, slots: int) -> tuple[Program, dict[int, str]]:
+        """The program for a carousel of ``slots`` pens, and the pen changes it needs.
+
+        A pen beyond the carousel (``SP n``, ``n > slots``) is selected from slot
+        ``(n - 1) mod slots + 1``, after someone has put it there by hand; so is a pen whose slot
+        another pen took meanwhile. Returns the program that selects only slots (the pen array
+        holds slots too) and ``{entry: prompt}``: before each such ``SP`` entry a pause.
+        """
+        if not len(self) or int(self.pen.max()) <= slots:
+            return self, {}
+        holds = {k: k for k in range(1, slots + 1)}  # slot -> the pen in it
+        frames, changes = list(self.frames), {}
+        slot = np.where(self.pen > 0, (self.pen - 1) % slots + 1, 0)
+        for i, frame in enumerate(frames):
+            if not frame.startswith(b"SP") or not self.pen[i]:
+                continue
+            pen, k = int(self.pen[i]), int(slot[i])
+            if holds[k] != pen:
+                changes[i] = f"pen change: put pen {pen} in carousel slot {k} (in place of pen {holds[k]})"
+                holds[k] = pen
+            frames[i] = protocol.encode("SP", k) + b"\n"
+        lengths = np.fromiter(map(len, frames), dtype=np.int64, count=len(frames))
+        return replace(self, frames=frames, offsets=np.concatenate([[0], np.cumsum(lengths)]), pen=slot), changes
 
     def drawn(self) -> tuple[Paths, np.ndarray]:
         """The pen-down polylines (plotter units) and the carousel pen of each, in order."""

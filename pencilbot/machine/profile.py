@@ -42,6 +42,7 @@ in a wheel and in a source checkout); any TOML file with the same schema works b
 
     [paper]                         # optional: a plotter whose limits lie inside the sheet (HP-GL)
     offset = [10.0, 4.0]            # mm from the sheet's bottom-left corner to machine (0, 0)
+    carousel = 6                    # pens the carousel holds (HP-GL SP 1..n; more pens pause)
 
     [pen_change]                    # optional: how a colour plan asks for the next pen
     command = "M0 (pen change: insert {pen})"   # template; also {pen} and {number} (1, 2, ...)
@@ -125,9 +126,12 @@ class PenChange:
 @dataclass(frozen=True)
 class Paper:
     """Where the sheet lies against machine (0, 0): ``offset`` mm from its bottom-left corner
-    (a plotter such as the HP 7475A whose hard-clip limits lie inside the sheet)."""
+    (a plotter such as the HP 7475A whose hard-clip limits lie inside the sheet), and how many
+    pens the plotter's ``carousel`` holds (HP-GL ``SP 1..n``; a plan with more pens pauses for
+    each pen put in by hand)."""
 
     offset: tuple[float, float] = (0.0, 0.0)
+    carousel: int = 6
 
 
 @dataclass(frozen=True)
@@ -241,6 +245,7 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
             "a list of two numbers, mm from the sheet's bottom-left corner to machine (0, 0)",
             lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
             lambda value: (float(value[0]), float(value[1]))),
+        "carousel": schema.whole(1, 32, "pens the carousel holds"),
     }),
     "pen_change": (PenChange, {
         "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(

@@ -158,3 +158,87 @@ def test_a_power_cycle_while_drawing_stops_the_job_and_its_resume_is_refused(cof
         draw(target, port, profile="hp7475a")
     with pytest.raises(PlotError, match="cannot resume .* exactly"):
         draw(target, port, resume=str(target))
+
+
+class _KeysAt:
+    """The terminal's pause key, pressed once as the plotter starts its ``at``-th instruction."""
+
+    def __init__(self, name, at):
+        self.name, self.at, self.pressed = name, at, False
+
+    def poll(self):
+        if not self.pressed and protocol_sim.plotter(self.name).board.executed >= self.at:
+            self.pressed = True
+            return ["pause"]
+        return []
+
+
+class _Person:
+    """Someone at the plotter: notes each prompt and the plotter's state when it came."""
+
+    def __init__(self, name):
+        self.name, self.seen = name, []
+
+    def pause(self, prompt):
+        board = protocol_sim.plotter(self.name).board
+        board.poll(0.0)
+        self.seen.append((prompt, board.down, bytes(board.buffer), board.pen))
+
+
+def test_the_pause_key_stops_at_once_and_goes_on_from_the_very_instruction(coffee, tmp_path):
+    plan, profile = coffee
+    target = _small_job(plan, profile, tmp_path)
+    draw(target, _fresh("hpgl-pref"), profile="hp7475a")
+    reference = protocol_sim.plotter("hpgl-pref").board.strokes
+    name = "hpgl-pause"
+    person = _Person(name)
+    # Fast but not instant, so the buffer holds work the pause discards and sends again.
+    draw(target, _fresh(name).replace("profile=", "realtime=200&profile="), profile="hp7475a",
+         operator=person, keys=_KeysAt(name, 300))
+    assert [prompt for prompt, *_ in person.seen] == ["paused: the pause key"]
+    assert all(not down and not buffer for _, down, buffer, _ in person.seen)  # at rest, pen up
+    assert drawing_differences(protocol_sim.plotter(name).board.strokes, reference) == []
+
+
+def _eight_pens(tmp_path):
+    from pencilbot.paths import Paths
+    from pencilbot.planning.plan import Layer, Page, Plan
+
+    layers = [Layer(f"l{k}", Paths.of([np.array([[20.0 + 30 * k, 40.0], [45.0 + 30 * k, 60.0], [46.0 + 30 * k, 120.0]])]),
+                    pen=f"pen{k + 1}") for k in range(8)]
+    plan = Plan(Page(297, 210, margin=0.0, name="A4"), layers)
+    target = tmp_path / "eight.hpgl"
+    write_hpgl(plan, load_profile("hp7475a"), target)
+    placement = SheetPlacement.of(plan.page, load_profile("hp7475a"))
+    return target, [placement.to_machine(p) for p in plan.paths()]
+
+
+def test_a_pen_the_carousel_lacks_pauses_with_the_pen_put_away_and_draws_in_its_slot(tmp_path):
+    target, reference = _eight_pens(tmp_path)
+    name = "hpgl-pens"
+    person = _Person(name)
+    draw(target, _fresh(name), profile="hp7475a", operator=person)
+    assert [prompt for prompt, *_ in person.seen] == [
+        "paused: pen change: put pen 7 in carousel slot 1 (in place of pen 1)",
+        "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)"]
+    # Everything before ran, the pen is up and back in the carousel (its slot can be filled).
+    assert all(not down and not buffer and pen == 0 for _, down, buffer, pen in person.seen)
+    board = protocol_sim.plotter(name).board
+    assert board.stroke_pens == [1, 2, 3, 4, 5, 6, 1, 2] and board.error == 0
+    assert drawing_differences(board.strokes, reference, tolerance=UNIT) == []
+
+
+def test_a_pen_change_with_nobody_at_the_terminal_stops_and_the_resume_asks_for_the_pen(tmp_path):
+    target, reference = _eight_pens(tmp_path)
+    name = "hpgl-pens-alone"
+    with pytest.raises(PlotError, match=r"a pen change \(pen change: put pen 7 .*nobody at the terminal"):
+        draw(target, _fresh(name), profile="hp7475a")
+    board = protocol_sim.plotter(name).board
+    assert board.stroke_pens == [1, 2, 3, 4, 5, 6] and board.pen == 0  # pen 6 put away
+    person = _Person(name)
+    draw(target, f"sim://{name}", resume=str(target), operator=person)
+    assert [prompt for prompt, *_ in person.seen] == [
+        "paused: pen change: put pen 7 in carousel slot 1 (in place of pen 1)",
+        "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)"]
+    assert board.stroke_pens == [1, 2, 3, 4, 5, 6, 1, 2]
+    assert drawing_differences(board.strokes, reference, tolerance=UNIT) == []

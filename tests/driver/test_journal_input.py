@@ -45,6 +45,10 @@ TAMPERED = {
     "status odd": ({"status": "finished"}, "status is 'finished', not 'running' or 'stopped'"),
     "baud text": ({"options": {"baud": "fast"}}, "options.baud is 'fast'"),
     "port number": ({"port": 5}, "port is 5, not text"),
+    # An EBB stop's step positions: where a resume or a re-zero looks for the pen.
+    "ebb_moves short": ({"options": {"ebb_moves": [[0, 0, 10]]}}, "options.ebb_moves is [[0, 0, 10]]"),
+    "ebb_origin text": ({"options": {"ebb_origin": ["a", 1]}}, "options.ebb_origin is ['a', 1]"),
+    "ebb_resume floats": ({"options": {"ebb_resume": [[1.5, 2, 3]]}}, "options.ebb_resume is [[1.5, 2, 3]]"),
 }
 
 

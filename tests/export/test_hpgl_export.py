@@ -23,12 +23,12 @@ def _layer(name, pen, x, color="#000000"):
                                  np.array([[x, 150.0], [x + 5.0, 160.0]])]), pen=pen, color=color)
 
 
-def _play(program: bytes) -> HpglBoard:
+def _play(program: bytes, error: int = 0) -> HpglBoard:
     board = HpglBoard(PROFILE)
     for at in range(0, len(program), 512):
         board.receive(program[at : at + 512])
         board.finish()
-    assert board.overflows == 0 and board.error == 0
+    assert board.overflows == 0 and board.error == error
     return board
 
 
@@ -47,11 +47,18 @@ def test_a_colour_plan_selects_carousel_pens_in_load_order_without_pausing():
     assert board.strokes[0][0].tolist() == [20.0, 36.0]
 
 
+def test_pens_beyond_the_carousel_keep_their_numbers_and_the_plotter_refuses_them_unaided():
+    many = Plan(A4, [_layer(f"l{i}", f"pen{i}", 20 + 30 * i) for i in range(8)])
+    found, _ = grammar.split_instructions(hpgl_program(many, PROFILE))
+    assert [int(i.params[0]) for i in found if i.mnemonic == "SP"] == [1, 2, 3, 4, 5, 6, 7, 8, 0]
+    # Sent as it is, with no one to change pens: there is no slot 7 or 8 (OE 3), and the plotter
+    # draws their strokes with the pen it holds (what pencilbot's draw pauses to prevent).
+    board = _play(hpgl_program(many, PROFILE), error=3)
+    assert board.stroke_pens == [k for k in range(1, 7) for _ in range(2)] + [6] * 4
+
+
 def test_what_cannot_be_plotted_is_refused_before_a_file_exists(tmp_path):
     target = tmp_path / "d.hpgl"
-    too_many = Plan(A4, [_layer(f"l{i}", f"pen{i}", 20 + 30 * i) for i in range(7)])
-    with pytest.raises(PencilbotError, match="carousel holds 6"):
-        write_hpgl(too_many, PROFILE, target)
     off = Plan(A4, [Layer("off", Paths.of([np.array([[2.0, 40.0], [50.0, 60.0]])]))])  # left of the limits
     with pytest.raises(OutOfBedError, match="does not fit the limits"):
         write_hpgl(off, PROFILE, target)

@@ -123,3 +123,29 @@ def test_lf_ends_a_command_too_and_probes_of_other_firmware_get_the_boards_error
     assert board.take_output() == b"EBBv13_and_above EB Firmware Version 3.0.3\r\n"
     board.receive(b"VX\x08\r")  # a backspace takes the X back
     assert board.take_output().startswith(b"EBBv13")
+
+
+def test_firmware_before_3_has_no_qu_and_keeps_a_one_deep_fifo():
+    old, new = _board(instant=False, version="2.8.1"), _board(instant=False)
+    assert ask(old, "V") == b"EBBv13_and_above EB Firmware Version 2.8.1\r\n"
+    assert ask(old, "QU,2") == b"!8 Err: Unknown command 'QU:5155'\r\n"
+    assert ask(new, "QU,2") == b"QU,32\r\nOK\r\n"
+    for board in (old, new):
+        assert ask(board, "CU,4,8") == b"OK\r\n"  # 2.8.1 takes it and does nothing
+        replies = [ask(board, "SM,100,10,10") for _ in range(4)]
+        # running, then the FIFO: one place on 2.x (the third waits), eight on 3.x
+        assert replies == ([b"OK\r\n", b"OK\r\n", b"", b""] if board is old else [b"OK\r\n"] * 4)
+
+
+def test_sm_without_steps_is_a_delay_capped_at_100_s():
+    board = _board(instant=False)
+    assert ask(board, "SM,250,0,0") == b"OK\r\n"
+    assert ask(board, "SM,1,1,0") == b"OK\r\n"  # waits in the FIFO behind the delay
+    board.poll(0.2499)
+    assert ask(board, "QS") == b"0,0\n\rOK\r\n"
+    board.poll(0.0012)
+    assert ask(board, "QS") == b"1,0\n\rOK\r\n"
+    capped = _board()
+    ask(capped, "SM,150000,0,0")
+    capped.finish()
+    assert capped.clock == pytest.approx(100.0, abs=1e-3)
