@@ -40,7 +40,7 @@ SAME_FACE = 0.5
 #: (their highlights), and the curve that shades the rest of the skin: ``STRENGTH · t^GAMMA`` for
 #: t from 0 at the highlights to 1 at black.
 PORTRAIT_HIGHLIGHT = 0.05
-PORTRAIT_GAMMA = 1.1
+PORTRAIT_GAMMA = 1.0
 PORTRAIT_STRENGTH = 0.75
 
 

@@ -41,13 +41,15 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 #: Default hatching, the one place these are said (the style's fields and shade() start here):
 #: the families' angles (degrees; along the forms, then across and at 45° to them), the most one
 #: family covers, the share of a family's ramp the next one overlaps, the shortest stroke (mm).
-#: Coverage 0.85 and 1.2 mm strokes (were 0.7 and 2 mm): the first family, the one that follows
+#: Coverage 0.8 and 1.2 mm strokes (were 0.7 and 2 mm): the first family, the one that follows
 #: the forms, carries more of the tone on closer lines, and tone changes over shorter dashes, so
 #: the plot follows the photo at a finer scale with about the same ink (bench/fidelity.py, whole
-#: box rho: starry_night 0.890 -> 0.915, moon 0.936 -> 0.945, baboon 0.937 -> 0.949, coffee
-#: 0.955 -> 0.961; plot time within a minute or two either way).
+#: box rho: starry_night 0.890 -> 0.913, moon 0.936 -> 0.944, baboon 0.937 -> 0.946, coffee
+#: 0.955 -> 0.961; plot time up to a minute or two more). Coverage 0.85 followed the photo a
+#: little better still (starry_night 0.915) but planned 1.3-1.4x slower: the tone loop's cells
+#: shrink with the spacing.
 HATCH_ANGLES = (0.0, 90.0, 45.0, -45.0)
-HATCH_COVERAGE = 0.85
+HATCH_COVERAGE = 0.8
 HATCH_OVERLAP = 0.25
 MIN_HATCH_RUN = 1.2
 
