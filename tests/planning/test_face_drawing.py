@@ -53,9 +53,16 @@ def test_a_face_gets_finer_hatching_than_without(astronaut):
 
     # Shorter dashes on closer lines: more strokes in the face ...
     assert strokes_in_face(on) > 1.3 * strokes_in_face(off)
-    # ... and far from the face the hatching is the same drawing.
+    # ... and far from the face the hatching is no finer: its strokes are as long. (A portrait's
+    # tone is one curve for the whole sheet, so the suit and the wall may be shaded a little more.)
     far = (0, drawing.gray.shape[0] * 0.75, drawing.gray.shape[1], drawing.gray.shape[0])
-    assert _inside(hatch_paths(on), layout, far) == pytest.approx(_inside(hatch_paths(off), layout, far), rel=0.05)
+
+    def far_lengths(plan):
+        return np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum()
+                         for p in hatch_paths(plan) if _inside([p], layout, far) == len(p)])
+
+    assert np.median(far_lengths(on)) == pytest.approx(np.median(far_lengths(off)), rel=0.25)
+    assert far_lengths(on).sum() >= 0.95 * far_lengths(off).sum()
 
 
 def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
