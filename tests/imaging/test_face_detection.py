@@ -37,3 +37,24 @@ def test_the_mask_covers_the_face_and_fades_out():
     soft = mask[(mask > 0) & (mask < 1)]
     assert soft.size > 0  # a soft edge, not a cut
     assert np.all(face_mask((50, 50), []) == 0)
+
+
+def test_a_portraits_tone_shades_the_skin_keeps_highlights_white_and_one_order():
+    from pencilbot.imaging.faces import PORTRAIT_HIGHLIGHT, face_squares, portrait_darkness
+
+    rng = np.random.default_rng(0)
+    photo = rng.uniform(0.1, 0.9, (120, 160)).astype(np.float32)
+    tone = np.where(photo < 0.5, 0.0, photo - 0.5).astype(np.float32)  # the pencil tone: light skin is paper
+    faces = [Face(40, 20, 60, 1.0)]
+    lifted = portrait_darkness(tone, photo, faces)
+    assert np.all(lifted >= tone)  # never lighter than the pencil tone
+    skin = (photo > 0.3) & (photo < 0.5)
+    assert lifted[skin].min() > 0.0  # light skin is shaded, not paper
+    inside = face_squares(photo.shape, faces)
+    highlights = photo <= np.quantile(photo[inside], PORTRAIT_HIGHLIGHT)
+    assert np.all(lifted[highlights] == tone[highlights])  # the lightest stay as the tone had them
+    # One curve for the whole sheet: the same photo and tone darkness, inside a face or not,
+    # are shaded alike (a wall as grey as the cheek is drawn as the cheek).
+    order = np.argsort(photo, axis=None)
+    assert np.all(np.diff(lifted.ravel()[order]) >= -1e-6)
+    assert np.array_equal(portrait_darkness(tone, photo, []), tone)
