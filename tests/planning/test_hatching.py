@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy import ndimage as ndi
 
 from pencilbot.planning.flow import Grid, direction_field
 from pencilbot.planning.hatching import HATCH_COVERAGE, hatch_layers, trace_families
@@ -294,3 +295,18 @@ def test_a_gap_shorter_than_half_the_shortest_stroke_is_bridged():
     assert len(bridged) == 1 and bridged[0][0, 0] == 0.0 and bridged[0][-1, 0] == pytest.approx((n - 1) * SAMPLE_STEP)
     split = strokes_with_gap(12, 18)  # 3 samples off: 1.2 mm, not bridged
     assert len(split) == 2
+
+
+def test_tone_that_changes_over_a_few_millimetres_is_followed_at_that_scale():
+    # Bands 4 mm wide, 0.25 and 0.75 dark (a painting's brush strokes): the loop corrects at
+    # SHARP_CORRECTION_BLUR there, so the bands stay apart on paper (contrast 0.27 at 1 mm);
+    # with the 2 mm correction alone they run into each other (0.19, measured).
+    layout = _layout((160, 160))
+    tone = np.where((np.arange(160) // 8) % 2 == 0, 0.25, 0.75).astype(np.float32)
+    layers = shade(np.tile(tone, (160, 1)), layout, [], pen_width=0.5)
+    x0, y0, x1, y1 = layout.drawing_box
+    ink = render_paths([p for layer in layers for p in layer.paths], x1 - x0, y1 - y0, dpi=254, pen_width=0.5,
+                       origin=(x0, y0))
+    across = ndi.gaussian_filter(ink, 10).mean(axis=0)[60:-60]  # 1 mm blur, away from the sides
+    dark = np.repeat(tone, 5)[60:-60] > 0.5
+    assert across[dark].mean() - across[~dark].mean() > 0.24
