@@ -287,7 +287,10 @@ def lm_ticks(steps: int, rate: int, accel: int, carry: int = 0) -> int:
     if t < 0:
         return -1
     t = max(math.floor(t) - 1, 0)
+    peak = -rate / accel if accel < 0 else math.inf  # a slowing axis covers less after this tick
     while rate * t + accel * t * t / 2 < need:  # exact integers from the float's neighbourhood
+        if t > peak:
+            return -1  # the float said it just gets there; the exact ticks fall short: it stalls
         t += 1
     return t
 

@@ -2,6 +2,8 @@
 default profile), in an empty configuration folder of its own. This folder is on the import path
 (pytest puts a conftest's folder there), so tests share the drawings of ``drawings.py``."""
 
+import os
+
 import pytest
 
 
@@ -9,3 +11,20 @@ import pytest
 def own_config_folder(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("PENCILBOT_CONFIG_DIR", str(tmp_path_factory.mktemp("config")))
     monkeypatch.delenv("PENCILBOT_PROFILE", raising=False)
+
+
+#: Workers for the whole suite (``pytest -q``, pyproject's ``-n auto``). The suite mostly waits
+#: (pseudo-terminals, virtual plotters on a real-time clock, a headless browser, CLI subprocesses),
+#: so four workers overlap those waits even on a 2-core machine.
+SUITE_WORKERS = 4
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_xdist_auto_num_workers(config):
+    """How many pytest-xdist workers ``-n auto`` starts: :data:`SUITE_WORKERS` for the whole suite,
+    none (the tests run in this process) when files or tests are named, where starting workers
+    would cost more than it saves. ``-n N`` on the command line or $PYTEST_XDIST_AUTO_NUM_WORKERS
+    still decide."""
+    if os.environ.get("PYTEST_XDIST_AUTO_NUM_WORKERS"):
+        return None  # xdist's own reading of it
+    return SUITE_WORKERS if config.args_source == pytest.Config.ArgsSource.TESTPATHS else 0

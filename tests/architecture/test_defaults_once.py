@@ -10,6 +10,7 @@ literal comes back.
 from __future__ import annotations
 
 import ast
+import functools
 from pathlib import Path
 
 import pytest
@@ -39,7 +40,9 @@ HOMES = {
 HOME_OF_NUMBER = {115200: "pencilbot/firmware/base.py", 96: "pencilbot/units.py", 25.4: "pencilbot/units.py"}
 
 
+@functools.cache
 def _trees():
+    """Every product file parsed, once for the module's tests (the source does not change under them)."""
     return [(path.relative_to(ROOT).as_posix(), ast.parse(path.read_text(), str(path))) for path in PRODUCT]
 
 

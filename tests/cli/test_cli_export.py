@@ -104,13 +104,16 @@ def test_several_inputs_go_into_a_folder(plan_svg, tmp_path):
     assert any(c.command_str == "M280" for c in commands(folder / "again.gcode"))
 
 
-def test_profile_by_file_path(plan_svg, tmp_path):
-    profile = tmp_path / "mine.toml"
+def test_profile_by_file_path(plan_svg, tmp_path, monkeypatch):
+    # The profile named as a short relative path: the header's comment is cut at the line limit,
+    # and a long temporary folder (a pytest-xdist worker's) would cut the path it must show.
+    monkeypatch.chdir(tmp_path)
+    profile = "mine.toml"
     text = open_shipped("plotters/grbl-servo-a4.toml")
-    profile.write_text(text.replace("decimals = 3", "decimals = 1"), encoding="utf-8")
+    (tmp_path / profile).write_text(text.replace("decimals = 3", "decimals = 1"), encoding="utf-8")
     out = tmp_path / "p.gcode"
-    assert main(["export", str(plan_svg), "-o", str(out), "--profile", str(profile)]) == 0
-    assert f"; profile: {profile}" in out.read_text()
+    assert main(["export", str(plan_svg), "-o", str(out), "--profile", profile]) == 0
+    assert f"; profile: {profile}\n" in out.read_text()
 
 
 def open_shipped(name: str) -> str:

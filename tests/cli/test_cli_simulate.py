@@ -213,9 +213,10 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
             port.write(grbl.SOFT_RESET)
             seen = b""
             end = time.monotonic() + 10
-            while b"Grbl 1.1h" not in seen and time.monotonic() < end:
+            while b"Grbl 1.1h ['$' for help]\r\n" not in seen and time.monotonic() < end:  # the whole line
                 seen += port.read(64)
             assert b"Grbl 1.1h" in seen
+            port.timeout = ANSWER_WAIT
             for line in SQUARE.splitlines():
                 port.write(grbl.encode_line(line))
                 assert port.readline() == b"ok\r\n"
@@ -236,10 +237,16 @@ def serve(tmp_path, *argv):
     return proc, proc.stdout.readline().strip()
 
 
+#: s to wait for an answer that is known to come (a line returns as soon as it arrives): 0.1 s
+#: was too short for the server process on a loaded machine (b'' instead of ok).
+ANSWER_WAIT = 10.0
+
+
 def stream(path, lines):
     with serial.Serial(path, 115200, timeout=0.1) as port:
         time.sleep(0.1)  # the open resets the board, like an Arduino
         port.reset_input_buffer()
+        port.timeout = ANSWER_WAIT
         for line in lines:
             port.write(grbl.encode_line(line))
             assert port.readline() == b"ok\r\n"
