@@ -279,8 +279,8 @@ def plan_from_sketch(
             layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=style.order_rounds
         )
         ordered.append(replace(layer, paths=paths))
-        if paths:
-            position = tuple(paths[-1][-1])
+        if len(paths):
+            position = tuple(paths.points[-1])
         log.debug("layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started)
 
     meta = {
@@ -346,13 +346,13 @@ def features_only(
 
 
 def ink_on_image_grid(
-    paths: Paths | list[np.ndarray], layout: Layout, *, pen_width: float, coarsen: int = 1
+    paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1
 ) -> np.ndarray:
     """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
 
     Parameters
     ----------
-    paths : Paths or list of (N, 2) arrays
+    paths : Paths
         Paths in page mm, Y up.
     layout : Layout
         The placement that produced them.
@@ -369,7 +369,6 @@ def ink_on_image_grid(
         Ink per image pixel (or block), as the plotter's pen would lay it at plot scale.
     """
     height, width = layout.image_shape
-    paths = Paths.of(paths)
     # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
     points = layout.mm_to_px(paths.points)
     points[:, 1] = height - 0.5 - points[:, 1]

@@ -35,6 +35,7 @@ from skimage.color import deltaE_ciede2000, rgb2lab
 
 from pencilbot.colours import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.machine.pens import Pen
+from pencilbot.paths import Paths
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.shading import shade
 
@@ -156,7 +157,7 @@ def pen_angles(base: Sequence[float], index: int, count: int) -> tuple[float, ..
 
 
 def colour_hatching(
-    target: np.ndarray, layout, pens: Sequence[Pen], edges: list[np.ndarray], *,
+    target: np.ndarray, layout, pens: Sequence[Pen], edges: Paths, *,
     form: np.ndarray, paper: np.ndarray, angles: Sequence[float], **shading,
 ) -> list[Layer]:
     """Hatch layers of every pen whose stacked inks follow a colour picture.
@@ -168,7 +169,7 @@ def colour_hatching(
     layout : Layout
     pens : sequence of Pen
         In load order (lightest first); the last draws the contours ``edges`` and carries their ink.
-    edges : list of (N, 2) arrays
+    edges : Paths
         Contour strokes (page mm) drawn in the last pen.
     form : (H, W) float array
         Tone whose forms every pen's hatching follows (the black plan's darkness).
@@ -193,7 +194,7 @@ def colour_hatching(
             continue
         last = index == len(pens) - 1
         hatches = shade(
-            amount, layout, edges if last else [], paper=paper, form=form, pen_width=pen.width,
+            amount, layout, edges if last else Paths.empty(), paper=paper, form=form, pen_width=pen.width,
             angles=pen_angles(angles, index, len(pens)), seed=seed + 101 * index, **shading,
         )
         layers += [

@@ -30,6 +30,7 @@ from skimage.metrics import structural_similarity
 
 from pencilbot.colours import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.imaging.pencil import Sketch
+from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Plan
@@ -218,7 +219,7 @@ def plan_colour(plan: Plan, shape: tuple[int, int], *, cell: float = COLOUR_CELL
     covers, colors = [], []
     for _, layers in plan.pen_runs():
         covers.append(ink_on_image_grid(
-            [p for layer in layers for p in layer.paths], layout, pen_width=layers[0].pen_width, coarsen=coarsen))
+            Paths.concat(layer.paths for layer in layers), layout, pen_width=layers[0].pen_width, coarsen=coarsen))
         colors.append(layers[0].color)
     if not covers:
         rows, cols = -(-shape[0] // coarsen), -(-shape[1] // coarsen)

@@ -14,6 +14,7 @@ from skimage.color import deltaE_ciede2000, rgb2lab
 
 from pencilbot.colours import inks_on_paper
 from pencilbot.machine.pens import load_pens
+from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.colour import MOST_INK, colour_hatching, pen_angles, separate, separation_table
 from pencilbot.planning.layout import Layout
@@ -102,11 +103,11 @@ def patch_plan(rgb, pens):
     layout = Layout.fit(PATCH_PX, PAGE)
     target = np.broadcast_to(np.asarray(rgb, np.float32), (*PATCH_PX, 3)).copy()
     tone = np.full(PATCH_PX, 0.5, np.float32)
-    layers = colour_hatching(target, layout, pens, [], form=tone, paper=tone, angles=(0.0, 90.0, 45.0, -45.0),
+    layers = colour_hatching(target, layout, pens, Paths.empty(), form=tone, paper=tone, angles=(0.0, 90.0, 45.0, -45.0),
                              form_scale=0.0, seed=3)
     inks = {}
     for pen in pens:
-        mine = [p for layer in layers if layer.pen == pen.name for p in layer.paths]
+        mine = Paths.concat(layer.paths for layer in layers if layer.pen == pen.name)
         inks[pen.name] = ink_on_image_grid(mine, layout, pen_width=pen.width)[20:-20, 20:-20]
     return layers, inks
 

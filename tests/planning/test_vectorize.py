@@ -9,6 +9,7 @@ from skimage.draw import disk, polygon
 
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.strokes import LineDrawing, line_drawing
+from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Page
@@ -225,10 +226,10 @@ def test_speckle_and_weak_edges_draw_nothing():
     edges[rng.integers(0, h, 40) // 4 * 4, rng.integers(0, w, 40) // 4 * 4] = 1.0
     labels = rng.integers(0, 8, (h, w)).astype(np.uint8)
     layout = _layout((h, w))
-    assert edge_strokes(_hand_made(edges, labels), layout, min_pixels=3) == []
+    assert edge_strokes(_hand_made(edges, labels), layout, min_pixels=3) == Paths.empty()
     weak = np.zeros((h, w), np.float32)
     weak[40, 10:70] = 0.2
-    assert edge_strokes(_hand_made(weak, np.zeros((h, w), np.uint8)), layout, threshold=0.3) == []
+    assert edge_strokes(_hand_made(weak, np.zeros((h, w), np.uint8)), layout, threshold=0.3) == Paths.empty()
     assert edge_strokes(_hand_made(weak, np.zeros((h, w), np.uint8)), layout, threshold=0.1)
 
 
@@ -243,7 +244,7 @@ def test_speckle_and_weak_edges_draw_nothing():
 )
 def test_paper_that_should_stay_paper_gets_no_edge_strokes(gray):
     line = line_drawing(edge_map(gray.astype(np.float32)))
-    assert edge_strokes(line, _layout(gray.shape)) == []
+    assert edge_strokes(line, _layout(gray.shape)) == Paths.empty()
 
 
 def test_edge_threshold_is_where_the_raster_stroke_is_dark_enough():
