@@ -40,7 +40,7 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 # A round of improvement, about one full pass with its checks, costs 1.5 work units per end
 # (see tour_search.CALL_COST for the units).
 _ROUND_COST = 1.5
-DEFAULT_ROUNDS = 40  # ~0.76 of greedy's pen-up travel on photo plans (bench/ordering.py)
+DEFAULT_ROUNDS = 40  # ~0.74 of greedy's pen-up travel on photo plans (bench/ordering.py: coffee 0.73, astronaut 0.74)
 # Rounds × paths is capped so that huge layers stay linear in cost: 2 rounds from 100 000
 # paths on (1.28x the lower bound there, bench/scale.py), all 40 on photo layers.
 ROUND_WORK = 200_000
