@@ -309,13 +309,13 @@ def plan_from_sketch(
 
 
 def features_only(
-    strokes: list[np.ndarray], layout: Layout, photo: np.ndarray, important: np.ndarray, faces: list
-) -> list[np.ndarray]:
+    strokes: Paths, layout: Layout, photo: np.ndarray, important: np.ndarray, faces: list
+) -> Paths:
     """The edge strokes less those in a face that are no dark feature (see FEATURE_SHARE).
 
     Parameters
     ----------
-    strokes : list of (N, 2) arrays
+    strokes : Paths
         Edge paths, page mm.
     layout : Layout
     photo : (H, W) float array
@@ -327,22 +327,22 @@ def features_only(
 
     Returns
     -------
-    list of (N, 2) arrays
+    Paths
+        ``strokes`` without those, in order.
     """
-    if not strokes:
+    if not len(strokes):
         return strokes
     photo = np.asarray(photo, np.float32)
     dark = cv2.GaussianBlur(photo, (0, 0), FEATURE_BLUR / layout.mm_per_px)
     valley = dark - cv2.GaussianBlur(photo, (0, 0), FEATURE_SURROUND / layout.mm_per_px)
     level = float(np.quantile(dark[face_squares(dark.shape, faces)], FEATURE_SHARE))
-    sizes = np.array([len(path) for path in strokes])
-    px = np.rint(layout.mm_to_px(np.concatenate(strokes))).astype(np.intp)
+    sizes, owner = strokes.lengths, strokes.owners()
+    px = np.rint(layout.mm_to_px(strokes.points)).astype(np.intp)
     cols, rows = np.clip(px[:, 0], 0, dark.shape[1] - 1), np.clip(px[:, 1], 0, dark.shape[0] - 1)
-    owner = np.repeat(np.arange(len(strokes)), sizes)
     in_face = np.bincount(owner, important[rows, cols]) / sizes > 0.5
     light = np.bincount(owner, dark[rows, cols]) / sizes < level
     flat = np.bincount(owner, valley[rows, cols]) / sizes < FEATURE_VALLEY
-    return [path for path, drop in zip(strokes, in_face & light & flat, strict=True) if not drop]
+    return strokes.take(np.flatnonzero(~(in_face & light & flat)))
 
 
 def ink_on_image_grid(
