@@ -157,13 +157,13 @@ def _save_colour_plot(output: Path, plotter, pens: list, *, dpi: float, pen_widt
                     travel=plotter.machine.bed_travel() if travel else None)
 
 
-def strokes_by_pen(machine, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
+def strokes_by_pen(drawing, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
     """A virtual plotter's pen-down strokes (machine mm) grouped by the pen that drew them, in
     the order the pens came: a stroke's pen is the one the last pen change before it asked for
     (``pens``: :func:`~pencilbot.export.gcode.pens_at_pauses` of the program), else ``default``.
     """
     groups: dict[str, tuple[PenInFile, list]] = {}
-    for stroke, pauses in zip(machine.strokes, machine.stroke_pauses):
+    for stroke, pauses in zip(drawing.strokes, drawing.stroke_pauses):
         pen = (pens[pauses - 1] if 0 < pauses <= len(pens) else None) or default
         groups.setdefault(pen.name, (pen, []))[1].append(stroke)
     return list(groups.values()) or [(default, [])]
