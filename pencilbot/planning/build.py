@@ -24,7 +24,7 @@ from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.colour import colour_hatching
+from pencilbot.planning.color import color_hatching
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -71,7 +71,7 @@ def make_plan(
     pens : PenSet, str or Path, optional
         The pens (a :class:`~pencilbot.machine.pens.PenSet`, a shipped set's name or a file);
         default: the plotter's one pen, black. With several pens the plan is of the colour
-        sketch (:mod:`pencilbot.planning.colour`).
+        sketch (:mod:`pencilbot.planning.color`).
 
     Returns
     -------
@@ -229,11 +229,11 @@ def plan_from_sketch(
     if faces:
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     layers = []
-    colour = pens is not None and len(pens.pens) > 1
-    if style.hatch and colour:
+    in_color = pens is not None and len(pens.pens) > 1
+    if style.hatch and in_color:
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
-        layers += colour_hatching(
+        layers += color_hatching(
             drawing.result, layout, pens.load_order, strokes, form=1.0 - drawing.tone, paper=1.0 - drawing.gray,
             angles=style.hatch_angles, coverage=style.hatch_coverage, form_scale=style.hatch_form,
             min_run=style.min_hatch_run, blank_below=style.hatch_blank_below, wobble=style.hatch_jitter,
@@ -262,7 +262,7 @@ def plan_from_sketch(
     else:
         dark = pens.darkest
         layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
-        layers.append(Layer(f"{dark.name}-edges" if colour else "edges", strokes, pen_width=dark.width,
+        layers.append(Layer(f"{dark.name}-edges" if in_color else "edges", strokes, pen_width=dark.width,
                             role="edges", pen=dark.name, color=dark.color))
 
     ordered, position = [], HOME
