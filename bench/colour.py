@@ -5,10 +5,10 @@ sheet (15 mm margin, orientation auto) with each pen set asked for (default ``cm
 the baseline, with the one black pen. Each plan is written as G-code for grbl-servo-a4 and
 streamed through the driver into the virtual plotter (``sim://``, its operator loading each pen
 at the pen change); the plotter's pen-down strokes, told apart by the pen changes they followed,
-are stacked as ink layers on paper (:func:`pencilbot.colours.inks_on_paper`). The yardstick:
+are stacked as ink layers on paper (:func:`pencilbot.colors.inks_on_paper`). The yardstick:
 
 * mean CIEDE2000 ΔE00 between the colour sketch (``sketch --color``) and the simulated plot,
-  both Gaussian-blurred by σ = 3 mm in linear light (:func:`pencilbot.planning.fidelity.colour_difference`);
+  both Gaussian-blurred by σ = 3 mm in linear light (:func:`pencilbot.planning.fidelity.color_difference`);
 * per pen: pen-down length (m) and plot time (acceleration-aware estimate, min); in all: the
   simulated plot time (pen changes not counted: the operator is instant).
 
@@ -39,7 +39,7 @@ from pencilbot.machine.bed import Placement
 from pencilbot.machine.pens import load_pens
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.build import sketch_and_plan
-from pencilbot.planning.fidelity import colour_difference, plan_colour
+from pencilbot.planning.fidelity import color_difference, plan_color
 from pencilbot.planning.plan import BLACK, Layer, Plan
 from pencilbot.planning.stats import estimate
 from sim import protocol_sim
@@ -93,12 +93,12 @@ def measure(name: str, pen_sets: list[str], montage: Path | None) -> dict:
             reference = drawing.result  # every plan is of the same image at the same plot size
         drawn, seconds = simulated_plan(plan, profile)
         result[pens or "black_only"] = {
-            "delta_e00_3mm": round(colour_difference(drawn, reference), 2),
-            "delta_e00_3mm_plan": round(colour_difference(plan, reference), 2),
+            "delta_e00_3mm": round(color_difference(drawn, reference), 2),
+            "delta_e00_3mm_plan": round(color_difference(plan, reference), 2),
             "simulated_plot_min": round(seconds / 60, 1),
             "pens": per_pen(plan, profile),
         }
-        pictures.append(plan_colour(drawn, reference.shape[:2])[0])
+        pictures.append(plan_color(drawn, reference.shape[:2])[0])
     if montage is not None:
         write_montage(montage / f"{name}.png", [image.rgb, reference, *pictures])
     return result

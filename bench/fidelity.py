@@ -51,6 +51,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.imaging.faces import find_faces
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
+from pencilbot.paths import Paths
 from pencilbot.planning.build import HOME, at_plot_resolution, plan_from_sketch
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, likeness, plotted_darkness, region_rho
 from pencilbot.planning.layout import Layout, page_size
@@ -230,8 +231,8 @@ def hatched_peer(image: LoadedImage, name: str) -> dict:
         cv2.imwrite(str(file), np.rint(image.gray * 255).astype(np.uint8))
         with contextlib.redirect_stdout(sys.stderr):  # hatched prints its errors
             lines = hatched.hatch(str(file), hatch_pitch=1.0 / layout.mm_per_px, show_plot=False, save_svg=False)
-    paths = [layout.px_to_mm(np.asarray(line.coords)) for line in lines.geoms]
-    if not paths:
+    paths = Paths.of(layout.px_to_mm(np.asarray(line.coords)) for line in lines.geoms)
+    if not len(paths):
         return {"error": "hatched drew nothing (it failed on this photo; see stderr)"}
     plotted = plotted_darkness(paths, layout.drawing_box, pen_width=0.5)
     vs_photo = likeness(plotted, 1.0 - image.gray)

@@ -18,18 +18,19 @@ import numpy as np
 from skimage import data
 
 from pencilbot.imaging.io import image_from_array
+from pencilbot.paths import Paths
 from pencilbot.planning.build import make_plan
 from pencilbot.planning.ordering import DEFAULT_ROUNDS, greedy_order, order_paths, travel_length
 
 
-def synthetic_uniform(n: int, rng) -> list[np.ndarray]:
+def synthetic_uniform(n: int, rng) -> Paths:
     """Short random strokes (1–5 mm) scattered over an A4 drawing area."""
     start = rng.uniform([15, 15], [195, 282], (n, 2))
     step = rng.normal(0, 2.0, (n, 2))
-    return list(np.stack([start, start + step], axis=1))
+    return Paths(np.stack([start, start + step], axis=1).reshape(-1, 2), np.arange(0, 2 * n + 1, 2))
 
 
-def synthetic_contours(n: int, rng) -> list[np.ndarray]:
+def synthetic_contours(n: int, rng) -> Paths:
     """Overlapping 3 mm strokes along random circles, like vectorised image edges."""
     per = 40
     circles = max(n // per, 1)
@@ -40,10 +41,10 @@ def synthetic_contours(n: int, rng) -> list[np.ndarray]:
     d = 3.0 / radius[:, None]
     b = centre[:, None] + radius[:, None, None] * np.stack([np.cos(t + d), np.sin(t + d)], -1)
     strokes = np.stack([a, b], axis=2).reshape(-1, 2, 2)[:n]
-    return list(strokes[rng.permutation(len(strokes))])
+    return Paths(strokes[rng.permutation(len(strokes))].reshape(-1, 2), np.arange(0, 2 * len(strokes) + 1, 2))
 
 
-def measure(paths: list[np.ndarray], rounds: int, start=(0.0, 0.0)) -> dict:
+def measure(paths: Paths, rounds: int, start=(0.0, 0.0)) -> dict:
     t0 = time.perf_counter()
     greedy = greedy_order(paths, start)
     t1, c1 = time.perf_counter(), time.process_time()
@@ -64,14 +65,13 @@ def measure(paths: list[np.ndarray], rounds: int, start=(0.0, 0.0)) -> dict:
     }
 
 
-def real_sets(rng) -> dict[str, list[np.ndarray]]:
+def real_sets(rng) -> dict[str, Paths]:
     """Per-layer strokes of the coffee and astronaut plans (A4 portrait, 0.5 mm pen)."""
     sets = {}
     for name in ("coffee", "astronaut"):
         plan = make_plan(image_from_array(getattr(data, name)(), source=name))
         for layer in plan.layers:
-            paths = list(layer.paths)
-            sets[f"{name}/{layer.name}"] = [paths[i] for i in rng.permutation(len(paths))]
+            sets[f"{name}/{layer.name}"] = layer.paths.take(rng.permutation(len(layer.paths)))
     return sets
 
 

@@ -29,6 +29,7 @@ from skimage import data
 from pencilbot.machine.profile import load_profile
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
+from pencilbot.paths import Paths
 from pencilbot.planning.build import HOME, ink_on_image_grid, plan_from_sketch
 from pencilbot.planning.fidelity import fidelity
 from pencilbot.planning.layout import Layout, page_size
@@ -51,10 +52,10 @@ def greedy_travel(plan) -> float:
     position, ordered = HOME, []
     for layer in plan.layers:
         paths = greedy_order(layer.paths, start=position)
-        if paths:
-            position = tuple(paths[-1][-1])
-        ordered += paths
-    return travel_length(ordered, HOME)
+        if len(paths):
+            position = tuple(paths.points[-1])
+        ordered.append(paths)
+    return travel_length(Paths.concat(ordered), HOME)
 
 
 def measure(name: str, rgb) -> dict:

@@ -217,6 +217,7 @@ def _vpype_two_opt(paths, home) -> dict:
     import vpype
     import vpype_cli
 
+    from pencilbot.paths import Paths
     from pencilbot.planning.ordering import travel_length
 
     document = vpype.Document()
@@ -224,7 +225,7 @@ def _vpype_two_opt(paths, home) -> dict:
     cpu = time.process_time()
     document = vpype_cli.execute("linesort --two-opt", document=document)
     cpu = time.process_time() - cpu
-    lines = [np.stack([line.real, line.imag], axis=1) for line in document.layers[1]]
+    lines = Paths.of(np.stack([line.real, line.imag], axis=1) for line in document.layers[1])
     return {"vpype_two_opt_pen_up_mm": round(travel_length(lines, home), 1), "vpype_two_opt_cpu_s": round(cpu, 2)}
 
 

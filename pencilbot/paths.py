@@ -98,7 +98,7 @@ class Paths:
         if isinstance(index, slice):
             start, stop, step = index.indices(count)
             if step != 1:
-                return Paths.of(self[i] for i in range(start, stop, step))
+                return self.take(np.arange(start, stop, step))
             if start >= stop:
                 return Paths.empty()
             first, end = self.offsets[start], self.offsets[stop]
@@ -137,6 +137,33 @@ class Paths:
         """Last point of every path, ``(P, 2)``."""
         return self.points[self.offsets[1:] - 1]
 
+    def drawn_lengths(self) -> np.ndarray:
+        """Length of every path along its points, ``(P,)`` float64 (mm; 0 for a dot)."""
+        counts = self.lengths - 1
+        drawn = np.zeros(len(self))
+        if not counts.any():
+            return drawn
+        segments = np.linalg.norm(np.diff(self.points, axis=0), axis=1)
+        segments = np.delete(segments, self.offsets[1:-1] - 1)  # the gaps between paths
+        has = counts > 0
+        drawn[has] = np.add.reduceat(segments, (np.cumsum(counts) - counts)[has])
+        return drawn
+
+    def take(self, order, reverse=None) -> Paths:
+        """The paths ``order`` (indices, in that order); those where ``reverse`` (per taken path,
+        bool) is true run last point first."""
+        order = np.asarray(order, np.int64).reshape(-1)
+        if order.size == 0:
+            return Paths.empty()
+        sizes = self.lengths[order]
+        ramp = ramps(sizes)
+        index = np.repeat(self.offsets[order], sizes)
+        if reverse is None:
+            index += ramp
+        else:
+            index += np.where(np.repeat(np.asarray(reverse, bool), sizes), np.repeat(sizes - 1, sizes) - ramp, ramp)
+        return Paths(self.points[index], np.concatenate([[0], np.cumsum(sizes)]))
+
     def owners(self) -> np.ndarray:
         """Index of the path each point belongs to, ``(N,)`` int64."""
         return np.repeat(np.arange(len(self)), self.lengths)
@@ -144,3 +171,10 @@ class Paths:
     def with_points(self, points: np.ndarray) -> Paths:
         """The same paths through other points (e.g. mapped to another frame), ``(N, 2)``."""
         return Paths(points, self.offsets)
+
+
+def ramps(sizes) -> np.ndarray:
+    """0, 1, …, s − 1 for every s in ``sizes``, back to back: ``(Σ sizes,)`` intp (the place of
+    each point in its path, when ``sizes`` are path lengths)."""
+    sizes = np.asarray(sizes, np.intp)
+    return np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)

@@ -17,65 +17,28 @@ import numpy as np
 from pencilbot.paths import Paths
 from sim.ebb_board import EbbBoard
 from sim.protocol_sim import VirtualPlotter
-from sim.recorder import Polylines
+from sim.recorder import StrokeRecorder
 
 
-class EbbDrawing:
-    """What the pen drew and where it travelled (machine mm), in the GRBL machine's terms
-    (``drawn``, ``strokes``, ``stroke_pauses``, ``travel``, ``bed_strokes``, ``bed_travel``),
-    so ``simulate`` and ``demo`` read either simulator alike."""
+class EbbDrawing(StrokeRecorder):
+    """What the pen drew and where it travelled (machine mm), recorded as the GRBL machine records
+    it (:class:`~sim.recorder.StrokeRecorder`: ``drawn``, ``strokes``, ``stroke_pauses``,
+    ``travel``, ``bed_strokes``, ``bed_travel``), so ``simulate`` and ``demo`` read either
+    simulator alike. ``pauses`` counts the PRG presses answered (a pen change each)."""
 
-    def __init__(self, profile, pauses):
+    slip = (0.0, 0.0)  # the EBB's steps are where the carriage is
+
+    def __init__(self, profile, pauses) -> None:
+        super().__init__()
         self.profile, self._pauses = profile, pauses
-        self._strokes = Polylines()
-        self._stroke: list[tuple[float, float]] = []
-        self._stroke_pause = 0
-        self._stroke_pauses: list[int] = []
-        self._travel = Polylines()
+
+    @property
+    def pauses(self) -> int:
+        return self._pauses()
 
     def record(self, start, end, drawing: bool) -> None:
-        start, end = (float(start[0]), float(start[1])), (float(end[0]), float(end[1]))
-        if drawing:
-            if not self._stroke or self._stroke[-1] != start:
-                self._close()
-                self._stroke.append(start)
-                self._stroke_pause = self._pauses()
-            self._stroke.append(end)
-        else:
-            self._close()
-            self._travel.add((start, end))
-
-    def _close(self) -> None:
-        if len(self._stroke) >= 2:
-            self._strokes.add(self._stroke)
-            self._stroke_pauses.append(self._stroke_pause)
-        self._stroke = []
-
-    def drawn(self) -> Paths:
-        """Pen-down polylines so far, machine mm (the one being drawn last)."""
-        return self._strokes.paths(self._stroke if len(self._stroke) >= 2 else None)
-
-    @property
-    def strokes(self) -> list[np.ndarray]:
-        return list(self.drawn())
-
-    @property
-    def stroke_pauses(self) -> list[int]:
-        """For each stroke, the pauses (PRG presses answered) passed when it began."""
-        return self._stroke_pauses + ([self._stroke_pause] if len(self._stroke) >= 2 else [])
-
-    @property
-    def travel(self) -> list[np.ndarray]:
-        return list(self._travel.paths())
-
-    def bed_strokes(self) -> Paths:
-        return self._bed_view(self.drawn())
-
-    def bed_travel(self) -> Paths:
-        return self._bed_view(self._travel.paths())
-
-    def _bed_view(self, paths: Paths) -> Paths:
-        return Paths(self.profile.bed.to_view(paths.points), paths.offsets) if len(paths.points) else paths
+        """A stretch the carriage moved, pen down when ``drawing`` (machine mm)."""
+        self._record(start, end, drawing)
 
 
 class VirtualEbb(VirtualPlotter):

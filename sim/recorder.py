@@ -15,7 +15,8 @@ from sim.planner import Block
 class StrokeRecorder:
     """The recorder part of :class:`sim.machine.Machine`, kept apart: mixed into it, these
     methods read its ``pauses`` (``M0`` pauses reached), ``slip`` (carriage minus count) and
-    ``profile`` (the bed's view), and record each stretch the carriage moved.
+    ``profile`` (the bed's view), and record each stretch the carriage moved. The virtual EBB
+    records its drawing with it too (:class:`sim.ebb_plotter.EbbDrawing`).
     """
 
     def __init__(self) -> None:
@@ -83,7 +84,7 @@ class StrokeRecorder:
         return self._bed_view(self._travel.paths())
 
     def _bed_view(self, paths: Paths) -> Paths:
-        return Paths(self.profile.bed.to_view(paths.points), paths.offsets)
+        return Paths(self.profile.bed.to_view(paths.points), paths.offsets) if len(paths) else paths
 
 
 class Polylines:

@@ -72,7 +72,7 @@ def run(args: argparse.Namespace) -> int:
     from pencilbot.machine.profile import load_profile
     from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.planning.build import plot_resolution, sketch_and_plan, with_pens
-    from pencilbot.planning.fidelity import colour_difference, fidelity, photo_likeness
+    from pencilbot.planning.fidelity import color_difference, fidelity, photo_likeness
     from pencilbot.planning.layout import page_size
     from pencilbot.planning.preview import preview as plan_preview
     from pencilbot.planning.preview import preview_image
@@ -98,17 +98,17 @@ def run(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     page = page_size(style.page, style.orientation, image.shape, style.margin)
     drawing, plan = sketch_and_plan(image, page=page, style=style, pens=pens)
-    colour = len(plan.pens) > 1
+    in_color = len(plan.pens) > 1
     write_image(drawing.result, out / "sketch.png")
-    step.done(f"sketch.png: GMED pencil sketch{' in colour' if colour else ''}", started)
+    step.done(f"sketch.png: GMED pencil sketch{' in colour' if in_color else ''}", started)
 
     started = time.perf_counter()
     write_svg(plan, out / "plan.svg")
     preview = plan_preview(plan, PREVIEW_DPI)
     write_png(out / "preview.png", preview_image(plan, PREVIEW_DPI))
-    faithful = fidelity(plan, drawing) if style.hatch and not colour else None
+    faithful = fidelity(plan, drawing) if style.hatch and not in_color else None
     alike = photo_likeness(plan, drawing)
-    delta_e = colour_difference(plan, drawing.result) if colour else None
+    delta_e = color_difference(plan, drawing.result) if in_color else None
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
@@ -194,7 +194,7 @@ def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[fl
     from pencilbot.export.gcode import PenInFile, pens_at_pauses
     from pencilbot.planning.fidelity import pearson
     from pencilbot.planning.plan import BLACK
-    from pencilbot.render import Canvas, colour_image, write_png
+    from pencilbot.render import Canvas, color_image, write_png
     from sim import protocol_sim
 
     sim.register()
@@ -217,7 +217,7 @@ def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[fl
         # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
         plot.draw_paths([placement.to_page(stroke[:, :2]) for stroke in strokes])
         plots.append(plot)
-    write_png(out / "plot.png", colour_image(plots, [ink.color for ink, _ in by_pen]) if pens else plots[0].to_image())
+    write_png(out / "plot.png", color_image(plots, [ink.color for ink, _ in by_pen]) if pens else plots[0].to_image())
     darkness = 1.0 - np.prod([1.0 - plot.darkness for plot in plots], axis=0)
     return seconds, pen_up, pearson(darkness, preview.darkness)
 

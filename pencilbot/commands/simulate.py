@@ -34,7 +34,7 @@ from pencilbot.machine.pens import load_pens
 from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.planning.plan import BLACK
 from pencilbot.planning.stats import duration_text
-from pencilbot.render import save_colour_png
+from pencilbot.render import save_color_png
 
 _RUNS = itertools.count(1)
 
@@ -89,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
 
     pens = carousel or pens_at_pauses(program)  # HP-GL: SP n is the n-th pen
     if getattr(args, "pens", None) and any(pens):
-        pens = _recoloured(pens, load_pens(args.pens))
+        pens = _recolored(pens, load_pens(args.pens))
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
     # A preview's plotter has soft limits at the bed's edges (sim:// limits=bed), so a move off
     # the bed fails with GRBL's alarm instead of being drawn off the picture.
@@ -133,7 +133,7 @@ def _counted(blocks, bar):
 
 def _save_plot(output: Path, plotter, pens: list, args: argparse.Namespace, pen_width: float) -> None:
     if any(pens):
-        _save_colour_plot(output, plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
+        _save_color_plot(output, plotter, pens, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
     else:
         plotter.save_png(output, dpi=args.dpi, pen_width=pen_width, travel=args.travel)
 
@@ -146,30 +146,30 @@ def _report(output: Path, plotter, pens: list, profile, args: argparse.Namespace
               f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
 
 
-def _save_colour_plot(output: Path, plotter, pens: list, *, dpi: float, pen_width: float, travel: bool) -> None:
+def _save_color_plot(output: Path, plotter, pens: list, *, dpi: float, pen_width: float, travel: bool) -> None:
     """Save what the plotter drew, each pen's strokes as a transparent layer of its ink (strokes
     before any pen change in black), band by band."""
     plotter.firmware.finish()
     bed = plotter.profile.bed
     inks = [([bed.to_view(stroke) for stroke in strokes], ink.color, ink.width)
             for ink, strokes in strokes_by_pen(plotter.machine, pens, default=PenInFile("", BLACK, pen_width))]
-    save_colour_png(output, inks, bed.width, bed.height, dpi=dpi, travel_pen=pen_width,
+    save_color_png(output, inks, bed.width, bed.height, dpi=dpi, travel_pen=pen_width,
                     travel=plotter.machine.bed_travel() if travel else None)
 
 
-def strokes_by_pen(machine, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
+def strokes_by_pen(drawing, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
     """A virtual plotter's pen-down strokes (machine mm) grouped by the pen that drew them, in
     the order the pens came: a stroke's pen is the one the last pen change before it asked for
     (``pens``: :func:`~pencilbot.export.gcode.pens_at_pauses` of the program), else ``default``.
     """
     groups: dict[str, tuple[PenInFile, list]] = {}
-    for stroke, pauses in zip(machine.strokes, machine.stroke_pauses):
+    for stroke, pauses in zip(drawing.strokes, drawing.stroke_pauses):
         pen = (pens[pauses - 1] if 0 < pauses <= len(pens) else None) or default
         groups.setdefault(pen.name, (pen, []))[1].append(stroke)
     return list(groups.values()) or [(default, [])]
 
 
-def _recoloured(pens: list, pen_set) -> list:
+def _recolored(pens: list, pen_set) -> list:
     """The file's pens with the colours and widths ``--pens`` gives for the names it knows."""
     known = {pen.name: pen for pen in pen_set.pens}
     return [p if p is None or p.name not in known else PenInFile(p.name, known[p.name].color, known[p.name].width)

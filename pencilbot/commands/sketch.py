@@ -37,7 +37,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
     parser.add_argument("--lines-only", action="store_true", help="write only the line drawing")
     parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
-    parser.add_argument("--color", action="store_true", help="colour pencil drawing")
+    parser.add_argument("--color", "--colour", action="store_true", help="colour pencil drawing (either spelling)")
     parser.add_argument(
         "--line-length", type=number("--line-length", low=1, high=LONGEST_LENGTH, whole=True, unit="pixels"), metavar="N",
         help=f"stroke length in pixels, 1-{LONGEST_LENGTH} (default: by image size, {MIN_LENGTH}-{MAX_LENGTH})",

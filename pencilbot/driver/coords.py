@@ -97,7 +97,7 @@ def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray
 
     Returns
     -------
-    machine : (n, 3) float array
+    on_machine : (n, 3) float array
         Machine position after each line, mm (NaN where it depends on an offset the file never set).
     frame : (n,) int array
         Index into ``frames`` of the coordinate state after each line.
@@ -138,8 +138,8 @@ def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray
     at = np.maximum.accumulate(np.where(assign, index, -1), axis=0)
     pick = np.maximum(at, 0)
     cols = np.arange(3)[None, :]
-    machine = np.where(at >= 0, value[pick, cols] + (summed - summed[pick, cols]), start_machine[None, :] + summed)
-    return machine, frame, frames, via
+    on_machine = np.where(at >= 0, value[pick, cols] + (summed - summed[pick, cols]), start_machine[None, :] + summed)
+    return on_machine, frame, frames, via
 
 
 def _run_to(line: int, previous: int, here: np.ndarray, offset: np.ndarray, words: np.ndarray,

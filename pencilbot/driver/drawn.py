@@ -51,8 +51,8 @@ def drawn_with_lines(job: Job) -> tuple[Paths, np.ndarray]:
     # Where the board puts the pen: machine mm, work offsets (G92, G10, G54-G59, G53) included;
     # where the file leaves an offset to the board, its work coordinates.
     scale = np.where(states["inches"], MM_PER_INCH, 1.0)
-    machine = np.column_stack([states["mx"], states["my"]])
-    xy = np.where(np.isnan(machine), np.column_stack([states["x"] * scale, states["y"] * scale]), machine)
+    on_machine = np.column_stack([states["mx"], states["my"]])
+    xy = np.where(np.isnan(on_machine), np.column_stack([states["x"] * scale, states["y"] * scale]), on_machine)
     down = states["pen_down"].astype(bool)
     # Until the program first changes the pen, where it is is unknown (a Z pen at the power-up
     # height 0 reads as down): those lines draw nothing.

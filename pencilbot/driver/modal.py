@@ -191,9 +191,9 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     code, select = _coordinate_codes(words, lines)
     if (code > 0).any() or (select >= 0).any():
         word_mm = np.column_stack([word[a.upper()] * scale for a in "xyz"])
-        machine, frame, frames, via = coords.machine_positions(
+        on_machine, frame, frames, via = coords.machine_positions(
             word_mm, moves, relative, code, select, word["L"], word["P"], start.frames, start_machine)
-        work = machine - np.array([f.offset() for f in frames])[frame]
+        work = on_machine - np.array([f.offset() for f in frames])[frame]
         event = (code > 0) | (select >= 0)
         before = np.vstack([start_mm, work[:-1]])
         for i, axis in enumerate("xyz"):
@@ -203,16 +203,17 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
             written = np.where(event, (work[:, i] - before[:, i]) / scale, word[axis.upper()])
             columns[axis] = _position(written, moves | event, relative | event, getattr(start, axis))
     else:
-        machine = np.column_stack([mm[a] for a in "xyz"]) + start.frames.offset()
+        on_machine = np.column_stack([mm[a] for a in "xyz"]) + start.frames.offset()
         frame, frames, via = np.zeros(lines, np.int64), (start.frames,), np.full((lines, 3), np.nan)
     columns["x_mm"], columns["y_mm"], columns["z_mm"] = mm["x"], mm["y"], mm["z"]
-    columns["mx"], columns["my"], columns["vx"], columns["vy"] = machine[:, 0], machine[:, 1], via[:, 0], via[:, 1]
+    columns["mx"], columns["my"] = on_machine[:, 0], on_machine[:, 1]
+    columns["vx"], columns["vy"] = via[:, 0], via[:, 1]
     columns["frame"] = frame
     columns["pen_down"] = _pen_down(columns, pen)
     for letter in "IJR":  # an arc's centre, per line (not modal)
         columns[letter.lower()] = word[letter]
 
-    step = np.nan_to_num(np.diff(machine, axis=0, prepend=start_machine[None, :]))
+    step = np.nan_to_num(np.diff(on_machine, axis=0, prepend=start_machine[None, :]))
     distance = np.sqrt(step[:, 0] ** 2 + step[:, 1] ** 2 + step[:, 2] ** 2)  # mm
     feed = columns["feed"]
     rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)

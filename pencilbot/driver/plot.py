@@ -108,19 +108,19 @@ def draw(
     profile = profile or (journal.profile if journal else DEFAULT_PROFILE)
     if Path(profile).suffix.lower() == ".toml":
         profile = str(Path(profile).resolve())  # the journal's resume works from any folder
-    machine = load_profile(profile)
-    fw = machine.firmware
+    plotter = load_profile(profile)
+    fw = plotter.firmware
     baud = baud or fw.baud
     if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
-        return _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source,
+        return _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
                             operator, keys)
     if check and not fw.capabilities.check_mode:
         raise PlotError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
-            f"profile {machine.name} is for {fw.title}, which has none; draw without --check"
+            f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
         )
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
-    job = load_job(gcode, machine, source)
+    job = load_job(gcode, plotter, source)
     check_on_bed(job)  # before the port is opened: nothing is sent
     if journal is not None:
         journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point
@@ -146,14 +146,14 @@ def draw(
     if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
         from pencilbot.driver.ebb_plot import draw_ebb
 
-        return draw_ebb(job, machine, sim_url(port, profile), journal, start=start, resumed=journal if resume is not None else None,
+        return draw_ebb(job, plotter, sim_url(port, profile), journal, start=start, resumed=journal if resume is not None else None,
                         baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys)
-    runner = Runner(job, machine, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
+    runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     runner.on_progress = on_progress
     link = LineReader(open_port(port, baudrate=baud, profile=profile))
     try:
-        stream = Stream(link, fw, receive_buffer=machine.receive_buffer, timeout=timeout)
+        stream = Stream(link, fw, receive_buffer=plotter.receive_buffer, timeout=timeout)
         resumed = journal if resume is not None else None
         return runner.run(stream, start, stop_xy, check, wake_wait, resumed)
     finally:
@@ -163,7 +163,7 @@ def draw(
             pass
 
 
-def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeout, progress, announce, source,
+def _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
                  operator=None, keys=None):
     """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
     from pencilbot.driver.polled import draw_polled
@@ -177,6 +177,6 @@ def _draw_polled(gcode, port, machine, profile, baud, start_line, journal, timeo
     else:
         data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
     start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)
-    return draw_polled(data, port, machine, path=path, profile_arg=profile, baud=baud,
+    return draw_polled(data, port, plotter, path=path, profile_arg=profile, baud=baud,
                        start=start, journal=journal, timeout=timeout, progress=progress, announce=announce,
                        source=source, operator=operator, keys=keys)

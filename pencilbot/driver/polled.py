@@ -41,7 +41,7 @@ _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
 _SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 
 
-def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_arg: str, baud: int | None,
+def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_arg: str, baud: int | None,
                 start: int = 0, journal=None, timeout: float = DEFAULT_TIMEOUT, progress: str = "quiet",
                 announce=None, source: str | None = None, operator=None, keys=None):
     """Stream an HP-GL program to a polled-flow plotter; see the module docstring.
@@ -52,7 +52,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
         The program (a file's bytes).
     port : str
         Device or pyserial URL.
-    machine : Profile
+    plotter : Profile
         The plotter (its firmware has ``flow = "polled"``).
     path : Path or None
         The file (only a file gets a journal and a resume).
@@ -76,13 +76,13 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     """
     from pencilbot.driver.runner import DrawResult
 
-    fw = machine.firmware
+    fw = plotter.firmware
     name = source or (str(path) if path else "the program")
     try:
-        program, changes = fw.program(data).in_carousel(machine.paper.carousel)
+        program, changes = fw.program(data).in_carousel(plotter.paper.carousel)
     except ValueError as exc:
         raise PlotError(f"{name}: {exc}") from None
-    _check_limits(program, machine, fw, name)
+    _check_limits(program, plotter, fw, name)
     if not 0 <= start < max(len(program), 1):
         raise PlotError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
     baud = baud or fw.baud
@@ -93,7 +93,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
     if journal is not None:
         journal.port, journal.status, journal.options = port, "running", {"baud": baud, "timeout": timeout}
         journal.save()
-    seconds = _seconds_after(program, machine)
+    seconds = _seconds_after(program, plotter)
     shown = Progress(progress, len(program) - start, float(seconds[-1] - (seconds[start - 1] if start else 0.0)))
     done0 = seconds[start - 1] if start else 0.0
     stop = threading.Event()
@@ -108,7 +108,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             link = Answers(open_port(port, baudrate=baud, profile=profile_arg), fw.parse_position)
         except PlotError:
             raise
-        size = machine.receive_buffer
+        size = plotter.receive_buffer
         try:
             link.port.reset_input_buffer()  # nothing from before this job
         except (serial.SerialException, OSError) as exc:
@@ -129,7 +129,7 @@ def draw_polled(data: bytes, port: str, machine, *, path: Path | None, profile_a
             if lost is not None:  # someone at the plotter shows where the drawing on the sheet ends
                 from pencilbot.driver.polled_refind import refind
 
-                start, at = refind(link, fw, program, journal, operator, machine, timeout, lost)
+                start, at = refind(link, fw, program, journal, operator, plotter, timeout, lost)
                 sent = floor = start
             link.write(program.preamble(start, at))
         elif start > 0:
@@ -362,33 +362,33 @@ def _catch_signals(stop: threading.Event, why: list[str]):
     return lambda: [signal.signal(s, h) for s, h in old.items()]
 
 
-def _seconds_after(program, machine) -> np.ndarray:
+def _seconds_after(program, plotter) -> np.ndarray:
     """The plot time (s) after each entry, for the progress display: each move from rest to rest
     at its speed (VS pen down, else the profile's) with the profile's acceleration, as the
     virtual plotter times it, each lift and drop its delay."""
     if not len(program):
         return np.zeros(1)
-    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * machine.firmware.unit_mm
+    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * plotter.firmware.unit_mm
     length = np.hypot(*step.T)
-    speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, machine.motion.draw_speed),
-                     machine.motion.travel_speed)
+    speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, plotter.motion.draw_speed),
+                     plotter.motion.travel_speed)
     moving = length > 0
     units = np.where(moving[:, None], step / np.where(moving, length, 1.0)[:, None], 1.0)
-    seconds = np.where(moving, move_times(length, 0.0, 0.0, speed, machine.motion.acceleration * axis_scale(units)), 0.0)
-    pen = machine.pen_model
+    seconds = np.where(moving, move_times(length, 0.0, 0.0, speed, plotter.motion.acceleration * axis_scale(units)), 0.0)
+    pen = plotter.pen_model
     changed = np.diff(program.down.astype(np.int8), prepend=np.int8(0))
     delays = np.where(changed > 0, pen.down_delay, np.where(changed < 0, pen.up_delay, 0.0))
     return np.cumsum(seconds + delays)
 
 
-def _check_limits(program, machine, fw, name) -> None:
+def _check_limits(program, plotter, fw, name) -> None:
     """Every position within the bed (the plotter's hard-clip limits), before the port opens."""
     if not len(program):
         return
-    w, h = round(machine.bed.width / fw.unit_mm), round(machine.bed.height / fw.unit_mm)
+    w, h = round(plotter.bed.width / fw.unit_mm), round(plotter.bed.height / fw.unit_mm)
     bad = np.flatnonzero((program.xy[:, 0] < 0) | (program.xy[:, 1] < 0) | (program.xy[:, 0] > w) | (program.xy[:, 1] > h))
     if len(bad):
         k = bad[0]
         raise PlotError(
             f"{name}: instruction {program.lines[k]} goes to {program.xy[k, 0]},{program.xy[k, 1]}, beyond the limits of "
-            f"{machine.name} (0..{w} x 0..{h} plotter units); export the drawing for this sheet")
+            f"{plotter.name} (0..{w} x 0..{h} plotter units); export the drawing for this sheet")

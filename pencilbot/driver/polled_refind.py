@@ -20,7 +20,7 @@ from pencilbot.driver.position import FINE_JOG_STEP, Mark, rezero_tolerance
 from pencilbot.errors import PlotError
 
 
-def refind(link, fw, program, journal, operator, machine, timeout: float, why: str) -> tuple[int, tuple[int, int]]:
+def refind(link, fw, program, journal, operator, plotter, timeout: float, why: str) -> tuple[int, tuple[int, int]]:
     """Find where the job stopped on the sheet with ``operator`` (see the module docstring).
 
     Returns
@@ -34,7 +34,7 @@ def refind(link, fw, program, journal, operator, machine, timeout: float, why: s
         The sync point went unanswered, or the point the person showed is on none of the moves.
     """
     unit = fw.unit_mm
-    width, height = round(machine.bed.width / unit), round(machine.bed.height / unit)
+    width, height = round(plotter.bed.width / unit), round(plotter.bed.height / unit)
     low = max(journal.acked_line - 1, 0)
     high = min(max(journal.sent_line, journal.next_line - 1), len(program))
     link.write(fw.lift_command + fw.sync_command)

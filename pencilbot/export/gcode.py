@@ -122,11 +122,11 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
             "the plan has coordinates that are not numbers (NaN or infinity); "
             "make the plan again from the picture"
         )
-    machine = np.round(placement.to_machine(points), profile.gcode.decimals) + 0.0  # no "-0"
-    _check_bed(machine, placement, profile)
+    on_machine = np.round(placement.to_machine(points), profile.gcode.decimals) + 0.0  # no "-0"
+    _check_bed(on_machine, placement, profile)
 
     stats = estimate(plan, profile)
-    moves = _Moves.of(machine, paths.lengths, profile)
+    moves = _Moves.of(on_machine, paths.lengths, profile)
     changes = _pen_changes(plan, profile, placement)
     notes = ["\n".join([*changes.get(index, []), _comment(f"layer {layer.name}: {n} paths")])
              for index, (layer, n) in enumerate(zip(plan.layers, layer_sizes)) if n]
@@ -215,12 +215,12 @@ def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
     return pens
 
 
-def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing") -> None:
-    if not len(machine):
+def _check_bed(on_machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing") -> None:
+    if not len(on_machine):
         return
-    if not profile.bed.outside(machine).any():
+    if not profile.bed.outside(on_machine).any():
         return
-    low, high = machine.min(axis=0), machine.max(axis=0)
+    low, high = on_machine.min(axis=0), on_machine.max(axis=0)
     (x0, x1), (y0, y1) = placement.machine_range()
     page = placement.page
     raise OutOfBedError(
@@ -243,11 +243,11 @@ class _Moves:
     travels: np.ndarray  # (P,) 1 if the path's travel row is kept
 
     @classmethod
-    def of(cls, machine: np.ndarray, counts: np.ndarray, profile: Profile) -> _Moves:
-        first = np.zeros(len(machine), dtype=bool)
+    def of(cls, on_machine: np.ndarray, counts: np.ndarray, profile: Profile) -> _Moves:
+        first = np.zeros(len(on_machine), dtype=bool)
         first[np.cumsum(counts) - counts] = True
-        moved = np.ones(len(machine), dtype=bool)
-        moved[1:] = (machine[1:] != machine[:-1]).any(axis=1)
+        moved = np.ones(len(on_machine), dtype=bool)
+        moved[1:] = (on_machine[1:] != on_machine[:-1]).any(axis=1)
         # A travel is dropped when the pen is already there (previous path ended on this point),
         # a drawing move when it rounds onto the previous point.
         keep = moved.copy()
@@ -255,7 +255,7 @@ class _Moves:
         path_of_point = np.repeat(np.arange(len(counts)), counts)
         rows_per_path = np.bincount(path_of_point[keep], minlength=len(counts))
         travels = keep[first].astype(np.int64)
-        xy = np.concatenate([machine[keep], [[0.0, 0.0]]])  # + home
+        xy = np.concatenate([on_machine[keep], [[0.0, 0.0]]])  # + home
         draw = np.concatenate([~first[keep], [False]])
         path_start = np.zeros(len(xy), dtype=bool)
         path_start[(np.cumsum(rows_per_path) - rows_per_path)[rows_per_path > 0]] = True

@@ -43,8 +43,8 @@ class SheetPlacement(Placement):
     def to_machine(self, points: np.ndarray) -> np.ndarray:
         return super().to_machine(points) - np.asarray(self.offset)
 
-    def to_page(self, machine: np.ndarray) -> np.ndarray:
-        return super().to_page(np.asarray(machine, dtype=np.float64)[:, :2] + np.asarray(self.offset))
+    def to_page(self, on_machine: np.ndarray) -> np.ndarray:
+        return super().to_page(np.asarray(on_machine, dtype=np.float64)[:, :2] + np.asarray(self.offset))
 
     def describe(self) -> str:
         x, y = self.offset
@@ -104,9 +104,9 @@ def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
             if not np.isfinite(paths.points).all():
                 raise PencilbotError("the plan has coordinates that are not numbers (NaN or infinity); "
                                      "make the plan again from the picture")
-            machine = placement.to_machine(paths.points)
-            _check_bed(machine, placement, profile)
-            units = np.rint(machine / unit).astype(np.int64)
+            on_machine = placement.to_machine(paths.points)
+            _check_bed(on_machine, placement, profile)
+            units = np.rint(on_machine / unit).astype(np.int64)
             out.append(_paths_text(units, paths.offsets))
     out.append(b"PU0,0;\nSP0;\n")
     return b"".join(out), placement
@@ -125,10 +125,10 @@ def _paths_text(units: np.ndarray, offsets: np.ndarray) -> bytes:
     return "".join(lines).encode("ascii")
 
 
-def _check_bed(machine: np.ndarray, placement: Placement, profile: Profile) -> None:
-    if not len(machine) or not profile.bed.outside(machine).any():
+def _check_bed(on_machine: np.ndarray, placement: Placement, profile: Profile) -> None:
+    if not len(on_machine) or not profile.bed.outside(on_machine).any():
         return
-    low, high = machine.min(axis=0), machine.max(axis=0)
+    low, high = on_machine.min(axis=0), on_machine.max(axis=0)
     (x0, x1), (y0, y1) = placement.machine_range()
     raise OutOfBedError(
         f"the drawing does not fit the limits of plotter profile {profile.name}: it spans X {low[0]:g} .. "

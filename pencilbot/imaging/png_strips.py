@@ -47,7 +47,7 @@ class PngLayout:
     width: int
     height: int
     depth: int
-    colour: int
+    color_type: int
     palette: bytes
     transparency: bytes | None
     first_data: int  # file offset of the first IDAT chunk
@@ -55,12 +55,12 @@ class PngLayout:
     @property
     def bytes_per_pixel(self) -> int:
         """What PNG's filters step by: whole bytes per pixel, at least 1."""
-        return max(1, self.depth * _CHANNELS[self.colour] // 8)
+        return max(1, self.depth * _CHANNELS[self.color_type] // 8)
 
     @property
     def stride(self) -> int:
         """Bytes of one unfiltered row (without its filter byte)."""
-        return (self.width * self.depth * _CHANNELS[self.colour] + 7) // 8
+        return (self.width * self.depth * _CHANNELS[self.color_type] + 7) // 8
 
 
 def png_layout(path) -> PngLayout | None:
@@ -80,14 +80,14 @@ def png_layout(path) -> PngLayout | None:
             elif kind == b"IDAT":
                 if header is None:
                     return None
-                width, height, depth, colour, _, _, interlace = header
-                sixteen_bit_colour = depth == 16 and colour in (2, 4, 6)
-                if interlace or colour not in _CHANNELS or sixteen_bit_colour or not width or not height:
+                width, height, depth, color_type, _, _, interlace = header
+                sixteen_bit_color = depth == 16 and color_type in (2, 4, 6)
+                if interlace or color_type not in _CHANNELS or sixteen_bit_color or not width or not height:
                     return None
-                if (depth not in (1, 2, 4, 8, 16) or (colour in (2, 4, 6) and depth != 8)
-                        or (colour == 3 and (depth == 16 or not palette))):
+                if (depth not in (1, 2, 4, 8, 16) or (color_type in (2, 4, 6) and depth != 8)
+                        or (color_type == 3 and (depth == 16 or not palette))):
                     return None
-                return PngLayout(width, height, depth, colour, palette, transparency, offset)
+                return PngLayout(width, height, depth, color_type, palette, transparency, offset)
     return None
 
 
@@ -210,17 +210,17 @@ def _unfilter(raw: bytes, layout: PngLayout, rows: int) -> np.ndarray:
 
 def _samples(rows: np.ndarray, layout: PngLayout) -> np.ndarray:
     """Unfiltered rows → uint8 RGB, premultiplied uint16 RGBA or uint16 grey (see :func:`reduced_png`)."""
-    width, depth, colour, key = layout.width, layout.depth, layout.colour, layout.transparency
+    width, depth, color_type, key = layout.width, layout.depth, layout.color_type, layout.transparency
     if depth == 16:  # grey: its own precision, transparency ignored (as the whole decode does)
         return rows.view(">u2").astype(np.uint16)[:, :width]
     if depth < 8:
         bits = np.unpackbits(rows, axis=1).reshape(len(rows), -1, depth)
         values = (bits * (1 << np.arange(depth - 1, -1, -1, dtype=np.uint8))).sum(axis=2, dtype=np.uint8)[:, :width]
     else:
-        values = rows.reshape(len(rows), width, _CHANNELS[colour])
-        if _CHANNELS[colour] == 1:
+        values = rows.reshape(len(rows), width, _CHANNELS[color_type])
+        if _CHANNELS[color_type] == 1:
             values = values[..., 0]
-    if colour == 3:
+    if color_type == 3:
         palette = np.frombuffer(layout.palette, np.uint8).reshape(-1, 3)
         palette = np.vstack([palette, np.zeros((256 - len(palette), 3), np.uint8)])
         alpha = None
@@ -229,20 +229,20 @@ def _samples(rows: np.ndarray, layout: PngLayout) -> np.ndarray:
             alpha[: len(key)] = np.frombuffer(key[:256], np.uint8)
             alpha = alpha[values]
         rgb = palette[values]
-    elif colour in (0, 4):
-        grey = values if colour == 0 else values[..., 0]
+    elif color_type in (0, 4):
+        grey = values if color_type == 0 else values[..., 0]
         if depth < 8:
             grey = grey * np.uint8(255 // ((1 << depth) - 1))
-        alpha = values[..., 1] if colour == 4 else None
-        if colour == 0 and key is not None and len(key) >= 2:
+        alpha = values[..., 1] if color_type == 4 else None
+        if color_type == 0 and key is not None and len(key) >= 2:
             alpha = np.where(values == struct.unpack(">H", key[:2])[0], 0, 255).astype(np.uint8)
         if alpha is None:
             return np.ascontiguousarray(grey)  # one channel while shrinking; RGB at the end
         rgb = np.repeat(grey[..., None], 3, axis=2)
     else:
         rgb = values[..., :3]
-        alpha = values[..., 3] if colour == 6 else None
-        if colour == 2 and key is not None and len(key) >= 6:
+        alpha = values[..., 3] if color_type == 6 else None
+        if color_type == 2 and key is not None and len(key) >= 6:
             alpha = np.where((rgb == np.array(struct.unpack(">HHH", key[:6]))).all(axis=2), 0, 255).astype(np.uint8)
     if alpha is None:
         return np.ascontiguousarray(rgb)

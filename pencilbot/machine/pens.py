@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot import schema
-from pencilbot.colours import LUMINANCE, hex_to_rgb, srgb_to_linear
+from pencilbot.colors import LUMINANCE, hex_to_rgb, srgb_to_linear
 from pencilbot.configs_io import config_names, read_config_table
 from pencilbot.errors import ProfileError
 

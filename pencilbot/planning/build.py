@@ -24,7 +24,7 @@ from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.colour import colour_hatching
+from pencilbot.planning.color import color_hatching
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -71,7 +71,7 @@ def make_plan(
     pens : PenSet, str or Path, optional
         The pens (a :class:`~pencilbot.machine.pens.PenSet`, a shipped set's name or a file);
         default: the plotter's one pen, black. With several pens the plan is of the colour
-        sketch (:mod:`pencilbot.planning.colour`).
+        sketch (:mod:`pencilbot.planning.color`).
 
     Returns
     -------
@@ -229,11 +229,11 @@ def plan_from_sketch(
     if faces:
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     layers = []
-    colour = pens is not None and len(pens.pens) > 1
-    if style.hatch and colour:
+    in_color = pens is not None and len(pens.pens) > 1
+    if style.hatch and in_color:
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
-        layers += colour_hatching(
+        layers += color_hatching(
             drawing.result, layout, pens.load_order, strokes, form=1.0 - drawing.tone, paper=1.0 - drawing.gray,
             angles=style.hatch_angles, coverage=style.hatch_coverage, form_scale=style.hatch_form,
             min_run=style.min_hatch_run, blank_below=style.hatch_blank_below, wobble=style.hatch_jitter,
@@ -262,7 +262,7 @@ def plan_from_sketch(
     else:
         dark = pens.darkest
         layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
-        layers.append(Layer(f"{dark.name}-edges" if colour else "edges", strokes, pen_width=dark.width,
+        layers.append(Layer(f"{dark.name}-edges" if in_color else "edges", strokes, pen_width=dark.width,
                             role="edges", pen=dark.name, color=dark.color))
 
     ordered, position = [], HOME
@@ -280,8 +280,8 @@ def plan_from_sketch(
             layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=style.order_rounds
         )
         ordered.append(replace(layer, paths=paths))
-        if paths:
-            position = tuple(paths[-1][-1])
+        if len(paths):
+            position = tuple(paths.points[-1])
         log.debug("layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started)
 
     meta = {
@@ -310,13 +310,13 @@ def plan_from_sketch(
 
 
 def features_only(
-    strokes: list[np.ndarray], layout: Layout, photo: np.ndarray, important: np.ndarray, faces: list
-) -> list[np.ndarray]:
+    strokes: Paths, layout: Layout, photo: np.ndarray, important: np.ndarray, faces: list
+) -> Paths:
     """The edge strokes less those in a face that are no dark feature (see FEATURE_SHARE).
 
     Parameters
     ----------
-    strokes : list of (N, 2) arrays
+    strokes : Paths
         Edge paths, page mm.
     layout : Layout
     photo : (H, W) float array
@@ -328,32 +328,32 @@ def features_only(
 
     Returns
     -------
-    list of (N, 2) arrays
+    Paths
+        ``strokes`` without those, in order.
     """
-    if not strokes:
+    if not len(strokes):
         return strokes
     photo = np.asarray(photo, np.float32)
     dark = cv2.GaussianBlur(photo, (0, 0), FEATURE_BLUR / layout.mm_per_px)
     valley = dark - cv2.GaussianBlur(photo, (0, 0), FEATURE_SURROUND / layout.mm_per_px)
     level = float(np.quantile(dark[face_squares(dark.shape, faces)], FEATURE_SHARE))
-    sizes = np.array([len(path) for path in strokes])
-    px = np.rint(layout.mm_to_px(np.concatenate(strokes))).astype(np.intp)
+    sizes, owner = strokes.lengths, strokes.owners()
+    px = np.rint(layout.mm_to_px(strokes.points)).astype(np.intp)
     cols, rows = np.clip(px[:, 0], 0, dark.shape[1] - 1), np.clip(px[:, 1], 0, dark.shape[0] - 1)
-    owner = np.repeat(np.arange(len(strokes)), sizes)
     in_face = np.bincount(owner, important[rows, cols]) / sizes > 0.5
     light = np.bincount(owner, dark[rows, cols]) / sizes < level
     flat = np.bincount(owner, valley[rows, cols]) / sizes < FEATURE_VALLEY
-    return [path for path, drop in zip(strokes, in_face & light & flat, strict=True) if not drop]
+    return strokes.take(np.flatnonzero(~(in_face & light & flat)))
 
 
 def ink_on_image_grid(
-    paths: Paths | list[np.ndarray], layout: Layout, *, pen_width: float, coarsen: int = 1
+    paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1
 ) -> np.ndarray:
     """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
 
     Parameters
     ----------
-    paths : Paths or list of (N, 2) arrays
+    paths : Paths
         Paths in page mm, Y up.
     layout : Layout
         The placement that produced them.
@@ -370,7 +370,6 @@ def ink_on_image_grid(
         Ink per image pixel (or block), as the plotter's pen would lay it at plot scale.
     """
     height, width = layout.image_shape
-    paths = Paths.of(paths)
     # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
     points = layout.mm_to_px(paths.points)
     points[:, 1] = height - 0.5 - points[:, 1]

@@ -21,6 +21,8 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components, depth_first_order
 from scipy.spatial import cKDTree
 
+from pencilbot.paths import Paths, ramps
+
 #: Largest turn between two chained strokes, degrees (two of the 22.5° direction steps).
 MAX_TURN = 50.0
 #: No links at all: the empty table of rows (end a, end b, X col, X row) :func:`link_strokes` returns.
@@ -140,8 +142,9 @@ def _crossing(ends, outward, linked, overshoot):
     return np.where(near[:, None], cross, middle)
 
 
-def chain_polylines(strokes: Strokes, links: np.ndarray, shape) -> list[np.ndarray]:
-    """Polylines (px) of the strokes, linked ones joined through their crossing points.
+def chain_polylines(strokes: Strokes, links: np.ndarray, shape) -> Paths:
+    """Polylines (px) of the strokes, linked ones joined through their crossing points: one path
+    per chain.
 
     The links make a graph of degree ≤ 2 on the components (each end has at most one partner):
     paths and cycles. A virtual root joined to one end component of every chain (any member for
@@ -149,7 +152,7 @@ def chain_polylines(strokes: Strokes, links: np.ndarray, shape) -> list[np.ndarr
     """
     n = strokes.n
     if n == 0:
-        return []
+        return Paths.empty()
     ca, cb = links[:, 0].astype(np.intp) // 2, links[:, 1].astype(np.intp) // 2
     member = chain_ids(n, links)
     degree = np.bincount(np.concatenate([ca, cb]), minlength=n)
@@ -197,16 +200,10 @@ def chain_polylines(strokes: Strokes, links: np.ndarray, shape) -> list[np.ndarr
     points = np.insert(points, insert_at, joint[has_joint], axis=0)
     points = _clip_points(points, shape)
     chain_sizes = np.bincount(np.cumsum(new_chain) - 1, weights=sizes + has_joint).astype(np.intp)
-    return np.split(points, np.cumsum(chain_sizes)[:-1])
+    return Paths(points, np.concatenate([[0], np.cumsum(chain_sizes)]))
 
 
 def _clip_points(points: np.ndarray, shape) -> np.ndarray:
     """Points moved into the image rectangle (overshooting tips stop at the frame)."""
     height, width = shape
     return np.column_stack([np.clip(points[:, 0], 0, width - 1), np.clip(points[:, 1], 0, height - 1)])
-
-
-def ramps(sizes: np.ndarray) -> np.ndarray:
-    """0, 1, …, s − 1 for every s in ``sizes``, back to back."""
-    sizes = np.asarray(sizes, np.intp)
-    return np.arange(int(sizes.sum())) - np.repeat(np.cumsum(sizes) - sizes, sizes)

@@ -9,7 +9,7 @@
 
 * **Colour difference** (a colour plan, or a black one judged against colour):
   mean CIEDE2000 ΔE00 between the colour sketch and the plan's inks stacked on paper
-  (:func:`pencilbot.colours.inks_on_paper`), both Gaussian-blurred by σ = 3 mm in linear light
+  (:func:`pencilbot.colors.inks_on_paper`), both Gaussian-blurred by σ = 3 mm in linear light
   (how the eye averages lines and paper at arm's length). Below 2 is hard to see side by side,
   around 5 reads as the same colour a little off, past 10 as another colour.
 
@@ -28,8 +28,9 @@ from scipy.stats import spearmanr
 from skimage.color import deltaE_ciede2000, rgb2lab
 from skimage.metrics import structural_similarity
 
-from pencilbot.colours import inks_on_paper, linear_to_srgb, srgb_to_linear
+from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.imaging.pencil import Sketch
+from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Plan
@@ -39,7 +40,7 @@ from pencilbot.units import MM_PER_INCH
 LINE_SIGMA_PX = 2.0
 TONE_SIGMA_MM = 3.0
 #: Cell (mm) the colour difference is measured on: far below its 3 mm blur, above the pixel.
-COLOUR_CELL = 0.25
+COLOR_CELL = 0.25
 
 
 @dataclass(frozen=True)
@@ -206,7 +207,7 @@ def region_rho(
     return float(spearmanr(sa, sb).statistic)
 
 
-def plan_colour(plan: Plan, shape: tuple[int, int], *, cell: float = COLOUR_CELL) -> tuple[np.ndarray, int]:
+def plan_color(plan: Plan, shape: tuple[int, int], *, cell: float = COLOR_CELL) -> tuple[np.ndarray, int]:
     """The plan's inks stacked on paper over the drawing box of an image of ``shape``.
 
     Returns the sRGB picture (h, w, 3) on blocks of ``coarsen`` image pixels (about ``cell`` mm)
@@ -218,7 +219,7 @@ def plan_colour(plan: Plan, shape: tuple[int, int], *, cell: float = COLOUR_CELL
     covers, colors = [], []
     for _, layers in plan.pen_runs():
         covers.append(ink_on_image_grid(
-            [p for layer in layers for p in layer.paths], layout, pen_width=layers[0].pen_width, coarsen=coarsen))
+            Paths.concat(layer.paths for layer in layers), layout, pen_width=layers[0].pen_width, coarsen=coarsen))
         colors.append(layers[0].color)
     if not covers:
         rows, cols = -(-shape[0] // coarsen), -(-shape[1] // coarsen)
@@ -226,7 +227,7 @@ def plan_colour(plan: Plan, shape: tuple[int, int], *, cell: float = COLOUR_CELL
     return inks_on_paper(covers, colors), coarsen
 
 
-def colour_difference(plan: Plan, reference: np.ndarray, *, blur: float = TONE_SIGMA_MM) -> float:
+def color_difference(plan: Plan, reference: np.ndarray, *, blur: float = TONE_SIGMA_MM) -> float:
     """Mean CIEDE2000 between a plan's colour on paper and ``reference`` after a ``blur`` mm blur.
 
     Parameters
@@ -244,7 +245,7 @@ def colour_difference(plan: Plan, reference: np.ndarray, *, blur: float = TONE_S
         Mean ΔE00 over the drawing box.
     """
     shape = reference.shape[:2]
-    plotted, coarsen = plan_colour(plan, shape)
+    plotted, coarsen = plan_color(plan, shape)
     height, width = plotted.shape[:2]
     ref = cv2.resize(srgb_to_linear(reference).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
     sigma = blur / (Layout.fit(shape, plan.page).mm_per_px * coarsen)

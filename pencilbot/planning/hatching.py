@@ -33,6 +33,7 @@ import cv2
 import numpy as np
 from scipy import ndimage as ndi
 
+from pencilbot.paths import Paths, ramps
 from pencilbot.planning.flow import DirectionField, Grid, bilinear, grid_gradient, stripe_phase
 from pencilbot.planning.onset import Onset
 from pencilbot.planning.plan import Layer
@@ -180,7 +181,7 @@ def family_lines(
 def hatch_strokes(
     lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 2.0, offset: float = 0.0,
     fine: np.ndarray | None = None,
-) -> list[np.ndarray]:
+) -> Paths:
     """The pen strokes of one family for a per-sample coverage request.
 
     Parameters
@@ -201,11 +202,11 @@ def hatch_strokes(
 
     Returns
     -------
-    list of (M, 2) float arrays
+    Paths
         Polylines in page mm, one per run of switched-on samples.
     """
     if lines.points.size == 0:
-        return []
+        return Paths.empty()
     if fine is not None and not np.any(fine > 0):
         fine = None  # exactly the plain path: no rounding of cell counts differs
     scale = np.ones(len(lines.points)) if fine is None else 1.0 - (1.0 - FINE) * np.clip(fine, 0.0, 1.0)
@@ -235,7 +236,7 @@ def hatch_strokes(
     # Runs of "on" samples within a line.
     starts, stops = _runs(on, lines.line)
     if starts.size == 0:
-        return []
+        return Paths.empty()
     # Bridge gaps shorter than half a minimum run, then drop runs shorter than one.
     gap = (starts[1:] - stops[:-1] - 1) * SAMPLE_STEP
     same_line = lines.line[starts[1:]] == lines.line[stops[:-1]]
@@ -246,14 +247,13 @@ def hatch_strokes(
     long_enough = (run_stop - run_start) * SAMPLE_STEP >= min_run * np.minimum(scale[run_start], scale[run_stop])
     run_start, run_stop = run_start[long_enough], run_stop[long_enough]
     if run_start.size == 0:
-        return []
+        return Paths.empty()
     # Keep every few samples along a run, and always its last one.
     keep_every = max(1, round(POINT_SPACING / SAMPLE_STEP))
     counts = run_stop - run_start + 1
     kept = (counts - 1) // keep_every + 1 + ((counts - 1) % keep_every > 0)
-    offsets = np.arange(kept.sum()) - np.repeat(np.cumsum(kept) - kept, kept)
-    index = np.minimum(np.repeat(run_start, kept) + offsets * keep_every, np.repeat(run_stop, kept))
-    return np.split(lines.points[index], np.cumsum(kept)[:-1])
+    index = np.minimum(np.repeat(run_start, kept) + ramps(kept) * keep_every, np.repeat(run_stop, kept))
+    return Paths(lines.points[index], np.concatenate([[0], np.cumsum(kept)]))
 
 
 def hatch_layers(
@@ -369,7 +369,7 @@ def _resample(points: np.ndarray, piece: np.ndarray, step: float) -> tuple[np.nd
     count = np.floor(length / step).astype(np.int64) + 1
     count[length < step] = 0  # a piece shorter than one step is a crumb
     owner = np.repeat(np.arange(first.size), count)
-    t = start[owner] + (np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)) * step
+    t = start[owner] + ramps(count) * step
     # Pieces are separated in `along` only by zero-length joins: search within the piece.
     seg_index = np.clip(np.searchsorted(along, t, side="right") - 1, 0, len(points) - 2)
     seg_index = np.clip(seg_index, first[owner], np.maximum(last[owner] - 1, first[owner]))

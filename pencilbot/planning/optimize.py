@@ -20,7 +20,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 from scipy.spatial import cKDTree
 
-from pencilbot.paths import Paths
+from pencilbot.paths import Paths, ramps
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Plan
 
@@ -59,9 +59,9 @@ def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds:
     layers, dropped, position = [], 0, tuple(start)
     for layer in plan.layers:
         speck = specks(layer.paths, layer.pen_width)
-        kept = _select(layer.paths, ~speck)
-        ordered = Paths.of(order_paths(
-            kept, start=position, join_tolerance=layer.pen_width, pen_width=layer.pen_width, rounds=rounds))
+        kept = layer.paths.take(np.flatnonzero(~speck)) if speck.any() else layer.paths
+        ordered = order_paths(kept, start=position, join_tolerance=layer.pen_width, pen_width=layer.pen_width,
+                              rounds=rounds)
         if len(layer.paths) and pen_up_length(ordered, position) > pen_up_length(layer.paths, position):
             ordered, kept = layer.paths, layer.paths  # the file's own order is the shorter
         dropped += len(layer.paths) - len(kept)
@@ -106,7 +106,7 @@ def specks(paths: Paths, pen_width: float) -> np.ndarray:
     starts, vectors, lengths = paths.points[:-1][long_segment], step[long_segment], seg_length[long_segment]
     cuts = np.ceil(lengths / pen_width).astype(np.int64)
     segment = np.repeat(np.arange(len(cuts)), cuts)
-    index = np.arange(len(segment)) - np.repeat(np.cumsum(cuts) - cuts, cuts)
+    index = ramps(cuts)
     a = starts[segment] + vectors[segment] * (index / cuts[segment])[:, None]
     b = starts[segment] + vectors[segment] * ((index + 1) / cuts[segment])[:, None]
     tree = cKDTree((a + b) / 2)
@@ -122,13 +122,6 @@ def specks(paths: Paths, pen_width: float) -> np.ndarray:
     # A speck is dropped when all its points are covered.
     uncovered = np.bincount(owner[candidate_points], weights=~covered_point, minlength=len(paths))
     return short & (uncovered == 0)
-
-
-def _select(paths: Paths, keep: np.ndarray) -> Paths:
-    """The paths where ``keep`` (``(P,)`` bool) is true, in order."""
-    if keep.all():
-        return paths
-    return Paths(paths.points[keep[paths.owners()]], np.concatenate([[0], np.cumsum(paths.lengths[keep])]))
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

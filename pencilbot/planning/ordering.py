@@ -30,10 +30,9 @@ The tour is open: it starts at home and ends wherever the last path ends.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-
 import numpy as np
 
+from pencilbot.paths import Paths
 from pencilbot.planning.tour_ends import Ends, adjacency, greedy_matching, greedy_tour, morton_order
 from pencilbot.planning.tour_search import CALL_COST, Tour, Work, descend
 from pencilbot.units import DEFAULT_PEN_WIDTH
@@ -41,7 +40,7 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 # A round of improvement, about one full pass with its checks, costs 1.5 work units per end
 # (see tour_search.CALL_COST for the units).
 _ROUND_COST = 1.5
-DEFAULT_ROUNDS = 40  # ~0.76 of greedy's pen-up travel on photo plans (bench/ordering.py)
+DEFAULT_ROUNDS = 40  # ~0.74 of greedy's pen-up travel on photo plans (bench/ordering.py: coffee 0.73, astronaut 0.74)
 # Rounds × paths is capped so that huge layers stay linear in cost: 2 rounds from 100 000
 # paths on (1.28x the lower bound there, bench/scale.py), all 40 on photo layers.
 ROUND_WORK = 200_000
@@ -49,20 +48,20 @@ MIN_ROUNDS = 2
 
 
 def order_paths(
-    paths: Sequence[np.ndarray],
+    paths: Paths,
     *,
     start: tuple[float, float] = (0.0, 0.0),
     join_tolerance: float | None = None,
     join_min_length: float = 0.0,
     pen_width: float = DEFAULT_PEN_WIDTH,
     rounds: int = DEFAULT_ROUNDS,
-) -> list[np.ndarray]:
+) -> Paths:
     """Reorder and reverse paths to shorten pen-up travel, then join paths that touch.
 
     Parameters
     ----------
-    paths : sequence of (N, 2) arrays
-        Paths in mm; empty paths are dropped.
+    paths : Paths
+        Paths in mm.
     start : (float, float), optional
         Pen position before the first path, mm (the plotter's home).
     join_tolerance : float, optional
@@ -81,41 +80,36 @@ def order_paths(
 
     Returns
     -------
-    list of (N, 2) arrays
+    Paths
         The same strokes, each possibly reversed, in drawing order, some joined.
     """
-    arrays = _nonempty(paths)
-    first, last = _path_ends(arrays)
     tolerance = pen_width if join_tolerance is None else join_tolerance
     # (The improvement counts every gap within the tolerance as joined, also those next to a
     # path too short to join: a small bias, and no worse a tour for the pen-up it actually pays.)
-    order, reverse = improve_order(first, last, start, rounds=rounds, join_tolerance=tolerance)
-    ordered = _apply(arrays, order, reverse)
+    order, reverse = improve_order(paths.firsts, paths.lasts, start, rounds=rounds, join_tolerance=tolerance)
+    ordered = paths.take(order, reverse)
     return join_touching(ordered, tolerance, min_length=join_min_length) if tolerance >= 0 else ordered
 
 
-def greedy_order(paths: Sequence[np.ndarray], start: tuple[float, float] = (0.0, 0.0)) -> list[np.ndarray]:
+def greedy_order(paths: Paths, start: tuple[float, float] = (0.0, 0.0)) -> Paths:
     """Baseline: nearest neighbour with reversal from ``start``, no improvement, no joining."""
-    arrays = _nonempty(paths)
-    if not arrays:
-        return []
-    first, last = _path_ends(arrays)
+    if not len(paths):
+        return paths
+    first, last = paths.firsts, paths.lasts
     renumber = morton_order((first + last) / 2)
     order, reverse = greedy_tour(Ends(first[renumber], last[renumber], start))
-    return _apply(arrays, renumber[order], reverse)
+    return paths.take(renumber[order], reverse)
 
 
-def travel_length(paths: Sequence[np.ndarray], start: tuple[float, float] = (0.0, 0.0)) -> float:
+def travel_length(paths: Paths, start: tuple[float, float] = (0.0, 0.0)) -> float:
     """Pen-up travel in mm: from ``start`` to the first path, then between consecutive paths."""
-    arrays = _nonempty(paths)
-    if not arrays:
+    if not len(paths):
         return 0.0
-    first, last = _path_ends(arrays)
-    tails = np.concatenate([np.asarray(start, np.float64).reshape(1, 2), last[:-1]])
-    return float(np.hypot(*(first - tails).T).sum())
+    tails = np.concatenate([np.asarray(start, np.float64).reshape(1, 2), paths.lasts[:-1]])
+    return float(np.hypot(*(paths.firsts - tails).T).sum())
 
 
-def travel_lower_bound(paths: Sequence[np.ndarray], start: tuple[float, float] = (0.0, 0.0)) -> float:
+def travel_lower_bound(paths: Paths, start: tuple[float, float] = (0.0, 0.0)) -> float:
     """A lower bound on the pen-up travel of any order of ``paths`` (with reversal), mm.
 
     Pen-up moves pair up path ends: home with the first entry, each exit with the next entry;
@@ -130,8 +124,8 @@ def travel_lower_bound(paths: Sequence[np.ndarray], start: tuple[float, float] =
 
     Parameters
     ----------
-    paths : sequence of (N, 2) arrays
-        Paths in mm; empty paths are dropped.
+    paths : Paths
+        Paths in mm.
     start : (float, float), optional
         Pen position before the first path, mm.
 
@@ -140,11 +134,9 @@ def travel_lower_bound(paths: Sequence[np.ndarray], start: tuple[float, float] =
     float
         mm; 0 for no paths.
     """
-    arrays = _nonempty(paths)
-    if not arrays:
+    if not len(paths):
         return 0.0
-    first, last = _path_ends(arrays)
-    ends = Ends(first, last, start)
+    ends = Ends(paths.firsts, paths.lasts, start)
     points, count, k = ends.points, len(ends.points), ends.k
     # Home's two ids are one point, matched once: keep its start end, drop the other.
     ids = np.delete(np.arange(count), 2 * ends.n)
@@ -226,53 +218,26 @@ def improve_order(
     return renumber[order].astype(np.int64), reverse
 
 
-def join_touching(paths: Sequence[np.ndarray], tolerance: float, *, min_length: float = 0.0) -> list[np.ndarray]:
+def join_touching(paths: Paths, tolerance: float, *, min_length: float = 0.0) -> Paths:
     """Join consecutive paths whose gap (end of one to start of the next) is ≤ ``tolerance`` mm,
-    unless one of them is shorter than ``min_length`` mm."""
-    arrays = _nonempty(paths)
-    if len(arrays) < 2:
-        return arrays
-    first, last = _path_ends(arrays)
-    gap = np.hypot(*(first[1:] - last[:-1]).T)
+    unless one of them is shorter than ``min_length`` mm. A path that starts exactly where the
+    one before ends is joined without repeating that point."""
+    if len(paths) < 2:
+        return paths
+    gap = np.hypot(*(paths.firsts[1:] - paths.lasts[:-1]).T)
     apart = gap > tolerance
     if min_length > 0:
-        short = np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum() < min_length for p in arrays])
+        short = paths.drawn_lengths() < min_length
         apart |= short[1:] | short[:-1]
-    breaks = np.flatnonzero(apart) + 1
-    joined = []
-    for group in np.split(np.arange(len(arrays)), breaks):
-        if len(group) == 1:
-            joined.append(arrays[group[0]])
-            continue
-        parts = [arrays[group[0]]]
-        for prev, k in zip(group[:-1], group[1:]):
-            # drop the next path's first point when it repeats the previous end exactly
-            same = gap[prev] == 0.0
-            parts.append(arrays[k][1:] if same else arrays[k])
-        joined.append(np.concatenate(parts))
-    return joined
-
-
-def _nonempty(paths: Sequence[np.ndarray]) -> list[np.ndarray]:
-    # (N, 2) float64 arrays as they are: asarray and reshape cost ~0.4 µs a path, at 1M paths.
-    f64 = np.dtype(np.float64)
-    arrays = [
-        p if type(p) is np.ndarray and p.dtype is f64 and p.ndim == 2 and p.shape[1] == 2
-        else np.asarray(p, np.float64).reshape(-1, 2)
-        for p in paths
-    ]
-    return [p for p in arrays if len(p)]
-
-
-def _path_ends(arrays: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 2) first and last points of non-empty paths."""
-    if not arrays:
-        return np.zeros((0, 2)), np.zeros((0, 2))
-    flat = np.concatenate(arrays)
-    lengths = np.fromiter(map(len, arrays), np.int64, len(arrays))
-    stops = np.cumsum(lengths)
-    return flat[stops - lengths], flat[stops - 1]
-
-
-def _apply(paths: list[np.ndarray], order: np.ndarray, reverse: np.ndarray) -> list[np.ndarray]:
-    return [paths[i][::-1] if r else paths[i] for i, r in zip(order.tolist(), reverse.tolist())]
+    if apart.all():
+        return paths
+    heads = paths.offsets[1:-1]  # first point of every path after the first
+    repeated = heads[~apart & (gap == 0.0)]
+    kept = np.ones(len(paths.points), bool)
+    kept[repeated] = False
+    # A joined path's first point may go; the first point of every other path stays, moved back
+    # by the points dropped before it.
+    starts = np.concatenate([[0], heads[apart]])
+    starts -= np.searchsorted(repeated, starts)
+    points = paths.points[kept] if len(repeated) else paths.points
+    return Paths(points, np.concatenate([starts, [len(points)]]))

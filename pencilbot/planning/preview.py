@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pencilbot.planning.plan import Plan
-from pencilbot.render import Canvas, colour_image
+from pencilbot.render import Canvas, color_image
 
 
 def preview(plan: Plan, dpi: float) -> Canvas:
@@ -30,7 +30,7 @@ def preview(plan: Plan, dpi: float) -> Canvas:
 
 def preview_image(plan: Plan, dpi: float) -> np.ndarray:
     """The plan as a picture: grey (H, W) uint8 for a plan of one pen, else each pen's ink as a
-    transparent colour layer (:func:`~pencilbot.render.colour_image`), (H, W, 3) uint8."""
+    transparent colour layer (:func:`~pencilbot.render.color_image`), (H, W, 3) uint8."""
     if len(plan.pens) < 2:
         return preview(plan, dpi).to_image()
     canvases, colors = [], []
@@ -40,4 +40,4 @@ def preview_image(plan: Plan, dpi: float) -> np.ndarray:
             canvas.draw_paths(layer.paths, pen_width=layer.pen_width)
         canvases.append(canvas)
         colors.append(layers[0].color)
-    return colour_image(canvases, colors)
+    return color_image(canvases, colors)

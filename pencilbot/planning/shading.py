@@ -18,6 +18,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from pencilbot.paths import Paths
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
     HATCH_ANGLES, HATCH_COVERAGE, HATCH_OVERLAP, MIN_HATCH_RUN, family_capacity, family_lines, hatch_layers,
@@ -64,7 +65,7 @@ FACE_CORRECTION_BLUR = 0.7
 def shade(
     darkness: np.ndarray,
     layout,
-    edges: list[np.ndarray],
+    edges: Paths,
     *,
     paper: np.ndarray | None = None,
     form: np.ndarray | None = None,
@@ -89,7 +90,7 @@ def shade(
         Tone to reproduce on the layout's image grid (e.g. 1 − J).
     layout : Layout
         Placement of the image on the page.
-    edges : list of (N, 2) arrays
+    edges : Paths
         The edge strokes (page mm) that will be drawn over the hatching.
     paper : (H, W) float array in [0, 1], optional
         How dark the *photo* is on the image grid (1 − luma). Where it is below ``blank_below``
@@ -170,7 +171,7 @@ def shade(
         )
         if round_ == rounds - 1:
             break
-        hatch_ink = ink_on_grid([p for layer in layers for p in layer.paths], grid, pen_width)
+        hatch_ink = ink_on_grid(Paths.concat(layer.paths for layer in layers), grid, pen_width)
         ink = 1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink)
         # Correct at the scale of the hatch pattern itself (light tones are dashes millimetres
         # apart): a correction finer than that only moves dashes about, unless the tone has
@@ -217,7 +218,7 @@ class _Families:
         return short.sum() > SHORT_SHARE * max(wanting.sum(), 1)
 
 
-def ink_on_grid(paths: list[np.ndarray], grid: Grid, pen_width: float) -> np.ndarray:
+def ink_on_grid(paths: Paths, grid: Grid, pen_width: float) -> np.ndarray:
     """Darkness of pen paths on a grid's cells (exact-area rasteriser)."""
     rows, cols = grid.shape
     x0, _, _, y1 = grid.box

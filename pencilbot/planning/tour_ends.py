@@ -54,8 +54,9 @@ class Ends:
     """Both ends of every path plus the home as node ``n``; nearest neighbours of every end.
 
     End id ``e`` is end ``e & 1`` (0 = first point, 1 = last point) of node ``e >> 1``. Home's
-    end ``2n + 1`` is the start point; its end ``2n`` is the tour's free end (see :class:`Tour`),
-    stored at the start point too. Gaps up to ``free_gap`` mm cost nothing (they are joined).
+    end ``2n + 1`` is the start point; its end ``2n`` is the tour's free end (see
+    :class:`~pencilbot.planning.tour_search.Tour`), stored at the start point too. Gaps up to
+    ``free_gap`` mm cost nothing (they are joined).
     """
 
     def __init__(self, first: np.ndarray, last: np.ndarray, start, free_gap: float = 0.0) -> None:

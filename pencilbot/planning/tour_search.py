@@ -177,8 +177,8 @@ class Tour:
         """Improving moves from pairs (end, nearby end): arrays (kind, e, f, gain).
 
         Each end is paired with its k nearest ends, or with ``free`` both ways round (moves to
-        and from the end of the tour). kind 0 is 2-opt, 1..3 Or-opt of a run of that many paths
-        from f. Gains are float32 estimates; :meth:`_try` decides in float64.
+        and from the end of the tour). kind 0 is 2-opt, 1 to ``_MAX_RUN`` Or-opt of a run of
+        that many paths from f. Gains are float32 estimates; :meth:`_try` decides in float64.
         """
         if with_free:
             free = np.full(len(ends), self.free, np.int32)

@@ -47,7 +47,8 @@ import numpy as np
 from skimage.filters import apply_hysteresis_threshold
 from skimage.morphology import skeletonize
 
-from pencilbot.planning.chaining import NO_LINKS, Strokes, chain_ids, chain_polylines, link_strokes, ramps, relinked
+from pencilbot.paths import Paths, ramps
+from pencilbot.planning.chaining import NO_LINKS, Strokes, chain_ids, chain_polylines, link_strokes, relinked
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 if TYPE_CHECKING:
@@ -107,7 +108,7 @@ def edge_strokes(
     budget: float | None = None,
     important: np.ndarray | None = None,
     fine_threshold: float | None = None,
-) -> list[np.ndarray]:
+) -> Paths:
     """Pen paths that redraw the GMED line drawing, one chain of strokes per contour.
 
     Parameters
@@ -146,9 +147,9 @@ def edge_strokes(
 
     Returns
     -------
-    list of (N, 2) float64 arrays
+    Paths
         Pen-down paths in mm on the page (Y up), in no particular order; a lone stroke is a
-        (2, 2) array.
+        path of two points.
     """
     edges = np.asarray(line.edges, dtype=np.float32)
     ell = float(line.length)
@@ -163,7 +164,7 @@ def edge_strokes(
     skeleton[[0, -1], :] = skeleton[:, [0, -1]] = False
     found = _components(skeleton, _smoothed_labels(line))
     if found is None:
-        return []
+        return Paths.empty()
     comp, direction, u, v, rows, cols = found
     pen_px = pen_width / layout.mm_per_px
     width = _raster_width(line.drawing, skeleton, comp, rows, cols, ell)
@@ -181,15 +182,12 @@ def edge_strokes(
             comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
         keep &= _within_budget(strokes, links, texture, keep, allowed, protected)
     strokes, links, lines = _select(strokes, keep), relinked(links, keep), lines[keep]
-    paths_px = chain_polylines(strokes, links, edges.shape)
+    paths_px = [chain_polylines(strokes, links, edges.shape)]
     for k in range(1, max(1, max_lines)):  # the further lines of bold contours, chained alike
         extra = _select(strokes, lines > k, shift_px=k * pen_px)
-        paths_px += chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape)
-    if not paths_px:
-        return []
-    sizes = [len(p) for p in paths_px]
-    points_mm = layout.px_to_mm(np.concatenate(paths_px))
-    return np.split(points_mm, np.cumsum(sizes)[:-1])
+        paths_px.append(chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape))
+    paths_px = Paths.concat(paths_px)
+    return paths_px.with_points(layout.px_to_mm(paths_px.points)) if len(paths_px) else paths_px
 
 
 def _without_pinholes(mask: np.ndarray, largest: float) -> np.ndarray:

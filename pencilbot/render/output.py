@@ -7,7 +7,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from pencilbot.colours import inks_on_paper
+from pencilbot.colors import inks_on_paper
 from pencilbot.paths import Paths
 from pencilbot.render.canvas import DEFAULT_DPI, TRAVEL_RGB, Bands, Canvas, band_rows, picture, sheet_pixels, travel_width
 from pencilbot.render.png import write_png_bands
@@ -51,7 +51,7 @@ def save_drawing_png(
     return ink.shape
 
 
-def colour_image(canvases: Sequence[Canvas], colors: Sequence[str]) -> np.ndarray:
+def color_image(canvases: Sequence[Canvas], colors: Sequence[str]) -> np.ndarray:
     """The ink of one canvas per pen, stacked as transparent colour layers on white paper.
 
     Parameters
@@ -65,7 +65,7 @@ def colour_image(canvases: Sequence[Canvas], colors: Sequence[str]) -> np.ndarra
     Returns
     -------
     (H, W, 3) uint8
-        sRGB (see :func:`pencilbot.colours.inks_on_paper`).
+        sRGB (see :func:`pencilbot.colors.inks_on_paper`).
     """
     rgb = 255.0 * inks_on_paper([canvas.darkness for canvas in canvases], colors)
     for canvas in canvases:
@@ -80,7 +80,7 @@ def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
     write_png_bands(path, image.shape, [image])
 
 
-def save_colour_png(
+def save_color_png(
     path: str | os.PathLike,
     inks: Sequence[tuple[Paths | Sequence[np.ndarray], str, float]],
     width_mm: float,
@@ -93,7 +93,7 @@ def save_colour_png(
 ) -> tuple[int, int]:
     """Render each pen's paths as a transparent layer of its ink, band by band into a PNG.
 
-    The picture :func:`colour_image` makes of one :class:`Canvas` per pen, with memory bounded
+    The picture :func:`color_image` makes of one :class:`Canvas` per pen, with memory bounded
     by one band of every pen (as :func:`save_drawing_png` for one pen). Written atomically.
 
     Parameters

@@ -19,7 +19,7 @@ import numpy as np
 from pencilbot.fileio import atomic_writer
 
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
-_COLOUR_TYPE = {1: 0, 3: 2}  # channels -> PNG colour type (grey, truecolour)
+_COLOR_TYPE = {1: 0, 3: 2}  # channels -> PNG colour type (grey, truecolour)
 _UP = 2  # PNG filter type
 #: zlib level: 1 (fastest) costs a few per cent of size on drawings and is 3-4x faster than 6.
 _LEVEL = 1
@@ -47,12 +47,12 @@ def write_png_bands(path: str | os.PathLike, shape: tuple[int, ...], bands: Iter
     """
     height, width = int(shape[0]), int(shape[1])
     channels = 1 if len(shape) == 2 else int(shape[2])
-    if channels not in _COLOUR_TYPE or height < 1 or width < 1:
+    if channels not in _COLOR_TYPE or height < 1 or width < 1:
         raise ValueError(f"a PNG is grey (H, W) or RGB (H, W, 3) of at least one pixel, not {tuple(shape)}")
     row_bytes = width * channels
     with atomic_writer(path) as out:
         out.write(_SIGNATURE)
-        _chunk(out, b"IHDR", struct.pack(">IIBBBBB", width, height, 8, _COLOUR_TYPE[channels], 0, 0, 0))
+        _chunk(out, b"IHDR", struct.pack(">IIBBBBB", width, height, 8, _COLOR_TYPE[channels], 0, 0, 0))
         stream = zlib.compressobj(_LEVEL, zlib.DEFLATED, 15, 9, zlib.Z_RLE)
         above = np.zeros(row_bytes, np.uint8)  # the row above the first is zeros (PNG's rule)
         rows = 0

@@ -19,12 +19,12 @@ def job_drawing(gcode: Path, profile: str) -> dict:
     from pencilbot.driver.job import load_job
     from pencilbot.machine.profile import load_profile
 
-    machine = load_profile(profile)
-    job = load_job(gcode, machine)
+    plotter = load_profile(profile)
+    job = load_job(gcode, plotter)
     paths, indices = drawn_with_lines(job)
-    view = machine.bed.to_view(paths.points) if len(paths.points) else np.zeros((0, 2))
+    view = plotter.bed.to_view(paths.points) if len(paths.points) else np.zeros((0, 2))
     return {
-        "bed": [machine.bed.width, machine.bed.height],
+        "bed": [plotter.bed.width, plotter.bed.height],
         "points": np.round(view, 2).ravel().tolist(),
         "offsets": paths.offsets.tolist(),
         "lines": job.numbers[indices].tolist() if len(indices) else [],

@@ -16,14 +16,14 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 PACKAGES = ("pencilbot", "firmware_protocol", "sim")
 
-BASE = {"pencilbot.errors", "pencilbot.units", "pencilbot.paths", "pencilbot.colours"}
+BASE = {"pencilbot.errors", "pencilbot.units", "pencilbot.paths", "pencilbot.colors"}
 # component → the components it may import (besides itself)
 ALLOWED: dict[str, set[str]] = {
     "firmware_protocol": set(),
     "pencilbot.errors": set(),
     "pencilbot.units": set(),
     "pencilbot.paths": set(),
-    "pencilbot.colours": set(),
+    "pencilbot.colors": set(),
     "pencilbot.fileio": {"pencilbot.errors"},
     "pencilbot.configs_io": {"pencilbot.errors"},
     "pencilbot.schema": {"pencilbot.errors"},

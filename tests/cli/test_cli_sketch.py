@@ -104,3 +104,11 @@ def test_unwritable_target_leaves_nothing(photo, tmp_path, capsys):
     assert main(["sketch", str(photo), "-o", str(blocked), "--lines-only"]) == 2
     assert "cannot write" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["taken.png"]
+
+
+def test_colour_is_spelt_either_way():
+    from pencilbot.commands import build_parser
+
+    for spelling in ("--color", "--colour"):
+        assert build_parser().parse_args(["sketch", "in.png", "-o", "out.png", spelling]).color is True
+    assert build_parser().parse_args(["sketch", "in.png", "-o", "out.png"]).color is False

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pencilbot.paths import Paths
+from pencilbot.paths import Paths, ramps
 
 point_lists = st.lists(
     st.lists(st.tuples(st.floats(-1e3, 1e3), st.floats(-1e3, 1e3)), max_size=5), max_size=8
@@ -40,6 +40,32 @@ def test_slices_and_concatenation_are_the_list_operations(lists, a, b, step):
     assert all(np.array_equal(x, y) for x, y in zip(got, want))
     both = Paths.concat([paths, paths[a:b]])
     assert [p.tolist() for p in both] == [p.tolist() for p in arrays + arrays[a:b]]
+
+
+@settings(max_examples=80, deadline=None)
+@given(point_lists, st.data())
+def test_take_picks_and_reverses_paths_as_a_list_would(lists, data):
+    arrays = [np.array(p, dtype=float).reshape(-1, 2) for p in lists if p]
+    paths = Paths.of(arrays)
+    order = data.draw(st.lists(st.integers(0, max(len(arrays) - 1, 0)), max_size=10 if arrays else 0))
+    reverse = data.draw(st.lists(st.booleans(), min_size=len(order), max_size=len(order)))
+    got = paths.take(order, reverse)
+    want = [arrays[i][::-1] if r else arrays[i] for i, r in zip(order, reverse)]
+    assert len(got) == len(want) and all(np.array_equal(x, y) for x, y in zip(got, want))
+    assert paths.take(order) == Paths.of(arrays[i] for i in order)
+
+
+@settings(max_examples=80, deadline=None)
+@given(point_lists)
+def test_drawn_lengths_are_each_paths_length_along_its_points(lists):
+    arrays = [np.array(p, dtype=float).reshape(-1, 2) for p in lists if p]
+    want = [np.hypot(*np.diff(a, axis=0).T).sum() for a in arrays]
+    np.testing.assert_allclose(Paths.of(arrays).drawn_lengths(), want, rtol=1e-12, atol=1e-9)
+
+
+def test_ramps_count_within_each_size():
+    assert ramps([3, 1, 0, 2]).tolist() == [0, 1, 2, 0, 0, 1]
+    assert ramps([]).tolist() == []
 
 
 def test_empty_paths_are_refused_and_arrays_are_read_only():

@@ -244,7 +244,7 @@ def test_a_drawing_streamed_to_png_is_the_canvas_picture(tmp_path, travel):
 
 @pytest.mark.parametrize("travel", [False, True])
 def test_a_colour_drawing_streamed_to_png_is_the_stacked_canvases(tmp_path, travel):
-    # Two pens, each its own ink and width, band by band: the picture colour_image makes of one
+    # Two pens, each its own ink and width, band by band: the picture color_image makes of one
     # whole canvas per pen (a band that mixed up pens or rows would change the colours).
     cyan, magenta = _scribble(seed=2, count=80), _scribble(seed=3, count=80)
     moves = [np.array([[0.0, 0.0], [30.0, 12.0]])]
@@ -256,9 +256,9 @@ def test_a_colour_drawing_streamed_to_png_is_the_stacked_canvases(tmp_path, trav
     if travel:
         canvases[0].draw_travel(moves)
     colors = ["#00a0e0", "#e0007a"]
-    want = canvas_module.colour_image(canvases, colors)
+    want = canvas_module.color_image(canvases, colors)
     out = tmp_path / "colour.png"
-    shape = canvas_module.save_colour_png(out, [(cyan, colors[0], 0.3), (magenta, colors[1], 0.6)], 40, 30,
+    shape = canvas_module.save_color_png(out, [(cyan, colors[0], 0.3), (magenta, colors[1], 0.6)], 40, 30,
                                           dpi=150, travel=moves if travel else None, travel_pen=0.3,
                                           band_pixels=5000)
     back = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)[..., ::-1]

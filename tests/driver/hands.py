@@ -57,3 +57,25 @@ class SteppedHand:
         self.prompts.append(prompt)
         self.keys = _Keys(self.plotter, mark)
         TerminalOperator(self.keys, out=io.StringIO()).jog_to_mark(prompt, mark, jog)
+
+
+class Hand:
+    """Someone at a virtual plotter who answers pauses (each prompt kept) and jogs the raised pen
+    exactly where a fault matrix's subclass looks (:meth:`sighted`: where the pen is and where
+    it should go), by name of the plotter in ``sim://``."""
+
+    jog_step = 0.0
+
+    def __init__(self, name):
+        self.name, self.prompts = name, []
+
+    def pause(self, prompt):
+        self.prompts.append(prompt)
+
+    def jog_to_mark(self, prompt, mark, jog):
+        self.prompts.append(prompt)
+        (x, y), (to_x, to_y) = self.sighted(mark)
+        jog(to_x - x, to_y - y)
+
+    def sighted(self, mark):
+        raise NotImplementedError

@@ -18,6 +18,7 @@ import itertools
 
 import numpy as np
 import pytest
+import hands
 from real_plan import plan_lines
 from segments import drawing_differences
 
@@ -63,22 +64,12 @@ def reference():
     protocol_sim.forget("ebb-matrix-ref")
 
 
-class Hand:
-    """Someone at the virtual plotter: answers pauses, and jogs to a mark by looking at where the
-    carriage really is (the board's count is lost: that is why it is asked)."""
+class Hand(hands.Hand):
+    """Jogs to the mark by looking at where the carriage really is (the board's count is lost:
+    that is why it is asked)."""
 
-    jog_step = 0.0
-
-    def __init__(self, name):
-        self.name, self.prompts = name, []
-
-    def pause(self, prompt):
-        self.prompts.append(prompt)
-
-    def jog_to_mark(self, prompt, mark, jog):
-        self.prompts.append(prompt)
-        x, y = protocol_sim.plotter(self.name).position()
-        jog(mark.xy[0] - x, mark.xy[1] - y)
+    def sighted(self, mark):
+        return protocol_sim.plotter(self.name).position(), mark.xy
 
 
 @pytest.mark.parametrize("fault", FAULTS)

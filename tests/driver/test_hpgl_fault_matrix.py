@@ -17,6 +17,7 @@ import itertools
 from dataclasses import replace
 
 import pytest
+import hands
 import skimage.data
 from segments import drawing_differences
 
@@ -62,24 +63,14 @@ def job(tmp_path_factory):
     protocol_sim.forget("hpgl-matrix-ref")
 
 
-class Hand:
-    """Someone at the virtual plotter: answers pauses, and jogs the raised pen to the end of the
-    last line on the sheet (looking at the sheet: the plotter's drawing)."""
+class Hand(hands.Hand):
+    """Jogs the raised pen to the end of the last line on the sheet (looking at the sheet: the
+    plotter's drawing)."""
 
-    jog_step = 0.0
-
-    def __init__(self, name):
-        self.name, self.prompts = name, []
-
-    def pause(self, prompt):
-        self.prompts.append(prompt)
-
-    def jog_to_mark(self, prompt, mark, jog):
-        self.prompts.append(prompt)
+    def sighted(self, mark):
         board = protocol_sim.plotter(self.name).board
         board.finish()
-        end = board.strokes[-1][-1]
-        jog(end[0] - board.x * UNIT, end[1] - board.y * UNIT)
+        return (board.x * UNIT, board.y * UNIT), board.strokes[-1][-1]
 
 
 @pytest.mark.parametrize("fault", FAULTS)

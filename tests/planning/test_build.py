@@ -16,6 +16,7 @@ from skimage.transform import resize
 from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
+from pencilbot.paths import Paths
 from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.build import (
     at_plot_resolution,
@@ -119,7 +120,7 @@ def test_hatching_follows_the_tone():
     image = image_from_array((gray * 255).astype(np.uint8), source="disc")
     plan = make_plan(image, page=page_size("100x100", margin=5), style=FAST)
     layout = Layout.fit(image.shape, plan.page)
-    hatch = [p for layer in plan.layers if layer.role != "edges" for p in layer.paths]
+    hatch = Paths.concat(layer.paths for layer in plan.layers if layer.role != "edges")
     ink = ink_on_image_grid(hatch, layout, pen_width=FAST.pen_width)
     inside = np.zeros(gray.shape, bool)
     inside[disk((60, 60), 28)] = True

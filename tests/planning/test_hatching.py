@@ -6,6 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import ndimage as ndi
 
+from pencilbot.paths import Paths
 from pencilbot.planning.flow import Grid, direction_field
 from pencilbot.planning.hatching import HATCH_COVERAGE, hatch_layers, trace_families
 from pencilbot.planning.onset import Onset
@@ -34,7 +35,7 @@ def test_a_uniform_patch_is_covered_as_dark_as_asked(pen):
     layout = _layout((120, 120))
     measured = []
     for darkness in (0.1, 0.3, 0.5, 0.7, 0.9):
-        layers = shade(np.full((120, 120), darkness), layout, [], pen_width=pen)
+        layers = shade(np.full((120, 120), darkness), layout, Paths.empty(), pen_width=pen)
         measured.append(_coverage(layers, layout, pen))
         assert measured[-1] == pytest.approx(darkness, abs=0.03)
     assert np.all(np.diff(measured) > 0)
@@ -42,9 +43,9 @@ def test_a_uniform_patch_is_covered_as_dark_as_asked(pen):
 
 def test_white_paper_gets_no_hatching():
     layout = _layout((60, 80))
-    assert not any(layer.paths for layer in shade(np.zeros((60, 80)), layout, []))
+    assert not any(layer.paths for layer in shade(np.zeros((60, 80)), layout, Paths.empty()))
     faint = np.full((60, 80), 0.015)
-    assert not any(layer.paths for layer in shade(faint, layout, [], blank_below=0.02))
+    assert not any(layer.paths for layer in shade(faint, layout, Paths.empty(), blank_below=0.02))
 
 
 def test_hatching_runs_along_the_isophotes_of_a_radial_gradient():
@@ -55,7 +56,7 @@ def test_hatching_runs_along_the_isophotes_of_a_radial_gradient():
     radius = np.hypot(rows - n / 2, cols - n / 2)
     darkness = np.clip(0.15 + 0.6 * radius / (n / 2), 0, 0.9)
     layout = _layout((n, n))
-    layers = shade(darkness, layout, [], pen_width=0.5)
+    layers = shade(darkness, layout, Paths.empty(), pen_width=0.5)
     centre = np.array([(layout.drawing_box[0] + layout.drawing_box[2]) / 2, (layout.drawing_box[1] + layout.drawing_box[3]) / 2])
     pts = np.concatenate([p for p in layers[0].paths if len(p) > 1])
     segments = [np.diff(p, axis=0) for p in layers[0].paths if len(p) > 1]
@@ -114,7 +115,7 @@ def test_later_families_are_drawn_only_where_the_tone_needs_them():
     dark = np.full((100, 100), 0.2)
     dark[:, 50:] = 0.85
     layout = _layout()
-    layers = shade(dark, layout, [])
+    layers = shade(dark, layout, Paths.empty())
     x_mid = (layout.drawing_box[0] + layout.drawing_box[2]) / 2
     assert any(p[:, 0].max() < x_mid - 2 for p in layers[0].paths), "the light half gets the first family"
     for layer in layers[2:]:
@@ -125,7 +126,7 @@ def test_later_families_are_drawn_only_where_the_tone_needs_them():
 def test_light_tones_are_dashed_lines_not_scratches_far_apart():
     layout = _layout((100, 100))
     # Just above BLANK_BELOW (0.04 itself sits on the threshold in float32 after the blur).
-    layers = shade(np.full((100, 100), 0.05), layout, [], pen_width=0.5)
+    layers = shade(np.full((100, 100), 0.05), layout, Paths.empty(), pen_width=0.5)
     paths = [p for layer in layers for p in layer.paths]
     assert paths
     # Neighbouring drawn lines stay within a few mm of each other (MAX_GAP), and each is dashed.
@@ -212,7 +213,7 @@ def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
     layout = _layout((n, n))
     dark = np.tile(np.clip(0.1 + 0.8 * np.arange(n) / n, 0, 1), (n, 1))
     dark[30:70, 30:70] = 0.15
-    edges = [np.array([[25.0, 25.0], [45.0, 25.0], [45.0, 45.0]])]
+    edges = Paths.of([[[25.0, 25.0], [45.0, 25.0], [45.0, 45.0]]])
     # Judged on the loop's own cells, which no two neighbouring lines share (ink of separate
     # lines in one cell stacks as 1 − Π(1 − c) and would be undercounted).
     grid = Grid(layout.drawing_box, min(0.5, 0.5 / HATCH_COVERAGE / 2))
@@ -222,7 +223,7 @@ def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
 
     def tone_error(rounds):
         layers = shade(dark, layout, edges, rounds=rounds)
-        hatch_ink = ink_on_grid([p for layer in layers for p in layer.paths], grid, 0.5)
+        hatch_ink = ink_on_grid(Paths.concat(layer.paths for layer in layers), grid, 0.5)
         seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
         return float(np.abs(seen - goal)[8:-8, 8:-8].mean())
 
@@ -248,7 +249,7 @@ def test_a_tall_picture_on_a_wide_sheet_is_hatched_to_its_bottom_edge():
     layout = Layout.fit((100, 30), Page(width=150, height=80, margin=10))
     x0, y0, x1, y1 = layout.drawing_box
     assert x0 > y0 + 20
-    layers = shade(np.full((100, 30), 0.5), layout, [], pen_width=0.5)
+    layers = shade(np.full((100, 30), 0.5), layout, Paths.empty(), pen_width=0.5)
     points = np.concatenate([p for layer in layers for p in layer.paths])
     assert points[:, 1].min() < y0 + 3.0 and points[:, 1].max() > y1 - 3.0
     assert points[:, 0].min() >= x0 - 1e-6 and points[:, 0].max() <= x1 + 1e-6
@@ -263,15 +264,15 @@ def test_the_first_request_leaves_out_the_ink_a_contour_lays():
     layout = _layout((n, n))
     x0, y0, x1, y1 = layout.drawing_box
     ym = (y0 + y1) / 2
-    edges = [np.array([[x0 + 5 + k * 0.5, ym - 10.0], [x0 + 5 + k * 0.5, ym + 10.0]]) for k in range(8)]
+    edges = Paths.of([[x0 + 5 + k * 0.5, ym - 10.0], [x0 + 5 + k * 0.5, ym + 10.0]] for k in range(8))
     dark = np.full((n, n), 0.5)
     grid = Grid(layout.drawing_box, 0.5)
     band = ink_on_grid(edges, grid, 0.5) > 0.5  # cells the contours cover
     assert band.sum() > 100
 
     def hatch_ink(with_edges):
-        layers = shade(dark, layout, edges if with_edges else [], rounds=1)
-        return ink_on_grid([p for layer in layers for p in layer.paths], grid, 0.5)[band].mean()
+        layers = shade(dark, layout, edges if with_edges else Paths.empty(), rounds=1)
+        return ink_on_grid(Paths.concat(layer.paths for layer in layers), grid, 0.5)[band].mean()
 
     assert hatch_ink(True) < 0.5 * hatch_ink(False)
 

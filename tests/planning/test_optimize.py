@@ -76,7 +76,7 @@ def test_reordering_loses_nothing_draws_nothing_twice_and_never_travels_further(
 def test_an_ordered_drawing_is_not_made_worse():
     rng = np.random.default_rng(4)
     strokes = list(rng.uniform(0, 200, (400, 2, 2)))
-    ordered = order_paths(strokes, start=(0, 0), join_tolerance=-1)
+    ordered = order_paths(Paths.of(strokes), start=(0, 0), join_tolerance=-1)
     plan = Plan(Page(200, 200), [Layer("a", ordered, pen_width=0.01)])
     again = reorder_plan(plan, start=(0, 0)).plan
     assert pen_up_length(again.paths(), (0, 0)) <= pen_up_length(plan.paths(), (0, 0))

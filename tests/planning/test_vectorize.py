@@ -9,6 +9,7 @@ from skimage.draw import disk, polygon
 
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.strokes import LineDrawing, line_drawing
+from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Page
@@ -57,6 +58,16 @@ def _longest_run(mask):
     doubled = np.concatenate([mask, mask]).astype(np.int8)
     edges = np.diff(np.concatenate([[0], doubled, [0]]))
     return int((np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)).max(initial=0))
+
+
+def _scribble(gray, rng, low, high, count, *, width):
+    """Draw ``count`` random straight marks into ``gray``: centre x, y, half length (px) and grey
+    uniform between ``low`` and ``high``, at a uniform angle."""
+    (x0, y0, h0, g0), (x1, y1, h1, g1) = low, high
+    marks = rng.uniform((x0, y0, 0, h0, g0), (x1, y1, np.pi, h1, g1), (count, 5))
+    for x, y, angle, half, grey in marks:
+        dx, dy = half * np.cos(angle), half * np.sin(angle)
+        cv2.line(gray, (round(x - dx), round(y - dy)), (round(x + dx), round(y + dy)), float(grey), width)
 
 
 def _disk_picture(size=140, radius=45, ground=0.6, ink=0.2):
@@ -193,13 +204,8 @@ def test_texture_is_thinned_while_the_contour_beside_it_keeps_its_strokes():
     # Left: a dense patch of short random marks (a spoon's reflections, a badge's lettering,
     # hair). Right: a clean disk. A draughtsman keeps the contour and leaves the texture to
     # the shading, where the strokes of every band of the texture made knots.
-    rng = np.random.default_rng(4)
     gray = np.full((160, 320), 0.8, np.float32)
-    for x, y, angle, half, grey in zip(
-        *rng.uniform((10, 10, 0, 2, 0.3), (150, 150, np.pi, 6, 0.6), (1500, 5)).T, strict=True
-    ):
-        dx, dy = half * np.cos(angle), half * np.sin(angle)
-        cv2.line(gray, (round(x - dx), round(y - dy)), (round(x + dx), round(y + dy)), float(grey), 1)
+    _scribble(gray, np.random.default_rng(4), (10, 10, 2, 0.3), (150, 150, 6, 0.6), 1500, width=1)
     gray[disk((80, 240), 50)] = 0.3
     line = line_drawing(edge_map(gray))
     layout = _layout(gray.shape)
@@ -225,10 +231,10 @@ def test_speckle_and_weak_edges_draw_nothing():
     edges[rng.integers(0, h, 40) // 4 * 4, rng.integers(0, w, 40) // 4 * 4] = 1.0
     labels = rng.integers(0, 8, (h, w)).astype(np.uint8)
     layout = _layout((h, w))
-    assert edge_strokes(_hand_made(edges, labels), layout, min_pixels=3) == []
+    assert edge_strokes(_hand_made(edges, labels), layout, min_pixels=3) == Paths.empty()
     weak = np.zeros((h, w), np.float32)
     weak[40, 10:70] = 0.2
-    assert edge_strokes(_hand_made(weak, np.zeros((h, w), np.uint8)), layout, threshold=0.3) == []
+    assert edge_strokes(_hand_made(weak, np.zeros((h, w), np.uint8)), layout, threshold=0.3) == Paths.empty()
     assert edge_strokes(_hand_made(weak, np.zeros((h, w), np.uint8)), layout, threshold=0.1)
 
 
@@ -243,7 +249,7 @@ def test_speckle_and_weak_edges_draw_nothing():
 )
 def test_paper_that_should_stay_paper_gets_no_edge_strokes(gray):
     line = line_drawing(edge_map(gray.astype(np.float32)))
-    assert edge_strokes(line, _layout(gray.shape)) == []
+    assert edge_strokes(line, _layout(gray.shape)) == Paths.empty()
 
 
 def test_edge_threshold_is_where_the_raster_stroke_is_dark_enough():
@@ -284,11 +290,7 @@ def test_a_picture_of_texture_keeps_its_clean_contour_within_the_budget():
     clean = np.full((240, 320), 0.75, np.float32)
     clean[disk((120, 160), 45)] = 0.1
     gray = clean.copy()
-    for x, y, angle, half, grey in zip(
-        *rng.uniform((0, 0, 0, 4, 0.35), (320, 240, np.pi, 12, 0.6), (900, 5)).T, strict=True
-    ):
-        dx, dy = half * np.cos(angle), half * np.sin(angle)
-        cv2.line(gray, (round(x - dx), round(y - dy)), (round(x + dx), round(y + dy)), float(grey), 2)
+    _scribble(gray, rng, (0, 0, 4, 0.35), (320, 240, 12, 0.6), 900, width=2)
     gray[disk((120, 160), 45)] = 0.1
     line = line_drawing(edge_map(gray))
     layout = _layout(gray.shape)

@@ -2,7 +2,7 @@
 or cyan, magenta and yellow in balance), and the hatched plan lays the inks the picture asks for.
 
 The plan-level tests render each pen's hatching with the exact-area rasteriser and stack the inks
-with the one model (:func:`pencilbot.colours.inks_on_paper`), then judge in CIELAB."""
+with the one model (:func:`pencilbot.colors.inks_on_paper`), then judge in CIELAB."""
 
 from __future__ import annotations
 
@@ -12,10 +12,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from skimage.color import deltaE_ciede2000, rgb2lab
 
-from pencilbot.colours import inks_on_paper
+from pencilbot.colors import inks_on_paper
 from pencilbot.machine.pens import load_pens
+from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
-from pencilbot.planning.colour import MOST_INK, colour_hatching, pen_angles, separate, separation_table
+from pencilbot.planning.color import MOST_INK, color_hatching, pen_angles, separate, separation_table
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
 
@@ -102,11 +103,11 @@ def patch_plan(rgb, pens):
     layout = Layout.fit(PATCH_PX, PAGE)
     target = np.broadcast_to(np.asarray(rgb, np.float32), (*PATCH_PX, 3)).copy()
     tone = np.full(PATCH_PX, 0.5, np.float32)
-    layers = colour_hatching(target, layout, pens, [], form=tone, paper=tone, angles=(0.0, 90.0, 45.0, -45.0),
+    layers = color_hatching(target, layout, pens, Paths.empty(), form=tone, paper=tone, angles=(0.0, 90.0, 45.0, -45.0),
                              form_scale=0.0, seed=3)
     inks = {}
     for pen in pens:
-        mine = [p for layer in layers if layer.pen == pen.name for p in layer.paths]
+        mine = Paths.concat(layer.paths for layer in layers if layer.pen == pen.name)
         inks[pen.name] = ink_on_image_grid(mine, layout, pen_width=pen.width)[20:-20, 20:-20]
     return layers, inks
 
@@ -146,7 +147,7 @@ def picture_with_spot(base, spot, share: float, size: int = 100) -> np.ndarray:
 
 
 def test_a_pen_the_picture_hardly_needs_is_left_out_but_a_small_vivid_spot_keeps_its_pen():
-    from pencilbot.planning.colour import separate_cells, unneeded_pens
+    from pencilbot.planning.color import separate_cells, unneeded_pens
 
     pens = load_pens("cmyk").load_order  # yellow, cyan, magenta, black
     magenta = mixed(pens[2], 0.5)
@@ -161,7 +162,7 @@ def test_a_pen_the_picture_hardly_needs_is_left_out_but_a_small_vivid_spot_keeps
 
 
 def test_pens_that_stand_in_for_each_other_are_not_all_left_out():
-    from pencilbot.planning.colour import separate_cells, unneeded_pens
+    from pencilbot.planning.color import separate_cells, unneeded_pens
 
     pens = load_pens("fineliner6").load_order  # yellow, orange, green, red, blue, black
     blue = mixed(pens[4], 0.6)

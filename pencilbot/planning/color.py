@@ -1,7 +1,7 @@
 """Colour separation: how much of each pen a colour sketch needs, and each pen's hatching.
 
 The model is the one the previews and the simulated plot are judged by
-(:func:`pencilbot.colours.inks_on_paper`): pen k laying ink of linear reflectance c_k over a
+(:func:`pencilbot.colors.inks_on_paper`): pen k laying ink of linear reflectance c_k over a
 share a_k of the paper multiplies the paper's reflectance by ``1 − a_k (1 − c_k)`` per channel.
 Per cell of a blurred, downsampled copy of the colour sketch (:data:`SEPARATION_CELL`, the
 1–3 mm scale at which hatching is seen as colour), :func:`separate` finds the amounts a ≥ 0 that
@@ -33,8 +33,9 @@ import numpy as np
 from scipy import ndimage as ndi
 from skimage.color import deltaE_ciede2000, rgb2lab
 
-from pencilbot.colours import inks_on_paper, linear_to_srgb, srgb_to_linear
+from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.machine.pens import Pen
+from pencilbot.paths import Paths
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.shading import shade
 
@@ -155,8 +156,8 @@ def pen_angles(base: Sequence[float], index: int, count: int) -> tuple[float, ..
     return tuple((angle + offset + 90.0) % 180.0 - 90.0 for angle in base)
 
 
-def colour_hatching(
-    target: np.ndarray, layout, pens: Sequence[Pen], edges: list[np.ndarray], *,
+def color_hatching(
+    target: np.ndarray, layout, pens: Sequence[Pen], edges: Paths, *,
     form: np.ndarray, paper: np.ndarray, angles: Sequence[float], **shading,
 ) -> list[Layer]:
     """Hatch layers of every pen whose stacked inks follow a colour picture.
@@ -168,7 +169,7 @@ def colour_hatching(
     layout : Layout
     pens : sequence of Pen
         In load order (lightest first); the last draws the contours ``edges`` and carries their ink.
-    edges : list of (N, 2) arrays
+    edges : Paths
         Contour strokes (page mm) drawn in the last pen.
     form : (H, W) float array
         Tone whose forms every pen's hatching follows (the black plan's darkness).
@@ -193,7 +194,7 @@ def colour_hatching(
             continue
         last = index == len(pens) - 1
         hatches = shade(
-            amount, layout, edges if last else [], paper=paper, form=form, pen_width=pen.width,
+            amount, layout, edges if last else Paths.empty(), paper=paper, form=form, pen_width=pen.width,
             angles=pen_angles(angles, index, len(pens)), seed=seed + 101 * index, **shading,
         )
         layers += [
@@ -226,18 +227,18 @@ def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
     return np.stack([cv2.resize(a, (width, height), interpolation=cv2.INTER_LINEAR) for a in amounts])
 
 
-def separate_cells(colours: np.ndarray, pens: Sequence[Pen]) -> np.ndarray:
+def separate_cells(colors: np.ndarray, pens: Sequence[Pen]) -> np.ndarray:
     """(K, h, w): :func:`separate` of an sRGB picture by interpolation in :func:`separation_table`,
     polished by :data:`POLISH_ROUNDS`; coverage under :data:`LEAST_INK` left out."""
     table = separation_table(tuple(pen.color for pen in pens))
-    at = colours.reshape(-1, 3).T * (TABLE_SIZE - 1)
-    guess = np.stack([ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(colours.shape[:2]) for t in table])
-    amounts = separate(colours, pens, rounds=POLISH_ROUNDS, start=guess)
+    at = colors.reshape(-1, 3).T * (TABLE_SIZE - 1)
+    guess = np.stack([ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(colors.shape[:2]) for t in table])
+    amounts = separate(colors, pens, rounds=POLISH_ROUNDS, start=guess)
     amounts[amounts < LEAST_INK] = 0.0
     return amounts
 
 
-def unneeded_pens(colours: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray) -> list[int]:
+def unneeded_pens(colors: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray) -> list[int]:
     """Pens (indices; never the last, which draws the contours) whose ink the picture can do without.
 
     A pen is a candidate when it lays under :data:`SPARE_SHARE` of all the ink; it is dropped when
@@ -250,14 +251,14 @@ def unneeded_pens(colours: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray)
     candidates = [k for k in range(len(pens) - 1) if 0 < amounts[k].sum() < SPARE_SHARE * total]
     if not candidates:
         return []
-    goal = rgb2lab(colours)
+    goal = rgb2lab(colors)
     before = deltaE_ciede2000(goal, rgb2lab(_stacked(amounts, pens)))
     dropped = []
     # One at a time, the least used first, each judged with the ones before it gone: pens that
     # could stand in for each other (yellow and orange) are not all dropped at once.
     for k in sorted(candidates, key=lambda k: amounts[k].sum()):
         others = [pens[j] for j in range(len(pens)) if j != k and j not in dropped]
-        without = deltaE_ciede2000(goal, rgb2lab(_stacked(separate_cells(colours, others), others)))
+        without = deltaE_ciede2000(goal, rgb2lab(_stacked(separate_cells(colors, others), others)))
         if np.mean(without - before >= SPARE_DELTA_E) <= SPARE_CELLS:
             dropped.append(k)
     return dropped
