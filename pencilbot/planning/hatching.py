@@ -64,6 +64,8 @@ CROSS_RUN = 2.5
 SAMPLE_STEP = 0.4
 # Points of an output stroke are kept about this far apart (mm): the lines are smooth curves.
 POINT_SPACING = 1.6
+# A stroke whose pen path is this much (mm) shorter than its shortest length folds back on itself.
+FOLD_TOLERANCE = 0.5
 #: Where the picture matters most (a face), the hatching is finer by this factor: shortest
 #: stroke, dash cell and widest gap between lines are this share of elsewhere's (a light face
 #: gets dashes of 0.7 mm on lines under 2 mm apart instead of 1.2 mm dashes 3 mm apart; finer
@@ -253,7 +255,11 @@ def hatch_strokes(
     counts = run_stop - run_start + 1
     kept = (counts - 1) // keep_every + 1 + ((counts - 1) % keep_every > 0)
     index = np.minimum(np.repeat(run_start, kept) + ramps(kept) * keep_every, np.repeat(run_stop, kept))
-    return Paths(lines.points[index], np.concatenate([[0], np.cumsum(kept)]))
+    strokes = Paths(lines.points[index], np.concatenate([[0], np.cumsum(kept)]))
+    # A run long enough along its line can still fold back on itself where the form turns
+    # sharply: its pen stroke is then a hook shorter than a shortest stroke. Drop those.
+    hooked = strokes.drawn_lengths() < min_run * np.minimum(scale[run_start], scale[run_stop]) - FOLD_TOLERANCE
+    return strokes.take(np.flatnonzero(~hooked)) if hooked.any() else strokes
 
 
 def hatch_layers(
