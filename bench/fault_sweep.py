@@ -173,6 +173,7 @@ def main() -> None:
     counts = {"runs": 0, "tracebacks": 0, "exact": 0, "refused_then_exact": 0, "finished": 0, "wrong": 0,
               "with_overrun": 0}
     examples: dict[str, list] = {"tracebacks": [], "wrong": []}
+    failed: list[str] = []  # every wrong or traceback run, by name (firmware-clock-mode-kind-line)
     with tempfile.TemporaryDirectory() as folder:
         tasks = []
         for firmware in args.firmware.split(","):
@@ -188,7 +189,10 @@ def main() -> None:
                 counts["with_overrun"] += overruns > 0
                 if key in examples and len(examples[key]) < 8:
                     examples[key].append({"case": name, "detail": detail[-600:]})
-    print(json.dumps({**counts, "positions": args.positions, "examples": examples}, indent=1))
+                if key in ("wrong", "tracebacks"):
+                    failed.append(name)
+    print(json.dumps({**counts, "positions": args.positions, "failed": sorted(failed), "examples": examples},
+                     indent=1))
 
 
 if __name__ == "__main__":
