@@ -196,12 +196,35 @@ def locate_stop(
         if 0.0 <= t < 1.0 and abs(on - start) > snap:
             if pen_down is not None and states[i].pen_down != pen_down:
                 continue
+            # Near a corner a rounded point lies within the tolerance of both moves that meet
+            # there: the one it lies nearer to is where it is (the next move in the search's
+            # order, which shares a vertex with this one; collinear moves are a tie: this one).
+            k = i + 1 if floor is not None else i - 1
+            if lowest <= k <= last:
+                other = _inside(states, k, p, tolerance, snap, pen_down)
+                if other is not None and other[0] < abs(on - p) - 1e-12:
+                    return k, other[1]
             return i, (on.real, on.imag)
         if abs(on - start) <= snap:
             return i, None
         if 1.0 <= t and abs(on - end) <= coast and ran_past is None:
             ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
     return ran_past
+
+
+def _inside(states, i: int, p: complex, tolerance: float, snap: float, pen_down: bool | None):
+    """(distance, point) of ``p`` from move ``i`` if it lies inside it (not at its ends, drawn
+    with the pen as the board said), else None."""
+    end = complex(states[i].x, states[i].y)
+    start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
+    seg = end - start
+    if seg == 0 or abs(p - end) <= snap or (pen_down is not None and states[i].pen_down != pen_down):
+        return None
+    t = ((p - start) / seg).real
+    on = start + t * seg
+    if abs(on - p) > tolerance or not 0.0 <= t < 1.0 or abs(on - start) <= snap:
+        return None
+    return abs(on - p), (on.real, on.imag)
 
 
 #: A cleaned line a GRBL-protocol board answers only after every earlier move has run.

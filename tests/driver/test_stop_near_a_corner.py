@@ -116,3 +116,18 @@ def test_a_stop_a_micrometre_short_of_a_corner_draws_that_micrometre_on_resume(t
     profile = "grblhal-servo-a3"
     name = _stop_and_resume(profile, "interrupt@188", True, tmp_path)
     assert_same_drawing(drawn(name), reference(profile))
+
+
+@pytest.mark.parametrize("back, expected", [
+    ("G1X10Y1", 6),  # a sharp corner: the point lies on the move back, 4 µm from the corner
+    ("G1X10Y0", 5),  # straight back over itself: nothing tells the passes apart; the first (nothing missing)
+])
+def test_a_point_near_a_sharp_corner_is_on_the_move_it_lies_nearer_to(back, expected):
+    lines = ["G21", "G90", "M3S30", "G0X10Y0", "M3S90", "G1X20Y0F600", back, "M3S30", "G0X0Y0"]
+    states = states_of(lines)
+    end, start = complex(states[6].x, states[6].y), complex(20.0, 0.0)
+    p = start + 0.004 * (end - start) / abs(end - start)  # on the move back, 4 µm from the corner
+    # Within a report's tolerance of both moves, and the board ran lines in order from line 5.
+    index, (x, y) = locate_stop(states, len(lines) - 1, (p.real, p.imag), floor=5)
+    assert index == expected
+    assert abs(complex(x, y) - p) < 1e-9
