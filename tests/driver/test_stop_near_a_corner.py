@@ -120,10 +120,10 @@ def test_a_stop_a_micrometre_short_of_a_corner_draws_that_micrometre_on_resume(t
 
 @pytest.mark.parametrize("back, expected", [
     ("G1X10Y1", 6),  # a sharp corner: the point lies on the move back, 4 µm from the corner
-    ("G1X10Y0", 5),  # straight back over itself: nothing tells the passes apart; the first (nothing missing)
+    ("G1X10Y-1", 5),  # straight back over itself: nothing tells the passes apart; the first (nothing missing)
 ])
 def test_a_point_near_a_sharp_corner_is_on_the_move_it_lies_nearer_to(back, expected):
-    lines = ["G21", "G90", "M3S30", "G0X10Y0", "M3S90", "G1X20Y0F600", back, "M3S30", "G0X0Y0"]
+    lines = ["G21", "G90", "M3S30", "G0X10Y-1", "M3S90", "G1X20Y0F600", back, "M3S30", "G0X0Y0"]
     states = states_of(lines)
     end, start = complex(states[6].x, states[6].y), complex(20.0, 0.0)
     p = start + 0.004 * (end - start) / abs(end - start)  # on the move back, 4 µm from the corner
@@ -131,3 +131,25 @@ def test_a_point_near_a_sharp_corner_is_on_the_move_it_lies_nearer_to(back, expe
     index, (x, y) = locate_stop(states, len(lines) - 1, (p.real, p.imag), floor=5)
     assert index == expected
     assert abs(complex(x, y) - p) < 1e-9
+
+
+def test_near_a_corner_of_the_job_s_first_move_the_search_reads_nothing_before_it():
+    # The job begins with a move (from 0, 0): looking back from the move after it, latest
+    # first, the first move's start is the origin, not a line before the job.
+    states = states_of(["G1X20Y0F600", "G1X10Y1"])
+    p = complex(20.0, 0.0) + 0.004 * complex(-10.0, 1.0) / abs(complex(-10.0, 1.0))
+    assert locate_stop(states, 1, (p.real, p.imag))[0] == 1
+
+
+def test_a_carriage_that_coasted_on_the_job_s_first_move_ran_from_the_origin():
+    profile = load_profile("grbl-servo-a4")
+    locator = StopLocator(load_job(["G1X20Y0F600", "G1X20Y10"], profile), profile)
+    at = locator.locate(1, (5.0, 0.0), answered=-1)
+    assert at == (0, (5.0, 0.0))
+    assert locator.coasted(at, (5.0, 0.0), (25.0, 0.0), tolerance=0.001) == (1, None)
+    assert locator.coasted(at, (5.0, 0.0), (12.0, 0.0), tolerance=0.001) == (0, (12.0, 0.0))
+
+
+@pytest.mark.parametrize("window, expected", [(3, (5, (15.0, 0.0))), (2, None)])
+def test_a_given_window_searches_that_many_lines_before_the_last_and_no_more(locator, window, expected):
+    assert locator.locate(len(JOB) - 1, (15.0, 0.0), answered=-1, window=window) == expected
