@@ -22,3 +22,9 @@ def test_a_coordinate_system_code_leaves_the_motion_and_distance_modes_as_they_w
 def test_an_empty_block_tracks_to_no_state():
     states = track([], PEN, start=ModalState(x=3.0, y=4.0))
     assert len(states) == 0
+
+
+def test_the_words_of_a_system_command_after_other_lines_count_for_nothing():
+    # "$N0=G1X50" stores a startup line in the board; it runs nothing now.
+    states = track(["G1X1Y1F100", "$N0=G1X50", "G4P0.1"], PEN)
+    assert (states[1].x, states[2].x, states[2].motion) == (1.0, 1.0, 1)
