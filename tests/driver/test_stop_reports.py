@@ -33,6 +33,34 @@ def test_a_refused_line_the_board_ran_past_is_named_and_the_resume_continues_aft
     message = str(stop.value)
     assert f"(line {refused + 1} never ran; the lines the plotter had already taken after it did" in message
     assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["next_line"] > refused + 2
+    assert "pen raised" in message and "cannot prove where the pen stopped" not in message  # a hold at rest: proven
+
+
+def test_a_stop_that_cannot_prove_the_position_says_so(tmp_path):
+    lines = drawing()
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    url, name = fresh(f"{TICK}&faults=reset@{WAKE_LINES + 30}")  # the board restarts mid-job
+    with pytest.raises(PlotError) as stop:
+        draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+    assert "The plotter cannot prove where the pen stopped, so the resume re-establishes its position first" in str(
+        stop.value)
+
+
+def test_a_resume_without_anyone_at_the_machine_does_not_ask_for_the_pen(tmp_path):
+    # A pen change (answered by the machine's own cycle start), then a stop by Ctrl-C: the
+    # journal names the pen; a resume with nobody at the machine just goes on.
+    lines = drawing()
+    lines.insert(20, "M0 (pen change: insert red)")
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    url, name = fresh(f"{TICK}&operator=auto&faults=interrupt@{WAKE_LINES + 40}")
+    with pytest.raises(PlotError, match="stopped by Ctrl-C"):
+        draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+    assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["pen"] == "red"
+    protocol_sim.plotter(name).firmware.faults.at.clear()
+    draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2, timeout=2.0)
+    assert not (tmp_path / "plot.gcode.job.json").exists()  # finished
 
 
 @pytest.mark.parametrize("count", [10, 11])
