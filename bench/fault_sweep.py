@@ -20,7 +20,12 @@ every run; ``instant``: motion runs when the planner is full or a line waits for
 Prints JSON: ``runs``; ``tracebacks`` (anything but a PlotError; must be 0) with the first few;
 ``exact`` (stopped, resumed without help, drawing exact); ``refused_then_exact`` (the first
 resume refused for a lost position, the guided one exact); ``finished`` (the fault did not stop
-the job, drawing exact); ``wrong`` (a drawing that differs) with the first few differences.
+the job, drawing exact); ``redrawn`` (nothing missing and nothing off the drawing, but a
+stretch of at most ``REDRAWN_MAX`` mm that the reference draws was drawn once more: a stop the
+position alone cannot place, on a stroke that runs straight back over itself, with no answer,
+report or count to tell the passes apart, resumes from the first pass); ``wrong`` (any other
+difference) with the first few differences; ``failed``: the name of every wrong run and
+traceback (``FIRMWARE-CLOCK-MODE-KIND-LINE``, to run again alone).
 "Exact" is the uninterrupted run's pen-down segments to 1 µm, plus only the ink a coasting
 carriage laid past the end of its move when the motors stopped dead (``with_overrun`` counts
 those runs; the virtual plotter records that ink, which no sender can take back). A refused
@@ -36,6 +41,7 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
+import re
 import sys
 import tempfile
 import traceback
@@ -68,6 +74,9 @@ KINDS = {
 }
 PROFILES = {"grbl": "grbl-servo-a4", "grblhal": "grblhal-servo-a3"}
 CLOCKS = {"tick": "&tick=0.01", "instant": "", "realtime": "&realtime=200"}
+#: mm: the longest stretch a ``redrawn`` run may draw once more than the reference.
+REDRAWN_MAX = 0.01
+_ONCE_MORE = re.compile(r"^(\d+\.\d+) mm of .* drawn \d+ times \(reference: ([1-9]\d*), drawn: \d+\)$")
 
 
 class Hand:
@@ -156,7 +165,9 @@ def case(task) -> tuple[str, str, str, int]:
         overruns = [np.array(o) for o in protocol_sim.plotter(name).machine.overruns]
         problems = drawing_differences(drawn(name), [*ref, *overruns])
         if problems:
-            outcome, detail = "wrong", f"{len(problems)} differences: {problems[:3]}"
+            found = [_ONCE_MORE.match(p) for p in problems]
+            redrawn = all(m is not None and float(m.group(1)) <= REDRAWN_MAX for m in found)
+            outcome, detail = ("redrawn" if redrawn else "wrong"), f"{len(problems)} differences: {problems[:3]}"
     protocol_sim.forget(name)
     return name, outcome, detail, len(overruns)
 
@@ -170,9 +181,10 @@ def main() -> None:
     parser.add_argument("--modes", default="counting,wait", help="counting, wait (send-and-wait)")
     parser.add_argument("--jobs", type=int, default=2, help="worker processes (runs mostly wait on the board)")
     args = parser.parse_args()
-    counts = {"runs": 0, "tracebacks": 0, "exact": 0, "refused_then_exact": 0, "finished": 0, "wrong": 0,
-              "with_overrun": 0}
-    examples: dict[str, list] = {"tracebacks": [], "wrong": []}
+    counts = {"runs": 0, "tracebacks": 0, "exact": 0, "refused_then_exact": 0, "finished": 0, "redrawn": 0,
+              "wrong": 0, "with_overrun": 0}
+    examples: dict[str, list] = {"tracebacks": [], "wrong": [], "redrawn": []}
+    failed: list[str] = []  # every wrong or traceback run, by name (firmware-clock-mode-kind-line)
     with tempfile.TemporaryDirectory() as folder:
         tasks = []
         for firmware in args.firmware.split(","):
@@ -188,7 +200,11 @@ def main() -> None:
                 counts["with_overrun"] += overruns > 0
                 if key in examples and len(examples[key]) < 8:
                     examples[key].append({"case": name, "detail": detail[-600:]})
-    print(json.dumps({**counts, "positions": args.positions, "examples": examples}, indent=1))
+                if key in ("wrong", "tracebacks"):
+                    failed.append(name)
+    print(json.dumps({**counts, "positions": args.positions, "redrawn_max_mm": REDRAWN_MAX, "failed": sorted(failed),
+                      "examples": examples},
+                     indent=1))
 
 
 if __name__ == "__main__":

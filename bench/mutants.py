@@ -61,7 +61,8 @@ ROOT = Path(__file__).resolve().parent.parent
 EQUIVALENT = Path(__file__).with_name("mutants_equivalent.toml")
 COPIED = ("pencilbot", "firmware_protocol", "sim", "configs", "tests", "pyproject.toml")
 
-_DRIVER_STREAM = ["tests/driver/test_receive_buffer_boundary.py", "tests/driver/test_stream_sim.py",
+_DRIVER_STREAM = ["tests/driver/test_receive_buffer_boundary.py", "tests/driver/test_stop_reports.py",
+                  "tests/driver/test_stream_sim.py",
                   "tests/driver/test_marlin_stream.py", "tests/driver/test_work_position_board.py"]
 #: Module → the fast tests that cover it (run with -x; the first failure kills).
 TESTS: dict[str, list[str]] = {
@@ -71,17 +72,21 @@ TESTS: dict[str, list[str]] = {
                                                   "tests/driver/test_pen_change_draw.py"],
     "pencilbot/driver/runner.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
                                                     "tests/driver/test_pen_change_draw.py"],
-    "pencilbot/driver/messages.py": ["tests/driver/test_stream_sim.py", "tests/driver/test_draw_checks.py"],
-    "pencilbot/driver/resume_point.py": ["tests/driver/test_work_position_board.py", "tests/driver/test_stream_sim.py"],
-    "pencilbot/driver/resume.py": ["tests/driver/test_modal_resume.py", "tests/driver/test_stream_sim.py",
-                                   "tests/driver/test_work_position_board.py"],
-    "pencilbot/driver/modal.py": ["tests/driver/test_modal_resume.py", "tests/driver/test_job.py"],
+    "pencilbot/driver/messages.py": ["tests/driver/test_stop_reports.py", "tests/driver/test_stream_sim.py",
+                                     "tests/driver/test_draw_checks.py"],
+    "pencilbot/driver/resume_point.py": ["tests/driver/test_stop_near_a_corner.py", "tests/driver/test_work_position_board.py",
+                                         "tests/driver/test_stream_sim.py"],
+    "pencilbot/driver/resume.py": ["tests/driver/test_stop_near_a_corner.py", "tests/driver/test_modal_resume.py",
+                                   "tests/driver/test_stream_sim.py", "tests/driver/test_work_position_board.py"],
+    "pencilbot/driver/modal.py": ["tests/driver/test_modal_codes.py", "tests/driver/test_modal_resume.py",
+                                  "tests/driver/test_job.py"],
     "pencilbot/driver/job.py": ["tests/driver/test_job.py", "tests/driver/test_modal_resume.py",
                                 "tests/driver/test_draw_checks.py", "tests/driver/test_pen_change_draw.py"],
     "pencilbot/driver/bed_check.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
     "pencilbot/driver/header.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
     "pencilbot/driver/drawn.py": ["tests/cli/test_cli_stat.py", "tests/driver/test_job.py"],
-    "pencilbot/driver/journal.py": ["tests/driver/test_journal_progress.py", "tests/driver/test_stream_sim.py"],
+    "pencilbot/driver/journal.py": ["tests/driver/test_journal_input.py", "tests/driver/test_journal_progress.py",
+                                    "tests/driver/test_stream_sim.py"],
     "pencilbot/driver/progress.py": ["tests/driver/test_journal_progress.py"],
     "pencilbot/driver/keys.py": ["tests/driver/test_keys.py"],
     "pencilbot/driver/markers.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
@@ -349,6 +354,8 @@ def main(argv=None) -> None:
     ap.add_argument("--jobs", type=int, default=1, help="mutants run in parallel (one tree copy each)")
     ap.add_argument("--timeout", type=float, default=None,
                     help="seconds per mutant (default: 3 × the module's clean run + 20)")
+    ap.add_argument("--number", type=int, action="append",
+                    help="only these mutants (their numbers in --list) of the one module given (repeatable)")
     ap.add_argument("--list", action="store_true", help="list the mutants, run nothing")
     args = ap.parse_args(argv)
 
@@ -356,6 +363,8 @@ def main(argv=None) -> None:
     plan: dict[str, list[Mutant]] = {}
     for group, members in chosen.items():
         every = [m for module in members for m in mutants_of(module)]
+        if args.number:
+            every = [m for m in every if m.number in set(args.number)]
         rng = random.Random(f"{args.seed}:{group}")
         plan[group] = sorted(rng.sample(every, min(args.sample, len(every))) if args.sample else every,
                              key=lambda m: (m.module, m.number))

@@ -21,6 +21,9 @@ from pencilbot.units import MM_PER_INCH
 _CHUNK = 256  # job lines tracked at a time when counting moves back
 #: mm: GRBL reports positions to 3 decimals, so a reported point is within this of the true one.
 REPORT_RESOLUTION = 0.001
+#: mm: how far a point rounded to :data:`REPORT_RESOLUTION` in X and in Y can be from the true
+#: one (half a digit in each): a reported point this close to a move's end may be either side.
+REPORT_ROUNDING = REPORT_RESOLUTION / 2 * 2 ** 0.5
 
 
 def resume_preamble(
@@ -145,7 +148,10 @@ def locate_stop(
         How many lines back to look (:func:`flight_start` says how many can be in flight).
     tolerance : float
         Distance (job units) under which the position counts as on a move: the board's report
-        resolution for a position it reported, more for one found by a hand jog.
+        resolution for a position it reported, more for one found by a hand jog. A point counts
+        as at a move's end or start (a vertex) within the tolerance of a hand, but a reported
+        point only within its rounding (:data:`REPORT_ROUNDING`): one a digit from a vertex
+        is inside the move (the board stood a micrometre short of the corner).
     pen_down : bool, optional
         Whether the pen was down when the machine stopped, if the board said (its spindle
         value or Z): a stop inside a move is only on a move drawn with the pen so (a travel
@@ -172,12 +178,13 @@ def locate_stop(
     kept = getattr(states, "first", 0)
     lowest = max(last - window + 1, kept + 1 if kept > 0 else 0, 0)
     p = complex(*position)
+    snap = REPORT_ROUNDING if tolerance <= REPORT_RESOLUTION else tolerance
     lines = range(last, lowest - 1, -1) if floor is None else range(max(floor, lowest), last + 1)
     ran_past = None  # a move the point is beyond the end of: only if it is on no move
     for i in lines:
         end = complex(states[i].x, states[i].y)
         start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
-        if abs(p - end) <= tolerance:
+        if abs(p - end) <= snap:
             return i + 1, None
         seg = end - start
         if seg == 0:
@@ -186,15 +193,38 @@ def locate_stop(
         on = start + t * seg
         if abs(on - p) > tolerance:
             continue
-        if 0.0 <= t < 1.0 and abs(on - start) > tolerance:
+        if 0.0 <= t < 1.0 and abs(on - start) > snap:
             if pen_down is not None and states[i].pen_down != pen_down:
                 continue
+            # Near a corner a rounded point lies within the tolerance of both moves that meet
+            # there: the one it lies nearer to is where it is (the next move in the search's
+            # order, which shares a vertex with this one; collinear moves are a tie: this one).
+            k = i + 1 if floor is not None else i - 1
+            if lowest <= k <= last:
+                other = _inside(states, k, p, tolerance, snap, pen_down)
+                if other is not None and other[0] < abs(on - p) - 1e-12:
+                    return k, other[1]
             return i, (on.real, on.imag)
-        if abs(on - start) <= tolerance:
+        if abs(on - start) <= snap:
             return i, None
         if 1.0 <= t and abs(on - end) <= coast and ran_past is None:
             ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
     return ran_past
+
+
+def _inside(states, i: int, p: complex, tolerance: float, snap: float, pen_down: bool | None):
+    """(distance, point) of ``p`` from move ``i`` if it lies inside it (not at its ends, drawn
+    with the pen as the board said), else None."""
+    end = complex(states[i].x, states[i].y)
+    start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
+    seg = end - start
+    if seg == 0 or abs(p - end) <= snap or (pen_down is not None and states[i].pen_down != pen_down):
+        return None
+    t = ((p - start) / seg).real
+    on = start + t * seg
+    if abs(on - p) > tolerance or not 0.0 <= t < 1.0 or abs(on - start) <= snap:
+        return None
+    return abs(on - p), (on.real, on.imag)
 
 
 #: A cleaned line a GRBL-protocol board answers only after every earlier move has run.
@@ -244,6 +274,36 @@ class StopLocator:
         # The state before the window's first line too: its move starts there.
         return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
                            window=last - first + 1, pen_down=pen_down, floor=floor, **how)
+
+    def coasted(self, at, count, here, tolerance: float):
+        """Where to resume after the carriage coasted on from the board's count (a reset or
+        alarm in motion): ``at`` is the count located on the lines (:meth:`locate`), ``count``
+        and ``here`` (job units) where the count and the carriage stand. The carriage ran on
+        along the move the count is on (at a vertex: the move ending or the one starting
+        there): inside it, the stop is the carriage's point on it; past its end, that move was
+        drawn (its overrun is ink no sender can take back) and the next line is next.
+        ``None`` if ``here`` is not straight on from the count along such a move (within
+        ``tolerance`` and both points' rounding)."""
+        index, stop_xy = at
+        slack = tolerance + 2 * REPORT_ROUNDING
+        c, p = complex(*count), complex(*here)
+        for move in ([index] if stop_xy is not None else [index - 1, index]):
+            if not 0 <= move < len(self.job):
+                continue
+            states = self.job.states(max(move - 1, 0), move + 1)
+            start = complex(states[move - 1].x, states[move - 1].y) if move > 0 else 0j
+            end = complex(states[move].x, states[move].y)
+            if end == start:
+                continue
+            unit = (end - start) / abs(end - start)
+            run = (p - c) / unit  # along the move (real) and across it (imag)
+            if abs(run.imag) > slack or run.real < -slack:
+                continue
+            if run.real >= ((end - c) / unit).real - slack:
+                return move + 1, None
+            on = c + run.real * unit
+            return move, (on.real, on.imag)
+        return None
 
     def synchronized(self, answered: int, first: int) -> int | None:
         """The last line at or before ``answered`` (down to ``first``) that the firmware answers

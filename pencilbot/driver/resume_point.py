@@ -93,6 +93,13 @@ class ResumePointFinder:
             # The hand agrees with the board's count at the stop: its motors did not slip, and
             # the count is exact where a hand is only as good as its finest step.
             located = self.locator.locate(sent, self.locator.job_units(count, sent), answered=acked)
+        elif count is not None:
+            # The count is where the motors stopped (on the move they ran: the board's own
+            # path); the hand, where the carriage coasted to along that move.
+            at = self.locator.locate(sent, self.locator.job_units(count, sent), answered=acked)
+            if at is not None:
+                located = self.locator.coasted(at, self.locator.job_units(count, at[0]),
+                                               self.locator.job_units(here, at[0]), tolerance)
         if located is None:
             # Found by the hand, after a carriage that may have run on past a move's end.
             located = self.locator.locate(sent, self.locator.job_units(here, sent), answered=acked, tolerance=tolerance,

@@ -21,13 +21,14 @@ TOLERANCE = 1e-3  # mm: 1 µm
 _BLOCK = 1 << 21  # pairs tested at a time (bounds the memory of the pair tests)
 
 
-def pieces(strokes) -> np.ndarray:
-    """(n, 2, 2) start and end points (mm) of every non-empty segment of pen-down polylines."""
+def pieces(strokes, shortest: float = TOLERANCE) -> np.ndarray:
+    """(n, 2, 2) start and end points (mm) of every segment of pen-down polylines longer than
+    ``shortest`` mm."""
     parts = [np.stack([s[:-1, :2], s[1:, :2]], axis=1) for s in strokes if len(s) >= 2]
     if not parts:
         return np.zeros((0, 2, 2))
     segments = np.concatenate(parts).astype(float)
-    return segments[np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1) > TOLERANCE]
+    return segments[np.linalg.norm(segments[:, 1] - segments[:, 0], axis=1) > shortest]
 
 
 def _lying_on(some: np.ndarray, lines: np.ndarray, tolerance: float, touch: bool):
@@ -73,7 +74,9 @@ def _line_groups(reference: np.ndarray, tolerance: float) -> np.ndarray:
 
 def drawing_differences(got, reference, tolerance: float = TOLERANCE) -> list[str]:
     """What differs between two drawings (pen-down polylines in mm), in words; empty if same."""
-    drawn, ref = pieces(got), pieces(reference)
+    # A drawn piece shorter than the tolerance counts too (a resume that draws the last 0.9 µm of
+    # a move draws them); the reference's lines are its segments longer than the tolerance.
+    drawn, ref = pieces(got, shortest=1e-9), pieces(reference)
     problems = []
     if not len(ref):
         return [f"drawn where the reference has no stroke: {p.round(4)} -> {q.round(4)}" for p, q in drawn]
@@ -85,8 +88,11 @@ def drawing_differences(got, reference, tolerance: float = TOLERANCE) -> list[st
     origin = ref[axis_of, 0]
     unit = (ref[axis_of, 1] - origin) / length[axis_of, None]
 
-    # Every drawn piece goes to the group of the reference segment it overlaps most.
-    i, j, overlap = _lying_on(drawn, ref, tolerance, touch=False)
+    # Every drawn piece goes to the group of the reference segment it overlaps most (a piece
+    # shorter than the tolerance: the one it lies on, overlapping or not).
+    i, j, overlap = _lying_on(drawn, ref, tolerance, touch=True)
+    short = np.linalg.norm(drawn[i, 1] - drawn[i, 0], axis=1) <= tolerance
+    i, j, overlap = i[short | (overlap > tolerance)], j[short | (overlap > tolerance)], overlap[short | (overlap > tolerance)]
     best = np.lexsort((-overlap, i))
     first = best[np.flatnonzero(np.r_[True, i[best][1:] != i[best][:-1]])] if len(best) else best
     piece_group = np.full(len(drawn), -1)

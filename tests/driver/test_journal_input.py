@@ -32,6 +32,7 @@ TAMPERED = {
     "stop_xy NaN": ('"stop_xy": [NaN, 1.0]', "stop_xy is [nan, 1.0], not two finite numbers (X, Y)"),
     "stop_xy infinite": ('"stop_xy": [Infinity, 1.0]', "stop_xy is [inf, 1.0], not two finite numbers (X, Y)"),
     "stop_xy text": ({"stop_xy": "here"}, "stop_xy is 'here', not two finite numbers (X, Y)"),
+    "stop_xy off the bed in X": ({"stop_xy": [500, 10]}, "stop_xy [500, 10] is off the bed"),
     "stop_work off the bed": ({"stop_work": [-50, 10], "stop_mpos": [-50, 10]}, "stop_work [-50, 10] is off the bed"),
     "stop_mpos NaN": ('"stop_mpos": [1.0, NaN]', "stop_mpos is [1.0, nan], not two finite numbers (X, Y)"),
     "stop_work alone": ({"stop_work": [10, 10], "stop_mpos": None}, "stop_work and stop_mpos go together"),
@@ -44,6 +45,7 @@ TAMPERED = {
     "total_lines other": ({"total_lines": 500}, "total_lines is 500, and"),
     "status odd": ({"status": "finished"}, "status is 'finished', not 'running' or 'stopped'"),
     "baud text": ({"options": {"baud": "fast"}}, "options.baud is 'fast'"),
+    "timeout zero": ({"options": {"timeout": 0}}, "options.timeout is 0"),
     "port number": ({"port": 5}, "port is 5, not text"),
     # An EBB stop's step positions: where a resume or a re-zero looks for the pen.
     "ebb_moves short": ({"options": {"ebb_moves": [[0, 0, 10]]}}, "options.ebb_moves is [[0, 0, 10]]"),
@@ -85,3 +87,25 @@ def test_the_untampered_journal_resumes_and_finishes(stopped, capsys):
     code = main(["draw", "--resume", str(journal), "--port", port, "-q"])
     assert code == 0, capsys.readouterr().err
     assert not journal.exists()
+
+
+def test_a_stop_point_is_checked_on_the_bed_through_the_file_s_work_offset_in_x_and_y(tmp_path, capsys):
+    # G92 makes work X 0 machine X 100 (Y unchanged): a stop point at work X 150 is machine
+    # X 250, off the 220 mm bed, though 150 itself would be on it.
+    lines = ["G21", "G90", "M3 S30", "G4 P0.15", "G0 X100 Y20", "G92 X0 Y20", "M3 S90", "G4 P0.2",
+             *[f"G1 X{10 * i} Y{20 + (i % 2)} F3000" for i in range(1, 10)], "M3 S30", "G4 P0.15"]
+    path = tmp_path / "offset.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    url, name = fresh("faults=error@16")
+    assert main(["draw", str(path), "--port", url, "--profile", PROFILE, "-q"]) == 3
+    capsys.readouterr()
+    journal = path.with_name(path.name + ".job.json")
+    record = json.loads(journal.read_text())
+    assert record["next_line"] > 6  # after the G92
+    for stop_xy, refused in (([150.0, 20.0], True), ([60.0, 20.0], False)):
+        journal.write_text(json.dumps({**record, "stop_xy": stop_xy}))
+        code = main(["draw", "--resume", str(journal), "--port", f"sim://{name}", "-q"])
+        err = capsys.readouterr().err
+        assert code == 3 and (f"stop_xy {stop_xy} is off the bed" in err) == refused, err
+        # (On the bed, the resume is refused for what it cannot restore: the G92.)
+        assert refused or "change the work coordinates (G92, G10, G54-G59)" in err, err

@@ -91,3 +91,20 @@ def test_the_bar_shows_percent_of_plot_time_elapsed_time_and_where_the_job_is(ca
     bar = capsys.readouterr().err.replace("\r", "\n").strip().splitlines()[-1]
     assert bar.startswith(" 25% of plot time |") and " elapsed, line 50/200, Run, ETA " in bar
     assert ", ," not in bar
+
+
+@pytest.mark.parametrize("status", ["done", "stopped"])
+def test_the_last_record_says_the_time_since_the_start_to_the_hundredth_and_the_listener_gets_the_same(status):
+    import time
+
+    out, heard = io.StringIO(), []
+    progress = Progress("json", total_lines=4, total_seconds=10.0, out=out, listener=heard.append)
+    progress.started -= 1.23456  # started that long ago (s): a time with more than two decimals
+    before = time.monotonic() - progress.started
+    progress.close(status, "the message")
+    after = time.monotonic() - progress.started
+    written = json.loads(out.getvalue().splitlines()[-1])
+    assert written["event"] == heard[-1]["event"] == status
+    assert written["message"] == heard[-1]["message"] == "the message"
+    for elapsed in (written["elapsed_s"], heard[-1]["elapsed_s"]):
+        assert round(before, 2) <= elapsed <= round(after, 2) and elapsed == round(elapsed, 2)
