@@ -83,10 +83,12 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     except ValueError as exc:
         raise PlotError(f"{name}: {exc}") from None
     _check_limits(program, plotter, fw, name)
-    if not 0 <= start < max(len(program), 1):
+    resuming = journal is not None
+    # A resume may start past the last move: everything was sent, and the stop (a plotter that
+    # lost its buffer) is found on the sheet among what was sent.
+    if not 0 <= start < max(len(program) + resuming, 1):
         raise PlotError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
     baud = baud or fw.baud
-    resuming = journal is not None
     if path is not None and journal is None:
         journal = journal_mod.Journal(gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port,
                                       profile=profile_arg, total_lines=len(program), path=journal_mod.journal_path(path))

@@ -4,23 +4,31 @@ Its G-code has what a toy drawing lacks and every fault test needs: multi-segmen
 lines and edges of the real planner, the profile's pen commands and dwells, and strokes whose
 segments overlap collinear ones (a path that runs back along a hatch line), so a point is
 passed twice.
+
+The plan is frozen (``data/coffee-40x30.svg``, written by the planner of December 2026): the
+fault tests name lines of it (a stroke passing a point twice, a corner the carriage coasts past),
+and a change to the planner's look must not move them. The G-code is written from it for each
+profile by today's writer.
 """
 
 from __future__ import annotations
 
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
-from skimage import data
 
 import pencilbot
 
 
+PLAN = Path(__file__).with_name("data") / "coffee-40x30.svg"
+
+
 @lru_cache(maxsize=None)
-def plan_lines(profile: str = "grbl-servo-a4", step: int = 12, page: str = "40x30") -> tuple[str, ...]:
-    """The G-code lines of coffee (every ``step``-th pixel) planned on a ``page`` (mm) sheet."""
-    plan = pencilbot.plan(data.coffee()[::step, ::step], page=page, margin=2)
-    return tuple(pencilbot.gcode(plan, profile))
+def plan_lines(profile: str = "grbl-servo-a4") -> tuple[str, ...]:
+    """The G-code lines of the frozen plan of coffee (every 12th pixel on a 40 × 30 mm sheet,
+    margin 2 mm) for ``profile``."""
+    return tuple(pencilbot.gcode(pencilbot.read_svg(PLAN), profile))
 
 
 def pen_down_moves(lines, pen_down_text: str = "M3S90") -> np.ndarray:
