@@ -38,7 +38,12 @@ def morton_order(points: np.ndarray) -> np.ndarray:
         points = points / 2
         low = points.min(axis=0)
         extent = float((points.max(axis=0) - low).max())
-    cells = ((points - low) * (65535.0 / extent if extent > 0 else 0.0)).astype(np.uint64)
+    with np.errstate(over="ignore"):
+        factor = 65535.0 / extent if extent > 0 else 0.0
+    if np.isfinite(factor):
+        cells = ((points - low) * factor).astype(np.uint64)
+    else:  # a subnormal extent: its reciprocal overflows, the fractions of it do not
+        cells = ((points - low) / extent * 65535.0).astype(np.uint64)
 
     def spread(v):  # 16 bits → every other of 32 bits
         v = (v | (v << np.uint64(8))) & np.uint64(0x00FF00FF)

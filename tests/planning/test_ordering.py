@@ -1,6 +1,7 @@
 """Ordering: a permutation with optional reversal, a local optimum above the lower bound, joins what touches."""
 
 import itertools
+import warnings
 
 import numpy as np
 import pytest
@@ -323,3 +324,17 @@ def test_interval_set_accepts_exactly_the_intervals_that_nest_or_stay_apart(size
         if expected and a < b:
             intervals.add(a, b)
             accepted.append((a, b))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(allow_nan=True, allow_infinity=True, width=64),
+                          st.floats(allow_nan=True, allow_infinity=True, width=64)), min_size=1, max_size=30))
+def test_the_z_order_of_any_points_is_a_permutation_without_overflow(points):
+    # Extents from subnormal to the float limit, NaN and infinities: a permutation, computed
+    # without an overflow or an invalid cast (both warn, and the warning is an error here).
+    from pencilbot.planning.tour_ends import morton_order
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        order = morton_order(np.array(points, dtype=np.float64))
+    assert sorted(order.tolist()) == list(range(len(points)))
