@@ -5,7 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from pencilbot.paths import Paths
@@ -329,6 +329,7 @@ def test_interval_set_accepts_exactly_the_intervals_that_nest_or_stay_apart(size
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(st.floats(allow_nan=True, allow_infinity=True, width=64),
                           st.floats(allow_nan=True, allow_infinity=True, width=64)), min_size=1, max_size=30))
+@example([(0.0, 0.0), (5e-324, 0.0), (0.0, 1e-323)])
 def test_the_z_order_of_any_points_is_a_permutation_without_overflow(points):
     # Extents from subnormal to the float limit, NaN and infinities: a permutation, computed
     # without an overflow or an invalid cast (both warn, and the warning is an error here).
