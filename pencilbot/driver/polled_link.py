@@ -114,6 +114,27 @@ def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: 
         check_point(position, program, checkpoints)
 
 
+def read_status(link: Answers, fw, timeout: float) -> int:
+    """The status byte (``OS;``), asked only when nothing sent is still to run and no other
+    answer is awaited (its answer is a bare number, as the free bytes' is); a lost answer is
+    asked again, garbage is skipped."""
+    for _ in range(2):
+        link.write(fw.status_command)
+        status = link.wait(fw.parse_status, timeout / 2)
+        if status is not None:
+            return status
+    raise Silent()
+
+
+def check_initialised(link: Answers, fw, timeout: float, after: int, expected: bool) -> None:
+    """Read the status byte; its initialised bit set when no ``IN`` ran since it was last read
+    (``expected`` False) means the plotter was switched off and on, or reset: its buffer is gone,
+    though the pen may stand where the program would have put it (at home)."""
+    if read_status(link, fw, timeout) & fw.initialised_bit and not expected:
+        raise Moved(f"the plotter says it was initialised after instruction {after} (OS bit 8) with no IN "
+                    "instruction sent: it lost its place (switched off and on, or reset)")
+
+
 def poll_free(link: Answers, fw, timeout: float) -> int:
     """Free buffer bytes; one lost answer is asked again, garbage is skipped."""
     for _ in range(2):
