@@ -128,7 +128,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         link.write(fw.identify_command)
         identity = link.wait(lambda t: t if fw.is_identity(t) else None, timeout)
         link.positions.clear()
-        if not resuming:
+        if not resuming and not (start == 0 and len(program) and program.frames[0].startswith(b"IN")):
             read_status(link, fw, timeout)  # OI answered: idle; this clears the initialised bit of its power-up
         if announce is not None:
             announce(f"banner '{identity or 'no answer to OI;'}'", None)
