@@ -159,13 +159,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         proven = start  # entries before it ran, by a sync point's answer (in this power-on)
         pending = sorted(changes)
         while sent < len(program):
-            if stop.is_set():
-                raise _Stop()
-            if in_sent and sent in after_in:
-                _settle(link, fw, program, checkpoints, sent, floor, timeout)
+            if in_sent and sent in after_in:  # before a stop: a resume finds the bit clear unless reset
+                _settle(link, fw, program, checkpoints, sent, floor, timeout, in_sent)
                 read_status(link, fw, timeout)  # set by the IN: cleared
                 in_sent, floor = False, sent
                 continue
+            if stop.is_set():
+                raise _Stop()
             if keys is not None and _keys_say_pause(keys, stop, why):
                 at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
                 if at is None:
@@ -177,7 +177,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 continue
             if sent in changes and paused_at != sent:
                 if sent_bytes:
-                    drain(link, fw, program, checkpoints, sent, floor, timeout)
+                    drain(link, fw, program, checkpoints, sent, floor, timeout, in_sent)
                 else:  # nothing of the program sent since the resume's preamble (pen up): it ran
                     link.write(fw.sync_command)
                     if link.position(fw, timeout) is None:
@@ -224,7 +224,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        drain(link, fw, program, checkpoints, len(program), floor, timeout)
+        drain(link, fw, program, checkpoints, len(program), floor, timeout, in_sent)
         # A reset after everything was sent leaves the pen at home, pen up: where many programs end.
         check_initialised(link, fw, timeout, len(program), in_sent)
         if journal is not None and journal.path is not None:
@@ -291,14 +291,15 @@ def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: 
         raise _Stop()
 
 
-def _settle(link, fw, program, checkpoints, sent, floor, timeout) -> None:
+def _settle(link, fw, program, checkpoints, sent, floor, timeout, in_sent: bool) -> None:
     """Until everything sent has run: the open sync points checked, or (none open: the pen may
     stand anywhere, as at the start of a job) a sync point answered."""
     if checkpoints:
-        drain(link, fw, program, checkpoints, sent, floor, timeout)
+        drain(link, fw, program, checkpoints, sent, floor, timeout, in_sent)
         return
     link.write(fw.sync_command)
     if link.position(fw, timeout) is None:
+        check_initialised(link, fw, timeout, sent, in_sent)
         raise Silent()
 
 
@@ -342,12 +343,16 @@ def _check_resume_position(link, fw, program, start, journal, timeout, name, ref
     is refused (``refuse``: nobody at the terminal), or this says why the stop must be found."""
     link.write(fw.lift_command + fw.sync_command)
     position = link.position(fw, timeout)
+    # Everything ran (the sync point answered): the status byte's initialised bit says whether the
+    # plotter was switched off and on (or reset) since the stopped run read it.
+    reset = position is not None and bool(read_status(link, fw, timeout) & fw.initialised_bit)
     expected = tuple(program.xy[start - 1]) if start > 0 else (0, 0)
-    if journal.stop_work and position is not None and (position[0], position[1]) == expected:
+    if journal.stop_work and position is not None and (position[0], position[1]) == expected and not reset:
         return None
     where = f"{position[0]},{position[1]}" if position else "unknown"
-    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped; what it drew after "
-           f"instruction {journal.acked_line} is not known")
+    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped" if not reset else
+           f"the plotter was switched off and on (or reset) since the job stopped (its pen at {where})")
+    why += f"; what it drew after instruction {journal.acked_line} is not known"
     if position is None or refuse:
         raise PlotError(
             f"cannot resume {name} exactly: {why}. Run the resume in a terminal: it asks you to jog the raised pen to "

@@ -102,14 +102,19 @@ def check_point(position, program, checkpoints: list[int]) -> int:
                 "it lost its place (switched off and on, or reset)")
 
 
-def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float) -> None:
+def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float,
+          in_sent: bool | None = None) -> None:
     """Until everything sent (entries before ``upto``) has run: a sync point is answered once
-    everything before it ran (the buffer holds ≤ its size in bytes)."""
+    everything before it ran (the buffer holds ≤ its size in bytes). Unanswered, and ``in_sent``
+    given (an ``IN`` sent since the status was read): a reset may have taken the sync point
+    with the buffer, which the status byte tells (:func:`check_initialised`)."""
     link.write(fw.sync_command)
     checkpoints.append(upto)
     while checkpoints:
         position = link.position(fw, timeout + 0.5 * (upto - floor))
         if position is None:
+            if in_sent is not None:
+                check_initialised(link, fw, timeout, upto, in_sent)
             raise Silent()
         check_point(position, program, checkpoints)
 
