@@ -12,7 +12,10 @@ What a sender meets on the real machine:
 * Instructions run in order: ``IN SP PU PD PA PR VS DF PS`` and the outputs ``OI OA OS OE OH OP
   OW`` (answered once everything before them ran, CR-terminated). A move beyond the hard-clip
   limits (the profile's bed), an unknown instruction or a wrong parameter count is not run and
-  sets the ``OE`` error (3, 1, 2), which ``OS`` shows as bit 32.
+  sets the ``OE`` error (3, 1, 2), which ``OS`` shows as bit 32. ``OS`` bit 8 (initialised) is
+  set by a power-up (or reset) and by ``IN``, and cleared once ``OS`` has output it, as on the
+  real plotter (HP 7470A manual, "The Output Status Instruction"): a sender reads it to learn
+  that the plotter lost its place.
 * Time: every vector is a rest-to-rest trapezoid of the shared motion model (pen down at the
   ``VS`` speed, pen up at the profile's travel speed), a pen lift or drop costs the profile's
   delay; ``realtime=0`` runs it all at once (the clock still counts), ``r > 0`` runs r times
@@ -96,6 +99,7 @@ class HpglBoard:
         self.speed = self.top_speed
         self.error = 0
         self.io_error = 0
+        self.initialized = True  # OS bit 8 until OS outputs it
         self.busy_until = self.now = self.clock
         self._xoff = False
 
@@ -228,6 +232,7 @@ class HpglBoard:
         if m == "IN":
             self._pen(False)
             self.relative, self.speed, self.error = False, self.top_speed, 0
+            self.initialized = True
         elif m == "SP":
             if len(p) > 1 or (p and not 0 <= p[0] <= self.profile.paper.carousel):  # no such slot
                 self.error = 2 if len(p) > 1 else 3
@@ -247,7 +252,9 @@ class HpglBoard:
         elif m == "OA":
             self._answer(f"{self.x},{self.y},{int(self.down)}")
         elif m == "OS":
-            status = protocol.STATUS_INITIALIZED | protocol.STATUS_READY | (protocol.STATUS_ERROR if self.error else 0)
+            status = protocol.STATUS_READY | (protocol.STATUS_ERROR if self.error else 0)
+            status |= protocol.STATUS_INITIALIZED if self.initialized else 0
+            self.initialized = False  # cleared once output (even if the answer is lost on the line)
             self._answer(str(status | int(self.down)))
         elif m == "OE":
             self._answer(str(self.error))

@@ -13,6 +13,11 @@ the job resumes after it — exactly once. If no instruction there ends where th
 plotter was power-cycled, or the link was lost mid-job and the position does not match), the
 resume is refused until the user chooses ``--start-line``.
 
+A reset the positions cannot show (the pen homed where the program would have put it, e.g. its
+park at home after everything was sent) is caught by the status byte (``OS;``): its
+initialised bit is read once after the plotter's power-up and after each ``IN`` has run
+(clearing it), and set at the next read (a pen change, the end) means the plotter lost its place.
+
 Pauses: the pause key stops at once as a stop does (abort, lift, locate), waits for the person
 (the terminal's prompt, or the pause key again) and goes on from the very instruction; a pen the
 carousel lacks (a plan with more pens than ``[paper] carousel``) waits until everything before
@@ -30,7 +35,8 @@ import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.polled_link import POLL_PAUSE, Answers, Lost, Moved, Silent, check_point, drain, poll_free
+from pencilbot.driver.polled_link import (POLL_PAUSE, Answers, Lost, Moved, Silent, check_initialised, check_point, drain,
+                                          poll_free, read_status)
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
@@ -122,6 +128,8 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         link.write(fw.identify_command)
         identity = link.wait(lambda t: t if fw.is_identity(t) else None, timeout)
         link.positions.clear()
+        if not resuming and not (start == 0 and len(program) and program.frames[0].startswith(b"IN")):
+            read_status(link, fw, timeout)  # OI answered: idle; this clears the initialised bit of its power-up
         if announce is not None:
             announce(f"banner '{identity or 'no answer to OI;'}'", None)
         if resuming:
@@ -136,6 +144,12 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
             link.write(program.preamble(start, at))
         elif start > 0:
             link.write(program.preamble(start))
+        # The status byte is read after each IN has run (the preamble's, the program's): its
+        # initialised bit set any other time means the plotter was reset (see check_initialised).
+        after_in = {int(i) + 1 for i in np.flatnonzero([f.startswith(b"IN") for f in program.frames])}
+        in_sent = resuming or start > 0
+        if in_sent:
+            after_in.add(start)
         sent_bytes = 0
         checkpoints: list[int] = []  # entries after which a sync point was sent, not yet answered
         base = program.offsets[start]
@@ -145,6 +159,11 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         proven = start  # entries before it ran, by a sync point's answer (in this power-on)
         pending = sorted(changes)
         while sent < len(program):
+            if in_sent and sent in after_in:  # before a stop: a resume finds the bit clear unless reset
+                _settle(link, fw, program, checkpoints, sent, floor, timeout, in_sent)
+                read_status(link, fw, timeout)  # set by the IN: cleared
+                in_sent, floor = False, sent
+                continue
             if stop.is_set():
                 raise _Stop()
             if keys is not None and _keys_say_pause(keys, stop, why):
@@ -158,12 +177,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 continue
             if sent in changes and paused_at != sent:
                 if sent_bytes:
-                    drain(link, fw, program, checkpoints, sent, floor, timeout)
+                    drain(link, fw, program, checkpoints, sent, floor, timeout, in_sent)
                 else:  # nothing of the program sent since the resume's preamble (pen up): it ran
                     link.write(fw.sync_command)
                     if link.position(fw, timeout) is None:
                         raise Silent()
-                floor = sent
+                check_initialised(link, fw, timeout, sent, in_sent)
+                in_sent, floor = False, sent
                 link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
                 if operator is None and keys is None:
                     why.append(f"a pen change ({changes[sent]}) with nobody at the terminal to do it")
@@ -181,18 +201,20 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
             room = free - (0 if not link.xoff else free)
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
             later = [k for k in pending[int(np.searchsorted(pending, sent, side="right")):][:1]]
-            end = min([end, *later])  # a pen change waits for everything before it
+            later += [k for k in after_in if k > sent]
+            end = min([end, *later])  # a pen change waits for everything before it; the status, for an IN
             if end <= sent:
                 time.sleep(POLL_PAUSE)
                 continue
             chunk = b"".join(program.frames[sent:end])
             sent_bytes += len(chunk)
-            if not checkpoints and end < len(program) and len(chunk) + len(fw.sync_command) <= room:
+            if not checkpoints and end < len(program) and end not in after_in and len(chunk) + len(fw.sync_command) <= room:
                 # A sync point now and then: its answer must be where the program put the pen,
                 # or the plotter lost it (a power cycle clears the buffer and homes the pen).
                 chunk += fw.sync_command
                 checkpoints.append(end)
             link.write(chunk)
+            in_sent = in_sent or any(k in after_in for k in range(sent + 1, end + 1))
             sent = end
             while link.positions and checkpoints:
                 proven = check_point(link.positions.pop(0), program, checkpoints)
@@ -202,7 +224,9 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        drain(link, fw, program, checkpoints, len(program), floor, timeout)
+        drain(link, fw, program, checkpoints, len(program), floor, timeout, in_sent)
+        # A reset after everything was sent leaves the pen at home, pen up: where many programs end.
+        check_initialised(link, fw, timeout, len(program), in_sent)
         if journal is not None and journal.path is not None:
             journal.path.unlink(missing_ok=True)
         shown.update(len(program) - start, float(seconds[-1] - done0), "Idle", force=True)
@@ -267,6 +291,18 @@ def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: 
         raise _Stop()
 
 
+def _settle(link, fw, program, checkpoints, sent, floor, timeout, in_sent: bool) -> None:
+    """Until everything sent has run: the open sync points checked, or (none open: the pen may
+    stand anywhere, as at the start of a job) a sync point answered."""
+    if checkpoints:
+        drain(link, fw, program, checkpoints, sent, floor, timeout, in_sent)
+        return
+    link.write(fw.sync_command)
+    if link.position(fw, timeout) is None:
+        check_initialised(link, fw, timeout, sent, in_sent)
+        raise Silent()
+
+
 def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout) -> int | None:
     """Abort, lift, and find the last instruction drawn (None: not found)."""
     try:
@@ -307,12 +343,16 @@ def _check_resume_position(link, fw, program, start, journal, timeout, name, ref
     is refused (``refuse``: nobody at the terminal), or this says why the stop must be found."""
     link.write(fw.lift_command + fw.sync_command)
     position = link.position(fw, timeout)
+    # Everything ran (the sync point answered): the status byte's initialised bit says whether the
+    # plotter was switched off and on (or reset) since the stopped run read it.
+    reset = position is not None and bool(read_status(link, fw, timeout) & fw.initialised_bit)
     expected = tuple(program.xy[start - 1]) if start > 0 else (0, 0)
-    if journal.stop_work and position is not None and (position[0], position[1]) == expected:
+    if journal.stop_work and position is not None and (position[0], position[1]) == expected and not reset:
         return None
     where = f"{position[0]},{position[1]}" if position else "unknown"
-    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped; what it drew after "
-           f"instruction {journal.acked_line} is not known")
+    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped" if not reset else
+           f"the plotter was switched off and on (or reset) since the job stopped (its pen at {where})")
+    why += f"; what it drew after instruction {journal.acked_line} is not known"
     if position is None or refuse:
         raise PlotError(
             f"cannot resume {name} exactly: {why}. Run the resume in a terminal: it asks you to jog the raised pen to "

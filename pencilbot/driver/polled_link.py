@@ -102,16 +102,42 @@ def check_point(position, program, checkpoints: list[int]) -> int:
                 "it lost its place (switched off and on, or reset)")
 
 
-def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float) -> None:
+def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float,
+          in_sent: bool | None = None) -> None:
     """Until everything sent (entries before ``upto``) has run: a sync point is answered once
-    everything before it ran (the buffer holds ≤ its size in bytes)."""
+    everything before it ran (the buffer holds ≤ its size in bytes). Unanswered, and ``in_sent``
+    given (an ``IN`` sent since the status was read): a reset may have taken the sync point
+    with the buffer, which the status byte tells (:func:`check_initialised`)."""
     link.write(fw.sync_command)
     checkpoints.append(upto)
     while checkpoints:
         position = link.position(fw, timeout + 0.5 * (upto - floor))
         if position is None:
+            if in_sent is not None:
+                check_initialised(link, fw, timeout, upto, in_sent)
             raise Silent()
         check_point(position, program, checkpoints)
+
+
+def read_status(link: Answers, fw, timeout: float) -> int:
+    """The status byte (``OS;``), asked only when nothing sent is still to run and no other
+    answer is awaited (its answer is a bare number, as the free bytes' is); a lost answer is
+    asked again, garbage is skipped."""
+    for _ in range(2):
+        link.write(fw.status_command)
+        status = link.wait(fw.parse_status, timeout / 2)
+        if status is not None:
+            return status
+    raise Silent()
+
+
+def check_initialised(link: Answers, fw, timeout: float, after: int, expected: bool) -> None:
+    """Read the status byte; its initialised bit set when no ``IN`` ran since it was last read
+    (``expected`` False) means the plotter was switched off and on, or reset: its buffer is gone,
+    though the pen may stand where the program would have put it (at home)."""
+    if read_status(link, fw, timeout) & fw.initialised_bit and not expected:
+        raise Moved(f"the plotter says it was initialised after instruction {after} (OS bit 8) with no IN "
+                    "instruction sent: it lost its place (switched off and on, or reset)")
 
 
 def poll_free(link: Answers, fw, timeout: float) -> int:

@@ -147,6 +147,10 @@ class Hpgl(Firmware):
     identify_command = b"OI;"
     free_query = protocol.BUFFER_SPACE
     sync_command = b"OA;"
+    #: Answered once everything before it ran, with the status byte; its ``initialised`` bit is
+    #: set by a power-up (or reset) and by ``IN``, and cleared once output (HP 7470A manual, OS).
+    status_command = b"OS;"
+    initialised_bit = protocol.STATUS_INITIALIZED
     abort_bytes = protocol.ABORT_GRAPHICS
     lift_command = b"PU;"
     park_command = b"PU;SP0;"
@@ -176,6 +180,14 @@ class Hpgl(Firmware):
         except ProtocolError:
             return None
         return (values[0], values[1], bool(values[2])) if len(values) == 3 and values[2] in (0, 1) else None
+
+    def parse_status(self, text: str) -> int | None:
+        """The status byte from an ``OS;`` answer (None if it is not one)."""
+        try:
+            values = protocol.parse_answer(text)
+        except ProtocolError:
+            return None
+        return values[0] if len(values) == 1 and 0 <= values[0] <= 255 else None
 
     def is_identity(self, text: str) -> bool:
         """An ``OI;`` answer: a model number such as ``7475A``."""

@@ -150,7 +150,7 @@ def test_a_lost_answer_and_line_noise_cost_nothing(coffee, tmp_path):
     assert drawing_differences(protocol_sim.plotter("hpgl-noise").board.strokes, reference) == []
 
 
-@pytest.mark.parametrize("where", [0.5])
+@pytest.mark.parametrize("where", [0.5, 0.95])
 def test_a_power_cycle_while_drawing_stops_the_job_and_its_resume_is_refused(where, coffee, tmp_path):
     # Near the end, the reset empties the buffer and the driver sends the rest before a sync
     # point shows the loss: the journal's next instruction is past the last, and the resume
@@ -161,6 +161,28 @@ def test_a_power_cycle_while_drawing_stops_the_job_and_its_resume_is_refused(whe
     port = _fresh("hpgl-reset").replace("profile=", f"faults=reset@{at}&profile=")
     with pytest.raises(PlotError, match="lost its place"):
         draw(target, port, profile="hp7475a")
+    with pytest.raises(PlotError, match="cannot resume .* exactly"):
+        draw(target, port, resume=str(target))
+
+
+def test_a_reset_after_everything_was_sent_is_caught_though_the_pen_ends_at_home(tmp_path):
+    # The job parks at home, pen up: where a power cycle leaves the pen too. The reset comes as
+    # the plotter starts the last line, after the driver sent everything: the final sync point
+    # (OA) answers where the program ends, and only the status byte (OS bit 8) tells the loss.
+    sim.register()
+    target = tmp_path / "home.hpgl"
+    target.write_bytes(b"IN;SP1;PU400,400;PD800,400;PD800,800;PD400,800;PU0,0;SP0;")
+    draw(target, _fresh("hpgl-home-ref"), profile="hp7475a")
+    log = protocol_sim.plotter("hpgl-home-ref").board.log
+    last_line = max(i for i, ins in enumerate(log) if ins.startswith("PD")) + 1  # 1-based, as faults count
+    port = _fresh("hpgl-home").replace("profile=", f"faults=reset@{last_line}&profile=")
+    with pytest.raises(PlotError, match="lost its place"):
+        draw(target, port, profile="hp7475a")
+    board = protocol_sim.plotter("hpgl-home").board
+    assert [s.tolist() for s in board.strokes] == [[[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]]]  # the last line: never
+    assert (board.x, board.y, board.down) == (0, 0, False)
+    journal = load_journal(target)
+    assert journal.status == "stopped" and journal.stop_work is None
     with pytest.raises(PlotError, match="cannot resume .* exactly"):
         draw(target, port, resume=str(target))
 

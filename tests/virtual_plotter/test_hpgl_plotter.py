@@ -66,3 +66,16 @@ def test_time_is_the_motion_model_and_the_pen_delays():
     a = PROFILE.motion.acceleration
     expected = 100 / 100 + 100 / a + PROFILE.pen.down_delay + PROFILE.pen.up_delay  # trapezoid: L/v + v/a
     assert math.isclose(board.clock, expected, rel_tol=1e-9)
+
+
+def test_os_says_initialised_once_after_power_up_in_and_a_reset():
+    # HP 7470A manual, OS: bit 8 is set at power-up and by IN, cleared once the status is output.
+    from sim.faults import Faults
+
+    board = HpglBoard(PROFILE, faults=Faults.parse("reset@6"))
+    board.receive(b"OS;OS;IN;OS;PU10,10;OS;")  # the reset comes as the 6th instruction (OS) starts: it is lost
+    board.finish()
+    assert answers(board) == ["24", "16", "24"]
+    board.receive(b"OS;OS;OA;")
+    board.finish()
+    assert answers(board) == ["24", "16", "0,0,0"]
