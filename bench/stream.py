@@ -186,8 +186,6 @@ def realtime(segments: int) -> dict:
     # time of a full planner too.
     waiting["ratio_to_counting_motion"] = round(waiting["wall_s"] / counting["motion_s"], 4)
     return {
-        "firmware": firmware,
-        "fifo_depth": depth,
         "segments": segments,
         "lines": len(lines),
         "character_counting": counting,

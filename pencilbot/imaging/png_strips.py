@@ -145,8 +145,8 @@ def reduced_png(path, layout: PngLayout, factor: int) -> np.ndarray:
     ValueError
         The pixel data ends early or does not inflate (a truncated or damaged file).
     """
-    width, height = layout.width, layout.height
-    out_w, out_h = math.ceil(width / factor), math.ceil(height / factor)
+    width = layout.width
+    out_w = math.ceil(width / factor)
     rows_per_strip = factor * max(1, STRIP_BYTES // ((layout.stride + 1) * factor))
     previous = b"\0" * (layout.stride + 1)  # the row before the first: all zero, as PNG says
     parts = []
