@@ -323,12 +323,12 @@ class StopLocator:
         """The line the machine was running when it came to rest, from the planner count of the
         status report (GRBL's ``Bf:``, reported when ``$10`` asks for it): the blocks still
         planned are the moves of the lines answered up to ``acked``, one block per move (a
-        ``refused`` line planned none)."""
+        ``refused`` line planned none; an empty planner: it ran them all)."""
         if status is None or status.buffer is None or acked < 0:
             return None
         queued = self.firmware.planner_blocks - status.buffer[0]
-        if queued <= 0:
-            return None
+        if queued <= 0:  # every line answered has run: the machine stands at the end of the last
+            return acked
         first = max(self.flight_start(acked) - 1, 0)
         states = self.job.states(first, acked + 1)
         moves = 0

@@ -153,3 +153,23 @@ def test_a_carriage_that_coasted_on_the_job_s_first_move_ran_from_the_origin():
 @pytest.mark.parametrize("window, expected", [(3, (5, (15.0, 0.0))), (2, None)])
 def test_a_given_window_searches_that_many_lines_before_the_last_and_no_more(locator, window, expected):
     assert locator.locate(len(JOB) - 1, (15.0, 0.0), answered=-1, window=window) == expected
+
+
+def test_an_empty_planner_at_rest_means_every_answered_line_ran():
+    # A stroke out to (20, 0) and straight back to where it began: (10, 0) is both the start of
+    # the first pass and the end of the second. At rest with every planner block free, the board
+    # ran all it answered, so the stop is after the second pass; an earlier status report's
+    # line (before the stroke) would take the first pass and draw the stroke twice more.
+    from firmware_protocol.grbl import Status
+
+    profile = load_profile("grbl-servo-a4")
+    job = ["G21", "G90", "M3S30", "G0X10Y0", "M3S90", "G1X20Y0F600", "G1X10Y0", "M3S30"]
+    locator = StopLocator(load_job(job, profile), profile)
+    last = acked = len(job) - 1
+    empty = Status("Hold", substate=0, buffer=(profile.firmware.planner_blocks, 128))
+    floor = locator.planner_floor(empty, acked)
+    assert floor == acked
+    assert locator.locate(last, (10.0, 0.0), floor=floor, answered=acked) == (len(job), None)
+    assert locator.locate(last, (10.0, 0.0), floor=3, answered=acked)[0] == 4  # the stroke again
+    one_left = Status("Hold", substate=0, buffer=(profile.firmware.planner_blocks - 1, 128))
+    assert locator.planner_floor(one_left, acked) == 6  # the last move still planned: running
