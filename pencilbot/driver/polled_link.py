@@ -123,12 +123,7 @@ def read_status(link: Answers, fw, timeout: float) -> int:
     """The status byte (``OS;``), asked only when nothing sent is still to run and no other
     answer is awaited (its answer is a bare number, as the free bytes' is); a lost answer is
     asked again, garbage is skipped."""
-    for _ in range(2):
-        link.write(fw.status_command)
-        status = link.wait(fw.parse_status, timeout / 2)
-        if status is not None:
-            return status
-    raise Silent()
+    return _ask(link, fw.status_command, fw.parse_status, timeout)
 
 
 def check_initialised(link: Answers, fw, timeout: float, after: int, expected: bool) -> None:
@@ -142,9 +137,15 @@ def check_initialised(link: Answers, fw, timeout: float, after: int, expected: b
 
 def poll_free(link: Answers, fw, timeout: float) -> int:
     """Free buffer bytes; one lost answer is asked again, garbage is skipped."""
+    return _ask(link, fw.free_query, fw.parse_free, timeout)
+
+
+def _ask(link: Answers, query: bytes, parse, timeout: float) -> int:
+    """``query``'s answer as ``parse`` reads it; a lost answer is asked once more (half the
+    timeout each), garbage is skipped; two lost answers: :class:`Silent`."""
     for _ in range(2):
-        link.write(fw.free_query)
-        free = link.wait(fw.parse_free, timeout / 2)
-        if free is not None:
-            return free
+        link.write(query)
+        answer = link.wait(parse, timeout / 2)
+        if answer is not None:
+            return answer
     raise Silent()
