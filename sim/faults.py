@@ -10,6 +10,7 @@ import re
 from dataclasses import dataclass, field
 
 FAULT_KINDS = ("error", "alarm", "silent", "drop", "reset", "abort", "garbage", "hold", "interrupt", "unplug")
+_TIMED_KINDS = ("hold", "interrupt")  # what can strike between lines, at a moment
 _DEFAULT_CODE = {"interrupt": 2}  # SIGINT: Ctrl-C at the sender's terminal
 GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
@@ -34,20 +35,35 @@ class Faults:
     the bytes that brought line k, the sender's process gets signal SIGNAL (default 2, SIGINT:
     Ctrl-C; 15 SIGTERM, 1 SIGHUP), so a stop lands at an exact line instead of at a moment of
     the wall clock (the board runs line k as usual).
+
+    ``hold`` and ``interrupt`` may instead strike at a moment of the machine's simulated clock
+    (``interrupt@1.25s``: seconds of motion and dwell since power-on): the clock stops there for
+    the pump that reaches it, so the machine is at the same point mid-move in every run.
     """
 
     at: dict[int, tuple[str, int]] = field(default_factory=dict)
+    timed: list[tuple[float, str, int]] = field(default_factory=list)  # (seconds, kind, code), in order
+
+    def next_due(self, now: float, until: float) -> tuple[float, str, int] | None:
+        """The first timed fault after ``now`` up to ``until`` (s), taken off the list."""
+        if self.timed and now < self.timed[0][0] <= until:
+            return self.timed.pop(0)
+        return None
 
     @classmethod
     def parse(cls, spec: str) -> Faults:
         """From ``"error@5:22,silent@40"``; raises ``ValueError`` with a readable message."""
-        at = {}
+        at, timed = {}, []
         for item in filter(None, (s.strip() for s in spec.split(","))):
-            m = re.fullmatch(r"([a-z]+)@(\d+)(?::(\d+))?", item)
-            if m is None or m.group(1) not in FAULT_KINDS:
+            m = re.fullmatch(r"([a-z]+)@(?:(\d+)|(\d+(?:\.\d*)?)s)(?::(\d+))?", item)
+            if m is None or m.group(1) not in FAULT_KINDS or (m.group(3) and m.group(1) not in _TIMED_KINDS):
                 raise ValueError(
                     f"fault {item!r} is not KIND@LINE (KIND one of {', '.join(FAULT_KINDS)}; "
-                    "error@LINE:CODE sets the error code)"
+                    "error@LINE:CODE sets the error code) or KIND@SECONDSs (hold or interrupt)"
                 )
-            at[int(m.group(2))] = (m.group(1), int(m.group(3) or _DEFAULT_CODE.get(m.group(1), 20)))
-        return cls(at)
+            kind, code = m.group(1), int(m.group(4) or _DEFAULT_CODE.get(m.group(1), 20))
+            if m.group(3):
+                timed.append((float(m.group(3)), kind, code))
+            else:
+                at[int(m.group(2))] = (kind, code)
+        return cls(at, sorted(timed))

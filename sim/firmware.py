@@ -23,8 +23,10 @@ settings in :mod:`sim.settings`, the state word and ``?`` report in :mod:`sim.st
 * ``$`` system commands with GRBL's state rules (``$$`` refused in Run and Hold, settings,
   ``$#``, ``$I``, ``$N``, ``$H`` only when Idle or in Alarm, ``$J=`` only Idle or jogging):
   ``$ $$ $# $G $I $I= $N $Nx= $C $X $H $J= $SLP $RST=$ $RST=# $RST=* $x=val``;
-* states Idle, Run, Hold:0, Jog, Home, Alarm, Check, Sleep. A feed hold stops motion at once
-  (the sim does not decelerate) and nothing is read until ``~``;
+* states Idle, Run, Hold:1, Hold:0, Jog, Home, Alarm, Check, Sleep. A feed hold slows the
+  machine along its path at its acceleration (``Hold:1``; a reset now is a reset in motion, a
+  ``~`` is dropped) until it stands (``Hold:0``); nothing is read until ``~``, and the rest of
+  the move then starts from rest;
 * a soft- or hard-limit alarm prints ``ALARM:N`` + ``[MSG:Reset to continue]`` and the board
   then answers nothing, not even ``?``, until a reset;
 * a soft reset keeps the machine position when idle or held; in motion it raises ``ALARM:3``
@@ -192,8 +194,18 @@ class Firmware(SystemCommands, StatusReport):
         reason for blocking has gone."""
         if self.silent:
             return
-        if seconds > 0 and not (self._hold or self._critical or self._sleep):
-            self.machine.advance(seconds)
+        if seconds > 0 and not (self._critical or self._sleep) and (self.machine.planner.braking or not self._hold):
+            now = self.machine.clock
+            due = self.faults.next_due(now, now + seconds)
+            if due is None:
+                self.machine.advance(seconds)
+            else:  # the clock stops at the fault's moment for this poll
+                when, kind, code = due
+                self.machine.advance(when - now)
+                if kind == "hold":
+                    self._begin_hold()
+                else:
+                    self.signal_due = code
         self._resume()
 
     def finish(self) -> None:
@@ -252,11 +264,19 @@ class Firmware(SystemCommands, StatusReport):
             if self._jogging:
                 self._cancel_jog()
             elif not (self._locked or self._sleep or self._homing or self.machine.check_mode):
-                self._hold = True
+                self._begin_hold()
         elif byte == ord("~"):
-            if self._hold:
+            # GRBL takes a cycle start only once the hold is complete (Hold:0): one that comes
+            # while the machine is still slowing (Hold:1) is dropped.
+            if self._hold and not self.machine.planner.braking:
                 self._hold = False
+                self.machine.release()
                 self._resume()
+
+    def _begin_hold(self) -> None:
+        if not self._hold:
+            self._hold = True
+            self.machine.hold()
 
     def _status_query(self) -> None:
         self.queries += 1
@@ -277,7 +297,7 @@ class Firmware(SystemCommands, StatusReport):
     def reset(self) -> None:
         """Ctrl-X soft reset: GRBL's mc_reset, then its re-initialisation."""
         m = self.machine
-        moving = self._homing or (m.planner.busy and not self._hold)
+        moving = self._homing or (m.planner.busy and (m.planner.braking or not self._hold))
         m.stop(lose=moving and self.abort_loses)
         if moving:
             code = HOMING_RESET_ALARM if self._homing else ABORT_ALARM
@@ -350,7 +370,8 @@ class Firmware(SystemCommands, StatusReport):
         elif kind == "interrupt":
             self.signal_due = code  # sent by whoever pumps the board, after this delivery
         elif kind == "hold" and self._held_index != index:
-            self._held_index, self._held_line, self._hold = index, raw, True
+            self._held_index, self._held_line = index, raw
+            self._begin_hold()
             return
         line = filter_line(raw, self.protocol.LINE_BUFFER_SIZE)
         if line is None:
@@ -384,7 +405,7 @@ class Firmware(SystemCommands, StatusReport):
             for signal in task.steps:
                 self._machine_output()
                 if signal == PAUSE:
-                    self._hold = True  # M0: a feed hold; the line answers after ~
+                    self._begin_hold()  # M0: a feed hold; the line answers after ~
                 return False
         except MachineAlarm as alarm:
             self._task = None

@@ -190,7 +190,7 @@ class Machine(MotionControl, StrokeRecorder):
     def current_speed(self) -> float:
         """Speed along the executing move (mm/s), 0 at rest."""
         p = self.planner
-        return _speed_at(p.executing, p.elapsed) if p.executing is not None else 0.0
+        return p.executing.speed_at(p.elapsed) if p.executing is not None else 0.0
 
     # --- parsing and execution --------------------------------------------------------------
 
@@ -356,11 +356,4 @@ class Machine(MotionControl, StrokeRecorder):
     def clock(self) -> float:
         """Simulated seconds of motion and dwell since power-on."""
         return self.planner.clock
-
-
-def _speed_at(block: Block, t: float) -> float:
-    """Speed (mm/s) ``t`` s into an executing block, from its distance profile."""
-    dt = 1e-4
-    lo, hi = max(t - dt, 0.0), min(t + dt, block.duration)
-    return (block.distance_at(hi) - block.distance_at(lo)) / (hi - lo) if hi > lo else block.entry
 

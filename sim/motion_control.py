@@ -124,6 +124,18 @@ class MotionControl:
         if not self.planner.busy and self.planner.clock < self.dwell_until:
             self.planner.clock = min(self.dwell_until, self.planner.clock + seconds)
 
+    def hold(self) -> None:
+        """A feed hold: in real time the machine slows to a stand along its path (GRBL's
+        ``Hold:1``, then ``Hold:0``); in instant mode nothing is moving."""
+        if not self.instant:
+            ran = self.planner.hold()
+            if ran is not None:
+                self._complete([ran])
+
+    def release(self) -> None:
+        """Cycle start after a hold: the rest of the queue runs on from rest."""
+        self.planner.release()
+
     def stop(self, *, lose: bool = False) -> bool:
         """Halt at once (reset, alarm): drop planned moves. True if the machine was moving.
 

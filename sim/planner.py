@@ -8,7 +8,10 @@ bounded by the junction-deviation corner speed with the block before it (GRBL's 
 what the acceleration allows over the following blocks (backward pass) and from the preceding
 ones (forward pass); the machine stops at the end of the queue. A block's speed profile is
 fixed when it starts executing; its duration is the trapezoid (or triangle) time for that
-profile. Units: mm, mm/s, mm/s², s.
+profile. A feed hold (:meth:`Planner.hold`) slows the machine from the speed it has at its
+acceleration along the path it was taking, as GRBL's stepper does, over as many blocks as that
+takes; what is left of the block it stops on waits, to start from rest when released. Units:
+mm, mm/s, mm/s², s.
 """
 
 from __future__ import annotations
@@ -37,14 +40,29 @@ class Block:
     entry: float = 0.0  # mm/s, as planned
     exit: float = 0.0  # mm/s, fixed when the block starts
     duration: float = 0.0  # s, fixed when the block starts
+    braking: bool = False  # a stretch run slowing to a feed hold (its speed profile is fixed)
+    rest: bool = False  # what a feed hold left of a block: the same planner slot as the stretch before
+
+    def _profile(self) -> tuple[float, float, float, float]:
+        """(peak speed, seconds accelerating, cruising, decelerating) of the fixed profile."""
+        a, vi, vo = self.accel, self.entry, self.exit
+        peak = peak_speed(self.length, a, vi, vo, self.nominal)
+        t_acc, t_dec = (peak - vi) / a, (peak - vo) / a
+        return peak, t_acc, max(self.duration - t_acc - t_dec, 0.0), t_dec
+
+    def speed_at(self, t: float) -> float:
+        """Speed (mm/s) ``t`` seconds into the block, following its fixed profile."""
+        peak, t_acc, t_cruise, t_dec = self._profile()
+        if t <= t_acc:
+            return self.entry + self.accel * t
+        if t <= t_acc + t_cruise:
+            return peak
+        return max(peak - self.accel * min(t - t_acc - t_cruise, t_dec), self.exit)
 
     def distance_at(self, t: float) -> float:
         """Distance (mm) travelled ``t`` seconds into the block, following its fixed profile."""
-        a, vi, vo = self.accel, self.entry, self.exit
-        peak = peak_speed(self.length, a, vi, vo, self.nominal)
-        t_acc = (peak - vi) / a
-        t_dec = (peak - vo) / a
-        t_cruise = max(self.duration - t_acc - t_dec, 0.0)
+        a, vi = self.accel, self.entry
+        peak, t_acc, t_cruise, t_dec = self._profile()
         if t <= t_acc:
             return vi * t + 0.5 * a * t * t
         d_acc = vi * t_acc + 0.5 * a * t_acc * t_acc
@@ -70,9 +88,22 @@ class Planner:
         self.clock = 0.0  # s of simulated motion and dwell since power-on
         self._last: Block | None = None  # most recently queued, for the next junction
         self._speed_into_queue = 0.0  # mm/s the machine will have when it reaches queue[0]
+        self.held = False  # a feed hold: nothing starts but the stretches that slow to it
 
     def __len__(self) -> int:
-        return len(self.queue) + (self.executing is not None)
+        return len(self.queue) + (self.executing is not None) - self._sharing()
+
+    def _sharing(self) -> int:
+        """1 while a hold's last slowing stretch and what it left of its block are both still
+        to run: they are one block (one planner slot) cut in two, else 0."""
+        before = self.executing
+        for b in self.queue:
+            if b.rest:
+                return int(before is not None and before.braking)
+            if not b.braking:
+                return 0
+            before = b
+        return 0
 
     @property
     def free_blocks(self) -> int:
@@ -97,21 +128,70 @@ class Planner:
         self._last = block
         self._replan()
 
-    def _replan(self) -> None:
+    @property
+    def braking(self) -> bool:
+        """A feed hold is slowing the machine (GRBL's ``Hold:1``)."""
+        return self.held and self.executing is not None and self.executing.braking
+
+    def hold(self) -> Block | None:
+        """Feed hold: from the speed it has, the machine slows at each block's acceleration
+        along the queued path until it stands; nothing else starts until :meth:`release`.
+        Returns the part of the executing block already run (for the recorder), if any."""
+        self.held = True
+        if self.executing is None:
+            if not self.queue or self._speed_into_queue == 0.0:
+                return None
+            self.start_next()  # at a junction, already moving into the next block
+        b, t = self.executing, self.elapsed
+        ran = _cut(b, t) if t > 0 else None
+        speed, here, left = b.speed_at(t), b.point_at(t), b.length - b.distance_at(t)
+        stretches = []
+        while True:
+            stopping = speed * speed / (2.0 * b.accel)
+            if stopping < left:  # stands inside this block: the rest of it waits, from rest
+                stop = tuple(h + u * stopping for h, u in zip(here, b.unit))
+                if stopping > 0:
+                    stretches.append(_braking(b, here, stop, stopping, speed, 0.0))
+                stretches.append(Block(stop, b.end, left - stopping, b.unit, b.nominal, b.accel, b.pen_down,
+                                       rest=True))
+                break
+            out = math.sqrt(max(speed * speed - 2.0 * b.accel * left, 0.0))
+            stretches.append(_braking(b, here, b.end, left, speed, out))
+            speed = out
+            if speed == 0.0 or not self.queue:
+                break
+            b = self.queue.pop(0)
+            here, left = b.start, b.length
+        if stretches[-1].braking and self.queue:
+            self.queue[0].entry = self.queue[0].max_entry = 0.0  # stood at its start: it starts from rest
+        self.queue[:0] = stretches
+        self.executing = None
+        if stretches[0].braking:
+            self.start_next()
+        return ran
+
+    def release(self) -> None:
+        """Cycle start once a hold has stopped the machine: what is queued runs on from rest."""
+        self.held = False
+        self._speed_into_queue = 0.0
+        if self.queue:
+            self._replan(full=True)
+
+    def _replan(self, full: bool = False) -> None:
         q = self.queue
         # Backward pass: the newest block must be able to stop by its end.
         next_entry, first = 0.0, len(q) - 1
         for i in range(len(q) - 1, 0, -1):
             b = q[i]
             limit = min(b.max_entry, math.sqrt(next_entry * next_entry + 2.0 * b.accel * b.length))
-            if limit == b.entry and i < len(q) - 1:
+            if limit == b.entry and i < len(q) - 1 and not full:
                 break  # earlier blocks were planned against this same speed
             b.entry = limit
             next_entry, first = limit, i
         # Forward pass from the first changed block: nothing may enter faster than the
         # acceleration from the block before allows.
         q[0].entry = self._speed_into_queue
-        for i in range(max(first, 1), len(q)):
+        for i in range(1 if full else max(first, 1), len(q)):
             prev, b = q[i - 1], q[i]
             reachable = math.sqrt(prev.entry * prev.entry + 2.0 * prev.accel * prev.length)
             if b.entry > reachable:
@@ -130,6 +210,8 @@ class Planner:
         """Run the clock ``dt`` seconds; return the blocks that finished, in order."""
         done = []
         while dt > 0 and (self.executing or self.queue):
+            if self.held and not (self.executing or self.queue[0]).braking:
+                break  # standing in a feed hold
             if self.executing is None:
                 self.start_next()
             b = self.executing
@@ -161,14 +243,23 @@ class Planner:
     def discard(self) -> Block | None:
         """Stop dead (reset / alarm): drop the queue; return the executing block cut where it
         stands, or ``None`` if nothing was moving."""
-        cut = None
-        if self.executing is not None and self.elapsed > 0:
-            b = self.executing
-            end = b.point_at(self.elapsed)
-            cut = Block(b.start, end, b.distance_at(self.elapsed), b.unit, b.nominal, b.accel, b.pen_down)
+        cut = _cut(self.executing, self.elapsed) if self.executing is not None and self.elapsed > 0 else None
         self.queue.clear()
         self.executing = None
         self.elapsed = 0.0
+        self.held = False
         self._last = None
         self._speed_into_queue = 0.0
         return cut
+
+
+def _cut(block: Block, t: float) -> Block:
+    """The part of ``block`` run in its first ``t`` seconds."""
+    return Block(block.start, block.point_at(t), block.distance_at(t), block.unit, block.nominal, block.accel,
+                 block.pen_down)
+
+
+def _braking(block: Block, start, end, length: float, entry: float, exit_: float) -> Block:
+    """A stretch of ``block`` run slowing from ``entry`` to ``exit_`` (mm/s) to a feed hold."""
+    return Block(start, end, length, block.unit, entry, block.accel, block.pen_down,
+                 max_entry=entry, entry=entry, exit=exit_, braking=True)

@@ -31,7 +31,8 @@ URL parts (all optional):
     wall clock plays no part, so a fault at a line finds the machine at the same place, mid-move,
     every run. On an HP-GL plotter, the poll clock: ``t`` seconds per ``ESC.B`` it answers.
 ``faults``
-    Comma-separated ``KIND@LINE[:CODE]``, see :class:`sim.faults.Faults`.
+    Comma-separated ``KIND@LINE[:CODE]`` (``hold`` and ``interrupt`` also ``KIND@SECONDSs``, a
+    moment of the simulated clock, on GRBL-protocol boards), see :class:`sim.faults.Faults`.
 ``reset``
     ``1`` (default): opening the port resets the board like an Arduino's DTR line does (a
     power-up: banner, motion stopped, modes reset; see ``power``). ``0``: a board without
@@ -224,8 +225,8 @@ class VirtualPlotter:
             if queries:
                 self._answered_at_query = len(fw.log)
             seconds = lines * self.tick + (_IDLE_QUERY if idle else 0.0)
-            if not seconds and not fw.waiting_on_motion:
-                return
+            if (not seconds and not fw.waiting_on_motion) or fw.signal_due is not None:
+                return  # (a timed interrupt: the sender reacts before the clock runs on)
             fw.poll(seconds or self.tick)
 
     def read(self) -> bytes:
@@ -300,6 +301,10 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
+    if faults.timed and (profile.firmware.capabilities.host_motion
+                         or getattr(profile.firmware, "sim_board", None) == "hpgl"):
+        raise SerialException("sim:// faults at a moment (KIND@SECONDSs) are for GRBL-protocol boards; "
+                              "use KIND@LINE")
     if profile.firmware.capabilities.host_motion:  # an EBB board: the firmware is chosen by the profile
         from sim.ebb_plotter import VirtualEbb
 

@@ -21,7 +21,7 @@ class StatusReport:
         if self._homing:
             return "Home"
         if self._hold:
-            return "Hold:0"
+            return "Hold:1" if m.planner.braking else "Hold:0"
         if m.check_mode:
             return "Check"
         if m.planner.busy:
@@ -32,7 +32,7 @@ class StatusReport:
         """The ``<…>`` line GRBL prints for ``?``, honouring ``$10``, ``$13`` and the WCO/Ov cadence."""
         m = self.machine
         state = self.state()
-        busy = state in ("Run", "Hold:0", "Jog", "Home")
+        busy = state in ("Run", "Hold:0", "Hold:1", "Jog", "Home")
         mask = int(m.settings[10])
         pos = m.machine_position()
         wco = m.work_offset()
@@ -42,7 +42,7 @@ class StatusReport:
             mpos=pos if mask & 1 else None,
             wpos=None if mask & 1 else tuple(p - o for p, o in zip(pos, wco)),
             buffer=(m.planner.free_blocks, self._ring_size - len(self._ring)) if mask & 2 else None,
-            feed=m.current_speed() * 60.0 if state in ("Run", "Jog") else 0.0,
+            feed=m.current_speed() * 60.0 if state in ("Run", "Hold:1", "Jog") else 0.0,
             spindle=speed,
             pins=m.limit_pins() or None,
         )

@@ -121,7 +121,7 @@ def flight_start(job, last: int, receive_buffer: int, moves: int) -> int:
 def locate_stop(
     states, last: int, position: tuple[float, float] | None, *, window: int = 40,
     tolerance: float = REPORT_RESOLUTION, pen_down: bool | None = None, floor: int | None = None,
-    coast: float = 0.0,
+    after: tuple[float, float] | None = None, coast: float = 0.0,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
     the last moves sent (unknown, or the machine was power-cycled or moved by hand).
@@ -160,6 +160,11 @@ def locate_stop(
         A line the machine was running earlier (an earlier status report's position): it runs
         lines in order, so the earliest move from ``floor`` on that passes through the position
         is taken instead of the latest (a closed stroke begins and ends at the same point).
+    after : (float, float), optional
+        Where on ``floor``'s move the machine was then (that report's position): it went on
+        from there, so on that move only a point at or past it counts (a stroke that runs back
+        over itself passes the point on its way out before the report and on its way back
+        after it).
     coast : float
         How far (job units) the carriage may have run on past the end of a move, in its
         direction, after the motors stopped (a reset or alarm in motion): such a point means
@@ -193,6 +198,8 @@ def locate_stop(
         on = start + t * seg
         if abs(on - p) > tolerance:
             continue
+        if i == floor and after is not None and t < ((complex(*after) - start) / seg).real - snap / abs(seg):
+            continue  # behind where the machine already was on this move
         if 0.0 <= t < 1.0 and abs(on - start) > snap:
             if pen_down is not None and states[i].pen_down != pen_down:
                 continue
@@ -256,10 +263,10 @@ class StopLocator:
         return xy
 
     def locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
-               answered: int | None = None, window: int | None = None, **how):
+               answered: int | None = None, window: int | None = None, after=None, **how):
         """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
         can have been in flight, or the ``window`` lines before it (``how``: its tolerance and
-        coast)."""
+        coast); ``after``: where on ``floor``'s move the machine was then."""
         if position_xy is None or last < 0:
             return None
         last = min(last, len(self.job) - 1)
@@ -269,11 +276,11 @@ class StopLocator:
         # through the position after it is where it stood (a stroke that runs back over
         # itself passes a point twice; strokes drawn before the dwell are finished).
         sync = self.synchronized(min(last - 1 if answered is None else answered, last), first)
-        if sync is not None:
-            floor = max(floor if floor is not None else sync, sync)
+        if sync is not None and (floor is None or sync > floor):
+            floor, after = sync, None
         # The state before the window's first line too: its move starts there.
         return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
-                           window=last - first + 1, pen_down=pen_down, floor=floor, **how)
+                           window=last - first + 1, pen_down=pen_down, floor=floor, after=after, **how)
 
     def coasted(self, at, count, here, tolerance: float):
         """Where to resume after the carriage coasted on from the board's count (a reset or
@@ -340,13 +347,14 @@ class StopLocator:
                     return i
         return None
 
-    def floor(self, stream, last: int) -> int | None:
-        """The line the machine was running at the last status report of the stream (it can
-        only have moved on from there), if that report's position is on the lines sent."""
+    def floor(self, stream, last: int) -> tuple[int, tuple[float, float]] | None:
+        """The line the machine was running at the last status report taken while it moved
+        (it can only have moved on from there) and that report's position on it (job units),
+        if that position is on the lines sent."""
         if stream.seen is None:
             return None
         xy, status, answered = stream.seen
         bound = min(last, answered + 1)  # then, too, it ran only lines it had answered
-        found = self.locate(bound, self.job_units(xy, bound), position.pen_down_in(status, self.pen),
-                            answered=answered)
-        return None if found is None else found[0] - (found[1] is None and found[0] > 0)
+        here = self.job_units(xy, bound)
+        found = self.locate(bound, here, position.pen_down_in(status, self.pen), answered=answered)
+        return None if found is None else (found[0] - (found[1] is None and found[0] > 0), here)

@@ -257,9 +257,12 @@ class Runner:
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
             floor = self.locator.planner_floor(stream.rest_status, self.acked,
                                                fault.index if fault.kind == "error" else None)
-            floor = self.locator.floor(stream, last) if floor is None else floor
+            after = None
+            if floor is None:
+                # Where it was when the hold began (or at an earlier report): on from there.
+                floor, after = self.locator.floor(stream, last) or (None, None)
             located = self.locator.locate(last, self.locator.job_units(proven[0], last), pen_down, floor,
-                                          answered=self.acked)
+                                          answered=self.acked, after=after)
             if located is None:
                 proven = None  # where it stands is not on the lines it had: not a stop point
         if located is not None:

@@ -27,6 +27,7 @@ log = logging.getLogger(__name__)
 
 WAKING, STREAMING, DRAINING, HALTING, DONE = "waking", "streaming", "draining", "halting", "done"
 POLL_INTERVAL = 0.2  # s: status queries at 5 Hz, GRBL's recommended ceiling
+_SLOWING_AT_MOST = 60.0  # s a feed hold may take to bring the machine to rest (0.1 m/s at 2 mm/s²)
 DEFAULT_TIMEOUT = 10.0  # s of silence from the board before a job counts as stuck
 _QUIET = 0.15  # s of silence after a banner before the board counts as awake
 
@@ -79,6 +80,7 @@ class BoardSession:
         self.paused: str | None = None  # why the board is holding, while it is
         self._pause_key = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
+        self._going_on = False  # our pause key sent cycle start and the board has not gone on yet
         self._fresh_after = 0  # reports up to this one may predate our last hold or cycle start
         self.restarted = False  # the board printed its start-up banner when woken (a reset on open)
         self.number = 0  # the last line number framed (numbered firmware)
@@ -293,9 +295,10 @@ class BoardSession:
                 self._query_unanswered = False
                 if reply.status.wco is not None:
                     self.wco = reply.status.wco
-                if (self.state in (STREAMING, DRAINING) and self.firmware.is_moving(reply.status)
+                if (self.state in (STREAMING, DRAINING, HALTING) and self.firmware.is_moving(reply.status)
                         and self.work_position() is not None):
-                    # (Moving: mid-move, so the position names one line; at rest it may not.)
+                    # (Moving: mid-move, so the position names one line; at rest it may not.
+                    # Halting: the machine still slows along its path from there.)
                     self.seen = (self.work_position(), reply.status, self.answered)
                 continue
             yield reply
@@ -362,11 +365,19 @@ class BoardSession:
         wait = min(self.timeout, 5.0) if wait is None else wait
         at_rest = False
         with self._guard(-1):
-            self.link.write(fw.feed_hold)
-            deadline = time.monotonic() + wait
+            # Where it is the moment the hold begins (a report asked for in the same write is
+            # made first): it slows on along its path from there, so where it comes to rest is
+            # at or past that point (a stroke that runs back over itself passes a point twice).
+            self.link.write(fw.status_query + fw.feed_hold)
+            self._query_unanswered, self._last_poll = True, time.monotonic()
+            start = time.monotonic()
+            deadline, reports = start + wait, self.reports
             self.status = None
             while time.monotonic() < deadline and not at_rest:
                 self._poll()
+                if self.reports > reports and self.status is not None and fw.is_moving(self.status):
+                    # Still slowing (a slow acceleration takes seconds): wait on while it says so.
+                    reports, deadline = self.reports, min(time.monotonic() + wait, start + _SLOWING_AT_MOST)
                 for reply in self._replies():
                     # The board keeps parsing what it had received: those lines reach the
                     # planner (and may run before the reset), so an ok counts as acknowledged.

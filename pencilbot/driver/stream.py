@@ -127,6 +127,14 @@ class Stream(BoardSession):
             return  # a report asked for before the cycle start: it may still say Hold
         if status is None or not self.firmware.is_paused(status):
             self.paused = self._pause_key = None
+            self._going_on = False
+            return
+        if self.firmware.is_moving(status):
+            return  # a hold still slowing the machine: GRBL takes a cycle start only once it stands
+        if self._going_on:
+            # Our cycle start came while the hold was still slowing, and the board dropped it.
+            self.link.write(self.firmware.cycle_start)
+            self._fresh_after = self.reports + int(self._query_unanswered)
             return
         index = next((e.index for e in self._sent if e.index is not None and e.index in job.pauses), None)
         key = index if index is not None else "hold"
@@ -156,7 +164,7 @@ class Stream(BoardSession):
             if request == "pause" and self.firmware.capabilities.feed_hold:
                 held = self._held_by_us or (self.status is not None and self.firmware.is_paused(self.status))
                 self.link.write(self.firmware.cycle_start if held else self.firmware.feed_hold)
-                self._held_by_us = not held
+                self._held_by_us, self._going_on = not held, held
                 self._fresh_after = self.reports + int(self._query_unanswered)
 
     def _fill(self, job: Job, nxt: int) -> int:

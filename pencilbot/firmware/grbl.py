@@ -80,7 +80,8 @@ class Grbl(Firmware):
         return Reply(OTHER, text)
 
     def is_moving(self, status) -> bool:
-        return status.state in self.moving_states
+        # Hold:1: a feed hold still slowing the machine along its path.
+        return status.state in self.moving_states or (status.state == "Hold" and status.substate == 1)
 
     def is_finished(self, status) -> bool:
         return status.state in ("Idle", "Check")

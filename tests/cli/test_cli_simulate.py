@@ -107,7 +107,8 @@ def test_simulate_fault_names_the_file_and_line_not_a_library_call(tmp_path, cap
     src.write_text("G21\nG90\nG0 X10 Y10\nG2 X1\n")
     assert main(["simulate", str(src), "-o", str(tmp_path / "plot.png"), "-q"]) != 0
     err = capsys.readouterr().err
-    assert f"at line 4 of {src} ('G2X1')" in err and f"Resume from line 3 of {src}" in err
+    # (The travel on line 3 ran: the resume starts at the refused line, sent again.)
+    assert f"at line 4 of {src} ('G2X1')" in err and f"Resume from line 4 of {src}" in err
     assert "<lines>" not in err and "draw(" not in err and "--start-line" not in err
 
 

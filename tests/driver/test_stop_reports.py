@@ -82,21 +82,44 @@ def test_check_mode_names_ten_refused_lines_and_counts_the_rest(tmp_path, count)
 
 class DoubleTap:
     """The pause key pressed twice at once (hold, then go on) when the board has taken
-    ``at`` lines; then, if the board is still held on a later poll, the stop key."""
+    ``at`` lines; then, if the board is still held after answering four more status queries,
+    the stop key."""
 
     def __init__(self, name: str, at: int):
         self.name, self.at, self.tapped = name, at, False
         self.stopped = False
+        self.queries = 0
 
     def poll(self) -> list[str]:
         firmware = protocol_sim.plotter(self.name).firmware
         if not self.tapped and len(firmware.log) >= self.at:
-            self.tapped = True
+            self.tapped, self.queries = True, firmware.queries
             return ["pause", "pause"]
-        if self.tapped and firmware._hold:  # noqa: SLF001 - the board's own hold state
+        if self.tapped and firmware._hold and firmware.queries - self.queries >= 4:  # noqa: SLF001 - the board's own hold state
             self.stopped = True
             return ["stop"]
         return []
+
+
+class DoubleTapAtSpeed(DoubleTap):
+    """The pause key pressed twice at once while the machine moves at speed: the cycle start
+    reaches the board while the hold still slows it (Hold:1), and GRBL drops it."""
+
+    def poll(self) -> list[str]:
+        machine = protocol_sim.plotter(self.name).machine
+        if not self.tapped and machine.current_speed() < 20.0:
+            return []
+        return super().poll()
+
+
+def test_a_second_press_of_the_pause_key_while_the_hold_still_slows_the_machine_resumes_it(tmp_path):
+    lines = drawing()
+    url, name = fresh(TICK)
+    keys = DoubleTapAtSpeed(name, WAKE_LINES + 30)
+    draw(lines, url, profile=PROFILE, wake_wait=0.2, timeout=0.5, keys=keys)
+    assert keys.tapped and not keys.stopped
+    assert [line for line in accepted(name) if not re.match(r"^\$", line)][-len(lines):] == \
+        [line.replace(" ", "").split(";")[0] for line in lines]
 
 
 def test_a_second_press_of_the_pause_key_resumes_even_before_the_board_reports_the_hold(tmp_path):

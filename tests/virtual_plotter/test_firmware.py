@@ -113,7 +113,7 @@ def test_hold_stops_the_machine_clock_until_resume():
     fw = board(instant=False)
     exchange(fw, b"G1 X50 F3000\n!")
     fw.poll(5.0)
-    assert fw.machine.machine_position()[0] == 0.0
+    assert fw.machine.machine_position()[0] == 0.0  # it had not started: nothing to slow
     exchange(fw, b"~")
     fw.poll(5.0)
     assert fw.machine.machine_position()[0] == pytest.approx(50.0)
@@ -302,9 +302,72 @@ def test_reset_after_a_completed_hold_keeps_the_position_without_alarm():
     fw.take_output()
     cruising(fw)
     exchange(fw, b"!")
+    fw.poll(0.5)  # it slows to a stand (Hold:0)
     held = fw.machine.machine_position()
     assert exchange(fw, b"\x18") == BANNER  # no ALARM:3: motion had stopped
     assert fw.machine.carriage_position() == held
+
+
+def test_a_feed_hold_slows_the_machine_along_its_move_and_the_rest_starts_from_rest():
+    # stepper.c: a hold decelerates the running block at its acceleration (Hold:1) to a stand
+    # (Hold:0); the block keeps what is left of it, replanned from rest on cycle start.
+    fw = Firmware(Machine(description(), instant=False))
+    fw.take_output()
+    cruising(fw)
+    x0 = fw.machine.machine_position()[0]
+    report = exchange(fw, b"?!?")
+    assert report.startswith("<Run|") and "<Hold:1|" in report and "|FS:3000," in report
+    assert exchange(fw, b"~") == ""  # cycle start while still slowing: dropped, as GRBL does
+    fw.poll(0.01)
+    assert exchange(fw, b"?").startswith("<Hold:1|")
+    fw.poll(0.5)
+    stood = fw.machine.machine_position()[0]
+    assert exchange(fw, b"?").startswith("<Hold:0|")
+    assert stood - x0 == pytest.approx(50.0**2 / (2 * 800.0))  # v²/2a: 50 mm/s, 800 mm/s²
+    fw.poll(5.0)
+    assert fw.machine.machine_position()[0] == stood  # held: the dropped ~ resumed nothing
+    exchange(fw, b"~")
+    t0 = fw.machine.clock
+    fw.poll(0.05)
+    assert fw.machine.current_speed() == pytest.approx(800.0 * 0.05)  # from rest, at 800 mm/s²
+    fw.poll(5.0)
+    assert fw.machine.machine_position()[0] == pytest.approx(100.0)
+    left = 100.0 - stood
+    ramp = 50.0 / 800.0  # to 50 mm/s and back down at the end
+    assert fw.machine.clock - t0 == pytest.approx(2 * ramp + (left - 50.0 * ramp) / 50.0, rel=1e-6)
+    strokes = fw.machine.strokes
+    assert len(strokes) == 1 and strokes[0][0][0] == 0.0 and strokes[0][-1][0] == pytest.approx(100.0)
+
+
+def test_a_feed_hold_slows_through_the_corners_of_the_blocks_ahead():
+    # Short moves at speed: the stopping distance is longer than what is left of the running
+    # block, so the machine slows on through the next ones, where it stands.
+    fw = Firmware(Machine(description(), instant=False))
+    fw.take_output()
+    exchange(fw, b"M3 S90\n" + b"".join(b"G1 X%.1f F3000\n" % (i * 0.4) for i in range(1, 25)))
+    fw.poll(0.1)
+    speed, x0 = fw.machine.current_speed(), fw.machine.machine_position()[0]
+    assert speed == pytest.approx(50.0)  # cruising through the collinear joints
+    blocks = len(fw.machine.planner)
+    exchange(fw, b"!")
+    assert len(fw.machine.planner) == blocks  # slowing cuts blocks, it adds none
+    fw.poll(1.0)
+    stood = fw.machine.machine_position()[0]
+    assert stood - x0 == pytest.approx(speed ** 2 / (2 * 800.0), rel=1e-6)
+    assert int(stood / 0.4) > int(x0 / 0.4) + 2  # it stands some blocks ahead of the one it ran
+    rest = fw.machine.planner.queue[0]  # what is left of the block it stands in, from rest
+    assert rest.start[0] == stood and rest.end[0] == pytest.approx(0.4 * (int(stood / 0.4) + 1)) and rest.entry == 0
+    planned_to = fw.machine.planner.queue[-1].end[0]
+    assert len(fw.machine.planner) == round(planned_to / 0.4) - int(stood / 0.4)  # a slot a block, as before
+
+
+def test_a_reset_while_the_hold_is_still_slowing_is_a_reset_in_motion():
+    fw = Firmware(Machine(description(), instant=False), abort_loses=True)
+    fw.take_output()
+    cruising(fw)
+    exchange(fw, b"!")
+    fw.poll(0.01)
+    assert exchange(fw, b"\x18").startswith("ALARM:3\r\n")
 
 
 @pytest.mark.parametrize("zero", [False, True])
