@@ -9,7 +9,9 @@ drawing is then compared with the uninterrupted run's, segment by segment to 1 �
 (``tests/driver/segments.py``).
 
 Fault kinds: Ctrl-C, SIGTERM, SIGHUP (signals the virtual plotter sends this process when the
-line arrives: ``interrupt@LINE:SIGNAL``), a refused line, a hard-limit alarm, a soft reset
+line arrives: ``interrupt@LINE:SIGNAL``), Ctrl-C mid-move (at a moment of the machine's clock
+spread over the job, ``interrupt@SECONDSs``: anywhere inside a move, on the way out or back over
+a stroke; not on the instant clock, which has no moments), a refused line, a hard-limit alarm, a soft reset
 (ALARM:3 in motion), the port vanishing (then plugged back: the board is reset by the open),
 and a power cycle. × GRBL and grblHAL × character counting and send-and-wait × the clock
 (``tick``, the default: the virtual plotter's line clock, 10 ms of machine time per line
@@ -71,7 +73,10 @@ KINDS = {
     "reset": "abort@{k}",
     "port drop": "drop@{k}",
     "power cycle": "reset@{k}",
+    "ctrl-c mid-move": "interrupt@{k}s",  # at a moment of the machine's clock, not as a line arrives
 }
+#: Kinds that strike at a moment of the simulated clock: their positions are seconds into the job.
+AT_A_MOMENT = {"ctrl-c mid-move"}
 PROFILES = {"grbl": "grbl-servo-a4", "grblhal": "grblhal-servo-a3"}
 CLOCKS = {"tick": "&tick=0.01", "instant": "", "realtime": "&realtime=200"}
 #: mm: the longest stretch a ``redrawn`` run may draw once more than the reference.
@@ -144,14 +149,14 @@ def reference(firmware: str):
         commands = [line.split(";")[0].strip() for line in lines]
         commands = [c for c in commands if c]
         dwells = np.array([i for i, c in enumerate(commands) if c.startswith("G4")]) + WAKE_LINES + 1
-        _REFERENCES[firmware] = lines, drawn(name), len(commands), dwells
+        _REFERENCES[firmware] = lines, drawn(name), len(commands), dwells, protocol_sim.plotter(name).machine.clock
     return _REFERENCES[firmware]
 
 
 def case(task) -> tuple[str, str, str, int]:
     """Run one (firmware, clock, mode, kind, board line) and judge it: (name, outcome, detail, overruns)."""
     firmware, clock, mode, kind, k, folder = task
-    lines, ref, _, dwells = reference(firmware)
+    lines, ref, _, dwells, _ = reference(firmware)
     name = f"sweep-{firmware}-{clock}-{mode}-{kind}-{k}".replace(" ", "_")
     if kind == "error" and mode == "counting":
         # With lines in flight, the ones after a refused line run before the stop: a refused
@@ -188,10 +193,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as folder:
         tasks = []
         for firmware in args.firmware.split(","):
-            n = reference(firmware)[2]
-            positions = np.linspace(WAKE_LINES + 8, WAKE_LINES + n - 2, args.positions).round().astype(int)
-            tasks += [(firmware, clock, mode, kind, int(k), folder) for clock in args.clock.split(",")
-                      for mode in args.modes.split(",") for kind in args.kinds.split(",") for k in positions]
+            _, _, n, _, seconds = reference(firmware)
+            lines = np.linspace(WAKE_LINES + 8, WAKE_LINES + n - 2, args.positions).round().astype(int)
+            moments = np.linspace(0.5, seconds - 0.5, args.positions).round(3)
+            tasks += [(firmware, clock, mode, kind, k.item(), folder) for clock in args.clock.split(",")
+                      for mode in args.modes.split(",") for kind in args.kinds.split(",")
+                      for k in (moments if kind in AT_A_MOMENT else lines)
+                      if not (kind in AT_A_MOMENT and clock == "instant")]
         with multiprocessing.get_context("fork").Pool(args.jobs, maxtasksperchild=50) as pool:
             for name, outcome, detail, overruns in pool.imap_unordered(case, tasks, chunksize=4):
                 key = "tracebacks" if outcome == "traceback" else outcome
