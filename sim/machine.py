@@ -42,7 +42,7 @@ from pencilbot.machine.profile import Profile
 from sim import gcode_parser as gp
 from sim.arcs import arc_chords
 from sim.motion_control import PAUSE, WAIT, MotionControl
-from sim.planner import Block, Planner
+from sim.planner import Planner
 from sim.recorder import StrokeRecorder
 from sim.settings import grbl_settings
 
