@@ -11,7 +11,7 @@ dwells, the stepper idle lock GRBL waits out in its stepper interrupt after ever
 (``idle_lock``, ``$1`` ms) and the rest (``other``: serial and parsing gaps); pencilbot's
 estimate (``stat``), the virtual plotter's clock (``simulate``), the G-code header's estimate,
 and each as a ratio of GRBL's total (``motion`` compares the estimate less the program's dwells
-with GRBL's moving time).
+and its idle locks with GRBL's moving time).
 
 Usage::
 
@@ -130,7 +130,8 @@ def compare(path: Path, exe: str, profile_name: str) -> dict:
     stat = estimate(gcode_plan(path, profile), profile).total.seconds
     ours = {"stat": stat, "simulate": simulated_seconds(path, profile_name), "header": header_seconds(path)}
     ratios = {key: value / grbl["total"] for key, value in ours.items() if value is not None}
-    ratios["motion"] = (stat - program_dwell(job)) / grbl["moving"]
+    idle = grbl["stops"] * profile.firmware.idle_lock  # the estimate's idle locks, one per stop
+    ratios["motion"] = (stat - program_dwell(job) - idle) / grbl["moving"]
     return {"file": str(path), "profile": profile_name, "grbl": grbl, "pencilbot": ours,
             "ratio": {key: round(value, 4) for key, value in ratios.items()}}
 
