@@ -101,6 +101,7 @@ class _Run:
         self.accels = (settings[120], settings[121], settings[122])
         self.deviation = settings[11]
         self.capacity = machine.planner.capacity
+        self.idle_lock = machine.planner.idle_lock
         self.lines = 0  # file lines read so far
         self.commands = 0  # lines with a command
         self.chain: list[tuple] = []  # moves since the last synchronisation, not yet planned
@@ -239,16 +240,17 @@ class _Run:
         self.close_pending = False
 
     def _synchronize(self) -> None:
-        """GRBL's buffer synchronise: every queued move runs to its end."""
+        """GRBL's buffer synchronise: every queued move runs to its end, then the idle lock."""
         if self.planner is not None:
             for block in self.planner.finish_all():
                 self._completed(block)
             self.planner = None
+            self.increments.append(self.idle_lock)
         elif self.chain:
             start, end, length, unit, nominal, accel, pen = self.chain.pop()
             self._record(start, end, pen)
             self.single.append((length, accel, nominal))
-            self.increments.append(None)
+            self.increments += [None, self.idle_lock]
 
     # --- into the machine ---------------------------------------------------------------------
 

@@ -73,7 +73,7 @@ class Machine(MotionControl, StrokeRecorder):
         self.servo = servo
         self.settings = grbl_settings(profile)
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
-        self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
+        self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1, profile.firmware.idle_lock)
         self.pauses = 0  # M0 pauses the program has reached (a colour job: its pen changes)
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware

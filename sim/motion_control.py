@@ -112,10 +112,11 @@ class MotionControl:
             yield WAIT
 
     def _synchronize(self):
-        """GRBL's protocol_buffer_synchronize: wait until every queued move has run."""
+        """GRBL's protocol_buffer_synchronize: wait until every queued move has run and the
+        steppers' idle lock has passed."""
         if self.instant:
             self._complete(self.planner.finish_all())
-        while self.planner.busy:
+        while self.planner.busy or self.planner.settling:
             yield WAIT
 
     def advance(self, seconds: float) -> None:

@@ -6,7 +6,9 @@ which the plot-time estimate uses too; this module keeps the queue, the passes a
 Moves queue as :class:`Block` (straight lines at a nominal speed). Each block's entry speed is
 bounded by the junction-deviation corner speed with the block before it (GRBL's formula) and by
 what the acceleration allows over the following blocks (backward pass) and from the preceding
-ones (forward pass); the machine stops at the end of the queue. A block's speed profile is
+ones (forward pass); the machine stops at the end of the queue, and there stands still for the
+firmware's idle lock (GRBL's ``$1``, waited out in its stepper interrupt) before anything else
+can start or a synchronisation end. A block's speed profile is
 fixed when it starts executing; its duration is the trapezoid (or triangle) time for that
 profile. A feed hold (:meth:`Planner.hold`) slows the machine from the speed it has at its
 acceleration along the path it was taking, as GRBL's stepper does, over as many blocks as that
@@ -80,8 +82,10 @@ class Block:
 class Planner:
     """The queue of planned blocks plus the one executing, and the clock they advance."""
 
-    def __init__(self, capacity: int = PLANNER_CAPACITY):
+    def __init__(self, capacity: int = PLANNER_CAPACITY, idle_lock: float = 0.0):
         self.capacity = capacity
+        self.idle_lock = idle_lock  # s at rest after the queue runs out
+        self.settling = 0.0  # s of that still to pass
         self.queue: list[Block] = []  # at most ``capacity``, so list pops are cheap
         self.executing: Block | None = None
         self.elapsed = 0.0  # s into the executing block
@@ -209,7 +213,13 @@ class Planner:
     def advance(self, dt: float) -> list[Block]:
         """Run the clock ``dt`` seconds; return the blocks that finished, in order."""
         done = []
-        while dt > 0 and (self.executing or self.queue):
+        while dt > 0 and (self.executing or self.queue or self.settling):
+            if self.executing is None and self.settling:
+                step = min(dt, self.settling)
+                self.settling -= step
+                self.clock += step
+                dt -= step
+                continue
             if self.held and not (self.executing or self.queue[0]).braking:
                 break  # standing in a feed hold
             if self.executing is None:
@@ -222,15 +232,18 @@ class Planner:
             if self.elapsed >= b.duration:
                 done.append(b)
                 self.executing = None
+                self._at_rest()
         return done
 
     def finish_one(self) -> Block:
         """Execute the oldest block to its end at once (instant mode: make room)."""
         if self.executing is None:
+            self._settle()
             self.start_next()
         b = self.executing
         self.clock += b.duration - self.elapsed
         self.executing = None
+        self._at_rest()
         return b
 
     def finish_all(self) -> list[Block]:
@@ -238,7 +251,18 @@ class Planner:
         done = []
         while self.executing or self.queue:
             done.append(self.finish_one())
+        self._settle()
         return done
+
+    def _at_rest(self) -> None:
+        """A block has ended: with nothing queued the machine is at rest, and the idle lock starts."""
+        if not self.queue:
+            self.settling = self.idle_lock
+
+    def _settle(self) -> None:
+        """Instant mode: the idle lock passes at once."""
+        self.clock += self.settling
+        self.settling = 0.0
 
     def discard(self) -> Block | None:
         """Stop dead (reset / alarm): drop the queue; return the executing block cut where it
@@ -247,6 +271,7 @@ class Planner:
         self.queue.clear()
         self.executing = None
         self.elapsed = 0.0
+        self.settling = 0.0
         self.held = False
         self._last = None
         self._speed_into_queue = 0.0

@@ -118,6 +118,10 @@ class Firmware:
     rapids_take_feed : bool
         Whether ``G0`` moves at the modal ``F`` (Marlin) or at each axis's top rate, ignoring
         ``F`` (GRBL).
+    idle_lock : float
+        Seconds the board stands still, doing nothing else, each time the motion comes to rest
+        with nothing queued (GRBL 1.1 waits out its stepper idle lock, ``$1`` ms, inside the
+        stepper interrupt before it counts the motion as ended); 0 for boards that do not.
     errors_then_ok : bool
         Whether a refused line gets ``Error:…`` followed by the line's ``ok`` (Marlin) instead of
         an error in place of the ``ok`` (GRBL).
@@ -144,6 +148,7 @@ class Firmware:
     planner_blocks: int = 16
     dwell_units: float = 1.0
     rapids_take_feed: bool = False
+    idle_lock: float = 0.0
     errors_then_ok: bool = False
     frame_room: int = 0
     wake_bytes: bytes = b"\n"

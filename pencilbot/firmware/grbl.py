@@ -33,6 +33,7 @@ class Grbl(Firmware):
     line_limit = protocol.LINE_BUFFER_SIZE - 1  # significant characters; the NUL takes the last
     planner_blocks = protocol.BLOCK_BUFFER_SIZE - 1  # the ring keeps one slot empty
     dwell_units = 1.0  # G4 P is seconds
+    idle_lock = 0.025  # $1's default, 25 ms: st_go_idle's delay_ms, in the stepper interrupt
     # A board that just reset on port open ignores its first bytes: line ends wake it harmlessly.
     wake_bytes = b"\r\n\r\n"
     status_query = protocol.STATUS_QUERY

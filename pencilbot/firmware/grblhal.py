@@ -15,6 +15,7 @@ class GrblHal(Grbl):
     receive_buffer = protocol.RX_BUFFER_SIZE
     line_limit = protocol.LINE_BUFFER_SIZE - 1
     planner_blocks = protocol.BLOCK_BUFFER_SIZE - 1
+    idle_lock = 0.0  # grblHAL de-energises the steppers from a timer callback and goes on
     paused_states = ("Hold", "Door", "Tool")  # "Tool": a manual tool change waits for cycle start
 
 

@@ -8,7 +8,9 @@ lift; finally the travel back home. Pen commands stop the motion (GRBL synchroni
 for a spindle or servo change; a Z pen's move is planned from rest to rest), so every path and
 every travel starts and ends at rest, and the pen model says what a lift and a drop cost
 (dwells, and the Z travel of a Z pen). Within a path, corners follow the junction-deviation rule
-and every segment its trapezoid, planned in closed form over all segments at once.
+and every segment its trapezoid, planned in closed form over all segments at once. Every time
+the motion comes to rest the board stands still for its idle lock (GRBL's ``$1``: 25 ms on
+every travel and every path, the biggest part of a plot's time after the moves and dwells).
 
 demo, stat and the G-code header all report this one estimate.
 """
@@ -81,7 +83,8 @@ def estimate(plan: Plan, profile: Profile) -> PlanStats:
     per_layer = lambda values: np.bincount(moves.layer, weights=values, minlength=n_layers)  # noqa: E731
     drawn, travelled = moves.kind == _DRAW, moves.kind == _TRAVEL
     paths = np.array([len(layer.paths) for layer in plan.layers] or [0])
-    time = per_layer(seconds) + paths * (pen.up_delay + pen.down_delay)
+    stops = np.append(~moves.joined, True) if len(moves.length) else np.zeros(0, bool)  # runs' last moves
+    time = per_layer(seconds + stops * profile.firmware.idle_lock) + paths * (pen.up_delay + pen.down_delay)
     time[0] += pen.up_delay  # the first lift
     columns = (per_layer(moves.length * drawn), per_layer(moves.length * travelled), paths, paths,
                np.bincount(moves.layer[drawn], minlength=n_layers), time)

@@ -13,6 +13,7 @@ from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.stats import Stats, estimate
 
 GRBL = load_profile("grbl-servo-a4")  # bottom-left origin: home is the page's bottom-left corner
+IDLE_LOCK = GRBL.firmware.idle_lock  # $1: GRBL stands still 25 ms each time the motion comes to rest
 
 
 def profile(base=GRBL, *, up_delay=0.0, down_delay=0.0, **motion):
@@ -49,11 +50,11 @@ def test_reversal_stops_and_right_angle_follows_junction_deviation():
     p = profile(draw_feed=3000, acceleration=200, junction_deviation=0.05)
     single = move_times(np.array([20.0]), 0, 0, 50, 200)[0]
     back = estimate(plan_of(("a", [np.array([[0.0, 0], [20, 0], [0, 0]])])), p)
-    assert drawn_seconds(back, p) == pytest.approx(2 * single)
+    assert drawn_seconds(back, p) == pytest.approx(2 * single + IDLE_LOCK)  # reversing is no rest
     corner = estimate(plan_of(("a", [np.array([[0.0, 0], [20, 0], [20, 20]])])), p)
     v = math.sqrt(200 * 0.05 * math.sqrt(0.5) / (1 - math.sqrt(0.5)))  # GRBL at 90°
     expect = 2 * move_times(np.array([20.0]), 0, v, 50, 200)[0]
-    assert drawn_seconds(corner, p, (20, 20)) == pytest.approx(expect)  # and the diagonal travel home
+    assert drawn_seconds(corner, p, (20, 20)) == pytest.approx(expect + 2 * IDLE_LOCK)  # and the travel home
     looser = profile(draw_feed=3000, acceleration=200, junction_deviation=0.5)
     tighter_corner = estimate(plan_of(("a", [np.array([[0.0, 0], [20, 0], [20, 20]])])), looser)
     assert tighter_corner.total.seconds < corner.total.seconds
@@ -71,7 +72,8 @@ def test_travel_lifts_delays_and_layers_add_up():
     rapid = p.motion.axis_rate / 60  # GRBL's G0 runs at the axis rate
     travel = move_times(np.array([10.0, 10.0]), 0, 0, rapid, 1000).sum()
     draw = move_times(np.array([10.0, 10.0]), 0, 0, p.motion.draw_speed, 1000).sum()
-    assert h.seconds == pytest.approx(0.2 + travel + draw + 2 * 0.5)  # the first lift, then 2 paths
+    # The first lift, then 2 paths; each travel and each path ends at rest.
+    assert h.seconds == pytest.approx(0.2 + travel + draw + 2 * 0.5 + 4 * IDLE_LOCK)
     assert stats.total == h + e
     assert stats.as_dict()["total"]["lifts"] == 4
 
@@ -79,7 +81,7 @@ def test_travel_lifts_delays_and_layers_add_up():
 def test_a_diagonal_rapid_runs_at_both_axes_rates_on_grbl_but_at_its_feed_on_marlin():
     plan = plan_of(("a", [np.array([[100.0, 100.0]])]))
     grbl = estimate(plan, profile(acceleration=1e7)).total.seconds
-    assert grbl == pytest.approx(2 * math.hypot(100, 100) / (6000 / 60) / math.sqrt(2), rel=1e-3)
+    assert grbl == pytest.approx(2 * math.hypot(100, 100) / (6000 / 60) / math.sqrt(2) + 2 * IDLE_LOCK, rel=1e-3)
     marlin = profile(load_profile("marlin-servo-a4"), acceleration=1e7, travel_feed=6000)
     home = Placement.on_bed(plan.page, marlin.bed).home()  # the sheet lies turned on this bed
     hop = math.dist(home, (100.0, 100.0))

@@ -333,8 +333,9 @@ def test_a_feed_hold_slows_the_machine_along_its_move_and_the_rest_starts_from_r
     fw.poll(5.0)
     assert fw.machine.machine_position()[0] == pytest.approx(100.0)
     left = 100.0 - stood
-    ramp = 50.0 / 800.0  # to 50 mm/s and back down at the end
-    assert fw.machine.clock - t0 == pytest.approx(2 * ramp + (left - 50.0 * ramp) / 50.0, rel=1e-6)
+    ramp = 50.0 / 800.0  # to 50 mm/s and back down at the end, then GRBL's idle lock ($1)
+    idle = fw.machine.profile.firmware.idle_lock
+    assert fw.machine.clock - t0 == pytest.approx(2 * ramp + (left - 50.0 * ramp) / 50.0 + idle, rel=1e-6)
     strokes = fw.machine.strokes
     assert len(strokes) == 1 and strokes[0][0][0] == 0.0 and strokes[0][-1][0] == pytest.approx(100.0)
 

@@ -13,6 +13,11 @@ from pencilbot.machine.pen import PenModel
 from sim.machine import Machine
 from sim.motion_control import MachineAlarm
 from sim.planner import block_duration, junction_speed
+from sim.settings import DEFAULT_SETTINGS
+
+#: GRBL's stepper idle lock ($1 = 25 ms): the board stands still that long whenever the motion
+#: comes to rest with nothing queued.
+IDLE_LOCK = DEFAULT_SETTINGS[1] / 1000
 
 
 def run(machine, *lines):
@@ -24,10 +29,22 @@ def run(machine, *lines):
     return machine
 
 
-def test_single_move_time_is_the_trapezoid():
+def test_single_move_time_is_the_trapezoid_then_the_idle_lock():
     m = run(Machine(description(acceleration=800)), "G1 X100 F3000")
     v, a = 50.0, 800.0
-    assert m.clock == pytest.approx(2 * v / a + (100 - v * v / a) / v)
+    assert m.clock == pytest.approx(2 * v / a + (100 - v * v / a) / v + IDLE_LOCK)
+
+
+def test_a_pen_change_waits_for_the_idle_lock_and_a_reversal_does_not():
+    # GRBL 1.1h's stepper interrupt, out of segments, calls st_go_idle, which waits $1 ms before
+    # the cycle ends; a spindle change (spindle_sync) or dwell starts only after that. A
+    # reversal stops the pen with the next move queued: the steppers never go idle there.
+    assert description().firmware.idle_lock == IDLE_LOCK
+    v, a = 50.0, 800.0
+    out = 2 * v / a + (10 - v * v / a) / v  # 10 mm from rest to rest at 50 mm/s, 800 mm/s²
+    assert run(Machine(description()), "G1 X10 F3000", "M3 S30").clock == pytest.approx(out + IDLE_LOCK)
+    there_and_back = run(Machine(description()), "G1 X10 F3000", "G1 X0").clock
+    assert there_and_back == pytest.approx(2 * out + IDLE_LOCK)
 
 
 def test_triangle_profile_when_too_short_to_cruise():
@@ -47,7 +64,8 @@ def test_corners_cost_time_and_reversals_stop():
     reverse = run(Machine(description()), "G1 X50 F3000", "G1 X0").clock
     stopped = run(Machine(description()), "G1 X50 F3000", "G4 P0", "G1 X0").clock
     assert straight < corner < reverse
-    assert reverse == pytest.approx(stopped)
+    # A reversal stops on the way with the next move queued; a dwell lets the steppers go idle.
+    assert stopped == pytest.approx(reverse + IDLE_LOCK)
 
 
 def test_junction_speed_formula():
@@ -60,9 +78,9 @@ def test_junction_speed_formula():
 
 def test_rapids_run_at_the_max_rate_and_feeds_are_capped_by_it():
     m = run(Machine(description(max_rate=6000, acceleration=1e9)), "G0 X100")
-    assert m.clock == pytest.approx(1.0, rel=1e-3)
+    assert m.clock == pytest.approx(1.0 + IDLE_LOCK, rel=1e-3)
     m = run(Machine(description(max_rate=6000, acceleration=1e9)), "G1 X100 F60000")
-    assert m.clock == pytest.approx(1.0, rel=1e-3)
+    assert m.clock == pytest.approx(1.0 + IDLE_LOCK, rel=1e-3)
 
 
 def test_dwell_adds_seconds():
@@ -210,4 +228,4 @@ def test_planner_is_never_faster_than_allowed(moves):
         total += b.duration
         prev = b
     assert not done or (done[0].entry == 0 and done[-1].exit == 0)
-    assert m.clock == pytest.approx(total)
+    assert m.clock == pytest.approx(total + (IDLE_LOCK if done else 0.0))  # one stop, at the end
