@@ -73,7 +73,8 @@ class Machine(MotionControl, StrokeRecorder):
         self.servo = servo
         self.settings = grbl_settings(profile)
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
-        self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1, profile.firmware.idle_lock)
+        self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
+        self.settings_changed()
         self.pauses = 0  # M0 pauses the program has reached (a colour job: its pen changes)
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
@@ -91,6 +92,12 @@ class Machine(MotionControl, StrokeRecorder):
         self.reset_modes()
 
     # --- modal state ------------------------------------------------------------------------
+
+    def settings_changed(self) -> None:
+        """Take what the motion reads from the settings: the stepper idle lock, ``$1`` ms, on a
+        firmware that waits it out (GRBL 1.1; 255 keeps the motors on and waits nothing)."""
+        lock = self.settings[1]
+        self.planner.idle_lock = lock / 1000.0 if self.profile.firmware.idle_lock and lock != 255 else 0.0
 
     def reset_modes(self) -> None:
         """A reset's parser state (GRBL's gc_init): default modes, G54 loaded, G92, tool length

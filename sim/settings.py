@@ -77,4 +77,5 @@ def store_setting(machine, line: str) -> int:
         settings[number] = value
     if number == 13:
         machine.offsets_changed = True
+    machine.settings_changed()
     return 0

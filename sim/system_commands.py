@@ -144,6 +144,7 @@ class SystemCommands:
             return self._status(index, text, 3)
         if line[5] in "$*":
             m.settings = dict(DEFAULT_SETTINGS)
+            m.settings_changed()
         if line[5] in "#*":
             m.coord_data[:] = [(0.0, 0.0, 0.0)] * len(m.coord_data)
         if line[5] == "*":

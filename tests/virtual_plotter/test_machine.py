@@ -47,6 +47,19 @@ def test_a_pen_change_waits_for_the_idle_lock_and_a_reversal_does_not():
     assert there_and_back == pytest.approx(2 * out + IDLE_LOCK)
 
 
+@pytest.mark.parametrize("setting, lock", [("$1=100", 0.1), ("$1=255", 0.0), ("$1=0", 0.0)])
+def test_the_idle_lock_is_the_board_s_own_setting(setting, lock):
+    # $1 ms; 255 keeps the motors on and st_go_idle waits nothing. $RST=$ brings back 25 ms.
+    from sim.firmware import Firmware
+
+    fw = Firmware(Machine(description()))
+    fw.receive(setting.encode() + b"\nG1 X10 F3000\nM3 S30\n")
+    v, a = 50.0, 800.0
+    assert fw.machine.clock == pytest.approx(2 * v / a + (10 - v * v / a) / v + lock)
+    fw.receive(b"$RST=$\n")
+    assert fw.machine.planner.idle_lock == IDLE_LOCK
+
+
 def test_triangle_profile_when_too_short_to_cruise():
     # 1 mm at 800 mm/s² never reaches 50 mm/s: t = 2·sqrt(L/a)
     assert block_duration(1.0, 800.0, 0.0, 0.0, 50.0) == pytest.approx(2 * math.sqrt(1 / 800))
