@@ -56,8 +56,8 @@ def error_diffuse(
     region : (H, W) bool array
         Cells that may be inked; the others stay bare and pass no error on.
     given : (H, W) float array in [0, 1], optional
-        Ink already in each cell (the contours'): a bare cell counts it, so what a contour
-        lays is taken from the cells around it.
+        Ink already in each cell (the contours'), stacking with a run's as 1 − (1 − g)(1 − i):
+        what a contour lays is taken from the cells around it.
     pen : float
         Pen width, in cells.
 
@@ -79,7 +79,7 @@ def error_diffuse(
                 ahead, previous = 0.0, False
                 continue
             value = values[c] + ahead
-            ink = max(pen if previous else CAP * pen * pen, base[c])
+            ink = 1.0 - (1.0 - (pen if previous else CAP * pen * pen)) * (1.0 - base[c])
             previous = value > (ink + base[c]) / 2 - (RUN_BIAS if previous else -RUN_BIAS)
             on[r, c] = previous
             errors[c] = value - (ink if previous else base[c])
