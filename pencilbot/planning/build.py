@@ -55,7 +55,7 @@ FEATURE_VALLEY = 0.02
 #: as dithered runs (:mod:`pencilbot.planning.dither`), without its contours: the runs draw its
 #: features too. A larger face keeps the hatching, which has room there for the face's forms.
 #: Measured (bench/fidelity.py, face rho@1mm / @0.5mm, whole-box rho, plot time): messi5's
-#: 17 mm face 0.916 / 0.741, 29.8 min -> 0.96 / 0.90, 29.8 min; dithered too, astronaut's 36 mm
+#: 17 mm face 0.916 / 0.741, 29.8 min -> 0.961 / 0.894, 29.8 min; dithered too, astronaut's 36 mm
 #: face 0.964 / 0.880 -> 0.952 / 0.907 and whole box 0.975 -> 0.969, grace_hopper's 88 mm
 #: 0.962 / 0.894 -> 0.961 / 0.926 and whole box 0.961 -> 0.952.
 DITHER_FACE = 25.0

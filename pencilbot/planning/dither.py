@@ -13,7 +13,8 @@ neighbouring rows are joined into one stroke: from a run's end straight down (or
 past a corner) onto the next row's run, back along it to its end if need be, and on. Measured on
 messi5's 17 mm face (bench/fidelity.py, face rho@1mm / @0.5mm, plot time): hatching 0.916 /
 0.741, 29.8 min; runs one pen width apart, each its own stroke, 0.977 / 0.936 but 30.7 min;
-rows 1.2 pen widths apart, joined, the lightest fifth of the tone left bare 0.96 / 0.90, 29.8 min.
+rows 1.2 pen widths apart, joined, the lightest fifth of the tone left bare 0.961 / 0.894,
+29.8 min.
 """
 
 from __future__ import annotations
