@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from pencilbot.paths import Paths
+from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, run_strokes
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
     HATCH_ANGLES, HATCH_COVERAGE, HATCH_OVERLAP, MIN_HATCH_RUN, family_capacity, family_lines, hatch_layers,
@@ -60,6 +61,8 @@ FIELD_CELL = 2.0
 #: with (and the hatching's FINE).
 FACE_BLUR = 0.5
 FACE_CORRECTION_BLUR = 0.7
+#: Name of the layer of a small face's dithered runs (:mod:`pencilbot.planning.dither`).
+FACE_TONE = "face-tone"
 
 
 def shade(
@@ -81,6 +84,7 @@ def shade(
     rounds: int = 2,
     seed: int = 0,
     important: np.ndarray | None = None,
+    dithered: np.ndarray | None = None,
 ) -> list[Layer]:
     """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
 
@@ -127,11 +131,16 @@ def shade(
         :func:`pencilbot.imaging.faces.face_mask`). There the tone is matched at the finer
         ``FACE_BLUR`` and the hatching is finer (``fine`` of
         :func:`~pencilbot.planning.hatching.hatch_strokes`); blended by the mask's value.
+    dithered : (H, W) float array in [0, 1], optional
+        Faces drawn at the pen's own scale instead (on the layout's image grid; where above ½):
+        ``darkness`` there is dithered into runs (:mod:`pencilbot.planning.dither`) and the
+        hatching leaves it bare, counting the runs' ink as it counts the edges'.
 
     Returns
     -------
     list of Layer
-        One per family, lightest first, from the last round.
+        One per family, lightest first, from the last round; then ``FACE_TONE``, the dithered
+        faces' runs, if any.
     """
     box = layout.drawing_box
     # Neighbouring lines must not share a cell: ink of separate paths in one cell stacks as
@@ -142,6 +151,7 @@ def shade(
     raw = np.clip(sample_image(darkness, layout, grid), 0.0, 1.0)
     tone = _blur(raw, sigma)
     photo = tone if paper is None else _blur(sample_image(paper, layout, grid), sigma)
+    photo_darkness = darkness if paper is None else paper
     tone[photo < blank_below] = 0.0
     fine = None
     if important is not None and np.any(important > 0):
@@ -157,6 +167,12 @@ def shade(
     detail = np.abs(_blur(goal, SHARP_CORRECTION_BLUR / cell) - _blur(goal, CORRECTION_BLUR / cell))
     detail = np.clip(detail / SHARP_ERROR, 0.0, 1.0)
     paper = tone == 0.0
+    runs = Paths.empty()
+    if dithered is not None and np.any(dithered > 0.5):
+        runs = face_runs(darkness, dithered, layout, edges, pen_width=pen_width, blank_below=blank_below,
+                         paper=photo_darkness)
+        edge_ink = 1.0 - (1.0 - edge_ink) * (1.0 - ink_on_grid(runs, grid, pen_width))
+        paper |= sample_image(dithered, layout, grid) > 0.5
     # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
     # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
     # would spread a contour's share into a pale band beside it.
@@ -184,7 +200,32 @@ def shade(
             error = (1.0 - fine) * error + fine * fine_error
         request = np.clip(request + GAIN * error, 0.0, 1.0)
         request[paper] = 0.0
+    if len(runs):
+        layers = [*layers, Layer(FACE_TONE, runs, pen_width=pen_width, role="hatch")]
     return layers
+
+
+def face_runs(
+    darkness: np.ndarray, dithered: np.ndarray, layout, edges: Paths, *, pen_width: float, blank_below: float,
+    paper: np.ndarray,
+) -> Paths:
+    """The dithered runs (:mod:`pencilbot.planning.dither`) that draw ``darkness`` where
+    ``dithered`` is above ½, on rows ``PITCH`` pen widths apart, the edges' ink counted.
+
+    Darkness up to ``LIGHTEST`` is left bare and the rest stretched over the full range; where
+    the photo (``paper``) is lighter than ``blank_below`` the paper stays blank, as elsewhere.
+    """
+    grid = Grid(layout.drawing_box, pen_width * PITCH)
+    region = sample_image(dithered, layout, grid) > 0.5
+    if not region.any():
+        return Paths.empty()
+    rows, cols = np.nonzero(region)
+    window = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
+    target = np.clip((sample_image(darkness, layout, grid)[window] - LIGHTEST) / (1.0 - LIGHTEST), 0.0, 1.0)
+    target[sample_image(paper, layout, grid)[window] < blank_below] = 0.0
+    given = ink_on_grid(edges, grid, pen_width)[window]
+    on = error_diffuse(target, region[window], given, pen=1.0 / PITCH)
+    return run_strokes(on, grid, (rows.min(), cols.min()))
 
 
 class _Families:

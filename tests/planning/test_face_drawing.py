@@ -1,4 +1,5 @@
-"""Faces drawn with care (issue 23): denser, finer hatching in a face; nothing of it without faces."""
+"""Faces drawn with care (issue 23): denser, finer hatching in a face, a small face in dithered runs;
+nothing of it without faces."""
 
 from __future__ import annotations
 
@@ -6,11 +7,13 @@ import numpy as np
 import pytest
 from skimage import data
 
+from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import image_from_array
 from pencilbot.paths import Paths
-from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.build import DITHER_FACE, at_plot_resolution, mostly_in, plan_from_sketch
 from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.style import Style
 
 FAST = Style(order_rounds=2)
@@ -100,3 +103,28 @@ def test_in_a_face_only_dark_features_keep_their_contours():
     # outside: as light and as even as the cheek, but no face: kept; a contour on even, light
     # skin goes to the hatching
     assert kept == Paths.of([mouth, outside])
+
+
+def test_a_small_face_is_drawn_in_dithered_runs_a_larger_one_hatched(astronaut):
+    drawing, page, on, _ = astronaut
+    layout = Layout.fit(drawing.gray.shape, page)
+    size = float(on.meta["faces"].split(",")[2])
+    assert size * layout.mm_per_px > DITHER_FACE and FACE_TONE not in [layer.name for layer in on.layers]
+
+    image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
+    small_page = page_size("100x100", "portrait", image.shape, 10.0)
+    small = sketch(at_plot_resolution(image, small_page, FAST.pen_width))
+    plan = plan_from_sketch(small, small_page, FAST)
+    layout = Layout.fit(small.gray.shape, small_page)
+    faces = find_faces(small.gray)
+    assert len(faces) == 1 and faces[0].size * layout.mm_per_px <= DITHER_FACE
+    mask = face_mask(small.gray.shape, faces)
+    layers = {layer.name: layer for layer in plan.layers}
+    # The face's runs lie in the face; its contours are gone (the runs draw its features).
+    runs = layers[FACE_TONE].paths
+    assert len(runs) and mostly_in(runs, layout, mask).all()
+    assert not mostly_in(layers["edges"].paths, layout, mask).any()
+    # The hatching leaves the face to the runs: none of its points well inside.
+    hatching = Paths.concat(layer.paths for layer in plan.layers if layer.role == "hatch" and layer.name != FACE_TONE)
+    px = np.rint(layout.mm_to_px(hatching.points)).astype(int)
+    assert not np.any(mask[px[:, 1].clip(0, mask.shape[0] - 1), px[:, 0].clip(0, mask.shape[1] - 1)] > 0.9)

@@ -1,0 +1,166 @@
+"""A small face at the pen's own scale: dithered cells, runs along the rows, joined where they touch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pencilbot.paths import Paths
+from pencilbot.planning.dither import CAP, PITCH, REACH, error_diffuse, row_runs, run_strokes
+from pencilbot.planning.flow import Grid
+from pencilbot.planning.layout import Layout
+from pencilbot.planning.plan import Page
+from pencilbot.planning.shading import FACE_TONE, face_runs, ink_on_grid, shade
+
+PEN = 0.5
+GRID = Grid((10.0, 10.0, 40.0, 40.0), PEN)  # 60 x 60 cells
+
+
+def _ink(paths: Paths) -> np.ndarray:
+    """Ink per cell of GRID, rendered at a tenth of a cell (round pen ends and all) and averaged."""
+    fine = ink_on_grid(paths, Grid(GRID.box, GRID.cell / 10), PEN)
+    rows, cols = GRID.shape
+    return fine.reshape(rows, 10, cols, 10).mean(axis=(1, 3))
+
+
+def _cells_drawn(paths: Paths, shape) -> np.ndarray:
+    """Cells a stroke runs along within a row (its horizontal segments, and every point)."""
+    drawn = np.zeros(shape, bool)
+    for path in paths:
+        rc = np.rint(GRID.to_rc(path)).astype(int)
+        drawn[rc[:, 0], rc[:, 1]] = True
+        for (r0, c0), (r1, c1) in zip(rc[:-1], rc[1:]):
+            if r0 == r1:
+                drawn[r0, min(c0, c1): max(c0, c1) + 1] = True
+    return drawn
+
+
+def _random_cells(seed: int = 1, share: float = 0.45) -> np.ndarray:
+    return np.random.default_rng(seed).random(GRID.shape) < share
+
+
+def test_row_runs_are_the_runs_of_each_row():
+    on = np.array([[1, 1, 0, 1], [0, 0, 0, 0], [1, 0, 1, 1]], bool)
+    rows, first, last = row_runs(on)
+    assert rows.tolist() == [0, 0, 2, 2] and first.tolist() == [0, 3, 0, 2] and last.tolist() == [1, 3, 0, 3]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_the_strokes_run_along_exactly_the_inked_cells(seed):
+    on = _random_cells(seed)
+    strokes = run_strokes(on, GRID)
+    assert np.array_equal(_cells_drawn(strokes, on.shape), on)
+    # Between rows a stroke only steps to the next row, onto an inked cell at most one column over.
+    for path in strokes:
+        rc = np.rint(GRID.to_rc(path)).astype(int)
+        step = np.abs(np.diff(rc, axis=0))
+        assert np.all(step[:, 0] <= 1) and np.all(step[step[:, 0] == 1, 1] <= 1)
+        assert on[rc[:, 0], rc[:, 1]].all()
+
+
+def test_touching_runs_are_joined_into_fewer_strokes():
+    on = _random_cells(4)
+    runs = len(row_runs(on)[0])
+    strokes = run_strokes(on, GRID)
+    assert len(strokes) < 0.6 * runs
+    # Along a row a stroke runs back over at most REACH cells of the run it stepped onto.
+    for path in strokes:
+        rc = np.rint(GRID.to_rc(path)).astype(int)
+        along = (rc[1:, 0] == rc[:-1, 0]) * np.abs(np.diff(rc[:, 1]))
+        for row in np.unique(rc[:, 0]):
+            there = rc[:, 0] == row
+            span = np.ptp(rc[there, 1])
+            assert along[there[:-1] & there[1:]].sum() - span <= REACH
+
+
+def test_the_ink_follows_the_request_and_darker_asks_for_more():
+    region = np.ones(GRID.shape, bool)
+    means = []
+    for level in (0.15, 0.35, 0.55, 0.75, 0.95):
+        on = error_diffuse(np.full(GRID.shape, level), region)
+        ink = _ink(run_strokes(on, GRID))[5:-5, 5:-5].mean()  # away from the border
+        assert ink == pytest.approx(level, abs=0.06)
+        means.append(ink)
+    assert np.all(np.diff(means) > 0.1)
+
+
+def test_a_run_s_round_end_is_counted():
+    # A stroke along k cells, centre to centre, lays k - 1 cells of ink and a disc of CAP ...
+    stroke = Paths.of([GRID.to_mm(np.array([[30.0, 20.0], [30.0, 24.0]]))])
+    assert _ink(stroke).sum() == pytest.approx(4 + CAP, abs=0.01)
+    # ... and the diffusion lays the request's ink in those terms.
+    for level in (0.3, 0.5, 0.7):
+        on = error_diffuse(np.full(GRID.shape, level), np.ones(GRID.shape, bool))
+        _, first, last = row_runs(on)
+        assert (last - first + CAP).sum() == pytest.approx(level * on.size, rel=0.02)
+
+
+@pytest.mark.parametrize("given", [0.0, 0.5])
+def test_ink_already_there_stacks_with_the_runs(given):
+    # Rows PITCH pen widths apart: a run of k cells lays (k - 1) pen + CAP pen² cells of ink.
+    pen = 1 / PITCH
+    on = error_diffuse(np.full(GRID.shape, 0.8), np.ones(GRID.shape, bool), np.full(GRID.shape, given), pen=pen)
+    _, first, last = row_runs(on)
+    laid = ((last - first) * pen + CAP * pen**2).sum() / on.size
+    assert 1.0 - (1.0 - given) * (1.0 - laid) == pytest.approx(0.8, abs=0.02)
+
+
+def test_nothing_is_inked_where_nothing_is_asked_or_outside_the_region():
+    assert not error_diffuse(np.zeros(GRID.shape), np.ones(GRID.shape, bool)).any()
+    assert len(run_strokes(np.zeros(GRID.shape, bool), GRID)) == 0
+    region = np.zeros(GRID.shape, bool)
+    region[20:40, 20:40] = True
+    on = error_diffuse(np.full(GRID.shape, 0.6), region)
+    assert on[20:40, 20:40].any() and not on[~region].any()
+
+
+@pytest.mark.parametrize(("inset", "strokes"), [(REACH, 1), (REACH + 2, 2)])
+def test_a_join_runs_back_over_at_most_reach_cells(inset, strokes):
+    # A short run below a long one, ``inset`` cells in from either end: joining them runs back
+    # over ``inset`` cells of one of the two.
+    on = np.zeros((2, 40), bool)
+    on[0, 0:20] = True
+    on[1, inset: 20 - inset] = True
+    assert len(run_strokes(on, GRID)) == strokes
+
+
+def test_ink_already_there_is_taken_from_the_cells_around_it():
+    request = np.full(GRID.shape, 0.4)
+    region = np.ones(GRID.shape, bool)
+    given = np.zeros(GRID.shape)
+    given[:, 28:32] = 1.0  # a contour down the middle, four cells wide
+    plain, around = error_diffuse(request, region), error_diffuse(request, region, given)
+    assert not around[:, 28:32].any()
+    # The contour's ink is more than the tone asked there: the cells beside it get less.
+    assert around[:, 20:28].sum() + around[:, 32:40].sum() < plain[:, 20:28].sum() + plain[:, 32:40].sum()
+
+
+def _layout() -> Layout:
+    return Layout.fit((120, 120), Page(80.0, 80.0, margin=10.0))
+
+
+def test_face_runs_draw_a_grey_face_and_leave_a_white_one_blank():
+    layout = _layout()
+    face = np.zeros((120, 120), np.float32)
+    face[30:90, 30:90] = 1.0
+    grey = np.full((120, 120), 0.6, np.float32)
+    runs = face_runs(grey, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=grey)
+    assert len(runs)
+    px = layout.mm_to_px(runs.points)
+    assert np.all((px > 28) & (px < 92))  # inside the face only
+    white = np.zeros((120, 120), np.float32)
+    assert len(face_runs(white, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=white)) == 0
+
+
+def test_shade_draws_a_dithered_face_as_runs_and_hatches_around_it():
+    layout = _layout()
+    face = np.zeros((120, 120), np.float32)
+    face[30:90, 30:90] = 1.0
+    grey = np.full((120, 120), 0.5, np.float32)
+    layers = shade(grey, layout, Paths.empty(), pen_width=PEN, dithered=face, rounds=1)
+    assert layers[-1].name == FACE_TONE and len(layers[-1].paths)
+    hatching = Paths.concat(layer.paths for layer in layers[:-1])
+    px = layout.mm_to_px(hatching.points)
+    deep_inside = np.all((px > 36) & (px < 84), axis=1)
+    assert len(hatching) and not deep_inside.any()  # the hatching leaves the face to the runs
+    assert FACE_TONE not in [layer.name for layer in shade(grey, layout, Paths.empty(), pen_width=PEN, rounds=1)]
