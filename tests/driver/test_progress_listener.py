@@ -98,3 +98,19 @@ def test_the_stop_key_stops_a_plot_whose_machine_trails(tmp_path):
 
     with pytest.raises(PlotError, match="stopped by the stop key.*pen raised"):
         api.draw(gcode, f"sim://listener-stop?profile={PROFILE}&realtime=20", profile=PROFILE, keys=StopSoon())
+
+
+def test_a_job_started_from_a_later_line_counts_its_plot_time_from_that_line(tmp_path):
+    # 100 % is the plot time of the lines from the start line on: each record's share is the
+    # estimate of the lines done since then over that of all the lines left.
+    gcode = tmp_path / "zigzag.gcode"
+    api.export_gcode(zigzag_plan(20), PROFILE, gcode)
+    job = load_job(gcode, load_profile(PROFILE))
+    start = len(job) // 2
+    records = []
+    api.draw(gcode, f"sim://listener-start?profile={PROFILE}", profile=PROFILE, start_line=job.number(start),
+             on_progress=records.append)
+    before, left = job.seconds_after(start - 1), job.seconds_after(len(job) - 1) - job.seconds_after(start - 1)
+    shares = [(r["percent"], 100.0 * (job.seconds_after(start + r["line"] - 1) - before) / left)
+              for r in records if r["event"] == "progress"]
+    assert len(shares) >= 2 and all(abs(got - want) <= 0.005 for got, want in shares), shares
