@@ -288,9 +288,12 @@ def plan_from_sketch(
         exact = layer.role == "edges" or layer.name == FACE_TONE
         join = style.pen_width if exact else style.hatch_join
         # Only hatch runs of a few shortest strokes are zig-zagged: joined dashes of a light
-        # tone would read as a staircase (2.5, was 3: runs of 3-3.6 mm joined too keep the pen
-        # lifts of the tone loop's sharper correction in bounds; messi5 30.4 -> 29.8 min).
-        zigzag = 0.0 if exact else 2.5 * style.min_hatch_run
+        # tone would read as a staircase. 1.5 (was 2.5, 3 before): with GRBL's stepper idle lock
+        # counted (25 ms at every stop, as the real firmware waits), messi5 came to 30.9 min;
+        # joining runs from 1.5 shortest strokes on takes 10-15 % of the lifts off every photo
+        # (messi5 1295 -> 1144 paths, 29.8 min) for whole-box rho at most 0.001 lower
+        # (bench/fidelity.py), the joins within the pen's own width.
+        zigzag = 0.0 if exact else 1.5 * style.min_hatch_run
         paths = order_paths(
             layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=style.order_rounds
         )
