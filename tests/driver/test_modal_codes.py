@@ -28,3 +28,11 @@ def test_the_words_of_a_system_command_after_other_lines_count_for_nothing():
     # "$N0=G1X50" stores a startup line in the board; it runs nothing now.
     states = track(["G1X1Y1F100", "$N0=G1X50", "G4P0.1"], PEN)
     assert (states[1].x, states[2].x, states[2].motion) == (1.0, 1.0, 1)
+
+
+@pytest.mark.parametrize("block", [b"", b"G1X1Y2"])
+def test_a_block_without_a_whole_line_has_no_words(block):
+    from pencilbot.driver.modal import _words
+
+    words = _words(block)
+    assert words.lines == 0 and len(words.line) == len(words.letter) == len(words.value) == 0
