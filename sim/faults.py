@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 
@@ -63,7 +64,11 @@ class Faults:
                 )
             kind, code = m.group(1), int(m.group(4) or _DEFAULT_CODE.get(m.group(1), 20))
             if m.group(3):
-                timed.append((float(m.group(3)), kind, code))
+                seconds = float(m.group(3))
+                if not 0 < seconds < math.inf:
+                    raise ValueError(f"fault {item!r}: the moment must be a finite number of seconds after "
+                                     "power-on, more than 0 (the clock starts at 0)")
+                timed.append((seconds, kind, code))
             else:
                 at[int(m.group(2))] = (kind, code)
         return cls(at, sorted(timed))

@@ -4,10 +4,12 @@ more blocks than it has slots, and after the cycle start the drawing is the one 
 uninterrupted run makes."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from machines import description
+from sim.faults import Faults
 from sim.firmware import Firmware
 from sim.machine import Machine
 
@@ -81,3 +83,10 @@ def test_a_hold_anywhere_stands_within_the_stopping_distance_and_draws_what_an_u
 
 def _length(strokes) -> float:
     return float(sum(np.hypot(*np.diff(s, axis=0).T).sum() for s in strokes))
+
+
+def test_a_fault_at_a_moment_is_a_finite_time_after_power_on_or_a_plain_error():
+    assert Faults.parse("interrupt@1.45s,hold@2s:0").timed == [(1.45, "interrupt", 2), (2.0, "hold", 0)]
+    for spec in ("hold@0s", "interrupt@" + "9" * 400 + "s", "interrupt@nans", "interrupt@1e308s", "error@2s"):
+        with pytest.raises(ValueError, match="fault"):
+            Faults.parse(spec)
