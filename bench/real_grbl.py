@@ -51,6 +51,7 @@ from pathlib import Path
 
 from pencilbot.commands.stat import gcode_plan
 from pencilbot.driver.job import gcode_blocks
+from pencilbot.driver.modal import clean_line
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.planning.stats import estimate
 from sim import bulk, protocol_sim
@@ -70,16 +71,16 @@ def settings_lines(profile) -> list[str]:
 
 
 def job_lines(path: Path) -> list[str]:
-    """The file's commands without comments (``;…`` and ``(…)``), spaces at the ends, blank lines."""
-    lines = (re.sub(r"\(.*?\)|;.*", "", line).strip() for line in path.read_text().splitlines())
-    return [line for line in lines if line]
+    """The file's commands as the driver sends them (:func:`~pencilbot.driver.modal.clean_line`),
+    without blank lines."""
+    return [line for line in map(clean_line, path.read_text().splitlines()) if line]
 
 
 def program_dwell(lines: list[str]) -> float:
     """Seconds of ``G4 P`` dwell in ``lines``, each rounded up as GRBL runs it."""
     total = 0.0
     for line in lines:
-        match = re.match(r"G0*4\s*P([\d.]+)", line.replace(" ", "").upper())
+        match = re.match(r"G0*4P([\d.]+)", line)
         if match:
             total += -(-float(match.group(1)) // DWELL_STEP) * DWELL_STEP
     return total
