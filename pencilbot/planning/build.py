@@ -219,7 +219,7 @@ def plan_from_sketch(
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
     threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
-    faces = find_faces(drawing.gray) if style.faces else []
+    faces = find_faces(drawing.gray if drawing.rgb is None else drawing.rgb) if style.faces else []
     important = face_mask(line.edges.shape, faces) if faces else None
     strokes = edge_strokes(
         line,
