@@ -21,8 +21,8 @@ from tqdm import tqdm
 
 from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
 from pencilbot.commands.options import (
-    MAX_DPI, MIN_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options, add_verbosity,
-    number,
+    MAX_DPI, MIN_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options,
+    add_system_commands_option, add_verbosity, number,
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
@@ -59,6 +59,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_realtime_option(parser)
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
+    add_system_commands_option(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -97,7 +98,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         # Nobody needs to change a pen in a simulation: an M0 prints its prompt and goes on.
         draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
-             progress="quiet" if args.quiet else "bar", operator=AutoOperator())
+             progress="quiet" if args.quiet else "bar", operator=AutoOperator(),
+             allow_system=args.allow_system_commands)
         plotter = protocol_sim.plotter(name)
         _save_plot(output, plotter, pens, args, pen_width)
     finally:

@@ -42,6 +42,7 @@ def draw(
     operator=None,
     keys=None,
     on_progress: Callable[[dict], None] | None = None,
+    allow_system: frozenset[str] = frozenset(),
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -93,6 +94,9 @@ def draw(
         whatever ``progress`` is), a progress record also saying where the machine is:
         ``running`` the file line it is drawing (located from its reported position on the
         lines sent, as a stop is; absent when not found) and ``xy`` its work position (mm).
+    allow_system : frozenset of str
+        System commands (``$`` lines: ``$H``, ``$C``, ``$100``…) the file may send; any other is
+        refused by line before the port is opened (:mod:`pencilbot.driver.system_lines`).
 
     Raises
     ------
@@ -120,7 +124,7 @@ def draw(
             f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
         )
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
-    job = load_job(gcode, plotter, source)
+    job = load_job(gcode, plotter, source, allow=allow_system)
     check_on_bed(job)  # before the port is opened: nothing is sent
     if journal is not None:
         journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point

@@ -85,7 +85,7 @@ class Grbl(Firmware):
         return status.state in self.moving_states or (status.state == "Hold" and status.substate == 1)
 
     def is_finished(self, status) -> bool:
-        return status.state in ("Idle", "Check")
+        return status.state in ("Idle", "Check", "Sleep")  # asleep ($SLP, a job's last line): it runs no more
 
     def is_paused(self, status) -> bool:
         return status.state in self.paused_states
