@@ -92,6 +92,8 @@ PHOTOS: dict[str, Photo] = {
     "dogs": Photo("Debian's dlib source (examples/faces); licence not stated", "four dogs: no human face", ()),
 }
 
+#: dlib's hand-set 68 landmarks (iBUG 300-W's scheme) of the VOC photos' faces.
+LANDMARKS = ("training_with_face_landmarks", "testing_with_face_landmarks")
 SDISTS = {"face_recognition==1.3.0": "tests/test_images/", "insightface==2.1": "insightface/data/images/t1.jpg"}
 
 
@@ -149,7 +151,7 @@ def _extract(archive: Path, inside: str, target: Path) -> None:
         for member in tar.getmembers():
             path = member.name.split("/", 1)[-1]
             name = Path(path).stem
-            if member.isfile() and path.startswith(inside) and name in PHOTOS:
+            if member.isfile() and path.startswith(inside) and (name in PHOTOS or name in LANDMARKS):
                 with tar.extractfile(member) as source, open(target / Path(path).name, "wb") as out:
                     shutil.copyfileobj(source, out)
 
