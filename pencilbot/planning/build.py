@@ -51,16 +51,13 @@ FEATURE_SHARE = 0.7
 FEATURE_BLUR = 0.5
 FEATURE_SURROUND = 2.0
 FEATURE_VALLEY = 0.02
-#: A face at most this size on paper (mm, the detector's square) is drawn at the pen's own scale,
-#: as dithered runs (:mod:`pencilbot.planning.dither`), without its contours: the runs draw its
-#: features too. A larger face keeps the hatching, which has room there for the face's forms.
-#: Measured (bench/fidelity.py, face rho@1mm / @0.5mm, whole-box rho, plot time): messi5's
-#: 17 mm face 0.916 / 0.741, 29.8 min -> 0.961 / 0.894, 29.8 min; dithered too, astronaut's 36 mm
-#: face 0.964 / 0.880 -> 0.952 / 0.907 and whole box 0.975 -> 0.969, grace_hopper's 88 mm
-#: 0.962 / 0.894 -> 0.961 / 0.926 and whole box 0.961 -> 0.952.
-DITHER_FACE = 25.0
-FACE_SKETCH = 0.0
-PORTRAIT_LIFT = 1.0
+#: Every face is drawn at the pen's own scale, as dithered runs (:mod:`pencilbot.planning.dither`)
+#: to its photo's tone (:func:`~pencilbot.imaging.faces.portrait_darkness`), without its
+#: contours: the runs draw its features too. The rest of the sheet is hatched to the pencil
+#: tone, as a picture without a face. (Issue 30, bench/fidelity.py --faceset: hatching faces over
+#: 25 mm and lifting the whole sheet's tone to the faces' curve left 2 of 21 such faces at
+#: rho@1mm >= 0.95 and @0.5mm >= 0.85, plot vs own sketch r down to 0.825 and group photos at
+#: 33-51 min; see docs/faces.md.)
 log = logging.getLogger(__name__)
 
 
@@ -237,8 +234,7 @@ def plan_from_sketch(
         fine_threshold=min(threshold, edge_threshold(line, FACE_PEN_DARKNESS)),
     )
     in_color = pens is not None and len(pens.pens) > 1
-    small = [face for face in faces if face.size * layout.mm_per_px <= DITHER_FACE]
-    dithered = face_mask(line.edges.shape, small) if small and style.hatch and not in_color else None
+    dithered = face_mask(line.edges.shape, faces) if faces and style.hatch and not in_color else None
     if faces:
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     if dithered is not None:
@@ -254,10 +250,8 @@ def plan_from_sketch(
             blur=style.hatch_blur, seed=style.seed,
         )
     elif style.hatch:
-        lifted = portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces)
-        sketched = 1.0 - (drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2))
         hatches = shade(
-            lifted if PORTRAIT_LIFT else 1.0 - drawing.tone,
+            1.0 - drawing.tone,
             layout,
             strokes,
             paper=1.0 - drawing.gray,
@@ -272,7 +266,7 @@ def plan_from_sketch(
             seed=style.seed,
             important=important,
             dithered=dithered,
-            face_darkness=(1 - FACE_SKETCH) * lifted + FACE_SKETCH * sketched,
+            face_darkness=portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces) if faces else None,
         )
         layers += [layer for layer in hatches if layer.paths]
     if pens is None:
