@@ -185,9 +185,9 @@ def ordering_child(size: int) -> dict:
     from ordering import synthetic_uniform
 
     from pencilbot.planning.ordering import (
+        DEFAULT_ROUNDS,
         MIN_ROUNDS,
         ROUND_WORK,
-        DEFAULT_ROUNDS,
         greedy_order,
         order_paths,
         travel_length,

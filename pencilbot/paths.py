@@ -37,7 +37,7 @@ class Paths:
         The arrays do not describe non-empty paths.
     """
 
-    __slots__ = ("points", "offsets")
+    __slots__ = ("offsets", "points")
 
     def __init__(self, points, offsets) -> None:
         pts = np.array(points, dtype=np.float64, copy=None).reshape(-1, 2)

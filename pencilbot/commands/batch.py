@@ -29,7 +29,6 @@ from pencilbot.errors import PencilbotError
 from pencilbot.fileio import refuse_overwriting_inputs
 
 
-
 def add_jobs_option(parser: argparse.ArgumentParser) -> None:
     """``-j/--jobs``: how many files to work on at once."""
     parser.add_argument(

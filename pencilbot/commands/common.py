@@ -10,9 +10,9 @@ import math
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError
+from pencilbot.export.svg_read import is_plan_svg, read_svg
 from pencilbot.fileio import available_memory as fileio_available_memory
 from pencilbot.fileio import refuse_overwriting_inputs
-from pencilbot.export.svg_read import is_plan_svg, read_svg
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.planning.layout import fit_plan

@@ -8,14 +8,13 @@ from contextlib import ExitStack
 from pathlib import Path
 
 import sim
-
 from pencilbot.commands.common import IMAGE_SUFFIXES
 from pencilbot.commands.options import MAX_BAUD, add_profile_listing, add_verbosity, number
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
-from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.driver.session import DEFAULT_TIMEOUT
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.machine.profile import default_profile, load_profile
 
 

@@ -8,7 +8,13 @@ from dataclasses import replace
 from pathlib import Path
 
 from pencilbot.commands.batch import (
-    Inputs, add_jobs_option, collect_inputs, distinct, make_folders, output_paths, run_batch,
+    Inputs,
+    add_jobs_option,
+    collect_inputs,
+    distinct,
+    make_folders,
+    output_paths,
+    run_batch,
 )
 from pencilbot.commands.common import photo_pens, photo_style, plan_for_input, reorder_drawing
 from pencilbot.commands.options import add_photo_options, add_profile_option, add_svg_options, add_verbosity

@@ -8,7 +8,13 @@ from pathlib import Path
 
 from pencilbot.commands.common import PLOT_DPI, check_render
 from pencilbot.commands.options import (
-    MAX_BAUD, MAX_DPI, MIN_DPI, add_profile_option, add_realtime_option, add_verbosity, number,
+    MAX_BAUD,
+    MAX_DPI,
+    MIN_DPI,
+    add_profile_option,
+    add_realtime_option,
+    add_verbosity,
+    number,
 )
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import check_writable

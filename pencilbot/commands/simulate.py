@@ -21,7 +21,13 @@ from tqdm import tqdm
 
 from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
 from pencilbot.commands.options import (
-    MAX_DPI, MIN_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options, add_verbosity,
+    MAX_DPI,
+    MIN_DPI,
+    add_photo_options,
+    add_profile_option,
+    add_realtime_option,
+    add_svg_options,
+    add_verbosity,
     number,
 )
 from pencilbot.driver import draw
@@ -31,10 +37,10 @@ from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
 from pencilbot.machine.pens import load_pens
-from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.planning.plan import BLACK
 from pencilbot.planning.stats import duration_text
 from pencilbot.render import save_color_png
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 _RUNS = itertools.count(1)
 

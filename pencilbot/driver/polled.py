@@ -35,8 +35,18 @@ import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.polled_link import (POLL_PAUSE, Answers, Lost, Moved, Silent, check_initialised, check_point, drain,
-                                          poll_free, read_status)
+from pencilbot.driver.polled_link import (
+    POLL_PAUSE,
+    Answers,
+    Lost,
+    Moved,
+    Silent,
+    check_initialised,
+    check_point,
+    drain,
+    poll_free,
+    read_status,
+)
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT

@@ -26,7 +26,7 @@ from pencilbot.machine.profile import Profile
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.stats import PlanStats, estimate
 
-__all__ = ["HPGL_SUFFIXES", "HpglSummary", "hpgl_program", "write_hpgl", "hpgl_plan"]
+__all__ = ["HPGL_SUFFIXES", "HpglSummary", "hpgl_plan", "hpgl_program", "write_hpgl"]
 
 
 @dataclass(frozen=True)

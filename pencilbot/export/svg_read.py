@@ -16,8 +16,8 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS
-from pencilbot.export.svg_straight import read_straight
 from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
+from pencilbot.export.svg_straight import read_straight
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
 from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH

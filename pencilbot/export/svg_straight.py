@@ -238,7 +238,7 @@ def _moves(element: ET.Element) -> bool:
     style = {k.strip(): v.strip() for k, _, v in (part.partition(":") for part in element.get("style", "").split(";"))}
     for name in _MOVING:
         value = element.get(name, style.get(name))
-        if value is not None and not (name, value) in (("display", "inline"), ("visibility", "visible")):
+        if value is not None and (name, value) not in (("display", "inline"), ("visibility", "visible")):
             return True
     return False
 

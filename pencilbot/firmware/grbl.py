@@ -5,9 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from firmware_protocol import grbl as protocol
-from pencilbot.firmware.base import (
-    ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply,
-)
+from pencilbot.firmware.base import ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply
 
 _STILL = ("Idle", "Alarm", "Check", "Sleep")  # states in which nothing moves
 # Byte tables: what GRBL's line buffer drops (whitespace, control characters, block delete), and

@@ -7,9 +7,7 @@ import re
 import numpy as np
 
 from firmware_protocol import marlin as protocol
-from pencilbot.firmware.base import (
-    BUSY, ERROR, OK, OTHER, RESEND, RESET, Capabilities, Firmware, Reply,
-)
+from pencilbot.firmware.base import BUSY, ERROR, OK, OTHER, RESEND, RESET, Capabilities, Firmware, Reply
 
 #: ``Error:`` texts that announce a ``Resend`` (a line lost to noise) rather than a refused command.
 _TRANSMISSION_ERRORS = ("checksum", "line number", "no line number", "no checksum")

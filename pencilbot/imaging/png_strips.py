@@ -29,7 +29,6 @@ import cv2
 import numpy as np
 from PIL import Image
 
-
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: Bytes of unfiltered rows per strip (about): what is held besides the 1/k picture.
 STRIP_BYTES = 8 << 20

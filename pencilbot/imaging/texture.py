@@ -42,9 +42,8 @@ same with either.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import os
+from dataclasses import dataclass
 
 import cv2
 import numpy as np

@@ -26,9 +26,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import fft
+from scipy import fft, sparse
 from scipy import ndimage as ndi
-from scipy import sparse
 from scipy.sparse import csgraph
 
 #: Coherence of the structure tensor below which texture follows the default direction, and

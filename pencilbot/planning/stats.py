@@ -18,7 +18,6 @@ demo, stat and the G-code header all report this one estimate.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, fields
 
 import numpy as np

@@ -69,13 +69,13 @@ def test_a_binary_file_is_named_as_not_gcode_before_the_port_is_opened(capsys, t
 
 
 def test_verbose_draw_says_where_what_and_how_long_before_streaming(capsys, tmp_path):
+    import numpy as np
+
+    import sim
     from pencilbot.export.gcode import write_gcode
     from pencilbot.machine.profile import load_profile
     from pencilbot.planning.plan import Layer, Page, Plan
     from pencilbot.planning.stats import duration_text
-
-    import numpy as np
-    import sim
 
     sim.register()
     plan = Plan(Page(210.0, 297.0, name="A4"), [Layer("edges", [np.array([[30.0, 30.0], [90.0, 60.0], [90.0, 90.0]])])])

@@ -184,8 +184,8 @@ def test_simulate_a_photo(tmp_path):
 
 
 def test_simulate_a_plan_svg_draws_its_paths(tmp_path):
-    from pencilbot.planning.plan import Layer, Page, Plan
     from pencilbot.export.svg import write_svg
+    from pencilbot.planning.plan import Layer, Page, Plan
 
     plan = Plan(Page(210.0, 297.0, margin=15.0, name="A4"),
                 [Layer("edges", [np.array([[50.0, 50.0], [150.0, 50.0], [150.0, 150.0]])], pen_width=0.5)])

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from pencilbot.cli import main
-from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
-from pencilbot.planning.stats import estimate
-from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.export.svg import write_svg
 from pencilbot.export.svg_read import read_svg
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.stats import estimate
 
 
 @pytest.fixture

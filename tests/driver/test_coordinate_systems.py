@@ -14,7 +14,6 @@ from pencilbot.driver.drawn import drawn_paths
 from pencilbot.driver.job import load_job
 from pencilbot.driver.modal import ModalState, advance, clean_line, track
 from pencilbot.machine.profile import load_profile
-
 from sim import protocol_sim
 from sim.machine import Machine
 

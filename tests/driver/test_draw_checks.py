@@ -23,7 +23,6 @@ from pencilbot.errors import OutOfBedError
 from pencilbot.export.gcode import write_gcode
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
-
 from sim import protocol_sim
 
 BED = load_profile(PROFILE).bed  # X 0 .. 220, Y 0 .. 310 mm

@@ -8,7 +8,6 @@ import pytest
 from test_stream_sim import PROFILE, drawing, fresh
 
 from pencilbot.cli import main
-
 from sim import protocol_sim
 
 

@@ -14,7 +14,6 @@ from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
-
 from sim import protocol_sim
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer

@@ -14,16 +14,15 @@ import pytest
 import serial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from segments import assert_same_drawing
 
+import sim
 from pencilbot.configs_io import config_folder
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
-
-import sim
 from sim import protocol_sim
-from segments import assert_same_drawing  # noqa: F401 (shared with the other driver tests)
 
 sim.register()
 

@@ -1,13 +1,13 @@
 """Reading any SVG: Inkscape's (layers with transforms, shapes, curves), vpype's, hatched's and
 linedraw's, through vpype's reader; and pencilbot's own plans through the whole-array path."""
 
+import drawings
 import numpy as np
 import pytest
 
-import drawings
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
-from pencilbot.export.svg_read import _read_any, _read_own, _parse, is_plan_svg, read_svg
+from pencilbot.export.svg_read import _parse, _read_any, _read_own, is_plan_svg, read_svg
 from pencilbot.planning.plan import Layer, Page, Plan
 
 PX = 25.4 / 96  # mm per CSS pixel

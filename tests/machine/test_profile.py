@@ -209,7 +209,7 @@ _ALPHABET = "{}[].!:0123456789 updownxfG_r>"
 @settings(max_examples=300, deadline=None)
 @given(st.text(alphabet=_ALPHABET, max_size=20))
 def test_templates_fill_only_plain_allowed_fields(template):
-    values = {name: 12.5 for name in TEMPLATE_FIELDS}
+    values = dict.fromkeys(TEMPLATE_FIELDS, 12.5)
     try:
         check_template(template, TEMPLATE_FIELDS)
     except TemplateError:

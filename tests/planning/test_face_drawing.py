@@ -9,9 +9,9 @@ from skimage import data
 
 from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import image_from_array
+from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
 from pencilbot.planning.build import DITHER_FACE, at_plot_resolution, mostly_in, plan_from_sketch
-from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.style import Style

@@ -9,8 +9,8 @@ from scipy import ndimage as ndi
 from pencilbot.paths import Paths
 from pencilbot.planning.flow import Grid, direction_field
 from pencilbot.planning.hatching import HATCH_COVERAGE, hatch_layers, trace_families
-from pencilbot.planning.onset import Onset
 from pencilbot.planning.layout import Layout
+from pencilbot.planning.onset import Onset
 from pencilbot.planning.plan import Page
 from pencilbot.planning.shading import shade
 from pencilbot.render import render_paths
