@@ -293,7 +293,6 @@ def _check(block: Block, state: ParserState, groups: set[str], values: dict[str,
             return VALUE_MISSING
         block.dwell = values["P"]
         unused.discard("P")
-    axis_0, axis_1, linear = block.axes
     if inch:
         axes = {i: v * MM_PER_INCH for i, v in axes.items()}
     if block.axis_command == TOOL_LENGTH_AXES and modal.tool_length and set(axes) != {2}:

@@ -9,12 +9,12 @@ from pathlib import Path
 
 from pencilbot.commands.common import change_summary, read_drawing, reorder_on
 from pencilbot.commands.options import add_profile_option, add_svg_options, add_verbosity, number
-
-MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.optimize import REORDER_ROUNDS
+
+MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:

@@ -210,7 +210,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
             room = free - (0 if not link.xoff else free)
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
-            later = [k for k in pending[int(np.searchsorted(pending, sent, side="right")):][:1]]
+            later = list(pending[int(np.searchsorted(pending, sent, side="right")):][:1])
             later += [k for k in after_in if k > sent]
             end = min([end, *later])  # a pen change waits for everything before it; the status, for an IN
             if end <= sent:

@@ -94,7 +94,7 @@ def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
     placement = SheetPlacement.of(plan.page, profile)
     unit = HPGL.unit_mm
     out = [b"IN;\n", f"VS{profile.motion.draw_feed / 600:g};\n".encode()]
-    for number, (pen, layers) in enumerate(plan.pen_runs(), start=1):
+    for pen, layers in plan.pen_runs():
         slot = pens.index(pen) + 1 if pen in pens else 1
         points = [layer.paths for layer in layers if len(layer.paths)]
         if not points:
@@ -120,8 +120,8 @@ def _paths_text(units: np.ndarray, offsets: np.ndarray) -> bytes:
         keep = np.ones(len(xy), bool)
         keep[1:] = np.any(xy[1:] != xy[:-1], axis=1)
         xy = xy[keep].tolist()
-        lines.append("PU%d,%d;\n" % tuple(xy[0]))
-        lines.append("".join("PD%d,%d;\n" % tuple(p) for p in xy[1:]) if len(xy) > 1 else "PD;\nPU;\n")
+        lines.append(f"PU{xy[0][0]},{xy[0][1]};\n")
+        lines.append("".join(f"PD{x},{y};\n" for x, y in xy[1:]) if len(xy) > 1 else "PD;\nPU;\n")
     return "".join(lines).encode("ascii")
 
 

@@ -283,7 +283,7 @@ class Tour:
             g = adj[g] ^ 1
             run.append(g >> 1)
         ag = adj[g]
-        if (e >> 1) in run or e == af or e == ag or g == af or len(set(run)) < kind:
+        if (e >> 1) in run or e in (af, ag) or g == af or len(set(run)) < kind:
             return 0.0
         gain = gap(f, af) + gap(g, ag) + gap(e, ae)
         gain -= gap(af, ag) + gap(e, f) + gap(g, ae)

@@ -196,7 +196,7 @@ def _without_pinholes(mask: np.ndarray, largest: float) -> np.ndarray:
     A pinhole in a band of edge pixels (texture, a glint) would thin to a little loop of
     strokes, a knot; a hole the size of a pupil is kept.
     """
-    count, hole, stats, _ = cv2.connectedComponentsWithStats((~mask).astype(np.uint8), connectivity=4)
+    _count, hole, stats, _ = cv2.connectedComponentsWithStats((~mask).astype(np.uint8), connectivity=4)
     small = stats[:, cv2.CC_STAT_AREA] <= largest
     small[0] = False  # label 0: the mask itself
     return mask | small[hole]

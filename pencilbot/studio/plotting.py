@@ -134,7 +134,7 @@ class PlotSession:
         from pencilbot.driver.journal import journal_path
 
         try:
-            result = api.draw(self.gcode if not resume else self.gcode, self.url, profile=self.profile,
+            result = api.draw(self.gcode, self.url, profile=self.profile,
                               operator=self.operator, keys=self.keys, on_progress=self._listen,
                               resume=journal_path(self.gcode) if resume else None)
             self.set(status="done", message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",

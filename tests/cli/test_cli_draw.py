@@ -152,7 +152,7 @@ def test_sigterm_stops_safely_and_prints_the_resume_command(tmp_path):
     while time.monotonic() < deadline and not (journal.exists() and json.loads(journal.read_text())["acked_line"] > 10):
         time.sleep(0.05)
     proc.send_signal(signal.SIGTERM)
-    out, err = proc.communicate(timeout=30)
+    _out, err = proc.communicate(timeout=30)
     assert proc.returncode != 0
     assert "stopped by SIGTERM" in err and "pen raised" in err and "Resume with: pencilbot draw --resume" in err
     record = json.loads(journal.read_text())

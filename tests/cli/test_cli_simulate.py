@@ -345,7 +345,7 @@ def test_sim_serve_outlives_its_senders_and_saves_what_they_drew_on_sigterm(tmp_
             assert drawn.returncode == 0, drawn.stderr
     finally:
         proc.send_signal(signal.SIGTERM)
-        stdout, stderr = proc.communicate(timeout=20)
+        _stdout, stderr = proc.communicate(timeout=20)
     assert proc.returncode == 0, stderr
     dark = ink(out)
     rows = dark.shape[0]

@@ -121,7 +121,7 @@ def test_the_profile_comes_from_the_file_s_header(tmp_path, capsys, monkeypatch)
     assert main(["draw", str(path), "--port", url, "-q"]) == 0
     assert not path.with_name(path.name + ".job.json").exists()  # finished: no journal is left
     accepted = protocol_sim.plotter(name).firmware.accepted_lines()
-    assert any(line.startswith("G0Z") or line.startswith("G1Z") for line in accepted)  # the Z pen's commands
+    assert any(line.startswith(("G0Z", "G1Z")) for line in accepted)  # the Z pen's commands
     assert not any(line.startswith("M3") for line in accepted)
 
 

@@ -82,7 +82,7 @@ def test_a_tampered_journal_is_one_message_and_nothing_is_sent(stopped, capsys, 
 
 
 def test_the_untampered_journal_resumes_and_finishes(stopped, capsys):
-    path, journal, port, name = stopped
+    _path, journal, port, _name = stopped
     code = main(["draw", "--resume", str(journal), "--port", port, "-q"])
     assert code == 0, capsys.readouterr().err
     assert not journal.exists()

@@ -72,7 +72,7 @@ def test_a_face_gets_finer_hatching_than_without(astronaut):
 
 def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
     # faces = false plans exactly what a picture without a face would: same layers, same points.
-    drawing, page, on, off = astronaut
+    _drawing, page, on, off = astronaut
     coffee = image_from_array(data.coffee()[::3, ::3].copy())
     coffee_drawing = sketch(at_plot_resolution(coffee, page, FAST.pen_width))
     plain = plan_from_sketch(coffee_drawing, page, FAST)

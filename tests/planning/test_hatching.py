@@ -265,7 +265,7 @@ def test_the_first_request_leaves_out_the_ink_a_contour_lays():
 
     n = 100
     layout = _layout((n, n))
-    x0, y0, x1, y1 = layout.drawing_box
+    x0, y0, _x1, y1 = layout.drawing_box
     ym = (y0 + y1) / 2
     edges = Paths.of([[x0 + 5 + k * 0.5, ym - 10.0], [x0 + 5 + k * 0.5, ym + 10.0]] for k in range(8))
     dark = np.full((n, n), 0.5)
