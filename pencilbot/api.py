@@ -17,6 +17,7 @@ from __future__ import annotations
 import functools
 import warnings
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
@@ -106,10 +107,20 @@ def _profile(profile: str | Path | Profile) -> Profile:
     return profile if isinstance(profile, Profile) else load_profile(profile)
 
 
+@overload
+def export_gcode(plan: Plan, profile: str | Path | Profile, path: str | Path, *, source: str = "") -> GcodeSummary: ...
+
+
+@overload
+def export_gcode(
+    plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: None = None, *, source: str = ""
+) -> list[str]: ...
+
+
 def export_gcode(
     plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
     source: str = "",
-) -> GcodeSummary:
+) -> GcodeSummary | list[str]:
     """Write the G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded
     ``Profile``) to ``path``, atomically, and return its
     :class:`~pencilbot.export.gcode.GcodeSummary`. (The lines themselves: :func:`gcode`.)

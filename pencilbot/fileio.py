@@ -104,7 +104,7 @@ def refuse_overwriting_inputs(inputs, outputs) -> None:
     PencilbotError
         Naming the output and the input it would replace.
     """
-    sources = {}
+    sources: dict[tuple[int, int] | None, Path] = {}
     for source in inputs:
         if source is not None and (key := _file_key(source)) is not None:
             sources.setdefault(key, Path(source))

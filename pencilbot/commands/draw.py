@@ -86,14 +86,15 @@ def run(args: argparse.Namespace) -> int:
     announce = None
     if args.verbose and not args.quiet:
         def announce(banner, job):
-            print("\n".join(banner_lines(port, baud, banner, job)), file=sys.stderr, flush=True)
+            # (port and baud as they stand when the job starts: a port by then)
+            print("\n".join(banner_lines(port, baud, banner, job)), file=sys.stderr, flush=True)  # type: ignore[arg-type]
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
     _check_file_kind(Path(gcode), profile or (journal.profile if journal else None))
     if port == "auto":
         port = auto_port(args.quiet)
-    baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud
+    baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud  # type: ignore[union-attr]  # no profile: a journal's
     with ExitStack() as stack:
         keys = operator = None
         if sys.stdin.isatty() and not args.json_lines:

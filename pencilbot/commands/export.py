@@ -88,11 +88,11 @@ def export_one(source: Path, target: Path, profile: Profile, args: argparse.Name
     """Write the G-code of ``source`` (photo or SVG) to ``target``; return the line reporting it."""
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if target.suffix.lower() in HPGL_SUFFIXES:
-        summary = write_hpgl(plan, profile, target)
+        hpgl = write_hpgl(plan, profile, target)
         return (
-            f"wrote {summary.path} for {profile.name}: {summary.paths} paths, {summary.instructions} HP-GL "
-            f"instructions, {summary.bytes / 1e3:.0f} kB; about {duration_text(summary.stats.total.seconds)} to draw; "
-            f"{summary.placement.describe()}" + (f"; {reordered}" if reordered else "")
+            f"wrote {hpgl.path} for {profile.name}: {hpgl.paths} paths, {hpgl.instructions} HP-GL "
+            f"instructions, {hpgl.bytes / 1e3:.0f} kB; about {duration_text(hpgl.stats.total.seconds)} to draw; "
+            f"{hpgl.placement.describe()}" + (f"; {reordered}" if reordered else "")
         )
     if args.split_pens and len(plan.pens) > 1:
         return _export_split(plan, source, target, profile) + (f"; {reordered}" if reordered else "")

@@ -49,7 +49,7 @@ def number(option: str, *, low: float | None = None, high: float, above: bool = 
         return value
 
     parse.__name__ = option.lstrip("-")  # what argparse would call the type in its own messages
-    parse.bounds = (low, high, above, whole)  # for --help generators and tests
+    parse.bounds = (low, high, above, whole)  # type: ignore[attr-defined]  # for --help generators and tests
     return parse
 
 
@@ -76,7 +76,7 @@ def realtime_option(option: str = "--realtime"):
         return value
 
     parse.__name__ = option.lstrip("-")
-    parse.bounds = parse_number.bounds
+    parse.bounds = parse_number.bounds  # type: ignore[attr-defined]
     return parse
 
 

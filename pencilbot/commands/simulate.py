@@ -37,7 +37,7 @@ from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
 from pencilbot.machine.pens import load_pens
-from pencilbot.planning.plan import BLACK
+from pencilbot.planning.plan import BLACK, Layer
 from pencilbot.planning.stats import duration_text
 from pencilbot.render import save_color_png
 from pencilbot.units import DEFAULT_PEN_WIDTH
@@ -203,7 +203,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL
         program = hpgl_program(plan, profile)
         if plan.pens:  # each pen of a colour plan in its carousel slot, in load order
-            first = {}
+            first: dict[str, Layer] = {}
             for layer in plan.layers:
                 first.setdefault(layer.pen, layer)
             return program, args.pen_width or plan.pen_width, [

@@ -90,7 +90,9 @@ def run(args: argparse.Namespace) -> int:
     if args.stages:
         stages = gmed_stages(image.gray)
         if not args.lines_only:
-            stages.update(tone=drawn.tone, texture=drawn.texture, beta=drawn.beta, T=drawn.T)
+            stages.update({name: stage for name, stage in
+                           (("tone", drawn.tone), ("texture", drawn.texture), ("beta", drawn.beta), ("T", drawn.T))
+                           if stage is not None})
         stages["lines"] = line.drawing
         write_stages(Path(args.stages), stages)
     write_image(result, output)

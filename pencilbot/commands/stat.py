@@ -87,7 +87,7 @@ def gcode_plan(path: Path, profile: Profile) -> Plan:
             f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)")
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
-    return Plan(bed, [Layer(path.stem, drawn.with_points(placement.to_page(drawn.points)))])
+    return Plan(bed, (Layer(path.stem, drawn.with_points(placement.to_page(drawn.points))),))
 
 
 def format_table(stats: PlanStats) -> str:

@@ -167,8 +167,8 @@ def _refuse(job: Job, index: int, x: float, y: float, reaches: str) -> None:
 def _refuse_unknown(job: Job, index: int) -> None:
     text = job.line(index)
     state = job.state_after(index)
-    if re.search(r"G0*(28|30)(?![0-9.])", text):
-        code = re.search(r"G0*(28|30)(?![0-9.])", text).group(1)
+    if stored := re.search(r"G0*(28|30)(?![0-9.])", text):
+        code = stored.group(1)
         what = (f"goes to the position the board stored with G{code}.1, which {job.source} does not set "
                 f"before it")
         fix = f"set it in the file first (G{code}.1 where it should go), or move there with G0 X.. Y.."

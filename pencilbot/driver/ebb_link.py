@@ -37,6 +37,7 @@ class EbbLink:
 
     def _receive(self, wait: float | None) -> protocol.Reply:
         text = self.pending
+        assert text is not None  # set by command() or stop_now()
         name = text.split(",")[0].upper()
         want = protocol.reply_lines(name, future=self.future)
         deadline = time.monotonic() + (wait if wait is not None else self.timeout)
@@ -61,6 +62,13 @@ class EbbLink:
             raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
         return reply
 
+    def answer(self, text: str) -> str:
+        """The value a query (QG, QS, QU, QE, QB …) answers with."""
+        data = self.command(text).data
+        if data is None:
+            raise EbbFault(f"the board answered {text} without a value")
+        return data
+
     def stop_now(self, wait: float) -> None:
         """ES at once, even while a command is still waiting for its answer (the board reads ES
         right after it): that answer first, then ES's."""
@@ -76,13 +84,13 @@ class EbbLink:
 
     def status(self) -> int:
         """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
-        value = int(self.command("QG").data, 16)
+        value = int(self.answer("QG"), 16)
         self.power_lost = self.power_lost or bool(value & protocol.QG_POWER_LOST)
         return value
 
     def steps(self) -> tuple[int, int]:
         """Where the motors are, steps from home: the step counters (QS) from their origin."""
-        a, b = self.command("QS").data.split(",")[:2]
+        a, b = self.answer("QS").split(",")[:2]
         return int(a) + self.origin[0], int(b) + self.origin[1]
 
     def wait_idle(self, limit: float) -> None:

@@ -306,7 +306,7 @@ def _configure(link: EbbLink, version: str) -> None:
         return
     link.command(f"CU,60,{POWER_THRESHOLD}")
     link.watch_power = True
-    depth = max(1, min(int(link.command("QU,2").data), FIFO_DEPTH))
+    depth = max(1, min(int(link.answer("QU,2")), FIFO_DEPTH))
     link.command(f"CU,4,{depth}")  # waits for the queue to empty: before any motion
     link.fifo_depth = depth
 
@@ -315,7 +315,7 @@ def _motors_held(link: EbbLink, profile) -> bool:
     """Both motors are on at the profile's microstepping (QE): the counters still mean the
     carriage's position. A board that restarted has them off."""
     try:
-        states = [int(v) for v in link.command("QE").data.split(",")[:2]]
+        states = [int(v) for v in link.answer("QE").split(",")[:2]]
     except (EbbFault, ValueError):
         return False
     return states == [MICROSTEPS[profile.ebb.microstep_mode]] * 2
@@ -338,7 +338,7 @@ def _pause(link: EbbLink, operator, bar, reason: str) -> None:
         operator.pause(f"paused: {reason}")
         return
     link.command("QB")  # forget earlier presses
-    while link.command("QB").data.strip() != "1":
+    while link.answer("QB").strip() != "1":
         time.sleep(0.05)
 
 
@@ -426,7 +426,7 @@ class _stop_signals:
         self.saved = {}
         if threading.current_thread() is not threading.main_thread():
             return self
-        fired = []
+        fired: list[int] = []
 
         def stop(signum, frame):
             if not fired:

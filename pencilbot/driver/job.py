@@ -281,11 +281,11 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         pauses={},
         off_bed=bed.first,
     )
-    numbers = job.numbers
-    for file_line, note in pauses.items():
-        index = int(np.searchsorted(numbers, file_line))
-        if index < len(numbers) and numbers[index] == file_line:  # a command, not a comment saying M0
-            job.pauses[index] = note
+    job_numbers = job.numbers
+    for file_line, pause_note in pauses.items():
+        index = int(np.searchsorted(job_numbers, file_line))
+        if index < len(job_numbers) and job_numbers[index] == file_line:  # a command, not a comment saying M0
+            job.pauses[index] = pause_note
     _check(job)
     return job
 

@@ -122,8 +122,8 @@ class Track:
         c = {name: self.columns[name][i].item() for name in self.FIELDS}
         c["feed"] = None if np.isnan(c["feed"]) else c["feed"]
         c["servo"] = None if np.isnan(c["servo"]) else c["servo"]
-        mm = tuple(float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
-        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=mm)
+        x, y, z = (float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
+        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=(x, y, z))
 
     @property
     def last(self) -> ModalState:
@@ -204,7 +204,7 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
             columns[axis] = _position(written, moves | event, relative | event, getattr(start, axis))
     else:
         on_machine = np.column_stack([mm[a] for a in "xyz"]) + start.frames.offset()
-        frame, frames, via = np.zeros(lines, np.int64), (start.frames,), np.full((lines, 3), np.nan)
+        frame, frames, via = np.zeros(lines, np.int64), [start.frames], np.full((lines, 3), np.nan)
     columns["x_mm"], columns["y_mm"], columns["z_mm"] = mm["x"], mm["y"], mm["z"]
     columns["mx"], columns["my"] = on_machine[:, 0], on_machine[:, 1]
     columns["vx"], columns["vy"] = via[:, 0], via[:, 1]
@@ -237,7 +237,7 @@ class _Words:
     value: np.ndarray
 
 
-def _words(block: bytes) -> _Words:
+def _words(block: bytes | bytearray) -> _Words:
     a = np.frombuffer(block, dtype=np.uint8)
     newline = a == 10
     breaks = np.flatnonzero(newline)

@@ -145,13 +145,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         if resuming:
             _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
             lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)
-            at = None
+            pen_at = None
             if lost is not None:  # someone at the plotter shows where the drawing on the sheet ends
                 from pencilbot.driver.polled_refind import refind
 
-                start, at = refind(link, fw, program, journal, operator, plotter, timeout, lost)
+                start, pen_at = refind(link, fw, program, journal, operator, plotter, timeout, lost)
                 sent = floor = start
-            link.write(program.preamble(start, at))
+            link.write(program.preamble(start, pen_at))
         elif start > 0:
             link.write(program.preamble(start))
         # The status byte is read after each IN has run (the preamble's, the program's): its
@@ -249,6 +249,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
                  floor=floor)
     except Moved as exc:
+        assert link is not None  # Moved comes from reading the plotter
         try:
             link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
         except Lost:

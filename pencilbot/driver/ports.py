@@ -66,7 +66,7 @@ def list_ports() -> list[PortInfo]:
 def probe(device: str, *, description: str = "", banner_wait: float = BANNER_WAIT,
           answer_wait: float = ANSWER_WAIT) -> PortInfo:
     """Ask the board on ``device`` what it is (see the module docstring); nothing moves."""
-    opened_at = None
+    opened_at = 0.0  # when the port was (re)opened at the probe's baud
     handle = None
     try:
         for family, baud, question, pattern in PROBES:

@@ -14,6 +14,7 @@ import re
 import signal
 import threading
 import time
+from collections.abc import Callable
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -62,12 +63,12 @@ class Runner:
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
         self.operator, self.keys = operator, keys
         self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
-        self._count = None  # the board's count where it stopped (work mm), read by the stop
+        self._count: tuple[float, float] | None = None  # the board's count where it stopped (work mm), read by the stop
         self.locator = StopLocator(job, profile)
         self.acked = -1
         self._journal_at = 0.0
-        self.announce = None
-        self.on_progress = None
+        self.announce: Callable[[str, Job], None] | None = None
+        self.on_progress: Callable[[dict], None] | None = None
 
     def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed=None) -> DrawResult:
         """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
@@ -328,7 +329,7 @@ class Runner:
         # dwells (answered=-1), the latest pass through the point in the window.
         found = self.locator.locate(last, self.locator.job_units(xy, last),
                                     position.pen_down_in(stream.status, self.pen), window=_SHOW_WINDOW, answered=-1)
-        where = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
+        where: dict[str, object] = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
         if found is not None:
             where["running"] = self.job.number(found[0])
         return where

@@ -176,7 +176,8 @@ class Stream(BoardSession):
         if self._resend:
             return nxt
         numbered = self.firmware.capabilities.line_numbers
-        first, entries, batch = nxt, [], 0
+        entries: list[SentLine] = []
+        first, batch = nxt, 0
         while nxt < len(job):
             entry = self._framed(job.line(nxt), nxt) if numbered else SentLine(nxt, job.size(nxt))
             if not self._fits(entry.size, len(entries), batch):

@@ -163,4 +163,4 @@ def hpgl_plan(path: Path, profile: Profile) -> Plan:
     change = np.flatnonzero(np.diff(pens, prepend=-1) != 0).tolist() + [len(pens)]
     for a, b in zip(change[:-1], change[1:]):
         layers.append(Layer(f"{path.stem} pen {pens[a]}", mm[a:b]))
-    return Plan(bed, layers)
+    return Plan(bed, tuple(layers))

@@ -138,10 +138,11 @@ def _read_own(data: bytes) -> Plan | None:
         width, height, scale = _svg_size(root, "", None)
     except (ET.ParseError, PencilbotError):
         return None
+    assert height is not None  # without a dpi, _svg_size gives a size or raises
     g = f"{{{SVG_NS}}}g"
     tops = [child for child in root if child.tag == g]
     others = {child.tag for child in root} - {g, f"{{{SVG_NS}}}metadata"}
-    leaves = []  # (layer group, its pen's group or None)
+    leaves: list[tuple[ET.Element, ET.Element | None]] = []  # (layer group, its pen's group or None)
     for top in tops:
         if top.get(_PEN) is None:
             leaves.append((top, None))
@@ -153,7 +154,7 @@ def _read_own(data: bytes) -> Plan | None:
     origin = [float(v) for v in _NUMBER.findall(root.get("viewBox", "0 0"))[:2]]
     if others or moved or origin != [0.0, 0.0] or len(leaves) != len(cuts) or any(len(leaf) for leaf, _ in leaves):
         return None
-    layers = []
+    layers: list[Layer] = []
     for number, ((group, pen), cut) in enumerate(zip(leaves, cuts), start=1):
         paths = _own_paths(cut, scale, height)
         if paths is None:
@@ -161,7 +162,7 @@ def _read_own(data: bytes) -> Plan | None:
         attributes = _layer_attributes(group, number, scale, pen=pen)
         attributes["pen_width"] = attributes["pen_width"] or DEFAULT_PEN_WIDTH
         layers.append(Layer(paths=paths, **attributes))
-    return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+    return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
 
 
 def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
@@ -208,22 +209,22 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     # every top-level element a label by its place, the layer attributes having been read.
     tops = [element for element in root if _local(element.tag) not in _NOT_DRAWN]
     loose = [element for element in tops if _local(element.tag) != "g"]
-    groups = {}
+    groups: dict[int, tuple[dict, bool]] = {}
     for place, element in enumerate(tops, start=2):  # vpype's layer 1 holds the loose shapes
         if element not in loose:
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
     straight = read_straight(root, tops, loose) if height is not None else None
-    if straight is not None:  # straight lines only: read in whole arrays, as vpype would read them
+    if straight is not None and height is not None:  # straight lines only: read in whole arrays, as vpype would read them
         if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
-            scale = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)
-        layers = []
+            scale = MM_PER_INCH / _px_per_inch(root, dpi)
+        layers: list[Layer] = []
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
             layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
                 *groups.get(place, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
                 stroke * scale if stroke else None, pen_width, root)))
-        return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+        return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
     try:
         import vpype
     except ImportError:
@@ -231,7 +232,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
             f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
             'pip install "pencilbot[vpype]"'
         ) from None
-    px_to_mm = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
+    px_to_mm = MM_PER_INCH / _px_per_inch(root, dpi)  # nominally
     # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
     try:
@@ -242,7 +243,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     if height is not None and document.page_size and document.page_size[0] > 0:
         px_to_mm = width / document.page_size[0]  # exactly: svgelements rounds its mm to px factor
     stylesheet = any(_local(el.tag) == "style" and "stroke-width" in (el.text or "") for el in root.iter())
-    layers = []
+    found: list[tuple[dict, np.ndarray, np.ndarray]] = []  # (attributes, points in mm, offsets)
     for lid in sorted(document.layers, key=lambda lid: (lid == 1, lid)):  # loose shapes last
         lines = [line for line in document.layers[lid] if len(line)]
         if not lines:
@@ -252,14 +253,14 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
                              float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet)
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
-        layers.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
-        check_drawing(layers[-1][1], path)
+        found.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
+        check_drawing(found[-1][1], path)
     if height is None:  # no size at all: the page reaches to the drawing's far corner
-        width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in layers] or [[1.0, 1.0]], axis=0))
+        width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in found] or [[1.0, 1.0]], axis=0))
     return Plan(
         page=_page(root, width, height),
-        layers=[Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
-                for attributes, mm, offsets in layers],
+        layers=tuple(Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
+                     for attributes, mm, offsets in found),
         meta=_meta(root),
     )
 
@@ -287,24 +288,35 @@ _UNITS_TO_MM = {"mm": 1.0, "cm": 10.0, "q": 0.25, "in": MM_PER_INCH, "pt": MM_PE
 
 def _size_unit(root: ET.Element) -> str | None:
     """The physical unit both ``width`` and ``height`` are given in, or None."""
-    units = [re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, "")) for attr in ("width", "height")]
-    if all(units) and units[0][1].lower() in _UNITS_TO_MM and units[1][1].lower() in _UNITS_TO_MM:
-        return units[0][1].lower()
+    width, height = (re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, "")) for attr in ("width", "height"))
+    if width and height and width[1].lower() in _UNITS_TO_MM and height[1].lower() in _UNITS_TO_MM:
+        return width[1].lower()
     return None
+
+
+def _px_per_inch(root: ET.Element, dpi: float | None) -> float:
+    """User units per inch: CSS pixels where width and height are physical sizes, else ``dpi``
+    (given: without it, :func:`_svg_size` has refused the file)."""
+    if _size_unit(root):
+        return CSS_PX_PER_INCH
+    assert dpi is not None
+    return dpi
 
 
 def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float | None, float]:
     """Page width and height in mm (None if the file gives no size at all) and mm per user unit."""
-    view = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
-    view = view if len(view) == 4 and view[2] > 0 and view[3] > 0 else None
-    if _size_unit(root) is not None:
+    box = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
+    view = box if len(box) == 4 and box[2] > 0 and box[3] > 0 else None
+    if (size_unit := _size_unit(root)) is not None:
         sizes = []
         for attr in ("width", "height"):
-            number = float(_NUMBER.search(root.get(attr))[0]) * _UNITS_TO_MM[_size_unit(root)]
+            given_number = _NUMBER.search(root.get(attr, ""))
+            assert given_number is not None  # _size_unit found one
+            number = float(given_number[0]) * _UNITS_TO_MM[size_unit]
             if not 0 < number <= MAX_DRAWING_MM:
                 raise PencilbotError(f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm")
             sizes.append(number)
-        return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[_size_unit(root)]
+        return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[size_unit]
     given = f"width {root.get('width')!r} and height {root.get('height')!r}" if root.get("width") else "no width or height"
     if dpi is None:
         raise PencilbotError(
@@ -313,9 +325,9 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
             "to fit it onto a sheet"
         )
     unit = MM_PER_INCH / dpi
-    numbers = [_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")]
-    if all(numbers) and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in numbers):
-        width, height = (float(n[0]) * unit for n in numbers)
+    given_width, given_height = (_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height"))
+    if given_width and given_height and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in (given_width, given_height)):
+        width, height = (float(n[0]) * unit for n in (given_width, given_height))
         return width, height, width / view[2] if view else unit
     if view:
         return view[2] * unit, view[3] * unit, unit

@@ -221,8 +221,8 @@ def _even_view(root: ET.Element) -> bool:
         return True
     try:
         _, _, vw, vh = (float(v) for v in view.replace(",", " ").split())
-        width, height = (float(re.match(r"\s*([-+]?[\d.]+(?:[eE][-+]?\d+)?)", root.get(k, ""))[1]) for k in ("width", "height"))
-    except (TypeError, ValueError):
+        width, height = (_leading_number(root.get(k, "")) for k in ("width", "height"))
+    except ValueError:
         return False
     return vw > 0 and vh > 0 and abs(width / vw - height / vh) <= 1e-9 * width / vw
 
@@ -252,3 +252,11 @@ def _stroke(element: ET.Element, inherited):
         return 1.0 if inherited is None else inherited
     match = _STROKE_WIDTH.fullmatch(given)
     return float(match[1]) if match else False
+
+
+def _leading_number(text: str) -> float:
+    """The number ``text`` starts with (``"210mm"``: 210); ValueError if it starts with none."""
+    match = re.match(r"\s*([-+]?[\d.]+(?:[eE][-+]?\d+)?)", text)
+    if match is None:
+        raise ValueError(f"no number at the start of {text!r}")
+    return float(match[1])

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Any
 
 from firmware_protocol import ProtocolError
 
@@ -54,7 +55,7 @@ class Reply:
     detail: str = ""
     number: int | None = None
     free: int | None = None
-    status: object | None = None
+    status: Any = None  # grbl.Status or an HP-GL answer: read by attribute
 
 
 @dataclass(frozen=True)

@@ -42,7 +42,7 @@ class Grbl(Firmware):
     check_command = "$C"
     home_command = "$H"
     moving_states = ("Run", "Jog", "Home")
-    paused_states = ("Hold", "Door")
+    paused_states: tuple[str, ...] = ("Hold", "Door")
 
     def frame(self, command: str, number: int = 0) -> bytes:
         return self.protocol.encode_line(command)

@@ -177,7 +177,7 @@ def plot_shape(shape: tuple[int, int], page: Page, pen_width: float) -> tuple[in
     third of the pen wide (sizes rounded down, so that it is), never more than ``shape``."""
     scale = Layout.fit(shape, page).mm_per_px / (pen_width / 3)
     if scale >= 1:
-        return tuple(shape)
+        return shape[0], shape[1]
     return max(1, math.floor(shape[0] * scale)), max(1, math.floor(shape[1] * scale))
 
 
@@ -237,12 +237,13 @@ def plan_from_sketch(
     in_color = pens is not None and len(pens.pens) > 1
     small = [face for face in faces if face.size * layout.mm_per_px <= DITHER_FACE]
     dithered = face_mask(line.edges.shape, small) if small and style.hatch and not in_color else None
-    if faces:
+    if faces and important is not None:  # (important: the faces' mask)
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     if dithered is not None:
         strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
     layers = []
     if style.hatch and in_color:
+        assert pens is not None and drawing.tone is not None  # in colour: pens; hatching: a sketch with its tone
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
         layers += color_hatching(
@@ -252,6 +253,7 @@ def plan_from_sketch(
             blur=style.hatch_blur, seed=style.seed,
         )
     elif style.hatch:
+        assert drawing.tone is not None  # a hatching style's sketch has its tone
         hatches = shade(
             portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces),
             layout,
@@ -324,7 +326,7 @@ def plan_from_sketch(
     }
     if pens is not None:
         meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)
-    return Plan(page=page, layers=ordered, meta=meta)
+    return Plan(page=page, layers=tuple(ordered), meta=meta)
 
 
 def features_only(

@@ -56,7 +56,7 @@ def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds:
         The layers in their order, each reordered; pen-up travel (from ``start`` and back)
         never longer than ``plan``'s.
     """
-    layers, dropped, position = [], 0, tuple(start)
+    layers, dropped, position = [], 0, (start[0], start[1])
     for layer in plan.layers:
         speck = specks(layer.paths, layer.pen_width)
         kept = layer.paths.take(np.flatnonzero(~speck)) if speck.any() else layer.paths
@@ -67,8 +67,8 @@ def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds:
         dropped += len(layer.paths) - len(kept)
         layers.append(replace(layer, paths=ordered))
         if len(ordered):
-            position = tuple(ordered.points[-1])
-    result = replace(plan, layers=layers)
+            position = (ordered.points[-1][0], ordered.points[-1][1])
+    result = replace(plan, layers=tuple(layers))
     if pen_up_length(result.paths(), start) > pen_up_length(plan.paths(), start):
         return Reordering(plan, 0)  # the layers' new ends lengthened the moves between them
     return Reordering(result, dropped)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -85,7 +86,7 @@ class PlotSession:
     profile: str
     gcode: Path
     url: str
-    on_change: object = None
+    on_change: Callable[[], None] | None = None
     status: str = "starting"
     record: dict = field(default_factory=dict)
     prompt: dict | None = None

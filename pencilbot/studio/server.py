@@ -8,17 +8,21 @@ import threading
 import webbrowser
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from pencilbot.errors import PencilbotError
 from pencilbot.studio.guard import is_loopback, new_token
+
+if TYPE_CHECKING:
+    from pencilbot.studio.state import Studio
 
 
 @dataclass
 class Running:
     """A studio being served: its state, uvicorn's server, the URL to open (with any token)."""
 
-    studio: object
-    server: object
+    studio: Studio
+    server: Any  # uvicorn.Server (uvicorn ships no types)
     url: str
     sock: socket.socket
 

@@ -13,7 +13,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage
 from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import Planner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
@@ -33,7 +33,7 @@ class Studio:
         self.closing = False  # the server is stopping: event streams end
         self._changed = threading.Condition()
         self.photo: Path | None = None
-        self.small = None
+        self.small: LoadedImage | None = None
         self.photo_name = ""
         self.thumbnail = b""
         self.options = DrawingOptions(profile=profile)
