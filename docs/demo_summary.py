@@ -37,9 +37,9 @@ def main() -> None:
     page = HERE / "demo-summary.md"
     page.write_text(
         "# What the demo prints\n\n"
-        "`pencilbot demo -o demo-out` on a fresh install (scikit-image's coffee photo, the default style,\n"
-        "page and plotter profile). Written by `python docs/demo_summary.py`; run it again after a\n"
-        "change that moves these figures.\n\n```\n" + "\n".join(summary) + "\n```\n"
+        "`pencilbot demo -o demo-out` on a fresh install: scikit-image's coffee photo in the default style\n"
+        "on A4, turned landscape to suit the photo, 0.5 mm pen, `grbl-servo-a4`.\n"
+        "Written by `python docs/demo_summary.py`; run it again after a change that moves these figures.\n\n```\n" + "\n".join(summary) + "\n```\n"
     )
     print(f"wrote {page}")
 
