@@ -65,7 +65,8 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         vpype is not installed or cannot read it.
     """
     data = _read_bytes(path)
-    return _read_own(data, path) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data))
+    return _read_own(data, path) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data),
+                                                text=data.decode("latin-1"))
 
 
 def is_plan_svg(path: str | os.PathLike) -> bool:
@@ -207,9 +208,10 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
 _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
 
 
-def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0) -> Plan:
+def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0,
+              text: str | None = None) -> Plan:
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
-    check_numbers(root, path)  # NaN, infinities, 1e308: one message naming the element
+    check_numbers(root, path, text)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
     width, height, scale = _svg_size(root, path, dpi)
     # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
@@ -218,9 +220,10 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     loose = [element for element in tops if _local(element.tag) != "g"]
     groups = {}
     for place, element in enumerate(tops, start=2):  # vpype's layer 1 holds the loose shapes
-        if element not in loose:
+        if _local(element.tag) == "g":
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
+    loose_layer = lambda: ({"name": "default", "role": "other"}, _declares_stroke(loose))  # noqa: E731
     straight = read_straight(root, tops, loose) if height is not None else None
     if straight is not None:  # straight lines only: read in whole arrays, as vpype would read them
         if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
@@ -229,7 +232,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
             layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
-                *groups.get(place, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
+                *(groups.get(place) or loose_layer()),
                 stroke * scale if stroke else None, pen_width, root, path=path)))
         return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
     try:
@@ -256,7 +259,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if not lines:
             continue
         vpype_pen = document.layers[lid].property("vp_pen_width")
-        attributes = _pen_of(*groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
+        attributes = _pen_of(*(groups.get(lid) or loose_layer()),
                              float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet, path=path)
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])

@@ -11,6 +11,7 @@ a viewBox that does not scale evenly) returns None, and the file is read by vpyp
 
 from __future__ import annotations
 
+import itertools
 import re
 import warnings
 import xml.etree.ElementTree as ET
@@ -22,8 +23,10 @@ from pencilbot.export.svg_checks import local_name
 # Elements a straight drawing may hold besides groups (and what draws nothing).
 _SHAPES = {"path", "polyline", "polygon", "line"}
 _QUIET = {"defs", "metadata", "title", "desc", "namedview"}
+_STYLE_TAGS = ("{http://www.w3.org/2000/svg}style", "style")
 # Attributes or style properties that move, hide or restyle geometry: vpype's business.
 _MOVING = ("transform", "clip-path", "mask", "filter", "display", "visibility")
+_MOVING_SET = frozenset(_MOVING)
 _STRAIGHT_D = re.compile(r"[\sMmLlHhVvZz0-9eE.,+-]*")
 _COMMANDS = b"MmLlHhVvZzX"  # X: where one path's data ends and the next one's starts
 # A command letter becomes a number no coordinate may be (svg_checks refuses numbers past 1e9):
@@ -56,7 +59,7 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
         paths' starts, ``stroke`` the stroke width (user units) every shape of the layer has, or
         None when they differ.
     """
-    if _moves(root) or not _even_view(root) or any(local_name(el.tag) == "style" for el in root.iter()):
+    if _moves(root) or not _even_view(root) or any(next(root.iter(tag), None) is not None for tag in _STYLE_TAGS):
         return None
     shapes = _shapes(root, tops, loose)
     if shapes is None:
@@ -96,20 +99,24 @@ def _shapes(root: ET.Element, tops: list[ET.Element], loose: list[ET.Element]):
     """Every shape in document order: its layer key, kind, text (a path's data, a point list; a
     line's four numbers) and stroke width; None when anything is not a straight shape."""
     keys, kinds, texts, strokes = [], [], [], []
+    names: dict[str, str] = {}  # tag → local name, worked out once per tag
+    loose_ids = {id(element) for element in loose}
     for place, top in enumerate(tops, start=2):
-        key = 1 if top in loose else place
+        key = 1 if id(top) in loose_ids else place
         stack = [(top, _stroke(root, None))]
         while stack:
             element, inherited = stack.pop()
-            name = local_name(element.tag)
+            name = names.get(element.tag) or names.setdefault(element.tag, local_name(element.tag))
             if name in _QUIET:
                 continue
-            if _moves(element):
+            attrib = element.attrib
+            styled = "style" in attrib
+            if (styled or not _MOVING_SET.isdisjoint(attrib)) and _moves(element):
                 return None
-            stroke = _stroke(element, inherited) if ("style" in element.attrib or "stroke-width" in element.attrib) else (
+            stroke = _stroke(element, inherited) if (styled or "stroke-width" in attrib) else (
                 1.0 if inherited is None else inherited)
             if name == "g":
-                stack.extend((child, stroke) for child in reversed(element))
+                stack.extend(zip(reversed(element), itertools.repeat(stroke)))
                 continue
             if name not in _SHAPES or len(element) or stroke is False:
                 return None
