@@ -189,6 +189,12 @@ def gcode_blocks(path: str | Path) -> Iterator[bytes]:
         raise PlotError(f"cannot read G-code file {path} ({exc})") from None
 
 
+def program_blocks(program: bytes) -> Iterator[bytes]:
+    """A program held whole (as :func:`~pencilbot.export.gcode.gcode_program` makes it) a block of
+    whole lines at a time, as :func:`gcode_blocks` gives a file's."""
+    return _blocks([program], "<program>")
+
+
 def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]:
     """Whole lines, about a read block at a time (a line never straddles two blocks).
 

@@ -20,6 +20,7 @@ from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_num
 from pencilbot.export.svg_straight import read_straight
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
+from pencilbot.planning.style import MAX_PEN_WIDTH
 from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
 
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
@@ -64,7 +65,8 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         vpype is not installed or cannot read it.
     """
     data = _read_bytes(path)
-    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data))
+    return _read_own(data, path) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data),
+                                                text=data.decode("latin-1"))
 
 
 def is_plan_svg(path: str | os.PathLike) -> bool:
@@ -75,7 +77,7 @@ def is_plan_svg(path: str | os.PathLike) -> bool:
     try:
         for _, root in ET.iterparse(path, events=("start",)):
             return root.tag == f"{{{SVG_NS}}}svg" and root.get(_PAGE) is not None
-    except (ET.ParseError, OSError):
+    except (ET.ParseError, OSError, LookupError, ValueError):  # LookupError: an unknown encoding
         pass
     return False
 
@@ -95,6 +97,9 @@ def _parse(data: bytes, path) -> ET.Element:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
         raise PencilbotError(f"cannot read {path} as SVG ({exc}); is it an SVG drawing?") from None
+    except (LookupError, ValueError) as exc:  # expat knows a handful of encodings; Python's codecs the rest
+        raise PencilbotError(f"cannot read {path}: its XML declaration names an encoding that cannot be read ({exc}); "
+                             'save it as UTF-8 (encoding="UTF-8")') from None
     if root.tag != f"{{{SVG_NS}}}svg":
         raise PencilbotError(f"{path} is not an SVG file (root element {root.tag!r})")
     return root
@@ -111,14 +116,15 @@ _NUMBER_BYTES = bytes(c if c in b"0123456789.-na" else 32 for c in range(256))
 _MOVES = {"transform", "style", "display", "visibility", "clip-path", "mask", "filter"}
 
 
-def _read_own(data: bytes) -> Plan | None:
+def _read_own(data: bytes, path="the SVG") -> Plan | None:
     """The plan, if ``data`` is a file just as :func:`~pencilbot.export.svg.write_svg` writes it; else None.
 
     Each layer's path data is cut out of the file and the rest (root, metadata, pen and layer
     tags) parsed as XML; a layer's coordinates are then one ``np.fromstring`` over its cut, with
     a NaN where each path starts. A layer is a group that holds no group: at the top, or inside a
     pen's group (a colour plan). Anything else (an edited file, a curve) gives None, and the file
-    is read as any SVG is.
+    is read as any SVG is. What is read passes the checks another tool's SVG does (numbers
+    finite and of a drawable size, pen widths a pen has), raising :class:`PencilbotError`.
     """
     if f'xmlns:pencilbot="{PENCILBOT_NS}"'.encode() not in data[:4096]:
         return None
@@ -136,8 +142,8 @@ def _read_own(data: bytes) -> Plan | None:
     try:
         root = ET.fromstring(b"".join(skeleton))
         width, height, scale = _svg_size(root, "", None)
-    except (ET.ParseError, PencilbotError):
-        return None
+    except (ET.ParseError, PencilbotError, LookupError, ValueError):
+        return None  # read as any SVG is: the same error, said once
     assert height is not None  # without a dpi, _svg_size gives a size or raises
     g = f"{{{SVG_NS}}}g"
     tops = [child for child in root if child.tag == g]
@@ -154,13 +160,16 @@ def _read_own(data: bytes) -> Plan | None:
     origin = [float(v) for v in _NUMBER.findall(root.get("viewBox", "0 0"))[:2]]
     if others or moved or origin != [0.0, 0.0] or len(leaves) != len(cuts) or any(len(leaf) for leaf, _ in leaves):
         return None
+    check_numbers(root, path)
     layers: list[Layer] = []
     for number, ((group, pen), cut) in enumerate(zip(leaves, cuts), start=1):
         paths = _own_paths(cut, scale, height)
         if paths is None:
             return None
+        check_drawing(paths.points, path)
         attributes = _layer_attributes(group, number, scale, pen=pen)
-        attributes["pen_width"] = attributes["pen_width"] or DEFAULT_PEN_WIDTH
+        attributes["pen_width"] = _checked_pen(attributes["pen_width"] or DEFAULT_PEN_WIDTH, attributes["name"], path,
+                                                own=True)
         layers.append(Layer(paths=paths, **attributes))
     return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
 
@@ -200,9 +209,10 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
 _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
 
 
-def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0) -> Plan:
+def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0,
+              text: str | None = None) -> Plan:
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
-    check_numbers(root, path)  # NaN, infinities, 1e308: one message naming the element
+    check_numbers(root, path, text)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
     width, height, scale = _svg_size(root, path, dpi)
     # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
@@ -211,9 +221,12 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     loose = [element for element in tops if _local(element.tag) != "g"]
     groups: dict[int, tuple[dict, bool]] = {}
     for place, element in enumerate(tops, start=2):  # vpype's layer 1 holds the loose shapes
-        if element not in loose:
+        if _local(element.tag) == "g":
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
+    def loose_layer() -> tuple[dict, bool]:
+        return {"name": "default", "role": "other"}, _declares_stroke(loose)
+
     straight = read_straight(root, tops, loose) if height is not None else None
     if straight is not None and height is not None:  # straight lines only: read in whole arrays, as vpype would read them
         if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
@@ -222,8 +235,8 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
             layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
-                *groups.get(place, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
-                stroke * scale if stroke else None, pen_width, root)))
+                *(groups.get(place) or loose_layer()),
+                stroke * scale if stroke else None, pen_width, root, path=path)))
         return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
     try:
         import vpype
@@ -249,8 +262,8 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if not lines:
             continue
         vpype_pen = document.layers[lid].property("vp_pen_width")
-        attributes = _pen_of(*groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
-                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet)
+        attributes = _pen_of(*(groups.get(lid) or loose_layer()),
+                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet, path=path)
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
         found.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
@@ -266,12 +279,30 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
 
 
 def _pen_of(attributes: dict, declared: bool, stroke: float | None, pen_width: float | None, root: ET.Element,
-            stylesheet: bool = False) -> dict:
+            stylesheet: bool = False, *, path) -> dict:
     """A layer's attributes with its pen width (mm): ``pen_width`` if given, else the stroke
-    width all its shapes draw with (``stroke``, mm) where the file declares one, else the default."""
+    width all its shapes draw with (``stroke``, mm) where the file declares one (checked: see
+    :func:`_checked_pen`), else the default."""
     if pen_width is None and stroke and (declared or stylesheet or _declares_stroke([root], deep=False)):
-        return {**attributes, "pen_width": stroke}
+        return {**attributes, "pen_width": _checked_pen(stroke, attributes["name"], path)}
     return {**attributes, "pen_width": pen_width or DEFAULT_PEN_WIDTH}
+
+
+def _checked_pen(width: float, layer: str, path, *, own: bool = False) -> float:
+    """A layer's stroke width (mm) as its pen width, refused when no pen draws it: negative (which
+    SVG calls an error) or wider than :data:`~pencilbot.planning.style.MAX_PEN_WIDTH`.
+
+    Raises
+    ------
+    PencilbotError
+        Naming the layer and the width, and what to do.
+    """
+    if not 0 < width <= MAX_PEN_WIDTH:
+        raise PencilbotError(
+            f"{path}: layer {layer!r} draws with a stroke width of {width:.6g} mm, which no pen draws (a pen is "
+            f"wider than 0 and at most {MAX_PEN_WIDTH:g} mm); fix its stroke-width"
+            + ("" if own else ", or give the pen with --pen-width"))
+    return width
 
 
 def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
