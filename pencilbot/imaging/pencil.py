@@ -61,6 +61,9 @@ class Sketch:
     timings : dict of str to float
         Seconds spent in each stage, in pipeline order: ``edges``, ``lines``, ``tone``,
         ``texture``, ``beta`` (the β solve and T), ``compose``.
+    rgb : ndarray of float32, shape (H, W, 3), or None
+        The photo in colour, same grid as ``gray`` (the face detector sees colour: on the face
+        set it finds 58 of 59 faces in colour, 56 in grey).
     """
 
     result: np.ndarray
@@ -70,6 +73,7 @@ class Sketch:
     texture: np.ndarray | None = None
     fit: TextureResult | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    rgb: np.ndarray | None = None
 
     @property
     def beta(self) -> np.ndarray | None:
@@ -167,7 +171,8 @@ def sketch(
         "sketch of %s (%d×%d px, ℓ = %d px): %s", image.source, image.shape[1], image.shape[0], line.length,
         ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
     )
-    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings,
+                  rgb=image.rgb)
 
 
 def _check_range(name: str, value: float, bounds: tuple[float, float]) -> None:
@@ -190,7 +195,7 @@ def _reduced(drawn: Sketch, image: LoadedImage, color: bool) -> Sketch:
     fit = drawn.fit and replace(drawn.fit, T=area(drawn.fit.T), beta=area(drawn.fit.beta))
     luma = line.drawing * fit.T if fit else line.drawing.copy()
     result = with_luma(image.rgb, luma) if color else luma
-    return Sketch(result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings)
+    return Sketch(result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings, image.rgb)
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:

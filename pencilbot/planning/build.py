@@ -59,6 +59,8 @@ FEATURE_VALLEY = 0.02
 #: face 0.964 / 0.880 -> 0.952 / 0.907 and whole box 0.975 -> 0.969, grace_hopper's 88 mm
 #: 0.962 / 0.894 -> 0.961 / 0.926 and whole box 0.961 -> 0.952.
 DITHER_FACE = 25.0
+FACE_SKETCH = 0.0
+PORTRAIT_LIFT = 1.0
 log = logging.getLogger(__name__)
 
 
@@ -219,7 +221,7 @@ def plan_from_sketch(
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
     threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
-    faces = find_faces(drawing.gray) if style.faces else []
+    faces = find_faces(drawing.gray if drawing.rgb is None else drawing.rgb) if style.faces else []
     important = face_mask(line.edges.shape, faces) if faces else None
     strokes = edge_strokes(
         line,
@@ -254,8 +256,10 @@ def plan_from_sketch(
         )
     elif style.hatch:
         assert drawing.tone is not None  # a hatching style's sketch has its tone
+        lifted = portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces)
+        sketched = 1.0 - (drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2))
         hatches = shade(
-            portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces),
+            lifted if PORTRAIT_LIFT else 1.0 - drawing.tone,
             layout,
             strokes,
             paper=1.0 - drawing.gray,
@@ -270,6 +274,7 @@ def plan_from_sketch(
             seed=style.seed,
             important=important,
             dithered=dithered,
+            face_darkness=(1 - FACE_SKETCH) * lifted + FACE_SKETCH * sketched,
         )
         layers += [layer for layer in hatches if layer.paths]
     if pens is None:

@@ -22,7 +22,8 @@ FAST = Style(order_rounds=2)
 @pytest.fixture(scope="module")
 def astronaut():
     image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
-    page = page_size("A5", "portrait", image.shape, 10.0)
+    # On A4 her face is about 35 mm: hatched, not dithered.
+    page = page_size("A4", "portrait", image.shape, 10.0)
     drawing = sketch(at_plot_resolution(image, page, FAST.pen_width))
     on = plan_from_sketch(drawing, page, FAST)
     off = plan_from_sketch(drawing, page, Style(order_rounds=2, faces=False))
