@@ -208,7 +208,7 @@ def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, key
     """The pause key: stop at once (ES), lift the pen, find where from the step counters, and
     wait for the operator (or the pause key again); the job goes on from that very point."""
     link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
-    link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+    link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
     link.wait_idle(5)
     stop = _locate(link.steps(), sent, acked, profile, link)
     if stop is None:
@@ -350,7 +350,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     if not isinstance(exc, PortLost):
         try:
             link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
-            link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+            link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
             link.wait_idle(5)
             answered = True
             held = _motors_held(link, profile) and not link.power_lost

@@ -261,9 +261,11 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
         "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
         "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
-        "servo_rate_up": schema.whole(0, 65535, "servo units per 24 ms"),
-        "servo_rate_down": schema.whole(0, 65535, "servo units per 24 ms"),
+        "servo_rate_up": schema.whole(0, 65535, "servo units per PWM period"),
+        "servo_rate_down": schema.whole(0, 65535, "servo units per PWM period"),
         "min_move_ms": schema.number(0, 100, unit="ms", as_given=True),
+        "servo_pin": schema.whole(0, 7, "port B pin of the pen servo (1 standard, 2 narrow-band)"),
+        "servo_channels": schema.whole(1, 8, "servo channels (SC,8): 8 standard, 1 narrow-band"),
     }),
 }
 
