@@ -131,7 +131,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         if not resuming and not (start == 0 and len(program) and program.frames[0].startswith(b"IN")):
             read_status(link, fw, timeout)  # OI answered: idle; this clears the initialised bit of its power-up
         if announce is not None:
-            announce(f"banner '{identity or 'no answer to OI;'}'", None)
+            announce(f"banner '{identity or 'no answer to OI;'}'", (plotter, len(program)))
         if resuming:
             _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
             lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)

@@ -71,3 +71,32 @@ def test_the_nextdraw_8511_pen_moves_on_its_own_pin(tmp_path):
     assert len(strokes) == 1
     assert np.allclose(strokes[0][[0, -1]], [[20, 20], [60, 40]], atol=0.02)
     assert board.firmware.servos.slots == 1 and board.firmware.servos.period == pytest.approx(0.003)
+
+
+LINES = ["G21", "G90", "M280 P0 S60", "G0 X20 Y20", "M280 P0 S30", "G1 X60 Y20 F3000", "M280 P0 S60"]
+
+
+def test_an_ebb_job_on_another_board_is_one_clear_line(tmp_path):
+    sim.register()
+    path = tmp_path / "job.gcode"
+    path.write_text("\n".join(LINES) + "\n")
+    with pytest.raises(PlotError) as refused:
+        draw(path, "sim://?profile=grbl-servo-a4", profile="axidraw-v3", timeout=0.5)
+    text = str(refused.value)
+    assert "is not an EBB" in text and "error:" in text and "profile axidraw-v3" in text and "\n" not in text
+
+
+def test_an_ebb_job_on_a_silent_port_is_one_clear_line(tmp_path):
+    import os
+
+    path = tmp_path / "job.gcode"
+    path.write_text("\n".join(LINES) + "\n")
+    master, slave = os.openpty()  # a port where nothing answers
+    device = os.ttyname(slave)
+    try:
+        with pytest.raises(PlotError) as refused:
+            draw(path, device, profile="axidraw-v3", timeout=0.5)
+    finally:
+        os.close(master)
+        os.close(slave)
+    assert str(refused.value).startswith(f"nothing answered on {device} within 0.5 s")
