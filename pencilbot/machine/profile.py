@@ -128,10 +128,12 @@ class Paper:
     """Where the sheet lies against machine (0, 0): ``offset`` mm from its bottom-left corner
     (a plotter such as the HP 7475A whose hard-clip limits lie inside the sheet), and how many
     pens the plotter's ``carousel`` holds (HP-GL ``SP 1..n``; a plan with more pens pauses for
-    each pen put in by hand)."""
+    each pen put in by hand), and the length of its plotter unit (``unit_mm``: HP-GL's 0.025 mm,
+    the HP 7470A's; the HP 7475A's own manual gives 0.02488 mm, about 40.2 units per mm)."""
 
     offset: tuple[float, float] = (0.0, 0.0)
     carousel: int = 6
+    unit_mm: float = 0.025
 
 
 @dataclass(frozen=True)
@@ -246,6 +248,7 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
             lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
             lambda value: (float(value[0]), float(value[1]))),
         "carousel": schema.whole(1, 32, "pens the carousel holds"),
+        "unit_mm": schema.number(0.001, 1.0, unit="mm per plotter unit", as_given=True),
     }),
     "pen_change": (PenChange, {
         "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(
