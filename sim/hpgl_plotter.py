@@ -63,7 +63,7 @@ class HpglBoard:
         self.size = profile.receive_buffer
         self.faults = faults
         self.xonxoff = xonxoff
-        self.unit = protocol.UNIT_MM
+        self.unit = profile.paper.unit_mm
         self.limits = (0, 0, int(round(profile.bed.width / self.unit)), int(round(profile.bed.height / self.unit)))
         self.top_speed = profile.motion.travel_speed  # mm/s
         self.link_dropped = False

@@ -93,7 +93,7 @@ def run(args: argparse.Namespace) -> int:
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
     _check_file_kind(Path(gcode), profile or (journal.profile if journal else None))
     if port == "auto":
-        port = auto_port(args.quiet)
+        port = auto_port(args.quiet, load_profile(profile or journal.profile))  # type: ignore[union-attr]  # no profile: a journal's
     baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud  # type: ignore[union-attr]  # no profile: a journal's
     with ExitStack() as stack:
         keys = operator = None
@@ -157,11 +157,15 @@ def _check_file_kind(path: Path, profile: str | None) -> None:
                         f"--profile {profile}")
 
 
-def auto_port(quiet: bool = False) -> str:
-    """The port of the one plotter that answers (``--port auto``); says which on stderr."""
-    from pencilbot.driver.ports import find_plotters, list_ports
+def auto_port(quiet: bool = False, profile=None) -> str:
+    """The port of the one plotter of ``profile``'s kind that answers (``--port auto``); says which on stderr."""
+    from pencilbot.driver.ports import find_plotters, list_ports, wrong_kind
 
     found = find_plotters()
+    if profile is not None:
+        found, others = wrong_kind(found, profile)
+        if others and not found:
+            raise PlotError(others)
     if len(found) == 1:
         if not quiet:
             print(f"using {found[0].device}: {found[0].summary()}", file=sys.stderr, flush=True)
@@ -179,8 +183,12 @@ def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
     is, the job's size and its estimated plot time."""
     from pencilbot.planning.stats import duration_text
 
-    profile = job.profile
     board = banner.removeprefix("banner '").removesuffix("'")  # a reset's reply: "banner 'Grbl 1.1h'"
+    if not hasattr(job, "seconds_after"):  # an HP-GL program: (profile, instructions)
+        profile, count = job
+        return [f"port {port} at {baud} bit/s", f"profile {profile.name} ({profile.source}): {profile.description}",
+                f"board: {board}", f"job: {count} HP-GL instructions"]
+    profile = job.profile
     header = estimated_seconds(job.source) if Path(job.source).is_file() else None
     seconds, how = (header, "the file's estimate") if header is not None else (
         job.seconds_after(len(job) - 1), "distance over feed, without acceleration")

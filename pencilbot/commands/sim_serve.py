@@ -51,6 +51,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                              "at the bed's edges, trusted from power-up")
     parser.add_argument("--no-reset", action="store_true",
                         help="a board without auto-reset: opening the port does not reset it")
+    parser.add_argument("--firmware", metavar="VERSION", help="EBB profiles: the firmware the board plays (default 3.0.3; e.g. 2.8.1)")
+    parser.add_argument("--supply", type=number("--supply", low=0, high=40, unit="V"), default=None,
+                        help="EBB profiles: volts at the board's power jack (default 9.1; 0: the motors have no power)")
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
     parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="resolution of the saved drawing in dots per inch (default %(default)g)")
     add_verbosity(parser)
@@ -72,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
         check_writable(args.output)  # a read-only folder: now, not when the session's drawing is saved
     options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
                "faults": args.faults, "power": args.power, "abort": args.abort, "limits": args.limits}
+    options.update({k: str(v) for k, v in (("firmware", args.firmware), ("supply", args.supply)) if v is not None})
     try:
         plotter = plotter_from_options(options)
     except SerialException as exc:

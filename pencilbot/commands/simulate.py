@@ -36,6 +36,7 @@ from pencilbot.driver.job import gcode_blocks, program_blocks, read_gcode
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
+from pencilbot.firmware.hpgl import looks_like_hpgl
 from pencilbot.machine.pens import load_pens
 from pencilbot.planning.plan import BLACK, Layer
 from pencilbot.planning.stats import duration_text
@@ -78,7 +79,9 @@ def run(args: argparse.Namespace) -> int:
     from sim import protocol_sim
 
     sim.register()
-    if source.suffix.lower() in GCODE_SUFFIXES:
+    if not getattr(args, "profile_given", False) and looks_like_hpgl(source):
+        args.profile = _hpgl_profile(args.profile)  # HP-GL is for an HP-GL plotter, whatever the default
+    elif source.suffix.lower() in GCODE_SUFFIXES:
         # As draw: the profile the file was exported for, unless another one is asked for.
         args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
@@ -117,6 +120,16 @@ def run(args: argparse.Namespace) -> int:
         protocol_sim.forget(name)
     _report(output, plotter, pens, profile, args)
     return 0
+
+
+def _hpgl_profile(default: str) -> str:
+    """``default`` if it is an HP-GL plotter's profile, else the first HP-GL profile there is."""
+    from pencilbot.machine.profile import list_profiles, load_profile
+
+    names = [n for n in [default, *list_profiles()] if getattr(load_profile(n).firmware, "flow", "") == "polled"]
+    if not names:
+        raise PencilbotError("the file is HP-GL and no HP-GL plotter profile is known; give one with --profile")
+    return names[0]
 
 
 def _fast_plot(source: Path, profile, args: argparse.Namespace):
@@ -205,7 +218,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
         # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
         # no job journal beside the file.
         return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH, []
-    if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL has no lines to bound: one instruction after another
+    if source.suffix.lower() in HPGL_SUFFIXES or looks_like_hpgl(source):  # HP-GL: one instruction after another
         try:
             return source.read_bytes(), args.pen_width or DEFAULT_PEN_WIDTH, []
         except OSError as exc:

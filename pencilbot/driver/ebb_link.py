@@ -25,6 +25,9 @@ class EbbLink:
         #: Motor steps from home where the counters read 0 (not home after a guided re-zero).
         self.origin: tuple[int, int] = (0, 0)
         self.pending: str | None = None  # the command whose answer is still to be read
+        self.replies = 0  # answers read
+        self.version = ""  # what V answered
+        self.noise: list[str] = []  # the first lines that answered nothing sent (another board's talk)
         self._got: list[str] = []
         self._lines: list[str] = []
 
@@ -51,12 +54,15 @@ class EbbLink:
                     continue
             line = self._lines.pop(0)
             if not protocol.plausible(name, line, future=self.future):
+                if len(self.noise) < 4:
+                    self.noise.append(line)
                 continue  # noise on the line (a glitch, another program's echo): not an answer
             self._got.append(line)
             if "Err:" in line:
                 break
         lines, self.pending = self._got, None
         self.last_lines = lines
+        self.replies += 1
         reply = protocol.read_reply(name, lines, future=self.future)
         if reply.error:
             raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
@@ -81,6 +87,17 @@ class EbbLink:
                 self.pending = None  # refused or silent: ES's own answer follows all the same
         self.pending, self._got = "ES", []
         self._receive(None)
+
+    def not_an_ebb(self, port: str, profile_name: str) -> str:
+        """What to tell when the first query went unanswered: another kind of board talked, or
+        nothing did."""
+        heard = [line.strip() for line in self.noise if line.strip()]
+        if heard:
+            return (f"the board on {port} is not an EBB (it answered {heard[0][:40]!r}, not an EBB reply); "
+                    f"profile {profile_name} is an EBB plotter's: give the EBB's port (pencilbot ports lists them) "
+                    f"or the profile of the plotter on {port}")
+        return (f"nothing answered on {port} within {self.timeout:g} s: check that the plotter is powered and "
+                f"plugged in, that {port} is its port and that it is an EBB plotter (pencilbot ports lists them)")
 
     def status(self) -> int:
         """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""

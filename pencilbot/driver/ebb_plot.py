@@ -56,8 +56,9 @@ class _Stop:
 
 
 def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = DEFAULT_BAUD,
-             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None):
+             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None, announce=None):
     """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
+    ``announce(banner, job)`` is told what the board said it is (``V``) before anything moves.
 
     Returns
     -------
@@ -75,8 +76,15 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
-        here, pen_down, found = _wake(link, profile, job, resumed, operator)
+        try:
+            here, pen_down, found = _wake(link, profile, job, resumed, operator)
+        except EbbFault:
+            if link.replies:
+                raise
+            raise PlotError(link.not_an_ebb(port, profile.name)) from None
         start = start if found is None else found
+        if announce is not None:
+            announce(f"banner '{link.version}'", job)
         dwells = _dwells(job)
         work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down, dwells)
         total = sum(item.seconds for item in work if isinstance(item, EbbMove))
@@ -208,7 +216,7 @@ def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, key
     """The pause key: stop at once (ES), lift the pen, find where from the step counters, and
     wait for the operator (or the pause key again); the job goes on from that very point."""
     link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
-    link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+    link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
     link.wait_idle(5)
     stop = _locate(link.steps(), sent, acked, profile, link)
     if stop is None:
@@ -258,7 +266,7 @@ def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[in
     link.reader.discard_input()
     link.status()
     link.future = link.last_lines[0].startswith("QG,")  # a board left in future syntax (CU,10,1)
-    version = link.command("V").data or ""
+    version = link.version = (link.command("V").data or "").strip()
     start = None
     if resumed is not None:
         link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
@@ -350,7 +358,7 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     if not isinstance(exc, PortLost):
         try:
             link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
-            link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+            link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
             link.wait_idle(5)
             answered = True
             held = _motors_held(link, profile) and not link.power_lost

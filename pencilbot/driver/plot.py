@@ -147,7 +147,7 @@ def draw(
         from pencilbot.driver.ebb_plot import draw_ebb
 
         return draw_ebb(job, plotter, sim_url(port, profile), journal, start=start, resumed=journal if resume is not None else None,
-                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys)
+                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys, announce=announce)
     runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     runner.on_progress = on_progress

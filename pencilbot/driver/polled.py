@@ -141,7 +141,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         if not resuming and not (start == 0 and len(program) and program.frames[0].startswith(b"IN")):
             read_status(link, fw, timeout)  # OI answered: idle; this clears the initialised bit of its power-up
         if announce is not None:
-            announce(f"banner '{identity or 'no answer to OI;'}'", None)
+            announce(f"banner '{identity or 'no answer to OI;'}'", (plotter, len(program)))
         if resuming:
             _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
             lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)
@@ -208,7 +208,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
             floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - waiting, side="right")) - 1)
             if checkpoints and not link.positions and floor > checkpoints[0] + 1:
                 checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
-            room = free - (0 if not link.xoff else free)
+            room = max(free - fw.reserve(size), 0) if not link.xoff else 0  # never to the brim
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
             later = list(pending[int(np.searchsorted(pending, sent, side="right")):][:1])
             later += [k for k in after_in if k > sent]
@@ -421,7 +421,7 @@ def _seconds_after(program, plotter) -> np.ndarray:
     virtual plotter times it, each lift and drop its delay."""
     if not len(program):
         return np.zeros(1)
-    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * plotter.firmware.unit_mm
+    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * plotter.paper.unit_mm
     length = np.hypot(*step.T)
     speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, plotter.motion.draw_speed),
                      plotter.motion.travel_speed)
@@ -438,7 +438,7 @@ def _check_limits(program, plotter, fw, name) -> None:
     """Every position within the bed (the plotter's hard-clip limits), before the port opens."""
     if not len(program):
         return
-    w, h = round(plotter.bed.width / fw.unit_mm), round(plotter.bed.height / fw.unit_mm)
+    w, h = round(plotter.bed.width / plotter.paper.unit_mm), round(plotter.bed.height / plotter.paper.unit_mm)
     bad = np.flatnonzero((program.xy[:, 0] < 0) | (program.xy[:, 1] < 0) | (program.xy[:, 0] > w) | (program.xy[:, 1] > h))
     if len(bad):
         k = bad[0]

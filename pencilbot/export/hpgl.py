@@ -92,7 +92,7 @@ def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
                              "give an HP-GL profile (e.g. --profile hp7475a) or write .gcode")
     pens = plan.pens  # more than the carousel holds: SP 7, 8, ... (draw pauses for each)
     placement = SheetPlacement.of(plan.page, profile)
-    unit = HPGL.unit_mm
+    unit = profile.paper.unit_mm
     out = [b"IN;\n", f"VS{profile.motion.draw_feed / 600:g};\n".encode()]
     for pen, layers in plan.pen_runs():
         slot = pens.index(pen) + 1 if pen in pens else 1
@@ -158,7 +158,7 @@ def hpgl_plan(path: Path, profile: Profile) -> Plan:
         raise PencilbotError(f"{path}: the pen never goes down (no PD move); is it an HP-GL drawing?")
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
-    mm = drawn.with_points(placement.to_page(drawn.points * HPGL.unit_mm))
+    mm = drawn.with_points(placement.to_page(drawn.points * profile.paper.unit_mm))
     layers = []
     change = np.flatnonzero(np.diff(pens, prepend=-1) != 0).tolist() + [len(pens)]
     for a, b in zip(change[:-1], change[1:]):

@@ -13,6 +13,7 @@ driver can say what ran from what the buffer still holds and resume after it.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -24,6 +25,24 @@ from pencilbot.paths import Paths
 
 #: File names HP-GL goes by (the first is the one export gives).
 HPGL_SUFFIXES = (".hpgl", ".hpg", ".plt", ".hgl")
+#: How an HP-GL program starts (after device-control escapes and blanks): a two-letter
+#: instruction then its terminator or its first number; G-code starts with a letter and a number.
+_HPGL_START = re.compile(rb"^(?:\x1b\.[^:;]*[:;]?|\s)*[A-Z]{2}\s*(?:;|-?\d|\n|$)", re.IGNORECASE)
+
+
+def looks_like_hpgl(path) -> bool:
+    """Whether the file at ``path`` is HP-GL by its name or, failing that, its first bytes."""
+    from pathlib import Path
+
+    path = Path(path)
+    if path.suffix.lower() in HPGL_SUFFIXES:
+        return True
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(256)
+    except OSError:
+        return False
+    return bool(_HPGL_START.match(head))
 #: Instructions a sender may pass on unchanged: they set nothing the moves depend on.
 _PASSED = {"DF", "PS", "OI", "OS", "OE", "OA", "OH", "OP", "OW", "OC", "CS", "CA", "SS", "SA", "LT", "DT"}
 #: Instructions that change how coordinates map to the paper or draw shapes: not translated.
@@ -153,8 +172,16 @@ class Hpgl(Firmware):
     initialised_bit = protocol.STATUS_INITIALIZED
     abort_bytes = protocol.ABORT_GRAPHICS
     lift_command = b"PU;"
+    #: Bytes of the input buffer never filled: a 7475A filled to exactly the free space ESC.B
+    #: reported overflowed (ESC.E 16) while 4 bytes of slack did not (hpgl-buddy's hardware
+    #: notes); the manual says to allow room for the overshoot, and the plotter's own XON
+    #: threshold is 128 bytes. A small buffer keeps an eighth of itself.
+    buffer_reserve = 128
+
+    def reserve(self, size: int) -> int:
+        """Bytes of a ``size``-byte buffer a sender leaves free."""
+        return min(self.buffer_reserve, size // 8)
     park_command = b"PU;SP0;"
-    unit_mm = protocol.UNIT_MM
 
     def frame(self, command: str, number: int = 0) -> bytes:
         return command.encode("ascii")

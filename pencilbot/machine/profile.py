@@ -128,10 +128,12 @@ class Paper:
     """Where the sheet lies against machine (0, 0): ``offset`` mm from its bottom-left corner
     (a plotter such as the HP 7475A whose hard-clip limits lie inside the sheet), and how many
     pens the plotter's ``carousel`` holds (HP-GL ``SP 1..n``; a plan with more pens pauses for
-    each pen put in by hand)."""
+    each pen put in by hand), and the length of its plotter unit (``unit_mm``: HP-GL's 0.025 mm,
+    the HP 7470A's; the HP 7475A's own manual gives 0.02488 mm, about 40.2 units per mm)."""
 
     offset: tuple[float, float] = (0.0, 0.0)
     carousel: int = 6
+    unit_mm: float = 0.025
 
 
 @dataclass(frozen=True)
@@ -246,6 +248,7 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
             lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
             lambda value: (float(value[0]), float(value[1]))),
         "carousel": schema.whole(1, 32, "pens the carousel holds"),
+        "unit_mm": schema.number(0.001, 1.0, unit="mm per plotter unit", as_given=True),
     }),
     "pen_change": (PenChange, {
         "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(
@@ -261,9 +264,11 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
         "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
         "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
-        "servo_rate_up": schema.whole(0, 65535, "servo units per 24 ms"),
-        "servo_rate_down": schema.whole(0, 65535, "servo units per 24 ms"),
+        "servo_rate_up": schema.whole(0, 65535, "servo units per PWM period"),
+        "servo_rate_down": schema.whole(0, 65535, "servo units per PWM period"),
         "min_move_ms": schema.number(0, 100, unit="ms", as_given=True),
+        "servo_pin": schema.whole(0, 7, "port B pin of the pen servo (1 standard, 2 narrow-band)"),
+        "servo_channels": schema.whole(1, 8, "servo channels (SC,8): 8 standard, 1 narrow-band"),
     }),
 }
 

@@ -30,7 +30,7 @@ from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
 
 PROFILE = "hp7475a"
-UNIT = 0.025
+UNIT = load_profile(PROFILE).paper.unit_mm  # mm per plotter unit
 TICK = "tick=0.1"  # plotter seconds per ESC.B: the buffer (1024 bytes) stays full while streaming
 _names = itertools.count()
 
