@@ -103,6 +103,7 @@ COMMANDS: dict[str, Spec] = {
     "QR": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QM": Spec((), 0, reply="data", ending="\n\r"),
     "QT": Spec((), 0, reply="data_ok"),
+    "QC": Spec((), 0, reply="data_ok"),
 }
 #: Replies whose legacy form repeats the command's name (``QM,0,0,0,0``, ``QU,32``).
 NAMED_LEGACY = ("QM", "QU")
@@ -254,6 +255,7 @@ def read_reply(name: str, lines: list[str], *, future: bool) -> Reply:
 _DATA = {name: re.compile(pattern) for name, pattern in {
     "QG": r"[0-9A-Fa-f]{2}", "QS": r"-?\d+,-?\d+", "QE": r"\d+,\d+", "ES": r"[01]", "QP": r"[01]",
     "QB": r"[01]", "QR": r"[01]", "V": r"EBB.*|UBW.*", "QM": r"QM,\d,\d,\d,\d", "QU": r"QU,.*",
+    "QC": r"\d{1,4},\d{1,4}",
 }.items()}
 
 

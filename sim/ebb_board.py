@@ -30,6 +30,10 @@ from sim.ebb_run import Run as _Run
 from sim.ebb_run import typed as _typed
 
 BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
+#: QC's V+ reading: 10-bit counts of 3.3 V after the board's 1/9.2 divider and a 0.3 V diode drop
+#: (EBB reference, QC; boards v2.3 and newer).
+V_PLUS_SCALE, DIODE_DROP = 1023 / 3.3 / 9.2, 0.3
+REF_RA0 = 0.9 * 1023 / 3.3  # QC's RA0 reading: the motor current setpoint's 0.9 V (0.5 A)
 _GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 
@@ -58,6 +62,8 @@ class EbbBoard:
         self.faults = faults.at if faults is not None else {}
         self.operator = operator
         self.link_dropped = False
+        self.supply = 12.0  # V at the power jack (0: unplugged; QC reads it, the motors need it)
+        self.nickname = ""  # what QT answers (ST sets it on a real board, kept in flash)
         self.clock = 0.0
         self.busy_time = 0.0  # seconds something ran (for gap measurements)
         self.gaps: list[float] = []  # idle stretches of the queue once the first move ran
@@ -310,7 +316,10 @@ class EbbBoard:
         elif name == "QE":
             data = f"{self.enabled[0]},{self.enabled[1]}"
         elif name == "QT":
-            data = ""
+            data = self.nickname
+        elif name == "QC":
+            volts = max(self.supply - DIODE_DROP, 0.0)
+            data = f"{round(REF_RA0):04d},{min(round(volts * V_PLUS_SCALE), 1023):04d}"
         elif name == "QU":
             data = {2: str(protocol.FIFO_MAX), 3: str(self.fifo_size), 6: f"{len(self.fifo):02d}",
                     60: str(self.threshold)}.get(args[0], "0")
