@@ -61,7 +61,7 @@ class EbbControl(Control):
 
     def _set_pen(self, down: bool) -> None:
         pen = self.profile.pen
-        ms = max(int(round(1000 * (pen.down_delay if down else pen.up_delay))), 1)
+        ms = max(round(1000 * (pen.down_delay if down else pen.up_delay)), 1)
         self._do(f"SP,{0 if down else 1},{ms}")
         self._idle(ms / 1000)
 
@@ -97,7 +97,7 @@ class EbbControl(Control):
         if not (-1e-6 <= x + dx <= bed.width + 1e-6 and -1e-6 <= y + dy <= bed.height + 1e-6):
             raise PlotError(f"walking X{dx:g} Y{dy:g} mm from X{x:g} Y{y:g} (mm from home) would leave the "
                             f"{bed.width:g} x {bed.height:g} mm bed; nothing moved")
-        a, b = int(round(setup.steps_per_mm * dx)), int(round(setup.steps_per_mm * dy))
+        a, b = round(setup.steps_per_mm * dx), round(setup.steps_per_mm * dy)
         if not (a or b):
             return x, y
         motor = (abs(a + b), abs(a - b)) if setup.kinematics == "corexy" else (abs(a), abs(b))

@@ -60,9 +60,9 @@ class HpglControl(Control):
         if not down:
             self._send(b"PU;")
             return
-        if not self._send(b"PD;")[2]:  # no pen in the holder: take one from the carousel
-            if not self._send(f"SP{DEFAULT_SLOT};PD;".encode())[2]:
-                raise PlotError(f"the plotter lowered no pen: put a pen in carousel slot {DEFAULT_SLOT}")
+        # No pen in the holder: take one from the carousel.
+        if not self._send(b"PD;")[2] and not self._send(f"SP{DEFAULT_SLOT};PD;".encode())[2]:
+            raise PlotError(f"the plotter lowered no pen: put a pen in carousel slot {DEFAULT_SLOT}")
 
     def pen_state(self) -> bool:
         """From the pen flag of ``OA;``."""
@@ -83,7 +83,7 @@ class HpglControl(Control):
     def walk(self, dx: float, dy: float) -> tuple[float, float]:
         unit = self.firmware.unit_mm
         before = self._send(b"")
-        ux, uy = int(round(dx / unit)), int(round(dy / unit))
+        ux, uy = round(dx / unit), round(dy / unit)
         after = self._send(f"PR{ux},{uy};PA;".encode())
         if (after[0], after[1]) != (before[0] + ux, before[1] + uy):
             raise PlotError(f"the plotter did not walk X{dx:g} Y{dy:g} mm from X{before[0] * unit:g} "

@@ -9,7 +9,6 @@ from firmware_protocol import ebb as protocol
 from pencilbot.driver.port import LineReader
 from pencilbot.errors import PlotError
 
-
 #: QC's V+ reading (10-bit counts, 29.5 mV each after the board's divider) below which the motors
 #: have no usable power: about 7.4 V at the jack, the level AxiDraw's own software warns at.
 LOW_SUPPLY = 250
