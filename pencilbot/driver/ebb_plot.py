@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pencilbot.driver.bed_check import arc_geometry
-from pencilbot.driver.ebb_link import EbbFault, EbbLink
+from pencilbot.driver.ebb_link import LOW_SUPPLY, EbbFault, EbbLink, check_supply, greet, version_at_least
 from pencilbot.driver.faults import Interrupted
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
@@ -40,7 +40,7 @@ from pencilbot.firmware.ebb import MICROSTEPS
 from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
 from pencilbot.units import MM_PER_INCH
 
-POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
+POWER_THRESHOLD = LOW_SUPPLY  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
 #: Commands the motion FIFO holds on firmware 3.x (CU,4): 16 moves of the 4 ms minimum keep the
 #: motors busy through a 64 ms stall of the host or the USB link.
 FIFO_DEPTH = 16
@@ -261,12 +261,8 @@ def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[in
     """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
     (None: unknown) and, for a resume, the job line to go on from. A resume whose position is
     lost is re-zeroed with ``operator`` (:mod:`pencilbot.driver.ebb_rezero`), or refused."""
-    link.reader.write(b"\r")  # ends any half command left by another program
-    time.sleep(0.05)
-    link.reader.discard_input()
-    link.status()
-    link.future = link.last_lines[0].startswith("QG,")  # a board left in future syntax (CU,10,1)
-    version = link.version = (link.command("V").data or "").strip()
+    version = greet(link)
+    check_supply(link, version)  # a board without motor power: one line, nothing sent
     start = None
     if resumed is not None:
         link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
@@ -327,15 +323,6 @@ def _motors_held(link: EbbLink, profile) -> bool:
     except (EbbFault, ValueError):
         return False
     return states == [MICROSTEPS[profile.ebb.microstep_mode]] * 2
-
-
-def version_at_least(text: str, wanted: tuple[int, int]) -> bool:
-    """Whether an EBB version string (``... Firmware Version 3.0.3``) is at least ``wanted``."""
-    try:
-        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[:2])
-    except ValueError:
-        return False
-    return numbers >= wanted
 
 
 def _pause(link: EbbLink, operator, bar, reason: str) -> None:

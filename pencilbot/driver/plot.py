@@ -20,6 +20,7 @@ from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.driver.stream import Stream
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.machine.profile_edit import profile_with
 
 
 def draw(
@@ -42,6 +43,7 @@ def draw(
     operator=None,
     keys=None,
     on_progress: Callable[[dict], None] | None = None,
+    overrides: dict[str, dict[str, float]] | None = None,
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -93,6 +95,10 @@ def draw(
         whatever ``progress`` is), a progress record also saying where the machine is:
         ``running`` the file line it is drawing (located from its reported position on the
         lines sent, as a stop is; absent when not found) and ``xy`` its work position (mm).
+    overrides : dict, optional
+        Profile values for this run only, by table (``{"motion": {"draw_feed": 2000}}``, as
+        :func:`~pencilbot.machine.profile_edit.profile_with` takes them); a resume runs with the
+        stopped job's.
 
     Raises
     ------
@@ -109,6 +115,10 @@ def draw(
     if Path(profile).suffix.lower() == ".toml":
         profile = str(Path(profile).resolve())  # the journal's resume works from any folder
     plotter = load_profile(profile)
+    if overrides is None and journal is not None:
+        overrides = (journal.options or {}).get("overrides")
+    if overrides:  # this run's speeds, pen heights, delays (checked as a profile file's are)
+        plotter = profile_with(plotter, overrides, where="draw options")
     fw = plotter.firmware
     baud = baud or fw.baud
     if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
@@ -141,7 +151,8 @@ def draw(
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
         journal.options = {**(journal.options or {}),  # (an EBB stop keeps its step counters here)
-                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
+                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error,
+                           **({"overrides": overrides} if overrides else {})}
 
     if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
         from pencilbot.driver.ebb_plot import draw_ebb

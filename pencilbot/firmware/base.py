@@ -184,6 +184,21 @@ class Firmware:
         touching the job's modal state ("" when the firmware has no such command)."""
         return ""
 
+    # --- at the plotter (pencilbot.driver.control) -------------------------------------------
+
+    #: Lines that switch the stepper motors off (the carriage moves freely) and on again ("" when
+    #: the firmware has none: GRBL releases them by its idle delay, :attr:`idle_hold_setting`).
+    motors_off_command: str = ""
+    motors_on_command: str = ""
+    #: The ``$`` setting whose value 255 keeps the motors on at rest and any other value releases
+    #: them that many ms after each move (GRBL's step idle delay, ``$1``); None without one.
+    idle_hold_setting: int | None = None
+
+    def origin_move(self, feed: float) -> str:
+        """The line that takes the carriage to machine 0, 0 (where it started, on a machine without
+        homing switches) at ``feed`` mm/min ("" when the firmware cannot)."""
+        return ""
+
     # --- writing G-code -------------------------------------------------------------------
 
     def dwell(self, seconds: float) -> str:

@@ -53,6 +53,11 @@ class Grbl(Firmware):
     def jog(self, dx: float, dy: float, feed: float) -> str:
         return f"$J=G91G21X{dx:.4f}Y{dy:.4f}F{feed:g}"  # relative, mm: the job's G90/G20 untouched
 
+    idle_hold_setting = 1  # $1, step idle delay: 255 keeps the motors on at rest
+
+    def origin_move(self, feed: float) -> str:
+        return f"$J=G53G21X0Y0F{feed:g}"  # machine coordinates, the job's modal state untouched
+
     def check_lines(self, job) -> tuple[int, str] | None:
         a = np.frombuffer(job.frames, dtype=np.uint8)
         line_of = lambda at: np.searchsorted(job.offsets, at, side="right") - 1  # noqa: E731

@@ -33,6 +33,11 @@ class Marlin(Firmware):
     wake_bytes = b"\n"
     drain_command = "M400"  # returns once every queued move has run
     home_command = "G28XY"
+    motors_off_command = "M18"  # (M84 is the same) the steppers let go until the next move
+    motors_on_command = "M17"
+
+    def origin_move(self, feed: float) -> str:
+        return f"G0X0Y0F{feed:g}"
 
     def set_origin(self, x: float, y: float, z: str = "") -> str:
         return f"G92X{x:.4f}Y{y:.4f}{z}"  # Marlin's work offset: the position reads x, y
