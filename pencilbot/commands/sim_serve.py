@@ -16,6 +16,7 @@ from pencilbot.commands.options import (
     add_verbosity,
     number,
 )
+from pencilbot.driver.stop_signals import STOP_SIGNALS
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import check_writable
 from pencilbot.units import DEFAULT_PEN_WIDTH
@@ -33,7 +34,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "a terminal). The board behaves like a real GRBL board on an Arduino: opening the port "
             "resets it, and its position restarts at 0,0,0 (--power keep and --abort keep make it "
             "forgiving). After a dropped link (the drop fault) it comes back on a new pty, whose path "
-            "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
+            "is printed. Runs until Ctrl-C, SIGTERM or SIGHUP, then saves what was drawn if -o is given."
         ),
     )
     add_profile_option(parser, "GRBL, grblHAL, HP-GL or EBB (axidraw-v3, ...) plotter profile")
@@ -86,8 +87,10 @@ def run(args: argparse.Namespace) -> int:
     server = PtyServer(plotter, reset_on_open=not args.no_reset and resets,
                        on_new_path=lambda path: print(path, flush=True))
     print(server.path, flush=True)
-    # A closed terminal or a kill ends the session like Ctrl-C does: the drawing is saved.
-    for signum in (signal.SIGTERM, signal.SIGHUP):
+    # Every stop signal (Ctrl-C, a kill, a closed terminal, Ctrl-\) ends the session and saves its
+    # drawing, even one the process was started ignoring (a script's background job ignores
+    # SIGINT): a virtual board has no plot to keep going, only its drawing to lose.
+    for signum in STOP_SIGNALS:
         signal.signal(signum, lambda *_: server.stop())
     try:
         server.serve_forever()

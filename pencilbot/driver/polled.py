@@ -26,21 +26,23 @@ it has run (a sync point), puts the pen away and asks for the pen to be put in i
 
 from __future__ import annotations
 
-import signal
 import threading
 import time
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
+from pencilbot.driver import stop_signals
 from pencilbot.driver.polled_link import (
     POLL_PAUSE,
     Answers,
     Lost,
     Moved,
     Silent,
+    Stopped,
     check_initialised,
     check_point,
     drain,
@@ -52,9 +54,6 @@ from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.errors import PlotError
 from pencilbot.machine.motion import axis_scale, move_times
-
-_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
-_SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 
 
 def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_arg: str, baud: int | None,
@@ -116,7 +115,8 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     done0 = seconds[start - 1] if start else 0.0
     stop = threading.Event()
     why: list[str] = []
-    restore = _catch_signals(stop, why)
+    signals = ExitStack()  # closed last, in the finally: a signal during the stop is noted, not obeyed
+    signals.enter_context(stop_signals.caught(_on_signal(stop, why)))
     began = time.monotonic()
     link = None
     sent = floor = start
@@ -175,7 +175,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 in_sent, floor = False, sent
                 continue
             if stop.is_set():
-                raise _Stop()
+                raise Stopped()
             if keys is not None and _keys_say_pause(keys, stop, why):
                 at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
                 if at is None:
@@ -197,7 +197,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
                 if operator is None and keys is None:
                     why.append(f"a pen change ({changes[sent]}) with nobody at the terminal to do it")
-                    raise _Stop()
+                    raise Stopped()
                 _hold(operator, keys, stop, why, shown, f"paused: {changes[sent]}")
                 paused_at = sent
                 continue
@@ -234,7 +234,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        drain(link, fw, program, checkpoints, len(program), floor, timeout, in_sent)
+        drain(link, fw, program, checkpoints, len(program), floor, timeout, in_sent, stop)
         # A reset after everything was sent leaves the pen at home, pen up: where many programs end.
         check_initialised(link, fw, timeout, len(program), in_sent)
         if journal is not None and journal.path is not None:
@@ -243,7 +243,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         shown.close("done")
         finished = True
         return DrawResult(lines_sent=len(program) - start, seconds=time.monotonic() - began)
-    except _Stop:
+    except Stopped:
         assert link is not None
         at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
         _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
@@ -264,17 +264,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     finally:
         if not finished:
             shown.close("stopped")
-        restore()
+        signals.close()
         if link is not None:
             try:
                 link.port.close()
             except Exception:  # noqa: BLE001 - a vanished port may fail to close
                 pass
     raise AssertionError("unreachable")
-
-
-class _Stop(Exception):
-    pass
 
 
 def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
@@ -284,7 +280,7 @@ def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
         if not why:
             why.append("the stop key")
         stop.set()
-        raise _Stop()
+        raise Stopped()
     return "pause" in requests
 
 
@@ -296,10 +292,10 @@ def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: 
     else:
         while not _keys_say_pause(keys, stop, why):
             if stop.is_set():
-                raise _Stop()
+                raise Stopped()
             time.sleep(0.05)
     if stop.is_set():
-        raise _Stop()
+        raise Stopped()
 
 
 def _settle(link, fw, program, checkpoints, sent, floor, timeout, in_sent: bool) -> None:
@@ -398,21 +394,16 @@ def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None,
     raise PlotError(f"{name}: {why}; {state}; {how}")
 
 
-def _catch_signals(stop: threading.Event, why: list[str]):
-    """Ctrl-C, SIGTERM and SIGHUP set ``stop`` (main thread only); returns the undo."""
-    if threading.current_thread() is not threading.main_thread():
-        return lambda: None
-    old = {}
+def _on_signal(stop: threading.Event, why: list[str]):
+    """A handler for :func:`~pencilbot.driver.stop_signals.caught`: the first signal says why,
+    each sets ``stop`` (the stream stops at its next poll)."""
 
-    def handler(signum, _frame):
+    def handler(by: str) -> None:
         if not why:
-            why.append(_SIGNAL_NAMES.get(signum, f"signal {signum}"))
+            why.append(by)
         stop.set()
 
-    for signum in _STOP_SIGNALS:
-        if signum is not None:
-            old[signum] = signal.signal(signum, handler)
-    return lambda: [signal.signal(s, h) for s, h in old.items()]
+    return handler
 
 
 def _seconds_after(program, plotter) -> np.ndarray:

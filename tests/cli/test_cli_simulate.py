@@ -273,6 +273,27 @@ def test_sim_serve_saves_its_drawing_on_sigterm(tmp_path):
     assert "12 lines accepted" in stdout and ink(out).max() > 0.5
 
 
+def test_sim_serve_stops_on_sigint_even_started_ignoring_it(tmp_path):
+    # A script's background job starts with SIGINT ignored; sim-serve still ends on it, saving
+    # its drawing (before, it went on serving and the test's child was left running).
+    out = tmp_path / "served.png"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    try:
+        stream(proc.stdout.readline().strip(), SQUARE.splitlines())
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, stderr
+    assert "12 lines accepted" in stdout and ink(out).max() > 0.5
+
+
 def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
     out = tmp_path / "served.png"
     proc, path = serve(tmp_path, "--faults", "drop@3", "-o", str(out))
