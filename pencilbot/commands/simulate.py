@@ -33,7 +33,7 @@ from pencilbot.commands.options import (
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.driver.job import gcode_blocks, read_gcode
-from pencilbot.errors import PencilbotError
+from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
 from pencilbot.machine.pens import load_pens
@@ -186,7 +186,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     """The program for ``source`` (G-code, or HP-GL for an HP-GL plotter), the pen width (mm) to
     render it with, and for an HP-GL colour plan its pens by carousel slot (else empty)."""
     if not source.is_file():
-        raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
+        raise PencilbotError(no_such_file(source, "a G-code file, a plan .svg or a photo"))
     if source.suffix.lower() in GCODE_SUFFIXES:
         # Read as draw reads it (any text in comments; a command that is not ASCII is refused
         # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
