@@ -19,7 +19,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
+from pencilbot.commands.common import PLOT_DPI, check_render, output_beside, plan_for_input, reorder_drawing
 from pencilbot.commands.options import (
     MAX_DPI,
     MIN_DPI,
@@ -58,7 +58,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
-    parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
+    parser.add_argument("-o", "--output", metavar="PLOT.png", help="PNG to write (default: INPUT-plot.png beside it)")
     add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
     parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
@@ -70,7 +70,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    source, output = Path(args.input), Path(args.output)
+    source, output = Path(args.input), output_beside(args, "plot", ".png")
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
     import sim

@@ -144,3 +144,33 @@ def test_sim_serve_and_the_docs_list_every_fault_kind():
     notes = (Path(__file__).resolve().parents[2] / "docs" / "firmware.md").read_text(encoding="utf-8")
     for kind in FAULT_KINDS:
         assert kind in helped and f"`{kind}@" in notes, kind
+
+
+def test_every_command_that_writes_a_file_takes_o_and_has_a_default():
+    for command in ("sketch", "plan", "optimize", "stat", "export", "simulate", "sim-serve", "demo"):
+        parser = build_parser(only=command.replace("-", "_"))._subparsers._group_actions[0].choices[command]
+        output = [a for a in parser._actions if "--output" in a.option_strings]
+        if command == "stat":
+            assert not output  # it prints
+            continue
+        assert output and output[0].option_strings == ["-o", "--output"] and not output[0].required, command
+
+
+def test_without_o_the_output_goes_beside_the_input_named_for_what_it_is(tmp_path, capsys):
+    from skimage import data
+    from skimage import io as skio
+
+    photo = tmp_path / "cat.png"
+    skio.imsave(photo, data.camera()[::16, ::16])
+    job = _gcode(tmp_path)
+    for argv, written in (
+        (["sketch", str(photo), "-q"], "cat-sketch.png"),
+        (["plan", str(photo), "--page", "60x60", "-q"], "cat.svg"),
+        (["optimize", str(tmp_path / "cat.svg"), "-q"], "cat-optimized.svg"),
+        (["simulate", str(job), "--dpi", "20", "-q"], "job-plot.png"),
+    ):
+        assert main(argv) == 0, capsys.readouterr().err
+        assert (tmp_path / written).is_file(), argv
+    # The default never replaces an input: a photo named like a sketch gets its own name.
+    assert main(["sketch", str(tmp_path / "cat-sketch.png"), "-q"]) == 0
+    assert (tmp_path / "cat-sketch-sketch.png").is_file()
