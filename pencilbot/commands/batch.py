@@ -100,6 +100,14 @@ def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[s
     return distinct([out / f"{p.stem}{suffixes[0]}" for p in inputs.paths], inputs.paths)
 
 
+def outputs_or_beside(inputs: Inputs, output: str | None, *, what: str, suffixes: Sequence[str]) -> list[Path]:
+    """:func:`output_paths` of ``-o``; without one, each input's result beside it, named as the
+    input with ``suffixes[0]`` (``photo.jpg`` → ``photo.svg``)."""
+    if output is None:
+        return distinct([p.with_suffix(suffixes[0]) for p in inputs.paths], inputs.paths)
+    return output_paths(inputs, output, what=what, suffixes=suffixes)
+
+
 def make_folders(paths: Sequence[Path | None]) -> None:
     """Create the folders :func:`output_paths` named but that do not exist yet."""
     for folder in {p.parent for p in paths if p is not None}:

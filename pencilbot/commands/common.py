@@ -66,6 +66,16 @@ def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
     refuse_overwriting_inputs(list(named(_INPUT_OPTIONS)), [*named(_OUTPUT_OPTIONS), *outputs])
 
 
+def output_beside(args: argparse.Namespace, kind: str, suffix: str) -> Path:
+    """``-o`` if given, else the output beside the input named for what it is (``photo.jpg`` →
+    ``photo-sketch.png``), checked as a given one is: never one of the inputs."""
+    if args.output is None:
+        source = Path(args.input)
+        args.output = str(source.with_name(f"{source.stem}-{kind}{suffix}"))
+        refuse_overwriting(args)
+    return Path(args.output)
+
+
 def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
     """The plan of ``path``: a photo planned with the photo options, or an SVG (:func:`read_drawing`).
 

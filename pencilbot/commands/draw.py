@@ -23,7 +23,7 @@ from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
 from pencilbot.driver.session import DEFAULT_TIMEOUT
-from pencilbot.errors import PencilbotError, PlotError
+from pencilbot.errors import PencilbotError, PlotError, RefusedError
 from pencilbot.machine.profile import default_profile, load_profile
 
 
@@ -80,16 +80,16 @@ def run(args: argparse.Namespace) -> int:
     if gcode is not None and Path(gcode).suffix.lower() in NOT_GCODE:
         out = Path(gcode).with_suffix(_suffix_for(args.profile))
         profile = f" --profile {args.profile}" if args.profile else ""
-        raise PlotError(
+        raise RefusedError(
             f"{gcode} is a picture, not G-code; make the G-code first (and look at it with "
             f"pencilbot simulate), then draw it: pencilbot export {gcode} -o {out}{profile} && "
             f"pencilbot draw {out} --port {args.port or 'PORT'}{profile}"
         )
     port = args.port or (journal.port if journal else None)
     if gcode is None:
-        raise PlotError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
+        raise RefusedError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
     if port is None:
-        raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
+        raise RefusedError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     if svg:  # drawn directly: exported for the profile (its layer, this run's values) into the user folder
         gcode = _export_svg(args, Path(gcode))
     if journal is None and args.start_line is None and not args.restart:
@@ -184,10 +184,10 @@ def _check_file_kind(path: Path, profile: str | None) -> None:
     hpgl_file = path.suffix.lower() in HPGL_SUFFIXES
     if hpgl_file and not hpgl_profile:
         names = [n for n in list_profiles() if getattr(load_profile(n).firmware, "flow", "") == "polled"]
-        raise PlotError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
+        raise RefusedError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
                         f"--profile {' or '.join(names) or 'NAME'}")
     if hpgl_profile and not hpgl_file:
-        raise PlotError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
+        raise RefusedError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
                         f"export the drawing for it: pencilbot export DRAWING.svg -o {path.with_suffix('.hpgl').name} "
                         f"--profile {profile}")
 
@@ -248,7 +248,7 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
         # draw over what is on the paper, so that takes --restart too.
         if "--restart" in str(err):
             raise
-        raise PlotError(f"{err}; or draw {gcode} again from line 1 with --restart") from None
+        raise RefusedError(f"{err}; or draw {gcode} again from line 1 with --restart") from None
     if journal.status in ("stopped", "running"):  # "running": the sender itself was killed
         how = journal.resume or f"pencilbot draw --resume {path} --port {journal.port}"
         why = f" ({journal.message})" if journal.message else ""
@@ -257,4 +257,4 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
                      f"{journal.next_line}; if no pencilbot is drawing it")
         else:
             state = f"stopped at line {journal.next_line}{why}; drawing it again would draw over what is on the paper."
-        raise PlotError(f"the job of {gcode} {state} Resume it with: {how} — or start over with --restart")
+        raise RefusedError(f"the job of {gcode} {state} Resume it with: {how} — or start over with --restart")

@@ -11,9 +11,8 @@ from pencilbot.commands.batch import (
     Inputs,
     add_jobs_option,
     collect_inputs,
-    distinct,
     make_folders,
-    output_paths,
+    outputs_or_beside,
     run_batch,
 )
 from pencilbot.commands.common import photo_pens, photo_style, plan_for_input, reorder_drawing
@@ -76,10 +75,8 @@ def file_suffixes(profile: Profile) -> tuple[str, ...]:
 
 def _outputs(inputs: Inputs, output: str | None, suffixes: tuple[str, ...] = GCODE_SUFFIXES) -> list[Path]:
     """The G-code (or HP-GL) file each input becomes (beside it when no -o is given)."""
-    if output is None:
-        return distinct([p.with_suffix(suffixes[0]) for p in inputs.paths], inputs.paths)
-    outputs = output_paths(inputs, output, what="output", suffixes=suffixes)
-    if inputs.batch:
+    outputs = outputs_or_beside(inputs, output, what="output", suffixes=suffixes)
+    if output is not None and inputs.batch:
         make_folders(outputs)
     return outputs
 

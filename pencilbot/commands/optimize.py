@@ -7,7 +7,7 @@ import dataclasses
 import json
 from pathlib import Path
 
-from pencilbot.commands.common import change_summary, read_drawing, reorder_on
+from pencilbot.commands.common import change_summary, output_beside, read_drawing, reorder_on
 from pencilbot.commands.options import add_profile_option, add_svg_options, add_verbosity, number
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
@@ -31,7 +31,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="IN.svg", help="SVG drawing")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.svg", help="SVG to write")
+    parser.add_argument("-o", "--output", metavar="OUT.svg", help="SVG to write (default: IN-optimized.svg beside it)")
     add_profile_option(parser, "plotter profile for home, speeds and delays")
     parser.add_argument("--rounds", type=number("--rounds", low=0, high=MAX_ROUNDS, whole=True), default=REORDER_ROUNDS, metavar="N",
                         help="improvement passes per layer: more shortens pen-up a little more, slower "
@@ -43,7 +43,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    source, output = Path(args.input), Path(args.output)
+    source, output = Path(args.input), output_beside(args, "optimized", ".svg")
     for path, what in ((source, "input"), (output, "output")):
         if path.suffix.lower() != ".svg":
             raise PencilbotError(f"the {what} {path} is not an .svg file; optimize reorders SVG drawings "

@@ -20,6 +20,7 @@ from pencilbot.driver.stop_signals import STOP_SIGNALS
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import check_writable
 from pencilbot.units import DEFAULT_PEN_WIDTH
+from sim.faults import FAULT_KINDS
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -41,7 +42,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_realtime_option(parser)
     parser.add_argument("--baud", type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"), default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
-                        help="inject faults: error@K[:N], alarm@K, silent@K, drop@K, reset@K, garbage@K")
+                        help=f"inject faults, KIND@K (at the K-th line the board takes): KIND one of "
+                             f"{', '.join(FAULT_KINDS)}; error@K:N gives error N, interrupt@K:SIG a signal, and "
+                             "hold and interrupt also strike at a moment of the simulated clock (interrupt@1.45s)")
     # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
     parser.add_argument("--power", choices=("zero", "keep"), default="zero",
                         help="what a power-up or port-open reset does to the position (default zero)")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
+from pencilbot.commands.common import PLOT_DPI, check_render, output_beside, plan_for_input, reorder_drawing
 from pencilbot.commands.options import (
     MAX_DPI,
     MIN_DPI,
@@ -33,7 +33,7 @@ from pencilbot.commands.options import (
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.driver.job import gcode_blocks, program_blocks, read_gcode
-from pencilbot.errors import PencilbotError
+from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
 from pencilbot.firmware.hpgl import looks_like_hpgl
@@ -59,7 +59,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
-    parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
+    parser.add_argument("-o", "--output", metavar="PLOT.png", help="PNG to write (default: INPUT-plot.png beside it)")
     add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
     parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
@@ -71,7 +71,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    source, output = Path(args.input), Path(args.output)
+    source, output = Path(args.input), output_beside(args, "plot", ".png")
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
     import sim
@@ -212,7 +212,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     """The program for ``source`` (G-code, or HP-GL for an HP-GL plotter), the pen width (mm) to
     render it with, and for an HP-GL colour plan its pens by carousel slot (else empty)."""
     if not source.is_file():
-        raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
+        raise PencilbotError(no_such_file(source, "a G-code file, a plan .svg or a photo"))
     if source.suffix.lower() in GCODE_SUFFIXES:
         # Read as draw reads it (any text in comments; a command that is not ASCII is refused
         # by line; a line over a megabyte as it is read), but as a program: a simulation keeps

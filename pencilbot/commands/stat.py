@@ -95,7 +95,9 @@ def format_table(stats: PlanStats) -> str:
     header = ("layer", "pen-down", "pen-up", "lifts", "paths", "segments", "time")
     rows = [_row(name, s) for name, s in stats.layers.items()] + [_row("total", stats.total)]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = lambda r: "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))  # noqa: E731
+    def line(r):
+        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
+
     return "\n".join([line(header), *(line(r) for r in rows[:-1]), line(["-" * w for w in widths]), line(rows[-1])])
 
 

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pencilbot.errors import OutOfBedError, PlotError
+from pencilbot.errors import OutOfBedError, RefusedError
 from pencilbot.units import MM_PER_INCH
 
 if TYPE_CHECKING:  # the job module feeds the watch: no import at run time
@@ -202,7 +202,7 @@ def check_resumable(job: Job, start: int) -> None:
     """
     if start <= 0 or start >= len(job) or job.state_after(start - 1).frames.plain:
         return
-    raise PlotError(
+    raise RefusedError(
         f"line {job.number(start)} of {job.source} comes after lines that change the work coordinates "
         "(G92, G10, G54-G59), which a resume cannot restore; nothing was sent. Draw the file from its "
         "start (a stopped job: --restart), or split it where the coordinates are machine coordinates"

@@ -21,7 +21,7 @@ import numpy as np
 from pencilbot.driver.bed_check import BedWatch
 from pencilbot.driver.markers import without_markers
 from pencilbot.driver.modal import ModalState, Track, track
-from pencilbot.errors import PlotError
+from pencilbot.errors import RefusedError, no_such_file
 from pencilbot.machine.profile import Profile
 
 #: Lines between stored modal states: a state is at most this many lines of tracking away.
@@ -148,9 +148,9 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         try:
             handle = path.open("rb")
         except FileNotFoundError:
-            raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
+            raise RefusedError(no_such_file(path, "the path of a .gcode file")) from None
         except OSError as exc:
-            raise PlotError(f"cannot read G-code file {path} ({exc})") from None
+            raise RefusedError(f"cannot read G-code file {path} ({exc})") from None
         with handle:
             job = _prepare(_blocks(iter(lambda: handle.read(_READ_BLOCK), b""), source), profile, source)
     elif isinstance(gcode, bytes):
@@ -159,7 +159,7 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         program = "".join(f"{line}\n" for line in gcode).encode("utf-8", errors="replace")
         job = _prepare(_blocks(_pieces(program), source or "<lines>"), profile, source or "<lines>")
     if not len(job):
-        raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
+        raise RefusedError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
     return job
 
 
@@ -184,9 +184,9 @@ def gcode_blocks(path: str | Path) -> Iterator[bytes]:
         with path.open("rb") as handle:
             yield from _blocks(iter(lambda: handle.read(_READ_BLOCK), b""), str(path))
     except FileNotFoundError:
-        raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
+        raise RefusedError(no_such_file(path, "the path of a .gcode file")) from None
     except OSError as exc:
-        raise PlotError(f"cannot read G-code file {path} ({exc})") from None
+        raise RefusedError(f"cannot read G-code file {path} ({exc})") from None
 
 
 def program_blocks(program: bytes) -> Iterator[bytes]:
@@ -215,7 +215,7 @@ def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]
             start = end
         rest = data[start:]
         if len(rest) > MAX_FILE_LINE:
-            raise PlotError(
+            raise RefusedError(
                 f"line {lines + 1} of {source} is longer than {MAX_FILE_LINE >> 20} MB (a G-code line holds at most a "
                 "few hundred characters, comments included); is it a G-code file?")
     if rest:
@@ -299,11 +299,11 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
 def _check(job: Job) -> None:
     """Refuse binary files and lines the firmware cannot take, naming the file line."""
     if b"\x00" in job.frames:
-        raise PlotError(
+        raise RefusedError(
             f"{job.source} is not G-code text (it holds NUL bytes, as binary files do); give the "
             ".gcode file that pencilbot export wrote"
         )
     refused = job.profile.firmware.check_lines(job)
     if refused is not None:
         index, reason = refused
-        raise PlotError(f"line {job.number(index)} of {job.source}: {reason}")
+        raise RefusedError(f"line {job.number(index)} of {job.source}: {reason}")

@@ -18,7 +18,7 @@ from pencilbot.driver.port import LineReader, open_port, sim_url
 from pencilbot.driver.runner import DrawResult, Runner
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.driver.stream import Stream
-from pencilbot.errors import PlotError
+from pencilbot.errors import RefusedError
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.machine.profile_edit import profile_with
 
@@ -125,7 +125,7 @@ def draw(
         return _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
                             operator, keys)
     if check and not fw.capabilities.check_mode:
-        raise PlotError(
+        raise RefusedError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
             f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
         )
@@ -140,7 +140,7 @@ def draw(
         start, stop_xy = job.index_of(journal.next_line), journal.stop_xy
     elif start_line is not None:
         if not 1 <= start_line <= job.total_lines:
-            raise PlotError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
+            raise RefusedError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
         start = job.index_of(start_line)
     check_resumable(job, start)  # a resume restores no work offset the file set up
     if path is not None and journal is None:
@@ -184,7 +184,7 @@ def _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeo
         try:
             data = path.read_bytes()
         except OSError as exc:
-            raise PlotError(f"cannot read {path} ({exc.strerror or exc})") from None
+            raise RefusedError(f"cannot read {path} ({exc.strerror or exc})") from None
     else:
         data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
     start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)

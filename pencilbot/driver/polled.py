@@ -52,7 +52,7 @@ from pencilbot.driver.polled_link import (
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
-from pencilbot.errors import PlotError
+from pencilbot.errors import PlotError, RefusedError
 from pencilbot.machine.motion import axis_scale, move_times
 
 
@@ -96,13 +96,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     try:
         program, changes = fw.program(data).in_carousel(plotter.paper.carousel)
     except ValueError as exc:
-        raise PlotError(f"{name}: {exc}") from None
+        raise RefusedError(f"{name}: {exc}") from None
     _check_limits(program, plotter, fw, name)
     resuming = journal is not None
     # A resume may start past the last move: everything was sent, and the stop (a plotter that
     # lost its buffer) is found on the sheet among what was sent.
     if not 0 <= start < max(len(program) + resuming, 1):
-        raise PlotError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
+        raise RefusedError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
     baud = baud or fw.baud
     if path is not None and journal is None:
         journal = journal_mod.Journal(gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port,

@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from pencilbot.errors import PencilbotError
+from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS
 from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
 from pencilbot.export.svg_straight import read_straight
@@ -87,7 +87,7 @@ def _read_bytes(path) -> bytes:
         with open(path, "rb") as handle:
             return handle.read()
     except FileNotFoundError:
-        raise PencilbotError(f"SVG file {path} does not exist; check the path") from None
+        raise PencilbotError(no_such_file(path, "the path of an .svg file")) from None
     except OSError as exc:
         raise PencilbotError(f"cannot read {path} ({exc.strerror}); check the path and its permissions") from None
 

@@ -68,7 +68,7 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["simulate", "{missing}", "-o", "{out}"], "does not exist"),
+        (["simulate", "{missing}", "-o", "{out}"], "no such file"),
         (["simulate", "{src}", "-o", "{tmp}/plot.jpg"], ".png"),
         (["simulate", "{src}", "-o", "{out}", "--profile", "marlin-servo-a4"], "GRBL"),
         (["simulate", "{src}", "-o", "{out}", "--profile", "nope"], "nope"),

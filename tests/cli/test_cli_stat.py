@@ -67,7 +67,7 @@ def test_table_lists_every_layer_and_the_total(plan_file):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["stat", "missing.svg"], "does not exist"),
+        (["stat", "missing.svg"], "no such file"),
         (["stat", "{plan}", "--profile", "no-such-plotter"], "no plotter profile"),
     ],
 )

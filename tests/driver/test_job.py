@@ -74,7 +74,7 @@ def test_a_file_is_read_in_blocks_and_checked_before_anything_is_sent(tmp_path, 
     path.write_bytes(b"G21\n\x00\x01\x02\n")
     with pytest.raises(PlotError, match="not G-code text"):
         load_job(path, GRBL)
-    with pytest.raises(PlotError, match="does not exist"):
+    with pytest.raises(PlotError, match="no such file"):
         load_job(tmp_path / "none.gcode", GRBL)
 
 

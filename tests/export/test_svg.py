@@ -141,7 +141,7 @@ def test_bad_svgs_are_user_errors(tmp_path, content, message):
 
 
 def test_missing_file_is_a_user_error(tmp_path):
-    with pytest.raises(PencilbotError, match="does not exist"):
+    with pytest.raises(PencilbotError, match="no such file"):
         read_svg(tmp_path / "none.svg")
 
 
