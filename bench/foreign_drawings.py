@@ -20,17 +20,13 @@ from pencilbot.planning.plan import Page
 from pencilbot.planning.style import load_style, with_overrides
 
 A4 = Page(210.0, 297.0, 15.0, "A4")
-SAMPLE_DATA = "matplotlib/mpl-data/sample_data"  # matplotlib's sample data, beside the installed package
 
 
 def _sample(name: str) -> Path:
-    import site
+    """A file of matplotlib's sample data (the ``bench`` extra installs matplotlib)."""
+    from matplotlib import cbook
 
-    for folder in site.getsitepackages():
-        path = Path(folder) / SAMPLE_DATA / name
-        if path.exists():
-            return path
-    raise FileNotFoundError(f"{name}: matplotlib's sample data (pip install matplotlib)")
+    return Path(cbook.get_sample_data(name, asfileobj=False))
 
 
 def _fit(grey: np.ndarray) -> Layout:
