@@ -216,16 +216,16 @@ def reorder_drawing(plan: Plan, source: Path, args: argparse.Namespace, profile)
     return reordered.plan, "reordered: " + change_summary(before.total, after.total, reordered.specks)
 
 
-def reorder_on(plan: Plan, profile, rounds: int | None = None):
+def reorder_on(plan: Plan, profile, rounds: int | None = None, time_budget: float | None = None):
     """``plan`` reordered from ``profile``'s home (a :class:`~pencilbot.planning.optimize.Reordering`),
     with the estimate before and after; ``rounds`` of improvement per layer (default: the
-    reordering's own)."""
+    reordering's own), within ``time_budget`` CPU seconds if given."""
     from pencilbot.machine.bed import Placement
     from pencilbot.planning.optimize import REORDER_ROUNDS, reorder_plan
     from pencilbot.planning.stats import estimate
 
     home = tuple(Placement.on_bed(plan.page, profile.bed).home())
-    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds)
+    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds, time_budget=time_budget)
     return reordered, estimate(plan, profile), estimate(reordered.plan, profile)
 
 

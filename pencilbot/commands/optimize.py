@@ -15,6 +15,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.planning.optimize import REORDER_ROUNDS
 
 MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
+MAX_TIME_BUDGET = 86_400.0  # a day of CPU
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -35,7 +36,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_profile_option(parser, "plotter profile for home, speeds and delays")
     parser.add_argument("--rounds", type=number("--rounds", low=0, high=MAX_ROUNDS, whole=True), default=REORDER_ROUNDS, metavar="N",
                         help="improvement passes per layer: more shortens pen-up a little more, slower "
-                             "(default %(default)s; a photo's plan gets 40)")
+                             "(default %(default)s, as a photo's plan; huge layers get fewer, at least 2)")
+    parser.add_argument("--time-budget", type=number("--time-budget", low=0, above=True, high=MAX_TIME_BUDGET, unit="s"),
+                        metavar="SECONDS", help="CPU seconds the reordering may take in all: huge layers then get as "
+                        "many rounds as fit (the order then depends on the machine's speed)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON (lengths in mm, time in s)")
     add_svg_options(parser, sheet=True)
     add_verbosity(parser)
@@ -50,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
                                  "(a photo becomes one with pencilbot plan)")
     profile = load_profile(args.profile)  # a bad profile fails before the file is read
     plan = read_drawing(source, args)
-    reordered, before, after = reorder_on(plan, profile, rounds=args.rounds)
+    reordered, before, after = reorder_on(plan, profile, rounds=args.rounds, time_budget=args.time_budget)
     result = reordered.plan
     if "source" not in result.meta:
         result = dataclasses.replace(result, meta={**result.meta, "source": str(source)})

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import random
+import time
 from typing import Any
 
 import numpy as np
@@ -35,14 +36,17 @@ def _scalars(array: np.ndarray) -> memoryview[Any]:
 
 
 class Work:
-    """Improvement work left, in the units of ``CALL_COST``."""
+    """Improvement work left, in the units of ``CALL_COST``; with a ``deadline`` (a
+    ``time.process_time()``) also the CPU time."""
 
-    def __init__(self, units: int) -> None:
+    def __init__(self, units: int, deadline: float | None = None) -> None:
         self.left = units
+        self.deadline = deadline
 
     def spend(self, units: int) -> bool:
         """Pay for a call doing ``units`` of work; False (and nothing paid) when the budget is out."""
-        if self.left <= 0:
+        if self.left <= 0 or (self.deadline is not None and time.process_time() >= self.deadline):
+            self.left = min(self.left, 0)
             return False
         self.left -= units + CALL_COST
         return True
