@@ -11,6 +11,7 @@ stop need. The firmware checks the whole buffer at once before the port is opene
 
 from __future__ import annotations
 
+import dataclasses
 import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
@@ -21,7 +22,9 @@ import numpy as np
 from pencilbot.driver.bed_check import BedWatch
 from pencilbot.driver.markers import without_markers
 from pencilbot.driver.modal import ModalState, Track, track
+from pencilbot.driver.system_lines import SystemLines, check_system_lines
 from pencilbot.errors import PlotError
+from pencilbot.fileio import refuse_special_input
 from pencilbot.machine.profile import Profile
 
 #: Lines between stored modal states: a state is at most this many lines of tracking away.
@@ -63,6 +66,8 @@ class Job:
         reason shown to the user: ``pen change: insert red``), ``""`` without one.
     off_bed : tuple or None
         The first move off the profile's bed (:class:`~pencilbot.driver.bed_check.BedWatch`).
+    system : SystemLines
+        The system commands (``$`` lines) the job was allowed to send, and what they do.
     """
 
     source: str
@@ -75,6 +80,7 @@ class Job:
     profile: Profile
     pauses: dict
     off_bed: tuple[int, float, float, str] | None = None
+    system: SystemLines = SystemLines()
 
     def __len__(self) -> int:
         return len(self.numbers)
@@ -124,7 +130,8 @@ class Job:
                      travel_feed=self.profile.motion.travel_feed, dwell_units=fw.dwell_units)
 
 
-def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source: str | None = None) -> Job:
+def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source: str | None = None,
+             allow: frozenset[str] = frozenset()) -> Job:
     """Read G-code, keep its command lines, and check that the firmware can take every one.
 
     Parameters
@@ -135,16 +142,21 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         The plotter: its firmware validates the lines; its pen and feeds drive the tracking.
     source : str, optional
         What messages call the job (default: the file's path, else ``"<lines>"``).
+    allow : frozenset of str
+        The system commands (``$`` lines) it may send, by name (:mod:`pencilbot.driver.system_lines`).
 
     Raises
     ------
     PlotError
         The file cannot be read, holds no command, is binary, or a line cannot be sent (its
         line number and why).
+    PencilbotError
+        A system command not allowed, naming its line.
     """
     if isinstance(gcode, (str, Path)):
         path = Path(gcode)
         source = source or str(path)
+        refuse_special_input(path, "G-code file")
         try:
             handle = path.open("rb")
         except FileNotFoundError:
@@ -160,7 +172,7 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         job = _prepare(_blocks(_pieces(program), source or "<lines>"), profile, source or "<lines>")
     if not len(job):
         raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
-    return job
+    return dataclasses.replace(job, system=check_system_lines(job, allow))
 
 
 def read_gcode(path: str | Path) -> bytes:
@@ -180,6 +192,7 @@ def gcode_blocks(path: str | Path) -> Iterator[bytes]:
     """:func:`read_gcode`'s file a block of whole lines at a time (about a megabyte each), for a
     reader that never holds it whole (the simulator's fast path); the same errors."""
     path = Path(path)
+    refuse_special_input(path, "G-code file")
     try:
         with path.open("rb") as handle:
             yield from _blocks(iter(lambda: handle.read(_READ_BLOCK), b""), str(path))

@@ -24,6 +24,8 @@ from pencilbot.paths import Paths
 
 #: File names HP-GL goes by (the first is the one export gives).
 HPGL_SUFFIXES = (".hpgl", ".hpg", ".plt", ".hgl")
+#: The longest HP-GL file read (bytes), whole: a plot of a million pen moves is about 20 MB.
+MAX_HPGL_FILE = 256 << 20
 #: Instructions a sender may pass on unchanged: they set nothing the moves depend on.
 _PASSED = {"DF", "PS", "OI", "OS", "OE", "OA", "OH", "OP", "OW", "OC", "CS", "CA", "SS", "SA", "LT", "DT"}
 #: Instructions that change how coordinates map to the paper or draw shapes: not translated.
