@@ -40,7 +40,7 @@ from pencilbot.driver.polled_link import (POLL_PAUSE, Answers, Lost, Moved, Sile
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.machine.motion import axis_scale, move_times
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
@@ -86,8 +86,8 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     name = source or (str(path) if path else "the program")
     try:
         program, changes = fw.program(data).in_carousel(plotter.paper.carousel)
-    except ValueError as exc:
-        raise PlotError(f"{name}: {exc}") from None
+    except ValueError as exc:  # the file, before anything is sent: bad input, not a stopped plot
+        raise PencilbotError(f"{name}: {exc}") from None
     _check_limits(program, plotter, fw, name)
     resuming = journal is not None
     # A resume may start past the last move: everything was sent, and the stop (a plotter that
