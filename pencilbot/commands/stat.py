@@ -80,7 +80,10 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
     from pencilbot.driver.drawn import drawn_paths
     from pencilbot.driver.job import load_job
 
+    from pencilbot.driver.bed_check import check_on_bed
+
     job = load_job(path, profile, allow=allow)
+    check_on_bed(job)  # as draw: a move off the bed is no drawing of this plotter
     drawn = drawn_paths(job)
     if not len(drawn) and job.system.check_from is not None:
         raise PencilbotError(f"{path} draws nothing: {job.system.notes[-1]}")

@@ -21,9 +21,9 @@ import numpy as np
 
 from pencilbot.driver.bed_check import BedWatch
 from pencilbot.driver.markers import without_markers
-from pencilbot.driver.modal import ModalState, Track, track
+from pencilbot.driver.modal import MAX_DIGITS, ModalState, Track, track
 from pencilbot.driver.system_lines import SystemLines, check_system_lines
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.fileio import refuse_special_input
 from pencilbot.machine.profile import Profile
 
@@ -38,6 +38,9 @@ _COMMENT = re.compile(rb"\([^)\n]*\)|;[^\n]*")
 _PAUSE = re.compile(rb"(?im)^[^\n(;]*?M0*[01](?![0-9.])[^\n]*")
 _PAUSE_NOTE = re.compile(rb"\(([^)\n]*)\)|;\s*([^\n]*)")
 _SPACE = b" \t\r\x0b\x0c"
+#: A word whose number is longer than the tracker reads (it would be skipped, and the board would
+#: read ``G4 P1`` and thirty zeros as a wait of 10³⁰ s, ``X-9…9`` as a move past any bed).
+_LONG_NUMBER = re.compile(rb"[A-Z][-+]?[0-9.]{%d,}" % (MAX_DIGITS + 1))
 
 
 @dataclass(frozen=True, eq=False)
@@ -310,6 +313,12 @@ def _check(job: Job) -> None:
             f"{job.source} is not G-code text (it holds NUL bytes, as binary files do); give the "
             ".gcode file that pencilbot export wrote"
         )
+    if (long := _LONG_NUMBER.search(job.frames)) is not None:
+        index = int(np.searchsorted(job.offsets, long.start(), side="right")) - 1
+        raise PencilbotError(
+            f"line {job.number(index)} of {job.source} ({job.line(index)[:40]!r}) has a number of "
+            f"{len(long.group()) - 1} characters; no plotter coordinate, feed or time needs more than {MAX_DIGITS} "
+            "(a board reads it as a move or a wait without end); nothing was sent. Is it G-code?")
     refused = job.profile.firmware.check_lines(job)
     if refused is not None:
         index, reason = refused

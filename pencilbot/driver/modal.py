@@ -32,9 +32,9 @@ from pencilbot.units import MM_PER_INCH
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
 _LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJLMPRSXYZ"}
-_MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
+MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
 _JOG_CODES = (20, 21, 53, 90, 91)  # the G codes a GRBL jog takes
-_POW10 = 10.0 ** np.arange(-_MAX_DIGITS, _MAX_DIGITS + 1)  # digit weights by exponent
+_POW10 = 10.0 ** np.arange(-MAX_DIGITS, MAX_DIGITS + 1)  # digit weights by exponent
 
 
 def _bits(codes: dict[int, int]) -> np.ndarray:
@@ -281,12 +281,12 @@ def _words(block: bytes) -> _Words:
     n_dots = np.bincount(word, weights=dot, minlength=count)
     n_digits = np.bincount(word, weights=digit, minlength=count)
     n_bad = np.bincount(word, weights=~(digit | dot | sign), minlength=count)
-    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= _MAX_DIGITS)
+    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= MAX_DIGITS)
     # A digit is worth 10^(places before the point − 1), or 10^−(places after it).
     point = np.where(n_dots > 0, np.bincount(word, weights=np.where(dot, pos, 0), minlength=count), length)
     point = point.astype(np.int64)[word]
-    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -_MAX_DIGITS, _MAX_DIGITS)
-    value = np.bincount(word, weights=_POW10[exponent + _MAX_DIGITS] * np.where(digit, byte - 48, 0),
+    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -MAX_DIGITS, MAX_DIGITS)
+    value = np.bincount(word, weights=_POW10[exponent + MAX_DIGITS] * np.where(digit, byte - 48, 0),
                         minlength=count)
     negative = np.zeros(count, dtype=bool)
     negative[word[(byte == 45) & (pos == 0)]] = True

@@ -37,10 +37,13 @@ class SystemLines:
         The job line that turns on check mode (``$C``): the board draws nothing after it.
     notes : tuple of str
         What each allowed command does to the plot, naming its line.
+    waits : frozenset of int
+        Job lines (jogs, homing) the board must have finished before it takes the next.
     """
 
     check_from: int | None = None
     notes: tuple[str, ...] = ()
+    waits: frozenset[int] = frozenset()
 
 
 def allowed_names(text: str | Iterable[str] | None) -> frozenset[str]:
@@ -67,9 +70,11 @@ def check_system_lines(job: Job, allowed: frozenset[str] = frozenset()) -> Syste
     starts = job.offsets[:-1]
     if not len(starts):
         return SystemLines()
-    check_from, notes = None, []
+    check_from, notes, waits = None, [], set()
     for index in np.flatnonzero(np.frombuffer(job.frames, dtype=np.uint8)[starts] == _FIRST).tolist():
         text = job.line(index)
+        if fw.waits_after(text):
+            waits.add(index)
         name = fw.system_command(text)
         if name is None:
             continue
@@ -92,4 +97,4 @@ def check_system_lines(job: Job, allowed: frozenset[str] = frozenset()) -> Syste
         notes.append(f"{where} {effect}")
     for note in notes:
         _LOG.warning(note)
-    return SystemLines(check_from, tuple(notes))
+    return SystemLines(check_from, tuple(notes), frozenset(waits))

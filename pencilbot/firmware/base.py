@@ -246,6 +246,11 @@ class Firmware:
         (nothing after it is drawn)."""
         return "changes the board", None, False
 
+    def waits_after(self, line: str) -> bool:
+        """Whether the board takes no more lines until cleaned ``line`` has finished moving (GRBL
+        refuses G-code while it jogs or homes: error:9)."""
+        return False
+
     def system_covers(self, allowed: str, name: str) -> bool:
         """Whether a name the user allowed covers system command ``name``."""
         return allowed == name

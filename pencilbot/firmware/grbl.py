@@ -74,6 +74,9 @@ class Grbl(Firmware):
         ends = next((what for key, what in grbl_system.ENDS_JOB.items() if name.startswith(key)), None)
         return grbl_system.effect(name), ends, name == grbl_system.CHECK_MODE
 
+    def waits_after(self, line: str) -> bool:
+        return grbl_system.moves_alone(line)
+
     def system_covers(self, allowed: str, name: str) -> bool:
         return grbl_system.covers(allowed, name)
 

@@ -22,6 +22,7 @@ EFFECTS = {
 #: After these the board runs nothing more of a job: what it does then.
 ENDS_JOB = {"$SLP": "sleeps", "$RST": "resets"}
 CHECK_MODE = "$C"
+JOG = "$J="
 _NAME = re.compile(r"\$(N\d+|\d+|[A-Z]+|\$|#)?")
 
 
@@ -30,8 +31,13 @@ def command_name(line: str) -> str | None:
     ``$100``, ``$RST=*`` → ``$RST``, ``$$`` → ``$$``); None for a jog or a line that is not one."""
     if not line.startswith("$"):
         return None
-    name = _NAME.match(line).group()
-    return None if name == "$J" else name
+    return None if line.startswith(JOG) else _NAME.match(line).group()
+
+
+def moves_alone(line: str) -> bool:
+    """Whether cleaned ``line`` is a jog or a homing cycle, during which GRBL refuses G-code
+    (error:9): a sender waits until it has finished before the next line."""
+    return line.startswith(JOG) or line == "$H"
 
 
 def effect(name: str) -> str:

@@ -199,7 +199,7 @@ class Profile:
 _TEMPLATE = schema.kind(str, "a string of G-code (a template using " + ", ".join(
     f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")")
 # Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
-_FEED = schema.number(0, 1e6, above=True, unit="mm/min", as_given=True)
+_FEED = schema.number(1, 1e6, unit="mm/min", as_given=True)  # under 1 mm/min a plot takes years
 _SECONDS = schema.number(0, 60, unit="seconds", as_given=True)
 _BED = schema.number(0, MAX_BED, above=True, unit="mm", as_given=True)
 _PEN_VALUE = schema.any_number("S value, Z mm or servo degrees")
