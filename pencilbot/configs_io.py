@@ -20,6 +20,7 @@ import tomllib
 from pathlib import Path
 
 from pencilbot.errors import ProfileError
+from pencilbot.fileio import read_bounded
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Where the shipped configs may be, in order: inside an installed package, then beside the
@@ -109,7 +110,7 @@ def _user_settings() -> dict:
     """``config.toml`` read and checked (empty when there is none)."""
     path = user_folder() / "config.toml"
     try:
-        table = tomllib.loads(path.read_text(encoding="utf-8"))
+        table = tomllib.loads(read_bounded(path, "settings file").decode("utf-8"))
     except FileNotFoundError:
         return {}
     except (OSError, UnicodeDecodeError) as exc:
@@ -151,14 +152,14 @@ def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: st
     path = Path(name_or_path)
     if _is_path(name_or_path):
         try:
-            return path.read_text(encoding="utf-8"), str(path), path.stem
+            return read_bounded(path, file_kind).decode("utf-8"), str(path), path.stem
         except (OSError, UnicodeDecodeError) as exc:
             reason = getattr(exc, "strerror", None) or str(exc)
             raise ProfileError(f"cannot read {file_kind} {path} ({reason}); check the path") from None
     own = user_folder() / folder / f"{name_or_path}.toml"
     if own.is_file():
         try:
-            return own.read_text(encoding="utf-8"), str(own), name_or_path
+            return read_bounded(own, file_kind).decode("utf-8"), str(own), name_or_path
         except (OSError, UnicodeDecodeError) as exc:
             raise ProfileError(f"cannot read {file_kind} {own} ({getattr(exc, 'strerror', None) or exc})") from None
     shipped = config_folder(folder) / f"{name_or_path}.toml"

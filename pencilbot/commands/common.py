@@ -12,7 +12,7 @@ from pathlib import Path
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg_read import is_plan_svg, read_svg
 from pencilbot.fileio import available_memory as fileio_available_memory
-from pencilbot.fileio import refuse_overwriting_inputs
+from pencilbot.fileio import refuse_overwriting_inputs, refuse_special_input
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.planning.layout import fit_plan
@@ -43,7 +43,7 @@ _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": 
 
 
 #: Options naming the files a command reads, and the files it writes (any command's).
-_INPUT_OPTIONS = ("input", "old_input", "inputs", "plan", "texture", "style", "pens", "profile")
+_INPUT_OPTIONS = ("input", "old_input", "inputs", "plan", "texture", "style", "pens", "profile", "resume", "photo")
 _OUTPUT_OPTIONS = ("output", "preview")
 
 
@@ -63,6 +63,11 @@ def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
             value = getattr(args, key, None)
             yield from (value if isinstance(value, (list, tuple)) else [value])
 
+    for key in _INPUT_OPTIONS:  # a FIFO or a device read would hang or never end: named by its option
+        for value in named([key]):
+            if value is not None:
+                refuse_special_input(value, "input" if key in ("input", "inputs", "plan", "photo") else
+                                     f"--{key.replace('_', '-')} file", folder_ok=True)
     refuse_overwriting_inputs(list(named(_INPUT_OPTIONS)), [*named(_OUTPUT_OPTIONS), *outputs])
 
 

@@ -18,7 +18,13 @@ from pencilbot.commands.draw_run import (
     run_overrides,
     svg_job_path,
 )
-from pencilbot.commands.options import MAX_BAUD, add_profile_listing, add_verbosity, number
+from pencilbot.commands.options import (
+    MAX_BAUD,
+    add_profile_listing,
+    add_system_commands_option,
+    add_verbosity,
+    number,
+)
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
@@ -62,6 +68,7 @@ def add_parser(subparsers) -> None:
                    help="draw a file whose job stopped from line 1 again (its journal is replaced)")
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
     add_run_options(p)
+    add_system_commands_option(p)
     add_verbosity(p)
     p.set_defaults(func=run)
 
@@ -128,6 +135,7 @@ def run(args: argparse.Namespace) -> int:
                 unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
                 start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
                 operator=operator, keys=keys, announce=announce, overrides=run_overrides(args) or None,
+                allow_system=args.allow_system_commands,
             )
     if not args.quiet and not args.json_lines:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""

@@ -80,6 +80,24 @@ def realtime_option(option: str = "--realtime"):
     return parse
 
 
+def add_system_commands_option(parser: argparse.ArgumentParser) -> None:
+    """``--allow-system-commands '$H,$C'``: the GRBL system commands (``$`` lines other than a
+    ``$J=`` jog) a G-code file may send; without it any is refused by line."""
+    from pencilbot.driver.system_lines import allowed_names
+
+    def parse(text: str) -> frozenset:
+        names = allowed_names(text)
+        if not names:
+            raise PencilbotError(f"--allow-system-commands takes names such as '$H,$C', not {text!r}")
+        return names
+
+    parse.__name__ = "allow-system-commands"
+    parser.add_argument(
+        "--allow-system-commands", type=parse, default=frozenset(), metavar="'$H,$C'",
+        help="let a G-code file send these GRBL system commands ($ lines: $H homing, $C check mode, $X unlock, "
+             "$SLP, $RST, $N startup blocks, $100 settings...); any other is refused by line")
+
+
 def add_verbosity(parser: argparse.ArgumentParser) -> None:
     """``-q/--quiet`` and ``-v/--verbose`` for every subcommand."""
     parser.add_argument("-q", "--quiet", action="store_true", help="print nothing but errors")

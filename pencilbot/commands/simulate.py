@@ -27,6 +27,7 @@ from pencilbot.commands.options import (
     add_profile_option,
     add_realtime_option,
     add_svg_options,
+    add_system_commands_option,
     add_verbosity,
     number,
 )
@@ -35,7 +36,8 @@ from pencilbot.driver.header import profile_for
 from pencilbot.driver.job import gcode_blocks, program_blocks, read_gcode
 from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
-from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
+from pencilbot.export.hpgl import HPGL_SUFFIXES, MAX_HPGL_FILE, hpgl_program
+from pencilbot.fileio import read_bounded
 from pencilbot.firmware.hpgl import looks_like_hpgl
 from pencilbot.machine.pens import load_pens
 from pencilbot.planning.plan import BLACK, Layer
@@ -66,6 +68,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_realtime_option(parser)
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
+    add_system_commands_option(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -113,7 +116,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         # Nobody needs to change a pen in a simulation: an M0 prints its prompt and goes on.
         draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
-             progress="quiet" if args.quiet else "bar", operator=AutoOperator())
+             progress="quiet" if args.quiet else "bar", operator=AutoOperator(),
+             allow_system=args.allow_system_commands)
         plotter = protocol_sim.plotter(name)
         _save_plot(output, plotter, pens, args, pen_width)
     finally:
@@ -220,7 +224,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
         return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH, []
     if source.suffix.lower() in HPGL_SUFFIXES or looks_like_hpgl(source):  # HP-GL: one instruction after another
         try:
-            return source.read_bytes(), args.pen_width or DEFAULT_PEN_WIDTH, []
+            return read_bounded(source, "HP-GL file", MAX_HPGL_FILE), args.pen_width or DEFAULT_PEN_WIDTH, []
         except OSError as exc:
             raise PencilbotError(f"cannot read HP-GL file {source} ({exc})") from None
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)

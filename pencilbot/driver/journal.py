@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from pencilbot.errors import PencilbotError, PlotError, RefusedError
-from pencilbot.fileio import write_atomic
+from pencilbot.fileio import read_bounded, write_atomic
 from pencilbot.units import MM_PER_INCH
 
 if TYPE_CHECKING:
@@ -197,7 +197,7 @@ def load_journal(path: str | Path) -> Journal:
     if not path.name.endswith(SUFFIX):
         path = journal_path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(read_bounded(path, "job journal").decode("utf-8"))
         if not isinstance(data, dict) or data.pop("format", None) != FORMAT:
             raise ValueError("not a pencilbot job journal")
         journal = Journal(**data)

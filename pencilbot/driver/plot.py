@@ -19,6 +19,8 @@ from pencilbot.driver.runner import DrawResult, Runner
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.driver.stream import Stream
 from pencilbot.errors import RefusedError
+from pencilbot.fileio import read_bounded
+from pencilbot.firmware.hpgl import MAX_HPGL_FILE
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.machine.profile_edit import profile_with
 
@@ -44,6 +46,7 @@ def draw(
     keys=None,
     on_progress: Callable[[dict], None] | None = None,
     overrides: dict[str, dict[str, float]] | None = None,
+    allow_system: frozenset[str] = frozenset(),
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
 
@@ -99,6 +102,9 @@ def draw(
         Profile values for this run only, by table (``{"motion": {"draw_feed": 2000}}``, as
         :func:`~pencilbot.machine.profile_edit.profile_with` takes them); a resume runs with the
         stopped job's.
+    allow_system : frozenset of str
+        System commands (``$`` lines: ``$H``, ``$C``, ``$100``…) the file may send; any other is
+        refused by line before the port is opened (:mod:`pencilbot.driver.system_lines`).
 
     Raises
     ------
@@ -130,7 +136,7 @@ def draw(
             f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
         )
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
-    job = load_job(gcode, plotter, source)
+    job = load_job(gcode, plotter, source, allow=allow_system)
     check_on_bed(job)  # before the port is opened: nothing is sent
     if journal is not None:
         journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point
@@ -182,7 +188,7 @@ def _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeo
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     if path is not None:
         try:
-            data = path.read_bytes()
+            data = read_bounded(path, "HP-GL file", MAX_HPGL_FILE)
         except OSError as exc:
             raise RefusedError(f"cannot read {path} ({exc.strerror or exc})") from None
     else:

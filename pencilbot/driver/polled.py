@@ -95,8 +95,10 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     name = source or (str(path) if path else "the program")
     try:
         program, changes = fw.program(data).in_carousel(plotter.paper.carousel)
-    except ValueError as exc:
+    except ValueError as exc:  # the file, before anything is sent: bad input, not a stopped plot
         raise RefusedError(f"{name}: {exc}") from None
+    if not program.frames:
+        raise RefusedError(f"{name} holds no HP-GL instructions; export a drawing first (pencilbot export)")
     _check_limits(program, plotter, fw, name)
     resuming = journal is not None
     # A resume may start past the last move: everything was sent, and the stop (a plotter that

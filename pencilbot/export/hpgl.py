@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.errors import OutOfBedError, PencilbotError
-from pencilbot.fileio import write_atomic
-from pencilbot.firmware.hpgl import HPGL, HPGL_SUFFIXES
+from pencilbot.fileio import read_bounded, write_atomic
+from pencilbot.firmware.hpgl import HPGL, HPGL_SUFFIXES, MAX_HPGL_FILE
 from pencilbot.machine.bed import Placement
 from pencilbot.machine.profile import Profile
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -146,7 +146,7 @@ def hpgl_plan(path: Path, profile: Profile) -> Plan:
         The file cannot be read, is not HP-GL this reader knows, or draws nothing.
     """
     try:
-        data = Path(path).read_bytes()
+        data = read_bounded(path, "HP-GL file", MAX_HPGL_FILE)
     except OSError as exc:
         raise PencilbotError(f"cannot read HP-GL file {path} ({exc.strerror or exc})") from None
     try:

@@ -18,12 +18,16 @@ from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS
 from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
 from pencilbot.export.svg_straight import read_straight
+from pencilbot.fileio import read_bounded
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
 from pencilbot.planning.style import MAX_PEN_WIDTH
 from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
 
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+#: The longest SVG read (bytes): a million paths are about 100 MB; its tree takes ten times more.
+MAX_SVG_FILE = 1 << 30
 
 
 def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: float | None = None) -> Plan:
@@ -84,8 +88,7 @@ def is_plan_svg(path: str | os.PathLike) -> bool:
 
 def _read_bytes(path) -> bytes:
     try:
-        with open(path, "rb") as handle:
-            return handle.read()
+        return read_bounded(path, "SVG file", MAX_SVG_FILE)
     except FileNotFoundError:
         raise PencilbotError(no_such_file(path, "the path of an .svg file")) from None
     except OSError as exc:

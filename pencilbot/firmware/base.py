@@ -249,6 +249,28 @@ class Firmware:
                 return index, str(exc)
         return None
 
+    # --- system commands in a file (GRBL's ``$`` lines) ------------------------------------
+
+    def system_command(self, line: str) -> str | None:
+        """The name of the system command on cleaned ``line`` (a command that changes the board,
+        not the drawing: settings, modes, stored blocks), None for any other line."""
+        return None
+
+    def system_effect(self, name: str) -> tuple[str, str | None, bool]:
+        """What system command ``name`` does (words that follow "it"), what the board does after
+        it instead of running the rest of a job (None: it goes on), and whether it is check mode
+        (nothing after it is drawn)."""
+        return "changes the board", None, False
+
+    def waits_after(self, line: str) -> bool:
+        """Whether the board takes no more lines until cleaned ``line`` has finished moving (GRBL
+        refuses G-code while it jogs or homes: error:9)."""
+        return False
+
+    def system_covers(self, allowed: str, name: str) -> bool:
+        """Whether a name the user allowed covers system command ``name``."""
+        return allowed == name
+
     def renumber(self) -> tuple[str, int] | None:
         """The command (and its number) that restarts line numbering, or None."""
         return None

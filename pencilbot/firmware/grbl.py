@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from firmware_protocol import grbl as protocol
+from pencilbot.firmware import grbl_system
 from pencilbot.firmware.base import ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply
 
 _STILL = ("Idle", "Alarm", "Check", "Sleep")  # states in which nothing moves
@@ -69,6 +70,19 @@ class Grbl(Firmware):
         suspects = np.union1d(np.flatnonzero(significant > self.line_limit), line_of(odd))
         return self._first_refused(job, suspects.tolist())
 
+    def system_command(self, line: str) -> str | None:
+        return grbl_system.command_name(line)
+
+    def system_effect(self, name: str) -> tuple[str, str | None, bool]:
+        ends = next((what for key, what in grbl_system.ENDS_JOB.items() if name.startswith(key)), None)
+        return grbl_system.effect(name), ends, name == grbl_system.CHECK_MODE
+
+    def waits_after(self, line: str) -> bool:
+        return grbl_system.moves_alone(line)
+
+    def system_covers(self, allowed: str, name: str) -> bool:
+        return grbl_system.covers(allowed, name)
+
     def parse(self, text: str) -> Reply:
         message = self.protocol.parse_line(text)
         if isinstance(message, protocol.Ok):
@@ -88,7 +102,7 @@ class Grbl(Firmware):
         return status.state in self.moving_states or (status.state == "Hold" and status.substate == 1)
 
     def is_finished(self, status) -> bool:
-        return status.state in ("Idle", "Check")
+        return status.state in ("Idle", "Check", "Sleep")  # asleep ($SLP, a job's last line): it runs no more
 
     def is_paused(self, status) -> bool:
         return status.state in self.paused_states

@@ -23,7 +23,7 @@ import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
 from pencilbot.errors import ImageLoadError, no_such_file
-from pencilbot.fileio import available_memory
+from pencilbot.fileio import available_memory, refuse_special_input
 from pencilbot.imaging.png_strips import STRIP_BYTES, PngLayout, png_layout, reduced_png
 
 DEFAULT_MAX_PIXELS = 40_000_000
@@ -103,6 +103,7 @@ def load_image(
         raise ImageLoadError(f"--max-pixels must be at least 1, got {max_pixels}.")
     if not os.path.exists(name):
         raise ImageLoadError(no_such_file(name, "the path of an image file (PNG, JPEG, ...)"))
+    refuse_special_input(name, "image")  # a FIFO, a device (a folder: below)
     if os.path.isdir(name):
         raise ImageLoadError(f"{name} is a directory, not an image file. Give an image file.")
     if os.path.getsize(name) == 0:

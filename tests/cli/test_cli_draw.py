@@ -49,8 +49,12 @@ def test_resume_and_start_line_exclude_each_other(capsys):
     assert err.startswith("pencilbot: error: argument --start-line") and err.count("\n") == 1, err
 
 
+#: A line of ordinary numbers (none over 24 characters) too long for GRBL's 80-byte line buffer.
+LONG_LINE = "G1 X1." + "0" * 20 + " Y1." + "0" * 20 + " Z0." + "0" * 20 + " F1000." + "0" * 17
+
+
 def test_a_line_grbl_cannot_take_is_named_before_anything_is_sent(capsys, tmp_path):
-    (tmp_path / "long.gcode").write_text("G21 ; ünïcode comments are fine\nG1 X" + "1" * 90 + "\n")
+    (tmp_path / "long.gcode").write_text("G21 ; ünïcode comments are fine\n" + LONG_LINE + "\n")
     code, err = run(capsys, str(tmp_path / "long.gcode"), "--port", str(tmp_path / "ttyNOPE"))
     assert code == 2 and "line 2 of" in err and "at most 79" in err
 
