@@ -27,11 +27,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--listen-port", type=number("--listen-port", low=0, high=65535, whole=True), default=8765,
                         metavar="N", help="TCP port of the page (default 8765; 0: any free one)")
     parser.add_argument("--no-browser", action="store_true", help="do not open the page in a browser")
-    speed = number("--realtime", low=0, above=True, high=MAX_REALTIME)
-    parser.add_argument("--realtime", type=speed, default=1.0, metavar="R",
+    parser.add_argument("--realtime", type=number("--realtime", low=0, above=True, high=MAX_REALTIME), default=1.0,
+                        metavar="R",
                         help="the virtual plotter moves R times faster than real time (default %(default)g: as fast "
                              "as the real machine), as --realtime in simulate and sim-serve")
-    parser.add_argument("--sim-speed", dest="realtime", type=speed, action=Deprecated, new="--realtime")
+    parser.add_argument("--sim-speed", dest="realtime", type=number("--sim-speed", low=0, above=True, high=MAX_REALTIME),
+                        action=Deprecated, new="--realtime")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 

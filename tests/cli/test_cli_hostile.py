@@ -195,7 +195,7 @@ CASES = [
     (["plan", "p.png", "-o", "x.svg", "--page", "2500x2500"], ["x.svg"]),
     # Usage mistakes: one line, not argparse's usage text.
     (["plan", "--page", "-1x-1", "p.png", "-o", "x.svg"], ["x.svg"]),
-    (["plan", "p.png"], []),
+    (["plan"], []),  # no INPUT (-o has a default: beside the input)
     (["frobnicate"], []),
 ]
 
