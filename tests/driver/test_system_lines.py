@@ -15,10 +15,9 @@ from pencilbot.cli import main
 from pencilbot.driver.bed_check import check_on_bed
 from pencilbot.driver.job import load_job
 from pencilbot.driver.system_lines import allowed_names
-from pencilbot.firmware.grbl_system import command_name
 from pencilbot.errors import OutOfBedError, PencilbotError
+from pencilbot.firmware.grbl_system import command_name
 from pencilbot.machine.profile import load_profile
-
 from sim import protocol_sim
 
 GRBL = load_profile(PROFILE)  # bed X 0 .. 220, Y 0 .. 310 mm
