@@ -35,9 +35,9 @@ PEN_RANGES = {
 #: The fastest ``VS`` an HP-GL plotter takes (cm/s): ``draw_feed`` / 600.
 MAX_HPGL_SPEED = 128.0
 _COMMENTS = re.compile(r"\([^)]*\)|;.*")
-_AXIS_WORD = re.compile(r"([XY])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.I)
+_AXIS_WORD = re.compile(r"([XY])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.IGNORECASE)
 _EXPONENT = re.compile(r"\d\s*[eE]\s*[-+]?\s*\d")
-_MODES = re.compile(r"G\s*0*(9[01]|2[01])(?![\d.])", re.I)
+_MODES = re.compile(r"G\s*0*(9[01]|2[01])(?![\d.])", re.IGNORECASE)
 
 
 def check_values(profile: Profile, where: str) -> None:

@@ -20,6 +20,7 @@ sample (``tests/hostile/test_sweep.py``).
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -27,14 +28,12 @@ import resource
 import stat
 import subprocess
 import sys
-import tomllib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 from PIL import Image
-
-from pencilbot.configs_io import config_folder
+from profile_tables import shipped_table, toml_text
 
 LIMIT = 2 << 30  # bytes of address space the child may have
 SECONDS = 20  # a probe running longer has hung (the slowest clean one takes about 3 s)
@@ -71,21 +70,7 @@ class Probe:
     absent: list[str] = field(default_factory=list)
 
 
-# What a kept path is, in the child right after each probe and in the parent before any: its kind
-# and, for a file, its size and a digest (None: absent).
-_STATE = r"""
-import hashlib, os, stat
-def state(path):
-    try:
-        info = os.lstat(path)
-    except OSError:
-        return None
-    if stat.S_ISREG(info.st_mode):
-        with open(path, "rb") as handle:
-            return ["file", info.st_size, hashlib.sha256(handle.read(1 << 20)).hexdigest()]
-    return [stat.S_IFMT(info.st_mode), info.st_rdev]
-"""
-_RUNNER = _STATE + r"""
+_RUNNER = r"""
 import contextlib, io, json, os, signal, sys, traceback
 class Hang(BaseException):
     pass
@@ -94,6 +79,8 @@ def alarm(signum, frame):
 signal.signal(signal.SIGALRM, alarm)
 from pencilbot.cli import main
 folder, seconds = sys.argv[1], float(sys.argv[2])
+sys.path[:0] = [sys.argv[3], os.path.dirname(sys.argv[3])]
+from sweep import state
 for line in sys.stdin:
     case = json.loads(line)
     os.chdir(folder)
@@ -120,39 +107,49 @@ for line in sys.stdin:
             os.unlink(p)
     print(json.dumps({"code": code, "err": err.getvalue()[-4000:], "escaped": escaped[-4000:], "hung": hung,
                       "kept": kept, "left": left}), flush=True)
+    if hung or escaped:
+        break  # a probe stopped half-way may leave the process broken (a module half imported): a new one goes on
 """
-_names: dict = {}
-exec(_STATE, _names)
+
 
 
 def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (LIMIT, LIMIT))
 
 
-def _state(path: Path):
-    """:data:`_STATE`'s ``state`` of ``path``."""
-    return _names["state"](path)
+def state(path) -> list | None:
+    """What a kept path is, in the child right after each probe and here before any: its kind
+    and, for a file, its size and a digest of its head (None: absent); JSON's lists."""
+    try:
+        info = os.lstat(path)
+    except OSError:
+        return None
+    if stat.S_ISREG(info.st_mode):
+        with open(path, "rb") as handle:
+            return ["file", info.st_size, hashlib.sha256(handle.read(1 << 20)).hexdigest()]
+    return [stat.S_IFMT(info.st_mode), info.st_rdev]
 
 
 def run(probes: list[Probe], folder: Path, seconds: float = SECONDS) -> list[dict]:
-    """Run ``probes`` in one child process; each result is the probe's fields, ``code``, ``err``,
+    """Run ``probes`` in a child process (a new one after a probe that hangs, raises or kills it); each result is the probe's fields, ``code``, ``err``,
     ``verdict`` ("clean error", "correct" or "failure") and ``why`` (for a failure)."""
-    kept = {p: _state(folder / p) for probe in probes for p in probe.keep}  # (JSON's lists, as the child's)
+    kept = {p: state(folder / p) for probe in probes for p in probe.keep}
     env = {**os.environ, "PYTHONFAULTHANDLER": "0", "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
            "PENCILBOT_CONFIG_DIR": str(folder / "config")}
     env.pop("PENCILBOT_PROFILE", None)
-    stdin = "".join(json.dumps({"argv": p.argv, "env": p.env, "keep": p.keep, "absent": p.absent,
-                                "clean": [*p.absent, *_OUTPUTS]}) + "\n" for p in probes)
-    proc = subprocess.run([sys.executable, "-c", _RUNNER, str(folder), str(seconds)], input=stdin, text=True,
-                          capture_output=True, preexec_fn=_limit_memory, env=env,
-                          timeout=seconds * len(probes) + 120, errors="surrogateescape")
-    lines = proc.stdout.splitlines()
+    cases = [json.dumps({"argv": p.argv, "env": p.env, "keep": p.keep, "absent": p.absent,
+                         "clean": [*p.absent, *_OUTPUTS]}) for p in probes]
+    child = [sys.executable, "-c", _RUNNER, str(folder), str(seconds), str(Path(__file__).parent)]
+    answers: list[dict] = []
+    while len(answers) < len(probes):  # a child per run of probes up to one that hangs, raises or kills it
+        proc = subprocess.run(child, input="".join(c + "\n" for c in cases[len(answers):]), text=True, check=False,
+                              capture_output=True, preexec_fn=_limit_memory, env=env, cwd=folder,
+                              timeout=seconds * (len(probes) - len(answers)) + 120, errors="surrogateescape")
+        lines = [json.loads(line) for line in proc.stdout.splitlines()]
+        answers += lines or [{"code": None, "err": proc.stderr[-2000:], "escaped": "", "hung": False, "kept": {},
+                              "left": []}]
     results = []
-    for index, probe in enumerate(probes):
-        if index >= len(lines):
-            result = {"code": None, "err": proc.stderr[-2000:], "escaped": "", "hung": False, "kept": {}, "left": []}
-        else:
-            result = json.loads(lines[index])
+    for probe, result in zip(probes, answers):
         result.update(asdict(probe))
         result["why"] = _judge(probe, result, kept)
         result["verdict"] = "failure" if result["why"] else "correct" if probe.good else "clean error"
@@ -381,41 +378,22 @@ _FAMILY_BAD = [
 ]
 
 
-def _toml(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value)
-    if isinstance(value, list):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    if isinstance(value, float) and not math.isfinite(value):
-        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf")
-    return repr(value)
-
-
-def _write_profile(path: Path, table: dict) -> None:
-    top = [f"{k} = {_toml(v)}" for k, v in table.items() if not isinstance(v, dict)]
-    sections = [f"[{k}]\n" + "\n".join(f"{kk} = {_toml(vv)}" for kk, vv in v.items())
-                for k, v in table.items() if isinstance(v, dict)]
-    path.write_text("\n".join(top) + "\n\n" + "\n\n".join(sections) + "\n")
-
-
 def _profile_probes(folder: Path) -> list[Probe]:
     out, count = [], 0
 
     def probe(base: str, section: str, key: str, value, name: str) -> None:
         nonlocal count
-        table = tomllib.loads((config_folder("plotters") / f"{base}.toml").read_text())
+        table = shipped_table(base)
         table.setdefault(section, {})[key] = value
         path = f"profile{count}.toml"
         count += 1
-        _write_profile(folder / path, table)
+        (folder / path).write_text(toml_text(table))
         output = "o.hpgl" if base.startswith("hp") else "o.gcode"
         out.append(Probe("profiles", f"export {base} [{section}] {key} = {name}",
                          ["export", "d.svg", "-o", output, "--profile", path, "-q"], keep=[path], absent=[output]))
 
     for base in ("grbl-servo-a4", "axidraw-v3", "hp7475a"):
-        table = tomllib.loads((config_folder("plotters") / f"{base}.toml").read_text())
+        table = shipped_table(base)
         for section, keys in table.items():
             if not isinstance(keys, dict):
                 continue

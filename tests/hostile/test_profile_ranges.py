@@ -3,44 +3,22 @@ refused when the profile loads, naming the key (an EBB ``steps_per_mm = 1e-9`` d
 ``up = 200`` drew 15 of 37 strokes, both exit 0), and ``export`` never writes a line the board
 rejects (``M3 S1e+308``, ``M3 S-30``, a ``$RST=*`` pen lift, a ``G91`` or ``G20`` header)."""
 
-import json
 import re
-import tomllib
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from profile_tables import shipped_table, toml_text
 
 from pencilbot.cli import main
-from pencilbot.configs_io import config_folder
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import profile_from_mapping
 
 
-def table(name: str) -> dict:
-    return tomllib.loads((config_folder("plotters") / f"{name}.toml").read_text())
-
-
 def load_with(name: str, section: str, key: str, value):
-    found = table(name)
+    found = shipped_table(name)
     found.setdefault(section, {})[key] = value
     return profile_from_mapping(found, where="test.toml")
-
-
-def to_toml(found: dict) -> str:
-    """A profile table as TOML (its values: strings, numbers, booleans, lists of numbers)."""
-    def value(v):
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return json.dumps(v)
-        if isinstance(v, list):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        return repr(v) if isinstance(v, int) else repr(float(v)).replace("inf", "inf")
-    top = [f"{k} = {value(v)}" for k, v in found.items() if not isinstance(v, dict)]
-    tables = [f"[{k}]\n" + "\n".join(f"{kk} = {value(vv)}" for kk, vv in v.items())
-              for k, v in found.items() if isinstance(v, dict)]
-    return "\n".join(top) + "\n\n" + "\n\n".join(tables) + "\n"
 
 
 REFUSED = [
@@ -70,9 +48,9 @@ def test_a_value_that_cannot_draw_is_refused_when_the_profile_loads(name, sectio
 
 @pytest.mark.parametrize("name, section, key, value, named", REFUSED[:8])
 def test_export_with_such_a_profile_writes_nothing(tmp_path, capsys, name, section, key, value, named):
-    found = table(name)
+    found = shipped_table(name)
     found.setdefault(section, {})[key] = value
-    (tmp_path / "p.toml").write_text(to_toml(found))
+    (tmp_path / "p.toml").write_text(toml_text(found))
     svg = tmp_path / "d.svg"
     svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" viewBox="0 0 50 50">'
                    '<path d="M 5 5 L 40 40" stroke="black"/></svg>')
@@ -91,7 +69,7 @@ def test_a_template_may_switch_modes_if_it_switches_back():
 @given(up=st.floats(-1e9, 1e9), down=st.floats(-1e9, 1e9), name=st.sampled_from(
     ["axidraw-v3", "grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4", "hp7475a"]))
 def test_every_pen_value_loads_in_range_or_is_refused_by_key(up, down, name):
-    found = table(name)
+    found = shipped_table(name)
     found["pen"].update(up=up, down=down)
     try:
         profile = profile_from_mapping(found, where="test.toml")

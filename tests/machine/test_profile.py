@@ -3,46 +3,18 @@
 from __future__ import annotations
 
 import copy
-import json
 import string
-import tomllib
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from profile_tables import shipped_table, toml_text
 
-from pencilbot.configs_io import config_folder
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import TEMPLATE_FIELDS, list_profiles, load_profile
 from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
 SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4"]
-
-
-def shipped_table(name: str = "grbl-servo-a4") -> dict:
-    text = (config_folder("plotters") / f"{name}.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
-
-
-def toml_text(table: dict) -> str:
-    """Just enough TOML for profile tables (JSON strings are valid TOML basic strings)."""
-
-    def value(v) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return json.dumps(v)
-        if isinstance(v, list):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        return repr(v)
-
-    top = [f"{k} = {value(v)}" for k, v in table.items() if not isinstance(v, dict)]
-    tables = [
-        f"[{k}]\n" + "\n".join(f"{kk} = {value(vv)}" for kk, vv in v.items())
-        for k, v in table.items()
-        if isinstance(v, dict)
-    ]
-    return "\n".join(top) + "\n\n" + "\n\n".join(tables) + "\n"
 
 
 def write_profile(tmp_path, table: dict, name: str = "myplotter.toml"):
