@@ -32,7 +32,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     """The one-run overrides, ``--layer``, ``--copies`` and ``--copy-delay``."""
     run = parser.add_argument_group("this run only (the profile is not changed)")
     words = {"--speed-down": "pen-down speed", "--speed-up": "pen-up (travel) speed", "--accel": "acceleration",
-             "--pen-down-height": "pen-down height (the profile's unit: % of the servo range on an EBB, S value, "
+             "--pen-down-height": "pen-down height (the profile's unit: %% of the servo range on an EBB, S value, "
              "Z mm or degrees)", "--pen-up-height": "pen-up height (as --pen-down-height)",
              "--pen-delay": "wait after each pen lift and drop"}
     for flag, _, _, unit, (low, high) in RUN_OPTIONS:
