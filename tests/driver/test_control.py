@@ -152,3 +152,10 @@ def test_the_ebb_nickname_is_read_with_qt(name):
     assert nickname(f"sim://{name}") == "East EBB"
     assert find_named("East EBB", [f"sim://{name}"]) == f"sim://{name}"
     assert find_named("West EBB", [f"sim://{name}"]) is None
+
+
+def test_the_library_api_opens_the_same_control(name):
+    import pencilbot
+
+    with pencilbot.open_control(f"sim://{name}", "axidraw-v3") as plotter:
+        assert plotter.pen("down") is True and not protocol_sim.plotter(name).firmware.pen_up
