@@ -159,3 +159,9 @@ def test_the_library_api_opens_the_same_control(name):
 
     with pencilbot.open_control(f"sim://{name}", "axidraw-v3") as plotter:
         assert plotter.pen("down") is True and not protocol_sim.plotter(name).firmware.pen_up
+
+
+@pytest.mark.parametrize("profile,board", [("axidraw-v3", "hp7475a"), ("hp7475a", "grbl-servo-a4")])
+def test_the_wrong_board_is_one_line_naming_what_was_expected(profile, board, name):
+    with pytest.raises(PlotError, match="no answer from an? (EBB board|HP-GL plotter)"):
+        open_control(f"sim://{name}?profile={board}", profile, timeout=0.5)
