@@ -29,7 +29,11 @@ class EbbControl(Control):
         self.reader = LineReader(open_port(port, baudrate=baud, profile=name))
         self.link = EbbLink(self.reader, timeout)
         try:
-            self.version = self._guard(greet, self.link)
+            try:
+                self.version = greet(self.link)
+            except (EbbFault, PortLost) as exc:
+                raise PlotError(f"no answer from an EBB board on {port} ({exc}): check the port and that the plotter "
+                                "is an AxiDraw, NextDraw or other EBB machine (another needs a profile for it)") from None
             self._pen_setup()
         except BaseException:
             self.close()

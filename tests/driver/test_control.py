@@ -153,3 +153,16 @@ def test_the_ebb_nickname_is_read_with_qt(name):
     assert nickname(f"sim://{name}") == "East EBB"
     assert find_named("East EBB", [f"sim://{name}"]) == f"sim://{name}"
     assert find_named("West EBB", [f"sim://{name}"]) is None
+
+
+def test_the_library_api_opens_the_same_control(name):
+    import pencilbot
+
+    with pencilbot.open_control(f"sim://{name}", "axidraw-v3") as plotter:
+        assert plotter.pen("down") is True and not protocol_sim.plotter(name).firmware.pen_up
+
+
+@pytest.mark.parametrize("profile,board", [("axidraw-v3", "hp7475a"), ("hp7475a", "grbl-servo-a4")])
+def test_the_wrong_board_is_one_line_naming_what_was_expected(profile, board, name):
+    with pytest.raises(PlotError, match="no answer from an? (EBB board|HP-GL plotter)"):
+        open_control(f"sim://{name}?profile={board}", profile, timeout=0.5)
