@@ -38,7 +38,9 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-from fidelity import PHOTOS as SOURCES  # bench/fidelity.py: the bench photos, where each comes from
+
+# bench/fidelity.py: the bench photos and where each comes from
+from fidelity import PHOTOS as SOURCES
 from fidelity import photo
 
 import sim
