@@ -321,7 +321,7 @@ class EbbBoard(Queries):
             if self.running is None:
                 self._start(self.fifo.pop(0))
             return protocol.format_reply(name, None, future=future)
-        if name in ("QG", "QS", "QB", "QP") and self.instant:
+        if name in ("QG", "QS", "QB", "QP", "QM") and self.instant:
             self._advance(self._remaining() + 1e-9 if (self.running or self.fifo) else 0.0)  # see "Time"
         data = None
         handled, data = self.answer_query(name, args)
