@@ -246,9 +246,11 @@ class EbbBoard(Queries, PenSide):
             if fault == "garbage":
                 self._out += _GARBAGE
             self.log.append(text)
+            at = len(self.log) - 1
             try:
                 reply = self._run(command)
-            except CommandError as exc:
+            except CommandError as exc:  # refused by the command itself (a port letter, a QU number)
+                del self.log[at]
                 reply = self._error(exc)
             if fault != "silent" and reply is not None:
                 self._reply(reply)
