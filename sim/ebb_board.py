@@ -30,13 +30,13 @@ from sim import ebb_moves
 from sim.ebb_queries import Queries
 from sim.ebb_run import Run as _Run
 from sim.ebb_run import typed as _typed
-from sim.ebb_servo import Servos
+from sim.ebb_servo import PenSide, Servos
 
 BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
 _GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 
-class EbbBoard(Queries):
+class EbbBoard(Queries, PenSide):
     """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
     every stretch the carriage moves.
@@ -186,48 +186,6 @@ class EbbBoard(Queries):
     def _true_steps(self) -> np.ndarray:
         return self.origin + self.counters
 
-    def _record_move(self, before: np.ndarray, run: _Run, t: int) -> None:
-        after = self._true_steps()
-        points = [before]
-        ticks = [k for k in run.axis_ticks if 0 < k < t]
-        if len(ticks) == 1 or (len(ticks) == 2 and ticks[0] != ticks[1]):  # one axis finished first
-            bend = self.origin + run.start + run.steps_at(min(ticks))
-            chord = after - before
-            off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(float(np.hypot(*chord)), 1e-9)
-            if off > 1.5:  # a bend a sender should have avoided (within a step it is the step grid)
-                points.append(bend)
-        points.append(after)
-        setup = self.profile.ebb
-        mm = setup.to_machine(np.array(points, dtype=np.float64))
-        drawing = self._pen_landed(run.t0)
-        for a, b in zip(mm[:-1], mm[1:]):
-            self.record(a, b, drawing)
-
-    def _resting_servo(self) -> float:
-        """Where the pen's servo stands at a boot: where it was (no pulses move it), at first the pen up."""
-        if hasattr(self, "servos"):
-            return self.servos.at(self.clock)
-        return float(self.profile.ebb.servo_position(self.profile.pen.up))
-
-    def _touching(self, position: float) -> bool:
-        """Whether the pen's servo at ``position`` holds the pen on the paper: at the profile's
-        pen-down height or within a quarter of its up-down travel above it."""
-        setup, pen = self.profile.ebb, self.profile.pen
-        down, up = setup.servo_position(pen.down), setup.servo_position(pen.up)
-        return (position - down) * (1 if up >= down else -1) <= abs(up - down) / 4
-
-    def _pen_landed(self, when: float) -> bool:
-        """The pen touches the paper at ``when``: its servo has come to rest at a touching position."""
-        servos = self.servos
-        return self._touching(servos.target) and when >= servos.t1 - 1e-9
-
-    def _move_servo(self, up: bool) -> None:
-        """SP's move (queued): the pen state flips whatever pin the servo is on."""
-        target, rate = (self.servo_up, self.rate_up) if up else (self.servo_down, self.rate_down)
-        self.servos.powered = True
-        self.servos.move(self.servos.sp_rpn, target, rate, self.clock)
-        self.pen_up = up
-
     # --- commands ------------------------------------------------------------------------------
 
     def _process(self) -> None:
@@ -288,9 +246,11 @@ class EbbBoard(Queries):
             if fault == "garbage":
                 self._out += _GARBAGE
             self.log.append(text)
+            at = len(self.log) - 1
             try:
                 reply = self._run(command)
-            except CommandError as exc:
+            except CommandError as exc:  # refused by the command itself (a port letter, a QU number)
+                del self.log[at]
                 reply = self._error(exc)
             if fault != "silent" and reply is not None:
                 self._reply(reply)
@@ -321,7 +281,7 @@ class EbbBoard(Queries):
             if self.running is None:
                 self._start(self.fifo.pop(0))
             return protocol.format_reply(name, None, future=future)
-        if name in ("QG", "QS", "QB", "QP") and self.instant:
+        if name in ("QG", "QS", "QB", "QP", "QM") and self.instant:
             self._advance(self._remaining() + 1e-9 if (self.running or self.fifo) else 0.0)  # see "Time"
         data = None
         handled, data = self.answer_query(name, args)
@@ -354,7 +314,7 @@ class EbbBoard(Queries):
         elif name == "QE":
             data = f"{self.enabled[0]},{self.enabled[1]}"
         elif name == "ES":
-            data = self._stop()
+            data = ebb_moves.stop(self)
         elif name == "CS":
             self.origin = self._true_steps()
             self.counters[:] = 0
@@ -392,32 +352,6 @@ class EbbBoard(Queries):
             elif key == 60:
                 self.threshold = value
         return protocol.format_reply(name, data, future=future, old=self.old)
-
-    def _stop(self) -> str:
-        """ES: the move running stops where it is, the FIFO is emptied. 2.8.1 says what was
-        cut (``interrupted,fifo1,fifo2,left1,left2``: the steps of the move waiting in the FIFO
-        and those the running move had still to take), 3.0.3 only whether anything was."""
-        interrupted = self.running is not None or bool(self.fifo)
-        waiting = [abs(int(v)) for v in self._planned_steps(self.fifo[0])] if self.fifo else [0, 0]
-        left = [0, 0]
-        if self.running is not None:
-            t = int((self.clock - self.running.t0) / protocol.TICK)
-            left = [abs(int(v)) for v in self.running.steps - self.running.steps_at(t)]
-            self._complete(self.running, t)
-        self.fifo.clear()
-        if self.old:
-            return f"{int(interrupted)},{waiting[0]},{waiting[1]},{left[0]},{left[1]}"
-        return "1" if interrupted else "0"
-
-    def _planned_steps(self, command: protocol.Command) -> tuple[int, int]:
-        """The steps a queued motion command would take (0, 0 for anything else)."""
-        a = command.args
-        if command.name == "LM":
-            return abs(a[1]), abs(a[4])
-        if command.name in ("SM", "XM"):
-            b = a[2] if len(a) > 2 else 0
-            return (a[1] + b, a[1] - b) if command.name == "XM" else (a[1], b)
-        return 0, 0
 
     def _status(self) -> int:
         qm = self._qm()

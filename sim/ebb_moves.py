@@ -102,3 +102,30 @@ def timed_run(command: protocol.Command, counters: np.ndarray, clock: float) -> 
         ticks *= 2
     steps = table[-1].copy()
     return TimedRun(command, counters.copy(), steps, (0, 0), (0, 0), (0, 0), (ticks, ticks), ticks, clock, table)
+
+
+def stop(board) -> str:
+    """ES: the move running stops where it is, the FIFO is emptied. 2.8.1 says what was
+    cut (``interrupted,fifo1,fifo2,left1,left2``: the steps of the move waiting in the FIFO
+    and those the running move had still to take), 3.0.3 only whether anything was."""
+    interrupted = board.running is not None or bool(board.fifo)
+    waiting = [abs(int(v)) for v in _planned_steps(board.fifo[0])] if board.fifo else [0, 0]
+    left = [0, 0]
+    if board.running is not None:
+        t = int((board.clock - board.running.t0) / protocol.TICK)
+        left = [abs(int(v)) for v in board.running.steps - board.running.steps_at(t)]
+        board._complete(board.running, t)
+    board.fifo.clear()
+    if board.old:
+        return f"{int(interrupted)},{waiting[0]},{waiting[1]},{left[0]},{left[1]}"
+    return "1" if interrupted else "0"
+
+def _planned_steps(command: protocol.Command) -> tuple[int, int]:
+    """The steps a queued motion command would take (0, 0 for anything else)."""
+    a = command.args
+    if command.name == "LM":
+        return abs(a[1]), abs(a[4])
+    if command.name in ("SM", "XM"):
+        b = a[2] if len(a) > 2 else 0
+        return (a[1] + b, a[1] - b) if command.name == "XM" else (a[1], b)
+    return 0, 0

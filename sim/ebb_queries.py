@@ -18,6 +18,8 @@ from firmware_protocol.ebb import CommandError
 RA0_COUNTS = 394  # the motor-current pot's voltage (the reference's example: 0.72 A)
 PORTS = "ABCDE"
 SL_SIZE = 32
+#: MS1, MS2, MS3 of the A4988 drivers per microstepping (16x .. full step).
+_MICROSTEP_PINS = {16: (1, 1, 1), 8: (1, 1, 0), 4: (0, 1, 0), 2: (1, 0, 0), 1: (0, 0, 0)}
 
 
 def supply_counts(volts: float) -> int:
@@ -95,11 +97,19 @@ class Queries:
         if pin > 7 or port not in PORTS or (name == "PO" and args[2] > 1):
             raise CommandError(name, 6, "Invalid parameter value")
         if name == "PI":
-            return str((self.latches[port] >> pin) & 1)
+            driven = self._driver_pins()
+            return str(driven[(port, pin)] if (port, pin) in driven else (self.latches[port] >> pin) & 1)
         if name == "PO":
             bit = 1 << pin
             self.latches[port] = (self.latches[port] | bit) if args[2] else (self.latches[port] & ~bit)
         return None
+
+    def _driver_pins(self) -> dict[tuple[str, int], int]:
+        """The pins the firmware drives for the stepper drivers (EBB v1.3+): the enables, low
+        when a motor is on (RE0, RC1), and the microstep selects MS1..3 (RE2, RE1, RA6)."""
+        ms = _MICROSTEP_PINS.get(self.microsteps, (1, 1, 1))
+        return {("E", 0): int(not self.enabled[0]), ("C", 1): int(not self.enabled[1]),
+                ("E", 2): ms[0], ("E", 1): ms[1], ("A", 6): ms[2]}
 
     def _qu(self, number: int) -> str:
         values = {1: "00", 2: str(protocol.FIFO_MAX), 3: str(self.fifo_size), 4: "000", 5: "000",

@@ -66,7 +66,7 @@ class EbbControl(Control):
     def _set_pen(self, down: bool) -> None:
         pen = self.profile.pen
         ms = max(round(1000 * (pen.down_delay if down else pen.up_delay)), 1)
-        self._do(f"SP,{0 if down else 1},{ms}")
+        self._do(self.profile.ebb.pen_command(up=not down, ms=ms))  # on the servo's own pin (the 8511: RB2)
         self._idle(ms / 1000)
 
     def pen_state(self) -> bool:

@@ -17,13 +17,7 @@ from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.machine.pens import load_pens
 from pencilbot.paths import Paths
 from pencilbot.planning.build import ink_on_image_grid
-from pencilbot.planning.color import (
-    MOST_INK,
-    color_hatching,
-    pen_angles,
-    separate,
-    separation_table,
-)
+from pencilbot.planning.color import MOST_INK, color_hatching, pen_angles, separate, separation_table
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
 
