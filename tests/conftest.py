@@ -2,6 +2,7 @@
 default profile), in an empty configuration folder of its own. This folder is on the import path
 (pytest puts a conftest's folder there), so tests share the drawings of ``drawings.py``."""
 
+import logging
 import os
 import signal
 
@@ -16,6 +17,18 @@ def pytest_configure(config):
     same however it was started."""
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+@pytest.fixture(autouse=True)
+def own_log_levels():
+    """``main([..., "-v"])`` sets pencilbot's loggers to DEBUG for the rest of the process: a later
+    test's records (a file name that is not UTF-8 among them) would be captured into its report,
+    which pytest-xdist cannot send. Each test starts from the levels the suite started with."""
+    names = ("pencilbot", "sim", "firmware_protocol")
+    levels = {name: logging.getLogger(name).level for name in names}
+    yield
+    for name, level in levels.items():
+        logging.getLogger(name).setLevel(level)
 
 
 @pytest.fixture(autouse=True)
