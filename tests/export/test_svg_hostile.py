@@ -104,3 +104,4 @@ def test_sane_stroke_widths_still_set_the_pen(tmp_path):
     assert [layer.pen_width for layer in read_svg(path).layers] == [1.25]
     path.write_text(text.replace('stroke-width="0.5"', 'stroke-width="50"'))
     assert [layer.pen_width for layer in read_svg(path).layers] == [50.0]
+
