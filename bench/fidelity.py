@@ -30,7 +30,13 @@ and yardstick, with its pen-up travel. ``--montage DIR`` writes ``DIR/<photo>.pn
 raster sketch | simulated plot, side by side at the same size, and ``DIR/faces.png``: every face
 found, photo | sketch | plot. ``--no-faces`` plans with the style's ``faces = false``.
 
-Usage: ``python bench/fidelity.py [--photos coffee,astronaut] [--peers] [--montage DIR] [--no-faces]``.
+``--faceset`` measures the face set of ``bench/faceset.py`` instead (fetch it first): per hand-set
+face, whether the plan's detector found it, its size on paper and ρ at 1 mm and 0.5 mm in its
+box; per photo its false faces; and the issue's bands (faces of 25 mm and more: ρ@1mm ≥ 0.95,
+ρ@0.5mm ≥ 0.85; 12–25 mm: 0.93 / 0.80). The 1 MP planning time is also measured with the
+cascade in place of MTCNN (the detector before issue 30), in the same run.
+
+Usage: ``python bench/fidelity.py [--photos coffee,astronaut] [--faceset] [--peers] [--montage DIR] [--no-faces]``.
 """
 
 from __future__ import annotations
@@ -44,19 +50,21 @@ import time
 from pathlib import Path
 
 import cv2
+import faceset
 import numpy as np
 from skimage import data, io
 
-from pencilbot.machine.profile import load_profile
+from pencilbot.imaging import mtcnn
 from pencilbot.imaging.faces import find_faces
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
+from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning.build import HOME, at_plot_resolution, plan_from_sketch
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, likeness, plotted_darkness, region_rho
 from pencilbot.planning.layout import Layout, page_size
-from pencilbot.planning.stats import estimate
 from pencilbot.planning.ordering import order_paths, travel_length
+from pencilbot.planning.stats import estimate
 from pencilbot.planning.style import load_style, with_overrides
 
 PROFILE = "grbl-servo-a4"
@@ -91,6 +99,9 @@ FLOW_IMAGER_RHO = {"coffee": 0.917, "astronaut": 0.898}
 
 def photo(name: str) -> LoadedImage | None:
     """The photo, or None when the package that ships it is not installed."""
+    if name not in PHOTOS and name in faceset.PHOTOS:
+        rgb = faceset.load(name)
+        return None if rgb is None else image_from_array(rgb, source=f"face set: {name}")
     if name == "motorcycle_left":
         return image_from_array(data.stereo_motorcycle()[0], source="skimage.data.stereo_motorcycle[0]")
     if hasattr(data, name):
@@ -136,7 +147,10 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
         write_montage(montage / f"{name}.png", image, drawing.result, plotted)
     faces = []
     height, width = drawing.gray.shape
-    for face in find_faces(drawing.gray):
+    if HAND_BOXES and name in faceset.PHOTOS:
+        return {**figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted),
+                **hand_faces(name, plan, drawing, image, layout, plotted)}
+    for face in find_faces(drawing.gray if drawing.rgb is None else drawing.rgb):
         region = (face.x / width, face.y / height, face.size / width, face.size / height)
         reference = 1.0 - drawing.gray
         faces.append({
@@ -147,6 +161,11 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
             "sketch_rho_05mm": round(region_rho(1.0 - drawing.result, reference, region, sigma_mm=0.5), 3),
         })
         FACE_CROPS.append((name, region, drawing.gray, drawing.result, plotted))
+    return {**figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted), "faces": faces}
+
+
+def figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted) -> dict:
+    """The whole sheet's figures."""
     return {
         "rho_vs_photo": round(vs_photo.rho, 3),
         "r_vs_photo": round(vs_photo.r, 3),
@@ -159,8 +178,53 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
         "plot_time_min": round(total.seconds / 60, 1),
         "planning_cpu_s": round(planning_s, 3),
         "ink_mean": round(float(plotted.mean()), 3),
-        "faces": faces,
     }
+
+
+HAND_BOXES: list = []
+
+
+def hand_faces(name: str, plan, drawing, image: LoadedImage, layout: Layout, plotted: np.ndarray) -> dict:
+    """Each hand-set face of the face set: found by the plan's detector?, size, ρ; and false faces."""
+    height, width = drawing.gray.shape
+    scale = width / image.shape[1]
+    found = [] if plan.meta["faces"] in ("none", "off") else [
+        tuple(float(v) for v in face.split(",")) for face in plan.meta["faces"].split("; ")]
+    matched, faces = set(), []
+    for x, y, w, h in faceset.PHOTOS[name].boxes:
+        x, y, side = x * scale, y * scale, max(w, h) * scale
+        hits = [i for i, (fx, fy, fs) in enumerate(found)
+                if abs(fx + fs / 2 - x - side / 2) < side / 2 and abs(fy + fs / 2 - y - side / 2) < side / 2
+                and 0.5 < fs / side < 2]
+        matched.update(hits)
+        region = (max(0.0, x) / width, max(0.0, y) / height, side / width, side / height)
+        reference = 1.0 - drawing.gray
+        faces.append({
+            "box_px": f"{x:.0f},{y:.0f},{side:.0f}",
+            "found": bool(hits),
+            "size_mm": round(side * layout.mm_per_px, 1),
+            "rho_1mm": round(region_rho(plotted, reference, region, sigma_mm=1.0), 3),
+            "rho_05mm": round(region_rho(plotted, reference, region, sigma_mm=0.5), 3),
+        })
+        FACE_CROPS.append((name, region, drawing.gray, drawing.result, plotted))
+    return {"faces": faces, "false_faces": len(found) - len(matched)}
+
+
+def face_bands(face_list: list) -> dict:
+    """The issue's face figures: recall, and each size band against its bars."""
+    bands = {"25mm_up": (25.0, 1e9, 0.95, 0.85), "12_25mm": (12.0, 25.0, 0.93, 0.80)}
+    out: dict = {"recall": round(sum(f["found"] for f in face_list) / max(1, len(face_list)), 3)}
+    for band, (low, high, rho1, rho05) in bands.items():
+        inside = [f for f in face_list if low <= f["size_mm"] < high]
+        out[band] = {
+            "faces": len(inside),
+            "meet_both": sum(f["rho_1mm"] >= rho1 and f["rho_05mm"] >= rho05 for f in inside),
+            "rho_1mm_min": min((f["rho_1mm"] for f in inside), default=None),
+            "rho_05mm_min": min((f["rho_05mm"] for f in inside), default=None),
+            "rho_1mm_median": float(np.median([f["rho_1mm"] for f in inside])) if inside else None,
+            "rho_05mm_median": float(np.median([f["rho_05mm"] for f in inside])) if inside else None,
+        }
+    return out
 
 
 FACE_CROPS: list = []
@@ -244,6 +308,19 @@ def hatched_peer(image: LoadedImage, name: str) -> dict:
     }
 
 
+def planning_1mp() -> dict:
+    """CPU seconds to plan a 1 MP portrait (astronaut enlarged), with MTCNN and with the cascade."""
+    big = image_from_array(cv2.resize(data.astronaut(), (1024, 1024), interpolation=cv2.INTER_CUBIC), source="1mp")
+    out = {"photo_1mp_planning_cpu_s": round(plan_photo(big, TIMING_RUNS)[3], 3)}
+    detector_nets = mtcnn.nets
+    mtcnn.nets = lambda: None  # the cascade alone: the detector before issue 30
+    try:
+        out["photo_1mp_planning_cpu_s_cascade"] = round(plan_photo(big, TIMING_RUNS)[3], 3)
+    finally:
+        mtcnn.nets = detector_nets
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--photos", default=",".join(PHOTOS))
@@ -251,7 +328,13 @@ def main() -> None:
     parser.add_argument("--peers", action="store_true", help="also measure hatched")
     parser.add_argument("--montage", type=Path, help="write photo | sketch | plot PNGs here")
     parser.add_argument("--no-blank", action="store_true", help="skip the blank-picture checks")
+    parser.add_argument("--no-1mp", action="store_true", help="skip the 1 MP planning times (while iterating)")
+    parser.add_argument("--faceset", action="store_true", help="measure bench/faceset.py's photos, faces by hand")
     args = parser.parse_args()
+    if args.faceset:
+        HAND_BOXES.append(True)
+        if args.photos == ",".join(PHOTOS):
+            args.photos = ",".join(faceset.PHOTOS)
     if args.peers:
         try:
             import hatched  # noqa: F401
@@ -265,17 +348,17 @@ def main() -> None:
     for name in args.photos.split(","):
         image = photo(name)
         if image is None:
-            missing[name] = PHOTOS[name][1]
+            missing[name] = PHOTOS[name][1] if name in PHOTOS else "python bench/faceset.py fetch"
             continue
-        results[name] = {"kind": PHOTOS.get(name, ("", ""))[0]}
+        results[name] = {"kind": PHOTOS[name][0] if name in PHOTOS else faceset.PHOTOS[name].about}
         results[name].update(measure(image, args.montage, name, TIMING_RUNS if name in TIMED else 1))
+        print(name, json.dumps(results[name]), file=sys.stderr, flush=True)
         if name in FLOW_IMAGER_RHO:
             results[name]["flow_imager_rho_reported"] = FLOW_IMAGER_RHO[name]
         if args.peers:
             results[name]["hatched"] = hatched_peer(image, name)
-    astronaut = data.astronaut()
-    big = image_from_array(cv2.resize(astronaut, (1024, 1024), interpolation=cv2.INTER_CUBIC), source="1mp")
-    results["photo_1mp_planning_cpu_s"] = round(plan_photo(big, TIMING_RUNS)[3], 3)
+    if not args.no_1mp:
+        results.update(planning_1mp())
     if args.montage is not None:
         write_face_montage(args.montage / "faces.png")
     measured = [v for v in results.values() if isinstance(v, dict) and "rho_vs_photo" in v]
@@ -288,7 +371,11 @@ def main() -> None:
         "face_rho_05mm_min": min((f["rho_05mm"] for f in face_list), default=None),
         "pen_up_m_max": max(v["pen_up_m"] for v in measured) if measured else None,
         "plot_time_min_max": max(v["plot_time_min"] for v in measured) if measured else None,
+        "r_vs_sketch_min": min(v["r_vs_sketch"] for v in measured) if measured else None,
     }
+    if args.faceset:
+        results["summary"]["false_faces"] = sum(v.get("false_faces", 0) for v in measured)
+        results["summary"].update(face_bands(face_list))
     if missing:
         results["missing"] = missing
     if not args.no_blank:

@@ -203,7 +203,7 @@ def parse_command(text: str) -> Command:
         args.append(int(value))
     if name == "HM" and len(args) == 2:  # Position1 needs Position2
         raise CommandError(name, 4, _ERRORS[4])
-    if name == "SM" and args[0] == 0 or name == "XM" and args[0] == 0:
+    if (name == "SM" and args[0] == 0) or (name == "XM" and args[0] == 0):
         raise CommandError(name, 6, _ERRORS[6])
     return Command(name, tuple(args))
 

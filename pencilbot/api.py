@@ -17,24 +17,25 @@ from __future__ import annotations
 import functools
 import warnings
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
-from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
+from pencilbot.export.svg import write_svg  # noqa: F401 (the library API)
+from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
 from pencilbot.machine.pens import PenSet, load_pens
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.planning.build import plot_shape, with_pens
 from pencilbot.planning.build import sketch_and_plan as _sketch_and_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
-from pencilbot.export.svg import write_svg  # noqa: F401 (the library API)
-from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
 
@@ -106,10 +107,20 @@ def _profile(profile: str | Path | Profile) -> Profile:
     return profile if isinstance(profile, Profile) else load_profile(profile)
 
 
+@overload
+def export_gcode(plan: Plan, profile: str | Path | Profile, path: str | Path, *, source: str = "") -> GcodeSummary: ...
+
+
+@overload
+def export_gcode(
+    plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: None = None, *, source: str = ""
+) -> list[str]: ...
+
+
 def export_gcode(
     plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
     source: str = "",
-) -> GcodeSummary:
+) -> GcodeSummary | list[str]:
     """Write the G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded
     ``Profile``) to ``path``, atomically, and return its
     :class:`~pencilbot.export.gcode.GcodeSummary`. (The lines themselves: :func:`gcode`.)

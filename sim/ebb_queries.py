@@ -38,7 +38,7 @@ class Queries:
         """What a reboot clears (the name in flash stays)."""
         self.sl = [0] * SL_SIZE
         self.nodes = 0
-        self.latches = {p: 0 for p in PORTS}
+        self.latches = dict.fromkeys(PORTS, 0)
         self.servo_timeout_ms = 60_000
 
     @property

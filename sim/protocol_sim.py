@@ -81,11 +81,12 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Tim
 
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
-from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
+from pencilbot.units import DEFAULT_PEN_WIDTH
 from sim.faults import Faults
 from sim.firmware import Firmware
 from sim.machine import Machine
+
 _OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff",
             "firmware")
 _IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came

@@ -3,8 +3,19 @@ default profile), in an empty configuration folder of its own. This folder is on
 (pytest puts a conftest's folder there), so tests share the drawings of ``drawings.py``."""
 
 import os
+import signal
 
 import pytest
+
+
+def pytest_configure(config):
+    """The tests deliver stop signals to this process (a virtual board's ``interrupt@`` fault)
+    and expect Ctrl-C to be heard as at a terminal. A shell's background job (``pytest &`` from a
+    script, ``trap '' INT``) starts with SIGINT ignored, which the driver leaves ignored (as it
+    leaves nohup's SIGHUP): the suite puts Python's own Ctrl-C handler back so that it runs the
+    same however it was started."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture(autouse=True)

@@ -13,7 +13,12 @@ import json
 from pathlib import Path
 
 from pencilbot.commands.common import read_drawing
-from pencilbot.commands.options import add_profile_option, add_svg_options, add_verbosity
+from pencilbot.commands.options import (
+    add_profile_option,
+    add_svg_options,
+    add_system_commands_option,
+    add_verbosity,
+)
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_plan
@@ -41,6 +46,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     add_profile_option(parser, "plotter profile for speeds, delays and where home is")
     parser.add_argument("--json", action="store_true", help="print JSON (lengths in mm, time in s)")
     add_svg_options(parser, sheet=True)
+    add_system_commands_option(parser)
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -58,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
                                  "give its profile (e.g. --profile hp7475a)")
         plan = hpgl_plan(source, profile)
     else:
-        plan = gcode_plan(source, profile) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
+        plan = gcode_plan(source, profile, args.allow_system_commands) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
     stats = estimate(plan, profile)
     if args.json:
         print(json.dumps({"plan": args.plan, "profile": args.profile, **stats.as_dict()}, indent=2))
@@ -67,7 +73,7 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
-def gcode_plan(path: Path, profile: Profile) -> Plan:
+def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()) -> Plan:
     """What the G-code file ``path`` draws, as a one-layer plan on a page the size of the bed.
 
     Raises
@@ -76,10 +82,15 @@ def gcode_plan(path: Path, profile: Profile) -> Plan:
         The file cannot be read or streamed to the profile's firmware, or its pen never goes
         down as the profile's pen model says.
     """
+    from pencilbot.driver.bed_check import check_on_bed
     from pencilbot.driver.drawn import drawn_paths
     from pencilbot.driver.job import load_job
 
-    drawn = drawn_paths(load_job(path, profile))
+    job = load_job(path, profile, allow=allow)
+    check_on_bed(job)  # as draw: a move off the bed is no drawing of this plotter
+    drawn = drawn_paths(job)
+    if not len(drawn) and job.system.check_from is not None:
+        raise PencilbotError(f"{path} draws nothing: {job.system.notes[-1]}")
     if not len(drawn):
         pen = profile.pen_model
         raise PencilbotError(
@@ -87,7 +98,7 @@ def gcode_plan(path: Path, profile: Profile) -> Plan:
             f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)")
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
-    return Plan(bed, [Layer(path.stem, drawn.with_points(placement.to_page(drawn.points)))])
+    return Plan(bed, (Layer(path.stem, drawn.with_points(placement.to_page(drawn.points))),))
 
 
 def format_table(stats: PlanStats) -> str:
@@ -95,7 +106,9 @@ def format_table(stats: PlanStats) -> str:
     header = ("layer", "pen-down", "pen-up", "lifts", "paths", "segments", "time")
     rows = [_row(name, s) for name, s in stats.layers.items()] + [_row("total", stats.total)]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = lambda r: "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))  # noqa: E731
+    def line(r):
+        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
+
     return "\n".join([line(header), *(line(r) for r in rows[:-1]), line(["-" * w for w in widths]), line(rows[-1])])
 
 

@@ -57,6 +57,8 @@ def drawn_with_lines(job: Job) -> tuple[Paths, np.ndarray]:
     # Until the program first changes the pen, where it is is unknown (a Z pen at the power-up
     # height 0 reads as down): those lines draw nothing.
     down &= np.cumsum(down != down[0]) > 0
+    if job.system.check_from is not None:  # the board parses the lines after a $C and moves for none
+        down[job.system.check_from:] = False
     before = np.concatenate([[False], down[:-1]])
     moved = np.any(np.diff(xy, axis=0, prepend=xy[:1]) != 0, axis=1)
     starts = down & ~before  # the pen touches the paper here

@@ -7,6 +7,12 @@ import time
 
 from firmware_protocol import ebb as protocol
 from pencilbot.driver.port import LineReader
+from pencilbot.errors import PlotError
+
+#: QC's V+ reading (10-bit counts, 29.5 mV each after the board's divider) below which the motors
+#: have no usable power: about 7.4 V at the jack, the level AxiDraw's own software warns at.
+LOW_SUPPLY = 250
+QC_SINCE = (2, 2, 3)  # QC: firmware 2.2.3 and newer (EBB reference)
 
 
 class EbbFault(Exception):
@@ -40,6 +46,7 @@ class EbbLink:
 
     def _receive(self, wait: float | None) -> protocol.Reply:
         text = self.pending
+        assert text is not None  # set by command() or stop_now()
         name = text.split(",")[0].upper()
         want = protocol.reply_lines(name, future=self.future)
         deadline = time.monotonic() + (wait if wait is not None else self.timeout)
@@ -57,8 +64,8 @@ class EbbLink:
                     self.noise.append(line)
                 continue  # noise on the line (a glitch, another program's echo): not an answer
             self._got.append(line)
-            if "Err:" in line:
-                break
+            if "Err:" in line or (line == "OK" and want > 1):
+                break  # (an empty data line, as QT's without a nickname, never reaches us)
         lines, self.pending = self._got, None
         self.last_lines = lines
         self.replies += 1
@@ -66,6 +73,13 @@ class EbbLink:
         if reply.error:
             raise EbbFault(f"the board refused {text[:40]}: {reply.error}")
         return reply
+
+    def answer(self, text: str) -> str:
+        """The value a query (QG, QS, QU, QE, QB …) answers with."""
+        data = self.command(text).data
+        if data is None:
+            raise EbbFault(f"the board answered {text} without a value")
+        return data
 
     def stop_now(self, wait: float) -> None:
         """ES at once, even while a command is still waiting for its answer (the board reads ES
@@ -93,13 +107,13 @@ class EbbLink:
 
     def status(self) -> int:
         """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
-        value = int(self.command("QG").data, 16)
+        value = int(self.answer("QG"), 16)
         self.power_lost = self.power_lost or bool(value & protocol.QG_POWER_LOST)
         return value
 
     def steps(self) -> tuple[int, int]:
         """Where the motors are, steps from home: the step counters (QS) from their origin."""
-        a, b = self.command("QS").data.split(",")[:2]
+        a, b = self.answer("QS").split(",")[:2]
         return int(a) + self.origin[0], int(b) + self.origin[1]
 
     def wait_idle(self, limit: float) -> None:
@@ -109,3 +123,43 @@ class EbbLink:
             if time.monotonic() > deadline:
                 raise EbbFault(f"the board was still moving after {limit:.0f} s")
             time.sleep(0.005)
+
+
+def greet(link: EbbLink) -> str:
+    """Start a conversation: end any half command another program left, learn the reply syntax
+    the board is in (a board left in future syntax, ``CU,10,1``, answers ``QG,…``), and return
+    its version text (``V``)."""
+    link.reader.write(b"\r")
+    time.sleep(0.05)
+    link.reader.discard_input()
+    link.status()
+    link.future = link.last_lines[0].startswith("QG,")
+    link.version = (link.command("V").data or "").strip()
+    return link.version
+
+
+def version_at_least(text: str, wanted: tuple[int, ...]) -> bool:
+    """Whether an EBB version string (``... Firmware Version 3.0.3``) is at least ``wanted``."""
+    try:
+        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[:len(wanted)])
+    except ValueError:
+        return False
+    return numbers >= wanted
+
+
+def supply_volts(link: EbbLink) -> tuple[float, int]:
+    """The motor supply at the board's power jack, V, and QC's raw V+ counts (board v2.3 and newer:
+    a 1/9.2 divider after a 0.3 V diode drop)."""
+    counts = int((link.command("QC").data or "0,0").split(",")[1])
+    return counts / 1023 * 3.3 * 9.2 + 0.3, counts
+
+
+def check_supply(link: EbbLink, version: str) -> None:
+    """Refuse to plot on a board whose motors have no power (``QC``), in one line."""
+    if not version_at_least(version, QC_SINCE):
+        return  # older firmware has no QC: nothing to ask
+    volts, counts = supply_volts(link)
+    if counts < LOW_SUPPLY:
+        raise PlotError(f"the plotter's motors have no power: its board reads {volts:.1f} V at the power jack "
+                        f"(QC; it needs about 9 V or more); plug in and switch on its power supply, then try again. "
+                        "Nothing was sent")

@@ -32,8 +32,9 @@ from pencilbot.units import MM_PER_INCH
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
 _LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJLMPRSXYZ"}
-_MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
-_POW10 = 10.0 ** np.arange(-_MAX_DIGITS, _MAX_DIGITS + 1)  # digit weights by exponent
+MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
+_JOG_CODES = (20, 21, 53, 90, 91)  # the G codes a GRBL jog takes
+_POW10 = 10.0 ** np.arange(-MAX_DIGITS, MAX_DIGITS + 1)  # digit weights by exponent
 
 
 def _bits(codes: dict[int, int]) -> np.ndarray:
@@ -122,8 +123,8 @@ class Track:
         c = {name: self.columns[name][i].item() for name in self.FIELDS}
         c["feed"] = None if np.isnan(c["feed"]) else c["feed"]
         c["servo"] = None if np.isnan(c["servo"]) else c["servo"]
-        mm = tuple(float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
-        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=mm)
+        x, y, z = (float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
+        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=(x, y, z))
 
     @property
     def last(self) -> ModalState:
@@ -161,13 +162,18 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
         block = "".join(f"{line}\n" for line in block).encode("ascii", errors="replace")
     words = _words(block)
     lines = words.lines
-    g = _codes(words, "G", lines, _G_BITS)
+    jog = words.jog
+    g_jog = _codes(words, "G", lines, _G_BITS)
+    g = np.where(jog, 0, g_jog)  # a jog's G20/G21/G90/G91 last for its line only
     m = _codes(words, "M", lines, _M_BITS)
     word = {letter: _first_value(words, letter, lines) for letter in "FIJLPRSXYZ"}
     columns = {}
     columns["inches"] = _carry((g & (G20 | G21)) != 0, (g & G20) != 0, start.inches)
     relative = columns["relative"] = _carry((g & (G90 | G91)) != 0, (g & G91) != 0, start.relative)
-    columns["feed"] = _carry(~np.isnan(word["F"]), word["F"], np.nan if start.feed is None else start.feed)
+    # What a jog line moves by: its own units and distance mode, else the job's.
+    inches_here = np.where(jog & ((g_jog & (G20 | G21)) != 0), (g_jog & G20) != 0, columns["inches"])
+    relative = np.where(jog & ((g_jog & (G90 | G91)) != 0), (g_jog & G91) != 0, relative)
+    columns["feed"] = _carry(~np.isnan(word["F"]) & ~jog, word["F"], np.nan if start.feed is None else start.feed)
     columns["motion"] = _carry((g & (G0 | G1)) != 0, ((g & G1) != 0).astype(np.int64), start.motion)
     arc_code = np.where((g & G2) != 0, 2, np.where((g & G3) != 0, 3, 0))
     columns["arc"] = _carry((g & (G0 | G1 | G2 | G3)) != 0, arc_code, start.arc)
@@ -176,13 +182,15 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     columns["s"] = _carry(has_s & ~servo, word["S"], start.s)
     columns["spindle_on"] = _carry((m & (M3 | M4 | M5)) != 0, (m & M5) == 0, start.spindle_on)
     columns["servo"] = _carry(has_s & servo, word["S"], np.nan if start.servo is None else start.servo)
-    moves = (g & (NOT_A_MOVE | G4)) == 0
+    moves = (g_jog & (NOT_A_MOVE | G4)) == 0
+    unit = np.where(columns["inches"], MM_PER_INCH, 1.0)  # mm per unit of the job's words
+    scale = np.where(inches_here, MM_PER_INCH, 1.0)  # and of each line's own (a jog's may differ)
+    as_written = {a: np.where(jog, word[a] * scale / unit, word[a]) for a in "XYZ"}  # in the job's units
     for axis in "xyz":
-        columns[axis] = _position(word[axis.upper()], moves, relative, getattr(start, axis))
+        columns[axis] = _position(as_written[axis.upper()], moves, relative, getattr(start, axis))
     # Also in mm, as the board keeps them: a G20/G21 in the middle of a file changes how later
     # words read, not where the pen is (``x``/``y`` above take the numbers as written); the
     # start state carries its own millimetres across a checkpoint.
-    scale = np.where(columns["inches"], MM_PER_INCH, 1.0)
     start_mm = start.position_mm()
     mm = {axis: _position(word[axis.upper()] * scale, moves, relative, start_mm[i]) for i, axis in enumerate("xyz")}
     # Where the carriage goes: work coordinates plus the work offset, which lines that set up
@@ -200,11 +208,11 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
             mm[axis] = work[:, i]
             # In the job's units as the words are written (see above): an event line moves it by
             # what it changed.
-            written = np.where(event, (work[:, i] - before[:, i]) / scale, word[axis.upper()])
+            written = np.where(event, (work[:, i] - before[:, i]) / unit, as_written[axis.upper()])
             columns[axis] = _position(written, moves | event, relative | event, getattr(start, axis))
     else:
         on_machine = np.column_stack([mm[a] for a in "xyz"]) + start.frames.offset()
-        frame, frames, via = np.zeros(lines, np.int64), (start.frames,), np.full((lines, 3), np.nan)
+        frame, frames, via = np.zeros(lines, np.int64), [start.frames], np.full((lines, 3), np.nan)
     columns["x_mm"], columns["y_mm"], columns["z_mm"] = mm["x"], mm["y"], mm["z"]
     columns["mx"], columns["my"] = on_machine[:, 0], on_machine[:, 1]
     columns["vx"], columns["vy"] = via[:, 0], via[:, 1]
@@ -217,7 +225,8 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     distance = np.sqrt(step[:, 0] ** 2 + step[:, 1] ** 2 + step[:, 2] ** 2)  # mm
     feed = columns["feed"]
     rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)
-    rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * scale)
+    rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * unit)
+    rate = np.where(jog, np.where(np.isnan(word["F"]), travel_feed / scale, word["F"]) * scale, rate)  # a jog at its own F
     seconds = np.where(distance > 0, distance / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
     dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
     seconds = np.where((g & G4) != 0, dwell, seconds)
@@ -229,26 +238,35 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
 
 @dataclass
 class _Words:
-    """Every well-formed word of a block: its line, letter (0 = A) and value, in order."""
+    """Every well-formed word of a block: its line, letter (0 = A) and value, in order; ``jog``:
+    the lines that are jogs or homing cycles (their modal words last for the line only)."""
 
     lines: int
     line: np.ndarray
     letter: np.ndarray
     value: np.ndarray
+    jog: np.ndarray
 
 
-def _words(block: bytes) -> _Words:
+def _words(block: bytes | bytearray) -> _Words:
     a = np.frombuffer(block, dtype=np.uint8)
     newline = a == 10
     breaks = np.flatnonzero(newline)
     n_lines = len(breaks)
     if n_lines == 0:
-        return _Words(0, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+        return _Words(0, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, bool))
     line_of = np.cumsum(newline) - newline  # the line each byte belongs to (its newline too)
-    # A '$' line is a system command for the board, not G-code: none of its words count.
-    system = a[np.concatenate([[0], breaks[:-1] + 1])] == ord("$")
+    # A '$' line is a system command for the board, not G-code: none of its words count, but for
+    # a jog's (``$J=``: its G20/G21/G90/G91/G53 X Y Z F) and a homing cycle's (``$H``: to machine
+    # X0 Y0, as G53 G0 X0 Y0 would go). Neither changes the modal state (see ``jog``).
+    line_start = np.concatenate([[0], breaks[:-1] + 1])
+    system = a[line_start] == ord("$")
+    after = np.append(a, [10, 10])  # a line's next two bytes, past the end too
+    jogging = system & (after[line_start + 1] == ord("J")) & (after[line_start + 2] == ord("="))
+    homing = system & (after[line_start + 1] == ord("H")) & (after[line_start + 2] == 10)
     letter = (a >= 65) & (a <= 90)
-    starts = np.flatnonzero(letter & ~system[line_of])
+    letter[line_start[jogging] + 1] = False  # the J of $J=
+    starts = np.flatnonzero(letter & ~(system & ~jogging)[line_of])
     bounds = np.flatnonzero(letter | newline)
     ends = bounds[np.searchsorted(bounds, starts, side="right")]
     # The bytes of each word's number: starts + 1 .. ends - 1, at index ``pos`` within it.
@@ -263,17 +281,34 @@ def _words(block: bytes) -> _Words:
     n_dots = np.bincount(word, weights=dot, minlength=count)
     n_digits = np.bincount(word, weights=digit, minlength=count)
     n_bad = np.bincount(word, weights=~(digit | dot | sign), minlength=count)
-    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= _MAX_DIGITS)
+    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= MAX_DIGITS)
     # A digit is worth 10^(places before the point − 1), or 10^−(places after it).
     point = np.where(n_dots > 0, np.bincount(word, weights=np.where(dot, pos, 0), minlength=count), length)
     point = point.astype(np.int64)[word]
-    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -_MAX_DIGITS, _MAX_DIGITS)
-    value = np.bincount(word, weights=_POW10[exponent + _MAX_DIGITS] * np.where(digit, byte - 48, 0),
+    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -MAX_DIGITS, MAX_DIGITS)
+    value = np.bincount(word, weights=_POW10[exponent + MAX_DIGITS] * np.where(digit, byte - 48, 0),
                         minlength=count)
     negative = np.zeros(count, dtype=bool)
     negative[word[(byte == 45) & (pos == 0)]] = True
     value = np.where(negative, -value, value)
-    return _Words(n_lines, line_of[starts][ok], a[starts][ok].astype(np.int64) - 65, value[ok])
+    line, letter, value = line_of[starts][ok], a[starts][ok].astype(np.int64) - 65, value[ok]
+    if jogging.any() or homing.any():
+        line, letter, value = _jog_words(line, letter, value, jogging, np.flatnonzero(homing))
+    return _Words(n_lines, line, letter, value, jogging | homing)
+
+
+def _jog_words(line, letter, value, jogging, homing):
+    """The words of a block with jogs and homing cycles: a jog keeps only what GRBL takes in one
+    (G20 G21 G90 G91 G53, X Y Z F: anything else the board refuses), a homing line gets
+    ``G53 X0 Y0``. The words stay in line order."""
+    on_jog = jogging[line]
+    takes = np.isin(letter, [_LETTER[c] for c in "GXYZF"]) & ~((letter == _LETTER["G"]) & ~np.isin(value, _JOG_CODES))
+    keep = ~on_jog | takes
+    line = np.concatenate([line[keep], np.repeat(homing, 3)])
+    letter = np.concatenate([letter[keep], np.tile([_LETTER["G"], _LETTER["X"], _LETTER["Y"]], len(homing))])
+    value = np.concatenate([value[keep], np.tile([53.0, 0.0, 0.0], len(homing))])
+    order = np.argsort(line, kind="stable")
+    return line[order], letter[order], value[order]
 
 
 def _first_value(words: _Words, letter: str, lines: int) -> np.ndarray:

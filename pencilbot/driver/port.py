@@ -19,7 +19,7 @@ try:  # POSIX ttys: the kernel's exclusive mode
     import fcntl
     import termios
 except ImportError:  # Windows opens a COM port exclusively by itself
-    fcntl = termios = None
+    fcntl = termios = None  # type: ignore[assignment]
 
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
@@ -136,7 +136,7 @@ class LineReader:
         *lines, self._partial = (self._partial + data).split(b"\n")
         return [ln.strip(b"\r").decode("ascii", errors="replace") for ln in lines if ln.strip(b"\r")]
 
-    def write(self, data: bytes) -> None:
+    def write(self, data: bytes | memoryview) -> None:
         """Send bytes; a failed write means the port is gone."""
         try:
             self.port.write(data)

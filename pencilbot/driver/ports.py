@@ -66,7 +66,7 @@ def list_ports() -> list[PortInfo]:
 def probe(device: str, *, description: str = "", banner_wait: float = BANNER_WAIT,
           answer_wait: float = ANSWER_WAIT) -> PortInfo:
     """Ask the board on ``device`` what it is (see the module docstring); nothing moves."""
-    opened_at = None
+    opened_at = 0.0  # when the port was (re)opened at the probe's baud
     handle = None
     try:
         for family, baud, question, pattern in PROBES:
@@ -152,7 +152,7 @@ def wrong_kind(found: list[PortInfo], profile) -> tuple[list[PortInfo], str]:
     """The plotters among ``found`` that can draw ``profile``'s jobs, and, when some cannot,
     the line that says so."""
     want = _KINDS.get(profile.firmware.title, profile.firmware.title)
-    fits = [f for f in found if _KINDS.get(f.plotter, f.plotter) == want]
+    fits = [f for f in found if f.plotter is not None and _KINDS.get(f.plotter, f.plotter) == want]
     others = [f for f in found if f not in fits]
     if not others:
         return fits, ""

@@ -176,8 +176,12 @@ class Stream(BoardSession):
         if self._resend:
             return nxt
         numbered = self.firmware.capabilities.line_numbers
-        first, entries, batch = nxt, [], 0
+        entries: list[SentLine] = []
+        first, batch = nxt, 0
+        waits = job.system.waits
         while nxt < len(job):
+            if nxt - 1 in waits and (entries or not self._moved_alone()):
+                break  # a jog or homing first ends: the board refuses G-code meanwhile
             entry = self._framed(job.line(nxt), nxt) if numbered else SentLine(nxt, job.size(nxt))
             if not self._fits(entry.size, len(entries), batch):
                 self.number -= numbered  # not sent: its number is the next frame's
@@ -191,6 +195,12 @@ class Stream(BoardSession):
             self.sent = max(self.sent, nxt - 1)
             self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
         return nxt
+
+    def _moved_alone(self) -> bool:
+        """Whether the line before has been answered and a status report newer than that says the
+        machine is not moving (a jog or homing cycle over)."""
+        return not self._sent and self.reports > self._answered_at and self.status is not None \
+            and not self.firmware.is_moving(self.status)
 
     def _fits(self, size: int, lines: int = 0, batch: int = 0) -> bool:
         """Whether a frame of ``size`` bytes may go now, after ``lines`` frames of ``batch`` bytes

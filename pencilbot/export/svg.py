@@ -13,6 +13,7 @@ tools ignore.
 from __future__ import annotations
 
 import os
+import re
 
 from pencilbot.export.svg_checks import check_drawing
 from pencilbot.fileio import write_atomic
@@ -23,6 +24,7 @@ SVG_NS = "http://www.w3.org/2000/svg"
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 PENCILBOT_NS = "https://pencilbot.invalid/plan"  # a name only; never fetched
 DECIMALS = 3  # µm: far below any pen's width
+_SURROGATE = re.compile("[\ud800-\udfff]")
 
 
 def write_svg(plan: Plan, path: str | os.PathLike) -> None:
@@ -30,7 +32,8 @@ def write_svg(plan: Plan, path: str | os.PathLike) -> None:
     a plan with a coordinate that is not finite is refused, never written as ``L inf``."""
     for layer in plan.layers:
         check_drawing(layer.paths.points, f"layer {layer.name!r}")
-    write_atomic(path, svg_text(plan).encode("utf-8"))
+    # A name from a file name that is not UTF-8 (os.fsdecode's surrogates) is shown as U+FFFD.
+    write_atomic(path, _SURROGATE.sub("\ufffd", svg_text(plan)).encode("utf-8"))
 
 
 def svg_text(plan: Plan) -> str:

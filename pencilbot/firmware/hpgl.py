@@ -43,6 +43,12 @@ def looks_like_hpgl(path) -> bool:
     except OSError:
         return False
     return bool(_HPGL_START.match(head))
+#: The longest HP-GL file read (bytes), whole: a plot of a million pen moves is about 20 MB.
+MAX_HPGL_FILE = 256 << 20
+#: The highest pen number (HP-GL's integers are 16-bit) and speed (``VS``, cm/s: the 7475A's
+#: fastest is 38.1; HP-GL's range ends below 128).
+MAX_PEN = 32767
+MAX_SPEED = 128.0
 #: Instructions a sender may pass on unchanged: they set nothing the moves depend on.
 _PASSED = {"DF", "PS", "OI", "OS", "OE", "OA", "OH", "OP", "OW", "OC", "CS", "CA", "SS", "SA", "LT", "DT"}
 #: Instructions that change how coordinates map to the paper or draw shapes: not translated.
@@ -235,6 +241,13 @@ class Hpgl(Firmware):
         return _Interpreter().run(instructions)
 
 
+def _whole(value: float, low: int, high: int, what: str) -> int:
+    """``value`` as a whole number from ``low`` to ``high``, else a ProtocolError naming ``what``."""
+    if not (low <= value <= high and float(value).is_integer()):
+        raise ProtocolError(f"{what} {value:g} is not a whole number from {low} to {high}")
+    return int(value)
+
+
 class _Interpreter:
     """Follow pen position, pen state, absolute/relative mode, carousel pen and speed."""
 
@@ -275,10 +288,13 @@ class _Interpreter:
             self.down, self.relative, self.speed = False, False, 0.0
             self._emit(b"IN;", number)
         elif m == "SP":
-            self.pen = int(p[0]) if p else 0
+            self.pen = _whole(p[0], 0, MAX_PEN, f"instruction {number} (SP): pen") if p else 0
             self.down = False  # a pen is taken (or put away) lifted
             self._emit(protocol.encode("SP", self.pen), number)
         elif m == "VS":
+            if p and not 0 < p[0] <= MAX_SPEED:
+                raise ProtocolError(f"instruction {number} (VS): speed {p[0]:g} cm/s is not one a plotter takes "
+                                    f"(more than 0, at most {MAX_SPEED:g})")
             self.speed = float(p[0]) if p else 0.0
             self._emit(protocol.encode("VS", *p[:1]), number)
         elif m in ("PA", "PR"):
@@ -299,6 +315,9 @@ class _Interpreter:
             raise ProtocolError(f"instruction {number}: an odd number of coordinates ({len(p)})")
         word = "PD" if self.down else "PU"
         for k in range(0, len(p), 2):
+            if not max(abs(p[k]), abs(p[k + 1])) <= protocol.MAX_COORDINATE:  # (NaN and inf too)
+                raise ProtocolError(f"instruction {number}: coordinate {p[k]:g},{p[k + 1]:g} is beyond "
+                                    f"±{protocol.MAX_COORDINATE}")
             x, y = round(p[k]), round(p[k + 1])
             if self.relative:
                 x, y = self.x + x, self.y + y

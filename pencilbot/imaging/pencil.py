@@ -38,6 +38,10 @@ log = logging.getLogger(__name__)
 #: turns the whole picture into its darkest stroke (a 2×2 photo came out solid black). Such an
 #: image is drawn enlarged (each pixel a block) to this short side, then brought back.
 MIN_SIDE = 32
+#: The most pixels such an enlarged copy may have: a sketch holds about 70 bytes a pixel at its
+#: peak, so 2 megapixels stay near 150 MB. A strip thinner than that allows (65535 × 1 px would be
+#: 2 097 120 × 32, 1.9 GB) is refused, not drawn.
+MAX_ENLARGED_PIXELS = 2 << 20
 
 
 @dataclass(frozen=True)
@@ -61,6 +65,9 @@ class Sketch:
     timings : dict of str to float
         Seconds spent in each stage, in pipeline order: ``edges``, ``lines``, ``tone``,
         ``texture``, ``beta`` (the β solve and T), ``compose``.
+    rgb : ndarray of float32, shape (H, W, 3), or None
+        The photo in colour, same grid as ``gray`` (the face detector sees colour: on the face
+        set it finds 58 of 59 faces in colour, 56 in grey).
     """
 
     result: np.ndarray
@@ -70,6 +77,7 @@ class Sketch:
     texture: np.ndarray | None = None
     fit: TextureResult | None = None
     timings: dict[str, float] = field(default_factory=dict)
+    rgb: np.ndarray | None = None
 
     @property
     def beta(self) -> np.ndarray | None:
@@ -128,6 +136,13 @@ def sketch(
     _check_range("stroke_gamma", stroke_gamma, GAMMA_RANGE)
     _check_range("stroke_width", stroke_width, WIDTH_RANGE)
     factor = math.ceil(MIN_SIDE / min(image.shape))
+    if factor > 1 and image.shape[0] * image.shape[1] * factor**2 > MAX_ENLARGED_PIXELS:
+        h, w = image.shape
+        raise PencilbotError(
+            f"{image.source or 'the image'} is {w} x {h} px, too thin to sketch: its short side is drawn enlarged to "
+            f"{MIN_SIDE} px, which would make it {w * factor} x {h * factor} px (over "
+            f"{MAX_ENLARGED_PIXELS / 1e6:.1f} megapixels). Crop it to a wider strip, or scale it to at least "
+            f"{MIN_SIDE} px on its short side")
     if factor > 1:
         enlarged = image_from_array(np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source)
         drawn = sketch(
@@ -167,7 +182,8 @@ def sketch(
         "sketch of %s (%d×%d px, ℓ = %d px): %s", image.source, image.shape[1], image.shape[0], line.length,
         ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
     )
-    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings)
+    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings,
+                  rgb=image.rgb)
 
 
 def _check_range(name: str, value: float, bounds: tuple[float, float]) -> None:
@@ -190,7 +206,7 @@ def _reduced(drawn: Sketch, image: LoadedImage, color: bool) -> Sketch:
     fit = drawn.fit and replace(drawn.fit, T=area(drawn.fit.T), beta=area(drawn.fit.beta))
     luma = line.drawing * fit.T if fit else line.drawing.copy()
     result = with_luma(image.rgb, luma) if color else luma
-    return Sketch(result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings)
+    return Sketch(result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings, image.rgb)
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:

@@ -177,7 +177,7 @@ def _pieces(length: float, v_in: float, v_out: float, nominal: float, accel: flo
     if len(merged) > 1 and _seconds(*merged[-1]) < min_t:
         last = merged.pop()
         merged[-1] = [merged[-1][0] + last[0], merged[-1][1], last[2]]
-    pieces = [tuple(p) for p in merged] or [(length, v_in, v_out)]
+    pieces = [(p[0], p[1], p[2]) for p in merged] or [(length, v_in, v_out)]
     if len(pieces) == 1 and _seconds(*pieces[0]) < min_t:
         slow = length / min_t
         pieces = [(length, slow, slow)]

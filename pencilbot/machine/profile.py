@@ -62,7 +62,6 @@ driver and the virtual plotter all read it. Where the paper sits on the bed is d
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -77,6 +76,7 @@ from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
 from pencilbot.machine.motion import Motion
 from pencilbot.machine.pen import PEN_KINDS, PenModel
 from pencilbot.machine.pens import LONGEST_PEN_NAME
+from pencilbot.machine.profile_checks import check_sendable, check_values
 from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
 MAX_LINE = 80  # the longest line the writer produces: GRBL's line buffer, so every firmware takes it
@@ -201,7 +201,7 @@ class Profile:
 _TEMPLATE = schema.kind(str, "a string of G-code (a template using " + ", ".join(
     f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")")
 # Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
-_FEED = schema.number(0, 1e6, above=True, unit="mm/min", as_given=True)
+_FEED = schema.number(1, 1e6, unit="mm/min", as_given=True)  # under 1 mm/min a plot takes years
 _SECONDS = schema.number(0, 60, unit="seconds", as_given=True)
 _BED = schema.number(0, MAX_BED, above=True, unit="mm", as_given=True)
 _PEN_VALUE = schema.any_number("S value, Z mm or servo degrees")
@@ -260,7 +260,8 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
     }),
     "ebb": (EbbSetup, {
         "kinematics": schema.choice(("corexy", "xy")),
-        "steps_per_mm": schema.number(0, 1e5, above=True, unit="motor steps per mm", as_given=True),
+        # under a step a mm, a drawing is a staircase of millimetre steps (1e-9 drew nothing)
+        "steps_per_mm": schema.number(1, 1e5, unit="motor steps per mm", as_given=True),
         "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
         "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
         "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
@@ -367,6 +368,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
             f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "
             f'"{profile.dialect}"; expected false ({profile.firmware.title} reads no N…*checksum lines)'
         )
+    check_values(profile, where)
     if profile.pen.up == profile.pen.down:
         raise ProfileError(
             f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid; expected a value other than "
@@ -404,7 +406,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
                 f"plotter profile {where}: {_label(section, key)} is empty; expected the G-code "
                 f"that moves the pen, e.g. \"M3 S{{{key[:-8]}}}\""
             )
-        _check_sendable(profile, where, _label(section, key), lines)
+        check_sendable(profile, where, _label(section, key), lines)
         limit = MAX_LINE - (profile.firmware.frame_room if profile.gcode.line_numbers else 0)
         for line in lines:
             if len(line) > limit:
@@ -412,43 +414,6 @@ def _check_consistency(profile: Profile, where: str) -> None:
                     f"plotter profile {where}: {_label(section, key)} gives a line of {len(line)} "
                     f"characters; expected at most {limit} per line"
                 )
-
-
-_COMMENTS = re.compile(r"\([^)]*\)|;.*")
-_AXIS_WORD = re.compile(r"([XY])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.I)
-
-
-def _check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -> None:
-    """Refuse template lines the board would not take as G-code: a realtime byte (GRBL's ``!``,
-    ``~``, ``?``, Ctrl-X), a ``%`` tape marker, and, while the template moves in absolute
-    millimetres, an X or Y off the bed. ``draw`` refuses such a file; ``export`` must not write it.
-
-    Raises
-    ------
-    ProfileError
-    """
-    relative = False
-    (x0, x1), (y0, y1) = profile.bed.machine_range()
-    for line in lines:
-        command = _COMMENTS.sub("", line)
-        problem = None
-        if "%" in command:
-            problem = "a '%', which GRBL refuses and senders take for a tape marker"
-        elif command.strip() and not profile.firmware.capabilities.host_motion:  # (EBB: the host reads it)
-            try:
-                profile.firmware.frame(command.strip(), 1)
-            except ValueError as exc:  # firmware_protocol.ProtocolError: the board cannot take it
-                problem = str(exc)
-        if re.search(r"G9[01](?!\d)|G2[01](?!\d)", command, re.I):
-            relative = relative or re.search(r"G91(?!\d)|G20(?!\d)", command, re.I) is not None
-        if problem is None and not relative:
-            for axis, value in _AXIS_WORD.findall(command):
-                low, high = (x0, x1) if axis.upper() == "X" else (y0, y1)
-                if not low - 1e-6 <= float(value) <= high + 1e-6:
-                    problem = (f"{axis.upper()}{value} lies off the bed (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)")
-                    break
-        if problem:
-            raise ProfileError(f"plotter profile {where}: {label} line {line!r} is invalid: {problem}")
 
 
 def _label(section: str, key: str) -> str:

@@ -59,6 +59,8 @@ FEATURE_VALLEY = 0.02
 #: face 0.964 / 0.880 -> 0.952 / 0.907 and whole box 0.975 -> 0.969, grace_hopper's 88 mm
 #: 0.962 / 0.894 -> 0.961 / 0.926 and whole box 0.961 -> 0.952.
 DITHER_FACE = 25.0
+FACE_SKETCH = 0.0
+PORTRAIT_LIFT = 1.0
 log = logging.getLogger(__name__)
 
 
@@ -177,7 +179,7 @@ def plot_shape(shape: tuple[int, int], page: Page, pen_width: float) -> tuple[in
     third of the pen wide (sizes rounded down, so that it is), never more than ``shape``."""
     scale = Layout.fit(shape, page).mm_per_px / (pen_width / 3)
     if scale >= 1:
-        return tuple(shape)
+        return shape[0], shape[1]
     return max(1, math.floor(shape[0] * scale)), max(1, math.floor(shape[1] * scale))
 
 
@@ -219,7 +221,7 @@ def plan_from_sketch(
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
     threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
-    faces = find_faces(drawing.gray) if style.faces else []
+    faces = find_faces(drawing.gray if drawing.rgb is None else drawing.rgb) if style.faces else []
     important = face_mask(line.edges.shape, faces) if faces else None
     strokes = edge_strokes(
         line,
@@ -237,12 +239,13 @@ def plan_from_sketch(
     in_color = pens is not None and len(pens.pens) > 1
     small = [face for face in faces if face.size * layout.mm_per_px <= DITHER_FACE]
     dithered = face_mask(line.edges.shape, small) if small and style.hatch and not in_color else None
-    if faces:
+    if faces and important is not None:  # (important: the faces' mask)
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     if dithered is not None:
         strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
     layers = []
     if style.hatch and in_color:
+        assert pens is not None and drawing.tone is not None  # in colour: pens; hatching: a sketch with its tone
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
         layers += color_hatching(
@@ -252,8 +255,11 @@ def plan_from_sketch(
             blur=style.hatch_blur, seed=style.seed,
         )
     elif style.hatch:
+        assert drawing.tone is not None  # a hatching style's sketch has its tone
+        lifted = portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces)
+        sketched = 1.0 - (drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2))
         hatches = shade(
-            portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces),
+            lifted if PORTRAIT_LIFT else 1.0 - drawing.tone,
             layout,
             strokes,
             paper=1.0 - drawing.gray,
@@ -268,6 +274,7 @@ def plan_from_sketch(
             seed=style.seed,
             important=important,
             dithered=dithered,
+            face_darkness=(1 - FACE_SKETCH) * lifted + FACE_SKETCH * sketched,
         )
         layers += [layer for layer in hatches if layer.paths]
     if pens is None:
@@ -324,7 +331,7 @@ def plan_from_sketch(
     }
     if pens is not None:
         meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)
-    return Plan(page=page, layers=ordered, meta=meta)
+    return Plan(page=page, layers=tuple(ordered), meta=meta)
 
 
 def features_only(

@@ -22,7 +22,13 @@ from pencilbot.paths import Paths
 from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, run_strokes
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
-    HATCH_ANGLES, HATCH_COVERAGE, HATCH_OVERLAP, MIN_HATCH_RUN, family_capacity, family_lines, hatch_layers,
+    HATCH_ANGLES,
+    HATCH_COVERAGE,
+    HATCH_OVERLAP,
+    MIN_HATCH_RUN,
+    family_capacity,
+    family_lines,
+    hatch_layers,
 )
 from pencilbot.planning.plan import Layer
 from pencilbot.render import render_paths
@@ -85,6 +91,7 @@ def shade(
     seed: int = 0,
     important: np.ndarray | None = None,
     dithered: np.ndarray | None = None,
+    face_darkness: np.ndarray | None = None,
 ) -> list[Layer]:
     """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
 
@@ -135,6 +142,8 @@ def shade(
         Faces drawn at the pen's own scale instead (on the layout's image grid; where above ½):
         ``darkness`` there is dithered into runs (:mod:`pencilbot.planning.dither`) and the
         hatching leaves it bare, counting the runs' ink as it counts the edges'.
+    face_darkness : (H, W) float array in [0, 1], optional
+        The tone the dithered faces are drawn to; default ``darkness``.
 
     Returns
     -------
@@ -169,7 +178,7 @@ def shade(
     paper = tone == 0.0
     runs = Paths.empty()
     if dithered is not None and np.any(dithered > 0.5):
-        runs = face_runs(darkness, dithered, layout, edges, pen_width=pen_width, blank_below=blank_below,
+        runs = face_runs(darkness if face_darkness is None else face_darkness, dithered, layout, edges, pen_width=pen_width, blank_below=blank_below,
                          paper=photo_darkness)
         edge_ink = 1.0 - (1.0 - edge_ink) * (1.0 - ink_on_grid(runs, grid, pen_width))
         paper |= sample_image(dithered, layout, grid) > 0.5

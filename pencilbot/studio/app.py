@@ -144,7 +144,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
 
     def chosen_port(body: dict) -> str:
         port = body.get("port")
-        if port not in {entry["port"] for entry in plotter_ports(studio.ports)}:
+        if not isinstance(port, str) or port not in {entry["port"] for entry in plotter_ports(studio.ports)}:
             raise PencilbotError(f"port {port!r} is not one of the plotters found; pick one from the list")
         return port
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -85,7 +86,7 @@ class PlotSession:
     profile: str
     gcode: Path
     url: str
-    on_change: object = None
+    on_change: Callable[[], None] | None = None
     status: str = "starting"
     record: dict = field(default_factory=dict)
     prompt: dict | None = None
@@ -134,7 +135,7 @@ class PlotSession:
         from pencilbot.driver.journal import journal_path
 
         try:
-            result = api.draw(self.gcode if not resume else self.gcode, self.url, profile=self.profile,
+            result = api.draw(self.gcode, self.url, profile=self.profile,
                               operator=self.operator, keys=self.keys, on_progress=self._listen,
                               resume=journal_path(self.gcode) if resume else None)
             self.set(status="done", message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",

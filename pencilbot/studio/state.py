@@ -7,13 +7,14 @@ plot and its journal); nothing the page sends is used as a path.
 from __future__ import annotations
 
 import shutil
-from dataclasses import asdict
 import tempfile
 import threading
+import time
+from dataclasses import asdict
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage
 from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import Planner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
@@ -33,7 +34,7 @@ class Studio:
         self.closing = False  # the server is stopping: event streams end
         self._changed = threading.Condition()
         self.photo: Path | None = None
-        self.small = None
+        self.small: LoadedImage | None = None
         self.photo_name = ""
         self.thumbnail = b""
         self.options = DrawingOptions(profile=profile)
@@ -53,8 +54,11 @@ class Studio:
             self._changed.wait_for(lambda: self.version != seen, timeout=timeout)
             return self.version
 
-    def close(self) -> None:
-        """Stop planning and every plot (pen up: a plot must not go on unwatched), remove the folder."""
+    def close(self) -> list[str]:
+        """Stop planning and every plot (pen up: a plot must not go on unwatched), keep each
+        stopped plot's G-code and journal in the user's state folder (they are all that resumes
+        it), remove the server's folder. Returns what to tell the person: each kept plot and the
+        command that resumes it."""
         self.closing = True
         self.changed()
         self.planner.cancel()
@@ -64,7 +68,13 @@ class Studio:
         for session in self.plotters.sessions.values():
             if session.thread is not None:
                 session.thread.join(timeout=30)
+        said = []
+        for session in self.plotters.sessions.values():
+            if session.resumable and session.gcode.is_file():
+                said.append(f"the plot on {session.port} stopped with the pen up; "
+                            f"{keep_stopped(session.gcode, session.port)}")
         shutil.rmtree(self.folder, ignore_errors=True)
+        return said
 
     # --- making the drawing ----------------------------------------------------------------
 
@@ -130,3 +140,20 @@ class Studio:
 
 class TooLarge(PencilbotError):
     """An upload over the size or pixel limit (413)."""
+
+
+def keep_stopped(gcode: Path, port: str) -> str:
+    """Copy a stopped plot's G-code out of the server's folder into the user's state folder,
+    its journal beside it (naming the copy); the sentence that says where and how to resume."""
+    from pencilbot.driver import journal as journal_mod
+
+    journal = journal_mod.load_journal(journal_mod.journal_path(gcode))
+    folder = journal_mod.state_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    kept = folder / f"studio-{time.strftime('%Y%m%d-%H%M%S')}-{gcode.name}"
+    shutil.copyfile(gcode, kept)
+    journal.gcode, journal.path = str(kept.resolve()), journal_mod.journal_path(kept)
+    journal.port = journal.port or port
+    journal.resume = journal_mod.resume_command(journal)
+    journal.save()
+    return f"its G-code and journal are kept in {folder}. Resume with: {journal.resume}"

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from pencilbot.cli import main
-from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
-from pencilbot.planning.stats import estimate
-from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.export.svg import write_svg
 from pencilbot.export.svg_read import read_svg
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.stats import estimate
 
 
 @pytest.fixture
@@ -67,7 +67,7 @@ def test_table_lists_every_layer_and_the_total(plan_file):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["stat", "missing.svg"], "does not exist"),
+        (["stat", "missing.svg"], "no such file"),
         (["stat", "{plan}", "--profile", "no-such-plotter"], "no plotter profile"),
     ],
 )

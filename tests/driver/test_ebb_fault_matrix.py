@@ -16,16 +16,16 @@ from __future__ import annotations
 
 import itertools
 
+import hands
 import numpy as np
 import pytest
-import hands
 from real_plan import plan_lines
 from segments import drawing_differences
 
+import sim
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
-import sim
 from sim import protocol_sim
 
 PROFILE = "axidraw-v3"

@@ -16,8 +16,8 @@ from __future__ import annotations
 import itertools
 from dataclasses import replace
 
-import pytest
 import hands
+import pytest
 import skimage.data
 from segments import drawing_differences
 

@@ -17,10 +17,9 @@ from hypothesis import strategies as st
 
 from firmware_protocol.marlin import unframe_line
 from pencilbot.errors import OutOfBedError, PencilbotError
-from pencilbot.machine.bed import Bed
-from pencilbot.machine.profile import load_profile
 from pencilbot.export.gcode import gcode_lines, write_gcode
-from pencilbot.machine.bed import Placement
+from pencilbot.machine.bed import Bed, Placement
+from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
 
 A4 = Page(210.0, 297.0, margin=15.0, name="A4")
@@ -344,9 +343,9 @@ def test_missing_folder_is_a_clear_error(tmp_path):
 
 def test_failed_rename_leaves_no_temporary_file(tmp_path):
     blocker = tmp_path / "drawing.gcode"
-    blocker.mkdir()  # a folder where the file should go: the final rename fails
+    blocker.mkdir()  # a folder where the file should go: refused before a temporary file is made
     plan = plan_of([np.array([[20.0, 20.0], [30.0, 30.0]])])
-    with pytest.raises(PencilbotError, match=r"cannot write .*drawing.gcode"):
+    with pytest.raises(PencilbotError, match=r"drawing.gcode is a folder, not a file"):
         write_gcode(plan, load_profile("grbl-servo-a4"), blocker)
     assert [p.name for p in tmp_path.iterdir()] == ["drawing.gcode"] and blocker.is_dir()
 

@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, write_svg
 from pencilbot.export.svg_read import read_svg
+from pencilbot.planning.plan import Layer, Page, Plan
 
 NS = {"svg": SVG_NS, "inkscape": INKSCAPE_NS}
 
@@ -141,7 +141,7 @@ def test_bad_svgs_are_user_errors(tmp_path, content, message):
 
 
 def test_missing_file_is_a_user_error(tmp_path):
-    with pytest.raises(PencilbotError, match="does not exist"):
+    with pytest.raises(PencilbotError, match="no such file"):
         read_svg(tmp_path / "none.svg")
 
 

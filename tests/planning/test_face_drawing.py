@@ -9,9 +9,9 @@ from skimage import data
 
 from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import image_from_array
+from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
 from pencilbot.planning.build import DITHER_FACE, at_plot_resolution, mostly_in, plan_from_sketch
-from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.style import Style
@@ -22,7 +22,8 @@ FAST = Style(order_rounds=2)
 @pytest.fixture(scope="module")
 def astronaut():
     image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
-    page = page_size("A5", "portrait", image.shape, 10.0)
+    # On A4 her face is about 35 mm: hatched, not dithered.
+    page = page_size("A4", "portrait", image.shape, 10.0)
     drawing = sketch(at_plot_resolution(image, page, FAST.pen_width))
     on = plan_from_sketch(drawing, page, FAST)
     off = plan_from_sketch(drawing, page, Style(order_rounds=2, faces=False))
@@ -72,7 +73,7 @@ def test_a_face_gets_finer_hatching_than_without(astronaut):
 
 def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
     # faces = false plans exactly what a picture without a face would: same layers, same points.
-    drawing, page, on, off = astronaut
+    _drawing, page, on, off = astronaut
     coffee = image_from_array(data.coffee()[::3, ::3].copy())
     coffee_drawing = sketch(at_plot_resolution(coffee, page, FAST.pen_width))
     plain = plan_from_sketch(coffee_drawing, page, FAST)

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
-
-import os
-import tempfile
 
 #: Where the screenshots go: docs/images for the README with PENCILBOT_SCREENSHOTS=1, else a
 #: temporary folder (a test run leaves the tree as it was).

@@ -7,7 +7,6 @@ from __future__ import annotations
 import pytest
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select, WebDriverWait
-
 from studio_helpers import same_plan, screenshot
 
 WAIT = 90  # s: a loaded machine plans slowly; these are waits for a state, not timing checks

@@ -9,12 +9,12 @@ import io
 import pytest
 from PIL import Image
 
-pytest.importorskip("starlette", reason="the studio extra is part of the test extra")  # noqa: E402 - installed by .[test]
-from starlette.testclient import TestClient  # noqa: E402
+pytest.importorskip("starlette", reason="the studio extra is part of the test extra")
+from starlette.testclient import TestClient
 
-from pencilbot.studio import app as app_module  # noqa: E402
-from pencilbot.studio.app import create_app  # noqa: E402
-from pencilbot.studio.state import Studio  # noqa: E402
+from pencilbot.studio import app as app_module
+from pencilbot.studio.app import create_app
+from pencilbot.studio.state import Studio
 
 PORT = 8765
 OWN = {"X-Studio": "1"}
