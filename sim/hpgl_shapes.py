@@ -19,10 +19,14 @@ import math
 import re
 
 #: The 7475A's instructions (the vector ones PU PD PA PR are the board's own).
-KNOWN = frozenset(
-    ["AA", "AR", "CA", "CI", "CP", "CS", "DC", "DF", "DI", "DP", "DR", "DT", "EA", "ER", "EW", "FT", "IM", "IN", "IP", "IW", "LB", "LT", "OA", "OC", "OD", "OE", "OF", "OH", "OI", "OO", "OP", "OS", "OW", "PA", "PD", "PR", "PS", "PT", "PU", "RA", "RO", "RR", "SA", "SC", "SI", "SL", "SM", "SP", "SR", "SS", "TL", "UC", "VS", "WG", "XT", "YT"])
+KNOWN = frozenset([
+    "AA", "AR", "CA", "CI", "CP", "CS", "DC", "DF", "DI", "DP", "DR", "DT", "EA", "ER", "EW", "FT", "IM", "IN",
+    "IP", "IW", "LB", "LT", "OA", "OC", "OD", "OE", "OF", "OH", "OI", "OO", "OP", "OS", "OW", "PA", "PD", "PR",
+    "PS", "PT", "PU", "RA", "RO", "RR", "SA", "SC", "SI", "SL", "SM", "SP", "SR", "SS", "TL", "UC", "VS", "WG",
+    "XT", "YT"])
 #: Known, taken, and setting nothing the emulated drawing depends on.
-SETTINGS = frozenset(["CA", "CS", "DC", "DF", "DI", "DP", "DR", "DT", "IM", "LT", "PS", "PT", "FT", "SA", "SI", "SL", "SM", "SR", "SS", "TL"])
+SETTINGS = frozenset(["CA", "CS", "DC", "DF", "DI", "DP", "DR", "DT", "IM", "LT", "PS", "PT", "FT", "SA", "SI",
+                      "SL", "SM", "SR", "SS", "TL"])
 #: Known, but their drawing (or coordinate mapping) is not emulated.
 UNEMULATED = frozenset(["CP", "LB", "RA", "RR", "WG", "EW", "XT", "YT", "UC", "SC", "IP", "IW", "RO"])
 #: How many parameters each shape takes (least, most).
