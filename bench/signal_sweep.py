@@ -31,9 +31,9 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "driver"))
 
-import signal_cases  # noqa: E402
+import signal_cases
 
-from pencilbot.driver.stop_signals import STOP_SIGNALS  # noqa: E402
+from pencilbot.driver.stop_signals import STOP_SIGNALS
 
 FAMILIES = [*signal_cases.FAMILIES, "studio"]
 

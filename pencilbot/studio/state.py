@@ -7,10 +7,10 @@ plot and its journal); nothing the page sends is used as a path.
 from __future__ import annotations
 
 import shutil
-from dataclasses import asdict
 import tempfile
-import time
 import threading
+import time
+from dataclasses import asdict
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError

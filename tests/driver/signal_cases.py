@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import signal
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -69,7 +69,7 @@ def _job(family: str, folder: Path) -> Path:
     return path
 
 
-@lru_cache(maxsize=None)
+@cache
 def _hpgl() -> bytes:
     """Coffee's plan (120 paths, as ``test_hpgl_fault_matrix`` plots it) as HP-GL."""
     import tempfile
@@ -107,7 +107,7 @@ def _pen_up(family: str, name: str) -> bool:
     return bool(plotter.firmware.pen_up) if family.startswith("ebb") else not plotter.machine.pen_down
 
 
-@lru_cache(maxsize=None)
+@cache
 def _uninterrupted(family: str) -> tuple[list[np.ndarray], tuple[str, ...], float]:
     """The uninterrupted run: its drawing, the board's log, its simulated seconds (GRBL)."""
     import tempfile
@@ -206,7 +206,7 @@ class _FullPlan:
         self.plan, self.generation, self.sketch_png = plan, 0, b""
 
 
-@lru_cache(maxsize=None)
+@cache
 def _studio_plan():
     from PIL import Image
 

@@ -18,9 +18,9 @@ from pathlib import Path
 import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "driver"))  # the signal cases, the drawings' yardstick
-import signal_cases  # noqa: E402
+import signal_cases
 
-from pencilbot.driver.stop_signals import STOP_SIGNALS  # noqa: E402
+from pencilbot.driver.stop_signals import STOP_SIGNALS
 
 
 @pytest.fixture
