@@ -231,6 +231,8 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
     from pencilbot.studio.server import prepare
 
     sim.register()
+    protocol_sim.forget("studio")  # the studio's virtual plotter: another test's drawing may be on it
+    protocol_sim.forget("studio-ref")
     profile = FAMILIES["grbl"][0]
     os.environ["XDG_STATE_HOME"] = str(folder / "state")  # where the kept plot goes
     running = prepare(None, listen_port=0, profile=profile, sim_speed=20.0)
