@@ -11,12 +11,15 @@ import pytest
 
 def pytest_configure(config):
     """The tests deliver stop signals to this process (a virtual board's ``interrupt@`` fault)
-    and expect Ctrl-C to be heard as at a terminal. A shell's background job (``pytest &`` from a
-    script, ``trap '' INT``) starts with SIGINT ignored, which the driver leaves ignored (as it
-    leaves nohup's SIGHUP): the suite puts Python's own Ctrl-C handler back so that it runs the
-    same however it was started."""
-    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+    and expect them to be heard as at a terminal. A shell's background job (``pytest &`` from a
+    script, ``trap '' INT``) starts with SIGINT ignored, ``nohup`` with SIGHUP ignored, and the
+    driver leaves an ignored signal ignored: the suite puts the usual handlers back (Python's
+    own for Ctrl-C) so that it runs the same however it was started."""
+    from pencilbot.driver.stop_signals import STOP_SIGNALS
+
+    for signum in STOP_SIGNALS:
+        if signal.getsignal(signum) is signal.SIG_IGN:
+            signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
 
 
 @pytest.fixture(autouse=True)

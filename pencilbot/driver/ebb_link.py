@@ -49,12 +49,13 @@ class EbbLink:
         assert text is not None  # set by command() or stop_now()
         name = text.split(",")[0].upper()
         want = protocol.reply_lines(name, future=self.future)
-        deadline = time.monotonic() + (wait if wait is not None else self.timeout)
+        limit = wait if wait is not None else self.timeout
+        self.reader.restart_silence()
         while len(self._got) < want:
             if not self._lines:
                 self._lines = self.reader.read_lines()
                 if not self._lines:
-                    if time.monotonic() > deadline:
+                    if self.reader.silent_for() > limit:  # time spent listening, not a host's stall
                         self.pending = None  # its answer is lost: later answers are other commands'
                         raise EbbFault(f"the board did not answer {text[:24]} within {self.timeout:g} s")
                     continue
@@ -118,11 +119,12 @@ class EbbLink:
 
     def wait_idle(self, limit: float) -> None:
         """Until no command runs and the FIFO is empty (QG's low four bits clear)."""
-        deadline = time.monotonic() + limit
+        waited = 0.0  # the pauses between queries, not the clock: a stalled host is not a moving board
         while self.status() & 0x0F:
-            if time.monotonic() > deadline:
+            if waited > limit:
                 raise EbbFault(f"the board was still moving after {limit:.0f} s")
             time.sleep(0.005)
+            waited += 0.005
 
 
 def greet(link: EbbLink) -> str:

@@ -181,7 +181,7 @@ class BoardSession:
     def wait_until_still(self):
         """Poll until the machine has finished what it was doing; its status (None without
         status reports)."""
-        self.link.last_rx = time.monotonic()
+        self.link.restart_silence()
         while True:
             status = self.query_status()
             if status is None or not self.firmware.is_moving(status):
@@ -199,7 +199,7 @@ class BoardSession:
         entry = self._framed(line, None)
         with self._guard(index):
             self._write([entry], entry.frame)
-            self.link.last_rx = time.monotonic()
+            self.link.restart_silence()
             while entry.reply is None:
                 self._check_alive(index)
                 for reply in self._replies():
@@ -331,7 +331,7 @@ class BoardSession:
             self._query_unanswered = True
 
     def _check_alive(self, index: int) -> None:
-        if time.monotonic() - self.link.last_rx > self.timeout:
+        if self.link.silent_for() > self.timeout:  # listened that long: not a host's stall
             raise StreamFault("timeout", index, f"nothing received for {self.timeout:g} s")
 
     def _oldest(self, nxt: int) -> int:

@@ -32,7 +32,6 @@ never times out (a held board still answers status queries).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 from pencilbot.driver.faults import StreamFault
@@ -94,7 +93,7 @@ class Stream(BoardSession):
         drain = None
         last_asked = False
         nxt = start
-        self.link.last_rx = time.monotonic()
+        self.link.restart_silence()
         with self._guard(lambda: self._oldest(nxt)):
             while self.state != DONE:
                 if self.state == STREAMING:
@@ -155,7 +154,7 @@ class Stream(BoardSession):
             self._held_by_us = False
             self.link.write(self.firmware.cycle_start)
             self._fresh_after = self.reports + int(self._query_unanswered)
-        self.link.last_rx = time.monotonic()  # waiting for the user is not the board's silence
+        self.link.restart_silence()  # waiting for the user is not the board's silence
 
     def _serve_keys(self, keys, index: int) -> None:
         for request in keys.poll():

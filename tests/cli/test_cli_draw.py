@@ -152,9 +152,11 @@ def test_sigterm_stops_safely_and_prints_the_resume_command(tmp_path):
                "--port", "sim://term?realtime=2", "--profile", "grbl-servo-a4", "--json-lines"]
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     journal = tmp_path / "plot.gcode.job.json"
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline and not (journal.exists() and json.loads(journal.read_text())["acked_line"] > 10):
+    deadline = time.monotonic() + 600  # a bound for a broken run only: a loaded machine starts slowly
+    while proc.poll() is None and time.monotonic() < deadline and not (
+            journal.exists() and json.loads(journal.read_text())["acked_line"] > 10):
         time.sleep(0.05)
+    assert proc.poll() is None, "the plot ended before the signal"
     proc.send_signal(signal.SIGTERM)
     _out, err = proc.communicate(timeout=30)
     assert proc.returncode != 0

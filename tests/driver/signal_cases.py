@@ -197,3 +197,92 @@ def run(family: str, signame: str, moment: str, folder: Path, name: str) -> Outc
         return Outcome(True, _pen_up(family, name), False, False, f"resume failed: {str(exc)[:300]}")
     finally:
         protocol_sim.forget(name)
+
+
+class _FullPlan:
+    """Stands for the studio planner's full stage: the library's plan of a small photo."""
+
+    def __init__(self, plan):
+        self.plan, self.generation, self.sketch_png = plan, 0, b""
+
+
+@cache
+def _studio_plan():
+    from PIL import Image
+
+    from pencilbot import api
+
+    with __import__("tempfile").TemporaryDirectory() as folder:
+        photo = Path(folder) / "bars.png"
+        Image.fromarray(np.repeat(np.linspace(0, 255, 40, dtype=np.uint8)[None, :], 30, axis=0)).save(photo)
+        return api.plan(photo, page="100x70", pen_width=1.0)
+
+
+def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
+    """``pencilbot studio`` served in this (main) thread, a plot on its virtual plotter, and
+    ``signame`` sent to this process once the machine runs ``fraction`` of the job's lines.
+    After the stop: the server's folder gone, the plot kept (its journal stopped, the way to
+    resume said), the pen up; the resume exact. (Run in the main thread: only it gets signals.)"""
+    import os
+    import threading
+    import urllib.request
+
+    from pencilbot.driver.journal import load_journal
+    from pencilbot.studio.server import prepare
+
+    sim.register()
+    protocol_sim.forget("studio")  # the studio's virtual plotter: another test's drawing may be on it
+    protocol_sim.forget("studio-ref")
+    profile = FAMILIES["grbl"][0]
+    os.environ["XDG_STATE_HOME"] = str(folder / "state")  # where the kept plot goes
+    running = prepare(None, listen_port=0, profile=profile, sim_speed=20.0)
+    running.studio.results["full"] = _FullPlan(_studio_plan())
+    seen: dict = {}
+
+    def plot_then_signal():
+        try:
+            for _ in range(600):  # uvicorn listening (a 10 s bound)
+                if running.server.started:
+                    break
+                threading.Event().wait(1 / 60)
+            request = urllib.request.Request(running.url.rstrip("/") + "/api/plot", method="POST",
+                                             data=json.dumps({"port": "sim://", "profile": profile}).encode(),
+                                             headers={"X-Studio": "1", "Content-Type": "application/json"})
+            urllib.request.urlopen(request, timeout=60).close()
+            session = running.studio.plotters.get("sim://")
+            seen["gcode"] = session.gcode.read_text()
+            lines = max(int(fraction * len(seen["gcode"].splitlines())), 1)
+            while (session.record.get("running") or 0) < lines and session.active:
+                running.studio.wait_change(running.studio.version, 5.0)  # woken by each progress record
+            seen["active"] = session.active
+        finally:
+            os.kill(os.getpid(), SIGNALS[signame])
+
+    helper = threading.Thread(target=plot_then_signal)
+    helper.start()
+    server_folder = running.studio.folder
+    said = running.serve()
+    helper.join()
+    try:
+        if not seen.get("active"):
+            return Outcome(False, True, False, False, "the plot ended before the signal")
+        kept = len(said) == 1 and "stopped with the pen up" in said[0] and "Resume with: pencilbot draw --resume" in said[0]
+        plotter = protocol_sim.plotter("studio")
+        plotter.firmware.finish()
+        pen_up = not plotter.machine.pen_down
+        if not kept:
+            return Outcome(False, pen_up, False, False, f"said: {said}")
+        journal_file = Path(said[0].split("--resume ", 1)[1].split(" --port")[0])
+        journal = load_journal(journal_file)
+        journal_stopped = journal.status == "stopped" and Path(journal.gcode).read_text() == seen["gcode"]
+        draw(journal.gcode, "sim://studio", resume=str(journal_file))
+        plotter.firmware.finish()
+        draw(journal.gcode, f"sim://studio-ref?profile={profile}", profile=profile)
+        reference_plotter = protocol_sim.plotter("studio-ref")
+        reference_plotter.firmware.finish()
+        problems = drawing_differences(list(plotter.machine.strokes), list(reference_plotter.machine.strokes),
+                                       FAMILIES["grbl"][2])
+        return Outcome(not server_folder.exists(), pen_up, journal_stopped, not problems, f"{problems[:2]}")
+    finally:
+        protocol_sim.forget("studio")
+        protocol_sim.forget("studio-ref")
