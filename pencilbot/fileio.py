@@ -53,7 +53,7 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
         The folder does not exist or cannot be written.
     """
     target = Path(path)
-    refuse_special_output(target)
+    refuse_special_output(target, folder_ok=True)  # (a folder: the rename below fails, "Is a directory")
     folder = target.parent
     if not folder.is_dir():
         raise PencilbotError(f"cannot write {target}: folder {folder} does not exist; create it first")

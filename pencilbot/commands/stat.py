@@ -87,7 +87,6 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
     from pencilbot.driver.job import load_job
 
     job = load_job(path, profile, allow=allow)
-    check_on_bed(job)  # as draw: a move off the bed is no drawing of this plotter
     drawn = drawn_paths(job)
     if not len(drawn) and job.system.check_from is not None:
         raise PencilbotError(f"{path} draws nothing: {job.system.notes[-1]}")
@@ -96,6 +95,7 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
         raise PencilbotError(
             f"{path}: the pen never goes down the way profile {profile.name} puts it down ({pen.kind} pen, "
             f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)")
+    check_on_bed(job)  # as draw: a move off the bed is no drawing of this plotter
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
     return Plan(bed, (Layer(path.stem, drawn.with_points(placement.to_page(drawn.points))),))

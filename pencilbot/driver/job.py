@@ -319,13 +319,13 @@ def _check(job: Job) -> None:
             f"{job.source} is not G-code text (it holds NUL bytes, as binary files do); give the "
             ".gcode file that pencilbot export wrote"
         )
+    refused = job.profile.firmware.check_lines(job)
+    if refused is not None:
+        index, reason = refused
+        raise RefusedError(f"line {job.number(index)} of {job.source}: {reason}")
     if (long := _LONG_NUMBER.search(job.frames)) is not None:
         index = int(np.searchsorted(job.offsets, long.start(), side="right")) - 1
         raise PencilbotError(
             f"line {job.number(index)} of {job.source} ({job.line(index)[:40]!r}) has a number of "
             f"{len(long.group()) - 1} characters; no plotter coordinate, feed or time needs more than {MAX_DIGITS} "
             "(a board reads it as a move or a wait without end); nothing was sent. Is it G-code?")
-    refused = job.profile.firmware.check_lines(job)
-    if refused is not None:
-        index, reason = refused
-        raise RefusedError(f"line {job.number(index)} of {job.source}: {reason}")

@@ -119,3 +119,13 @@ def test_names_are_read_as_a_person_writes_them():
     assert allowed_names("h c $100= $n0") == {"$H", "$C", "$100", "$N0"}
     assert command_name("$RST=*") == "$RST" and command_name("$J=G91X1F1") is None and command_name("$$") == "$$"
     assert command_name("$N0=G0X5") == "$N0" and command_name("G0X1") is None
+
+
+def test_a_jog_on_the_bed_is_drawn_around_as_grbl_runs_it(capsys, tmp_path):
+    # GRBL refuses G-code while it jogs (error:9): the sender waits the jog out, then goes on
+    # from where it ended.
+    lines = ["G21", "G90", "M3 S30", "G0 X10 Y10", "$J=G91 X30 Y5 F3000", "M3 S90", "G91 G1 X10 F1000", "M3 S30"]
+    code, err, name, _ = run_cli(capsys, tmp_path, "draw", lines)
+    assert code == 0, err
+    (stroke,) = protocol_sim.plotter(name).machine.drawn()
+    assert np.allclose(np.asarray(stroke)[[0, -1], :2], [[40, 15], [50, 15]], atol=1e-3)

@@ -343,9 +343,9 @@ def test_missing_folder_is_a_clear_error(tmp_path):
 
 def test_failed_rename_leaves_no_temporary_file(tmp_path):
     blocker = tmp_path / "drawing.gcode"
-    blocker.mkdir()  # a folder where the file should go: refused before a temporary file is made
+    blocker.mkdir()  # a folder where the file should go: the final rename fails
     plan = plan_of([np.array([[20.0, 20.0], [30.0, 30.0]])])
-    with pytest.raises(PencilbotError, match=r"drawing.gcode is a folder, not a file"):
+    with pytest.raises(PencilbotError, match=r"cannot write .*drawing.gcode"):
         write_gcode(plan, load_profile("grbl-servo-a4"), blocker)
     assert [p.name for p in tmp_path.iterdir()] == ["drawing.gcode"] and blocker.is_dir()
 

@@ -43,22 +43,11 @@ SECONDS = 20  # a probe running longer has hung (the slowest clean one takes abo
 class Probe:
     """One command line of the sweep.
 
-    Attributes
-    ----------
-    surface : str
-        What it probes ("files", "gcode lines", "hpgl", "profiles", "settings").
-    name : str
-        What it is, for the report.
-    argv : list of str
-        The command line (paths relative to the folder).
-    good : bool
-        The input is right: the run must succeed. Otherwise it must be refused.
-    env : dict
-        Environment variables for the run.
-    keep : list of str
-        Paths that must be as they were afterwards (content, or kind of file).
-    absent : list of str
-        Paths that must not exist afterwards (an output after a refusal).
+    ``surface`` is what it probes ("files", "gcode lines", "hpgl", "profiles", "settings"),
+    ``name`` what it is; ``argv`` the command line (paths relative to the folder), run with ``env``;
+    ``good``: the input is right and the run must succeed (else it must be refused); ``keep``:
+    paths that must be as they were afterwards (content, or kind of file); ``absent``: paths that
+    must not exist afterwards (an output after a refusal).
     """
 
     surface: str
@@ -233,21 +222,22 @@ def _files(folder: Path) -> None:
             elif kind == "dir":
                 path.mkdir()
             else:
-                _device(path, 5)  # a /dev/zero of our own: endless zeros
+                device(path, 5)  # a /dev/zero of our own: endless zeros
     for suffix in ("png", "svg", "gcode", "hpgl"):
         for kind, minor in (("outfifo", None), ("outdev", 3)):
             path = folder / f"{kind}.{suffix}"
             if not path.exists():
-                os.mkfifo(path) if minor is None else _device(path, minor)  # (3: a /dev/null of our own)
+                os.mkfifo(path) if minor is None else device(path, minor)  # (3: a /dev/null of our own)
 
 
-def _device(path: Path, minor: int) -> None:
+def device(path: Path, minor: int) -> Path:
     """A character device node (major 1: /dev/null 3, /dev/zero 5), or a FIFO where that is not
     allowed (not root): either is no regular file."""
     try:
         os.mknod(path, 0o666 | stat.S_IFCHR, os.makedev(1, minor))
     except PermissionError:
         os.mkfifo(path)
+    return path
 
 
 def _file_probes() -> list[Probe]:
@@ -420,7 +410,7 @@ def _settings_probes(folder: Path) -> list[Probe]:
         os.mkfifo(folder / "config-fifo" / "config.toml")
     (folder / "config-dev").mkdir(exist_ok=True)
     if not (folder / "config-dev" / "config.toml").exists():
-        _device(folder / "config-dev" / "config.toml", 5)
+        device(folder / "config-dev" / "config.toml", 5)
     out = []
     for value in ("dev.toml", "fifo.toml", "dir.toml", "sparse.toml", "empty.toml", "/nonexistent/p.toml", "no-such-name"):
         out.append(Probe("settings", f"PENCILBOT_PROFILE={value}", ["stat", "d.svg", "-q"],

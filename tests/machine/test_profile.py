@@ -97,7 +97,7 @@ BAD = {
     "missing table": (_drop("", "pen"), ["missing table [pen]", "kind"]),
     "not a table": (_set("", "bed", 5), ["bed = 5", "table [bed]"]),
     "negative feed": (_set("motion", "travel_feed", -100), ["[motion] travel_feed = -100", "≥ 1 and ≤ 1000000 mm/min"]),
-    "zero feed": (_set("motion", "draw_feed", 0), ["[motion] draw_feed = 0", "> 0 and"]),
+    "zero feed": (_set("motion", "draw_feed", 0), ["[motion] draw_feed = 0", "≥ 1 and"]),
     "negative delay": (_set("pen", "down_delay", -0.1), ["[pen] down_delay", "≥ 0 and ≤ 60 seconds"]),
     "absurd feed": (_set("motion", "draw_feed", 3e9), ["[motion] draw_feed", "≤ 1000000 mm/min"]),
     "huge bed": (_set("bed", "height", 1e6), ["[bed] height", "≤ 10000 mm"]),
