@@ -58,11 +58,13 @@ FEATURE_VALLEY = 0.02
 #: 25 mm and lifting the whole sheet's tone to the faces' curve left 2 of 21 such faces at
 #: rho@1mm >= 0.95 and @0.5mm >= 0.85, plot vs own sketch r down to 0.825 and group photos at
 #: 33-51 min; see docs/faces.md.)
-#: Most pen-down length of a one-pen plan, mm per cm² of the drawing box (40 m on an A4 sheet's
-#: 180 × 267 mm): past it the hatching's tone is drawn lighter by one factor (:func:`_shaded`). On the
-#: face set (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts,
-#: 0.43 min per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min.
-PEN_DOWN_BUDGET = 83.0
+#: Pen-down length a one-pen plan aims to stay within, mm per cm² of the sheet (39 m on A4): past
+#: it the hatching's tone is drawn lighter by one factor (:func:`_shaded`). On the face set
+#: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
+#: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min. (Per cm² of the drawing
+#: box instead, a square portrait's smaller box was held to 27 m: astronaut 22 -> 16 min, whole
+#: box rho 0.968 -> 0.957.)
+PEN_DOWN_BUDGET = 63.0
 log = logging.getLogger(__name__)
 
 
@@ -318,14 +320,13 @@ def plan_from_sketch(
 def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, dithered, faces: list) -> list:
     """The hatch layers (and the faces' runs) of a one-pen plan, within ``PEN_DOWN_BUDGET``.
 
-    Past the budget the tone is shaded once more, the hatching's tone scaled by what the budget
-    leaves it over what it drew: every tone lighter by one factor, so the drawing keeps its order
+    Past the budget the tone is shaded once more, the hatching's tone scaled by (what the budget
+    leaves it / what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order
     of tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
     """
     tone = 1.0 - drawing.tone
     face_tone = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
-    x0, y0, x1, y1 = layout.drawing_box
-    budget = PEN_DOWN_BUDGET * (x1 - x0) * (y1 - y0) / 100 - float(strokes.drawn_lengths().sum())
+    budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(strokes.drawn_lengths().sum())
     scale = 1.0
     for _ in range(2):
         layers = shade(
@@ -339,7 +340,9 @@ def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, di
         if drawn <= budget or scale < 1.0:
             return layers
         runs = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers if layer.name == FACE_TONE)
-        scale = max(budget - runs, 0.0) / max(drawn - runs, 1e-9)
+        # ¾: the hatching's ink falls faster than its tone (fewer families reach a lighter one);
+        # linear, the dark bar photo came to 24.8 min but its whole-box rho 0.944 -> 0.929.
+        scale = (max(budget - runs, 0.0) / max(drawn - runs, 1e-9)) ** 0.75
         log.debug("pen-down %.1f m over the budget %.1f m: tone scaled by %.2f", drawn / 1e3, budget / 1e3, scale)
     return layers
 

@@ -43,10 +43,9 @@ def test_over_the_budget_the_tone_is_lighter_in_the_same_order(dark_steps, monke
     drawing, page = dark_steps
     free = plan_from_sketch(drawing, page, FAST)
     used = _pen_down(free)
-    area_cm2 = 90 * 90 / 100  # the 100 mm sheet less 5 mm margins holds the square picture
-    monkeypatch.setattr(build, "PEN_DOWN_BUDGET", 0.6 * used / area_cm2)
+    monkeypatch.setattr(build, "PEN_DOWN_BUDGET", 0.6 * used / (100 * 100 / 100))  # per cm² of the sheet
     held = plan_from_sketch(drawing, page, FAST)
-    assert _pen_down(held) <= 0.6 * used * 1.05
+    assert _pen_down(held) <= 0.6 * used * 1.15  # one more shading, aimed at the budget
     assert _pen_down(held) >= 0.3 * used  # lighter, not blank
     # Darker bands keep more ink than lighter ones (points per band, top band lightest).
     ink = _band_ink(held, drawing, page)
