@@ -7,6 +7,7 @@ answer; a user's mistake is a 4xx with one plain sentence (``{"error": ...}``).
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from starlette.applications import Starlette
@@ -25,6 +26,8 @@ from pencilbot.studio.state import Studio, TooLarge
 
 STATIC = Path(__file__).parent / "static"
 EVENT_WAIT = 15.0  # s between keep-alive events
+#: Bytes a JSON request may have: the page sends a few hundred.
+MAX_JSON_BYTES = 64 * 1024
 
 
 def error(status: int, message: str) -> JSONResponse:
@@ -42,9 +45,36 @@ def _refusals(handler):
             return error(409, str(err))
         except PencilbotError as err:
             return error(400, str(err))
-        except (json.JSONDecodeError, UnicodeDecodeError):
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
             return error(400, "the request body is not JSON")
     return wrapped
+
+
+async def json_body(request: Request) -> dict:
+    """The request's JSON object, read only up to :data:`MAX_JSON_BYTES` (413 past them)."""
+    chunks, total = [], 0
+    async for chunk in request.stream():
+        total += len(chunk)
+        if total > MAX_JSON_BYTES:
+            raise TooLarge(f"the request is larger than the {MAX_JSON_BYTES // 1024} kB the studio's page ever sends")
+        chunks.append(chunk)
+    body = json.loads(b"".join(chunks) or b"{}")
+    if not isinstance(body, dict):
+        raise PencilbotError("the request body must be a JSON object")
+    return body
+
+
+def number(body: dict, key: str) -> float:
+    """A finite number from the body (0 when absent)."""
+    value = body.get(key, 0.0)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise PencilbotError(f"{key} must be a number, not {value!r}")
+    return float(value)
+
+
+def profile_of(body: dict):
+    """The plotter profile the body names (a listed name; "": the user's default)."""
+    return parse_options({"profile": body.get("profile", "")}).plotter()
 
 
 def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None,
@@ -94,7 +124,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         return JSONResponse(info)
 
     async def drawing(request: Request):
-        options = parse_options(await request.json())
+        options = parse_options(await json_body(request))
         if studio.photo is None:
             studio.options = options
             return JSONResponse({"generation": 0})
@@ -149,10 +179,9 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         return port
 
     async def plot(request: Request):
-        body = await request.json()
+        body = await json_body(request)
         port = chosen_port(body)
-        options = parse_options({"profile": body.get("profile", "")})
-        profile = options.plotter()
+        profile = profile_of(body)
         plan = studio.full_plan()
         gcode = studio.folder / f"plot-{len(studio.plotters.sessions) + 1}-{id(plan):x}.gcode"
 
@@ -165,8 +194,9 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         return JSONResponse(session.summary())
 
     async def plot_button(request: Request):
-        body = await request.json()
+        body = await json_body(request)
         port, button = chosen_port(body), request.path_params["button"]
+        dx, dy = number(body, "dx"), number(body, "dy")
         if button == "resume-job":
             return JSONResponse(studio.plotters.resume(port).summary())
         if button not in ("pause", "stop", "go", "give up", "jog"):
@@ -175,14 +205,13 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
             session = studio.plotters.get(port)
         except KeyError:
             return error(409, f"{port} is not plotting")
-        dx, dy = (float(body.get(key, 0.0)) for key in ("dx", "dy"))
-        session.press(button, dx, dy)
+        session.press(button, dx, dy, prompt=body.get("prompt"))
         return JSONResponse(session.summary())
 
     async def pen(request: Request):
-        body = await request.json()
+        body = await json_body(request)
         port = chosen_port(body)
-        profile = parse_options({"profile": body.get("profile", "")}).plotter().name
+        profile = profile_of(body).name
         session = studio.plotters.sessions.get(port)
         if session is not None and session.active:
             raise PlotBusy(f"{port} is plotting; the pen test waits until it is done")

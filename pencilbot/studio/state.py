@@ -7,6 +7,7 @@ plot and its journal); nothing the page sends is used as a path.
 from __future__ import annotations
 
 import shutil
+import struct
 import tempfile
 import threading
 import time
@@ -88,9 +89,13 @@ class Studio:
         path = self.folder / f"photo-{self._uploads}"
         path.write_bytes(data)
         try:
-            with Image.open(path) as img:
+            with Image.open(path) as img:  # the header only: nothing is decoded before the checks
                 width, height = img.size
-        except (UnidentifiedImageError, OSError, ValueError):
+        except Image.DecompressionBombError:
+            path.unlink(missing_ok=True)
+            raise TooLarge(f"the photo has more pixels than the {DEFAULT_MAX_PIXELS:,} pencilbot reads "
+                           "(more than the image library even opens); shrink it first") from None
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError, IndexError, struct.error):
             path.unlink(missing_ok=True)
             raise PencilbotError("that file is not an image pencilbot can read; give a PNG, JPEG, TIFF, BMP or WebP file") from None
         if width * height > DEFAULT_MAX_PIXELS:
