@@ -44,22 +44,38 @@ class WebKeys:
 
 
 class WebOperator:
-    """The person at the page: answers the driver's prompts through :attr:`PlotSession.prompt`."""
+    """The person at the page: answers the driver's prompts through :attr:`PlotSession.prompt`.
+
+    Each prompt has its own ``id``; an answer counts only for the prompt it names (the page sends
+    the id of the dialog it showed), so a double click, or a press that arrives late, can never
+    answer the next prompt (a skipped pen change draws one colour with another pen)."""
 
     def __init__(self, session: PlotSession):
         self.session = session
         self.answers: queue.Queue[tuple] = queue.Queue()
+        self.asked = 0
+
+    def answer(self, prompt, *answer) -> None:
+        """An answer to the prompt whose ``id`` is ``prompt`` (None: the prompt open now)."""
+        current = self.session.prompt
+        if prompt is None and current is not None:
+            prompt = current["id"]
+        self.answers.put((prompt, *answer))
 
     def _ask(self, kind: str, text: str, **extra):
-        self.session.set(prompt={"kind": kind, "text": text, **extra})
+        self.asked += 1
+        asked = self.asked
+        self.session.set(prompt={"kind": kind, "text": text, "id": asked, **extra})
         try:
             while True:
                 if self.session.stop_requested.is_set():
                     raise Interrupted(STOP_BY)
                 try:
-                    yield self.answers.get(timeout=_WAIT)
+                    prompt, *answer = self.answers.get(timeout=_WAIT)
                 except queue.Empty:
                     continue
+                if prompt == asked:  # an answer to an earlier dialog is dropped
+                    yield answer
         finally:
             self.session.set(prompt=None)
 
@@ -147,17 +163,19 @@ class PlotSession:
 
     # --- the page's buttons ----------------------------------------------------------------
 
-    def press(self, button: str, dx: float = 0.0, dy: float = 0.0) -> None:
-        """``pause`` (toggles hold), ``stop``, ``go`` (answer a prompt), ``jog``, ``give up``."""
+    def press(self, button: str, dx: float = 0.0, dy: float = 0.0, prompt=None) -> None:
+        """``pause`` (toggles hold), ``stop``, ``go`` (answer a prompt), ``jog``, ``give up``;
+        ``go``, ``jog`` and ``give up`` answer only the prompt whose ``id`` is ``prompt`` (None:
+        the one open now)."""
         if button == "stop":
             self.stop_requested.set()
             self.keys.press("stop")
         elif button == "pause":
             self.keys.press("pause")
         elif button in ("go", "give up"):
-            self.operator.answers.put((button,))
+            self.operator.answer(prompt, button)
         elif button == "jog":
-            self.operator.answers.put(("jog", dx, dy))
+            self.operator.answer(prompt, "jog", dx, dy)
 
 
 class Plotters:

@@ -117,3 +117,31 @@ def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_pa
     session.thread.join(timeout=30)
     assert session.status == "stopped" and session.message.startswith("re-zero abandoned")
     assert session.prompt is None
+
+
+def test_a_double_click_on_a_pen_change_answers_only_that_pen_change(studio, client, tmp_path):
+    """Two presses of "Done, go on" for the first pen change (a double click: both name the
+    dialog shown) must leave the second pen change waiting for its own answer."""
+    from pencilbot.machine.pens import load_pens
+
+    photo = tmp_path / "bars.png"
+    Image.fromarray(np.repeat(np.linspace(0, 255, 40, dtype=np.uint8)[None, :], 30, axis=0)).convert("RGB").save(photo)
+    whole = tmp_path / "cmyk.gcode"
+    api.export_gcode(api.plan(photo, page="A5", pen_width=1.0, pens=load_pens("cmyk")), "grbl-servo-a4", whole)
+    lines = whole.read_text().splitlines()
+    changes = [i for i, line in enumerate(lines) if line.startswith("M0 (pen change")]
+    gcode = tmp_path / "two-pens.gcode"  # the start, the first two pen changes with a few moves each, the end
+    gcode.write_text("\n".join(lines[:changes[0] + 12] + lines[changes[1] - 2:changes[1] + 12] + lines[-6:]) + "\n")
+    session = studio.plotters.start("sim://", "sim://studio-pens?profile=grbl-servo-a4&realtime=20",
+                                    "grbl-servo-a4", gcode)
+    wait(lambda: session.prompt is not None or not session.active, "the first pen change")
+    first = session.prompt
+    assert first is not None and "insert yellow" in first["text"], session.message
+    for _ in range(2):
+        response = client.post("/api/plot/go", json={"port": "sim://", "prompt": first.get("id")}, headers=OWN)
+        assert response.status_code == 200
+    wait(lambda: (session.prompt or first).get("id") != first.get("id") or not session.active, "the second pen change")
+    assert session.active and session.prompt is not None and "insert cyan" in session.prompt["text"], session.message
+    client.post("/api/plot/go", json={"port": "sim://", "prompt": session.prompt.get("id")}, headers=OWN)
+    session.thread.join(timeout=60)
+    assert session.status == "done", session.message

@@ -165,6 +165,7 @@ async function showPlot() {
   const dialog = $("prompt");
   if (plot && plot.prompt) {
     $("prompt-text").textContent = plot.prompt.text;
+    dialog.dataset.prompt = plot.prompt.id;  // the buttons answer this prompt, never a later one
     $("jog").hidden = $("prompt-giveup").hidden = plot.prompt.kind !== "rezero";
     if (!dialog.open) dialog.showModal();
   } else if (dialog.open) dialog.close();
@@ -220,11 +221,12 @@ async function start() {
   $("pause").addEventListener("click", () => plotButton("pause"));
   $("stop").addEventListener("click", () => plotButton("stop"));
   $("resume-job").addEventListener("click", () => plotButton("resume-job"));
-  $("prompt-go").addEventListener("click", () => plotButton("go"));
-  $("prompt-giveup").addEventListener("click", () => plotButton("give up"));
+  const shownPrompt = () => ({ prompt: Number($("prompt").dataset.prompt) });
+  $("prompt-go").addEventListener("click", () => plotButton("go", shownPrompt()));
+  $("prompt-giveup").addEventListener("click", () => plotButton("give up", shownPrompt()));
   $("prompt-stop").addEventListener("click", () => plotButton("stop"));
   for (const b of $("jog").querySelectorAll("button")) {
-    b.addEventListener("click", () => { const s = Number($("jog-step").value); plotButton("jog", { dx: s * b.dataset.dx, dy: s * b.dataset.dy }); });
+    b.addEventListener("click", () => { const s = Number($("jog-step").value); plotButton("jog", { dx: s * b.dataset.dx, dy: s * b.dataset.dy, ...shownPrompt() }); });
   }
   for (const [id, down] of [["pen-up", false], ["pen-down", true]]) {
     $(id).addEventListener("click", async () => {
