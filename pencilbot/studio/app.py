@@ -94,14 +94,17 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         from pencilbot.planning.layout import ORIENTATIONS
         from pencilbot.planning.style import default_style, list_styles, load_style
 
-        style = load_style(default_style())
+        def defaults(name: str) -> dict:  # what a control shows until the person moves it
+            style = load_style(name)
+            return {"page": style.page, "orientation": style.orientation, "margin": style.margin,
+                    "pen_width": style.pen_width, "hatch_coverage": style.hatch_coverage,
+                    "line_length": style.line_length, "hatch": style.hatch}
+
         return JSONResponse({
             "styles": list_styles(), "style": default_style(), "pens": list_pen_sets(),
             "profiles": list(config_names("plotters")), "profile": studio.profile or default_profile(),
             "orientations": list(ORIENTATIONS), "pages": ["A5", "A4", "A3", "Letter"],
-            "defaults": {"page": style.page, "orientation": style.orientation, "margin": style.margin,
-                         "pen_width": style.pen_width, "hatch_coverage": style.hatch_coverage,
-                         "line_length": style.line_length, "hatch": style.hatch},
+            "style_defaults": {name: defaults(name) for name in list_styles()},
             "ports": await run_in_threadpool(plotter_ports, studio.ports),
         })
 
@@ -127,6 +130,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         options = parse_options(await json_body(request))
         if studio.photo is None:
             studio.options = options
+            studio.changed()  # every tab shows the same settings
             return JSONResponse({"generation": 0})
         return JSONResponse({"generation": await run_in_threadpool(studio.set_options, options)})
 

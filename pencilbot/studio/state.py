@@ -43,6 +43,8 @@ class Studio:
         self.planner = Planner(self._on_result, **({"stages": stages} if stages else {}))
         self.plotters = Plotters(on_change=self.changed)
         self._uploads = 0
+        self.photo_number = 0  # photos taken: a page shows a new one when this grows
+        self.photo_info: dict | None = None
 
     def changed(self) -> None:
         with self._changed:
@@ -109,8 +111,10 @@ class Studio:
         self.thumbnail = png_bytes(small.rgb)
         self.small = small  # the coarse stage plans this, not the file: no decoding per change
         self.photo, self.photo_name = path, name[:200]
+        self.photo_number += 1
+        self.photo_info = {"name": self.photo_name, "width": width, "height": height, "number": self.photo_number}
         self.plan()
-        return {"name": self.photo_name, "width": width, "height": height}
+        return self.photo_info
 
     def set_options(self, options: DrawingOptions) -> int:
         self.options = options
@@ -139,7 +143,7 @@ class Studio:
         stages = {name: {"generation": r.generation, "figures": r.figures, "error": r.error,
                          "seconds": round(r.seconds, 3)} for name, r in self.results.items()}
         return {"version": self.version, "generation": self.planner.generation, "options": asdict(self.options),
-                "photo": self.photo_name if self.photo else None, "stages": stages,
+                "photo": self.photo_info, "stages": stages,
                 "plots": self.plotters.summary()}
 
 
