@@ -157,7 +157,10 @@ class PlotSession:
             self.set(status="done", message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",
                      record={**self.record, "percent": 100.0, "eta_s": 0.0})
         except PencilbotError as err:
-            self.set(status="stopped", message=str(err), resumable=journal_path(self.gcode).is_file())
+            from pencilbot.studio.words import page_words
+
+            resumable = journal_path(self.gcode).is_file()
+            self.set(status="stopped", message=page_words(str(err), self.gcode, resumable), resumable=resumable)
         except Exception as err:  # noqa: BLE001 - the page must hear of anything, not a silent thread
             self.set(status="stopped", message=f"the plot stopped: {err!r}")
 

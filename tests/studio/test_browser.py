@@ -91,6 +91,8 @@ def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, p
     wait_for(browser, lambda: text(browser, "plot-status") == "stopped", "stopped")
     message = text(browser, "plot-message")
     assert "stopped by the stop key" in message and "pen raised" in message
+    assert 'Press "Resume the stopped plot"' in message and "pencilbot draw" not in message
+    assert str(server.studio.folder) not in message and ".gcode" not in message
     assert browser.find_element(By.ID, "resume-job").is_displayed()
     screenshot(browser, "5-stopped")
 

@@ -108,7 +108,10 @@ def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_pa
     plotters = Plotters()
     session = plotters.start("sim://", "sim://studio-rezero?profile=grbl-servo-a4&realtime=20&faults=abort@60", "grbl-servo-a4", gcode)
     session.thread.join(timeout=60)
-    assert session.status == "stopped" and "ALARM:3" in session.message and session.resumable, session.message
+    assert session.status == "stopped" and "(ALARM:3: the board was reset while moving, so it lost its position)" in session.message, session.message
+    assert session.resumable and 'Press "Resume the stopped plot"' in session.message
+    for terminal_words in (str(tmp_path), "pencilbot draw", "--resume", ".gcode", "Machine position"):  # written for a terminal
+        assert terminal_words not in session.message, session.message
     plotters.resume("sim://")
     wait(lambda: session.prompt is not None or not session.active, "the re-zero dialog")
     assert session.prompt["kind"] == "rezero" and "Jog the raised pen" in session.prompt["text"]
