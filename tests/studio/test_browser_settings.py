@@ -87,3 +87,29 @@ def test_a_bad_file_over_a_photo_is_refused_in_plain_words_and_the_photo_stays(s
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
+
+
+def test_the_phone_page_is_no_wider_than_the_phone_with_a_long_port_name(server, browser, photo):
+    long_port = "/dev/serial/by-id/usb-1a86_USB2.0-Serial_A50285BI12345678-if00-port0"
+    server.studio.ports = (long_port,)
+    size = browser.get_window_size()
+    browser.set_window_size(390, 844)
+    try:
+        width = browser.execute_script("return window.innerWidth")
+        load_photo(server, browser, photo)
+        Select(browser.find_element(By.ID, "port")).select_by_value(long_port)
+        wide = browser.execute_script(
+            "return [document.documentElement.scrollWidth, ...[...document.querySelectorAll('main *')]"
+            ".filter((e) => e.getBoundingClientRect().right > window.innerWidth + 0.5).map((e) => e.id || e.tagName)]")
+        assert wide[0] <= width and wide[1:] == [], wide
+        screenshot(browser, "8-phone")
+    finally:
+        server.studio.ports = ()
+        browser.set_window_size(size["width"], size["height"])
+
+
+def test_the_status_says_plotting_in_plain_words(server, browser):
+    browser.get(server.url)
+    wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
+    said = browser.execute_script("return ['Idle', 'Run', 'Hold:0', '', 'Alarm'].map(plotting)")
+    assert said == ["plotting", "plotting", "plotting (holding)", "starting", "plotting (alarm)"]
