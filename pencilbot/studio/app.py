@@ -20,7 +20,7 @@ from starlette.staticfiles import StaticFiles
 from pencilbot.errors import PencilbotError
 from pencilbot.studio.guard import COOKIE, MAX_UPLOAD_BYTES, Guard
 from pencilbot.studio.options import parse_options
-from pencilbot.studio.plotting import PlotBusy, pen_test
+from pencilbot.studio.plotting import PlotBusy
 from pencilbot.studio.ports import plotter_ports, port_url
 from pencilbot.studio.state import Studio, TooLarge
 
@@ -194,6 +194,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
 
             api.export_gcode(plan, profile, gcode)
         await run_in_threadpool(write)
+        await run_in_threadpool(studio.controls.release)  # the plot takes the port over
         session = studio.plotters.start(port, port_url(port, profile.name, studio.sim_speed), profile.name, gcode)
         return JSONResponse(session.summary())
 
@@ -202,6 +203,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         port, button = chosen_port(body), request.path_params["button"]
         dx, dy = number(body, "dx"), number(body, "dy")
         if button == "resume-job":
+            await run_in_threadpool(studio.controls.release)
             return JSONResponse(studio.plotters.resume(port).summary())
         if button not in ("pause", "stop", "go", "give up", "jog"):
             return error(404, f"no plot button called {button}")
@@ -212,15 +214,17 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         session.press(button, dx, dy, prompt=body.get("prompt"))
         return JSONResponse(session.summary())
 
-    async def pen(request: Request):
+    async def machine(request: Request):
         body = await json_body(request)
-        port = chosen_port(body)
+        port, action = chosen_port(body), request.path_params["action"]
         profile = profile_of(body).name
+        dx, dy = number(body, "dx"), number(body, "dy")
         session = studio.plotters.sessions.get(port)
         if session is not None and session.active:
-            raise PlotBusy(f"{port} is plotting; the pen test waits until it is done")
-        await run_in_threadpool(pen_test, port_url(port, profile, studio.sim_speed), profile, bool(body.get("down")))
-        return JSONResponse({"pen": "down" if body.get("down") else "up"})
+            raise PlotBusy(f"{port} is plotting; its controls wait until the plot is done or stopped")
+        said = await run_in_threadpool(studio.controls.press, port_url(port, profile, studio.sim_speed), profile,
+                                       action, dx, dy)
+        return JSONResponse({"said": said})
 
     async def plot_paths(request: Request):
         from pencilbot.studio.drawn_json import job_drawing
@@ -242,7 +246,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         Route("/api/events", events),
         Route("/api/plot", _refusals(plot), methods=["POST"]),
         Route("/api/plot/{button}", _refusals(plot_button), methods=["POST"]),
-        Route("/api/pen", _refusals(pen), methods=["POST"]),
+        Route("/api/machine/{action}", _refusals(machine), methods=["POST"]),
         Route("/api/plot-paths", _refusals(plot_paths)),
         Mount("/static", StaticFiles(directory=STATIC)),
     ]

@@ -219,13 +219,3 @@ class Plotters:
 
 class PlotBusy(PencilbotError):
     """A plotter that is plotting already (or has nothing to resume)."""
-
-
-def pen_test(url: str, profile: str, down: bool) -> None:
-    """Put the pen of the plotter at ``url`` down or up (the profile's own pen commands)."""
-    from pencilbot import api
-    from pencilbot.machine.profile import load_profile
-
-    pen = load_profile(profile).pen_model
-    lines = list(pen.down_lines if down else pen.up_lines)
-    api.draw(lines, url, profile=profile, source="the pen test")

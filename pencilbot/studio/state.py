@@ -16,6 +16,7 @@ from pathlib import Path
 
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage
+from pencilbot.studio.machine import Controls
 from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import Planner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
@@ -42,6 +43,7 @@ class Studio:
         self.results: dict[str, StageResult] = {}
         self.planner = Planner(self._on_result, **({"stages": stages} if stages else {}))
         self.plotters = Plotters(on_change=self.changed)
+        self.controls = Controls()  # the machine controls' open port
         self._uploads = 0
         self.photo_number = 0  # photos taken: a page shows a new one when this grows
         self.photo_info: dict | None = None
@@ -65,6 +67,7 @@ class Studio:
         self.closing = True
         self.changed()
         self.planner.cancel()
+        self.controls.release()
         for session in self.plotters.sessions.values():
             if session.active:
                 session.press("stop")

@@ -113,3 +113,29 @@ def test_the_status_says_plotting_in_plain_words(server, browser):
     wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
     said = browser.execute_script("return ['Idle', 'Run', 'Hold:0', '', 'Alarm'].map(plotting)")
     assert said == ["plotting", "plotting", "plotting (holding)", "starting", "plotting (alarm)"]
+
+
+def test_the_machine_controls_move_the_virtual_plotter(server, browser):
+    from sim import protocol_sim
+
+    browser.get(server.url)
+    wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
+    Select(browser.find_element(By.ID, "port")).select_by_value("sim://")
+    board = f"studio-{Select(browser.find_element(By.ID, 'profile')).first_selected_option.get_attribute('value')}"
+
+    def press(button: str, expect: str) -> str:
+        browser.find_element(By.ID, button).click()
+        return wait_for(browser, lambda: expect in text(browser, "plot-message") and text(browser, "plot-message"),
+                        f"the answer to {button}")
+
+    press("pen-down", "the pen is down")
+    assert protocol_sim.plotter(board).machine.pen_down
+    press("pen-toggle", "the pen is up")
+    assert not protocol_sim.plotter(board).machine.pen_down
+    Select(browser.find_element(By.ID, "walk-step")).select_by_value("10")
+    walked = press("walk-right", "walked: the carriage is at")
+    x, y = (float(v) for v in walked.split(" at ")[1].removesuffix(" mm").split(", "))
+    press("walk-up", f"walked: the carriage is at {x:.1f}, {y + 10:.1f} mm")
+    press("home", "home")
+    assert "motors off" in press("motors-off", "motors off")
+    screenshot(browser, "9-machine")

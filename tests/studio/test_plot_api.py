@@ -52,10 +52,28 @@ def wait(condition, what, timeout=60.0):
     pytest.fail(f"waited for {what}")
 
 
-def test_pen_test_on_the_virtual_plotter(client):
-    for down in (True, False):
-        response = client.post("/api/pen", json={"port": "sim://", "down": down}, headers=OWN)
-        assert response.status_code == 200 and response.json()["pen"] == ("down" if down else "up")
+@pytest.mark.parametrize("profile", ["grbl-z-a3", "grbl-servo-a4", "grblhal-servo-a3", "axidraw-v3", "hp7475a"])
+def test_the_machine_controls_of_every_family_on_the_virtual_plotter(client, profile):
+    def press(action, **extra):
+        response = client.post(f"/api/machine/{action}", json={"port": "sim://", "profile": profile, **extra}, headers=OWN)
+        assert response.status_code == 200, response.text
+        return response.json()["said"]
+
+    said = press("pen-down")
+    assert said in ("the pen is down", "pen down sent")
+    if said == "the pen is down":  # a plotter that reports its pen: the toggle lifts it
+        assert press("pen-toggle") == "the pen is up"
+    assert press("pen-up") in ("the pen is up", "pen up sent")
+    walked = press("walk", dx=10, dy=5)
+    assert walked.startswith("walked"), walked
+    assert press("home").startswith("home"), profile
+    if profile == "hp7475a":  # no motor command: said in plain words, not a 500
+        refused = client.post("/api/machine/motors-off", json={"port": "sim://", "profile": profile}, headers=OWN)
+        assert refused.status_code == 400 and "no command that switches its motors" in refused.json()["error"]
+    else:
+        assert "motors off" in press("motors-off")
+    refused = client.post("/api/machine/walk", json={"port": "sim://", "profile": profile, "dx": 500}, headers=OWN)
+    assert refused.status_code == 400 and "smaller steps" in refused.json()["error"]
 
 
 def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
@@ -63,7 +81,7 @@ def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
     assert response.status_code == 200 and response.json()["status"] == "running"
     session = studio.plotters.get("sim://")
     assert client.post("/api/plot", json={"port": "sim://"}, headers=OWN).status_code == 409
-    assert client.post("/api/pen", json={"port": "sim://", "down": True}, headers=OWN).status_code == 409
+    assert client.post("/api/machine/pen-down", json={"port": "sim://"}, headers=OWN).status_code == 409
     wait(lambda: (session.record.get("running") or 0) > 15, "the machine draws")
     drawing = client.get("/api/plot-paths", params={"port": "sim://"}).json()
     assert drawing["bed"] == [220.0, 310.0] and len(drawing["lines"]) * 2 == len(drawing["points"]) > 0

@@ -71,7 +71,7 @@ def test_a_signal_to_the_studio_mid_plot_stops_it_resumably(tmp_path, monkeypatc
     from pencilbot.studio.server import prepare
 
     sim.register()
-    for board in ("studio", "studio-ref"):  # another test's plot on these names is not this one's
+    for board in (f"studio-{PROFILE}", "studio-ref"):  # another test's plot on these names is not this one's
         protocol_sim.forget(board)
     monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path / "state"))
     photo = tmp_path / "bars.png"
@@ -103,19 +103,19 @@ def test_a_signal_to_the_studio_mid_plot_stops_it_resumably(tmp_path, monkeypatc
     assert seen["active"], "the plot ended before the signal"
     assert not folder.exists()  # the upload, the G-code and the journal of the server's folder went
     assert len(said) == 1 and "stopped with the pen up" in said[0] and "Resume with: pencilbot draw --resume" in said[0]
-    plotter = protocol_sim.plotter("studio")
+    plotter = protocol_sim.plotter(f"studio-{PROFILE}")  # the studio's virtual plotter of this profile
     plotter.firmware.finish()
     assert not plotter.machine.pen_down
     journal_file = Path(said[0].split("--resume ", 1)[1].split(" --port")[0])
     journal = load_journal(journal_file)
     assert journal.status == "stopped" and Path(journal.gcode).read_text() == seen["gcode"]
 
-    draw(journal.gcode, "sim://studio", resume=str(journal_file))
+    draw(journal.gcode, f"sim://studio-{PROFILE}", resume=str(journal_file))
     plotter.firmware.finish()
     resumed = list(plotter.machine.strokes)
     draw(journal.gcode, f"sim://studio-ref?profile={PROFILE}", profile=PROFILE)
     reference = protocol_sim.plotter("studio-ref")
     reference.firmware.finish()
     assert drawing_differences(resumed, list(reference.machine.strokes), 0.001) == []
-    protocol_sim.forget("studio")
+    protocol_sim.forget(f"studio-{PROFILE}")
     protocol_sim.forget("studio-ref")

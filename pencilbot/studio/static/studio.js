@@ -213,7 +213,7 @@ async function showPlot() {
   $("pause").disabled = $("stop").disabled = !(plot && plot.active);
   $("pause").textContent = paused && !plot.prompt ? "Resume" : "Pause";
   $("resume-job").hidden = !(plot && plot.resumable && !plot.active);
-  $("pen-up").disabled = $("pen-down").disabled = !!(plot && plot.active);
+  for (const b of $("machine").querySelectorAll("button")) b.disabled = !!(plot && plot.active);
   const dialog = $("prompt");
   if (plot && plot.prompt) {
     $("prompt-text").textContent = plot.prompt.text;
@@ -286,9 +286,12 @@ async function start() {
   for (const b of $("jog").querySelectorAll("button")) {
     b.addEventListener("click", () => { const s = Number($("jog-step").value); plotButton("jog", { dx: s * b.dataset.dx, dy: s * b.dataset.dy, ...shownPrompt() }); });
   }
-  for (const [id, down] of [["pen-up", false], ["pen-down", true]]) {
-    $(id).addEventListener("click", async () => {
-      try { const r = await call("POST", "/api/pen", { port: $("port").value, profile: $("profile").value, down }); $("plot-message").textContent = `pen ${r.pen}`; }
+  for (const b of $("machine").querySelectorAll("button[data-action]")) {  // the library's machine controls
+    b.addEventListener("click", async () => {
+      const step = Number($("walk-step").value), body = { port: $("port").value, profile: $("profile").value };
+      if (b.dataset.action === "walk") Object.assign(body, { dx: step * b.dataset.dx, dy: step * b.dataset.dy });
+      $("plot-message").textContent = "…";
+      try { $("plot-message").textContent = (await call("POST", `/api/machine/${b.dataset.action}`, body)).said; }
       catch (err) { $("plot-message").textContent = err.message; }
     });
   }
