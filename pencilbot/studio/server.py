@@ -51,6 +51,7 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     import uvicorn
 
     from pencilbot.studio.app import create_app
+    from pencilbot.studio.connections import HeaderTimeoutProtocol
     from pencilbot.studio.state import Studio
 
     token = None if is_loopback(host) else new_token()
@@ -75,7 +76,8 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     app = create_app(studio, host=host, port=bound, token=token)
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
-    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2)
+    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2,
+                            http=HeaderTimeoutProtocol)
 
     class Server(uvicorn.Server):
         @contextmanager

@@ -7,6 +7,7 @@ plot and its journal); nothing the page sends is used as a path.
 from __future__ import annotations
 
 import shutil
+import struct
 import tempfile
 import threading
 import time
@@ -15,6 +16,7 @@ from pathlib import Path
 
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage
+from pencilbot.studio.machine import Controls
 from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import Planner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
@@ -41,7 +43,10 @@ class Studio:
         self.results: dict[str, StageResult] = {}
         self.planner = Planner(self._on_result, **({"stages": stages} if stages else {}))
         self.plotters = Plotters(on_change=self.changed)
+        self.controls = Controls()  # the machine controls' open port
         self._uploads = 0
+        self.photo_number = 0  # photos taken: a page shows a new one when this grows
+        self.photo_info: dict | None = None
 
     def changed(self) -> None:
         with self._changed:
@@ -62,6 +67,7 @@ class Studio:
         self.closing = True
         self.changed()
         self.planner.cancel()
+        self.controls.release()
         for session in self.plotters.sessions.values():
             if session.active:
                 session.press("stop")
@@ -88,9 +94,13 @@ class Studio:
         path = self.folder / f"photo-{self._uploads}"
         path.write_bytes(data)
         try:
-            with Image.open(path) as img:
+            with Image.open(path) as img:  # the header only: nothing is decoded before the checks
                 width, height = img.size
-        except (UnidentifiedImageError, OSError, ValueError):
+        except Image.DecompressionBombError:
+            path.unlink(missing_ok=True)
+            raise TooLarge(f"the photo has more pixels than the {DEFAULT_MAX_PIXELS:,} pencilbot reads "
+                           "(more than the image library even opens); shrink it first") from None
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError, IndexError, struct.error):
             path.unlink(missing_ok=True)
             raise PencilbotError("that file is not an image pencilbot can read; give a PNG, JPEG, TIFF, BMP or WebP file") from None
         if width * height > DEFAULT_MAX_PIXELS:
@@ -104,8 +114,10 @@ class Studio:
         self.thumbnail = png_bytes(small.rgb)
         self.small = small  # the coarse stage plans this, not the file: no decoding per change
         self.photo, self.photo_name = path, name[:200]
+        self.photo_number += 1
+        self.photo_info = {"name": self.photo_name, "width": width, "height": height, "number": self.photo_number}
         self.plan()
-        return {"name": self.photo_name, "width": width, "height": height}
+        return self.photo_info
 
     def set_options(self, options: DrawingOptions) -> int:
         self.options = options
@@ -134,7 +146,7 @@ class Studio:
         stages = {name: {"generation": r.generation, "figures": r.figures, "error": r.error,
                          "seconds": round(r.seconds, 3)} for name, r in self.results.items()}
         return {"version": self.version, "generation": self.planner.generation, "options": asdict(self.options),
-                "photo": self.photo_name if self.photo else None, "stages": stages,
+                "photo": self.photo_info, "stages": stages,
                 "plots": self.plotters.summary()}
 
 

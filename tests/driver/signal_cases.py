@@ -231,9 +231,10 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
     from pencilbot.studio.server import prepare
 
     sim.register()
-    protocol_sim.forget("studio")  # the studio's virtual plotter: another test's drawing may be on it
-    protocol_sim.forget("studio-ref")
     profile = FAMILIES["grbl"][0]
+    board = f"studio-{profile}"  # the studio's virtual plotter of this profile
+    protocol_sim.forget(board)  # another test's drawing may be on it
+    protocol_sim.forget("studio-ref")
     os.environ["XDG_STATE_HOME"] = str(folder / "state")  # where the kept plot goes
     running = prepare(None, listen_port=0, profile=profile, sim_speed=20.0)
     running.studio.results["full"] = _FullPlan(_studio_plan())
@@ -267,7 +268,7 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
         if not seen.get("active"):
             return Outcome(False, True, False, False, "the plot ended before the signal")
         kept = len(said) == 1 and "stopped with the pen up" in said[0] and "Resume with: pencilbot draw --resume" in said[0]
-        plotter = protocol_sim.plotter("studio")
+        plotter = protocol_sim.plotter(board)
         plotter.firmware.finish()
         pen_up = not plotter.machine.pen_down
         if not kept:
@@ -275,7 +276,7 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
         journal_file = Path(said[0].split("--resume ", 1)[1].split(" --port")[0])
         journal = load_journal(journal_file)
         journal_stopped = journal.status == "stopped" and Path(journal.gcode).read_text() == seen["gcode"]
-        draw(journal.gcode, "sim://studio", resume=str(journal_file))
+        draw(journal.gcode, f"sim://{board}", resume=str(journal_file))
         plotter.firmware.finish()
         draw(journal.gcode, f"sim://studio-ref?profile={profile}", profile=profile)
         reference_plotter = protocol_sim.plotter("studio-ref")
@@ -284,5 +285,5 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
                                        FAMILIES["grbl"][2])
         return Outcome(not server_folder.exists(), pen_up, journal_stopped, not problems, f"{problems[:2]}")
     finally:
-        protocol_sim.forget("studio")
+        protocol_sim.forget(board)
         protocol_sim.forget("studio-ref")

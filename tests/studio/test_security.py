@@ -123,7 +123,7 @@ def test_a_path_as_port_or_download_is_refused(client, studio):
     for port in ("/etc/passwd", "/dev/null", "socket://10.0.0.1:23", "../sim://"):
         response = client.post("/api/plot", json={"port": port}, headers=OWN)
         assert response.status_code == 400 and "not one of the plotters found" in response.json()["error"]
-        response = client.post("/api/pen", json={"port": port, "down": True}, headers=OWN)
+        response = client.post("/api/machine/pen-down", json={"port": port}, headers=OWN)
         assert response.status_code == 400
     response = client.get("/api/download/plan.gcode", params={"profile": "/etc/passwd"})
     assert response.status_code in (400,)
