@@ -103,7 +103,7 @@ def load_image(
         raise ImageLoadError(f"--max-pixels must be at least 1, got {max_pixels}.")
     if not os.path.exists(name):
         raise ImageLoadError(no_such_file(name, "the path of an image file (PNG, JPEG, ...)"))
-    refuse_special_input(name, "image")  # a FIFO, a device (a folder: below)
+    refuse_special_input(name, "image", folder_ok=True)  # a FIFO, a device (a folder: below)
     if os.path.isdir(name):
         raise ImageLoadError(f"{name} is a directory, not an image file. Give an image file.")
     if os.path.getsize(name) == 0:
