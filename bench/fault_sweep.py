@@ -53,13 +53,13 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "driver"))
 
-from real_plan import plan_lines  # noqa: E402
-from segments import drawing_differences  # noqa: E402
+from real_plan import plan_lines
+from segments import drawing_differences
 
-import sim  # noqa: E402
-from pencilbot.driver import draw  # noqa: E402
-from pencilbot.errors import PlotError  # noqa: E402
-from sim import protocol_sim  # noqa: E402
+import sim
+from pencilbot.driver import draw
+from pencilbot.errors import PlotError
+from sim import protocol_sim
 
 sim.register()
 

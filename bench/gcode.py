@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pencilbot.machine.profile import load_profile
 from pencilbot.export.gcode import write_gcode
 from pencilbot.export.svg import write_svg
 from pencilbot.export.svg_read import read_svg
-from pencilbot.planning.stats import estimate
+from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.stats import estimate
 
 
 def stroke_plan(strokes: int, seed: int = 0) -> Plan:

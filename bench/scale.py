@@ -35,6 +35,9 @@ Stages and their targets (issue 16):
 * ``simulate_gcode`` — ``pencilbot simulate JOB.gcode`` of the draw stage's G-code, 0.3M to 3M
   lines: <= 30 s CPU and <= 2 GB at 3M, linear (issue 25; a plain job runs through the
   simulator's fast path, sim.bulk);
+* ``tiny_stat``, ``tiny_optimize``, ``tiny_export``, ``tiny_simulate`` — whole commands on another
+  tool's SVG of 10k to 1M tiny paths (bench/scale_tiny.py): <= 30 s CPU at 1M, exponent <= 1.1
+  from 100k to 1M (issue 35);
 * ``downscale_png`` — ``pencilbot sketch BIG.png --downscale --max-pixels 1000000`` of a 10 000²
   and a 30 000² RGB PNG (the astronaut enlarged): peak memory <= a quarter of the whole
   picture's decode (Pillow's 4 bytes a pixel), since a PNG is shrunk as it is read (issue 25).
@@ -185,9 +188,9 @@ def ordering_child(size: int) -> dict:
     from ordering import synthetic_uniform
 
     from pencilbot.planning.ordering import (
+        DEFAULT_ROUNDS,
         MIN_ROUNDS,
         ROUND_WORK,
-        DEFAULT_ROUNDS,
         greedy_order,
         order_paths,
         travel_length,
@@ -465,6 +468,24 @@ def simulate_gcode_command(size: int, scratch: Path) -> list[str]:
     return _pencilbot("simulate", str(job), "-o", str(scratch / "job.png"), "-q")
 
 
+# -- stages on a million tiny paths (issue 35; bench/scale_tiny.py) -------------------------------
+
+sys.path.insert(0, str(HERE))
+import scale_tiny  # noqa: E402
+
+
+def _tiny_stage(name: str) -> None:
+    def command(size: int, scratch: Path) -> list[str]:
+        svg = made_by_child("tiny_svg", size, ".svg", scratch)
+        return _pencilbot(*scale_tiny.commands(svg, scratch)[name])
+
+    stage(name, unit="paths", sizes=scale_tiny.SIZES, quick=scale_tiny.SIZES[1:], summary=scale_tiny.summary)(command)
+
+
+for _name in ("tiny_stat", "tiny_optimize", "tiny_export", "tiny_simulate"):
+    _tiny_stage(_name)
+
+
 def big_png_child(spec: str) -> None:
     """A SIZE x SIZE RGB PNG of skimage's astronaut (nearest-neighbour enlarged), written a strip
     of rows at a time with PNG's Up filter (this process never holds the picture either)."""
@@ -509,7 +530,7 @@ def downscale_png_command(size: int, scratch: Path) -> list[str]:
                       "--max-pixels", "1000000")
 
 
-CHILDREN = {"walk_svg": walk_svg_child, "ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
+CHILDREN = {"tiny_svg": scale_tiny.tiny_svg_child, "walk_svg": walk_svg_child, "ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
             "job_gcode": job_gcode_child, "a0": a0_child, "draw_traced": draw_traced_child,
             "big_png": big_png_child}
 

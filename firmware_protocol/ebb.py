@@ -39,7 +39,7 @@ VERSION_TEXT = f"EBBv13_and_above EB Firmware Version {VERSION}"
 #: unknown command (``!8``), ``CU,4`` (FIFO depth), ``CU,10`` (future syntax) and ``CU,60``
 #: (power-lost threshold) are taken and do nothing (v2.8.1's ``parse_CU_packet`` acts on 1 and
 #: 2 only); the FIFO stays one deep.
-SINCE = {"QU": (3, 0)}
+SINCE = {"QU": (3, 0), "T3": (3, 0), "TD": (3, 0)}
 CU_SINCE = {4: (3, 0), 10: (3, 0), 60: (3, 0)}
 MAX_DELAY_MS = 100_000  # SM,ms,0,0 (a delay) is capped at 100 s
 
@@ -77,6 +77,7 @@ class Spec:
     queued: bool = False
     reply: str = "ok"
     ending: str = "\r\n"
+    kinds: str = ""  # per argument: "i" a number (the default), "c" one character, "s" the rest as text
 
 
 COMMANDS: dict[str, Spec] = {
@@ -90,7 +91,7 @@ COMMANDS: dict[str, Spec] = {
     "LM": Spec((_INT32, _INT32, _INT32, _INT32, _INT32, _INT32, (0, 3)), 6, queued=True),
     "SM": Spec((_UINT32, _INT32, _INT32, (0, 3)), 2, queued=True),
     "XM": Spec(((1, _INT32[1]), _INT32, _INT32, (0, 3)), 3, queued=True),
-    "SP": Spec(((0, 3), (1, 65535), (0, 7)), 1, queued=True),
+    "SP": Spec(((0, 255), _UINT16, (0, 255)), 1, queued=True),  # State > 3 is 3, Pin > 7 is 1
     "TP": Spec(((1, 65535),), 0, queued=True),
     "SC": Spec(((0, 255), _UINT16), 2),
     "SR": Spec((_UINT32, (0, 1)), 1),
@@ -98,14 +99,29 @@ COMMANDS: dict[str, Spec] = {
     "QG": Spec((), 0, reply="data"),
     "QP": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QS": Spec((), 0, reply="data_ok", ending="\n\r"),
-    "QU": Spec(((0, 65535),), 1, reply="data_ok"),
+    "QU": Spec(((0, 255),), 1, reply="data_ok"),
     "QE": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QR": Spec((), 0, reply="data_ok", ending="\n\r"),
     "QM": Spec((), 0, reply="data", ending="\n\r"),
     "QT": Spec((), 0, reply="data_ok"),
+    "ST": Spec(((0, 16),), 0, kinds="s"),  # the board's name (nickname), at most 16 characters
+    "QC": Spec((), 0, reply="data_ok"),
+    "QL": Spec(((0, 255),), 0, reply="data_ok"),
+    "SL": Spec(((0, 255), (0, 255)), 1),
+    "QN": Spec((), 0, reply="data_ok"),
+    "SN": Spec((_UINT32,), 1),
+    "NI": Spec((), 0),
+    "ND": Spec((), 0),
+    "PI": Spec(((0, 255), (0, 255)), 2, reply="data", kinds="ci"),
+    "PO": Spec(((0, 255), (0, 255), (0, 255)), 3, kinds="cii"),
+    "PD": Spec(((0, 255), (0, 255), (0, 255)), 3, kinds="cii"),
+    "S2": Spec((_UINT16, (0, 255), _UINT16, _UINT16), 0, queued=True),
+    "T3": Spec((_UINT32, *[_INT32] * 6, _UINT32), 7, queued=True),
+    "TD": Spec((_UINT32, *[_INT32] * 8, _UINT32), 9, queued=True),
+    "RB": Spec((), 0),
 }
 #: Replies whose legacy form repeats the command's name (``QM,0,0,0,0``, ``QU,32``).
-NAMED_LEGACY = ("QM", "QU")
+NAMED_LEGACY = ("QM", "QU", "PI")
 
 _ERRORS = {
     4: "Missing parameter(s)",
@@ -120,7 +136,7 @@ class Command:
     """A parsed command: upper-case ``name`` and integer ``args``."""
 
     name: str
-    args: tuple[int, ...] = ()
+    args: tuple = ()  # numbers; a port letter (PI, PO, PD) or the name (ST) as text
 
     @property
     def queued(self) -> bool:
@@ -172,14 +188,22 @@ def parse_command(text: str) -> Command:
         raise CommandError(name, 4, _ERRORS[4])
     if len(raw) > len(spec.ranges):
         raise CommandError(name, 7, _ERRORS[7])
-    args = []
-    for value, (low, high) in zip(raw, spec.ranges):
+    if spec.kinds == "s":  # text: everything after the first comma, commas and all
+        text_arg = text.strip("\r\n").split(",", 1)[1] if len(parts) > 1 else ""
+        return Command(name, (text_arg[: spec.ranges[0][1]],))
+    args: list = []
+    for i, (value, (low, high)) in enumerate(zip(raw, spec.ranges)):
+        if spec.kinds[i:i + 1] == "c":  # a port letter, taken upper-case (checked by the command)
+            if len(value) != 1:
+                raise CommandError(name, 6, _ERRORS[6])
+            args.append(value.upper())
+            continue
         if not _NUMBER.match(value) or not low <= int(value) <= high:
             raise CommandError(name, 6, _ERRORS[6])
         args.append(int(value))
     if name == "HM" and len(args) == 2:  # Position1 needs Position2
         raise CommandError(name, 4, _ERRORS[4])
-    if name == "SM" and args[0] == 0 or name == "XM" and args[0] == 0:
+    if (name == "SM" and args[0] == 0) or (name == "XM" and args[0] == 0):
         raise CommandError(name, 6, _ERRORS[6])
     return Command(name, tuple(args))
 
@@ -187,17 +211,19 @@ def parse_command(text: str) -> Command:
 # --- replies: the board writes them (the simulator), a sender reads them (the driver) -----------
 
 
-def format_reply(name: str, data: str | None, *, future: bool) -> bytes:
-    """What the board sends back after command ``name`` with reply ``data`` (None: none)."""
+def format_reply(name: str, data: str | None, *, future: bool, old: bool = False) -> bytes:
+    """What the board sends back after command ``name`` with reply ``data`` (None: none);
+    ``old``: firmware 2.x, whose ``QR`` ends its data ``\\r\\n``."""
     spec = COMMANDS[name]
     if future:
         return f"{name},{data}\n".encode() if data is not None else f"{name}\n".encode()
     if spec.reply == "ok" or data is None:
         return b"OK\r\n"
     text = f"{name},{data}" if name in NAMED_LEGACY else data
+    ending = "\r\n" if old and name == "QR" else spec.ending
     if spec.reply == "data":
-        return f"{text}{spec.ending}".encode()
-    return f"{text}{spec.ending}OK\r\n".encode()
+        return f"{text}{ending}".encode()
+    return f"{text}{ending}OK\r\n".encode()
 
 
 def format_error(error: CommandError, *, future: bool) -> bytes:
@@ -252,7 +278,8 @@ def read_reply(name: str, lines: list[str], *, future: bool) -> Reply:
 
 #: What the data line of a legacy reply looks like, per query (anything else is line noise).
 _DATA = {name: re.compile(pattern) for name, pattern in {
-    "QG": r"[0-9A-Fa-f]{2}", "QS": r"-?\d+,-?\d+", "QE": r"\d+,\d+", "ES": r"[01]", "QP": r"[01]",
+    "QG": r"[0-9A-Fa-f]{2}", "QS": r"-?\d+,-?\d+", "QE": r"\d+,\d+", "ES": r"[01](,\d+){4}|[01]", "QP": r"[01]",
+    "QC": r"\d+,\d+", "QL": r"\d+", "QN": r"\d+", "PI": r"PI,[01]",
     "QB": r"[01]", "QR": r"[01]", "V": r"EBB.*|UBW.*", "QM": r"QM,\d,\d,\d,\d", "QU": r"QU,.*",
 }.items()}
 

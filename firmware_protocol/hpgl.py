@@ -183,7 +183,8 @@ def split_device_control(data: bytes) -> tuple[list[tuple[bytes, bytes]], bytes,
         Each sequence as ``(letter, parameters)`` in order; the other bytes (instructions);
         and how many bytes at the end are an unfinished sequence (kept for the next call).
     """
-    sequences, rest = [], bytearray()
+    sequences: list[tuple[bytes, bytes]] = []
+    rest = bytearray()
     at, n = 0, len(data)
     while at < n:
         esc = data.find(ESC, at)

@@ -87,7 +87,7 @@ def parse_line(line: str | bytes) -> Message:
         return Ok(*(_int_or_none(g) for g in m.groups()))
     if m := _RESEND.match(text):
         return Resend(int(m.group(1)))
-    if text.startswith("echo:busy:") or text.startswith("busy:"):
+    if text.startswith(("echo:busy:", "busy:")):
         return Busy(text.split("busy:", 1)[1].strip())
     if text.startswith("echo:"):
         return Echo(text[5:])

@@ -5,6 +5,8 @@
 >>> plan = pencilbot.plan("photo.jpg", page="A4")        # pen strokes on a page (Plan)
 >>> pencilbot.export_gcode(plan, "grbl-servo-a4", "drawing.gcode")  # G-code for a plotter
 >>> pencilbot.draw("drawing.gcode", "/dev/ttyUSB0")      # stream it (or port="sim://")
+>>> with pencilbot.open_control("/dev/ttyACM0", "axidraw-v3") as plotter:   # at the plotter
+...     plotter.pen("toggle"); plotter.motors(False); plotter.walk(10, 0); plotter.home()
 >>> lines = pencilbot.gcode(plan, "grbl-servo-a4")       # the G-code as lines
 
 Images may be a path, a numpy array (grey or RGB, uint8 or float in [0, 1]) or a
@@ -17,24 +19,25 @@ from __future__ import annotations
 import functools
 import warnings
 from pathlib import Path
+from typing import overload
 
 import numpy as np
 
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
-from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
+from pencilbot.export.svg import write_svg  # noqa: F401 (the library API)
+from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
 from pencilbot.machine.pens import PenSet, load_pens
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.planning.build import plot_shape, with_pens
 from pencilbot.planning.build import sketch_and_plan as _sketch_and_plan
 from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
-from pencilbot.export.svg import write_svg  # noqa: F401 (the library API)
-from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
 
 ImageLike = str | Path | np.ndarray | LoadedImage
 
@@ -106,10 +109,20 @@ def _profile(profile: str | Path | Profile) -> Profile:
     return profile if isinstance(profile, Profile) else load_profile(profile)
 
 
+@overload
+def export_gcode(plan: Plan, profile: str | Path | Profile, path: str | Path, *, source: str = "") -> GcodeSummary: ...
+
+
+@overload
+def export_gcode(
+    plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: None = None, *, source: str = ""
+) -> list[str]: ...
+
+
 def export_gcode(
     plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
     source: str = "",
-) -> GcodeSummary:
+) -> GcodeSummary | list[str]:
     """Write the G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded
     ``Profile``) to ``path``, atomically, and return its
     :class:`~pencilbot.export.gcode.GcodeSummary`. (The lines themselves: :func:`gcode`.)
@@ -134,3 +147,13 @@ def draw(*args, **kwargs) -> DrawResult:
 
     sim.register()
     return _draw(*args, **kwargs)
+
+
+def open_control(port: str, profile: str | Path | Profile = DEFAULT_PROFILE, **kwargs):
+    """The plotter on ``port`` at hand: pen, motors, walk, home (see
+    :func:`pencilbot.driver.control.open_control`; ``sim://…`` reaches the virtual plotter)."""
+    import sim
+    from pencilbot.driver.control import open_control as _open_control
+
+    sim.register()
+    return _open_control(port, profile if isinstance(profile, Profile) else str(profile), **kwargs)

@@ -41,8 +41,19 @@ def _reuse_freed_memory() -> None:
     libc.mallopt(m_trim_threshold, 1 << 30)
 
 
+def _printable_file_names() -> None:
+    """A file name that is not UTF-8 (``os.fsdecode``'s surrogates) is printed escaped
+    (``ph\\udcffoto.png``) in messages and ``-v`` logs, instead of failing to print at all."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            pass  # not a text stream of its own (a pipe wrapper, a closed terminal)
+
+
 def main(argv: list[str] | None = None) -> int:
     _reuse_freed_memory()
+    _printable_file_names()
     argv = sys.argv[1:] if argv is None else argv
     # Only the command being run is imported: all of them cost 0.2 s of start-up.
     named = argv[0].replace("-", "_") if argv else None

@@ -20,6 +20,7 @@ import tomllib
 from pathlib import Path
 
 from pencilbot.errors import ProfileError
+from pencilbot.fileio import read_bounded
 
 _PACKAGE = Path(__file__).resolve().parent
 #: Where the shipped configs may be, in order: inside an installed package, then beside the
@@ -79,6 +80,8 @@ def config_names(folder: str) -> dict[str, Path]:
 
 #: What ``config.toml`` in the user folder may set: key → what it is the default of.
 SETTINGS = {"profile": "the plotter profile", "style": "the drawing style"}
+#: Its tables: ``[ports]`` names plotters (``big = "/dev/ttyUSB0"``: ``--port big``).
+SETTING_TABLES = {"ports": "plotter names, each a port (big = \"/dev/ttyUSB0\")"}
 
 
 def user_setting(key: str) -> str | None:
@@ -92,25 +95,40 @@ def user_setting(key: str) -> str | None:
     ProfileError
         The file is not valid TOML, has a key it should not, or a value that is no name.
     """
+    value = _user_settings().get(key)
+    if value is None or not _is_path(value):
+        return value
+    return str(user_folder() / Path(value).expanduser())  # an absolute path stays as it is
+
+
+def user_ports() -> dict[str, str]:
+    """The plotters the user named in ``config.toml``'s ``[ports]`` table: name → port."""
+    return dict(_user_settings().get("ports", {}))
+
+
+def _user_settings() -> dict:
+    """``config.toml`` read and checked (empty when there is none)."""
     path = user_folder() / "config.toml"
     try:
-        table = tomllib.loads(path.read_text(encoding="utf-8"))
+        table = tomllib.loads(read_bounded(path, "settings file").decode("utf-8"))
     except FileNotFoundError:
-        return None
+        return {}
     except (OSError, UnicodeDecodeError) as exc:
         raise ProfileError(f"cannot read settings file {path} ({getattr(exc, 'strerror', None) or exc})") from None
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"settings file {path} is not valid TOML ({exc}); fix the syntax") from None
     for name, value in table.items():
+        if name in SETTING_TABLES:
+            if not isinstance(value, dict) or not all(isinstance(v, str) and v.strip() for v in value.values()):
+                raise ProfileError(f"settings file {path}: [{name}] must hold {SETTING_TABLES[name]}")
+            continue
         if name not in SETTINGS:
-            raise ProfileError(f"settings file {path} has unknown key {name!r}; the keys are: {', '.join(SETTINGS)}")
+            raise ProfileError(f"settings file {path} has unknown key {name!r}; the keys are: "
+                               f"{', '.join([*SETTINGS, *SETTING_TABLES])}")
         if not isinstance(value, str) or not value.strip():
             raise ProfileError(f"settings file {path}: {name} = {value!r} is invalid; expected the name or .toml "
                                f"path of {SETTINGS[name]}")
-    value = table.get(key)
-    if value is None or not _is_path(value):
-        return value
-    return str(user_folder() / Path(value).expanduser())  # an absolute path stays as it is
+    return table
 
 
 def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: str) -> tuple[str, str, str]:
@@ -134,14 +152,14 @@ def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: st
     path = Path(name_or_path)
     if _is_path(name_or_path):
         try:
-            return path.read_text(encoding="utf-8"), str(path), path.stem
+            return read_bounded(path, file_kind).decode("utf-8"), str(path), path.stem
         except (OSError, UnicodeDecodeError) as exc:
             reason = getattr(exc, "strerror", None) or str(exc)
             raise ProfileError(f"cannot read {file_kind} {path} ({reason}); check the path") from None
     own = user_folder() / folder / f"{name_or_path}.toml"
     if own.is_file():
         try:
-            return own.read_text(encoding="utf-8"), str(own), name_or_path
+            return read_bounded(own, file_kind).decode("utf-8"), str(own), name_or_path
         except (OSError, UnicodeDecodeError) as exc:
             raise ProfileError(f"cannot read {file_kind} {own} ({getattr(exc, 'strerror', None) or exc})") from None
     shipped = config_folder(folder) / f"{name_or_path}.toml"

@@ -3,7 +3,7 @@
 Anything the user can cause (a bad image, a wrong profile key, a drawing that does not fit the
 bed, a firmware error, a vanished port) raises :class:`PencilbotError` with a plain message that
 says what happened and what to do. The CLI prints the message without a traceback and exits with
-``exit_code``.
+``exit_code``. A message said in many places (an input that is not there) is worded here once.
 """
 
 
@@ -29,3 +29,17 @@ class PlotError(PencilbotError):
     """Streaming to a plotter stopped (firmware error, alarm, lost port, timeout)."""
 
     exit_code = 3
+
+
+class RefusedError(PlotError):
+    """A job refused before anything was sent because its file, journal or options are wrong (a
+    missing or binary file, a line the firmware cannot take, a move off the bed, a damaged
+    journal, a start line past the end): the user's mistake, so the usage exit code, not the
+    plotter's. A :class:`PlotError` still, for code that catches every refusal to plot."""
+
+    exit_code = 2
+
+
+def no_such_file(path, give: str) -> str:
+    """The one wording of an input that is not there: ``PATH: no such file; give …``."""
+    return f"{path}: no such file; give {give}"

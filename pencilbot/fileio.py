@@ -53,6 +53,7 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
         The folder does not exist or cannot be written.
     """
     target = Path(path)
+    refuse_special_output(target, folder_ok=True)  # (a folder: the rename below fails, "Is a directory")
     folder = target.parent
     if not folder.is_dir():
         raise PencilbotError(f"cannot write {target}: folder {folder} does not exist; create it first")
@@ -94,17 +95,96 @@ class _Probe(Exception):
     """Abandons :func:`check_writable`'s temporary file (the block raising removes it)."""
 
 
-def refuse_overwriting_inputs(inputs, outputs) -> None:
-    """Refuse to write any of ``outputs`` that is one of ``inputs``: the same path, a hard link
-    or a symbolic link to it (the same device and inode, as ``os.path.samefile`` compares), before
-    anything runs. Paths that do not exist (yet) are skipped: a new file cannot be an input.
+#: The most bytes of a text file read whole (a profile, a style, a journal, config.toml): a
+#: thousand times the largest real one; a longer "config" is another kind of file.
+MAX_TEXT_FILE = 16 << 20
+
+
+def _not_a_file(path) -> str | None:
+    """What ``path`` is when it exists and is not a regular file (links followed): "a FIFO
+    (named pipe)", "a device", "a folder", "a socket"; None for a file or nothing."""
+    try:
+        mode = os.stat(path).st_mode
+    except (OSError, ValueError):
+        return None
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    return "a folder" if stat.S_ISDIR(mode) else "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
+
+
+def refuse_special_input(path, what: str = "input", folder_ok: bool = False) -> None:
+    """Refuse to read ``path`` if it is a FIFO, a device, a folder or a socket: one blocks the
+    reader forever (a FIFO nobody writes), one never ends (``/dev/zero``), one is no file at all.
+    A path that does not exist is left to the reader's own message; a folder is refused unless
+    ``folder_ok`` (a command that reads a folder of photos).
 
     Raises
     ------
     PencilbotError
-        Naming the output and the input it would replace.
+        Naming the path, what it is and what to give instead.
     """
-    sources = {}
+    kind = _not_a_file(path)
+    if kind is not None and not (folder_ok and kind == "a folder"):
+        raise PencilbotError(f"the {what} {path} is {kind}, not a file; give the path of a regular file")
+
+
+def refuse_special_output(path, folder_ok: bool = False) -> None:
+    """Refuse to write ``path`` if it exists and is not a regular file: a FIFO or a device node
+    named as an output would be replaced by a file (and the folder of a symbolic link's target
+    never checked), a folder cannot be (unless ``folder_ok``: a command that writes into one).
+
+    Raises
+    ------
+    PencilbotError
+        Naming the path and what it is.
+    """
+    kind = _not_a_file(path)
+    if kind is not None and not (folder_ok and kind == "a folder"):
+        raise PencilbotError(f"the output {path} is {kind}, not a file; pencilbot writes only regular files: "
+                             "name a file (a new one, or one to replace)")
+
+
+def read_bounded(path, what: str, limit: int = MAX_TEXT_FILE) -> bytes:
+    """The bytes of the regular file ``path``, refused before reading if it is not a regular file
+    or is longer than ``limit`` bytes (and never more than ``limit`` read, if it grows meanwhile).
+
+    Raises
+    ------
+    PencilbotError
+        Not a regular file, or too long (naming ``what`` it is).
+    OSError
+        It cannot be opened or read (FileNotFoundError included): the caller's message.
+    """
+    refuse_special_input(path, what)
+    with open(path, "rb") as handle:
+        if os.fstat(handle.fileno()).st_size > limit or len(data := handle.read(limit + 1)) > limit:
+            raise PencilbotError(f"the {what} {path} is longer than {limit >> 20} MB, far more than any {what}; "
+                                 "is it the right file?")
+    return data
+
+
+def refuse_overwriting_inputs(inputs, outputs) -> None:
+    """Refuse to write any of ``outputs`` that is one of ``inputs``: the same path, a hard link
+    or a symbolic link to it (the same device and inode, as ``os.path.samefile`` compares), before
+    anything runs. Paths that do not exist (yet) are skipped: a new file cannot be an input.
+    Inputs that are FIFOs, devices, folders or sockets are refused too, and outputs that exist
+    and are not regular files (:func:`refuse_special_input`, :func:`refuse_special_output`).
+
+    Raises
+    ------
+    PencilbotError
+        Naming the output and the input it would replace, or the special file.
+    """
+    inputs, outputs = [p for p in inputs if p is not None], [p for p in outputs if p is not None]
+    for source in inputs:
+        refuse_special_input(source, folder_ok=True)  # (a folder of photos; a file reader refuses one)
+    for output in outputs:
+        refuse_special_output(output, folder_ok=True)
+    sources: dict[tuple[int, int] | None, Path] = {}
     for source in inputs:
         if source is not None and (key := _file_key(source)) is not None:
             sources.setdefault(key, Path(source))

@@ -14,6 +14,7 @@ plans.
 from __future__ import annotations
 
 from collections.abc import Iterable, Iterator
+from typing import overload
 
 import numpy as np
 
@@ -37,7 +38,9 @@ class Paths:
         The arrays do not describe non-empty paths.
     """
 
-    __slots__ = ("points", "offsets")
+    __slots__ = ("offsets", "points")
+    points: np.ndarray
+    offsets: np.ndarray
 
     def __init__(self, points, offsets) -> None:
         pts = np.array(points, dtype=np.float64, copy=None).reshape(-1, 2)
@@ -91,6 +94,12 @@ class Paths:
     def __len__(self) -> int:
         return len(self.offsets) - 1
 
+    @overload
+    def __getitem__(self, index: int) -> np.ndarray: ...
+
+    @overload
+    def __getitem__(self, index: slice) -> Paths: ...
+
     def __getitem__(self, index: int | slice) -> np.ndarray | Paths:
         """Path ``index`` (negative counts from the end) as a read-only ``(k, 2)`` view, or the
         paths of a slice as :class:`Paths`."""
@@ -117,7 +126,7 @@ class Paths:
             return NotImplemented
         return np.array_equal(self.offsets, other.offsets) and np.array_equal(self.points, other.points)
 
-    __hash__ = None
+    __hash__ = None  # type: ignore[assignment]  # equal by value, but mutable-looking: no hash
 
     def __repr__(self) -> str:
         return f"Paths({len(self)} paths, {len(self.points)} points)"

@@ -66,7 +66,7 @@ def _checked(action: argparse.Action):
         if value is None or action.type is None or not isinstance(value, str):
             return value
         try:
-            return action.type(value)
+            return action.type(value)  # type: ignore[operator]  # our options' types are functions, never names
         except PencilbotError as err:
             raise click.BadParameter(str(err)) from None
     return convert
@@ -122,4 +122,4 @@ def add_plan(document: vpype.Document, plan: Plan) -> vpype.Document:
     return document
 
 
-pencilbot.help_group = "Plugins"
+pencilbot.help_group = "Plugins"  # type: ignore[attr-defined]  # vpype's --help reads it

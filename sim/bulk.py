@@ -247,7 +247,7 @@ class _Run:
             self.planner = None
             self.increments.append(self.idle_lock)
         elif self.chain:
-            start, end, length, unit, nominal, accel, pen = self.chain.pop()
+            start, end, length, _unit, nominal, accel, pen = self.chain.pop()
             self._record(start, end, pen)
             self.single.append((length, accel, nominal))
             self.increments += [None, self.idle_lock]

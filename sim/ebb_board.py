@@ -26,14 +26,17 @@ import numpy as np
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
 from pencilbot.firmware.ebb import MICROSTEPS
+from sim import ebb_moves
+from sim.ebb_queries import Queries
 from sim.ebb_run import Run as _Run
 from sim.ebb_run import typed as _typed
+from sim.ebb_servo import PenSide, Servos
 
 BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
 _GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 
-class EbbBoard:
+class EbbBoard(Queries, PenSide):
     """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
     every stretch the carriage moves.
@@ -50,13 +53,16 @@ class EbbBoard:
     """
 
     resets_on_open = False  # USB CDC: opening the port does not reset an EBB (no DTR reset)
+    MOTOR_VOLTS = 5.0  # below this supply the stepper drivers do not turn the motors
 
     def __init__(self, profile, record, *, instant: bool = True, faults=None, operator: str = "none",
-                 version: str = protocol.VERSION):
+                 version: str = protocol.VERSION, supply: float = 9.1):
         self.profile, self.record, self.instant = profile, record, instant
         self.version, self._version = version, protocol.version_tuple(version)
         self.faults = faults.at if faults is not None else {}
         self.operator = operator
+        self.supply_volts = supply  # V at the power jack (0: only USB: the motors have no power)
+        self.nickname = ""  # ST / QT: kept in flash through reboots
         self.link_dropped = False
         self.clock = 0.0
         self.busy_time = 0.0  # seconds something ran (for gap measurements)
@@ -84,10 +90,9 @@ class EbbBoard:
         self.carry = [0, 0]
         self.servo_up, self.servo_down = BOOT_SERVO
         self.rate_up = self.rate_down = 0
-        self.servo_pos = float(self.servo_up)
-        self.servo_target = float(self.servo_up)
-        self.servo_from, self.servo_t0, self.servo_t1 = self.servo_pos, 0.0, 0.0
+        self.servos = Servos(getattr(self.profile.ebb, "servo_pin", 1), self._resting_servo())
         self.pen_up = True
+        self.reset_io()
         self.enabled = (0, 0)  # QE: motors off at boot, so the carriage is free to move
         self.microsteps = 16
         self.power_lost = False
@@ -167,7 +172,9 @@ class EbbBoard:
         """``run`` ends (after ``t`` ticks: all of it, or where ES cut it)."""
         before = self.origin + run.start
         self.counters = run.start + run.steps_at(t)
-        if run.steps.any():
+        if run.steps.any() and self.supply_volts < self.MOTOR_VOLTS:  # counted, but the motors had no power
+            self.origin = self.origin - (self.counters - run.start)
+        elif run.steps.any():
             self._record_move(before, run, t)
         for i in range(2):  # the accumulators keep their remainders for the next command
             if run.steps[i] and run.command.name == "LM" and t >= run.axis_ticks[i]:
@@ -178,40 +185,6 @@ class EbbBoard:
 
     def _true_steps(self) -> np.ndarray:
         return self.origin + self.counters
-
-    def _record_move(self, before: np.ndarray, run: _Run, t: int) -> None:
-        after = self._true_steps()
-        points = [before]
-        ticks = [k for k in run.axis_ticks if 0 < k < t]
-        if len(ticks) == 1 or (len(ticks) == 2 and ticks[0] != ticks[1]):  # one axis finished first
-            bend = self.origin + run.start + run.steps_at(min(ticks))
-            chord = after - before
-            off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(float(np.hypot(*chord)), 1e-9)
-            if off > 1.5:  # a bend a sender should have avoided (within a step it is the step grid)
-                points.append(bend)
-        points.append(after)
-        setup = self.profile.ebb
-        mm = setup.to_machine(np.array(points, dtype=np.float64))
-        drawing = self._pen_landed(run.t0)
-        for a, b in zip(mm[:-1], mm[1:]):
-            self.record(a, b, drawing)
-
-    def _pen_landed(self, when: float) -> bool:
-        """The pen touches the paper at ``when``: the servo has reached the pen-down position."""
-        return (not self.pen_up) and self.servo_target == self.servo_down and when >= self.servo_t1 - 1e-9
-
-    def _servo_at(self, when: float) -> float:
-        if when >= self.servo_t1 or self.servo_t1 <= self.servo_t0:
-            return self.servo_target
-        f = (when - self.servo_t0) / (self.servo_t1 - self.servo_t0)
-        return self.servo_from + f * (self.servo_target - self.servo_from)
-
-    def _move_servo(self, up: bool) -> None:
-        target, rate = (self.servo_up, self.rate_up) if up else (self.servo_down, self.rate_down)
-        start = self._servo_at(self.clock)
-        self.servo_from, self.servo_target, self.servo_t0 = start, float(target), self.clock
-        self.servo_t1 = self.clock + protocol.servo_travel_seconds(int(round(start)), target, rate)
-        self.pen_up = up
 
     # --- commands ------------------------------------------------------------------------------
 
@@ -234,10 +207,16 @@ class EbbBoard:
                 if self._version < protocol.SINCE.get(command.name, ()):  # not in this firmware
                     code = "".join(f"{ord(c):02X}" for c in command.name[:2])
                     raise CommandError(command.name, 8, f"Unknown command '{command.name[:2]}:{code}'")
+                printed = ebb_moves.check(command, self._version)
             except CommandError as exc:
                 del self._rx[: cut + 1]
                 self._count(text)
-                self._reply(protocol.format_error(exc, future=self.future))
+                self._reply(self._error(exc))
+                continue
+            if printed is not None:  # a refusal the command prints itself, before it waits for room
+                del self._rx[: cut + 1]
+                self._count(text)
+                self._reply(ebb_moves.printed_refusal(command.name, printed, future=self.future, version=self._version))
                 continue
             if command.queued and (len(self.fifo) >= self.fifo_size or (self.running and self.fifo_size == 0)):
                 if not self.instant:
@@ -259,7 +238,7 @@ class EbbBoard:
             if fault == "interrupt":
                 self.signal_due = code
             if fault == "error":
-                self._reply(protocol.format_error(CommandError(command.name, 6, "Invalid parameter value"), future=self.future))
+                self._reply(self._error(CommandError(command.name, 6, "Invalid parameter value")))
                 continue
             if fault == "abort":  # the supply dips: the motors lose their hold and the board notices
                 self.power_lost = self.threshold > 0
@@ -267,7 +246,12 @@ class EbbBoard:
             if fault == "garbage":
                 self._out += _GARBAGE
             self.log.append(text)
-            reply = self._run(command)
+            at = len(self.log) - 1
+            try:
+                reply = self._run(command)
+            except CommandError as exc:  # refused by the command itself (a port letter, a QU number)
+                del self.log[at]
+                reply = self._error(exc)
             if fault != "silent" and reply is not None:
                 self._reply(reply)
 
@@ -279,17 +263,37 @@ class EbbBoard:
     def _reply(self, data: bytes) -> None:
         self._out += data
 
+    def _error(self, exc: CommandError) -> bytes:
+        """A refusal's bytes; ``QU`` and ``PI`` print their name first in either syntax."""
+        if exc.name in ("QU", "PI") and self._version >= (3, 0):
+            return (f"{exc.name},,{exc}\n" if self.future else f"{exc.name},{exc}\r\n").encode()
+        return protocol.format_error(exc, future=self.future)
+
     def _run(self, command: protocol.Command) -> bytes | None:
         """Answer one parsed command (queued ones join the FIFO)."""
         name, args, future = command.name, command.args, self.future
+        if name == "SP":  # its pin is taken at once (absent or over 7: RB1), whatever waits in the queue
+            self.servos.set_sp_pin(args[2] if len(args) > 2 else 1)
+            if not command.queued:  # SP,2 / SP,3: up at once, past the queue
+                self._move_servo(True)
         if command.queued:
             self.fifo.append(command)
             if self.running is None:
                 self._start(self.fifo.pop(0))
             return protocol.format_reply(name, None, future=future)
-        if name in ("QG", "QS", "QB", "QP") and self.instant:
+        if name in ("QG", "QS", "QB", "QP", "QM") and self.instant:
             self._advance(self._remaining() + 1e-9 if (self.running or self.fifo) else 0.0)  # see "Time"
         data = None
+        handled, data = self.answer_query(name, args)
+        if handled:
+            return protocol.format_reply(name, data, future=future, old=self.old)
+        if name == "RB":  # a reboot: USB drops, the board starts again
+            if self.running is not None:
+                self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
+            self.carriage = self._true_steps().astype(float)
+            self.power_cycle()
+            self.link_dropped = True
+            return None
         if name == "V":
             data = protocol.version_text(self.version)
         elif name == "QG":
@@ -309,17 +313,8 @@ class EbbBoard:
             data = ",".join(str(b) for b in self._qm())
         elif name == "QE":
             data = f"{self.enabled[0]},{self.enabled[1]}"
-        elif name == "QT":
-            data = ""
-        elif name == "QU":
-            data = {2: str(protocol.FIFO_MAX), 3: str(self.fifo_size), 6: f"{len(self.fifo):02d}",
-                    60: str(self.threshold)}.get(args[0], "0")
         elif name == "ES":
-            interrupted = self.running is not None or bool(self.fifo)
-            if self.running is not None:
-                self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
-            self.fifo.clear()
-            data = "1" if interrupted else "0"
+            data = ebb_moves.stop(self)
         elif name == "CS":
             self.origin = self._true_steps()
             self.counters[:] = 0
@@ -336,6 +331,10 @@ class EbbBoard:
                 self.rate_up = value
             elif key == 12:
                 self.rate_down = value
+            elif key == 8:
+                self.servos.slots = min(value, len(self.servos.channels))
+            elif key == 9:
+                self.servos.slot_ms = min(value, 6)
         elif name == "SR":
             pass
         elif name == "R":
@@ -352,7 +351,7 @@ class EbbBoard:
                 self.fifo_size = max(1, min(value, protocol.FIFO_MAX))
             elif key == 60:
                 self.threshold = value
-        return protocol.format_reply(name, data, future=future)
+        return protocol.format_reply(name, data, future=future, old=self.old)
 
     def _status(self) -> int:
         qm = self._qm()
@@ -380,12 +379,19 @@ class EbbBoard:
             return None
         if name in ("LM", "SM", "XM", "HM"):  # motion enables both motors (CU,50 default)
             self.enabled = (self.microsteps, self.microsteps)
-        if name in ("SP", "TP"):
-            up = (not self.pen_up) if name == "TP" else args[0] == 1
-            self._move_servo(up)
-            ms = args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
+        if name in ("SP", "TP", "S2"):
+            if name == "S2":  # S2,Position,RPn,Rate,Delay
+                a = (*args, 0, 0, 0, 0)
+                self.servos.move(a[1], a[0], a[2], self.clock)
+                ms = a[3]
+            else:
+                up = (not self.pen_up) if name == "TP" else min(args[0], 3) != 0
+                self._move_servo(up)
+                ms = args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
             ticks = int(round(ms / 1000 / protocol.TICK))
             return _Run(command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock)
+        if name in ("T3", "TD"):
+            return ebb_moves.timed_run(command, self.counters, self.clock)
         if name == "LM":
             steps, rates, accels = [], [], []
             for i in range(2):
@@ -412,9 +418,8 @@ class EbbBoard:
                 n = np.array((a + b, a - b) if name == "XM" else (a, b), dtype=np.int64)
             ticks = max(int(round(seconds / protocol.TICK)), 1)
             steps = [int(v) for v in n]
-            rates = [int(abs(v) * protocol.ACCUMULATOR // ticks) + 1 if v else 0 for v in steps]
-            if max(abs(v) for v in steps) / max(seconds, 1e-12) > protocol.MAX_STEP_RATE and name != "HM":
-                rates = [min(r, protocol.ACCUMULATOR - 1) for r in rates]
+            rates = [min(int(abs(v) * protocol.ACCUMULATOR // ticks) + 1, protocol.ACCUMULATOR) if v else 0
+                     for v in steps]  # (over 25 kHz was refused: ebb_moves.check)
             accels = [0, 0]
             carry = (0, 0)
             if not any(steps):  # a delay

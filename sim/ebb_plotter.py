@@ -59,15 +59,17 @@ class VirtualEbb(VirtualPlotter):
         change done at once).
     version : str, optional
         The firmware it plays (default 3.0.3; e.g. ``2.8.1``: no ``QU``, a FIFO one deep).
+    supply : float
+        Volts at the power jack (``QC`` reports them; below 5 V the motors do not turn).
     """
 
     def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none",
-                 version: str | None = None):
+                 version: str | None = None, supply: float = 9.1):
         self.profile = profile
         self.realtime = realtime
         self.operator = operator
         self.machine = EbbDrawing(profile, lambda: self.firmware.presses)
-        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator,
+        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator, supply=supply,
                                  **({"version": version} if version else {}))
         self._connect(baud)
 

@@ -265,13 +265,12 @@ class Firmware(SystemCommands, StatusReport):
                 self._cancel_jog()
             elif not (self._locked or self._sleep or self._homing or self.machine.check_mode):
                 self._begin_hold()
-        elif byte == ord("~"):
+        elif byte == ord("~") and self._hold and not self.machine.planner.braking:
             # GRBL takes a cycle start only once the hold is complete (Hold:0): one that comes
             # while the machine is still slowing (Hold:1) is dropped.
-            if self._hold and not self.machine.planner.braking:
-                self._hold = False
-                self.machine.release()
-                self._resume()
+            self._hold = False
+            self.machine.release()
+            self._resume()
 
     def _begin_hold(self) -> None:
         if not self._hold:

@@ -24,15 +24,53 @@ import math
 import re
 
 from pencilbot.units import MM_PER_INCH
-
 from sim.gcode_state import (  # noqa: F401 (the parser's names, read as gcode_parser.X by the machine)
-    OK, EXPECTED_LETTER, BAD_NUMBER, NEGATIVE, INVALID_JOG, UNSUPPORTED, MODAL_GROUP,
-    UNDEFINED_FEED, NOT_INTEGER, AXIS_CONFLICT, REPEATED_WORD, NO_AXIS_WORDS, BAD_LINE_NUMBER,
-    VALUE_MISSING, UNSUPPORTED_COORD, G53_MOTION, AXIS_WORDS_UNUSED, NO_AXIS_IN_PLANE,
-    INVALID_TARGET, ARC_RADIUS, NO_OFFSETS_IN_PLANE, UNUSED_WORDS, TOOL_LENGTH_AXIS, TOOL_TOO_BIG,
-    MAX_LINE_NUMBER, MAX_TOOL, COORD_SYSTEMS, G28_INDEX, G30_INDEX, NO_AXIS_COMMAND, NON_MODAL_AXES,
-    MOTION_AXES, TOOL_LENGTH_AXES, SEEK, LINEAR, CW_ARC, CCW_ARC, NO_MOTION, PROBES, RUNNING, PAUSE,
-    END_M2, END_M30, Modal, ParserState, Block,
+    ARC_RADIUS,
+    AXIS_CONFLICT,
+    AXIS_WORDS_UNUSED,
+    BAD_LINE_NUMBER,
+    BAD_NUMBER,
+    CCW_ARC,
+    COORD_SYSTEMS,
+    CW_ARC,
+    END_M2,
+    END_M30,
+    EXPECTED_LETTER,
+    G28_INDEX,
+    G30_INDEX,
+    G53_MOTION,
+    INVALID_JOG,
+    INVALID_TARGET,
+    LINEAR,
+    MAX_LINE_NUMBER,
+    MAX_TOOL,
+    MODAL_GROUP,
+    MOTION_AXES,
+    NEGATIVE,
+    NO_AXIS_COMMAND,
+    NO_AXIS_IN_PLANE,
+    NO_AXIS_WORDS,
+    NO_MOTION,
+    NO_OFFSETS_IN_PLANE,
+    NON_MODAL_AXES,
+    NOT_INTEGER,
+    OK,
+    PAUSE,
+    PROBES,
+    REPEATED_WORD,
+    RUNNING,
+    SEEK,
+    TOOL_LENGTH_AXES,
+    TOOL_LENGTH_AXIS,
+    TOOL_TOO_BIG,
+    UNDEFINED_FEED,
+    UNSUPPORTED,
+    UNSUPPORTED_COORD,
+    UNUSED_WORDS,
+    VALUE_MISSING,
+    Block,
+    Modal,
+    ParserState,
 )
 
 _MAX_DIGITS = 8  # read_float keeps 8 significant digits
@@ -255,7 +293,6 @@ def _check(block: Block, state: ParserState, groups: set[str], values: dict[str,
             return VALUE_MISSING
         block.dwell = values["P"]
         unused.discard("P")
-    axis_0, axis_1, linear = block.axes
     if inch:
         axes = {i: v * MM_PER_INCH for i, v in axes.items()}
     if block.axis_command == TOOL_LENGTH_AXES and modal.tool_length and set(axes) != {2}:

@@ -7,10 +7,14 @@ What a sender meets on the real machine:
   as on the real plotter: a sender must poll ``ESC.B`` (free bytes) and never write more.
   Optional XON/XOFF (``xonxoff``): XOFF when fewer than 80 bytes are free, XON at 128 again.
 * Device-control sequences act at once, whatever the buffer holds: ``ESC.B`` free bytes,
+  ``ESC.L`` the buffer's size,
   ``ESC.E`` the I/O error (then cleared), ``ESC.O`` extended status (8: buffer empty and idle),
   ``ESC.K`` discards the buffer (the vector being drawn is finished), ``ESC.R`` / ``ESC.J``.
-* Instructions run in order: ``IN SP PU PD PA PR VS DF PS`` and the outputs ``OI OA OS OE OH OP
-  OW`` (answered once everything before them ran, CR-terminated). A move beyond the hard-clip
+* Instructions run in order: ``IN SP PU PD PA PR VS``, circles, arcs and edged rectangles
+  (:mod:`sim.hpgl_shapes`), the settings, and the outputs ``OI OA OC OD OF OO OS OE OH OP OW``
+  (answered once everything before them ran, CR-terminated); a move's pairs run as they arrive,
+  so one instruction may be longer than the buffer. Any 7475A instruction whose drawing is not
+  emulated (labels, fills, scaling) is counted in ``unemulated``. A move beyond the hard-clip
   limits (the profile's bed), an unknown instruction or a wrong parameter count is not run and
   sets the ``OE`` error (3, 1, 2), which ``OS`` shows as bit 32. ``OS`` bit 8 (initialised) is
   set by a power-up (or reset) and by ``IN``, and cleared once ``OS`` has output it, as on the
@@ -45,6 +49,7 @@ from firmware_protocol import ProtocolError
 from firmware_protocol import hpgl as protocol
 from pencilbot.machine.motion import block_duration
 from pencilbot.paths import Paths
+from sim import hpgl_shapes
 from sim.protocol_sim import VirtualPlotter
 
 MODEL = "7475A"
@@ -63,7 +68,7 @@ class HpglBoard:
         self.size = profile.receive_buffer
         self.faults = faults
         self.xonxoff = xonxoff
-        self.unit = protocol.UNIT_MM
+        self.unit = profile.paper.unit_mm
         self.limits = (0, 0, int(round(profile.bed.width / self.unit)), int(round(profile.bed.height / self.unit)))
         self.top_speed = profile.motion.travel_speed  # mm/s
         self.link_dropped = False
@@ -81,6 +86,7 @@ class HpglBoard:
         self.pauses = 0  # pen changes (the colour preview's "which pen drew it")
         self.polls = 0  # ESC.B answered (the poll clock counts them)
         self.discarded = 0  # bytes ESC.K threw away
+        self.unemulated: dict[str, int] = {}  # instructions the 7475A knows whose drawing is not emulated
         self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
         self.power_cycle(first=True)
 
@@ -165,6 +171,8 @@ class HpglBoard:
             self._answer(str(8 if idle else 0))
         elif letter == b"A":
             self._answer(f"{MODEL},A")
+        elif letter == b"L":  # the buffer's size, whatever it holds
+            self._answer(str(self.size))
         elif letter == b"K":
             self.discarded += len(self.buffer)
             self.buffer.clear()  # the vector being drawn finishes; nothing after it runs
@@ -200,12 +208,25 @@ class HpglBoard:
                 self.error = 1
                 continue
             if not found:
-                break
+                if not self._run_arrived_pairs():
+                    break
+                continue
             del self.buffer[:used]
             self._run(found[0])
             if math.isinf(seconds):
                 self.now = self.busy_until
         self._flow()
+
+    def _run_arrived_pairs(self) -> bool:
+        """A move instruction still arriving: run the coordinate pairs that are complete, as the
+        plotter parses them (:func:`sim.hpgl_shapes.complete_pairs`); whether any were."""
+        arrived = hpgl_shapes.complete_pairs(bytes(self.buffer))
+        if arrived is None:
+            return False
+        mnemonic, params, used = arrived
+        self.buffer[:used] = mnemonic.encode("ascii")  # the instruction goes on with its next pair
+        self._run(protocol.Instruction(mnemonic, params))
+        return True
 
     def finish(self) -> None:
         """Run everything buffered (what the drawing will be once the plotter is done)."""
@@ -249,8 +270,16 @@ class HpglBoard:
             self._moves(m, p)
         elif m == "OI":
             self._answer(MODEL)
-        elif m == "OA":
+        elif m in ("OA", "OC"):  # (no scaling: user units are plotter units)
             self._answer(f"{self.x},{self.y},{int(self.down)}")
+        elif m == "OF":
+            self._answer("40,40")  # plotter units per mm, as the 7475A states them
+        elif m == "OO":
+            self._answer("0,1,0,0,1,0,0,0")  # pen select, arcs and circles
+        elif m == "OD":
+            self._answer(f"{self.x},{self.y},{int(self.down)}")
+        elif m in hpgl_shapes.SHAPE_PARAMS:
+            hpgl_shapes.draw_shape(self, m, p)
         elif m == "OS":
             status = protocol.STATUS_READY | (protocol.STATUS_ERROR if self.error else 0)
             status |= protocol.STATUS_INITIALIZED if self.initialized else 0
@@ -261,10 +290,12 @@ class HpglBoard:
             self.error = 0
         elif m in ("OH", "OP", "OW"):
             self._answer(",".join(map(str, self.limits)))
-        elif m in ("DF", "PS", "CS", "CA", "SS", "SA", "LT", "DT"):
+        elif m in hpgl_shapes.SETTINGS:
             pass
+        elif m in hpgl_shapes.UNEMULATED:
+            self.unemulated[m] = self.unemulated.get(m, 0) + 1
         else:
-            self.error = 1
+            self.error = 1  # not an instruction of the 7475A
 
     def _pen(self, down: bool) -> None:
         if down == self.down:

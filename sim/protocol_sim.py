@@ -81,11 +81,12 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Tim
 
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
-from pencilbot.units import DEFAULT_PEN_WIDTH
 from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
+from pencilbot.units import DEFAULT_PEN_WIDTH
 from sim.faults import Faults
 from sim.firmware import Firmware
 from sim.machine import Machine
+
 _OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff",
             "firmware")
 _IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came
@@ -316,7 +317,14 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
                 version_tuple(version)
             except ValueError as exc:
                 raise SerialException(f"bad sim:// option firmware: {exc}") from None
-        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, version=version)
+        try:
+            supply = float(options.get("supply", 9.1))
+        except ValueError:
+            supply = -1.0
+        if not 0 <= supply <= 40:
+            raise SerialException("sim:// option supply: volts at the board's power jack, 0 (unplugged) to 40")
+        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, version=version,
+                          supply=supply)
     if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
         from sim.hpgl_plotter import HpglPlotter
 

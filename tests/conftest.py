@@ -2,9 +2,36 @@
 default profile), in an empty configuration folder of its own. This folder is on the import path
 (pytest puts a conftest's folder there), so tests share the drawings of ``drawings.py``."""
 
+import logging
 import os
+import signal
 
 import pytest
+
+
+def pytest_configure(config):
+    """The tests deliver stop signals to this process (a virtual board's ``interrupt@`` fault)
+    and expect them to be heard as at a terminal. A shell's background job (``pytest &`` from a
+    script, ``trap '' INT``) starts with SIGINT ignored, ``nohup`` with SIGHUP ignored, and the
+    driver leaves an ignored signal ignored: the suite puts the usual handlers back (Python's
+    own for Ctrl-C) so that it runs the same however it was started."""
+    from pencilbot.driver.stop_signals import STOP_SIGNALS
+
+    for signum in STOP_SIGNALS:
+        if signal.getsignal(signum) is signal.SIG_IGN:
+            signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
+
+
+@pytest.fixture(autouse=True)
+def own_log_levels():
+    """``main([..., "-v"])`` sets pencilbot's loggers to DEBUG for the rest of the process: a later
+    test's records (a file name that is not UTF-8 among them) would be captured into its report,
+    which pytest-xdist cannot send. Each test starts from the levels the suite started with."""
+    names = ("pencilbot", "sim", "firmware_protocol")
+    levels = {name: logging.getLogger(name).level for name in names}
+    yield
+    for name, level in levels.items():
+        logging.getLogger(name).setLevel(level)
 
 
 @pytest.fixture(autouse=True)

@@ -14,7 +14,7 @@ from pencilbot import __version__
 from pencilbot.errors import PencilbotError
 
 # Order is the order shown in --help.
-COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "ports", "studio", "demo", "completion"]
+COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "pen", "align", "walk", "home", "ports", "studio", "demo", "completion"]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -29,7 +29,6 @@ from pencilbot.errors import PencilbotError
 from pencilbot.fileio import refuse_overwriting_inputs
 
 
-
 def add_jobs_option(parser: argparse.ArgumentParser) -> None:
     """``-j/--jobs``: how many files to work on at once."""
     parser.add_argument(
@@ -99,6 +98,14 @@ def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[s
         if not out.parent.is_dir():
             raise PencilbotError(f"cannot create the {what} folder {out}: {out.parent} does not exist")
     return distinct([out / f"{p.stem}{suffixes[0]}" for p in inputs.paths], inputs.paths)
+
+
+def outputs_or_beside(inputs: Inputs, output: str | None, *, what: str, suffixes: Sequence[str]) -> list[Path]:
+    """:func:`output_paths` of ``-o``; without one, each input's result beside it, named as the
+    input with ``suffixes[0]`` (``photo.jpg`` → ``photo.svg``)."""
+    if output is None:
+        return distinct([p.with_suffix(suffixes[0]) for p in inputs.paths], inputs.paths)
+    return output_paths(inputs, output, what=what, suffixes=suffixes)
 
 
 def make_folders(paths: Sequence[Path | None]) -> None:

@@ -10,9 +10,9 @@ import math
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError
-from pencilbot.fileio import available_memory as fileio_available_memory
-from pencilbot.fileio import refuse_overwriting_inputs
 from pencilbot.export.svg_read import is_plan_svg, read_svg
+from pencilbot.fileio import available_memory as fileio_available_memory
+from pencilbot.fileio import refuse_overwriting_inputs, refuse_special_input
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.planning.layout import fit_plan
@@ -43,7 +43,7 @@ _STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": 
 
 
 #: Options naming the files a command reads, and the files it writes (any command's).
-_INPUT_OPTIONS = ("input", "old_input", "inputs", "plan", "texture", "style", "pens", "profile")
+_INPUT_OPTIONS = ("input", "old_input", "inputs", "plan", "texture", "style", "pens", "profile", "resume", "photo")
 _OUTPUT_OPTIONS = ("output", "preview")
 
 
@@ -63,7 +63,22 @@ def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
             value = getattr(args, key, None)
             yield from (value if isinstance(value, (list, tuple)) else [value])
 
+    for key in _INPUT_OPTIONS:  # a FIFO or a device read would hang or never end: named by its option
+        for value in named([key]):
+            if value is not None:
+                refuse_special_input(value, "input" if key in ("input", "inputs", "plan", "photo") else
+                                     f"--{key.replace('_', '-')} file", folder_ok=True)
     refuse_overwriting_inputs(list(named(_INPUT_OPTIONS)), [*named(_OUTPUT_OPTIONS), *outputs])
+
+
+def output_beside(args: argparse.Namespace, kind: str, suffix: str) -> Path:
+    """``-o`` if given, else the output beside the input named for what it is (``photo.jpg`` →
+    ``photo-sketch.png``), checked as a given one is: never one of the inputs."""
+    if args.output is None:
+        source = Path(args.input)
+        args.output = str(source.with_name(f"{source.stem}-{kind}{suffix}"))
+        refuse_overwriting(args)
+    return Path(args.output)
 
 
 def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
@@ -206,16 +221,16 @@ def reorder_drawing(plan: Plan, source: Path, args: argparse.Namespace, profile)
     return reordered.plan, "reordered: " + change_summary(before.total, after.total, reordered.specks)
 
 
-def reorder_on(plan: Plan, profile, rounds: int | None = None):
+def reorder_on(plan: Plan, profile, rounds: int | None = None, time_budget: float | None = None):
     """``plan`` reordered from ``profile``'s home (a :class:`~pencilbot.planning.optimize.Reordering`),
     with the estimate before and after; ``rounds`` of improvement per layer (default: the
-    reordering's own)."""
+    reordering's own), within ``time_budget`` CPU seconds if given."""
     from pencilbot.machine.bed import Placement
     from pencilbot.planning.optimize import REORDER_ROUNDS, reorder_plan
     from pencilbot.planning.stats import estimate
 
     home = tuple(Placement.on_bed(plan.page, profile.bed).home())
-    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds)
+    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds, time_budget=time_budget)
     return reordered, estimate(plan, profile), estimate(reordered.plan, profile)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import shlex
+from typing import Any
 
 from pencilbot.commands.options import add_verbosity
 from pencilbot.errors import PencilbotError
@@ -56,7 +57,8 @@ def describe(parser: argparse.ArgumentParser) -> dict[str, dict]:
     option's strings, help and what its value is (``None``: a flag; a list: its choices;
     ``"profiles"``/``"styles"``: a config name; ``""``: anything)."""
     found = {}
-    for action in parser._subparsers._group_actions:  # argparse keeps its tree here
+    subparsers: Any = parser._subparsers  # argparse's private tree: untyped
+    for action in subparsers._group_actions:  # argparse keeps its tree here
         helps = {choice.dest: choice.help for choice in action._choices_actions}
         for name, sub in action.choices.items():
             options, words = [], []

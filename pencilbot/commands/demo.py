@@ -68,9 +68,9 @@ def run(args: argparse.Namespace) -> int:
     # Heavy imports here, so `pencilbot --help` stays quick.
     from pencilbot.export.gcode import write_gcode
     from pencilbot.export.svg import write_svg
+    from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.machine.bed import Placement
     from pencilbot.machine.profile import load_profile
-    from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.planning.build import plot_resolution, sketch_and_plan, with_pens
     from pencilbot.planning.fidelity import color_difference, fidelity, photo_likeness
     from pencilbot.planning.layout import page_size

@@ -8,14 +8,28 @@ from contextlib import ExitStack
 from pathlib import Path
 
 import sim
-
+from pencilbot.commands.at_plotter import resolve_port
 from pencilbot.commands.common import IMAGE_SUFFIXES
-from pencilbot.commands.options import MAX_BAUD, add_profile_listing, add_system_commands_option, add_verbosity, number
+from pencilbot.commands.draw_run import (
+    add_run_options,
+    between_copies,
+    check_run_options,
+    export_svg_job,
+    run_overrides,
+    svg_job_path,
+)
+from pencilbot.commands.options import (
+    MAX_BAUD,
+    add_profile_listing,
+    add_system_commands_option,
+    add_verbosity,
+    number,
+)
 from pencilbot.driver import draw
 from pencilbot.driver.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
-from pencilbot.errors import PencilbotError, PlotError
 from pencilbot.driver.session import DEFAULT_TIMEOUT
+from pencilbot.errors import PencilbotError, PlotError, RefusedError
 from pencilbot.machine.profile import default_profile, load_profile
 
 
@@ -29,7 +43,8 @@ def add_parser(subparsers) -> None:
         "terminal: p or space pauses and resumes (feed hold, cycle start), s stops safely; M0 pauses (a pen "
         "change) wait for Enter.",
     )
-    p.add_argument("input", nargs="?", help="G-code file (from pencilbot export); omit with --resume")
+    p.add_argument("input", nargs="?", help="G-code file (from pencilbot export), or an SVG drawing (exported for the "
+                   "profile first); omit with --resume")
     p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…; "
                    "auto: the one plotter that answers (see pencilbot ports)")
     p.add_argument("--profile", metavar="NAME|FILE.toml",
@@ -52,6 +67,7 @@ def add_parser(subparsers) -> None:
     p.add_argument("--restart", action="store_true",
                    help="draw a file whose job stopped from line 1 again (its journal is replaced)")
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
+    add_run_options(p)
     add_system_commands_option(p)
     add_verbosity(p)
     p.set_defaults(func=run)
@@ -60,26 +76,29 @@ def add_parser(subparsers) -> None:
 #: Seconds of silence anyone would wait for a board (a day); more is a typo, and none never works.
 MAX_TIMEOUT = 86_400.0
 
-#: Inputs that are pictures or plans, not G-code: `pencilbot export` turns them into G-code.
-NOT_GCODE = {*IMAGE_SUFFIXES, ".gif", ".svg"}
+#: Inputs that are pictures, not G-code: `pencilbot export` turns them into G-code (an SVG is drawn directly).
+NOT_GCODE = {*IMAGE_SUFFIXES, ".gif"}
 
 
 def run(args: argparse.Namespace) -> int:
     journal = load_journal(args.resume) if args.resume else None
     gcode = journal.gcode if journal else args.input
+    svg = journal is None and gcode is not None and Path(gcode).suffix.lower() == ".svg"
     if gcode is not None and Path(gcode).suffix.lower() in NOT_GCODE:
         out = Path(gcode).with_suffix(_suffix_for(args.profile))
         profile = f" --profile {args.profile}" if args.profile else ""
-        raise PlotError(
+        raise RefusedError(
             f"{gcode} is a picture, not G-code; make the G-code first (and look at it with "
             f"pencilbot simulate), then draw it: pencilbot export {gcode} -o {out}{profile} && "
             f"pencilbot draw {out} --port {args.port or 'PORT'}{profile}"
         )
     port = args.port or (journal.port if journal else None)
     if gcode is None:
-        raise PlotError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
+        raise RefusedError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
     if port is None:
-        raise PlotError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
+        raise RefusedError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
+    if svg:  # drawn directly: exported for the profile (its layer, this run's values) into the user folder
+        gcode = _export_svg(args, Path(gcode))
     if journal is None and args.start_line is None and not args.restart:
         _refuse_a_stopped_job(Path(gcode))
     options = journal.options if journal else {}
@@ -88,14 +107,18 @@ def run(args: argparse.Namespace) -> int:
     announce = None
     if args.verbose and not args.quiet:
         def announce(banner, job):
-            print("\n".join(banner_lines(port, baud, banner, job)), file=sys.stderr, flush=True)
+            # (port and baud as they stand when the job starts: a port by then)
+            print("\n".join(banner_lines(port, baud, banner, job)), file=sys.stderr, flush=True)  # type: ignore[arg-type]
 
     sim.register()  # --port sim://… reaches the virtual plotter
     profile = args.profile if journal else profile_for(gcode, args.profile, default_profile())
     _check_file_kind(Path(gcode), profile or (journal.profile if journal else None))
+    plotter = load_profile(profile or journal.profile)  # type: ignore[union-attr]  # no profile: a journal's
+    check_run_options(args, Path(gcode), plotter, from_svg=svg)
+    port = resolve_port(port, quiet=args.quiet)  # a plotter's name: config.toml's [ports], an EBB's nickname
     if port == "auto":
-        port = auto_port(args.quiet)
-    baud = args.baud or options.get("baud") or load_profile(profile or journal.profile).firmware.baud
+        port = auto_port(args.quiet, plotter)
+    baud = args.baud or options.get("baud") or plotter.firmware.baud
     with ExitStack() as stack:
         keys = operator = None
         if sys.stdin.isatty() and not args.json_lines:
@@ -104,16 +127,35 @@ def run(args: argparse.Namespace) -> int:
             keys = KeyReader()
             stack.callback(keys.close)
             operator = TerminalOperator(keys)
-        result = draw(
-            gcode, port, profile=profile, baud=baud,
-            unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
-            start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
-            operator=operator, keys=keys, announce=announce, allow_system=args.allow_system_commands,
-        )
+        for copy in range(1, args.copies + 1):
+            if copy > 1:
+                between_copies(copy - 1, args.copies, args.copy_delay, args.quiet, operator)
+            result = draw(
+                gcode, port, profile=profile, baud=baud,
+                unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
+                start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
+                operator=operator, keys=keys, announce=announce, overrides=run_overrides(args) or None,
+                allow_system=args.allow_system_commands,
+            )
     if not args.quiet and not args.json_lines:
         rejected = f"; rejected lines: {result.rejected}" if result.rejected else ""
         print(f"drew {result.lines_sent} lines in {result.seconds:.1f} s{rejected}")
     return 1 if result.rejected else 0
+
+
+def _export_svg(args: argparse.Namespace, svg: Path) -> Path:
+    """The job of an SVG drawn directly, written for the profile with this run's values."""
+    from pencilbot.commands.export import file_suffixes
+    from pencilbot.machine.profile_edit import profile_with
+
+    plotter = load_profile(args.profile or default_profile())
+    target = svg_job_path(svg, args.layer, file_suffixes(plotter)[0])
+    if args.start_line is None and not args.restart:
+        _refuse_a_stopped_job(target)  # before it is written again: its resume needs it as it was
+    said = export_svg_job(svg, target, profile_with(plotter, run_overrides(args)), args)
+    if not args.quiet:
+        print(f"exported {said}", file=sys.stderr, flush=True)
+    return target
 
 
 def connection_options(args: argparse.Namespace, options: dict) -> tuple[float, bool, str]:
@@ -150,19 +192,23 @@ def _check_file_kind(path: Path, profile: str | None) -> None:
     hpgl_file = path.suffix.lower() in HPGL_SUFFIXES
     if hpgl_file and not hpgl_profile:
         names = [n for n in list_profiles() if getattr(load_profile(n).firmware, "flow", "") == "polled"]
-        raise PlotError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
+        raise RefusedError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
                         f"--profile {' or '.join(names) or 'NAME'}")
     if hpgl_profile and not hpgl_file:
-        raise PlotError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
+        raise RefusedError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
                         f"export the drawing for it: pencilbot export DRAWING.svg -o {path.with_suffix('.hpgl').name} "
                         f"--profile {profile}")
 
 
-def auto_port(quiet: bool = False) -> str:
-    """The port of the one plotter that answers (``--port auto``); says which on stderr."""
-    from pencilbot.driver.ports import find_plotters, list_ports
+def auto_port(quiet: bool = False, profile=None) -> str:
+    """The port of the one plotter of ``profile``'s kind that answers (``--port auto``); says which on stderr."""
+    from pencilbot.driver.ports import find_plotters, list_ports, wrong_kind
 
     found = find_plotters()
+    if profile is not None:
+        found, others = wrong_kind(found, profile)
+        if others and not found:
+            raise PlotError(others)
     if len(found) == 1:
         if not quiet:
             print(f"using {found[0].device}: {found[0].summary()}", file=sys.stderr, flush=True)
@@ -180,8 +226,12 @@ def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
     is, the job's size and its estimated plot time."""
     from pencilbot.planning.stats import duration_text
 
-    profile = job.profile
     board = banner.removeprefix("banner '").removesuffix("'")  # a reset's reply: "banner 'Grbl 1.1h'"
+    if not hasattr(job, "seconds_after"):  # an HP-GL program: (profile, instructions)
+        profile, count = job
+        return [f"port {port} at {baud} bit/s", f"profile {profile.name} ({profile.source}): {profile.description}",
+                f"board: {board}", f"job: {count} HP-GL instructions"]
+    profile = job.profile
     header = estimated_seconds(job.source) if Path(job.source).is_file() else None
     seconds, how = (header, "the file's estimate") if header is not None else (
         job.seconds_after(len(job) - 1), "distance over feed, without acceleration")
@@ -206,7 +256,7 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
         # draw over what is on the paper, so that takes --restart too.
         if "--restart" in str(err):
             raise
-        raise PlotError(f"{err}; or draw {gcode} again from line 1 with --restart") from None
+        raise RefusedError(f"{err}; or draw {gcode} again from line 1 with --restart") from None
     if journal.status in ("stopped", "running"):  # "running": the sender itself was killed
         how = journal.resume or f"pencilbot draw --resume {path} --port {journal.port}"
         why = f" ({journal.message})" if journal.message else ""
@@ -215,4 +265,4 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
                      f"{journal.next_line}; if no pencilbot is drawing it")
         else:
             state = f"stopped at line {journal.next_line}{why}; drawing it again would draw over what is on the paper."
-        raise PlotError(f"the job of {gcode} {state} Resume it with: {how} — or start over with --restart")
+        raise RefusedError(f"the job of {gcode} {state} Resume it with: {how} — or start over with --restart")

@@ -8,7 +8,12 @@ from dataclasses import replace
 from pathlib import Path
 
 from pencilbot.commands.batch import (
-    Inputs, add_jobs_option, collect_inputs, distinct, make_folders, output_paths, run_batch,
+    Inputs,
+    add_jobs_option,
+    collect_inputs,
+    make_folders,
+    outputs_or_beside,
+    run_batch,
 )
 from pencilbot.commands.common import photo_pens, photo_style, plan_for_input, reorder_drawing
 from pencilbot.commands.options import add_photo_options, add_profile_option, add_svg_options, add_verbosity
@@ -70,10 +75,8 @@ def file_suffixes(profile: Profile) -> tuple[str, ...]:
 
 def _outputs(inputs: Inputs, output: str | None, suffixes: tuple[str, ...] = GCODE_SUFFIXES) -> list[Path]:
     """The G-code (or HP-GL) file each input becomes (beside it when no -o is given)."""
-    if output is None:
-        return distinct([p.with_suffix(suffixes[0]) for p in inputs.paths], inputs.paths)
-    outputs = output_paths(inputs, output, what="output", suffixes=suffixes)
-    if inputs.batch:
+    outputs = outputs_or_beside(inputs, output, what="output", suffixes=suffixes)
+    if output is not None and inputs.batch:
         make_folders(outputs)
     return outputs
 
@@ -82,11 +85,11 @@ def export_one(source: Path, target: Path, profile: Profile, args: argparse.Name
     """Write the G-code of ``source`` (photo or SVG) to ``target``; return the line reporting it."""
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if target.suffix.lower() in HPGL_SUFFIXES:
-        summary = write_hpgl(plan, profile, target)
+        hpgl = write_hpgl(plan, profile, target)
         return (
-            f"wrote {summary.path} for {profile.name}: {summary.paths} paths, {summary.instructions} HP-GL "
-            f"instructions, {summary.bytes / 1e3:.0f} kB; about {duration_text(summary.stats.total.seconds)} to draw; "
-            f"{summary.placement.describe()}" + (f"; {reordered}" if reordered else "")
+            f"wrote {hpgl.path} for {profile.name}: {hpgl.paths} paths, {hpgl.instructions} HP-GL "
+            f"instructions, {hpgl.bytes / 1e3:.0f} kB; about {duration_text(hpgl.stats.total.seconds)} to draw; "
+            f"{hpgl.placement.describe()}" + (f"; {reordered}" if reordered else "")
         )
     if args.split_pens and len(plan.pens) > 1:
         return _export_split(plan, source, target, profile) + (f"; {reordered}" if reordered else "")

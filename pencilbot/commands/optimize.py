@@ -7,14 +7,15 @@ import dataclasses
 import json
 from pathlib import Path
 
-from pencilbot.commands.common import change_summary, read_drawing, reorder_on
+from pencilbot.commands.common import change_summary, output_beside, read_drawing, reorder_on
 from pencilbot.commands.options import add_profile_option, add_svg_options, add_verbosity, number
-
-MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.optimize import REORDER_ROUNDS
+
+MAX_ROUNDS = 1000  # improvement passes per layer: each one finds less, and costs as much as the first
+MAX_TIME_BUDGET = 86_400.0  # a day of CPU
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -31,11 +32,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="IN.svg", help="SVG drawing")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.svg", help="SVG to write")
+    parser.add_argument("-o", "--output", metavar="OUT.svg", help="SVG to write (default: IN-optimized.svg beside it)")
     add_profile_option(parser, "plotter profile for home, speeds and delays")
     parser.add_argument("--rounds", type=number("--rounds", low=0, high=MAX_ROUNDS, whole=True), default=REORDER_ROUNDS, metavar="N",
                         help="improvement passes per layer: more shortens pen-up a little more, slower "
-                             "(default %(default)s; a photo's plan gets 40)")
+                             "(default %(default)s, as a photo's plan; huge layers get fewer, at least 2)")
+    parser.add_argument("--time-budget", type=number("--time-budget", low=0, above=True, high=MAX_TIME_BUDGET, unit="s"),
+                        metavar="SECONDS", help="CPU seconds the reordering may take in all: huge layers then get as "
+                        "many rounds as fit (the order then depends on the machine's speed)")
     parser.add_argument("--json", action="store_true", help="print the figures as JSON (lengths in mm, time in s)")
     add_svg_options(parser, sheet=True)
     add_verbosity(parser)
@@ -43,14 +47,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    source, output = Path(args.input), Path(args.output)
+    source, output = Path(args.input), output_beside(args, "optimized", ".svg")
     for path, what in ((source, "input"), (output, "output")):
         if path.suffix.lower() != ".svg":
             raise PencilbotError(f"the {what} {path} is not an .svg file; optimize reorders SVG drawings "
                                  "(a photo becomes one with pencilbot plan)")
     profile = load_profile(args.profile)  # a bad profile fails before the file is read
     plan = read_drawing(source, args)
-    reordered, before, after = reorder_on(plan, profile, rounds=args.rounds)
+    reordered, before, after = reorder_on(plan, profile, rounds=args.rounds, time_budget=args.time_budget)
     result = reordered.plan
     if "source" not in result.meta:
         result = dataclasses.replace(result, meta={**result.meta, "source": str(source)})

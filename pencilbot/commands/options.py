@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+from functools import partial
 from pathlib import Path
 
 from pencilbot.commands.common import MAX_RENDER_PEN_WIDTH
@@ -48,7 +49,7 @@ def number(option: str, *, low: float | None = None, high: float, above: bool = 
         return value
 
     parse.__name__ = option.lstrip("-")  # what argparse would call the type in its own messages
-    parse.bounds = (low, high, above, whole)  # for --help generators and tests
+    parse.bounds = (low, high, above, whole)  # type: ignore[attr-defined]  # for --help generators and tests
     return parse
 
 
@@ -75,7 +76,7 @@ def realtime_option(option: str = "--realtime"):
         return value
 
     parse.__name__ = option.lstrip("-")
-    parse.bounds = parse_number.bounds
+    parse.bounds = parse_number.bounds  # type: ignore[attr-defined]
     return parse
 
 
@@ -166,7 +167,10 @@ def profile_listing() -> list[str]:
     """One line per profile: name, what it is, and whether it is the user's."""
     from pencilbot.machine.profile import load_profile
 
-    return [_listing_line(name, path, lambda: load_profile(name).description) for name, path in config_names("plotters").items()]
+    def summary(name):
+        return load_profile(name).description
+
+    return [_listing_line(name, path, partial(summary, name)) for name, path in config_names("plotters").items()]
 
 
 def style_listing() -> list[str]:
@@ -175,7 +179,7 @@ def style_listing() -> list[str]:
         style = load_style(name)
         return f"{style.page} {style.orientation}, {style.pen_width:g} mm pen, {'hatching' if style.hatch else 'outline only'}"
 
-    return [_listing_line(name, path, lambda: summary(name)) for name, path in config_names("styles").items()]
+    return [_listing_line(name, path, partial(summary, name)) for name, path in config_names("styles").items()]
 
 
 def pens_listing() -> list[str]:
@@ -184,7 +188,7 @@ def pens_listing() -> list[str]:
         pens = load_pens(name)
         return ", ".join(f"{pen.name} {pen.color} {pen.width:g} mm" for pen in pens.load_order)
 
-    return [_listing_line(name, path, lambda: summary(name)) for name, path in config_names("pens").items()]
+    return [_listing_line(name, path, partial(summary, name)) for name, path in config_names("pens").items()]
 
 
 def _listing_line(name: str, path: Path, describe) -> str:

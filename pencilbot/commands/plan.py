@@ -5,7 +5,14 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pencilbot.commands.batch import add_jobs_option, collect_inputs, make_folders, output_paths, run_batch
+from pencilbot.commands.batch import (
+    add_jobs_option,
+    collect_inputs,
+    make_folders,
+    output_paths,
+    outputs_or_beside,
+    run_batch,
+)
 from pencilbot.commands.common import check_plan, photo_pens, photo_style, plan_for_input
 from pencilbot.commands.options import add_photo_options, add_verbosity
 from pencilbot.errors import PencilbotError
@@ -33,7 +40,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "inputs", nargs="+", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...) or folder of them"
     )
     parser.add_argument(
-        "-o", "--output", required=True, metavar="PLAN.svg|DIR", help="SVG to write (a folder for several inputs)"
+        "-o", "--output", metavar="PLAN.svg|DIR",
+        help="SVG to write (a folder for several inputs; default: INPUT's name .svg beside it)"
     )
     parser.add_argument("--preview", metavar="PREVIEW.png|DIR", help="also render each plan as a PNG")
     add_photo_options(parser)
@@ -46,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     photo_style(args)  # a bad style, pen set or option fails once, before any slow planning
     photo_pens(args)
     inputs = collect_inputs(args.inputs)
-    outputs = output_paths(inputs, args.output, what="plan", suffixes=(".svg",))
+    outputs = outputs_or_beside(inputs, args.output, what="plan", suffixes=(".svg",))
     previews = (output_paths(inputs, args.preview, what="preview", suffixes=(".png",))
                 if args.preview else [None] * len(outputs))
     if inputs.batch:

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 from pencilbot.commands.options import add_verbosity
+from pencilbot.errors import PencilbotError
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -44,4 +46,17 @@ def run(args: argparse.Namespace) -> int:
         for p in infos:
             what = "not probed" if args.no_probe else p.summary()
             print(f"{p.device}\t{p.description or '-'}\t{what}")
+    _refuse_missing(args.ports, infos, probed=not args.no_probe)
     return 0
+
+
+def _refuse_missing(named: list[str], infos: list, *, probed: bool) -> None:
+    """A port named on the command line that cannot be opened (or, unprobed, a device path that
+    does not exist) is a usage mistake: exit 2 after the listing, naming it."""
+    if probed:
+        bad = [f"{p.device} ({p.error.removeprefix('cannot open: ')})" for p in infos if p.device in named and p.error.startswith("cannot open")]
+    else:
+        bad = [f"{name} (no such device)" for name in named if name.startswith("/") and not Path(name).exists()]
+    if bad:
+        raise PencilbotError(f"cannot open the port{'s' if len(bad) > 1 else ''} named: {'; '.join(bad)}; "
+                             "pencilbot ports without a PORT lists the ports there are")

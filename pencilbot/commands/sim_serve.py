@@ -8,11 +8,19 @@ from pathlib import Path
 
 from pencilbot.commands.common import PLOT_DPI, check_render
 from pencilbot.commands.options import (
-    MAX_BAUD, MAX_DPI, MIN_DPI, add_profile_option, add_realtime_option, add_verbosity, number,
+    MAX_BAUD,
+    MAX_DPI,
+    MIN_DPI,
+    add_profile_option,
+    add_realtime_option,
+    add_verbosity,
+    number,
 )
+from pencilbot.driver.stop_signals import STOP_SIGNALS
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import check_writable
 from pencilbot.units import DEFAULT_PEN_WIDTH
+from sim.faults import FAULT_KINDS
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -27,14 +35,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             "a terminal). The board behaves like a real GRBL board on an Arduino: opening the port "
             "resets it, and its position restarts at 0,0,0 (--power keep and --abort keep make it "
             "forgiving). After a dropped link (the drop fault) it comes back on a new pty, whose path "
-            "is printed. Runs until Ctrl-C or SIGTERM, then saves what was drawn if -o is given."
+            "is printed. Runs until Ctrl-C, SIGTERM or SIGHUP, then saves what was drawn if -o is given."
         ),
     )
     add_profile_option(parser, "GRBL, grblHAL, HP-GL or EBB (axidraw-v3, ...) plotter profile")
     add_realtime_option(parser)
     parser.add_argument("--baud", type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"), default=0, help="emulated bit/s (default %(default)s: unlimited)")
     parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
-                        help="inject faults: error@K[:N], alarm@K, silent@K, drop@K, reset@K, garbage@K")
+                        help=f"inject faults, KIND@K (at the K-th line the board takes): KIND one of "
+                             f"{', '.join(FAULT_KINDS)}; error@K:N gives error N, interrupt@K:SIG a signal, and "
+                             "hold and interrupt also strike at a moment of the simulated clock (interrupt@1.45s)")
     # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
     parser.add_argument("--power", choices=("zero", "keep"), default="zero",
                         help="what a power-up or port-open reset does to the position (default zero)")
@@ -45,6 +55,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
                              "at the bed's edges, trusted from power-up")
     parser.add_argument("--no-reset", action="store_true",
                         help="a board without auto-reset: opening the port does not reset it")
+    parser.add_argument("--firmware", metavar="VERSION", help="EBB profiles: the firmware the board plays (default 3.0.3; e.g. 2.8.1)")
+    parser.add_argument("--supply", type=number("--supply", low=0, high=40, unit="V"), default=None,
+                        help="EBB profiles: volts at the board's power jack (default 9.1; 0: the motors have no power)")
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
     parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="resolution of the saved drawing in dots per inch (default %(default)g)")
     add_verbosity(parser)
@@ -66,6 +79,7 @@ def run(args: argparse.Namespace) -> int:
         check_writable(args.output)  # a read-only folder: now, not when the session's drawing is saved
     options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
                "faults": args.faults, "power": args.power, "abort": args.abort, "limits": args.limits}
+    options.update({k: str(v) for k, v in (("firmware", args.firmware), ("supply", args.supply)) if v is not None})
     try:
         plotter = plotter_from_options(options)
     except SerialException as exc:
@@ -76,8 +90,10 @@ def run(args: argparse.Namespace) -> int:
     server = PtyServer(plotter, reset_on_open=not args.no_reset and resets,
                        on_new_path=lambda path: print(path, flush=True))
     print(server.path, flush=True)
-    # A closed terminal or a kill ends the session like Ctrl-C does: the drawing is saved.
-    for signum in (signal.SIGTERM, signal.SIGHUP):
+    # Every stop signal (Ctrl-C, a kill, a closed terminal, Ctrl-\) ends the session and saves its
+    # drawing, even one the process was started ignoring (a script's background job ignores
+    # SIGINT): a virtual board has no plot to keep going, only its drawing to lose.
+    for signum in STOP_SIGNALS:
         signal.signal(signum, lambda *_: server.stop())
     try:
         server.serve_forever()

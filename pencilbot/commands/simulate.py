@@ -19,22 +19,31 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from pencilbot.commands.common import PLOT_DPI, check_render, plan_for_input, reorder_drawing
+from pencilbot.commands.common import PLOT_DPI, check_render, output_beside, plan_for_input, reorder_drawing
 from pencilbot.commands.options import (
-    MAX_DPI, MIN_DPI, add_photo_options, add_profile_option, add_realtime_option, add_svg_options,
-    add_system_commands_option, add_verbosity, number,
+    MAX_DPI,
+    MIN_DPI,
+    add_photo_options,
+    add_profile_option,
+    add_realtime_option,
+    add_svg_options,
+    add_system_commands_option,
+    add_verbosity,
+    number,
 )
 from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
-from pencilbot.driver.job import gcode_blocks, read_gcode
-from pencilbot.errors import PencilbotError
+from pencilbot.driver.job import gcode_blocks, program_blocks, read_gcode
+from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
-from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_program
+from pencilbot.export.hpgl import HPGL_SUFFIXES, MAX_HPGL_FILE, hpgl_program
+from pencilbot.fileio import read_bounded
+from pencilbot.firmware.hpgl import looks_like_hpgl
 from pencilbot.machine.pens import load_pens
-from pencilbot.units import DEFAULT_PEN_WIDTH
-from pencilbot.planning.plan import BLACK
+from pencilbot.planning.plan import BLACK, Layer
 from pencilbot.planning.stats import duration_text
 from pencilbot.render import save_color_png
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 _RUNS = itertools.count(1)
 
@@ -52,7 +61,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
-    parser.add_argument("-o", "--output", required=True, metavar="PLOT.png", help="PNG to write")
+    parser.add_argument("-o", "--output", metavar="PLOT.png", help="PNG to write (default: INPUT-plot.png beside it)")
     add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
     parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
@@ -65,7 +74,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    source, output = Path(args.input), Path(args.output)
+    source, output = Path(args.input), output_beside(args, "plot", ".png")
     if output.suffix.lower() != ".png":
         raise PencilbotError(f"name the output {output} with .png")
     import sim
@@ -73,7 +82,9 @@ def run(args: argparse.Namespace) -> int:
     from sim import protocol_sim
 
     sim.register()
-    if source.suffix.lower() in GCODE_SUFFIXES:
+    if not getattr(args, "profile_given", False) and looks_like_hpgl(source):
+        args.profile = _hpgl_profile(args.profile)  # HP-GL is for an HP-GL plotter, whatever the default
+    elif source.suffix.lower() in GCODE_SUFFIXES:
         # As draw: the profile the file was exported for, unless another one is asked for.
         args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
@@ -89,6 +100,13 @@ def run(args: argparse.Namespace) -> int:
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     pens = carousel or pens_at_pauses(program)  # HP-GL: SP n is the n-th pen
+    if not pens and getattr(profile.firmware, "flow", "") != "polled" and not args.realtime:
+        # A drawing's own plain program: at once on the virtual machine too (a million paths in seconds)
+        plotter = _fast_plot_blocks(program_blocks(program), len(program), source.name, args)
+        if plotter is not None:
+            _save_plot(output, plotter, [], args, pen_width)
+            _report(output, plotter, [], profile, args)
+            return 0
     if getattr(args, "pens", None) and any(pens):
         pens = _recolored(pens, load_pens(args.pens))
     name = f"simulate-{os.getpid()}-{next(_RUNS)}"
@@ -108,22 +126,38 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _hpgl_profile(default: str) -> str:
+    """``default`` if it is an HP-GL plotter's profile, else the first HP-GL profile there is."""
+    from pencilbot.machine.profile import list_profiles, load_profile
+
+    names = [n for n in [default, *list_profiles()] if getattr(load_profile(n).firmware, "flow", "") == "polled"]
+    if not names:
+        raise PencilbotError("the file is HP-GL and no HP-GL plotter profile is known; give one with --profile")
+    return names[0]
+
+
 def _fast_plot(source: Path, profile, args: argparse.Namespace):
     """The virtual plotter after a plain G-code job ran on it at once (:mod:`sim.bulk`), or None
     when the job must go the full way: through the driver, line by line (another clock than the
     instant one, a pen that is neither on the spindle nor on Z, a line of another form, a refused line or an
     alarm, whose message the full way gives)."""
-    from sim import bulk, protocol_sim
-
     if source.suffix.lower() not in GCODE_SUFFIXES or args.realtime or not source.is_file():
         return None
+    return _fast_plot_blocks(gcode_blocks(source), source.stat().st_size, source.name, args)
+
+
+def _fast_plot_blocks(blocks, size: int, name: str, args: argparse.Namespace):
+    """The virtual plotter after a plain job's ``blocks`` (whole lines, ``size`` bytes in all) ran
+    on it at once, or None when the fast path cannot take them."""
+    from sim import bulk, protocol_sim
+
     # The board the full way would open (see run's URL), made the same way.
     plotter = protocol_sim.plotter_from_options({"profile": args.profile, "realtime": "0", "limits": "bed"})
     if type(plotter) is not protocol_sim.VirtualPlotter or not bulk.fast_path_possible(plotter.machine):
         return None
-    with tqdm(total=source.stat().st_size, unit="B", unit_scale=True, desc=f"simulating {source.name}",
+    with tqdm(total=size, unit="B", unit_scale=True, desc=f"simulating {name}",
               file=sys.stderr, disable=args.quiet, leave=False) as bar:
-        return plotter if bulk.run_blocks(plotter.machine, _counted(gcode_blocks(source), bar)) is None else None
+        return plotter if bulk.run_blocks(plotter.machine, _counted(blocks, bar)) is None else None
 
 
 def _counted(blocks, bar):
@@ -182,15 +216,15 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     """The program for ``source`` (G-code, or HP-GL for an HP-GL plotter), the pen width (mm) to
     render it with, and for an HP-GL colour plan its pens by carousel slot (else empty)."""
     if not source.is_file():
-        raise PencilbotError(f"{source} does not exist; give a G-code file, a plan .svg or a photo")
+        raise PencilbotError(no_such_file(source, "a G-code file, a plan .svg or a photo"))
     if source.suffix.lower() in GCODE_SUFFIXES:
         # Read as draw reads it (any text in comments; a command that is not ASCII is refused
         # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
         # no job journal beside the file.
         return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH, []
-    if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL has no lines to bound: one instruction after another
+    if source.suffix.lower() in HPGL_SUFFIXES or looks_like_hpgl(source):  # HP-GL: one instruction after another
         try:
-            return source.read_bytes(), args.pen_width or DEFAULT_PEN_WIDTH, []
+            return read_bounded(source, "HP-GL file", MAX_HPGL_FILE), args.pen_width or DEFAULT_PEN_WIDTH, []
         except OSError as exc:
             raise PencilbotError(f"cannot read HP-GL file {source} ({exc})") from None
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
@@ -199,7 +233,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL
         program = hpgl_program(plan, profile)
         if plan.pens:  # each pen of a colour plan in its carousel slot, in load order
-            first = {}
+            first: dict[str, Layer] = {}
             for layer in plan.layers:
                 first.setdefault(layer.pen, layer)
             return program, args.pen_width or plan.pen_width, [

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 from PIL import Image
 
-from pencilbot.commands.common import IMAGE_SUFFIXES, refuse_overwriting
+from pencilbot.commands.common import IMAGE_SUFFIXES, output_beside, refuse_overwriting
 from pencilbot.commands.options import MAX_IMAGE_PIXELS, add_verbosity, number
 from pencilbot.errors import PencilbotError
 from pencilbot.fileio import write_atomic
@@ -34,7 +34,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Turn a photo into a pencil drawing (GMED line drawing + pencil tone and texture).",
     )
     parser.add_argument("input", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...)")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image to write")
+    parser.add_argument("-o", "--output", metavar="OUT.png", help="image to write (default: INPUT-sketch.png beside it)")
     parser.add_argument("--lines-only", action="store_true", help="write only the line drawing")
     parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
     parser.add_argument("--color", "--colour", action="store_true", help="colour pencil drawing (either spelling)")
@@ -67,7 +67,7 @@ STAGE_NAMES = ("denoised", "gradient", "edges", "tone", "texture", "beta", "T", 
 
 
 def run(args: argparse.Namespace) -> int:
-    output = Path(args.output)
+    output = output_beside(args, "sketch", ".png")
     _check_output(output)
     if args.stages:
         refuse_overwriting(args, [Path(args.stages) / f"{name}.png" for name in STAGE_NAMES])
@@ -90,7 +90,9 @@ def run(args: argparse.Namespace) -> int:
     if args.stages:
         stages = gmed_stages(image.gray)
         if not args.lines_only:
-            stages.update(tone=drawn.tone, texture=drawn.texture, beta=drawn.beta, T=drawn.T)
+            stages.update({name: stage for name, stage in
+                           (("tone", drawn.tone), ("texture", drawn.texture), ("beta", drawn.beta), ("T", drawn.T))
+                           if stage is not None})
         stages["lines"] = line.drawing
         write_stages(Path(args.stages), stages)
     write_image(result, output)

@@ -13,7 +13,12 @@ import json
 from pathlib import Path
 
 from pencilbot.commands.common import read_drawing
-from pencilbot.commands.options import add_profile_option, add_svg_options, add_system_commands_option, add_verbosity
+from pencilbot.commands.options import (
+    add_profile_option,
+    add_svg_options,
+    add_system_commands_option,
+    add_verbosity,
+)
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES
 from pencilbot.export.hpgl import HPGL_SUFFIXES, hpgl_plan
@@ -77,6 +82,7 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
         The file cannot be read or streamed to the profile's firmware, or its pen never goes
         down as the profile's pen model says.
     """
+    from pencilbot.driver.bed_check import check_on_bed
     from pencilbot.driver.drawn import drawn_paths
     from pencilbot.driver.job import load_job
 
@@ -89,9 +95,10 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
         raise PencilbotError(
             f"{path}: the pen never goes down the way profile {profile.name} puts it down ({pen.kind} pen, "
             f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)")
+    check_on_bed(job)  # as draw: a move off the bed is no drawing of this plotter
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
-    return Plan(bed, [Layer(path.stem, drawn.with_points(placement.to_page(drawn.points)))])
+    return Plan(bed, (Layer(path.stem, drawn.with_points(placement.to_page(drawn.points))),))
 
 
 def format_table(stats: PlanStats) -> str:
@@ -99,7 +106,9 @@ def format_table(stats: PlanStats) -> str:
     header = ("layer", "pen-down", "pen-up", "lifts", "paths", "segments", "time")
     rows = [_row(name, s) for name, s in stats.layers.items()] + [_row("total", stats.total)]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
-    line = lambda r: "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))  # noqa: E731
+    def line(r):
+        return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
+
     return "\n".join([line(header), *(line(r) for r in rows[:-1]), line(["-" * w for w in widths]), line(rows[-1])])
 
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pencilbot.commands.options import MAX_REALTIME, add_profile_option, add_verbosity, number
-from pencilbot.errors import PencilbotError
+from pencilbot.commands.options import MAX_REALTIME, Deprecated, add_profile_option, add_verbosity, number
+from pencilbot.errors import PencilbotError, no_such_file
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> None:
@@ -27,22 +27,26 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--listen-port", type=number("--listen-port", low=0, high=65535, whole=True), default=8765,
                         metavar="N", help="TCP port of the page (default 8765; 0: any free one)")
     parser.add_argument("--no-browser", action="store_true", help="do not open the page in a browser")
-    parser.add_argument("--sim-speed", type=number("--sim-speed", low=0, above=True, high=MAX_REALTIME), default=1.0,
-                        metavar="R", help="the virtual plotter's speed over real time (default 1)")
+    parser.add_argument("--realtime", type=number("--realtime", low=0, above=True, high=MAX_REALTIME), default=1.0,
+                        metavar="R",
+                        help="the virtual plotter moves R times faster than real time (default %(default)g: as fast "
+                             "as the real machine), as --realtime in simulate and sim-serve")
+    parser.add_argument("--sim-speed", dest="realtime", type=number("--sim-speed", low=0, above=True, high=MAX_REALTIME),
+                        action=Deprecated, new="--realtime")
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     if args.photo is not None and not Path(args.photo).is_file():
-        raise PencilbotError(f"{args.photo}: no such file; give a photo (PNG, JPEG, ...) or none")
+        raise PencilbotError(no_such_file(args.photo, "a photo (PNG, JPEG, ...) or none"))
     try:
         from pencilbot.studio.server import serve
     except ImportError as err:
         raise PencilbotError(f"the studio needs its extra ({err.name} is missing): pip install 'pencilbot[studio]'") from None
     try:
         serve(Path(args.photo) if args.photo else None, port=args.port, profile=args.profile,
-              host=args.host, listen_port=args.listen_port, browser=not args.no_browser, sim_speed=args.sim_speed)
+              host=args.host, listen_port=args.listen_port, browser=not args.no_browser, sim_speed=args.realtime)
     except KeyboardInterrupt:
         pass
     return 0

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from pencilbot.errors import OutOfBedError, PlotError
+from pencilbot.errors import OutOfBedError, RefusedError
 from pencilbot.units import MM_PER_INCH
 
 if TYPE_CHECKING:  # the job module feeds the watch: no import at run time
@@ -167,8 +167,8 @@ def _refuse(job: Job, index: int, x: float, y: float, reaches: str) -> None:
 def _refuse_unknown(job: Job, index: int) -> None:
     text = job.line(index)
     state = job.state_after(index)
-    if re.search(r"G0*(28|30)(?![0-9.])", text):
-        code = re.search(r"G0*(28|30)(?![0-9.])", text).group(1)
+    if stored := re.search(r"G0*(28|30)(?![0-9.])", text):
+        code = stored.group(1)
         what = (f"goes to the position the board stored with G{code}.1, which {job.source} does not set "
                 f"before it")
         fix = f"set it in the file first (G{code}.1 where it should go), or move there with G0 X.. Y.."
@@ -202,7 +202,7 @@ def check_resumable(job: Job, start: int) -> None:
     """
     if start <= 0 or start >= len(job) or job.state_after(start - 1).frames.plain:
         return
-    raise PlotError(
+    raise RefusedError(
         f"line {job.number(start)} of {job.source} comes after lines that change the work coordinates "
         "(G92, G10, G54-G59), which a resume cannot restore; nothing was sent. Draw the file from its "
         "start (a stopped job: --restart), or split it where the coordinates are machine coordinates"

@@ -68,7 +68,8 @@ def _array(axes: _Axes) -> np.ndarray:
 
 def _axes(values: np.ndarray) -> _Axes:
     # To a nanometre: the same offset reached by another sum of the same words is the same state.
-    return tuple(None if math.isnan(v) else round(float(v), 9) + 0.0 for v in values)
+    x, y, z = (None if math.isnan(v) else round(float(v), 9) + 0.0 for v in values)
+    return x, y, z
 
 
 def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray, code: np.ndarray,
@@ -120,7 +121,7 @@ def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray
     after = np.full((n, 3), np.nan)  # machine position after each event line
     via = np.full((n, 3), np.nan)
     here, state, previous = np.asarray(start_machine, dtype=float), start, -1
-    for e in events:
+    for e in events.tolist():
         here = _run_to(e - 1, previous, here, state.offset(), words, summed, last_absolute)
         state, here, via[e] = _event(state, here, words[e], int(code[e]), int(select[e]), l_word[e], p_word[e],
                                      bool(relative[e]), bool(moves[e]))

@@ -20,16 +20,15 @@ from __future__ import annotations
 
 import re
 import shlex
-import signal
-import threading
 import time
 from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
 
+from pencilbot.driver import stop_signals
 from pencilbot.driver.bed_check import arc_geometry
-from pencilbot.driver.ebb_link import EbbFault, EbbLink
+from pencilbot.driver.ebb_link import LOW_SUPPLY, EbbFault, EbbLink, check_supply, greet, version_at_least
 from pencilbot.driver.faults import Interrupted
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
@@ -40,12 +39,11 @@ from pencilbot.firmware.ebb import MICROSTEPS
 from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
 from pencilbot.units import MM_PER_INCH
 
-POWER_THRESHOLD = 250  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
+POWER_THRESHOLD = LOW_SUPPLY  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
 #: Commands the motion FIFO holds on firmware 3.x (CU,4): 16 moves of the 4 ms minimum keep the
 #: motors busy through a 64 ms stall of the host or the USB link.
 FIFO_DEPTH = 16
 POWER_CHECK = 0.5  # s of motion sent between QG queries while streaming (one extra round trip each)
-_STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM"}
 
 
 @dataclass
@@ -56,8 +54,9 @@ class _Stop:
 
 
 def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = DEFAULT_BAUD,
-             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None):
+             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None, announce=None):
     """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
+    ``announce(banner, job)`` is told what the board said it is (``V``) before anything moves.
 
     Returns
     -------
@@ -75,8 +74,15 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
-        here, pen_down, found = _wake(link, profile, job, resumed, operator)
+        try:
+            here, pen_down, found = _wake(link, profile, job, resumed, operator)
+        except EbbFault:
+            if link.replies:
+                raise
+            raise PlotError(link.not_an_ebb(port, profile.name)) from None
         start = start if found is None else found
+        if announce is not None:
+            announce(f"banner '{link.version}'", job)
         dwells = _dwells(job)
         work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down, dwells)
         total = sum(item.seconds for item in work if isinstance(item, EbbMove))
@@ -88,14 +94,15 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
         acked = -1
         done_seconds = 0.0
         checked = 0.0  # motion seconds sent at the last QG: by the plan, not the clock (the same every run)
-        try:
-            with _stop_signals():
+        with stop_signals.caught(stop_signals.RaiseOnce()):  # caught through the stop: it is not cut short
+            try:
                 while work:
-                    item = work.popleft()
+                    item = work[0]  # taken off once sent (or paused at): a stop knows what was next
                     if not isinstance(item, EbbMove):  # a program pause (pen change) before job line item
                         if sent:
                             link.wait_idle(timeout + 60)
                             _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
+                        work.popleft()
                         continue
                     if link.watch_power and done_seconds > checked + POWER_CHECK:
                         checked = done_seconds
@@ -103,9 +110,10 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                         if link.power_lost:
                             raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
                     if keys is not None and _keys_say_pause(keys):
-                        stop = _hold(link, sent, acked, profile, operator, keys, bar)
+                        stop = _hold(link, sent, acked, profile, operator, keys, bar, _next_line(work, len(job)))
                         work = _plan_from(job, xy, down, rows_line, profile, stop.index, stop.steps, None, dwells)
                         continue
+                    work.popleft()
                     sent.append(item)
                     link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent, link))
                     acked = len(sent) - 1
@@ -114,10 +122,10 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                 link.wait_idle(timeout + 2 * _in_flight_seconds(sent, link) + 5)
                 if link.power_lost:  # seen while waiting for the last moves
                     raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
-        except (Interrupted, EbbFault, PortLost) as exc:
-            message = _stop(link, exc, sent, acked, job, profile, journal, port)
-            bar.close("stopped", message)
-            raise PlotError(message) from None
+            except (Interrupted, EbbFault, PortLost) as exc:
+                message = _stop(link, exc, sent, acked, job, profile, journal, port, _next_line(work, len(job)))
+                bar.close("stopped", message)
+                raise PlotError(message) from None
         bar.update(len(job) - start, total, "Idle")
         bar.close("done")
         if journal is not None:
@@ -204,13 +212,13 @@ def _keys_say_pause(keys) -> bool:
     return "pause" in requests
 
 
-def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, keys, bar) -> _Stop:
+def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, keys, bar, unsent: int) -> _Stop:
     """The pause key: stop at once (ES), lift the pen, find where from the step counters, and
     wait for the operator (or the pause key again); the job goes on from that very point."""
     link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
-    link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+    link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
     link.wait_idle(5)
-    stop = _locate(link.steps(), sent, acked, profile, link)
+    stop = _locate(link.steps(), sent, acked, profile, link, unsent)
     if stop is None:
         raise EbbFault("after the pause the step counters are on none of the moves sent")
     bar.show_state("paused: the pause key")
@@ -253,12 +261,8 @@ def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[in
     """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
     (None: unknown) and, for a resume, the job line to go on from. A resume whose position is
     lost is re-zeroed with ``operator`` (:mod:`pencilbot.driver.ebb_rezero`), or refused."""
-    link.reader.write(b"\r")  # ends any half command left by another program
-    time.sleep(0.05)
-    link.reader.discard_input()
-    link.status()
-    link.future = link.last_lines[0].startswith("QG,")  # a board left in future syntax (CU,10,1)
-    version = link.command("V").data or ""
+    version = greet(link)
+    check_supply(link, version)  # a board without motor power: one line, nothing sent
     start = None
     if resumed is not None:
         link.wait_idle(120)  # a board reconnected after a lost cable may still be running its queue
@@ -306,7 +310,7 @@ def _configure(link: EbbLink, version: str) -> None:
         return
     link.command(f"CU,60,{POWER_THRESHOLD}")
     link.watch_power = True
-    depth = max(1, min(int(link.command("QU,2").data), FIFO_DEPTH))
+    depth = max(1, min(int(link.answer("QU,2")), FIFO_DEPTH))
     link.command(f"CU,4,{depth}")  # waits for the queue to empty: before any motion
     link.fifo_depth = depth
 
@@ -315,19 +319,10 @@ def _motors_held(link: EbbLink, profile) -> bool:
     """Both motors are on at the profile's microstepping (QE): the counters still mean the
     carriage's position. A board that restarted has them off."""
     try:
-        states = [int(v) for v in link.command("QE").data.split(",")[:2]]
+        states = [int(v) for v in link.answer("QE").split(",")[:2]]
     except (EbbFault, ValueError):
         return False
     return states == [MICROSTEPS[profile.ebb.microstep_mode]] * 2
-
-
-def version_at_least(text: str, wanted: tuple[int, int]) -> bool:
-    """Whether an EBB version string (``... Firmware Version 3.0.3``) is at least ``wanted``."""
-    try:
-        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[:2])
-    except ValueError:
-        return False
-    return numbers >= wanted
 
 
 def _pause(link: EbbLink, operator, bar, reason: str) -> None:
@@ -338,23 +333,24 @@ def _pause(link: EbbLink, operator, bar, reason: str) -> None:
         operator.pause(f"paused: {reason}")
         return
     link.command("QB")  # forget earlier presses
-    while link.command("QB").data.strip() != "1":
+    while link.answer("QB").strip() != "1":
         time.sleep(0.05)
 
 
-def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port) -> str:
-    """Stop the board, find where, record it, and say how to go on."""
+def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port, unsent: int) -> str:
+    """Stop the board, find where, record it, and say how to go on (``unsent``: the job line of
+    the first command not sent)."""
     why = f"stopped by {exc.by}" if isinstance(exc, Interrupted) else str(exc)
     number = lambda index: job.number(min(index, len(job) - 1)) if len(job) else 0  # noqa: E731
     stop, answered, held = None, False, False
     if not isinstance(exc, PortLost):
         try:
             link.stop_now(wait=link.timeout + 2 * _in_flight_seconds(sent, link))
-            link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+            link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
             link.wait_idle(5)
             answered = True
             held = _motors_held(link, profile) and not link.power_lost
-            stop = _locate(link.steps(), sent, acked, profile, link) if held else None
+            stop = _locate(link.steps(), sent, acked, profile, link, unsent) if held else None
         except (EbbFault, PortLost):
             answered = False
     index = sent[_oldest_in_flight(acked, link)].line if sent else 0
@@ -386,10 +382,18 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     return f"{text} Resume with: {journal.resume}"
 
 
-def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile, link: EbbLink) -> _Stop | None:
+def _next_line(work: deque, end: int) -> int:
+    """The job line of the first command (or pause) not sent yet; ``end`` if none is left."""
+    return next((item.line if isinstance(item, EbbMove) else item for item in work), end)
+
+
+def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile, link: EbbLink,
+            unsent: int) -> _Stop | None:
     """The job line to resume from, given where the motors stopped: the first command still in
     flight (running, in the FIFO, being parsed) whose segment holds the position and
-    that had not finished."""
+    that had not finished. When all that was sent ran, the line of the last command sent if
+    its move is not over (``unsent``, the line of the first command not sent, is the same: a
+    move is several commands, accelerate, cruise, decelerate), else the line after it."""
     pos = np.array(steps, dtype=np.float64)
     first = _oldest_in_flight(acked, link)
     for k in range(first, len(sent)):
@@ -400,7 +404,8 @@ def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile, li
         if _on_segment(pos, a, b):
             return _Stop(move.line, steps, _mm(profile, steps))
     if sent and np.array_equal(pos, np.array(sent[-1].end, float)):
-        return _Stop(sent[-1].line + 1, steps, _mm(profile, steps))  # all it was sent ran
+        line = sent[-1].line + (unsent != sent[-1].line)  # all it was sent ran: its move's end, or a part
+        return _Stop(line, steps, _mm(profile, steps))
     return None  # on none of the commands in flight: the position is lost
 
 
@@ -417,27 +422,3 @@ def _on_segment(p: np.ndarray, a: np.ndarray, b: np.ndarray, tol: float = 2.0) -
 def _mm(profile, steps) -> tuple[float, float]:
     x, y = profile.ebb.to_machine(np.array([steps], dtype=float))[0]
     return round(float(x), 4), round(float(y), 4)
-
-
-class _stop_signals:
-    """Ctrl-C and SIGTERM raise :class:`Interrupted` once (in the main thread)."""
-
-    def __enter__(self):
-        self.saved = {}
-        if threading.current_thread() is not threading.main_thread():
-            return self
-        fired = []
-
-        def stop(signum, frame):
-            if not fired:
-                fired.append(signum)
-                raise Interrupted(_STOP_SIGNALS[signum])
-
-        for signum in _STOP_SIGNALS:
-            self.saved[signum] = signal.signal(signum, stop)
-        return self
-
-    def __exit__(self, *exc):
-        for signum, handler in self.saved.items():
-            signal.signal(signum, handler)
-        return False

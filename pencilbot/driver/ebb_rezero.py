@@ -65,7 +65,7 @@ def rezero(link, profile, job, resumed, operator, why: str) -> tuple[tuple[int, 
     link.power_lost = False
     for text in pen_commands(profile):
         link.command(text)
-    link.command(f"SP,1,{max(int(profile.pen.up_delay * 1000), 1)}")
+    link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
     link.wait_idle(5)
     certain = job.index_of(int(moves[0, 4]))
     to_mm = MM_PER_INCH if job.state_after(max(certain - 1, 0)).inches else 1.0

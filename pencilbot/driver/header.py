@@ -19,7 +19,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from pencilbot.errors import PlotError, ProfileError
+from pencilbot.errors import ProfileError, RefusedError
 from pencilbot.machine.profile import load_profile
 
 _HEAD_LINES = 12  # the header comes first; a file without one in its first lines has none
@@ -102,7 +102,7 @@ def profile_for(path: str | Path, given: str | None, default: str) -> str:
         try:
             load_profile(chosen)
         except ProfileError:
-            raise PlotError(
+            raise RefusedError(
                 f"{path} was made for plotter profile {header.name} (line {header.line} of its header), "
                 f"which is not known here; give the profile with --profile NAME|FILE.toml "
                 "(see pencilbot export --list-profiles)") from None
@@ -110,9 +110,9 @@ def profile_for(path: str | Path, given: str | None, default: str) -> str:
     try:
         name = load_profile(given).name
     except ProfileError as err:
-        raise PlotError(str(err)) from None
+        raise RefusedError(str(err)) from None
     if name != header.name:
-        raise PlotError(
+        raise RefusedError(
             f"{path} was made for plotter profile {header.name} (line {header.line} of its header), not "
             f"{name}: its pen commands and bed are that plotter's. Leave out --profile (or give "
             f"--profile {header.name}), or export the drawing again for {name}")

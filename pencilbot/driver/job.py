@@ -21,9 +21,10 @@ import numpy as np
 
 from pencilbot.driver.bed_check import BedWatch
 from pencilbot.driver.markers import without_markers
-from pencilbot.driver.modal import ModalState, Track, track
+from pencilbot.driver.modal import MAX_DIGITS, ModalState, Track, track
 from pencilbot.driver.system_lines import SystemLines, check_system_lines
-from pencilbot.errors import PlotError
+from pencilbot.errors import PencilbotError, RefusedError, no_such_file
+from pencilbot.fileio import refuse_special_input
 from pencilbot.machine.profile import Profile
 
 #: Lines between stored modal states: a state is at most this many lines of tracking away.
@@ -37,6 +38,9 @@ _COMMENT = re.compile(rb"\([^)\n]*\)|;[^\n]*")
 _PAUSE = re.compile(rb"(?im)^[^\n(;]*?M0*[01](?![0-9.])[^\n]*")
 _PAUSE_NOTE = re.compile(rb"\(([^)\n]*)\)|;\s*([^\n]*)")
 _SPACE = b" \t\r\x0b\x0c"
+#: A word whose number is longer than the tracker reads (it would be skipped, and the board would
+#: read ``G4 P1`` and thirty zeros as a wait of 10³⁰ s, ``X-9…9`` as a move past any bed).
+_LONG_NUMBER = re.compile(rb"[A-Z][-+]?[0-9.]{%d,}" % (MAX_DIGITS + 1))
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,12 +159,13 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
     if isinstance(gcode, (str, Path)):
         path = Path(gcode)
         source = source or str(path)
+        refuse_special_input(path, "G-code file")
         try:
             handle = path.open("rb")
         except FileNotFoundError:
-            raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
+            raise RefusedError(no_such_file(path, "the path of a .gcode file")) from None
         except OSError as exc:
-            raise PlotError(f"cannot read G-code file {path} ({exc})") from None
+            raise RefusedError(f"cannot read G-code file {path} ({exc})") from None
         with handle:
             job = _prepare(_blocks(iter(lambda: handle.read(_READ_BLOCK), b""), source), profile, source)
     elif isinstance(gcode, bytes):
@@ -169,7 +174,7 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         program = "".join(f"{line}\n" for line in gcode).encode("utf-8", errors="replace")
         job = _prepare(_blocks(_pieces(program), source or "<lines>"), profile, source or "<lines>")
     if not len(job):
-        raise PlotError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
+        raise RefusedError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
     return dataclasses.replace(job, system=check_system_lines(job, allow))
 
 
@@ -190,13 +195,20 @@ def gcode_blocks(path: str | Path) -> Iterator[bytes]:
     """:func:`read_gcode`'s file a block of whole lines at a time (about a megabyte each), for a
     reader that never holds it whole (the simulator's fast path); the same errors."""
     path = Path(path)
+    refuse_special_input(path, "G-code file")
     try:
         with path.open("rb") as handle:
             yield from _blocks(iter(lambda: handle.read(_READ_BLOCK), b""), str(path))
     except FileNotFoundError:
-        raise PlotError(f"G-code file {path} does not exist; give the path of a .gcode file") from None
+        raise RefusedError(no_such_file(path, "the path of a .gcode file")) from None
     except OSError as exc:
-        raise PlotError(f"cannot read G-code file {path} ({exc})") from None
+        raise RefusedError(f"cannot read G-code file {path} ({exc})") from None
+
+
+def program_blocks(program: bytes) -> Iterator[bytes]:
+    """A program held whole (as :func:`~pencilbot.export.gcode.gcode_program` makes it) a block of
+    whole lines at a time, as :func:`gcode_blocks` gives a file's."""
+    return _blocks([program], "<program>")
 
 
 def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]:
@@ -219,7 +231,7 @@ def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]
             start = end
         rest = data[start:]
         if len(rest) > MAX_FILE_LINE:
-            raise PlotError(
+            raise RefusedError(
                 f"line {lines + 1} of {source} is longer than {MAX_FILE_LINE >> 20} MB (a G-code line holds at most a "
                 "few hundred characters, comments included); is it a G-code file?")
     if rest:
@@ -291,11 +303,11 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         pauses={},
         off_bed=bed.first,
     )
-    numbers = job.numbers
-    for file_line, note in pauses.items():
-        index = int(np.searchsorted(numbers, file_line))
-        if index < len(numbers) and numbers[index] == file_line:  # a command, not a comment saying M0
-            job.pauses[index] = note
+    job_numbers = job.numbers
+    for file_line, pause_note in pauses.items():
+        index = int(np.searchsorted(job_numbers, file_line))
+        if index < len(job_numbers) and job_numbers[index] == file_line:  # a command, not a comment saying M0
+            job.pauses[index] = pause_note
     _check(job)
     return job
 
@@ -303,11 +315,17 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
 def _check(job: Job) -> None:
     """Refuse binary files and lines the firmware cannot take, naming the file line."""
     if b"\x00" in job.frames:
-        raise PlotError(
+        raise RefusedError(
             f"{job.source} is not G-code text (it holds NUL bytes, as binary files do); give the "
             ".gcode file that pencilbot export wrote"
         )
     refused = job.profile.firmware.check_lines(job)
     if refused is not None:
         index, reason = refused
-        raise PlotError(f"line {job.number(index)} of {job.source}: {reason}")
+        raise RefusedError(f"line {job.number(index)} of {job.source}: {reason}")
+    if (long := _LONG_NUMBER.search(job.frames)) is not None:
+        index = int(np.searchsorted(job.offsets, long.start(), side="right")) - 1
+        raise PencilbotError(
+            f"line {job.number(index)} of {job.source} ({job.line(index)[:40]!r}) has a number of "
+            f"{len(long.group()) - 1} characters; no plotter coordinate, feed or time needs more than {MAX_DIGITS} "
+            "(a board reads it as a move or a wait without end); nothing was sent. Is it G-code?")

@@ -18,8 +18,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from pencilbot.errors import PencilbotError, PlotError
-from pencilbot.fileio import write_atomic
+from pencilbot.errors import PencilbotError, PlotError, RefusedError
+from pencilbot.fileio import read_bounded, write_atomic
 from pencilbot.units import MM_PER_INCH
 
 if TYPE_CHECKING:
@@ -197,17 +197,17 @@ def load_journal(path: str | Path) -> Journal:
     if not path.name.endswith(SUFFIX):
         path = journal_path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
+        data = json.loads(read_bounded(path, "job journal").decode("utf-8"))
         if not isinstance(data, dict) or data.pop("format", None) != FORMAT:
             raise ValueError("not a pencilbot job journal")
         journal = Journal(**data)
     except FileNotFoundError:
-        raise PlotError(
+        raise RefusedError(
             f"no job journal at {path}: resume needs the journal a stopped 'pencilbot draw' wrote; "
             "or give --start-line N with the G-code file"
         ) from None
     except (OSError, ValueError, TypeError) as exc:
-        raise PlotError(f"job journal {path} is unreadable ({exc}); use --start-line N instead") from None
+        raise RefusedError(f"job journal {path} is unreadable ({exc}); use --start-line N instead") from None
     journal.path = path
     wrong = _wrong_field(journal)
     if wrong is not None:
@@ -219,7 +219,7 @@ def damaged(journal: Journal, wrong: str) -> PlotError:
     """The one message for a journal that cannot be trusted: what is wrong and how to go on."""
     gcode = shlex.quote(journal.gcode) if isinstance(journal.gcode, str) else "FILE"
     port = shlex.quote(journal.port) if isinstance(journal.port, str) else "PORT"
-    return PlotError(
+    return RefusedError(
         f"job journal {journal.path} is unreadable or was edited: {wrong}; nothing was sent. Continue from "
         f"the line you see drawn last with: pencilbot draw {gcode} --port {port} --start-line N, or draw "
         f"the file again from line 1 with: pencilbot draw {gcode} --port {port} --restart"

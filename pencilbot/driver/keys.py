@@ -52,7 +52,7 @@ class KeyReader:
 
     def poll(self) -> list[str]:
         """Requests typed since the last call: ``"pause"`` or ``"stop"``."""
-        requests = []
+        requests: list[str] = []
         while True:
             try:
                 char = self._keys.get_nowait()

@@ -32,9 +32,9 @@ from pencilbot.units import MM_PER_INCH
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
 _LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJLMPRSXYZ"}
-_MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
+MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
 _JOG_CODES = (20, 21, 53, 90, 91)  # the G codes a GRBL jog takes
-_POW10 = 10.0 ** np.arange(-_MAX_DIGITS, _MAX_DIGITS + 1)  # digit weights by exponent
+_POW10 = 10.0 ** np.arange(-MAX_DIGITS, MAX_DIGITS + 1)  # digit weights by exponent
 
 
 def _bits(codes: dict[int, int]) -> np.ndarray:
@@ -123,8 +123,8 @@ class Track:
         c = {name: self.columns[name][i].item() for name in self.FIELDS}
         c["feed"] = None if np.isnan(c["feed"]) else c["feed"]
         c["servo"] = None if np.isnan(c["servo"]) else c["servo"]
-        mm = tuple(float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
-        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=mm)
+        x, y, z = (float(self.columns[name][i]) for name in ("x_mm", "y_mm", "z_mm"))
+        return ModalState(**c, frames=self.frames[int(self.columns["frame"][i])], mm=(x, y, z))
 
     @property
     def last(self) -> ModalState:
@@ -212,7 +212,7 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
             columns[axis] = _position(written, moves | event, relative | event, getattr(start, axis))
     else:
         on_machine = np.column_stack([mm[a] for a in "xyz"]) + start.frames.offset()
-        frame, frames, via = np.zeros(lines, np.int64), (start.frames,), np.full((lines, 3), np.nan)
+        frame, frames, via = np.zeros(lines, np.int64), [start.frames], np.full((lines, 3), np.nan)
     columns["x_mm"], columns["y_mm"], columns["z_mm"] = mm["x"], mm["y"], mm["z"]
     columns["mx"], columns["my"] = on_machine[:, 0], on_machine[:, 1]
     columns["vx"], columns["vy"] = via[:, 0], via[:, 1]
@@ -226,7 +226,7 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     feed = columns["feed"]
     rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)
     rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * unit)
-    rate = np.where(jog, np.nan_to_num(word["F"], nan=travel_feed / scale) * scale, rate)  # a jog at its own F
+    rate = np.where(jog, np.where(np.isnan(word["F"]), travel_feed / scale, word["F"]) * scale, rate)  # a jog at its own F
     seconds = np.where(distance > 0, distance / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
     dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
     seconds = np.where((g & G4) != 0, dwell, seconds)
@@ -248,7 +248,7 @@ class _Words:
     jog: np.ndarray
 
 
-def _words(block: bytes) -> _Words:
+def _words(block: bytes | bytearray) -> _Words:
     a = np.frombuffer(block, dtype=np.uint8)
     newline = a == 10
     breaks = np.flatnonzero(newline)
@@ -281,12 +281,12 @@ def _words(block: bytes) -> _Words:
     n_dots = np.bincount(word, weights=dot, minlength=count)
     n_digits = np.bincount(word, weights=digit, minlength=count)
     n_bad = np.bincount(word, weights=~(digit | dot | sign), minlength=count)
-    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= _MAX_DIGITS)
+    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= MAX_DIGITS)
     # A digit is worth 10^(places before the point − 1), or 10^−(places after it).
     point = np.where(n_dots > 0, np.bincount(word, weights=np.where(dot, pos, 0), minlength=count), length)
     point = point.astype(np.int64)[word]
-    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -_MAX_DIGITS, _MAX_DIGITS)
-    value = np.bincount(word, weights=_POW10[exponent + _MAX_DIGITS] * np.where(digit, byte - 48, 0),
+    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -MAX_DIGITS, MAX_DIGITS)
+    value = np.bincount(word, weights=_POW10[exponent + MAX_DIGITS] * np.where(digit, byte - 48, 0),
                         minlength=count)
     negative = np.zeros(count, dtype=bool)
     negative[word[(byte == 45) & (pos == 0)]] = True

@@ -18,8 +18,11 @@ from pencilbot.driver.port import LineReader, open_port, sim_url
 from pencilbot.driver.runner import DrawResult, Runner
 from pencilbot.driver.session import DEFAULT_TIMEOUT
 from pencilbot.driver.stream import Stream
-from pencilbot.errors import PlotError
+from pencilbot.errors import RefusedError
+from pencilbot.fileio import read_bounded
+from pencilbot.firmware.hpgl import MAX_HPGL_FILE
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.machine.profile_edit import profile_with
 
 
 def draw(
@@ -42,6 +45,7 @@ def draw(
     operator=None,
     keys=None,
     on_progress: Callable[[dict], None] | None = None,
+    overrides: dict[str, dict[str, float]] | None = None,
     allow_system: frozenset[str] = frozenset(),
 ) -> DrawResult:
     """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
@@ -94,6 +98,10 @@ def draw(
         whatever ``progress`` is), a progress record also saying where the machine is:
         ``running`` the file line it is drawing (located from its reported position on the
         lines sent, as a stop is; absent when not found) and ``xy`` its work position (mm).
+    overrides : dict, optional
+        Profile values for this run only, by table (``{"motion": {"draw_feed": 2000}}``, as
+        :func:`~pencilbot.machine.profile_edit.profile_with` takes them); a resume runs with the
+        stopped job's.
     allow_system : frozenset of str
         System commands (``$`` lines: ``$H``, ``$C``, ``$100``…) the file may send; any other is
         refused by line before the port is opened (:mod:`pencilbot.driver.system_lines`).
@@ -113,13 +121,17 @@ def draw(
     if Path(profile).suffix.lower() == ".toml":
         profile = str(Path(profile).resolve())  # the journal's resume works from any folder
     plotter = load_profile(profile)
+    if overrides is None and journal is not None:
+        overrides = (journal.options or {}).get("overrides")
+    if overrides:  # this run's speeds, pen heights, delays (checked as a profile file's are)
+        plotter = profile_with(plotter, overrides, where="draw options")
     fw = plotter.firmware
     baud = baud or fw.baud
     if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
         return _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
                             operator, keys)
     if check and not fw.capabilities.check_mode:
-        raise PlotError(
+        raise RefusedError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
             f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
         )
@@ -134,7 +146,7 @@ def draw(
         start, stop_xy = job.index_of(journal.next_line), journal.stop_xy
     elif start_line is not None:
         if not 1 <= start_line <= job.total_lines:
-            raise PlotError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
+            raise RefusedError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
         start = job.index_of(start_line)
     check_resumable(job, start)  # a resume restores no work offset the file set up
     if path is not None and journal is None:
@@ -145,13 +157,14 @@ def draw(
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
         journal.options = {**(journal.options or {}),  # (an EBB stop keeps its step counters here)
-                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error}
+                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error,
+                           **({"overrides": overrides} if overrides else {})}
 
     if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
         from pencilbot.driver.ebb_plot import draw_ebb
 
         return draw_ebb(job, plotter, sim_url(port, profile), journal, start=start, resumed=journal if resume is not None else None,
-                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys)
+                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys, announce=announce)
     runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     runner.on_progress = on_progress
@@ -175,9 +188,9 @@ def _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeo
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     if path is not None:
         try:
-            data = path.read_bytes()
+            data = read_bounded(path, "HP-GL file", MAX_HPGL_FILE)
         except OSError as exc:
-            raise PlotError(f"cannot read {path} ({exc.strerror or exc})") from None
+            raise RefusedError(f"cannot read {path} ({exc.strerror or exc})") from None
     else:
         data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
     start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)

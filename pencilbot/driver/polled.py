@@ -26,25 +26,34 @@ it has run (a sync point), puts the pen away and asks for the pen to be put in i
 
 from __future__ import annotations
 
-import signal
 import threading
 import time
+from contextlib import ExitStack
 from pathlib import Path
 
 import numpy as np
 import serial
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.polled_link import (POLL_PAUSE, Answers, Lost, Moved, Silent, check_initialised, check_point, drain,
-                                          poll_free, read_status)
+from pencilbot.driver import stop_signals
+from pencilbot.driver.polled_link import (
+    POLL_PAUSE,
+    Answers,
+    Lost,
+    Moved,
+    Silent,
+    Stopped,
+    check_initialised,
+    check_point,
+    drain,
+    poll_free,
+    read_status,
+)
 from pencilbot.driver.port import open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.session import DEFAULT_TIMEOUT
-from pencilbot.errors import PlotError
+from pencilbot.errors import PlotError, RefusedError
 from pencilbot.machine.motion import axis_scale, move_times
-
-_STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, getattr(signal, "SIGHUP", None))
-_SIGNAL_NAMES = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 
 
 def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_arg: str, baud: int | None,
@@ -86,14 +95,16 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     name = source or (str(path) if path else "the program")
     try:
         program, changes = fw.program(data).in_carousel(plotter.paper.carousel)
-    except ValueError as exc:
-        raise PlotError(f"{name}: {exc}") from None
+    except ValueError as exc:  # the file, before anything is sent: bad input, not a stopped plot
+        raise RefusedError(f"{name}: {exc}") from None
+    if not program.frames:
+        raise RefusedError(f"{name} holds no HP-GL instructions; export a drawing first (pencilbot export)")
     _check_limits(program, plotter, fw, name)
     resuming = journal is not None
     # A resume may start past the last move: everything was sent, and the stop (a plotter that
     # lost its buffer) is found on the sheet among what was sent.
     if not 0 <= start < max(len(program) + resuming, 1):
-        raise PlotError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
+        raise RefusedError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
     baud = baud or fw.baud
     if path is not None and journal is None:
         journal = journal_mod.Journal(gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port,
@@ -106,7 +117,8 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     done0 = seconds[start - 1] if start else 0.0
     stop = threading.Event()
     why: list[str] = []
-    restore = _catch_signals(stop, why)
+    signals = ExitStack()  # closed last, in the finally: a signal during the stop is noted, not obeyed
+    signals.enter_context(stop_signals.caught(_on_signal(stop, why)))
     began = time.monotonic()
     link = None
     sent = floor = start
@@ -131,17 +143,17 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         if not resuming and not (start == 0 and len(program) and program.frames[0].startswith(b"IN")):
             read_status(link, fw, timeout)  # OI answered: idle; this clears the initialised bit of its power-up
         if announce is not None:
-            announce(f"banner '{identity or 'no answer to OI;'}'", None)
+            announce(f"banner '{identity or 'no answer to OI;'}'", (plotter, len(program)))
         if resuming:
             _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
             lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)
-            at = None
+            pen_at = None
             if lost is not None:  # someone at the plotter shows where the drawing on the sheet ends
                 from pencilbot.driver.polled_refind import refind
 
-                start, at = refind(link, fw, program, journal, operator, plotter, timeout, lost)
+                start, pen_at = refind(link, fw, program, journal, operator, plotter, timeout, lost)
                 sent = floor = start
-            link.write(program.preamble(start, at))
+            link.write(program.preamble(start, pen_at))
         elif start > 0:
             link.write(program.preamble(start))
         # The status byte is read after each IN has run (the preamble's, the program's): its
@@ -165,7 +177,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 in_sent, floor = False, sent
                 continue
             if stop.is_set():
-                raise _Stop()
+                raise Stopped()
             if keys is not None and _keys_say_pause(keys, stop, why):
                 at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
                 if at is None:
@@ -187,7 +199,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 link.write(fw.park_command)  # the pen back in the carousel: its slot can be filled
                 if operator is None and keys is None:
                     why.append(f"a pen change ({changes[sent]}) with nobody at the terminal to do it")
-                    raise _Stop()
+                    raise Stopped()
                 _hold(operator, keys, stop, why, shown, f"paused: {changes[sent]}")
                 paused_at = sent
                 continue
@@ -198,9 +210,9 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
             floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - waiting, side="right")) - 1)
             if checkpoints and not link.positions and floor > checkpoints[0] + 1:
                 checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
-            room = free - (0 if not link.xoff else free)
+            room = max(free - fw.reserve(size), 0) if not link.xoff else 0  # never to the brim
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
-            later = [k for k in pending[int(np.searchsorted(pending, sent, side="right")):][:1]]
+            later = list(pending[int(np.searchsorted(pending, sent, side="right")):][:1])
             later += [k for k in after_in if k > sent]
             end = min([end, *later])  # a pen change waits for everything before it; the status, for an IN
             if end <= sent:
@@ -224,7 +236,7 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 journal.next_line, journal.sent_line, journal.acked_line = sent + 1, sent, floor
                 journal.save()
                 last_save = time.monotonic()
-        drain(link, fw, program, checkpoints, len(program), floor, timeout, in_sent)
+        drain(link, fw, program, checkpoints, len(program), floor, timeout, in_sent, stop)
         # A reset after everything was sent leaves the pen at home, pen up: where many programs end.
         check_initialised(link, fw, timeout, len(program), in_sent)
         if journal is not None and journal.path is not None:
@@ -233,12 +245,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         shown.close("done")
         finished = True
         return DrawResult(lines_sent=len(program) - start, seconds=time.monotonic() - began)
-    except _Stop:
+    except Stopped:
         assert link is not None
         at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
         _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
                  floor=floor)
     except Moved as exc:
+        assert link is not None  # Moved comes from reading the plotter
         try:
             link.write(fw.abort_bytes + fw.lift_command)  # draw nothing more where the pen is not
         except Lost:
@@ -253,17 +266,13 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     finally:
         if not finished:
             shown.close("stopped")
-        restore()
+        signals.close()
         if link is not None:
             try:
                 link.port.close()
             except Exception:  # noqa: BLE001 - a vanished port may fail to close
                 pass
     raise AssertionError("unreachable")
-
-
-class _Stop(Exception):
-    pass
 
 
 def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
@@ -273,7 +282,7 @@ def _keys_say_pause(keys, stop: threading.Event, why: list[str]) -> bool:
         if not why:
             why.append("the stop key")
         stop.set()
-        raise _Stop()
+        raise Stopped()
     return "pause" in requests
 
 
@@ -285,10 +294,10 @@ def _hold(operator, keys, stop: threading.Event, why: list[str], shown, prompt: 
     else:
         while not _keys_say_pause(keys, stop, why):
             if stop.is_set():
-                raise _Stop()
+                raise Stopped()
             time.sleep(0.05)
     if stop.is_set():
-        raise _Stop()
+        raise Stopped()
 
 
 def _settle(link, fw, program, checkpoints, sent, floor, timeout, in_sent: bool) -> None:
@@ -387,21 +396,16 @@ def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None,
     raise PlotError(f"{name}: {why}; {state}; {how}")
 
 
-def _catch_signals(stop: threading.Event, why: list[str]):
-    """Ctrl-C, SIGTERM and SIGHUP set ``stop`` (main thread only); returns the undo."""
-    if threading.current_thread() is not threading.main_thread():
-        return lambda: None
-    old = {}
+def _on_signal(stop: threading.Event, why: list[str]):
+    """A handler for :func:`~pencilbot.driver.stop_signals.caught`: the first signal says why,
+    each sets ``stop`` (the stream stops at its next poll)."""
 
-    def handler(signum, _frame):
+    def handler(by: str) -> None:
         if not why:
-            why.append(_SIGNAL_NAMES.get(signum, f"signal {signum}"))
+            why.append(by)
         stop.set()
 
-    for signum in _STOP_SIGNALS:
-        if signum is not None:
-            old[signum] = signal.signal(signum, handler)
-    return lambda: [signal.signal(s, h) for s, h in old.items()]
+    return handler
 
 
 def _seconds_after(program, plotter) -> np.ndarray:
@@ -410,7 +414,7 @@ def _seconds_after(program, plotter) -> np.ndarray:
     virtual plotter times it, each lift and drop its delay."""
     if not len(program):
         return np.zeros(1)
-    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * plotter.firmware.unit_mm
+    step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * plotter.paper.unit_mm
     length = np.hypot(*step.T)
     speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, plotter.motion.draw_speed),
                      plotter.motion.travel_speed)
@@ -427,7 +431,7 @@ def _check_limits(program, plotter, fw, name) -> None:
     """Every position within the bed (the plotter's hard-clip limits), before the port opens."""
     if not len(program):
         return
-    w, h = round(plotter.bed.width / fw.unit_mm), round(plotter.bed.height / fw.unit_mm)
+    w, h = round(plotter.bed.width / plotter.paper.unit_mm), round(plotter.bed.height / plotter.paper.unit_mm)
     bad = np.flatnonzero((program.xy[:, 0] < 0) | (program.xy[:, 1] < 0) | (program.xy[:, 0] > w) | (program.xy[:, 1] > h))
     if len(bad):
         k = bad[0]

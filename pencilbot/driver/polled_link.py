@@ -15,6 +15,10 @@ class Lost(Exception):
     """The port went away."""
 
 
+class Stopped(Exception):
+    """The person asked to stop (a signal, the stop key): the sender stops the plotter."""
+
+
 class Answers:
     """CR- (or LF-) terminated answers from the port; XON/XOFF bytes noted, not returned."""
 
@@ -50,12 +54,15 @@ class Answers:
             else:
                 self.lines.append(line)
 
-    def position(self, fw, timeout: float):
+    def position(self, fw, timeout: float, stop=None):
         """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s. The
         free bytes are polled meanwhile: a plotter that stops answering is caught sooner, and a
-        plotter on a poll clock (the virtual one in tests) goes on as the sender waits."""
+        plotter on a poll clock (the virtual one in tests) goes on as the sender waits. ``stop``
+        (an event) set meanwhile raises :class:`Stopped`."""
         end = time.monotonic() + timeout
         while not self.positions:
+            if stop is not None and stop.is_set():
+                raise Stopped()
             if time.monotonic() > end:
                 return None
             poll_free(self, fw, timeout)
@@ -103,15 +110,16 @@ def check_point(position, program, checkpoints: list[int]) -> int:
 
 
 def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float,
-          in_sent: bool | None = None) -> None:
+          in_sent: bool | None = None, stop=None) -> None:
     """Until everything sent (entries before ``upto``) has run: a sync point is answered once
     everything before it ran (the buffer holds ≤ its size in bytes). Unanswered, and ``in_sent``
     given (an ``IN`` sent since the status was read): a reset may have taken the sync point
-    with the buffer, which the status byte tells (:func:`check_initialised`)."""
+    with the buffer, which the status byte tells (:func:`check_initialised`). ``stop`` set
+    meanwhile (a signal while the buffer's last kilobyte draws) raises :class:`Stopped`."""
     link.write(fw.sync_command)
     checkpoints.append(upto)
     while checkpoints:
-        position = link.position(fw, timeout + 0.5 * (upto - floor))
+        position = link.position(fw, timeout + 0.5 * (upto - floor), stop)
         if position is None:
             if in_sent is not None:
                 check_initialised(link, fw, timeout, upto, in_sent)

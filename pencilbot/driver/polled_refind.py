@@ -33,7 +33,7 @@ def refind(link, fw, program, journal, operator, plotter, timeout: float, why: s
     PlotError
         The sync point went unanswered, or the point the person showed is on none of the moves.
     """
-    unit = fw.unit_mm
+    unit = plotter.paper.unit_mm
     width, height = round(plotter.bed.width / unit), round(plotter.bed.height / unit)
     low = max(journal.acked_line - 1, 0)
     high = min(max(journal.sent_line, journal.next_line - 1), len(program))

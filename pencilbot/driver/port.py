@@ -19,7 +19,7 @@ try:  # POSIX ttys: the kernel's exclusive mode
     import fcntl
     import termios
 except ImportError:  # Windows opens a COM port exclusively by itself
-    fcntl = termios = None
+    fcntl = termios = None  # type: ignore[assignment]
 
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
@@ -123,20 +123,35 @@ class LineReader:
         self.port = port
         self._partial = b""
         self.last_rx = time.monotonic()
+        self._listened = 0.0  # s spent in reads that found nothing, since the last byte
 
     def read_lines(self) -> list[str]:
         """Complete lines received so far (without line endings); waits at most one read slice."""
+        asked = time.monotonic()
         try:
             data = self.port.read(max(self.port.in_waiting, 1))
         except (serial.SerialException, OSError) as exc:
             raise PortLost(str(exc)) from None
         if not data:
+            self._listened += time.monotonic() - asked
             return []
-        self.last_rx = time.monotonic()
+        self.restart_silence()
         *lines, self._partial = (self._partial + data).split(b"\n")
         return [ln.strip(b"\r").decode("ascii", errors="replace") for ln in lines if ln.strip(b"\r")]
 
-    def write(self, data: bytes) -> None:
+    def silent_for(self) -> float:
+        """Seconds the board is proven silent: the time spent listening (in reads that found
+        nothing) since the last byte received. Time the host spent elsewhere (a loaded machine,
+        a suspended process) is not the board's silence: its answer may be waiting."""
+        return self._listened
+
+    def restart_silence(self) -> None:
+        """Count silence from now (a byte received, a line sent that must be answered, the
+        user's wait over)."""
+        self.last_rx = time.monotonic()
+        self._listened = 0.0
+
+    def write(self, data: bytes | memoryview) -> None:
         """Send bytes; a failed write means the port is gone."""
         try:
             self.port.write(data)

@@ -66,7 +66,7 @@ def list_ports() -> list[PortInfo]:
 def probe(device: str, *, description: str = "", banner_wait: float = BANNER_WAIT,
           answer_wait: float = ANSWER_WAIT) -> PortInfo:
     """Ask the board on ``device`` what it is (see the module docstring); nothing moves."""
-    opened_at = None
+    opened_at = 0.0  # when the port was (re)opened at the probe's baud
     handle = None
     try:
         for family, baud, question, pattern in PROBES:
@@ -142,3 +142,22 @@ class _Lines:
             if time.monotonic() >= end:
                 return None
             self._read()
+
+
+#: Families whose boards take the same jobs (grblHAL speaks GRBL's protocol).
+_KINDS = {"grblHAL": "GRBL"}
+
+
+def wrong_kind(found: list[PortInfo], profile) -> tuple[list[PortInfo], str]:
+    """The plotters among ``found`` that can draw ``profile``'s jobs, and, when some cannot,
+    the line that says so."""
+    want = _KINDS.get(profile.firmware.title, profile.firmware.title)
+    fits = [f for f in found if f.plotter is not None and _KINDS.get(f.plotter, f.plotter) == want]
+    others = [f for f in found if f not in fits]
+    if not others:
+        return fits, ""
+    named = "; ".join(f"{f.device}: {f.summary()}" for f in others)
+    return fits, (f"--port auto: no {profile.firmware.title} plotter answered for profile {profile.name}, only "
+                  f"plotters of another kind ({named}); connect the {profile.firmware.title} plotter, or draw for "
+                  f"the one found with its own profile and --port")
+

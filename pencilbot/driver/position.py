@@ -162,7 +162,7 @@ def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm
     x, y = mark.xy
     here = x - dx, y - dy
     if count is not None and near(here, count, rezero_tolerance()):
-        here = tuple(count)
+        here = count[0], count[1]
         x, y = here[0] + dx, here[1] + dy  # where the pen is now, by the count and the jog
     setup(fw.set_origin(x, y), "setting the origin at the mark")
     return here

@@ -214,7 +214,7 @@ def locate_stop(
             return i, (on.real, on.imag)
         if abs(on - start) <= snap:
             return i, None
-        if 1.0 <= t and abs(on - end) <= coast and ran_past is None:
+        if t >= 1.0 and abs(on - end) <= coast and ran_past is None:
             ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
     return ran_past
 

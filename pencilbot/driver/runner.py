@@ -11,14 +11,12 @@ capabilities, the same for all.
 from __future__ import annotations
 
 import re
-import signal
-import threading
 import time
-from contextlib import contextmanager
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver import position
+from pencilbot.driver import position, stop_signals
 from pencilbot.driver.faults import Interrupted, StreamFault
 from pencilbot.driver.job import Job
 from pencilbot.driver.messages import stop_message
@@ -32,8 +30,6 @@ from pencilbot.machine.profile import Profile
 
 JOURNAL_INTERVAL = 0.2  # s between journal writes while streaming (always written on stop)
 _PEN_CHANGE = re.compile(r"pen change:\s*insert\s+(.+)", re.IGNORECASE)
-#: Signals that stop a plot as safely as Ctrl-C (pen up, journal stopped, resume command).
-STOP_SIGNALS = {signal.SIGINT: "Ctrl-C", signal.SIGTERM: "SIGTERM", getattr(signal, "SIGHUP", None): "SIGHUP"}
 # Job lines before the last one answered among which a progress record looks for the machine: its
 # last status report may be up to a poll old, and short hatch moves pass quickly.
 _SHOW_WINDOW = 600
@@ -62,12 +58,12 @@ class Runner:
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
         self.operator, self.keys = operator, keys
         self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
-        self._count = None  # the board's count where it stopped (work mm), read by the stop
+        self._count: tuple[float, float] | None = None  # the board's count where it stopped (work mm), read by the stop
         self.locator = StopLocator(job, profile)
         self.acked = -1
         self._journal_at = 0.0
-        self.announce = None
-        self.on_progress = None
+        self.announce: Callable[[str, Job], None] | None = None
+        self.on_progress: Callable[[dict], None] | None = None
 
     def run(self, stream: Stream, start, stop_xy, check, wake_wait, resumed=None) -> DrawResult:
         """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
@@ -141,28 +137,17 @@ class Runner:
             seconds=time.monotonic() - t0,
         )
 
-    @contextmanager
     def _stop_signals(self):
-        """Ctrl-C, SIGTERM and SIGHUP stop the stream safely; during the stop they are noted,
-        not obeyed (the stop lifts the pen and writes the resume command either way)."""
-        if threading.current_thread() is not threading.main_thread():
-            yield  # only the main thread can have signal handlers (a library call elsewhere)
-            return
+        """The stop signals (:mod:`~pencilbot.driver.stop_signals`) stop the stream safely; during
+        the stop they are noted, not obeyed (the stop lifts the pen and writes the resume command
+        either way)."""
 
-        def stop(signum, frame):
+        def stop(by: str) -> None:
             if not self._stopping:
                 self._stopping = True  # set here: a second one, however soon, finds it set
-                raise Interrupted(STOP_SIGNALS[signum])
+                raise Interrupted(by)
 
-        saved = {}
-        for signum in STOP_SIGNALS:
-            if signum is not None:
-                saved[signum] = signal.signal(signum, stop)
-        try:
-            yield
-        finally:
-            for signum, handler in saved.items():
-                signal.signal(signum, handler)
+        return stop_signals.caught(stop)
 
     def _prepare(self, stream: Stream, check, wake_wait, resuming: bool = False) -> None:
         banner = stream.wake(wake_wait)
@@ -328,7 +313,7 @@ class Runner:
         # dwells (answered=-1), the latest pass through the point in the window.
         found = self.locator.locate(last, self.locator.job_units(xy, last),
                                     position.pen_down_in(stream.status, self.pen), window=_SHOW_WINDOW, answered=-1)
-        where = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
+        where: dict[str, object] = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
         if found is not None:
             where["running"] = self.job.number(found[0])
         return where

@@ -16,6 +16,7 @@ from collections import deque
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
+from typing import Any
 
 from firmware_protocol import ProtocolError
 from pencilbot.driver.faults import Interrupted, StreamFault
@@ -69,16 +70,16 @@ class BoardSession:
         self.receive_buffer = receive_buffer
         self.timeout = timeout
         self.state = WAKING
-        self.status = None  # the last status report
+        self.status: Any = None  # the last status report
         self.machine_state = ""  # what the board is doing, in its words ("Run", "Idle", …)
         self.reports = 0  # status reports received so far
         self.wco = (0.0, 0.0, 0.0)
         self.sent = -1  # the last job line written to the board
         self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
         self.answered = -1  # the last job line answered
-        self.seen = None  # (work X, Y in mm, status, last line answered) of the last report while streaming
+        self.seen: tuple[tuple[float, float] | None, Any, int] | None = None  # (work X, Y in mm, status, last line answered) of the last report while streaming
         self.paused: str | None = None  # why the board is holding, while it is
-        self._pause_key = None  # which pause was shown (an M0 line, or the hold button)
+        self._pause_key: int | str | None = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
         self._going_on = False  # our pause key sent cycle start and the board has not gone on yet
         self._fresh_after = 0  # reports up to this one may predate our last hold or cycle start
@@ -180,7 +181,7 @@ class BoardSession:
     def wait_until_still(self):
         """Poll until the machine has finished what it was doing; its status (None without
         status reports)."""
-        self.link.last_rx = time.monotonic()
+        self.link.restart_silence()
         while True:
             status = self.query_status()
             if status is None or not self.firmware.is_moving(status):
@@ -198,7 +199,7 @@ class BoardSession:
         entry = self._framed(line, None)
         with self._guard(index):
             self._write([entry], entry.frame)
-            self.link.last_rx = time.monotonic()
+            self.link.restart_silence()
             while entry.reply is None:
                 self._check_alive(index)
                 for reply in self._replies():
@@ -238,6 +239,7 @@ class BoardSession:
             elif self._sent:
                 self._complete(self._sent.popleft(), reply)
         elif kind == RESEND:
+            assert reply.number is not None  # a resend always names its line
             self._rewind(reply.number, index)
         elif kind == ALARM:
             raise StreamFault("alarm", index, reply.detail)
@@ -312,7 +314,7 @@ class BoardSession:
         frame = self.firmware.frame(line, self.number)
         return SentLine(index, len(frame), self.number, frame)
 
-    def _write(self, entries: list[SentLine], data: bytes) -> None:
+    def _write(self, entries: list[SentLine], data: bytes | memoryview) -> None:
         # In flight before the write: a Ctrl-C or signal that lands inside it (the bytes gone
         # out) must still find their answers expected, or what the board ran looks unanswered.
         self._sent.extend(entries)
@@ -329,7 +331,7 @@ class BoardSession:
             self._query_unanswered = True
 
     def _check_alive(self, index: int) -> None:
-        if time.monotonic() - self.link.last_rx > self.timeout:
+        if self.link.silent_for() > self.timeout:  # listened that long: not a host's stall
             raise StreamFault("timeout", index, f"nothing received for {self.timeout:g} s")
 
     def _oldest(self, nxt: int) -> int:

@@ -32,7 +32,6 @@ never times out (a held board still answers status queries).
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 from pencilbot.driver.faults import StreamFault
@@ -94,7 +93,7 @@ class Stream(BoardSession):
         drain = None
         last_asked = False
         nxt = start
-        self.link.last_rx = time.monotonic()
+        self.link.restart_silence()
         with self._guard(lambda: self._oldest(nxt)):
             while self.state != DONE:
                 if self.state == STREAMING:
@@ -155,7 +154,7 @@ class Stream(BoardSession):
             self._held_by_us = False
             self.link.write(self.firmware.cycle_start)
             self._fresh_after = self.reports + int(self._query_unanswered)
-        self.link.last_rx = time.monotonic()  # waiting for the user is not the board's silence
+        self.link.restart_silence()  # waiting for the user is not the board's silence
 
     def _serve_keys(self, keys, index: int) -> None:
         for request in keys.poll():
@@ -176,8 +175,12 @@ class Stream(BoardSession):
         if self._resend:
             return nxt
         numbered = self.firmware.capabilities.line_numbers
-        first, entries, batch = nxt, [], 0
+        entries: list[SentLine] = []
+        first, batch = nxt, 0
+        waits = job.system.waits
         while nxt < len(job):
+            if nxt - 1 in waits and (entries or not self._moved_alone()):
+                break  # a jog or homing first ends: the board refuses G-code meanwhile
             entry = self._framed(job.line(nxt), nxt) if numbered else SentLine(nxt, job.size(nxt))
             if not self._fits(entry.size, len(entries), batch):
                 self.number -= numbered  # not sent: its number is the next frame's
@@ -191,6 +194,12 @@ class Stream(BoardSession):
             self.sent = max(self.sent, nxt - 1)
             self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
         return nxt
+
+    def _moved_alone(self) -> bool:
+        """Whether the line before has been answered and a status report newer than that says the
+        machine is not moving (a jog or homing cycle over)."""
+        return not self._sent and self.reports > self._answered_at and self.status is not None \
+            and not self.firmware.is_moving(self.status)
 
     def _fits(self, size: int, lines: int = 0, batch: int = 0) -> bool:
         """Whether a frame of ``size`` bytes may go now, after ``lines`` frames of ``batch`` bytes

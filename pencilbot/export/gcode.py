@@ -27,6 +27,7 @@ import re
 from dataclasses import dataclass
 from functools import cache
 from pathlib import Path
+from typing import cast
 
 import numpy as np
 
@@ -34,7 +35,7 @@ from pencilbot.errors import OutOfBedError, PencilbotError
 from pencilbot.fileio import write_atomic
 from pencilbot.machine.bed import MAX_BED, Placement
 from pencilbot.machine.profile import MAX_LINE, Profile
-from pencilbot.planning.plan import Plan
+from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.stats import PlanStats, duration_text, estimate
 
 #: File names G-code goes by (the first is the one export gives).
@@ -175,7 +176,8 @@ def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int
         _check_bed(np.array([park]), placement, profile, what=f"the pen-change park position {park[0]:g}, {park[1]:g}")
         feed = f" F{_number_text(profile.motion.travel_feed, profile.gcode.decimals)}" if profile.firmware.rapids_take_feed else ""
         park_lines = [f"G0 X{_number_text(park[0], profile.gcode.decimals)} Y{_number_text(park[1], profile.gcode.decimals)}{feed}"]
-    changes, start = {}, 0
+    changes: dict[int, list[str]] = {}
+    start = 0
     for pen, layers in plan.pen_runs():
         first = next((start + i for i, layer in enumerate(layers) if len(layer.paths)), None)
         start += len(layers)
@@ -222,7 +224,7 @@ def _check_bed(on_machine: np.ndarray, placement: Placement, profile: Profile, *
         return
     low, high = on_machine.min(axis=0), on_machine.max(axis=0)
     (x0, x1), (y0, y1) = placement.machine_range()
-    page = placement.page
+    page = cast(Page, placement.page)  # G-code is written for a plan's page
     raise OutOfBedError(
         f"{what} does not fit the bed of plotter profile {profile.name}: it spans "
         f"X {low[0]:g} .. {high[0]:g} and Y {low[1]:g} .. {high[1]:g} mm in machine coordinates, "

@@ -19,14 +19,14 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.errors import OutOfBedError, PencilbotError
-from pencilbot.fileio import write_atomic
-from pencilbot.firmware.hpgl import HPGL, HPGL_SUFFIXES
+from pencilbot.fileio import read_bounded, write_atomic
+from pencilbot.firmware.hpgl import HPGL, HPGL_SUFFIXES, MAX_HPGL_FILE
 from pencilbot.machine.bed import Placement
 from pencilbot.machine.profile import Profile
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.stats import PlanStats, estimate
 
-__all__ = ["HPGL_SUFFIXES", "HpglSummary", "hpgl_program", "write_hpgl", "hpgl_plan"]
+__all__ = ["HPGL_SUFFIXES", "HpglSummary", "hpgl_plan", "hpgl_program", "write_hpgl"]
 
 
 @dataclass(frozen=True)
@@ -92,9 +92,9 @@ def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
                              "give an HP-GL profile (e.g. --profile hp7475a) or write .gcode")
     pens = plan.pens  # more than the carousel holds: SP 7, 8, ... (draw pauses for each)
     placement = SheetPlacement.of(plan.page, profile)
-    unit = HPGL.unit_mm
+    unit = profile.paper.unit_mm
     out = [b"IN;\n", f"VS{profile.motion.draw_feed / 600:g};\n".encode()]
-    for number, (pen, layers) in enumerate(plan.pen_runs(), start=1):
+    for pen, layers in plan.pen_runs():
         slot = pens.index(pen) + 1 if pen in pens else 1
         points = [layer.paths for layer in layers if len(layer.paths)]
         if not points:
@@ -120,8 +120,8 @@ def _paths_text(units: np.ndarray, offsets: np.ndarray) -> bytes:
         keep = np.ones(len(xy), bool)
         keep[1:] = np.any(xy[1:] != xy[:-1], axis=1)
         xy = xy[keep].tolist()
-        lines.append("PU%d,%d;\n" % tuple(xy[0]))
-        lines.append("".join("PD%d,%d;\n" % tuple(p) for p in xy[1:]) if len(xy) > 1 else "PD;\nPU;\n")
+        lines.append(f"PU{xy[0][0]},{xy[0][1]};\n")
+        lines.append("".join(f"PD{x},{y};\n" for x, y in xy[1:]) if len(xy) > 1 else "PD;\nPU;\n")
     return "".join(lines).encode("ascii")
 
 
@@ -146,7 +146,7 @@ def hpgl_plan(path: Path, profile: Profile) -> Plan:
         The file cannot be read, is not HP-GL this reader knows, or draws nothing.
     """
     try:
-        data = Path(path).read_bytes()
+        data = read_bounded(path, "HP-GL file", MAX_HPGL_FILE)
     except OSError as exc:
         raise PencilbotError(f"cannot read HP-GL file {path} ({exc.strerror or exc})") from None
     try:
@@ -158,9 +158,9 @@ def hpgl_plan(path: Path, profile: Profile) -> Plan:
         raise PencilbotError(f"{path}: the pen never goes down (no PD move); is it an HP-GL drawing?")
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
-    mm = drawn.with_points(placement.to_page(drawn.points * HPGL.unit_mm))
+    mm = drawn.with_points(placement.to_page(drawn.points * profile.paper.unit_mm))
     layers = []
     change = np.flatnonzero(np.diff(pens, prepend=-1) != 0).tolist() + [len(pens)]
     for a, b in zip(change[:-1], change[1:]):
         layers.append(Layer(f"{path.stem} pen {pens[a]}", mm[a:b]))
-    return Plan(bed, layers)
+    return Plan(bed, tuple(layers))

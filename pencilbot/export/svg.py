@@ -13,6 +13,9 @@ tools ignore.
 from __future__ import annotations
 
 import os
+import re
+
+import numpy as np
 
 from pencilbot.export.svg_checks import check_drawing
 from pencilbot.fileio import write_atomic
@@ -23,6 +26,7 @@ SVG_NS = "http://www.w3.org/2000/svg"
 INKSCAPE_NS = "http://www.inkscape.org/namespaces/inkscape"
 PENCILBOT_NS = "https://pencilbot.invalid/plan"  # a name only; never fetched
 DECIMALS = 3  # µm: far below any pen's width
+_SURROGATE = re.compile("[\ud800-\udfff]")
 
 
 def write_svg(plan: Plan, path: str | os.PathLike) -> None:
@@ -30,7 +34,8 @@ def write_svg(plan: Plan, path: str | os.PathLike) -> None:
     a plan with a coordinate that is not finite is refused, never written as ``L inf``."""
     for layer in plan.layers:
         check_drawing(layer.paths.points, f"layer {layer.name!r}")
-    write_atomic(path, svg_text(plan).encode("utf-8"))
+    # A name from a file name that is not UTF-8 (os.fsdecode's surrogates) is shown as U+FFFD.
+    write_atomic(path, _SURROGATE.sub("\ufffd", svg_text(plan)).encode("utf-8"))
 
 
 def svg_text(plan: Plan) -> str:
@@ -88,9 +93,7 @@ def _path_data(paths: Paths, page_height: float) -> list[str]:
     """``M x y L x y …`` strings with Y flipped to SVG's downward axis."""
     lengths = paths.lengths.tolist()
     pts = paths.points
-    xs = [_fmt(v) for v in pts[:, 0].tolist()]
-    ys = [_fmt(v) for v in (page_height - pts[:, 1]).tolist()]
-    coords = [f"{x} {y}" for x, y in zip(xs, ys)]
+    coords = _numbers_text(np.column_stack([pts[:, 0], page_height - pts[:, 1]])).split("\n")
     out, at = [], 0
     for n in lengths:
         if n == 1:  # a dot: a zero-length segment, which round caps draw as a disc
@@ -99,6 +102,20 @@ def _path_data(paths: Paths, page_height: float) -> list[str]:
             out.append(f"M {coords[at]} L " + " ".join(coords[at + 1 : at + n]))
         at += n
     return out
+
+
+_TRAILING = re.compile(r"\.?0+(?=[ \n]|$)")  # "1.500" → "1.5", "10.000" → "10"
+_MINUS_ZERO = re.compile(r"(?<![\d.])-0(?=[ \n]|$)")
+
+
+def _numbers_text(xy: np.ndarray) -> str:
+    """``"x y"`` lines of ``(N, 2)`` numbers, each as :func:`_fmt` writes it: formatted in one
+    pass, their trailing zeros cut from the whole text by a regular expression (a million points
+    in about a second, not four)."""
+    if not len(xy):
+        return ""
+    text = "\n".join(map(f"{{:.{DECIMALS}f}} {{:.{DECIMALS}f}}".format, *xy.T.tolist()))
+    return _MINUS_ZERO.sub("0", _TRAILING.sub("", text))
 
 
 def _fmt(value: float) -> str:

@@ -14,15 +14,20 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from pencilbot.errors import PencilbotError
+from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS
-from pencilbot.export.svg_straight import read_straight
 from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
+from pencilbot.export.svg_straight import read_straight
+from pencilbot.fileio import read_bounded
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
+from pencilbot.planning.style import MAX_PEN_WIDTH
 from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
 
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+#: The longest SVG read (bytes): a million paths are about 100 MB; its tree takes ten times more.
+MAX_SVG_FILE = 1 << 30
 
 
 def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: float | None = None) -> Plan:
@@ -64,7 +69,8 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         vpype is not installed or cannot read it.
     """
     data = _read_bytes(path)
-    return _read_own(data) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data))
+    return _read_own(data, path) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data),
+                                                text=data.decode("latin-1"))
 
 
 def is_plan_svg(path: str | os.PathLike) -> bool:
@@ -75,17 +81,16 @@ def is_plan_svg(path: str | os.PathLike) -> bool:
     try:
         for _, root in ET.iterparse(path, events=("start",)):
             return root.tag == f"{{{SVG_NS}}}svg" and root.get(_PAGE) is not None
-    except (ET.ParseError, OSError):
+    except (ET.ParseError, OSError, LookupError, ValueError):  # LookupError: an unknown encoding
         pass
     return False
 
 
 def _read_bytes(path) -> bytes:
     try:
-        with open(path, "rb") as handle:
-            return handle.read()
+        return read_bounded(path, "SVG file", MAX_SVG_FILE)
     except FileNotFoundError:
-        raise PencilbotError(f"SVG file {path} does not exist; check the path") from None
+        raise PencilbotError(no_such_file(path, "the path of an .svg file")) from None
     except OSError as exc:
         raise PencilbotError(f"cannot read {path} ({exc.strerror}); check the path and its permissions") from None
 
@@ -95,6 +100,9 @@ def _parse(data: bytes, path) -> ET.Element:
         root = ET.fromstring(data)
     except ET.ParseError as exc:
         raise PencilbotError(f"cannot read {path} as SVG ({exc}); is it an SVG drawing?") from None
+    except (LookupError, ValueError) as exc:  # expat knows a handful of encodings; Python's codecs the rest
+        raise PencilbotError(f"cannot read {path}: its XML declaration names an encoding that cannot be read ({exc}); "
+                             'save it as UTF-8 (encoding="UTF-8")') from None
     if root.tag != f"{{{SVG_NS}}}svg":
         raise PencilbotError(f"{path} is not an SVG file (root element {root.tag!r})")
     return root
@@ -111,14 +119,15 @@ _NUMBER_BYTES = bytes(c if c in b"0123456789.-na" else 32 for c in range(256))
 _MOVES = {"transform", "style", "display", "visibility", "clip-path", "mask", "filter"}
 
 
-def _read_own(data: bytes) -> Plan | None:
+def _read_own(data: bytes, path="the SVG") -> Plan | None:
     """The plan, if ``data`` is a file just as :func:`~pencilbot.export.svg.write_svg` writes it; else None.
 
     Each layer's path data is cut out of the file and the rest (root, metadata, pen and layer
     tags) parsed as XML; a layer's coordinates are then one ``np.fromstring`` over its cut, with
     a NaN where each path starts. A layer is a group that holds no group: at the top, or inside a
     pen's group (a colour plan). Anything else (an edited file, a curve) gives None, and the file
-    is read as any SVG is.
+    is read as any SVG is. What is read passes the checks another tool's SVG does (numbers
+    finite and of a drawable size, pen widths a pen has), raising :class:`PencilbotError`.
     """
     if f'xmlns:pencilbot="{PENCILBOT_NS}"'.encode() not in data[:4096]:
         return None
@@ -136,12 +145,13 @@ def _read_own(data: bytes) -> Plan | None:
     try:
         root = ET.fromstring(b"".join(skeleton))
         width, height, scale = _svg_size(root, "", None)
-    except (ET.ParseError, PencilbotError):
-        return None
+    except (ET.ParseError, PencilbotError, LookupError, ValueError):
+        return None  # read as any SVG is: the same error, said once
+    assert height is not None  # without a dpi, _svg_size gives a size or raises
     g = f"{{{SVG_NS}}}g"
     tops = [child for child in root if child.tag == g]
     others = {child.tag for child in root} - {g, f"{{{SVG_NS}}}metadata"}
-    leaves = []  # (layer group, its pen's group or None)
+    leaves: list[tuple[ET.Element, ET.Element | None]] = []  # (layer group, its pen's group or None)
     for top in tops:
         if top.get(_PEN) is None:
             leaves.append((top, None))
@@ -153,15 +163,18 @@ def _read_own(data: bytes) -> Plan | None:
     origin = [float(v) for v in _NUMBER.findall(root.get("viewBox", "0 0"))[:2]]
     if others or moved or origin != [0.0, 0.0] or len(leaves) != len(cuts) or any(len(leaf) for leaf, _ in leaves):
         return None
-    layers = []
+    check_numbers(root, path)
+    layers: list[Layer] = []
     for number, ((group, pen), cut) in enumerate(zip(leaves, cuts), start=1):
         paths = _own_paths(cut, scale, height)
         if paths is None:
             return None
+        check_drawing(paths.points, path)
         attributes = _layer_attributes(group, number, scale, pen=pen)
-        attributes["pen_width"] = attributes["pen_width"] or DEFAULT_PEN_WIDTH
+        attributes["pen_width"] = _checked_pen(attributes["pen_width"] or DEFAULT_PEN_WIDTH, attributes["name"], path,
+                                                own=True)
         layers.append(Layer(paths=paths, **attributes))
-    return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+    return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
 
 
 def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
@@ -199,31 +212,35 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
 _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
 
 
-def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0) -> Plan:
+def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0,
+              text: str | None = None) -> Plan:
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
-    check_numbers(root, path)  # NaN, infinities, 1e308: one message naming the element
+    check_numbers(root, path, text)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
     width, height, scale = _svg_size(root, path, dpi)
     # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
     # every top-level element a label by its place, the layer attributes having been read.
     tops = [element for element in root if _local(element.tag) not in _NOT_DRAWN]
     loose = [element for element in tops if _local(element.tag) != "g"]
-    groups = {}
+    groups: dict[int, tuple[dict, bool]] = {}
     for place, element in enumerate(tops, start=2):  # vpype's layer 1 holds the loose shapes
-        if element not in loose:
+        if _local(element.tag) == "g":
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
+    def loose_layer() -> tuple[dict, bool]:
+        return {"name": "default", "role": "other"}, _declares_stroke(loose)
+
     straight = read_straight(root, tops, loose) if height is not None else None
-    if straight is not None:  # straight lines only: read in whole arrays, as vpype would read them
+    if straight is not None and height is not None:  # straight lines only: read in whole arrays, as vpype would read them
         if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
-            scale = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)
-        layers = []
+            scale = MM_PER_INCH / _px_per_inch(root, dpi)
+        layers: list[Layer] = []
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
             layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
-                *groups.get(place, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
-                stroke * scale if stroke else None, pen_width, root)))
-        return Plan(page=_page(root, width, height), layers=layers, meta=_meta(root))
+                *(groups.get(place) or loose_layer()),
+                stroke * scale if stroke else None, pen_width, root, path=path)))
+        return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
     try:
         import vpype
     except ImportError:
@@ -231,7 +248,7 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
             f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
             'pip install "pencilbot[vpype]"'
         ) from None
-    px_to_mm = MM_PER_INCH / (CSS_PX_PER_INCH if _size_unit(root) else dpi)  # nominally
+    px_to_mm = MM_PER_INCH / _px_per_inch(root, dpi)  # nominally
     # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
     try:
@@ -242,35 +259,53 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     if height is not None and document.page_size and document.page_size[0] > 0:
         px_to_mm = width / document.page_size[0]  # exactly: svgelements rounds its mm to px factor
     stylesheet = any(_local(el.tag) == "style" and "stroke-width" in (el.text or "") for el in root.iter())
-    layers = []
+    found: list[tuple[dict, np.ndarray, np.ndarray]] = []  # (attributes, points in mm, offsets)
     for lid in sorted(document.layers, key=lambda lid: (lid == 1, lid)):  # loose shapes last
         lines = [line for line in document.layers[lid] if len(line)]
         if not lines:
             continue
         vpype_pen = document.layers[lid].property("vp_pen_width")
-        attributes = _pen_of(*groups.get(lid, ({"name": "default", "role": "other"}, _declares_stroke(loose))),
-                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet)
+        attributes = _pen_of(*(groups.get(lid) or loose_layer()),
+                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet, path=path)
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
-        layers.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
-        check_drawing(layers[-1][1], path)
+        found.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
+        check_drawing(found[-1][1], path)
     if height is None:  # no size at all: the page reaches to the drawing's far corner
-        width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in layers] or [[1.0, 1.0]], axis=0))
+        width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in found] or [[1.0, 1.0]], axis=0))
     return Plan(
         page=_page(root, width, height),
-        layers=[Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
-                for attributes, mm, offsets in layers],
+        layers=tuple(Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
+                     for attributes, mm, offsets in found),
         meta=_meta(root),
     )
 
 
 def _pen_of(attributes: dict, declared: bool, stroke: float | None, pen_width: float | None, root: ET.Element,
-            stylesheet: bool = False) -> dict:
+            stylesheet: bool = False, *, path) -> dict:
     """A layer's attributes with its pen width (mm): ``pen_width`` if given, else the stroke
-    width all its shapes draw with (``stroke``, mm) where the file declares one, else the default."""
+    width all its shapes draw with (``stroke``, mm) where the file declares one (checked: see
+    :func:`_checked_pen`), else the default."""
     if pen_width is None and stroke and (declared or stylesheet or _declares_stroke([root], deep=False)):
-        return {**attributes, "pen_width": stroke}
+        return {**attributes, "pen_width": _checked_pen(stroke, attributes["name"], path)}
     return {**attributes, "pen_width": pen_width or DEFAULT_PEN_WIDTH}
+
+
+def _checked_pen(width: float, layer: str, path, *, own: bool = False) -> float:
+    """A layer's stroke width (mm) as its pen width, refused when no pen draws it: negative (which
+    SVG calls an error) or wider than :data:`~pencilbot.planning.style.MAX_PEN_WIDTH`.
+
+    Raises
+    ------
+    PencilbotError
+        Naming the layer and the width, and what to do.
+    """
+    if not 0 < width <= MAX_PEN_WIDTH:
+        raise PencilbotError(
+            f"{path}: layer {layer!r} draws with a stroke width of {width:.6g} mm, which no pen draws (a pen is "
+            f"wider than 0 and at most {MAX_PEN_WIDTH:g} mm); fix its stroke-width"
+            + ("" if own else ", or give the pen with --pen-width"))
+    return width
 
 
 def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
@@ -287,24 +322,35 @@ _UNITS_TO_MM = {"mm": 1.0, "cm": 10.0, "q": 0.25, "in": MM_PER_INCH, "pt": MM_PE
 
 def _size_unit(root: ET.Element) -> str | None:
     """The physical unit both ``width`` and ``height`` are given in, or None."""
-    units = [re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, "")) for attr in ("width", "height")]
-    if all(units) and units[0][1].lower() in _UNITS_TO_MM and units[1][1].lower() in _UNITS_TO_MM:
-        return units[0][1].lower()
+    width, height = (re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, "")) for attr in ("width", "height"))
+    if width and height and width[1].lower() in _UNITS_TO_MM and height[1].lower() in _UNITS_TO_MM:
+        return width[1].lower()
     return None
+
+
+def _px_per_inch(root: ET.Element, dpi: float | None) -> float:
+    """User units per inch: CSS pixels where width and height are physical sizes, else ``dpi``
+    (given: without it, :func:`_svg_size` has refused the file)."""
+    if _size_unit(root):
+        return CSS_PX_PER_INCH
+    assert dpi is not None
+    return dpi
 
 
 def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float | None, float]:
     """Page width and height in mm (None if the file gives no size at all) and mm per user unit."""
-    view = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
-    view = view if len(view) == 4 and view[2] > 0 and view[3] > 0 else None
-    if _size_unit(root) is not None:
+    box = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
+    view = box if len(box) == 4 and box[2] > 0 and box[3] > 0 else None
+    if (size_unit := _size_unit(root)) is not None:
         sizes = []
         for attr in ("width", "height"):
-            number = float(_NUMBER.search(root.get(attr))[0]) * _UNITS_TO_MM[_size_unit(root)]
+            given_number = _NUMBER.search(root.get(attr, ""))
+            assert given_number is not None  # _size_unit found one
+            number = float(given_number[0]) * _UNITS_TO_MM[size_unit]
             if not 0 < number <= MAX_DRAWING_MM:
                 raise PencilbotError(f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm")
             sizes.append(number)
-        return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[_size_unit(root)]
+        return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[size_unit]
     given = f"width {root.get('width')!r} and height {root.get('height')!r}" if root.get("width") else "no width or height"
     if dpi is None:
         raise PencilbotError(
@@ -313,9 +359,9 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
             "to fit it onto a sheet"
         )
     unit = MM_PER_INCH / dpi
-    numbers = [_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")]
-    if all(numbers) and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in numbers):
-        width, height = (float(n[0]) * unit for n in numbers)
+    given_width, given_height = (_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height"))
+    if given_width and given_height and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in (given_width, given_height)):
+        width, height = (float(n[0]) * unit for n in (given_width, given_height))
         return width, height, width / view[2] if view else unit
     if view:
         return view[2] * unit, view[3] * unit, unit

@@ -11,6 +11,7 @@ a viewBox that does not scale evenly) returns None, and the file is read by vpyp
 
 from __future__ import annotations
 
+import itertools
 import re
 import warnings
 import xml.etree.ElementTree as ET
@@ -22,20 +23,26 @@ from pencilbot.export.svg_checks import local_name
 # Elements a straight drawing may hold besides groups (and what draws nothing).
 _SHAPES = {"path", "polyline", "polygon", "line"}
 _QUIET = {"defs", "metadata", "title", "desc", "namedview"}
+_STYLE_TAGS = ("{http://www.w3.org/2000/svg}style", "style")
 # Attributes or style properties that move, hide or restyle geometry: vpype's business.
 _MOVING = ("transform", "clip-path", "mask", "filter", "display", "visibility")
+_MOVING_SET = frozenset(_MOVING)
 _STRAIGHT_D = re.compile(r"[\sMmLlHhVvZz0-9eE.,+-]*")
-_COMMANDS = b"MmLlHhVvZz"
+_COMMANDS = b"MmLlHhVvZzX"  # X: where one path's data ends and the next one's starts
 # A command letter becomes a number no coordinate may be (svg_checks refuses numbers past 1e9):
 # 1e300 + its place in _COMMANDS.
 _SENTINEL = 1e300
-_CMD_TEXT = {letter: f" {(_SENTINEL * (1 + i)):.0e} ".encode() for i, letter in enumerate(_COMMANDS)}
+_CMD_TEXT = {letter: f" {1 + i}e300 ".encode() for i, letter in enumerate(_COMMANDS)}
 _TRANSLATE = bytes(c if c not in b",\t\r\n" else 32 for c in range(256))
 _STROKE_WIDTH = re.compile(r"\s*([-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)\s*(?:px)?\s*")
 
 
 def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Element]):
     """The lines of each layer of a straight-line SVG in user units, or None if it is not one.
+
+    The tree is walked once to collect every shape's text; all paths' data are then parsed as one
+    text and all point lists as another (no work per shape beyond the walk), and the lines put
+    back in document order per layer.
 
     Parameters
     ----------
@@ -52,77 +59,133 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
         paths' starts, ``stroke`` the stroke width (user units) every shape of the layer has, or
         None when they differ.
     """
-    if _moves(root) or not _even_view(root) or any(local_name(el.tag) == "style" for el in root.iter()):
+    if _moves(root) or not _even_view(root) or any(next(root.iter(tag), None) is not None for tag in _STYLE_TAGS):
         return None
-    origin = _view_origin(root)
-    found: dict[int, list] = {}
-    for place, top in enumerate(tops, start=2):
-        key = 1 if top in loose else place
-        shapes = found.setdefault(key, [])
-        stack = [(top, _stroke(root, None))]
-        while stack:
-            element, inherited = stack.pop()
-            name = local_name(element.tag)
-            if name in _QUIET:
-                continue
-            if _moves(element):
-                return None
-            stroke = _stroke(element, inherited)
-            if name == "g":
-                stack.extend((child, stroke) for child in reversed(element))
-                continue
-            if name not in _SHAPES or len(element):
-                return None
-            lines = _shape_lines(element, name)
-            if lines is None:
-                return None
-            if stroke is False:
-                return None
-            shapes.append((lines, stroke))
+    shapes = _shapes(root, tops, loose)
+    if shapes is None:
+        return None
+    keys, kinds, texts, strokes = shapes
+    kinds = np.array(kinds, np.int8)
+    lines = [_path_lines([t for t, k in zip(texts, kinds.tolist()) if k == _PATH]),
+             _point_lines([t for t, k in zip(texts, kinds.tolist()) if k != _PATH], kinds[kinds != _PATH])]
+    if any(found is None for found in lines):
+        return None
+    # Every line's shape in document order: the paths' and the point lists' numbered back.
+    shape_of = [np.flatnonzero(kinds == _PATH)[lines[0][2]], np.flatnonzero(kinds != _PATH)[lines[1][2]]]
+    points = np.concatenate([lines[0][0], lines[1][0]])
+    counts = np.concatenate([np.diff(lines[0][1]), np.diff(lines[1][1])])
+    starts = np.concatenate([lines[0][1][:-1], lines[1][1][:-1] + len(lines[0][0])])
+    shape = np.concatenate(shape_of)
+    key_of_shape = np.array(keys, np.int64)
     layers = []
-    for place in sorted(found, key=lambda lid: (lid == 1, lid)):
-        shapes = found[place]
-        pieces = [lines for lines, _ in shapes if len(lines[1]) > 1]
-        if not pieces:
+    for place in sorted(set(keys), key=lambda lid: (lid == 1, lid)):
+        chosen = np.flatnonzero(key_of_shape[shape] == place)
+        chosen = chosen[np.argsort(shape[chosen], kind="stable")]
+        if not len(chosen):
             continue
-        points = np.concatenate([p for p, _ in pieces]) - origin
-        lengths = np.concatenate([np.diff(o) for _, o in pieces])
-        offsets = np.concatenate([[0], np.cumsum(lengths)])
-        widths = {stroke for _, stroke in shapes}
-        layers.append((place, points, offsets, widths.pop() if len(widths) == 1 else None))
+        take = np.repeat(starts[chosen] - np.cumsum(np.r_[0, counts[chosen][:-1]]), counts[chosen])
+        take += np.arange(len(take))
+        widths = {stroke for stroke, key in zip(strokes, keys) if key == place}
+        layers.append((place, points[take] - _view_origin(root), np.concatenate([[0], np.cumsum(counts[chosen])]),
+                       widths.pop() if len(widths) == 1 else None))
     return layers
 
 
-def _shape_lines(element: ET.Element, name: str):
-    """``(points, offsets)`` of one shape's lines, or None when it is not straight."""
-    if name == "path":
-        return _path_lines(element.get("d", ""))
-    if name == "line":
-        try:
-            points = np.array([[float(element.get(k, "0")) for k in ("x1", "y1")],
-                               [float(element.get(k, "0")) for k in ("x2", "y2")]])
-        except ValueError:
-            return None
-        return _tidy(points, np.array([0, 2]))
-    values = _numbers(element.get("points", "").encode())
-    if values is None or len(values) % 2:
-        return None
-    points = values.reshape(-1, 2)
-    # vpype keeps a polyline's points as they are (a repeated one too); a polygon closes unless
-    # its last point is its first.
-    if name == "polygon" and len(points) and not (points[-1] == points[0]).all():
-        points = np.vstack([points, points[:1]])
-    return (points, np.array([0, len(points)])) if len(points) >= 2 else (points.reshape(-1, 2)[:0], np.zeros(1, np.int64))
+_PATH, _POLYLINE, _POLYGON, _LINE = range(4)
+_KINDS = {"path": _PATH, "polyline": _POLYLINE, "polygon": _POLYGON, "line": _LINE}
 
 
-def _path_lines(d: str):
-    """A path's lines from ``M L H V Z`` commands (either case) in whole arrays; None for
-    anything else (curves, arcs), or relative moves after a ``Z``."""
-    if not _STRAIGHT_D.fullmatch(d):
+def _shapes(root: ET.Element, tops: list[ET.Element], loose: list[ET.Element]):
+    """Every shape in document order: its layer key, kind, text (a path's data, a point list; a
+    line's four numbers) and stroke width; None when anything is not a straight shape."""
+    keys, kinds, texts, strokes = [], [], [], []
+    names: dict[str, str] = {}  # tag → local name, worked out once per tag
+    loose_ids = {id(element) for element in loose}
+    for place, top in enumerate(tops, start=2):
+        key = 1 if id(top) in loose_ids else place
+        stack = [(top, _stroke(root, None))]
+        while stack:
+            element, inherited = stack.pop()
+            name = names.get(element.tag) or names.setdefault(element.tag, local_name(element.tag))
+            if name in _QUIET:
+                continue
+            attrib = element.attrib
+            styled = "style" in attrib
+            if (styled or not _MOVING_SET.isdisjoint(attrib)) and _moves(element):
+                return None
+            stroke = _stroke(element, inherited) if (styled or "stroke-width" in attrib) else (
+                1.0 if inherited is None else inherited)
+            if name == "g":
+                stack.extend(zip(reversed(element), itertools.repeat(stroke)))
+                continue
+            if name not in _SHAPES or len(element) or stroke is False:
+                return None
+            if name == "path":
+                text = element.get("d", "")
+            elif name == "line":
+                text = " ".join(element.get(k, "0").replace(",", "_") for k in ("x1", "y1", "x2", "y2"))
+            else:
+                text = element.get("points", "")
+            keys.append(key)
+            kinds.append(_KINDS[name])
+            texts.append(text)
+            strokes.append(stroke)
+    return keys, kinds, texts, strokes
+
+
+def _point_lines(texts: list[str], kinds: np.ndarray):
+    """Polylines', polygons' and lines' points, all parsed as one text: ``(points, offsets,
+    shape)`` (``shape``: which of ``texts`` each line came from), or None when one is malformed."""
+    if not texts:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    sentinel = f" {_SENTINEL:.0e} "
+    try:
+        values = _numbers((sentinel + sentinel.join(texts)).encode("ascii"))
+    except UnicodeEncodeError:
         return None
-    text = d.encode("ascii")
-    if not text.strip():
-        return np.zeros((0, 2)), np.zeros(1, np.int64)
+    if values is None:
+        return None
+    is_cut = values >= _SENTINEL
+    if np.count_nonzero(is_cut) != len(texts):  # a number in the text as large as the sentinel
+        return None
+    cuts = np.flatnonzero(is_cut)
+    counts = np.diff(np.append(cuts, len(values))) - 1
+    if (counts % 2).any() or ((kinds == _LINE) & (counts != 4)).any():
+        return None
+    points = values[~is_cut].reshape(-1, 2)
+    lengths = counts // 2
+    offsets = np.concatenate([[0], np.cumsum(lengths)])
+    # A polygon closes back to its start unless its last point is its first.
+    first, last = offsets[:-1], offsets[1:] - 1
+    closes = np.flatnonzero((kinds == _POLYGON) & (lengths > 0))
+    closes = closes[(points[last[closes]] != points[first[closes]]).any(axis=1)]
+    if len(closes):
+        points = np.insert(points, offsets[closes + 1], points[first[closes]], axis=0)
+        lengths[closes] += 1
+        offsets = np.concatenate([[0], np.cumsum(lengths)])
+    # A line drops a repeated point (as a path does); a polyline keeps its points as they are.
+    line = kinds == _LINE
+    if line.any():
+        points, offsets = _tidy(points, offsets, keep=np.repeat(~line, lengths))
+        lengths = np.diff(offsets)
+    # Lines of fewer than two points draw nothing.
+    shape = np.arange(len(texts))
+    kept = lengths >= 2
+    points = points[np.repeat(kept, lengths)]
+    return points, np.concatenate([[0], np.cumsum(lengths[kept])]), shape[kept]
+
+
+def _path_lines(ds: list[str]):
+    """Paths' lines from ``M L H V Z`` commands (either case), all paths' data parsed as one text:
+    ``(points, offsets, shape)`` (``shape``: which of ``ds`` each line came from); None for
+    anything else (curves, arcs), or relative moves after a ``Z`` in one path."""
+    if not ds:
+        return np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64)
+    joined = "".join(ds)
+    if not _STRAIGHT_D.fullmatch(joined) or not joined.isascii():
+        return None
+    # Each path's data starts with a cut ("X"), a command with no numbers that ends the last one.
+    text = b"X" + "X".join(ds).encode("ascii")
     for letter, number in _CMD_TEXT.items():
         text = text.replace(bytes([letter]), number)
     if b"-" in text:
@@ -131,20 +194,28 @@ def _path_lines(d: str):
     if values is None:
         return None
     is_cmd = values >= _SENTINEL
-    if not len(values) or not is_cmd[0]:
-        return None
     codes = np.rint(values[is_cmd] / _SENTINEL).astype(np.int64) - 1  # index into _COMMANDS
     letters = np.frombuffer(_COMMANDS, np.uint8)[codes]
     starts = np.flatnonzero(is_cmd)
     counts = np.diff(np.append(starts, len(values))) - 1
+    cut = letters == ord("X")
+    element = np.cumsum(cut) - 1  # which path each command belongs to
     pair = np.isin(letters, np.frombuffer(b"MmLl", np.uint8))
     single = np.isin(letters, np.frombuffer(b"HhVv", np.uint8))
-    close = ~pair & ~single
+    close = ~pair & ~single & ~cut
     relative = letters >= ord("a")
-    if (pair & ((counts < 2) | (counts % 2 == 1))).any() or (single & (counts < 1)).any() or (close & (counts > 0)).any():
+    if (pair & ((counts < 2) | (counts % 2 == 1))).any() or (single & (counts < 1)).any() or ((close | cut) & (counts > 0)).any():
         return None
-    if (close.any() and relative.any()) or letters[0] & ~np.uint8(32) != ord("M"):
+    # A path starts with a move (or is empty: its cut is followed by the next cut or the end).
+    after_cut = np.flatnonzero(cut) + 1
+    opening = letters[np.minimum(after_cut, len(letters) - 1)] & ~np.uint8(32)
+    if ((after_cut < len(letters)) & (opening != ord("M")) & (opening != ord("X"))).any():
+        return None
+    per = len(ds)
+    if (np.bincount(element[close], minlength=per).astype(bool) & np.bincount(element[relative], minlength=per).astype(bool)).any():
         return None  # relative moves after a Z start from the subpath's start: vpype's business
+    first_move = np.zeros(len(letters), bool)  # a path's first move is absolute, whatever its case
+    first_move[after_cut[after_cut < len(letters)]] = True
     # One entry per point: where it sits among the values, and its command.
     seg = np.cumsum(is_cmd) - 1
     offset = np.arange(len(values)) - starts[seg] - 1
@@ -153,13 +224,13 @@ def _path_lines(d: str):
     command = letters[seg[where]]
     upper = command & ~np.uint8(32)
     moves = (upper == ord("M")) & (offset[where] == 0)
-    rel = command >= ord("a")
+    rel = (command >= ord("a")) & ~(first_move[seg[where]] & (offset[where] == 0))
     nxt = np.minimum(where + 1, len(values) - 1)
     x_given = (upper == ord("M")) | (upper == ord("L")) | (upper == ord("H"))
     y_given = (upper == ord("M")) | (upper == ord("L")) | (upper == ord("V"))
     x_value = values[where]
     y_value = np.where(upper == ord("V"), values[where], values[nxt])
-    if close.any():  # all absolute here: a Z sets the point to its subpath's start
+    if close.any():  # absolute in such a path: a Z sets the point to its subpath's start
         start_of = np.maximum.accumulate(np.where(moves, np.arange(len(where)), 0))
         is_z = upper == ord("Z")
         x_value = np.where(is_z, x_value[start_of], x_value)
@@ -168,7 +239,9 @@ def _path_lines(d: str):
     xs = _follow(x_value, x_given & ~rel, np.where(x_given & rel, x_value, 0.0))
     ys = _follow(y_value, y_given & ~rel, np.where(y_given & rel, y_value, 0.0))
     points = np.column_stack([xs, ys])
-    return _tidy(points, np.append(np.flatnonzero(moves), len(points)))
+    subpaths = np.flatnonzero(moves)
+    points, offsets, kept = _tidy(points, np.append(subpaths, len(points)), with_kept=True)
+    return points, offsets, element[seg[where[subpaths]]][kept]
 
 
 def _follow(value: np.ndarray, absolute: np.ndarray, delta: np.ndarray) -> np.ndarray:
@@ -181,18 +254,25 @@ def _follow(value: np.ndarray, absolute: np.ndarray, delta: np.ndarray) -> np.nd
     return base + total - np.where(last >= 0, total[np.maximum(last, 0)], 0.0)
 
 
-def _tidy(points: np.ndarray, offsets: np.ndarray):
-    """vpype's lines: a point equal to the one before it dropped, paths of fewer than two gone."""
+def _tidy(points: np.ndarray, offsets: np.ndarray, *, keep: np.ndarray | None = None, with_kept: bool = False):
+    """vpype's lines: a point equal to the one before it dropped (except where ``keep``), paths of
+    fewer than two gone; with ``with_kept`` also which of the paths are left."""
     if not len(points):
-        return points.reshape(0, 2), np.zeros(1, np.int64)
+        empty = (points.reshape(0, 2), np.zeros(1, np.int64))
+        return (*empty, np.zeros(0, np.int64)) if with_kept else empty
     path_of = np.repeat(np.arange(len(offsets) - 1), np.diff(offsets))
     same = np.zeros(len(points), bool)
     same[1:] = (points[1:] == points[:-1]).all(axis=1) & (path_of[1:] == path_of[:-1])
+    if keep is not None:
+        same &= ~keep
     points, path_of = points[~same], path_of[~same]
     counts = np.bincount(path_of, minlength=len(offsets) - 1)
-    keep = np.repeat(counts >= 2, counts)
-    counts = counts[counts >= 2]
-    return points[keep], np.concatenate([[0], np.cumsum(counts)])
+    if keep is not None:  # the caller drops short lines itself, knowing which shape each is
+        return points, np.concatenate([[0], np.cumsum(counts)])
+    left = np.flatnonzero(counts >= 2)
+    points = points[np.repeat(counts >= 2, counts)]
+    offsets = np.concatenate([[0], np.cumsum(counts[left])])
+    return (points, offsets, left) if with_kept else (points, offsets)
 
 
 def _numbers(text: bytes) -> np.ndarray | None:
@@ -221,8 +301,8 @@ def _even_view(root: ET.Element) -> bool:
         return True
     try:
         _, _, vw, vh = (float(v) for v in view.replace(",", " ").split())
-        width, height = (float(re.match(r"\s*([-+]?[\d.]+(?:[eE][-+]?\d+)?)", root.get(k, ""))[1]) for k in ("width", "height"))
-    except (TypeError, ValueError):
+        width, height = (_leading_number(root.get(k, "")) for k in ("width", "height"))
+    except ValueError:
         return False
     return vw > 0 and vh > 0 and abs(width / vw - height / vh) <= 1e-9 * width / vw
 
@@ -238,7 +318,7 @@ def _moves(element: ET.Element) -> bool:
     style = {k.strip(): v.strip() for k, _, v in (part.partition(":") for part in element.get("style", "").split(";"))}
     for name in _MOVING:
         value = element.get(name, style.get(name))
-        if value is not None and not (name, value) in (("display", "inline"), ("visibility", "visible")):
+        if value is not None and (name, value) not in (("display", "inline"), ("visibility", "visible")):
             return True
     return False
 
@@ -252,3 +332,11 @@ def _stroke(element: ET.Element, inherited):
         return 1.0 if inherited is None else inherited
     match = _STROKE_WIDTH.fullmatch(given)
     return float(match[1]) if match else False
+
+
+def _leading_number(text: str) -> float:
+    """The number ``text`` starts with (``"210mm"``: 210); ValueError if it starts with none."""
+    match = re.match(r"\s*([-+]?[\d.]+(?:[eE][-+]?\d+)?)", text)
+    if match is None:
+        raise ValueError(f"no number at the start of {text!r}")
+    return float(match[1])

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from types import ModuleType
+from typing import Any
 
 from firmware_protocol import ProtocolError
 
@@ -54,7 +55,7 @@ class Reply:
     detail: str = ""
     number: int | None = None
     free: int | None = None
-    status: object | None = None
+    status: Any = None  # grbl.Status or an HP-GL answer: read by attribute
 
 
 @dataclass(frozen=True)
@@ -183,6 +184,21 @@ class Firmware:
         touching the job's modal state ("" when the firmware has no such command)."""
         return ""
 
+    # --- at the plotter (pencilbot.driver.control) -------------------------------------------
+
+    #: Lines that switch the stepper motors off (the carriage moves freely) and on again ("" when
+    #: the firmware has none: GRBL releases them by its idle delay, :attr:`idle_hold_setting`).
+    motors_off_command: str = ""
+    motors_on_command: str = ""
+    #: The ``$`` setting whose value 255 keeps the motors on at rest and any other value releases
+    #: them that many ms after each move (GRBL's step idle delay, ``$1``); None without one.
+    idle_hold_setting: int | None = None
+
+    def origin_move(self, feed: float) -> str:
+        """The line that takes the carriage to machine 0, 0 (where it started, on a machine without
+        homing switches) at ``feed`` mm/min ("" when the firmware cannot)."""
+        return ""
+
     # --- writing G-code -------------------------------------------------------------------
 
     def dwell(self, seconds: float) -> str:
@@ -232,6 +248,28 @@ class Firmware:
             except ProtocolError as exc:
                 return index, str(exc)
         return None
+
+    # --- system commands in a file (GRBL's ``$`` lines) ------------------------------------
+
+    def system_command(self, line: str) -> str | None:
+        """The name of the system command on cleaned ``line`` (a command that changes the board,
+        not the drawing: settings, modes, stored blocks), None for any other line."""
+        return None
+
+    def system_effect(self, name: str) -> tuple[str, str | None, bool]:
+        """What system command ``name`` does (words that follow "it"), what the board does after
+        it instead of running the rest of a job (None: it goes on), and whether it is check mode
+        (nothing after it is drawn)."""
+        return "changes the board", None, False
+
+    def waits_after(self, line: str) -> bool:
+        """Whether the board takes no more lines until cleaned ``line`` has finished moving (GRBL
+        refuses G-code while it jogs or homes: error:9)."""
+        return False
+
+    def system_covers(self, allowed: str, name: str) -> bool:
+        """Whether a name the user allowed covers system command ``name``."""
+        return allowed == name
 
     def renumber(self) -> tuple[str, int] | None:
         """The command (and its number) that restarts line numbering, or None."""

@@ -45,7 +45,14 @@ class EbbSetup:
         Servo positions (83.3 ns units) of pen height 0 % and 100 % (the pen's ``up``/``down``
         are percentages of this range, as AxiDraw's ``pen_pos_up``/``pen_pos_down``).
     servo_rate_up, servo_rate_down : int
-        ``SC,11``/``SC,12``: servo position units per 24 ms while raising / lowering (0: at once).
+        ``SC,11``/``SC,12``: servo position units per PWM period while raising / lowering (0: at
+        once); the period is 3 ms per channel running: 24 ms with 8, 3 ms with 1.
+    servo_pin : int
+        Port B pin of the pen-lift servo: 1 (RB1, the standard servo), 2 (RB2: the narrow-band
+        brushless servo of the NextDraw 8511 and AxiDraw's penlift 3). ``SP`` names it when not 1.
+    servo_channels : int
+        ``SC,8``: servo channels the board runs; 8 (a 24 ms period, the default) or 1 (a 3 ms
+        period, which the narrow-band servo needs; AxiDraw's pen_handling.py sends ``SC,8,1``).
     min_move_ms : float
         The shortest move the board runs back to back without a gap (LM: 4 ms on firmware 3.x).
     """
@@ -58,6 +65,13 @@ class EbbSetup:
     servo_rate_up: int = 1618
     servo_rate_down: int = 1079
     min_move_ms: float = 4.0
+    servo_pin: int = 1
+    servo_channels: int = 8
+
+    def pen_command(self, up: bool, ms: int) -> str:
+        """``SP`` raising or lowering the pen and holding the queue ``ms``, on the servo's pin."""
+        text = f"SP,{1 if up else 0},{int(ms)}"
+        return text if self.servo_pin == 1 else f"{text},{self.servo_pin}"
 
     def servo_position(self, percent: float) -> int:
         """The servo position (83.3 ns units) of a pen height in percent."""

@@ -5,9 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from firmware_protocol import grbl as protocol
-from pencilbot.firmware.base import (
-    ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply,
-)
+from pencilbot.firmware import grbl_system
+from pencilbot.firmware.base import ALARM, ERROR, OK, OTHER, RESET, STATUS, Capabilities, Firmware, Reply
 
 _STILL = ("Idle", "Alarm", "Check", "Sleep")  # states in which nothing moves
 # Byte tables: what GRBL's line buffer drops (whitespace, control characters, block delete), and
@@ -44,7 +43,7 @@ class Grbl(Firmware):
     check_command = "$C"
     home_command = "$H"
     moving_states = ("Run", "Jog", "Home")
-    paused_states = ("Hold", "Door")
+    paused_states: tuple[str, ...] = ("Hold", "Door")
 
     def frame(self, command: str, number: int = 0) -> bytes:
         return self.protocol.encode_line(command)
@@ -54,6 +53,11 @@ class Grbl(Firmware):
 
     def jog(self, dx: float, dy: float, feed: float) -> str:
         return f"$J=G91G21X{dx:.4f}Y{dy:.4f}F{feed:g}"  # relative, mm: the job's G90/G20 untouched
+
+    idle_hold_setting = 1  # $1, step idle delay: 255 keeps the motors on at rest
+
+    def origin_move(self, feed: float) -> str:
+        return f"$J=G53G21X0Y0F{feed:g}"  # machine coordinates, the job's modal state untouched
 
     def check_lines(self, job) -> tuple[int, str] | None:
         a = np.frombuffer(job.frames, dtype=np.uint8)
@@ -65,6 +69,19 @@ class Grbl(Firmware):
         odd = np.flatnonzero(_ODD[a])
         suspects = np.union1d(np.flatnonzero(significant > self.line_limit), line_of(odd))
         return self._first_refused(job, suspects.tolist())
+
+    def system_command(self, line: str) -> str | None:
+        return grbl_system.command_name(line)
+
+    def system_effect(self, name: str) -> tuple[str, str | None, bool]:
+        ends = next((what for key, what in grbl_system.ENDS_JOB.items() if name.startswith(key)), None)
+        return grbl_system.effect(name), ends, name == grbl_system.CHECK_MODE
+
+    def waits_after(self, line: str) -> bool:
+        return grbl_system.moves_alone(line)
+
+    def system_covers(self, allowed: str, name: str) -> bool:
+        return grbl_system.covers(allowed, name)
 
     def parse(self, text: str) -> Reply:
         message = self.protocol.parse_line(text)

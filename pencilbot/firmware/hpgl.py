@@ -13,6 +13,7 @@ driver can say what ran from what the buffer still holds and resume after it.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -24,6 +25,30 @@ from pencilbot.paths import Paths
 
 #: File names HP-GL goes by (the first is the one export gives).
 HPGL_SUFFIXES = (".hpgl", ".hpg", ".plt", ".hgl")
+#: How an HP-GL program starts (after device-control escapes and blanks): a two-letter
+#: instruction then its terminator or its first number; G-code starts with a letter and a number.
+_HPGL_START = re.compile(rb"^(?:\x1b\.[^:;]*[:;]?|\s)*[A-Z]{2}\s*(?:;|-?\d|\n|$)", re.IGNORECASE)
+
+
+def looks_like_hpgl(path) -> bool:
+    """Whether the file at ``path`` is HP-GL by its name or, failing that, its first bytes."""
+    from pathlib import Path
+
+    path = Path(path)
+    if path.suffix.lower() in HPGL_SUFFIXES:
+        return True
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(256)
+    except OSError:
+        return False
+    return bool(_HPGL_START.match(head))
+#: The longest HP-GL file read (bytes), whole: a plot of a million pen moves is about 20 MB.
+MAX_HPGL_FILE = 256 << 20
+#: The highest pen number (HP-GL's integers are 16-bit) and speed (``VS``, cm/s: the 7475A's
+#: fastest is 38.1; HP-GL's range ends below 128).
+MAX_PEN = 32767
+MAX_SPEED = 128.0
 #: Instructions a sender may pass on unchanged: they set nothing the moves depend on.
 _PASSED = {"DF", "PS", "OI", "OS", "OE", "OA", "OH", "OP", "OW", "OC", "CS", "CA", "SS", "SA", "LT", "DT"}
 #: Instructions that change how coordinates map to the paper or draw shapes: not translated.
@@ -153,8 +178,16 @@ class Hpgl(Firmware):
     initialised_bit = protocol.STATUS_INITIALIZED
     abort_bytes = protocol.ABORT_GRAPHICS
     lift_command = b"PU;"
+    #: Bytes of the input buffer never filled: a 7475A filled to exactly the free space ESC.B
+    #: reported overflowed (ESC.E 16) while 4 bytes of slack did not (hpgl-buddy's hardware
+    #: notes); the manual says to allow room for the overshoot, and the plotter's own XON
+    #: threshold is 128 bytes. A small buffer keeps an eighth of itself.
+    buffer_reserve = 128
+
+    def reserve(self, size: int) -> int:
+        """Bytes of a ``size``-byte buffer a sender leaves free."""
+        return min(self.buffer_reserve, size // 8)
     park_command = b"PU;SP0;"
-    unit_mm = protocol.UNIT_MM
 
     def frame(self, command: str, number: int = 0) -> bytes:
         return command.encode("ascii")
@@ -208,6 +241,13 @@ class Hpgl(Firmware):
         return _Interpreter().run(instructions)
 
 
+def _whole(value: float, low: int, high: int, what: str) -> int:
+    """``value`` as a whole number from ``low`` to ``high``, else a ProtocolError naming ``what``."""
+    if not (low <= value <= high and float(value).is_integer()):
+        raise ProtocolError(f"{what} {value:g} is not a whole number from {low} to {high}")
+    return int(value)
+
+
 class _Interpreter:
     """Follow pen position, pen state, absolute/relative mode, carousel pen and speed."""
 
@@ -248,10 +288,13 @@ class _Interpreter:
             self.down, self.relative, self.speed = False, False, 0.0
             self._emit(b"IN;", number)
         elif m == "SP":
-            self.pen = int(p[0]) if p else 0
+            self.pen = _whole(p[0], 0, MAX_PEN, f"instruction {number} (SP): pen") if p else 0
             self.down = False  # a pen is taken (or put away) lifted
             self._emit(protocol.encode("SP", self.pen), number)
         elif m == "VS":
+            if p and not 0 < p[0] <= MAX_SPEED:
+                raise ProtocolError(f"instruction {number} (VS): speed {p[0]:g} cm/s is not one a plotter takes "
+                                    f"(more than 0, at most {MAX_SPEED:g})")
             self.speed = float(p[0]) if p else 0.0
             self._emit(protocol.encode("VS", *p[:1]), number)
         elif m in ("PA", "PR"):
@@ -272,6 +315,9 @@ class _Interpreter:
             raise ProtocolError(f"instruction {number}: an odd number of coordinates ({len(p)})")
         word = "PD" if self.down else "PU"
         for k in range(0, len(p), 2):
+            if not max(abs(p[k]), abs(p[k + 1])) <= protocol.MAX_COORDINATE:  # (NaN and inf too)
+                raise ProtocolError(f"instruction {number}: coordinate {p[k]:g},{p[k + 1]:g} is beyond "
+                                    f"±{protocol.MAX_COORDINATE}")
             x, y = round(p[k]), round(p[k + 1])
             if self.relative:
                 x, y = self.x + x, self.y + y

@@ -7,9 +7,7 @@ import re
 import numpy as np
 
 from firmware_protocol import marlin as protocol
-from pencilbot.firmware.base import (
-    BUSY, ERROR, OK, OTHER, RESEND, RESET, Capabilities, Firmware, Reply,
-)
+from pencilbot.firmware.base import BUSY, ERROR, OK, OTHER, RESEND, RESET, Capabilities, Firmware, Reply
 
 #: ``Error:`` texts that announce a ``Resend`` (a line lost to noise) rather than a refused command.
 _TRANSMISSION_ERRORS = ("checksum", "line number", "no line number", "no checksum")
@@ -35,6 +33,11 @@ class Marlin(Firmware):
     wake_bytes = b"\n"
     drain_command = "M400"  # returns once every queued move has run
     home_command = "G28XY"
+    motors_off_command = "M18"  # (M84 is the same) the steppers let go until the next move
+    motors_on_command = "M17"
+
+    def origin_move(self, feed: float) -> str:
+        return f"G0X0Y0F{feed:g}"
 
     def set_origin(self, x: float, y: float, z: str = "") -> str:
         return f"G92X{x:.4f}Y{y:.4f}{z}"  # Marlin's work offset: the position reads x, y

@@ -22,8 +22,8 @@ import cv2
 import numpy as np
 from PIL import Image, ImageOps, UnidentifiedImageError
 
-from pencilbot.errors import ImageLoadError
-from pencilbot.fileio import available_memory
+from pencilbot.errors import ImageLoadError, no_such_file
+from pencilbot.fileio import available_memory, refuse_special_input
 from pencilbot.imaging.png_strips import STRIP_BYTES, PngLayout, png_layout, reduced_png
 
 DEFAULT_MAX_PIXELS = 40_000_000
@@ -102,7 +102,8 @@ def load_image(
         # Checked first: with downscale, 0 would shrink every photo to one pixel without a word.
         raise ImageLoadError(f"--max-pixels must be at least 1, got {max_pixels}.")
     if not os.path.exists(name):
-        raise ImageLoadError(f"{name}: no such file. Check the path.")
+        raise ImageLoadError(no_such_file(name, "the path of an image file (PNG, JPEG, ...)"))
+    refuse_special_input(name, "image", folder_ok=True)  # a FIFO, a device (a folder: below)
     if os.path.isdir(name):
         raise ImageLoadError(f"{name} is a directory, not an image file. Give an image file.")
     if os.path.getsize(name) == 0:

@@ -38,6 +38,10 @@ log = logging.getLogger(__name__)
 #: turns the whole picture into its darkest stroke (a 2×2 photo came out solid black). Such an
 #: image is drawn enlarged (each pixel a block) to this short side, then brought back.
 MIN_SIDE = 32
+#: The most pixels such an enlarged copy may have: a sketch holds about 70 bytes a pixel at its
+#: peak, so 2 megapixels stay near 150 MB. A strip thinner than that allows (65535 × 1 px would be
+#: 2 097 120 × 32, 1.9 GB) is refused, not drawn.
+MAX_ENLARGED_PIXELS = 2 << 20
 
 
 @dataclass(frozen=True)
@@ -132,6 +136,13 @@ def sketch(
     _check_range("stroke_gamma", stroke_gamma, GAMMA_RANGE)
     _check_range("stroke_width", stroke_width, WIDTH_RANGE)
     factor = math.ceil(MIN_SIDE / min(image.shape))
+    if factor > 1 and image.shape[0] * image.shape[1] * factor**2 > MAX_ENLARGED_PIXELS:
+        h, w = image.shape
+        raise PencilbotError(
+            f"{image.source or 'the image'} is {w} x {h} px, too thin to sketch: its short side is drawn enlarged to "
+            f"{MIN_SIDE} px, which would make it {w * factor} x {h * factor} px (over "
+            f"{MAX_ENLARGED_PIXELS / 1e6:.1f} megapixels). Crop it to a wider strip, or scale it to at least "
+            f"{MIN_SIDE} px on its short side")
     if factor > 1:
         enlarged = image_from_array(np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source)
         drawn = sketch(

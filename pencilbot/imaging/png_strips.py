@@ -29,7 +29,6 @@ import cv2
 import numpy as np
 from PIL import Image
 
-
 _SIGNATURE = b"\x89PNG\r\n\x1a\n"
 #: Bytes of unfiltered rows per strip (about): what is held besides the 1/k picture.
 STRIP_BYTES = 8 << 20
@@ -246,5 +245,5 @@ def _samples(rows: np.ndarray, layout: PngLayout) -> np.ndarray:
             alpha = np.where((rgb == np.array(struct.unpack(">HHH", key[:6]))).all(axis=2), 0, 255).astype(np.uint8)
     if alpha is None:
         return np.ascontiguousarray(rgb)
-    alpha = alpha.astype(np.uint16)[..., None]
-    return np.concatenate([rgb * alpha, alpha * 255], axis=2)
+    alpha16 = alpha.astype(np.uint16)[..., None]
+    return np.concatenate([rgb * alpha16, alpha16 * 255], axis=2)

@@ -142,7 +142,7 @@ def line_kernels(length: int, width: float = 1.0) -> np.ndarray:
         kernels.append(inside.mean(axis=(2, 3)))
     stack = np.array(kernels)
     # Crop the common all-zero frame, keeping the kernels centred (odd size).
-    used = stack.any(axis=0)
+    used = np.logical_or.reduce(stack, axis=0)  # (as stack.any(axis=0), typed as an array)
     margin = min(np.argmax(used.any(axis=1)), np.argmax(used.any(axis=0)))
     stack = stack[:, margin : stack.shape[1] - margin, margin : stack.shape[2] - margin]
     return (stack / stack.sum(axis=(1, 2), keepdims=True)).astype(np.float32)

@@ -42,9 +42,8 @@ same with either.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-
 import os
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -224,7 +223,7 @@ def user_texture(
     scale = reference_scale((h, w)) if scale is None else float(scale)
     if scale > 1:
         size = (max(1, round(gray.shape[1] * scale)), max(1, round(gray.shape[0] * scale)))
-        gray = cv2.resize(gray, size, interpolation=cv2.INTER_LINEAR)
+        gray = np.asarray(cv2.resize(gray, size, interpolation=cv2.INTER_LINEAR), np.float32)  # float32 already
     density = -np.log(np.clip(gray, 1.0 / 255.0, 1.0))
     if density.shape[0] < h or density.shape[1] < w:
         density = _seamless(density)
@@ -263,7 +262,7 @@ def _paper_grain(shape: tuple[int, int], rng: np.random.Generator, size: tuple[f
     noise = rng.standard_normal(shape, dtype=np.float32)
     pad = int(math.ceil(4 * max(size))) + 1
     wrapped = cv2.copyMakeBorder(noise, pad, pad, pad, pad, cv2.BORDER_WRAP)  # circular blur
-    grain = cv2.GaussianBlur(wrapped, (0, 0), sigmaX=size[1], sigmaY=size[0])[pad:-pad, pad:-pad]
+    grain: np.ndarray = cv2.GaussianBlur(wrapped, (0, 0), sigmaX=size[1], sigmaY=size[0])[pad:-pad, pad:-pad]
     grain *= GRAIN_CONTRAST / max(_mean_std(grain)[1], 1e-12)
     grain += 1.0
     return np.maximum(grain, 0.05, out=grain)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: Corners where machine (0, 0) may be, seen from above.
 ORIGINS = ("bottom-left", "top-left", "bottom-right", "top-right")
@@ -21,8 +22,11 @@ MAX_BED = 10_000
 class Sheet(Protocol):
     """Anything with a size in mm, such as a :class:`pencilbot.planning.plan.Page`."""
 
-    width: float
-    height: float
+    @property
+    def width(self) -> float: ...
+
+    @property
+    def height(self) -> float: ...
 
 
 @dataclass(frozen=True)
@@ -45,7 +49,7 @@ class Bed:
         by = (-self.height, 0.0) if self.invert_y else (0.0, self.height)
         return bx, by
 
-    def outside(self, machine: np.ndarray, tolerance: float = 0.0) -> np.ndarray:
+    def outside(self, machine: ArrayLike, tolerance: float = 0.0) -> np.ndarray:
         """Which machine points ``(N, 2+)`` mm lie off the bed (more than ``tolerance`` mm
         beyond its edges): a ``(N,)`` bool array. The one bed check (export and draw)."""
         xy = np.asarray(machine, dtype=np.float64)[:, :2]

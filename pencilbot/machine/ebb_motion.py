@@ -62,6 +62,7 @@ def pen_commands(profile) -> list[str]:
         f"SC,5,{setup.servo_position(pen.down)}",
         f"SC,11,{setup.servo_rate_up}",
         f"SC,12,{setup.servo_rate_down}",
+        f"SC,8,{setup.servo_channels}",  # the PWM period the rates assume (3 ms per channel)
     ]
 
 
@@ -103,9 +104,9 @@ def plan_ebb(xy: np.ndarray, down: np.ndarray, lines: np.ndarray, profile, *,
     for first, stop in zip(edges[:-1], edges[1:]):
         if first in changes:
             state = bool(down[first])
-            value, delay = (0, pen.down_delay) if state else (1, pen.up_delay)
+            delay = pen.down_delay if state else pen.up_delay
             ms = max(int(round(delay * 1000)), 1)
-            moves.append(EbbMove(f"SP,{value},{ms}", int(lines[first]), here, here, ms / 1000.0, state))
+            moves.append(EbbMove(setup.pen_command(not state, ms), int(lines[first]), here, here, ms / 1000.0, state))
         rows = moved[(moved >= first) & (moved < stop)]
         if len(rows):
             points = np.vstack([setup.to_machine(np.array([here], dtype=np.float64)), xy[rows]])
@@ -176,7 +177,7 @@ def _pieces(length: float, v_in: float, v_out: float, nominal: float, accel: flo
     if len(merged) > 1 and _seconds(*merged[-1]) < min_t:
         last = merged.pop()
         merged[-1] = [merged[-1][0] + last[0], merged[-1][1], last[2]]
-    pieces = [tuple(p) for p in merged] or [(length, v_in, v_out)]
+    pieces = [(p[0], p[1], p[2]) for p in merged] or [(length, v_in, v_out)]
     if len(pieces) == 1 and _seconds(*pieces[0]) < min_t:
         slow = length / min_t
         pieces = [(length, slow, slow)]

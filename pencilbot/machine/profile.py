@@ -62,7 +62,6 @@ driver and the virtual plotter all read it. Where the paper sits on the bed is d
 from __future__ import annotations
 
 import os
-import re
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
@@ -77,6 +76,7 @@ from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
 from pencilbot.machine.motion import Motion
 from pencilbot.machine.pen import PEN_KINDS, PenModel
 from pencilbot.machine.pens import LONGEST_PEN_NAME
+from pencilbot.machine.profile_checks import check_sendable, check_values
 from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
 MAX_LINE = 80  # the longest line the writer produces: GRBL's line buffer, so every firmware takes it
@@ -128,10 +128,12 @@ class Paper:
     """Where the sheet lies against machine (0, 0): ``offset`` mm from its bottom-left corner
     (a plotter such as the HP 7475A whose hard-clip limits lie inside the sheet), and how many
     pens the plotter's ``carousel`` holds (HP-GL ``SP 1..n``; a plan with more pens pauses for
-    each pen put in by hand)."""
+    each pen put in by hand), and the length of its plotter unit (``unit_mm``: HP-GL's 0.025 mm,
+    the HP 7470A's; the HP 7475A's own manual gives 0.02488 mm, about 40.2 units per mm)."""
 
     offset: tuple[float, float] = (0.0, 0.0)
     carousel: int = 6
+    unit_mm: float = 0.025
 
 
 @dataclass(frozen=True)
@@ -199,7 +201,7 @@ class Profile:
 _TEMPLATE = schema.kind(str, "a string of G-code (a template using " + ", ".join(
     f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")")
 # Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
-_FEED = schema.number(0, 1e6, above=True, unit="mm/min", as_given=True)
+_FEED = schema.number(1, 1e6, unit="mm/min", as_given=True)  # under 1 mm/min a plot takes years
 _SECONDS = schema.number(0, 60, unit="seconds", as_given=True)
 _BED = schema.number(0, MAX_BED, above=True, unit="mm", as_given=True)
 _PEN_VALUE = schema.any_number("S value, Z mm or servo degrees")
@@ -246,6 +248,7 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
             lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
             lambda value: (float(value[0]), float(value[1]))),
         "carousel": schema.whole(1, 32, "pens the carousel holds"),
+        "unit_mm": schema.number(0.001, 1.0, unit="mm per plotter unit", as_given=True),
     }),
     "pen_change": (PenChange, {
         "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(
@@ -257,13 +260,16 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
     }),
     "ebb": (EbbSetup, {
         "kinematics": schema.choice(("corexy", "xy")),
-        "steps_per_mm": schema.number(0, 1e5, above=True, unit="motor steps per mm", as_given=True),
+        # under a step a mm, a drawing is a staircase of millimetre steps (1e-9 drew nothing)
+        "steps_per_mm": schema.number(1, 1e5, unit="motor steps per mm", as_given=True),
         "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
         "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
         "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
-        "servo_rate_up": schema.whole(0, 65535, "servo units per 24 ms"),
-        "servo_rate_down": schema.whole(0, 65535, "servo units per 24 ms"),
+        "servo_rate_up": schema.whole(0, 65535, "servo units per PWM period"),
+        "servo_rate_down": schema.whole(0, 65535, "servo units per PWM period"),
         "min_move_ms": schema.number(0, 100, unit="ms", as_given=True),
+        "servo_pin": schema.whole(0, 7, "port B pin of the pen servo (1 standard, 2 narrow-band)"),
+        "servo_channels": schema.whole(1, 8, "servo channels (SC,8): 8 standard, 1 narrow-band"),
     }),
 }
 
@@ -362,6 +368,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
             f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "
             f'"{profile.dialect}"; expected false ({profile.firmware.title} reads no N…*checksum lines)'
         )
+    check_values(profile, where)
     if profile.pen.up == profile.pen.down:
         raise ProfileError(
             f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid; expected a value other than "
@@ -399,7 +406,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
                 f"plotter profile {where}: {_label(section, key)} is empty; expected the G-code "
                 f"that moves the pen, e.g. \"M3 S{{{key[:-8]}}}\""
             )
-        _check_sendable(profile, where, _label(section, key), lines)
+        check_sendable(profile, where, _label(section, key), lines)
         limit = MAX_LINE - (profile.firmware.frame_room if profile.gcode.line_numbers else 0)
         for line in lines:
             if len(line) > limit:
@@ -407,43 +414,6 @@ def _check_consistency(profile: Profile, where: str) -> None:
                     f"plotter profile {where}: {_label(section, key)} gives a line of {len(line)} "
                     f"characters; expected at most {limit} per line"
                 )
-
-
-_COMMENTS = re.compile(r"\([^)]*\)|;.*")
-_AXIS_WORD = re.compile(r"([XY])\s*([-+]?(?:\d+\.?\d*|\.\d+))", re.I)
-
-
-def _check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -> None:
-    """Refuse template lines the board would not take as G-code: a realtime byte (GRBL's ``!``,
-    ``~``, ``?``, Ctrl-X), a ``%`` tape marker, and, while the template moves in absolute
-    millimetres, an X or Y off the bed. ``draw`` refuses such a file; ``export`` must not write it.
-
-    Raises
-    ------
-    ProfileError
-    """
-    relative = False
-    (x0, x1), (y0, y1) = profile.bed.machine_range()
-    for line in lines:
-        command = _COMMENTS.sub("", line)
-        problem = None
-        if "%" in command:
-            problem = "a '%', which GRBL refuses and senders take for a tape marker"
-        elif command.strip() and not profile.firmware.capabilities.host_motion:  # (EBB: the host reads it)
-            try:
-                profile.firmware.frame(command.strip(), 1)
-            except ValueError as exc:  # firmware_protocol.ProtocolError: the board cannot take it
-                problem = str(exc)
-        if re.search(r"G9[01](?!\d)|G2[01](?!\d)", command, re.I):
-            relative = relative or re.search(r"G91(?!\d)|G20(?!\d)", command, re.I) is not None
-        if problem is None and not relative:
-            for axis, value in _AXIS_WORD.findall(command):
-                low, high = (x0, x1) if axis.upper() == "X" else (y0, y1)
-                if not low - 1e-6 <= float(value) <= high + 1e-6:
-                    problem = (f"{axis.upper()}{value} lies off the bed (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)")
-                    break
-        if problem:
-            raise ProfileError(f"plotter profile {where}: {label} line {line!r} is invalid: {problem}")
 
 
 def _label(section: str, key: str) -> str:

@@ -183,7 +183,7 @@ def plot_shape(shape: tuple[int, int], page: Page, pen_width: float) -> tuple[in
     third of the pen wide (sizes rounded down, so that it is), never more than ``shape``."""
     scale = Layout.fit(shape, page).mm_per_px / (pen_width / 3)
     if scale >= 1:
-        return tuple(shape)
+        return shape[0], shape[1]
     return max(1, math.floor(shape[0] * scale)), max(1, math.floor(shape[1] * scale))
 
 
@@ -242,12 +242,13 @@ def plan_from_sketch(
     )
     in_color = pens is not None and len(pens.pens) > 1
     dithered = face_mask(line.edges.shape, faces) if faces and style.hatch and not in_color else None
-    if faces:
+    if faces and important is not None:  # (important: the faces' mask)
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     if dithered is not None:
         strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
     layers = []
     if style.hatch and in_color:
+        assert pens is not None and drawing.tone is not None  # in colour: pens; hatching: a sketch with its tone
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
         layers += color_hatching(
@@ -313,7 +314,7 @@ def plan_from_sketch(
     }
     if pens is not None:
         meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)
-    return Plan(page=page, layers=ordered, meta=meta)
+    return Plan(page=page, layers=tuple(ordered), meta=meta)
 
 
 def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, dithered, faces: list) -> list:

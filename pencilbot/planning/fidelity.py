@@ -155,7 +155,10 @@ def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = Y
     rho = float("nan") if flat else float(spearmanr(sa, sb).statistic)
     # SSIM on a 1 px/mm grid with a Gaussian window of SSIM_SIGMA_MM.
     step = max(1, round(px_per_mm))
-    small = (max(7, width // step), max(7, height // step))
+    # At least SSIM's Gaussian window across (skimage: 2·⌊3.5σ + 0.5⌋ + 1 px): a drawing a few mm
+    # wide (a 60 x 40 mm page with 2.5 mm of pen) is compared on that many pixels, not refused.
+    window = 2 * int(3.5 * SSIM_SIGMA_MM + 0.5) + 1
+    small = (max(window, width // step), max(window, height // step))
     ca = cv2.resize(np.asarray(plotted, np.float32), small, interpolation=cv2.INTER_AREA)
     cb = cv2.resize(ref, small, interpolation=cv2.INTER_AREA)
     ssim = float(structural_similarity(ca, cb, data_range=1.0, gaussian_weights=True, sigma=SSIM_SIGMA_MM))

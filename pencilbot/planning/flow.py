@@ -26,9 +26,8 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
-from scipy import fft
+from scipy import fft, sparse
 from scipy import ndimage as ndi
-from scipy import sparse
 from scipy.sparse import csgraph
 
 #: Coherence of the structure tensor below which texture follows the default direction, and
@@ -313,5 +312,6 @@ def sample_image(image: np.ndarray, layout, grid: Grid) -> np.ndarray:
 def grid_gradient(values: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """``np.gradient`` of a 2-D grid (per mm; along rows, along columns), zero along an axis the
     grid is one cell across: the grid of a 1 x N picture's sheet has one row, with no slope."""
-    return tuple(np.gradient(values, spacing, axis=axis) if values.shape[axis] > 1 else np.zeros_like(values)
-                 for axis in (0, 1))
+    along_rows, along_columns = (np.gradient(values, spacing, axis=axis) if values.shape[axis] > 1
+                                 else np.zeros_like(values) for axis in (0, 1))
+    return along_rows, along_columns

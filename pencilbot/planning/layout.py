@@ -191,7 +191,7 @@ def fit_plan(plan: Plan, sheet: str, orientation: str = "auto", margin: float = 
     scale = float(np.min(free / size))
     offset = page.margin + (free - size * scale) / 2 - low * scale
     layers = [replace(layer, paths=layer.paths.with_points(layer.paths.points * scale + offset)) for layer in plan.layers]
-    return replace(plan, page=page, layers=layers)
+    return replace(plan, page=page, layers=tuple(layers))
 
 
 def _alignment(align: str) -> tuple[float, float]:

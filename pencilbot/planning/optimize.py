@@ -15,20 +15,28 @@ new order would travel further than the file's own keeps the file's.
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.spatial import cKDTree
 
 from pencilbot.paths import Paths, ramps
-from pencilbot.planning.ordering import order_paths
+from pencilbot.planning.ordering import ROUND_WORK, order_paths
 from pencilbot.planning.plan import Plan
 
 _NEAREST = 16  # pieces of ink looked at around each point of a speck
-#: Improvement rounds per layer: two passes take most of the gain of forty at a fifth of the
-#: work (bench/optimize.py), and keep even a small drawing within a third of the time of vpype's
-#: ``linesort --two-opt``; ``pencilbot optimize --rounds`` buys the rest.
-REORDER_ROUNDS = 2
+#: Improvement rounds per layer. Ten end the search at (or within 0.5 % of) its local optimum on
+#: every drawing of bench/optimize.py; two, the default before issue 35, stopped it half-way (a
+#: flow field's pen-up 4.30 m where ten give 4.04, vpype's ``linesort --two-opt`` 4.33). Huge
+#: layers stay linear: ``ordering.ROUND_WORK`` caps rounds × paths; ``--time-budget`` lifts it.
+REORDER_ROUNDS = 10
+#: Layers of fewer paths start from the nearest-neighbour tour alone (see ``order_paths``): on
+#: a 60-path portrait the matching cost half the time and gave a longer tour.
+MATCHING_FROM = 256
+#: Layers of more paths start from the matching alone: the nearest-neighbour walk costs seconds
+#: at a million paths, and on 750 000 tiny paths its tour was the longer start.
+NEAREST_UNTIL = ROUND_WORK
 
 
 @dataclass(frozen=True)
@@ -39,7 +47,8 @@ class Reordering:
     specks: int
 
 
-def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds: int = REORDER_ROUNDS) -> Reordering:
+def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds: int = REORDER_ROUNDS,
+                 time_budget: float | None = None) -> Reordering:
     """Reorder every layer of ``plan`` for short pen-up travel, joining and dropping as above.
 
     Parameters
@@ -49,6 +58,11 @@ def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds:
         Where the pen stands before the first layer, page mm (the plotter's home there).
     rounds : int, optional
         Improvement work per layer (see :func:`~pencilbot.planning.ordering.order_paths`).
+    time_budget : float, optional
+        CPU seconds the improvement may take in all, shared among the layers by their number of
+        paths: ``rounds`` is then not capped by a layer's size, and the search stops when its
+        share is spent (or at its local optimum, or after ``rounds``). The order then depends on
+        the machine's speed; without it, only on the drawing.
 
     Returns
     -------
@@ -56,19 +70,24 @@ def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds:
         The layers in their order, each reordered; pen-up travel (from ``start`` and back)
         never longer than ``plan``'s.
     """
-    layers, dropped, position = [], 0, tuple(start)
+    layers, dropped, position = [], 0, (start[0], start[1])
+    began, total = time.process_time(), max(1, sum(len(layer.paths) for layer in plan.layers))
+    share = 0
     for layer in plan.layers:
         speck = specks(layer.paths, layer.pen_width)
         kept = layer.paths.take(np.flatnonzero(~speck)) if speck.any() else layer.paths
+        share += len(layer.paths)
+        deadline = None if time_budget is None else began + time_budget * share / total
         ordered = order_paths(kept, start=position, join_tolerance=layer.pen_width, pen_width=layer.pen_width,
-                              rounds=rounds)
+                              rounds=rounds, matching_from=MATCHING_FROM, nearest_until=NEAREST_UNTIL,
+                              deadline=deadline)
         if len(layer.paths) and pen_up_length(ordered, position) > pen_up_length(layer.paths, position):
             ordered, kept = layer.paths, layer.paths  # the file's own order is the shorter
         dropped += len(layer.paths) - len(kept)
         layers.append(replace(layer, paths=ordered))
         if len(ordered):
-            position = tuple(ordered.points[-1])
-    result = replace(plan, layers=layers)
+            position = (ordered.points[-1][0], ordered.points[-1][1])
+    result = replace(plan, layers=tuple(layers))
     if pen_up_length(result.paths(), start) > pen_up_length(plan.paths(), start):
         return Reordering(plan, 0)  # the layers' new ends lengthened the moves between them
     return Reordering(result, dropped)

@@ -55,6 +55,9 @@ def order_paths(
     join_min_length: float = 0.0,
     pen_width: float = DEFAULT_PEN_WIDTH,
     rounds: int = DEFAULT_ROUNDS,
+    matching_from: int = 0,
+    nearest_until: int | None = None,
+    deadline: float | None = None,
 ) -> Paths:
     """Reorder and reverse paths to shorten pen-up travel, then join paths that touch.
 
@@ -77,6 +80,16 @@ def order_paths(
         about what building both tours does), at most ``ROUND_WORK / len(paths)`` but at least
         ``MIN_ROUNDS``; 0 keeps the shorter greedy tour. The result depends only on the paths
         and this number.
+    matching_from : int, optional
+        Layers of fewer paths start from the nearest-neighbour tour alone: on a few dozen paths
+        the matching's rounds cost more than the whole search, and win nothing.
+    nearest_until : int, optional
+        Layers of more paths start from the matching alone, without the nearest-neighbour tour
+        (a Python step per path; the matching is usually the shorter start on huge layers).
+    deadline : float, optional
+        ``time.process_time()`` at which to stop improving; with it ``rounds`` is not capped by
+        the layer's size, so a huge layer gets as many rounds as fit (the order then depends on
+        the machine's speed).
 
     Returns
     -------
@@ -86,7 +99,8 @@ def order_paths(
     tolerance = pen_width if join_tolerance is None else join_tolerance
     # (The improvement counts every gap within the tolerance as joined, also those next to a
     # path too short to join: a small bias, and no worse a tour for the pen-up it actually pays.)
-    order, reverse = improve_order(paths.firsts, paths.lasts, start, rounds=rounds, join_tolerance=tolerance)
+    order, reverse = improve_order(paths.firsts, paths.lasts, start, rounds=rounds, join_tolerance=tolerance,
+                                   matching_from=matching_from, nearest_until=nearest_until, deadline=deadline)
     ordered = paths.take(order, reverse)
     return join_touching(ordered, tolerance, min_length=join_min_length) if tolerance >= 0 else ordered
 
@@ -168,6 +182,9 @@ def improve_order(
     *,
     rounds: int = DEFAULT_ROUNDS,
     join_tolerance: float = -1.0,
+    matching_from: int = 0,
+    nearest_until: int | None = None,
+    deadline: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Greedy tours then local improvement over paths given by their end points.
 
@@ -182,6 +199,10 @@ def improve_order(
     join_tolerance : float
         Gaps up to this (mm) will be joined pen-down, so the improvement counts them as no
         travel; negative: every gap counts.
+    matching_from, deadline
+        See :func:`order_paths`.
+    nearest_until : int, optional
+        Layers of more paths start from the matching alone (default: no limit).
 
     Returns
     -------
@@ -195,6 +216,7 @@ def improve_order(
     n = len(first)
     if n == 0:
         return np.zeros(0, np.int64), np.zeros(0, bool)
+    nearest_until = n if nearest_until is None else nearest_until
     # Renumber along a space-filling curve: the tree, the neighbour graph and the tour's arrays
     # are then read nearly in order instead of at random (2-4x faster at a million paths).
     renumber = morton_order((first + last) / 2)
@@ -202,14 +224,19 @@ def improve_order(
     # Two greedy tours: the matching is usually ~15 % shorter, but nearest neighbour from home
     # follows contours and hatching (its serpentine starts at the corner near home). Descend
     # from the shorter; work left after its local optimum goes to descending from the other.
-    starts = sorted((greedy_matching(ends), adjacency(*greedy_tour(ends))), key=ends.tour_length)
+    if n < matching_from:
+        starts = [adjacency(*greedy_tour(ends))]
+    elif n > nearest_until:  # its walk is a Python step per path: seconds at a million
+        starts = [greedy_matching(ends)]
+    else:
+        starts = sorted((greedy_matching(ends), adjacency(*greedy_tour(ends))), key=ends.tour_length)
     tour = Tour(ends, starts[0])
     if rounds > 0 and n >= 2:
         # A round is one full pass: its ends and its call.
-        rounds = min(int(rounds), max(MIN_ROUNDS, ROUND_WORK // n))
-        work = Work(round(rounds * (_ROUND_COST * len(ends.points) + CALL_COST)))
+        rounds = int(rounds) if deadline is not None else min(int(rounds), max(MIN_ROUNDS, ROUND_WORK // n))
+        work = Work(round(rounds * (_ROUND_COST * len(ends.points) + CALL_COST)), deadline)
         descend(tour, work)
-        if work.left > 0:
+        if work.left > 0 and len(starts) > 1:
             other = Tour(ends, starts[1])
             descend(other, work)
             if ends.tour_length(other.adj) < ends.tour_length(tour.adj):

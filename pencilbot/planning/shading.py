@@ -22,7 +22,13 @@ from pencilbot.paths import Paths
 from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, run_strokes
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
-    HATCH_ANGLES, HATCH_COVERAGE, HATCH_OVERLAP, MIN_HATCH_RUN, family_capacity, family_lines, hatch_layers,
+    HATCH_ANGLES,
+    HATCH_COVERAGE,
+    HATCH_OVERLAP,
+    MIN_HATCH_RUN,
+    family_capacity,
+    family_lines,
+    hatch_layers,
 )
 from pencilbot.planning.plan import Layer
 from pencilbot.render import render_paths

@@ -18,8 +18,8 @@ demo, stat and the G-code header all report this one estimate.
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 
@@ -90,7 +90,8 @@ def estimate(plan: Plan, profile: Profile) -> PlanStats:
                np.bincount(moves.layer[drawn], minlength=n_layers), time)
     layers: dict[str, Stats] = {}
     for index, layer in enumerate(plan.layers):
-        row = Stats(*(float(c[index]) if f.type == "float" else int(c[index]) for c, f in zip(columns, fields(Stats))))
+        values: list[Any] = [float(c[index]) if f.type == "float" else int(c[index]) for c, f in zip(columns, fields(Stats))]
+        row = Stats(*values)
         layers[layer.name] = layers.get(layer.name, Stats()) + row
     total = sum(layers.values(), Stats()) if layers else Stats(seconds=float(time[0]))
     return PlanStats(layers, total)

@@ -105,7 +105,7 @@ def greedy_tour(ends: Ends) -> tuple[np.ndarray, np.ndarray]:
     n, k = ends.n, ends.k
     used = bytearray(n + 1)
     used[n] = 1  # home
-    nbr = memoryview(np.ascontiguousarray(ends.neighbours).ravel())
+    nbr = np.ascontiguousarray(ends.neighbours).ravel().data  # Python ints per index
     order, reverse = [], []  # lists: a numpy scalar store costs more than the step's search
     tree, tree_ids, stale = ends.tree, np.arange(2 * (n + 1), dtype=np.int32), 0
     current = 2 * n + 1  # end id at which the pen stands: home

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import math
 import random
+import time
+from typing import Any
 
 import numpy as np
 
@@ -27,15 +29,24 @@ _TRY_COST = 2
 _REFRESH_HELD = 64  # refresh once 2-opt moves wait at 1/64 of the paths
 
 
-class Work:
-    """Improvement work left, in the units of ``CALL_COST``."""
+def _scalars(array: np.ndarray) -> memoryview[Any]:
+    """The array's buffer (``array.data``, as ``memoryview(array)``): indexing it gives Python ints
+    and floats, for the scalar code; numpy's stubs declare the buffer protocol from Python 3.12."""
+    return array.data
 
-    def __init__(self, units: int) -> None:
+
+class Work:
+    """Improvement work left, in the units of ``CALL_COST``; with a ``deadline`` (a
+    ``time.process_time()``) also the CPU time."""
+
+    def __init__(self, units: int, deadline: float | None = None) -> None:
         self.left = units
+        self.deadline = deadline
 
     def spend(self, units: int) -> bool:
         """Pay for a call doing ``units`` of work; False (and nothing paid) when the budget is out."""
-        if self.left <= 0:
+        if self.left <= 0 or (self.deadline is not None and time.process_time() >= self.deadline):
+            self.left = min(self.left, 0)
             return False
         self.left -= units + CALL_COST
         return True
@@ -95,9 +106,9 @@ class Tour:
         self.exits = np.zeros(2 * (n + 1), np.int8)  # end → 1 if its path is left there
         self.dirty = np.zeros(n + 1, np.uint8)  # per node: moved since the last refresh
         # memoryviews give Python ints and floats from the arrays, for the scalar code below
-        self._adj, self._pos, self._exits = memoryview(adj), memoryview(self.pos), memoryview(self.exits)
-        self._dirty, self._travel = memoryview(self.dirty), memoryview(self.travel)
-        self._xy = memoryview(ends.points.ravel())
+        self._adj, self._pos, self._exits = _scalars(adj), _scalars(self.pos), _scalars(self.exits)
+        self._dirty, self._travel = _scalars(self.dirty), _scalars(self.travel)
+        self._xy = _scalars(ends.points.ravel())
         self.refresh()
 
     # -- state ------------------------------------------------------------------------------
@@ -109,10 +120,10 @@ class Tour:
         for _ in range(self.n):
             x = adj[x] ^ 1
             step(x)
-        walk = np.array(walk, np.int32)
-        self.pos[walk >> 1] = np.arange(self.n + 1, dtype=np.int32)
-        self.exits[walk] = 1
-        self.exits[walk ^ 1] = 0
+        order = np.array(walk, np.int32)
+        self.pos[order >> 1] = np.arange(self.n + 1, dtype=np.int32)
+        self.exits[order] = 1
+        self.exits[order ^ 1] = 0
         self.dirty[:] = 0
         self.moved = 0
         self.reversed = Intervals(self.n + 1)
@@ -194,11 +205,11 @@ class Tour:
         # (the gain criterion of Lin–Kernighan), so other pairs cannot start an improving move.
         # (Masks as indices: converted once, then taken from every array.)
         m = np.flatnonzero((d < np.maximum(de, df)) & ((e >> 1) != (f >> 1)))
-        e, f, d, de, df = (x[m] for x in (e, f, d, de, df))
+        e, f, d, de, df = e[m], f[m], d[m], de[m], df[m]
         adj = self.adj
         ae, af = adj[e], adj[f]
         m = np.flatnonzero(f != ae)
-        e, f, ae, af, d, de, df = (x[m] for x in (e, f, ae, af, d, de, df))
+        e, f, ae, af, d, de, df = e[m], f[m], ae[m], af[m], d[m], de[m], df[m]
         kinds, es, fs, gains = [], [], [], []
 
         def keep(kind, sel, gain):
@@ -283,7 +294,7 @@ class Tour:
             g = adj[g] ^ 1
             run.append(g >> 1)
         ag = adj[g]
-        if (e >> 1) in run or e == af or e == ag or g == af or len(set(run)) < kind:
+        if (e >> 1) in run or e in (af, ag) or g == af or len(set(run)) < kind:
             return 0.0
         gain = gap(f, af) + gap(g, ag) + gap(e, ae)
         gain -= gap(af, ag) + gap(e, f) + gap(g, ae)
@@ -312,7 +323,7 @@ class Intervals:
         self.shift = max(4, (max(size, 1).bit_length() + 1) // 2)
         self.within = np.zeros(size, np.uint64)  # XOR of the cells from the block start to t
         self.before = np.zeros((size >> self.shift) + 2, np.uint64)  # XOR of the blocks before
-        self._within, self._before = memoryview(self.within), memoryview(self.before)
+        self._within, self._before = _scalars(self.within), _scalars(self.before)
         self.used = bytearray(size)
         self.rng = random.Random(size)
 

@@ -40,7 +40,7 @@ a KD-tree, a depth-first order); no loop per pixel or per stroke.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import cv2
 import numpy as np
@@ -186,8 +186,8 @@ def edge_strokes(
     for k in range(1, max(1, max_lines)):  # the further lines of bold contours, chained alike
         extra = _select(strokes, lines > k, shift_px=k * pen_px)
         paths_px.append(chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape))
-    paths_px = Paths.concat(paths_px)
-    return paths_px.with_points(layout.px_to_mm(paths_px.points)) if len(paths_px) else paths_px
+    paths = Paths.concat(paths_px)
+    return paths.with_points(layout.px_to_mm(paths.points)) if len(paths) else paths
 
 
 def _without_pinholes(mask: np.ndarray, largest: float) -> np.ndarray:
@@ -196,7 +196,7 @@ def _without_pinholes(mask: np.ndarray, largest: float) -> np.ndarray:
     A pinhole in a band of edge pixels (texture, a glint) would thin to a little loop of
     strokes, a knot; a hole the size of a pupil is kept.
     """
-    count, hole, stats, _ = cv2.connectedComponentsWithStats((~mask).astype(np.uint8), connectivity=4)
+    _count, hole, stats, _ = cv2.connectedComponentsWithStats((~mask).astype(np.uint8), connectivity=4)
     small = stats[:, cv2.CC_STAT_AREA] <= largest
     small[0] = False  # label 0: the mask itself
     return mask | small[hole]
@@ -274,7 +274,7 @@ def _raster_width(drawing, skeleton, comp, rows, cols, ell):
     component's pixels: the graphite the raster lays per pixel of contour.
     """
     size = max(3, int(round(ell)) | 1)
-    window = {"ksize": (size, size), "normalize": False, "borderType": cv2.BORDER_CONSTANT}
+    window: dict[str, Any] = {"ksize": (size, size), "normalize": False, "borderType": cv2.BORDER_CONSTANT}
     ink = cv2.boxFilter(1.0 - drawing, -1, **window)
     count = cv2.boxFilter(skeleton.astype(np.float32), -1, **window)
     width = ink[rows, cols] / np.maximum(count[rows, cols], 1.0)

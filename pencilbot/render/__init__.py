@@ -28,7 +28,15 @@ each band's pixels sit where the whole sheet puts them, so they get the same cov
 """
 
 from pencilbot.render.canvas import (
-    BAND_PIXELS, DEFAULT_DPI, TRAVEL_RGB, Bands, Canvas, band_rows, render_band, render_paths, sheet_pixels,
+    BAND_PIXELS,
+    DEFAULT_DPI,
+    TRAVEL_RGB,
+    Bands,
+    Canvas,
+    band_rows,
+    render_band,
+    render_paths,
+    sheet_pixels,
     travel_width,
 )
 from pencilbot.render.output import color_image, save_color_png, save_drawing_png, write_png

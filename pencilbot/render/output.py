@@ -9,7 +9,16 @@ import numpy as np
 
 from pencilbot.colors import inks_on_paper
 from pencilbot.paths import Paths
-from pencilbot.render.canvas import DEFAULT_DPI, TRAVEL_RGB, Bands, Canvas, band_rows, picture, sheet_pixels, travel_width
+from pencilbot.render.canvas import (
+    DEFAULT_DPI,
+    TRAVEL_RGB,
+    Bands,
+    Canvas,
+    band_rows,
+    picture,
+    sheet_pixels,
+    travel_width,
+)
 from pencilbot.render.png import write_png_bands
 from pencilbot.units import DEFAULT_PEN_WIDTH
 

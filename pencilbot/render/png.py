@@ -72,7 +72,7 @@ def write_png_bands(path: str | os.PathLike, shape: tuple[int, ...], bands: Iter
             rows += len(band)
             if rows > height:
                 raise ValueError(f"the bands hold more than the image's {height} rows")
-            _chunk(out, b"IDAT", stream.compress(filtered))
+            _chunk(out, b"IDAT", stream.compress(filtered.data))
         if rows != height:
             raise ValueError(f"the bands hold {rows} rows, the image {height}")
         _chunk(out, b"IDAT", stream.flush())

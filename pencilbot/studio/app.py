@@ -7,6 +7,7 @@ answer; a user's mistake is a 4xx with one plain sentence (``{"error": ...}``).
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
 from starlette.applications import Starlette
@@ -19,12 +20,14 @@ from starlette.staticfiles import StaticFiles
 from pencilbot.errors import PencilbotError
 from pencilbot.studio.guard import COOKIE, MAX_UPLOAD_BYTES, Guard
 from pencilbot.studio.options import parse_options
-from pencilbot.studio.plotting import PlotBusy, pen_test
+from pencilbot.studio.plotting import PlotBusy
 from pencilbot.studio.ports import plotter_ports, port_url
 from pencilbot.studio.state import Studio, TooLarge
 
 STATIC = Path(__file__).parent / "static"
 EVENT_WAIT = 15.0  # s between keep-alive events
+#: Bytes a JSON request may have: the page sends a few hundred.
+MAX_JSON_BYTES = 64 * 1024
 
 
 def error(status: int, message: str) -> JSONResponse:
@@ -42,9 +45,36 @@ def _refusals(handler):
             return error(409, str(err))
         except PencilbotError as err:
             return error(400, str(err))
-        except (json.JSONDecodeError, UnicodeDecodeError):
+        except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
             return error(400, "the request body is not JSON")
     return wrapped
+
+
+async def json_body(request: Request) -> dict:
+    """The request's JSON object, read only up to :data:`MAX_JSON_BYTES` (413 past them)."""
+    chunks, total = [], 0
+    async for chunk in request.stream():
+        total += len(chunk)
+        if total > MAX_JSON_BYTES:
+            raise TooLarge(f"the request is larger than the {MAX_JSON_BYTES // 1024} kB the studio's page ever sends")
+        chunks.append(chunk)
+    body = json.loads(b"".join(chunks) or b"{}")
+    if not isinstance(body, dict):
+        raise PencilbotError("the request body must be a JSON object")
+    return body
+
+
+def number(body: dict, key: str) -> float:
+    """A finite number from the body (0 when absent)."""
+    value = body.get(key, 0.0)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise PencilbotError(f"{key} must be a number, not {value!r}")
+    return float(value)
+
+
+def profile_of(body: dict):
+    """The plotter profile the body names (a listed name; "": the user's default)."""
+    return parse_options({"profile": body.get("profile", "")}).plotter()
 
 
 def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None,
@@ -64,14 +94,17 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         from pencilbot.planning.layout import ORIENTATIONS
         from pencilbot.planning.style import default_style, list_styles, load_style
 
-        style = load_style(default_style())
+        def defaults(name: str) -> dict:  # what a control shows until the person moves it
+            style = load_style(name)
+            return {"page": style.page, "orientation": style.orientation, "margin": style.margin,
+                    "pen_width": style.pen_width, "hatch_coverage": style.hatch_coverage,
+                    "line_length": style.line_length, "hatch": style.hatch}
+
         return JSONResponse({
             "styles": list_styles(), "style": default_style(), "pens": list_pen_sets(),
             "profiles": list(config_names("plotters")), "profile": studio.profile or default_profile(),
             "orientations": list(ORIENTATIONS), "pages": ["A5", "A4", "A3", "Letter"],
-            "defaults": {"page": style.page, "orientation": style.orientation, "margin": style.margin,
-                         "pen_width": style.pen_width, "hatch_coverage": style.hatch_coverage,
-                         "line_length": style.line_length, "hatch": style.hatch},
+            "style_defaults": {name: defaults(name) for name in list_styles()},
             "ports": await run_in_threadpool(plotter_ports, studio.ports),
         })
 
@@ -94,9 +127,10 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         return JSONResponse(info)
 
     async def drawing(request: Request):
-        options = parse_options(await request.json())
+        options = parse_options(await json_body(request))
         if studio.photo is None:
             studio.options = options
+            studio.changed()  # every tab shows the same settings
             return JSONResponse({"generation": 0})
         return JSONResponse({"generation": await run_in_threadpool(studio.set_options, options)})
 
@@ -144,15 +178,14 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
 
     def chosen_port(body: dict) -> str:
         port = body.get("port")
-        if port not in {entry["port"] for entry in plotter_ports(studio.ports)}:
+        if not isinstance(port, str) or port not in {entry["port"] for entry in plotter_ports(studio.ports)}:
             raise PencilbotError(f"port {port!r} is not one of the plotters found; pick one from the list")
         return port
 
     async def plot(request: Request):
-        body = await request.json()
+        body = await json_body(request)
         port = chosen_port(body)
-        options = parse_options({"profile": body.get("profile", "")})
-        profile = options.plotter()
+        profile = profile_of(body)
         plan = studio.full_plan()
         gcode = studio.folder / f"plot-{len(studio.plotters.sessions) + 1}-{id(plan):x}.gcode"
 
@@ -161,13 +194,16 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
 
             api.export_gcode(plan, profile, gcode)
         await run_in_threadpool(write)
+        await run_in_threadpool(studio.controls.release)  # the plot takes the port over
         session = studio.plotters.start(port, port_url(port, profile.name, studio.sim_speed), profile.name, gcode)
         return JSONResponse(session.summary())
 
     async def plot_button(request: Request):
-        body = await request.json()
+        body = await json_body(request)
         port, button = chosen_port(body), request.path_params["button"]
+        dx, dy = number(body, "dx"), number(body, "dy")
         if button == "resume-job":
+            await run_in_threadpool(studio.controls.release)
             return JSONResponse(studio.plotters.resume(port).summary())
         if button not in ("pause", "stop", "go", "give up", "jog"):
             return error(404, f"no plot button called {button}")
@@ -175,19 +211,20 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
             session = studio.plotters.get(port)
         except KeyError:
             return error(409, f"{port} is not plotting")
-        dx, dy = (float(body.get(key, 0.0)) for key in ("dx", "dy"))
-        session.press(button, dx, dy)
+        session.press(button, dx, dy, prompt=body.get("prompt"))
         return JSONResponse(session.summary())
 
-    async def pen(request: Request):
-        body = await request.json()
-        port = chosen_port(body)
-        profile = parse_options({"profile": body.get("profile", "")}).plotter().name
+    async def machine(request: Request):
+        body = await json_body(request)
+        port, action = chosen_port(body), request.path_params["action"]
+        profile = profile_of(body).name
+        dx, dy = number(body, "dx"), number(body, "dy")
         session = studio.plotters.sessions.get(port)
         if session is not None and session.active:
-            raise PlotBusy(f"{port} is plotting; the pen test waits until it is done")
-        await run_in_threadpool(pen_test, port_url(port, profile, studio.sim_speed), profile, bool(body.get("down")))
-        return JSONResponse({"pen": "down" if body.get("down") else "up"})
+            raise PlotBusy(f"{port} is plotting; its controls wait until the plot is done or stopped")
+        said = await run_in_threadpool(studio.controls.press, port_url(port, profile, studio.sim_speed), profile,
+                                       action, dx, dy)
+        return JSONResponse({"said": said})
 
     async def plot_paths(request: Request):
         from pencilbot.studio.drawn_json import job_drawing
@@ -209,7 +246,7 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         Route("/api/events", events),
         Route("/api/plot", _refusals(plot), methods=["POST"]),
         Route("/api/plot/{button}", _refusals(plot_button), methods=["POST"]),
-        Route("/api/pen", _refusals(pen), methods=["POST"]),
+        Route("/api/machine/{action}", _refusals(machine), methods=["POST"]),
         Route("/api/plot-paths", _refusals(plot_paths)),
         Mount("/static", StaticFiles(directory=STATIC)),
     ]

@@ -19,6 +19,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from multiprocessing.process import BaseProcess
 from pathlib import Path
 
 import numpy as np
@@ -77,7 +78,7 @@ def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
         style, pens = coarse(style, pens)
         dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
     drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
-    result = {"preview_png": png_bytes(preview_image(plan, dpi)),
+    result: dict[str, object] = {"preview_png": png_bytes(preview_image(plan, dpi)),
               "sketch_png": png_bytes(drawing.result)}
     if stage == "full":
         figures = {"paths": sum(len(layer.paths) for layer in plan.layers),
@@ -135,7 +136,7 @@ class Planner:
         self.stages = stages
         self.generation = 0
         self._lock = threading.Lock()
-        self._process = None
+        self._process: BaseProcess | None = None
         self._context = multiprocessing.get_context("forkserver")
         self._context.set_forkserver_preload(_PRELOAD)
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -43,22 +44,38 @@ class WebKeys:
 
 
 class WebOperator:
-    """The person at the page: answers the driver's prompts through :attr:`PlotSession.prompt`."""
+    """The person at the page: answers the driver's prompts through :attr:`PlotSession.prompt`.
+
+    Each prompt has its own ``id``; an answer counts only for the prompt it names (the page sends
+    the id of the dialog it showed), so a double click, or a press that arrives late, can never
+    answer the next prompt (a skipped pen change draws one colour with another pen)."""
 
     def __init__(self, session: PlotSession):
         self.session = session
         self.answers: queue.Queue[tuple] = queue.Queue()
+        self.asked = 0
+
+    def answer(self, prompt, *answer) -> None:
+        """An answer to the prompt whose ``id`` is ``prompt`` (None: the prompt open now)."""
+        current = self.session.prompt
+        if prompt is None and current is not None:
+            prompt = current["id"]
+        self.answers.put((prompt, *answer))
 
     def _ask(self, kind: str, text: str, **extra):
-        self.session.set(prompt={"kind": kind, "text": text, **extra})
+        self.asked += 1
+        asked = self.asked
+        self.session.set(prompt={"kind": kind, "text": text, "id": asked, **extra})
         try:
             while True:
                 if self.session.stop_requested.is_set():
                     raise Interrupted(STOP_BY)
                 try:
-                    yield self.answers.get(timeout=_WAIT)
+                    prompt, *answer = self.answers.get(timeout=_WAIT)
                 except queue.Empty:
                     continue
+                if prompt == asked:  # an answer to an earlier dialog is dropped
+                    yield answer
         finally:
             self.session.set(prompt=None)
 
@@ -85,7 +102,7 @@ class PlotSession:
     profile: str
     gcode: Path
     url: str
-    on_change: object = None
+    on_change: Callable[[], None] | None = None
     status: str = "starting"
     record: dict = field(default_factory=dict)
     prompt: dict | None = None
@@ -134,29 +151,34 @@ class PlotSession:
         from pencilbot.driver.journal import journal_path
 
         try:
-            result = api.draw(self.gcode if not resume else self.gcode, self.url, profile=self.profile,
+            result = api.draw(self.gcode, self.url, profile=self.profile,
                               operator=self.operator, keys=self.keys, on_progress=self._listen,
                               resume=journal_path(self.gcode) if resume else None)
             self.set(status="done", message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",
                      record={**self.record, "percent": 100.0, "eta_s": 0.0})
         except PencilbotError as err:
-            self.set(status="stopped", message=str(err), resumable=journal_path(self.gcode).is_file())
+            from pencilbot.studio.words import page_words
+
+            resumable = journal_path(self.gcode).is_file()
+            self.set(status="stopped", message=page_words(str(err), self.gcode, resumable), resumable=resumable)
         except Exception as err:  # noqa: BLE001 - the page must hear of anything, not a silent thread
             self.set(status="stopped", message=f"the plot stopped: {err!r}")
 
     # --- the page's buttons ----------------------------------------------------------------
 
-    def press(self, button: str, dx: float = 0.0, dy: float = 0.0) -> None:
-        """``pause`` (toggles hold), ``stop``, ``go`` (answer a prompt), ``jog``, ``give up``."""
+    def press(self, button: str, dx: float = 0.0, dy: float = 0.0, prompt=None) -> None:
+        """``pause`` (toggles hold), ``stop``, ``go`` (answer a prompt), ``jog``, ``give up``;
+        ``go``, ``jog`` and ``give up`` answer only the prompt whose ``id`` is ``prompt`` (None:
+        the one open now)."""
         if button == "stop":
             self.stop_requested.set()
             self.keys.press("stop")
         elif button == "pause":
             self.keys.press("pause")
         elif button in ("go", "give up"):
-            self.operator.answers.put((button,))
+            self.operator.answer(prompt, button)
         elif button == "jog":
-            self.operator.answers.put(("jog", dx, dy))
+            self.operator.answer(prompt, "jog", dx, dy)
 
 
 class Plotters:
@@ -197,13 +219,3 @@ class Plotters:
 
 class PlotBusy(PencilbotError):
     """A plotter that is plotting already (or has nothing to resume)."""
-
-
-def pen_test(url: str, profile: str, down: bool) -> None:
-    """Put the pen of the plotter at ``url`` down or up (the profile's own pen commands)."""
-    from pencilbot import api
-    from pencilbot.machine.profile import load_profile
-
-    pen = load_profile(profile).pen_model
-    lines = list(pen.down_lines if down else pen.up_lines)
-    api.draw(lines, url, profile=profile, source="the pen test")

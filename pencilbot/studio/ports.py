@@ -24,7 +24,8 @@ def plotter_ports(extra: tuple[str, ...] = ()) -> list[dict]:
 
 
 def port_url(port: str, profile: str, sim_speed: float) -> str:
-    """What to open for ``port``: the virtual plotter gets the profile and its speed over real time."""
+    """What to open for ``port``: the virtual plotter gets the profile and its speed over real time,
+    and a board of its own per profile (a board made for one firmware must not answer another's)."""
     if port != VIRTUAL:
         return port
-    return "sim://studio?" + urllib.parse.urlencode({"profile": profile, "realtime": f"{sim_speed:g}"})
+    return f"sim://studio-{profile}?" + urllib.parse.urlencode({"profile": profile, "realtime": f"{sim_speed:g}"})

@@ -6,29 +6,38 @@ import socket
 import sys
 import threading
 import webbrowser
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from pencilbot.driver import stop_signals
 from pencilbot.errors import PencilbotError
 from pencilbot.studio.guard import is_loopback, new_token
+
+if TYPE_CHECKING:
+    from pencilbot.studio.state import Studio
 
 
 @dataclass
 class Running:
     """A studio being served: its state, uvicorn's server, the URL to open (with any token)."""
 
-    studio: object
-    server: object
+    studio: Studio
+    server: Any  # uvicorn.Server (uvicorn ships no types)
     url: str
     sock: socket.socket
 
-    def serve(self) -> None:
-        """Serve until :meth:`stop` (or Ctrl-C in the main thread)."""
+    def serve(self) -> list[str]:
+        """Serve until :meth:`stop` or a stop signal (in the main thread: Ctrl-C, SIGTERM, SIGHUP,
+        SIGQUIT); every plot then stops with the pen up. Returns what to tell the person: each
+        stopped plot kept, and how to resume it (see :meth:`Studio.close`)."""
         try:
             self.server.run(sockets=[self.sock])
         finally:
-            self.studio.close()
+            said = self.studio.close()
             self.sock.close()
+        return said
 
     def stop(self) -> None:
         self.studio.closing = True
@@ -42,6 +51,7 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     import uvicorn
 
     from pencilbot.studio.app import create_app
+    from pencilbot.studio.connections import HeaderTimeoutProtocol
     from pencilbot.studio.state import Studio
 
     token = None if is_loopback(host) else new_token()
@@ -66,13 +76,23 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     app = create_app(studio, host=host, port=bound, token=token)
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
-    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2)
+    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2,
+                            http=HeaderTimeoutProtocol)
 
     class Server(uvicorn.Server):
-        def handle_exit(self, sig, frame):  # Ctrl-C: the page's event streams end first
-            studio.closing = True
+        @contextmanager
+        def capture_signals(self):
+            """The stop signals of every plot (:mod:`pencilbot.driver.stop_signals`), not
+            uvicorn's two: each ends the server as Ctrl-C does, and none is raised again after
+            (uvicorn's re-raised SIGTERM killed the process before a plot's pen was lifted)."""
+            with stop_signals.caught(self.stop_by):
+                yield
+
+        def stop_by(self, by: str) -> None:
+            studio.closing = True  # the page's event streams end first
             studio.changed()
-            super().handle_exit(sig, frame)
+            self.force_exit = self.should_exit  # a second signal: do not wait for connections
+            self.should_exit = True
 
     return Running(studio, Server(config), url, sock)
 
@@ -103,4 +123,5 @@ def serve(photo: Path | None = None, *, port: str | None = None, profile: str = 
     print(f"pencilbot studio: {running.url}  (Ctrl-C stops the server{note})", file=out or sys.stdout, flush=True)
     if browser:
         threading.Timer(0.5, webbrowser.open, args=(running.url,)).start()
-    running.serve()
+    for line in running.serve():
+        print(f"pencilbot studio: {line}", file=out or sys.stdout, flush=True)

@@ -7,13 +7,16 @@ plot and its journal); nothing the page sends is used as a path.
 from __future__ import annotations
 
 import shutil
-from dataclasses import asdict
+import struct
 import tempfile
 import threading
+import time
+from dataclasses import asdict
 from pathlib import Path
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS
+from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage
+from pencilbot.studio.machine import Controls
 from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import Planner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
@@ -33,14 +36,17 @@ class Studio:
         self.closing = False  # the server is stopping: event streams end
         self._changed = threading.Condition()
         self.photo: Path | None = None
-        self.small = None
+        self.small: LoadedImage | None = None
         self.photo_name = ""
         self.thumbnail = b""
         self.options = DrawingOptions(profile=profile)
         self.results: dict[str, StageResult] = {}
         self.planner = Planner(self._on_result, **({"stages": stages} if stages else {}))
         self.plotters = Plotters(on_change=self.changed)
+        self.controls = Controls()  # the machine controls' open port
         self._uploads = 0
+        self.photo_number = 0  # photos taken: a page shows a new one when this grows
+        self.photo_info: dict | None = None
 
     def changed(self) -> None:
         with self._changed:
@@ -53,18 +59,28 @@ class Studio:
             self._changed.wait_for(lambda: self.version != seen, timeout=timeout)
             return self.version
 
-    def close(self) -> None:
-        """Stop planning and every plot (pen up: a plot must not go on unwatched), remove the folder."""
+    def close(self) -> list[str]:
+        """Stop planning and every plot (pen up: a plot must not go on unwatched), keep each
+        stopped plot's G-code and journal in the user's state folder (they are all that resumes
+        it), remove the server's folder. Returns what to tell the person: each kept plot and the
+        command that resumes it."""
         self.closing = True
         self.changed()
         self.planner.cancel()
+        self.controls.release()
         for session in self.plotters.sessions.values():
             if session.active:
                 session.press("stop")
         for session in self.plotters.sessions.values():
             if session.thread is not None:
                 session.thread.join(timeout=30)
+        said = []
+        for session in self.plotters.sessions.values():
+            if session.resumable and session.gcode.is_file():
+                said.append(f"the plot on {session.port} stopped with the pen up; "
+                            f"{keep_stopped(session.gcode, session.port)}")
         shutil.rmtree(self.folder, ignore_errors=True)
+        return said
 
     # --- making the drawing ----------------------------------------------------------------
 
@@ -78,9 +94,13 @@ class Studio:
         path = self.folder / f"photo-{self._uploads}"
         path.write_bytes(data)
         try:
-            with Image.open(path) as img:
+            with Image.open(path) as img:  # the header only: nothing is decoded before the checks
                 width, height = img.size
-        except (UnidentifiedImageError, OSError, ValueError):
+        except Image.DecompressionBombError:
+            path.unlink(missing_ok=True)
+            raise TooLarge(f"the photo has more pixels than the {DEFAULT_MAX_PIXELS:,} pencilbot reads "
+                           "(more than the image library even opens); shrink it first") from None
+        except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError, IndexError, struct.error):
             path.unlink(missing_ok=True)
             raise PencilbotError("that file is not an image pencilbot can read; give a PNG, JPEG, TIFF, BMP or WebP file") from None
         if width * height > DEFAULT_MAX_PIXELS:
@@ -94,8 +114,10 @@ class Studio:
         self.thumbnail = png_bytes(small.rgb)
         self.small = small  # the coarse stage plans this, not the file: no decoding per change
         self.photo, self.photo_name = path, name[:200]
+        self.photo_number += 1
+        self.photo_info = {"name": self.photo_name, "width": width, "height": height, "number": self.photo_number}
         self.plan()
-        return {"name": self.photo_name, "width": width, "height": height}
+        return self.photo_info
 
     def set_options(self, options: DrawingOptions) -> int:
         self.options = options
@@ -124,9 +146,26 @@ class Studio:
         stages = {name: {"generation": r.generation, "figures": r.figures, "error": r.error,
                          "seconds": round(r.seconds, 3)} for name, r in self.results.items()}
         return {"version": self.version, "generation": self.planner.generation, "options": asdict(self.options),
-                "photo": self.photo_name if self.photo else None, "stages": stages,
+                "photo": self.photo_info, "stages": stages,
                 "plots": self.plotters.summary()}
 
 
 class TooLarge(PencilbotError):
     """An upload over the size or pixel limit (413)."""
+
+
+def keep_stopped(gcode: Path, port: str) -> str:
+    """Copy a stopped plot's G-code out of the server's folder into the user's state folder,
+    its journal beside it (naming the copy); the sentence that says where and how to resume."""
+    from pencilbot.driver import journal as journal_mod
+
+    journal = journal_mod.load_journal(journal_mod.journal_path(gcode))
+    folder = journal_mod.state_dir()
+    folder.mkdir(parents=True, exist_ok=True)
+    kept = folder / f"studio-{time.strftime('%Y%m%d-%H%M%S')}-{gcode.name}"
+    shutil.copyfile(gcode, kept)
+    journal.gcode, journal.path = str(kept.resolve()), journal_mod.journal_path(kept)
+    journal.port = journal.port or port
+    journal.resume = journal_mod.resume_command(journal)
+    journal.save()
+    return f"its G-code and journal are kept in {folder}. Resume with: {journal.resume}"

@@ -25,7 +25,7 @@ ALLOWED: dict[str, set[str]] = {
     "pencilbot.paths": set(),
     "pencilbot.colors": set(),
     "pencilbot.fileio": {"pencilbot.errors"},
-    "pencilbot.configs_io": {"pencilbot.errors"},
+    "pencilbot.configs_io": {"pencilbot.errors", "pencilbot.fileio"},  # (files read bounded)
     "pencilbot.schema": {"pencilbot.errors"},
     "pencilbot.render": BASE | {"pencilbot.fileio"},
     "pencilbot.imaging": BASE | {"pencilbot.fileio"},

@@ -68,7 +68,7 @@ def test_demo_stat_header_and_simulator_agree(name, photo, tmp_path, capsys):
 @pytest.mark.parametrize("name", [n for n in list_profiles() if _hpgl(n)])
 def test_hpgl_demo_stat_and_simulator_agree(name, photo, tmp_path, capsys):
     """An HP-GL plotter: demo writes drawing.hpgl; stat of it reads back the plan's strokes (to a
-    plotter unit of 0.025 mm) and the virtual plotter takes the estimated time."""
+    plotter unit) and the virtual plotter takes the estimated time."""
     out = tmp_path / "demo"
     demo = run_json(["demo", "--input", str(photo), "--out", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
     stat = run_json(["stat", str(out / "plan.svg"), "--profile", name, "--json"], capsys)["total"]

@@ -71,8 +71,8 @@ def test_a_bad_value_is_one_line_naming_the_option(capsys, command, option, boun
     (["plan", "{photo}", "-o", "{out}", "--page", "100000x100000"], "a 100000 x 100000 mm page with a 0.5 mm pen needs about"),
 ])
 def test_the_reported_cases_are_one_message(tmp_path, capsys, argv, words):
-    from PIL import Image
     import numpy as np
+    from PIL import Image
 
     photo = tmp_path / "p.png"
     Image.fromarray(np.full((40, 60), 128, np.uint8)).save(photo)
@@ -99,8 +99,8 @@ def test_a_render_bigger_than_memory_is_refused_before_it_is_allocated(tmp_path,
     ["demo", "{photo}", "-o", "{tmp}/demo", "--page", "3000x3000", "--pen-width", "50"],
 ])
 def test_a_page_whose_preview_would_not_fit_is_refused_before_planning(tmp_path, capsys, monkeypatch, argv):
-    from PIL import Image
     import numpy as np
+    from PIL import Image
 
     from pencilbot.commands import common
 

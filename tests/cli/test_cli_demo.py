@@ -10,9 +10,9 @@ from gcodeparser import parse_gcode_lines
 from skimage import io as skio
 
 from pencilbot.cli import main
-from pencilbot.machine.profile import load_profile
-from pencilbot.machine.bed import Placement
 from pencilbot.export.svg_read import read_svg
+from pencilbot.machine.bed import Placement
+from pencilbot.machine.profile import load_profile
 
 PROFILE = "grbl-servo-a4"
 

@@ -4,11 +4,11 @@ reordered (or kept with --keep-order), and `pencilbot optimize` on them."""
 import json
 from pathlib import Path
 
+import drawings
 import numpy as np
 import pytest
 from gcodeparser import parse_gcode_lines
 
-import drawings
 from pencilbot.cli import main
 from pencilbot.export.svg_read import is_plan_svg, read_svg
 

@@ -60,7 +60,7 @@ def test_plotink_talks_to_sim_serve_as_to_a_real_board(served, caplog):
         ebb_serial.closePort(port)
     assert not [r for r in caplog.records if r.levelno >= logging.ERROR]  # every reply as plotink expects
     proc.send_signal(signal.SIGINT)
-    stdout, stderr = proc.communicate(timeout=20)
+    _stdout, stderr = proc.communicate(timeout=20)
     assert proc.returncode == 0, stderr
     ink = 1 - np.asarray(Image.open(out).convert("L"), dtype=float) / 255
     assert ink.max() > 0.5  # the L drawn with the pen down is on the bed

@@ -13,9 +13,9 @@ from skimage.transform import resize
 
 from pencilbot.cli import main
 from pencilbot.configs_io import config_folder
+from pencilbot.export.svg import write_svg
 from pencilbot.machine.profile import list_profiles, load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.export.svg import write_svg
 
 
 @pytest.fixture(scope="module")

@@ -30,8 +30,7 @@ from pencilbot.cli import main
 from pencilbot.commands import build_parser
 from pencilbot.configs_io import config_folder
 from pencilbot.errors import PencilbotError
-from pencilbot.export import svg_read
-from pencilbot.export import svg_straight
+from pencilbot.export import svg_read, svg_straight
 from pencilbot.export.svg_checks import MAX_DRAWING_MM
 
 LIMIT = 2 << 30  # bytes of address space the child may have
@@ -196,7 +195,7 @@ CASES = [
     (["plan", "p.png", "-o", "x.svg", "--page", "2500x2500"], ["x.svg"]),
     # Usage mistakes: one line, not argparse's usage text.
     (["plan", "--page", "-1x-1", "p.png", "-o", "x.svg"], ["x.svg"]),
-    (["plan", "p.png"], []),
+    (["plan"], []),  # no INPUT (-o has a default: beside the input)
     (["frobnicate"], []),
 ]
 

@@ -68,7 +68,7 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["simulate", "{missing}", "-o", "{out}"], "does not exist"),
+        (["simulate", "{missing}", "-o", "{out}"], "no such file"),
         (["simulate", "{src}", "-o", "{tmp}/plot.jpg"], ".png"),
         (["simulate", "{src}", "-o", "{out}", "--profile", "marlin-servo-a4"], "GRBL"),
         (["simulate", "{src}", "-o", "{out}", "--profile", "nope"], "nope"),
@@ -184,8 +184,8 @@ def test_simulate_a_photo(tmp_path):
 
 
 def test_simulate_a_plan_svg_draws_its_paths(tmp_path):
-    from pencilbot.planning.plan import Layer, Page, Plan
     from pencilbot.export.svg import write_svg
+    from pencilbot.planning.plan import Layer, Page, Plan
 
     plan = Plan(Page(210.0, 297.0, margin=15.0, name="A4"),
                 [Layer("edges", [np.array([[50.0, 50.0], [150.0, 50.0], [150.0, 150.0]])], pen_width=0.5)])
@@ -273,6 +273,27 @@ def test_sim_serve_saves_its_drawing_on_sigterm(tmp_path):
     assert "12 lines accepted" in stdout and ink(out).max() > 0.5
 
 
+def test_sim_serve_stops_on_sigint_even_started_ignoring_it(tmp_path):
+    # A script's background job starts with SIGINT ignored; sim-serve still ends on it, saving
+    # its drawing (before, it went on serving and the test's child was left running).
+    out = tmp_path / "served.png"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", "-o", str(out)],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    try:
+        stream(proc.stdout.readline().strip(), SQUARE.splitlines())
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=20)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, stderr
+    assert "12 lines accepted" in stdout and ink(out).max() > 0.5
+
+
 def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
     out = tmp_path / "served.png"
     proc, path = serve(tmp_path, "--faults", "drop@3", "-o", str(out))
@@ -345,7 +366,7 @@ def test_sim_serve_outlives_its_senders_and_saves_what_they_drew_on_sigterm(tmp_
             assert drawn.returncode == 0, drawn.stderr
     finally:
         proc.send_signal(signal.SIGTERM)
-        stdout, stderr = proc.communicate(timeout=20)
+        _stdout, stderr = proc.communicate(timeout=20)
     assert proc.returncode == 0, stderr
     dark = ink(out)
     rows = dark.shape[0]

@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 from pencilbot.cli import main
-from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
-from pencilbot.planning.stats import estimate
-from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.export.svg import write_svg
 from pencilbot.export.svg_read import read_svg
+from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.stats import estimate
 
 
 @pytest.fixture
@@ -67,7 +67,7 @@ def test_table_lists_every_layer_and_the_total(plan_file):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["stat", "missing.svg"], "does not exist"),
+        (["stat", "missing.svg"], "no such file"),
         (["stat", "{plan}", "--profile", "no-such-plotter"], "no plotter profile"),
     ],
 )
@@ -135,7 +135,8 @@ def test_stat_reads_another_tools_gcode(tmp_path, capsys):
 
 def test_stat_of_gcode_whose_pen_never_goes_down_says_which_profile_to_give(tmp_path, capsys):
     path = tmp_path / "z.gcode"
-    path.write_text("G21\nG90\nG0 Z5\nG0 X10 Y10\nG1 Z0\nG1 X20\nG0 Z5\n")
+    # On grbl-z-a3's bed (homed at the far corner: X and Y run negative), as stat checks like draw.
+    path.write_text("G21\nG90\nG0 Z5\nG0 X-10 Y-10\nG1 Z0\nG1 X-20\nG0 Z5\n")
     assert main(["stat", str(path)]) == 2  # the default profile's pen is a servo on M3 S…
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "the pen never goes down" in err and "--profile" in err

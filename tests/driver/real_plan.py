@@ -13,18 +13,17 @@ profile by today's writer.
 
 from __future__ import annotations
 
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
 
 import pencilbot
 
-
 PLAN = Path(__file__).with_name("data") / "coffee-40x30.svg"
 
 
-@lru_cache(maxsize=None)
+@cache
 def plan_lines(profile: str = "grbl-servo-a4") -> tuple[str, ...]:
     """The G-code lines of the frozen plan of coffee (every 12th pixel on a 40 × 30 mm sheet,
     margin 2 mm) for ``profile``."""

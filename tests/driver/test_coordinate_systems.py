@@ -14,7 +14,6 @@ from pencilbot.driver.drawn import drawn_paths
 from pencilbot.driver.job import load_job
 from pencilbot.driver.modal import ModalState, advance, clean_line, track
 from pencilbot.machine.profile import load_profile
-
 from sim import protocol_sim
 from sim.machine import Machine
 
@@ -107,7 +106,7 @@ def test_offsets_that_keep_the_drawing_on_the_bed_draw_where_the_board_puts_them
 def test_a_start_line_after_an_offset_is_refused_before_anything_is_sent(capsys, tmp_path):
     lines = ["G21", "G90", "G0 X50 Y60", "G92 X0 Y0", "G0 X10 Y10", "G92.1", "G0 X10 Y10"]
     code, err, name, path = draw_cli(capsys, tmp_path, lines, "--start-line", "5")
-    assert code == 3 and err.startswith(f"pencilbot: error: line 5 of {path} comes after lines that change the "
+    assert code == 2 and err.startswith(f"pencilbot: error: line 5 of {path} comes after lines that change the "
                                         "work coordinates (G92, G10, G54-G59), which a resume cannot restore")
     assert name not in protocol_sim._PLOTTERS
     code, err, name, _ = draw_cli(capsys, tmp_path, lines, "--start-line", "7")  # G92.1: machine again

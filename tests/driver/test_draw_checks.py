@@ -23,7 +23,6 @@ from pencilbot.errors import OutOfBedError
 from pencilbot.export.gcode import write_gcode
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
-
 from sim import protocol_sim
 
 BED = load_profile(PROFILE).bed  # X 0 .. 220, Y 0 .. 310 mm
@@ -122,13 +121,13 @@ def test_the_profile_comes_from_the_file_s_header(tmp_path, capsys, monkeypatch)
     assert main(["draw", str(path), "--port", url, "-q"]) == 0
     assert not path.with_name(path.name + ".job.json").exists()  # finished: no journal is left
     accepted = protocol_sim.plotter(name).firmware.accepted_lines()
-    assert any(line.startswith("G0Z") or line.startswith("G1Z") for line in accepted)  # the Z pen's commands
+    assert any(line.startswith(("G0Z", "G1Z")) for line in accepted)  # the Z pen's commands
     assert not any(line.startswith("M3") for line in accepted)
 
 
 def test_a_profile_other_than_the_header_s_is_refused_with_what_to_do(tmp_path, capsys):
     path = exported(tmp_path, "grbl-z-a3")
-    assert main(["draw", str(path), "--port", "sim://", "--profile", "grbl-servo-a4"]) == 3
+    assert main(["draw", str(path), "--port", "sim://", "--profile", "grbl-servo-a4"]) == 2
     err = capsys.readouterr().err
     assert err == (
         f"pencilbot: error: {path} was made for plotter profile grbl-z-a3 (line 1 of its header), not "
@@ -143,14 +142,14 @@ def test_simulate_takes_the_header_s_profile_too_and_refuses_another(tmp_path, c
     assert main(["simulate", str(path), "-o", str(out), "--dpi", "20"]) == 0
     assert "on grbl-z-a3" in capsys.readouterr().out
     # Named, even as the default profile, it must be the file's.
-    assert main(["simulate", str(path), "-o", str(out), "--profile", "grbl-servo-a4"]) == 3
+    assert main(["simulate", str(path), "-o", str(out), "--profile", "grbl-servo-a4"]) == 2
     assert "was made for plotter profile grbl-z-a3" in capsys.readouterr().err
 
 
 def test_a_header_naming_an_unknown_profile_asks_for_one(tmp_path, capsys):
     path = tmp_path / "theirs.gcode"
     path.write_text("; pencilbot G-code for someone-elses (grbl)\n; source: x\n; profile: /nowhere/theirs.toml\nG21\n")
-    assert main(["draw", str(path), "--port", "sim://"]) == 3
+    assert main(["draw", str(path), "--port", "sim://"]) == 2
     err = capsys.readouterr().err
     assert "made for plotter profile someone-elses" in err and "--profile" in err and "Traceback" not in err
 

@@ -155,7 +155,7 @@ def test_a_lost_cable_resumes_exactly_once_from_the_step_counters(coffee, clean,
 
 
 def test_a_power_cut_is_refused_until_the_position_is_known_again(coffee, name, tmp_path):
-    _, _, path, reference = coffee
+    _, _, path, _reference = coffee
     job = tmp_path / "coffee.gcode"
     job.write_bytes(path.read_bytes())
     port = f"sim://{name}?profile={PROFILE}&faults=reset@700"

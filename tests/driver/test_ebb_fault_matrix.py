@@ -3,7 +3,7 @@ an uninterrupted run — or in a refusal until the position is re-established, a
 
 As :mod:`test_fault_matrix` does for GRBL: a real plan (coffee, :mod:`real_plan`), each fault
 delivered by the virtual EBB at an exact command (``faults=``: a lost answer, the cable pulled
-with the board's power, a power cut, and Ctrl-C or SIGTERM as the signal the sender gets once
+with the board's power, a power cut, and Ctrl-C, SIGTERM or SIGHUP as the signal the sender gets once
 the board took that command); the board runs instantly and only as far as the sender's
 commands and queries take it, and the driver's status queries come by the motion it sent, not
 by the clock, so every run strikes the same command at the same place. The drawings are
@@ -16,16 +16,16 @@ from __future__ import annotations
 
 import itertools
 
+import hands
 import numpy as np
 import pytest
-import hands
 from real_plan import plan_lines
 from segments import drawing_differences
 
+import sim
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
-import sim
 from sim import protocol_sim
 
 PROFILE = "axidraw-v3"
@@ -40,8 +40,10 @@ FAULTS = {
     "power cycle": ("reset", True),
     "Ctrl-C": ("interrupt", False),
     "SIGTERM": ("interrupt:15", False),
+    "SIGHUP": ("interrupt:1", False),  # the terminal closed: as Ctrl-C (it left the pen down before)
 }
-STOPPED_BY = {"Ctrl-C": "stopped by Ctrl-C", "SIGTERM": "stopped by SIGTERM", "lost reply": "did not answer",
+STOPPED_BY = {"Ctrl-C": "stopped by Ctrl-C", "SIGTERM": "stopped by SIGTERM", "SIGHUP": "stopped by SIGHUP",
+              "lost reply": "did not answer",
               "unplug": "did not report where the pen stopped", "power cycle": "position is lost"}
 
 

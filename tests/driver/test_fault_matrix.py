@@ -18,14 +18,15 @@ move (the virtual plotter records it) is the only ink allowed beyond the referen
 """
 
 import itertools
-import re
 import json
 import pathlib
+import re
 import threading
 
 import numpy as np
 import pytest
 from real_plan import plan_lines
+from segments import assert_same_drawing, drawing_differences
 from test_stream_sim import HandOnTheMachine, drawn
 
 from pencilbot.driver import draw
@@ -36,7 +37,6 @@ from sim import protocol_sim
 from sim.faults import Faults
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
-from segments import assert_same_drawing, drawing_differences
 
 PROFILE = "grbl-servo-a4"
 WAKE_LINES = 4  # empty lines the driver's wake-up sends first (the board logs them)

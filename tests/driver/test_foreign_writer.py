@@ -13,7 +13,6 @@ from test_stream_sim import PROFILE, drawing
 
 from pencilbot.cli import main
 from pencilbot.machine.profile import load_profile
-
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
 

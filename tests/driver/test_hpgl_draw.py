@@ -24,7 +24,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.planning.stats import estimate
 from sim import protocol_sim
 
-UNIT = 0.025
+UNIT = load_profile("hp7475a").paper.unit_mm  # mm per plotter unit (0.02488 on the 7475A)
 
 
 @pytest.fixture(scope="module")
@@ -62,7 +62,7 @@ def test_coffee_round_trip_every_stroke_once_to_a_plotter_unit(coffee, tmp_path)
     # Plot time: the simulator's clock against the one estimate, within 2 %.
     seconds = estimate(plan, profile).total.seconds
     assert abs(board.clock / seconds - 1) < 0.02, (board.clock, seconds)
-    assert board.overflows == 0 and board.max_fill <= profile.receive_buffer
+    assert board.overflows == 0 and board.max_fill <= profile.receive_buffer - 128
     # stat reads the file back into the same strokes (page mm).
     back = hpgl_plan(target, profile)
     assert len(back.paths()) == len(paths)
@@ -179,7 +179,7 @@ def test_a_reset_after_everything_was_sent_is_caught_though_the_pen_ends_at_home
     with pytest.raises(PlotError, match="lost its place"):
         draw(target, port, profile="hp7475a")
     board = protocol_sim.plotter("hpgl-home").board
-    assert [s.tolist() for s in board.strokes] == [[[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]]]  # the last line: never
+    assert [s.tolist() for s in board.strokes] == (np.array([[[400, 400], [800, 400], [800, 800]]]) * UNIT).tolist()  # the last line: never
     assert (board.x, board.y, board.down) == (0, 0, False)
     journal = load_journal(target)
     assert journal.status == "stopped" and journal.stop_work is None
@@ -269,3 +269,16 @@ def test_a_pen_change_with_nobody_at_the_terminal_stops_and_the_resume_asks_for_
         "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)"]
     assert board.stroke_pens == [1, 2, 3, 4, 5, 6, 1, 2]
     assert drawing_differences(board.strokes, reference, tolerance=UNIT) == []
+
+
+def test_the_buffer_is_never_filled_to_the_brim(tmp_path):
+    """A real 7475A filled to exactly the free bytes ESC.B reported overflowed: the sender keeps
+    128 bytes (the plotter's XON threshold) free, and still keeps the rest of the buffer busy."""
+    sim.register()
+    target = tmp_path / "long.hpgl"
+    target.write_bytes(b"IN;SP1;" + b"".join(b"PU%d,400;PD%d,2000,%d,2000;" % (400 + 3 * i, 400 + 3 * i, 410 + 3 * i)
+                                            for i in range(150)) + b"PU;SP0;")
+    draw(target, _fresh("hpgl-brim").replace("profile=", "tick=0.5&profile="), profile="hp7475a")
+    board = protocol_sim.plotter("hpgl-brim").board
+    size = load_profile("hp7475a").receive_buffer
+    assert board.overflows == 0 and size - 128 - 32 <= board.max_fill <= size - 128

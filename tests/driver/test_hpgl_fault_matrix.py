@@ -4,7 +4,7 @@ exactly it.
 
 As :mod:`test_fault_matrix` does for GRBL: a real plan (coffee), each fault delivered by the
 virtual 7475A as it starts an exact instruction (``faults=``: a lost answer, the RS-232 cable
-pulled, a power cycle, and Ctrl-C or SIGTERM as the signal the sender gets), on the poll clock
+pulled, a power cycle, and Ctrl-C, SIGTERM or SIGHUP as the signal the sender gets), on the poll clock
 (``tick``: plotter time passes only per ``ESC.B`` answered), so the buffer holds the same
 instructions at the fault in every run, whatever the host's speed. The drawings are compared as
 multisets of pen-down segments (:mod:`segments`) to half a plotter unit: a resume from a point
@@ -16,8 +16,8 @@ from __future__ import annotations
 import itertools
 from dataclasses import replace
 
-import pytest
 import hands
+import pytest
 import skimage.data
 from segments import drawing_differences
 
@@ -30,7 +30,7 @@ from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
 
 PROFILE = "hp7475a"
-UNIT = 0.025
+UNIT = load_profile(PROFILE).paper.unit_mm  # mm per plotter unit
 TICK = "tick=0.1"  # plotter seconds per ESC.B: the buffer (1024 bytes) stays full while streaming
 _names = itertools.count()
 
@@ -45,6 +45,7 @@ FAULTS = {
     "power cycle at the last line": ("reset", "lost its place", True),
     "Ctrl-C": ("interrupt", "stopped by Ctrl-C; stopped after instruction", False),
     "SIGTERM": ("interrupt:15", "stopped by SIGTERM; stopped after instruction", False),
+    "SIGHUP": ("interrupt:1", "stopped by SIGHUP; stopped after instruction", False),
 }
 
 

@@ -8,7 +8,6 @@ import pytest
 from test_stream_sim import PROFILE, drawing, fresh
 
 from pencilbot.cli import main
-
 from sim import protocol_sim
 
 
@@ -70,7 +69,7 @@ def test_a_tampered_journal_is_one_message_and_nothing_is_sent(stopped, capsys, 
     sent = len(protocol_sim.plotter(name).firmware.log)
     code = main(["draw", "--resume", str(journal), "--port", port, "-q"])
     err = capsys.readouterr().err
-    assert code == 3, err
+    assert code == 2, err
     assert err.startswith(f"pencilbot: error: job journal {journal} is unreadable or was edited: {wrong}"), err
     assert "nothing was sent" in err and "--start-line N" in err and "--restart" in err
     assert err.count("\n") == 1 and "Traceback" not in err
@@ -78,12 +77,12 @@ def test_a_tampered_journal_is_one_message_and_nothing_is_sent(stopped, capsys, 
     # Drawing the file without --resume does not quietly replace that journal either.
     code = main(["draw", str(path), "--port", port, "-q"])
     err = capsys.readouterr().err
-    assert code == 3 and "--restart" in err and "Traceback" not in err, err
+    assert code == 2 and "--restart" in err and "Traceback" not in err, err
     assert len(protocol_sim.plotter(name).firmware.log) == sent
 
 
 def test_the_untampered_journal_resumes_and_finishes(stopped, capsys):
-    path, journal, port, name = stopped
+    _path, journal, port, _name = stopped
     code = main(["draw", "--resume", str(journal), "--port", port, "-q"])
     assert code == 0, capsys.readouterr().err
     assert not journal.exists()
@@ -106,6 +105,6 @@ def test_a_stop_point_is_checked_on_the_bed_through_the_file_s_work_offset_in_x_
         journal.write_text(json.dumps({**record, "stop_xy": stop_xy}))
         code = main(["draw", "--resume", str(journal), "--port", f"sim://{name}", "-q"])
         err = capsys.readouterr().err
-        assert code == 3 and (f"stop_xy {stop_xy} is off the bed" in err) == refused, err
+        assert code == 2 and (f"stop_xy {stop_xy} is off the bed" in err) == refused, err
         # (On the bed, the resume is refused for what it cannot restore: the G92.)
         assert refused or "change the work coordinates (G92, G10, G54-G59)" in err, err

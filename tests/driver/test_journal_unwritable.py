@@ -16,7 +16,6 @@ from test_stream_sim import PROFILE, drawing, fresh
 
 from pencilbot.cli import main
 from pencilbot.driver.journal import Journal, save_stopped
-
 from sim import protocol_sim
 
 

@@ -58,14 +58,14 @@ def test_a_pen_change_prompt_waits_for_enter_and_a_jog_follows_the_keys(tmp_path
 
 
 def test_the_pause_key_holds_a_running_plot_without_timing_out_and_the_stop_key_stops_it(tmp_path):
+    import pytest
+    from segments import assert_same_drawing
     from test_fault_matrix import LINES, MOVING, PROFILE, WAKE_LINES, drawn
     from test_stream_sim import HandOnTheMachine
 
-    import pytest
     from pencilbot.driver import draw
     from pencilbot.errors import PlotError
     from sim import protocol_sim
-    from segments import assert_same_drawing
 
     reference_name = "keys-ref"
     draw(LINES, f"sim://{reference_name}", profile=PROFILE, wake_wait=0.2)

@@ -4,6 +4,7 @@ exactly once, over ``sim://`` and over a pty (the file-descriptor path of a USB 
 
 import numpy as np
 import pytest
+from segments import assert_same_drawing
 from test_stream_sim import HandOnTheMachine, drawn
 
 from pencilbot.driver import draw
@@ -11,7 +12,6 @@ from pencilbot.export.gcode import write_gcode
 from pencilbot.machine.pens import load_pens
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
-from segments import assert_same_drawing
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
 

@@ -14,7 +14,6 @@ from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
-
 from sim import protocol_sim
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
@@ -99,7 +98,7 @@ def test_second_draw_on_a_pty_in_use_is_one_message_and_the_first_is_exact(long_
 
 
 def test_a_port_is_free_again_once_its_job_ends(long_job):
-    path, lines = long_job
+    _path, lines = long_job
     url, name = fresh()
     draw(lines, url, profile=PROFILE, wake_wait=0.2)
     draw(lines, f"sim://{name}", profile=PROFILE, wake_wait=0.2)  # no "in use": the first closed it

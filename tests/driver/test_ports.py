@@ -4,9 +4,8 @@ plotter answers."""
 
 from __future__ import annotations
 
-
 from pencilbot.cli import main
-from pencilbot.driver.ports import probe_all, PortInfo
+from pencilbot.driver.ports import PortInfo, probe_all
 from sim.protocol_sim import plotter_from_options
 from sim.pty_server import PtyServer
 
@@ -33,7 +32,7 @@ def test_a_port_that_is_not_there_is_said_so():
 def test_draw_port_auto_without_a_plotter_says_what_to_do(tmp_path, capsys, monkeypatch):
     from pencilbot.driver import ports
 
-    monkeypatch.setattr(ports, "list_ports", lambda: [])
+    monkeypatch.setattr(ports, "list_ports", list)
     job = tmp_path / "d.hpgl"
     job.write_bytes(b"IN;SP1;PU0,0;PD40,0;PU;SP0;\n")
     assert main(["draw", str(job), "--profile", "hp7475a", "--port", "auto"]) != 0

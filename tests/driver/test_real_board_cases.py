@@ -19,6 +19,7 @@ import threading
 import pytest
 from hands import SteppedHand
 from real_plan import plan_lines
+from segments import assert_same_drawing
 from test_stream_sim import drawn
 
 from pencilbot.driver import draw
@@ -29,7 +30,6 @@ from sim import protocol_sim
 from sim.faults import Faults
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer
-from segments import assert_same_drawing
 
 PROFILE = "grbl-servo-a4"
 WAKE_LINES = 4  # empty lines the driver's wake-up sends first (the board logs them)

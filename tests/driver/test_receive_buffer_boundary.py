@@ -7,12 +7,12 @@ exactly, and not one more when the next line would need 129.
 """
 
 import pytest
+
+import sim
 from pencilbot.driver.job import load_job
 from pencilbot.driver.port import LineReader, open_port
 from pencilbot.driver.stream import Stream
 from pencilbot.machine.profile import load_profile
-
-import sim
 from sim import protocol_sim
 
 sim.register()

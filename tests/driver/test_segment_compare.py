@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
+from real_plan import plan_lines
+from segments import assert_same_drawing, drawing_differences
 from test_stream_sim import PROFILE, drawing, drawn, fresh
 
 from pencilbot.driver import draw
-from real_plan import plan_lines
-from segments import assert_same_drawing, drawing_differences
 
 
 @pytest.fixture(scope="module")

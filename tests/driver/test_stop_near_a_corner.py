@@ -10,6 +10,7 @@ import itertools
 import numpy as np
 import pytest
 from real_plan import plan_lines
+from segments import assert_same_drawing
 from test_stream_sim import HandOnTheMachine, drawn
 
 from pencilbot.driver import draw
@@ -19,7 +20,6 @@ from pencilbot.driver.resume import REPORT_ROUNDING, StopLocator, locate_stop
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
-from segments import assert_same_drawing
 
 WAKE_LINES = 4  # empty lines the driver's wake-up sends first (the board logs them)
 _names = itertools.count()

@@ -13,12 +13,12 @@ the line clock, so the carriage is at the same point of the stroke in every run.
 import json
 
 import pytest
+from segments import assert_same_drawing
 from test_stream_sim import HandOnTheMachine, drawn
 
 from pencilbot.driver import draw
 from pencilbot.errors import PlotError
 from sim import protocol_sim
-from segments import assert_same_drawing
 
 PROFILE = "grbl-servo-a4"
 # Out along y = 10 to x = 40 at 50 mm/s, back over it to x = 15, then a zigzag up (lines enough

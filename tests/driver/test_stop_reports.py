@@ -27,7 +27,7 @@ def test_a_refused_line_the_board_ran_past_is_named_and_the_resume_continues_aft
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(lines) + "\n")
     refused = 7 + 30  # 0-based file line: the 31st short move
-    url, name = fresh(f"{TICK}&faults=error@{WAKE_LINES + refused + 1}")
+    url, _name = fresh(f"{TICK}&faults=error@{WAKE_LINES + refused + 1}")
     with pytest.raises(PlotError) as stop:
         draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
     message = str(stop.value)
@@ -40,7 +40,7 @@ def test_a_stop_that_cannot_prove_the_position_says_so(tmp_path):
     lines = drawing()
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(lines) + "\n")
-    url, name = fresh(f"{TICK}&faults=reset@{WAKE_LINES + 30}")  # the board restarts mid-job
+    url, _name = fresh(f"{TICK}&faults=reset@{WAKE_LINES + 30}")  # the board restarts mid-job
     with pytest.raises(PlotError) as stop:
         draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
     assert "The plotter cannot prove where the pen stopped, so the resume re-establishes its position first" in str(

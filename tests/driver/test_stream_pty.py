@@ -9,7 +9,6 @@ from pencilbot.cli import main
 from pencilbot.driver import draw
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
-
 from sim.faults import Faults
 from sim.protocol_sim import VirtualPlotter
 from sim.pty_server import PtyServer

@@ -14,16 +14,15 @@ import pytest
 import serial
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from segments import assert_same_drawing
 
+import sim
 from pencilbot.configs_io import config_folder
 from pencilbot.driver import draw
 from pencilbot.driver.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
-
-import sim
 from sim import protocol_sim
-from segments import assert_same_drawing  # noqa: F401 (shared with the other driver tests)
 
 sim.register()
 
@@ -139,7 +138,7 @@ FAULT_AT = 40  # board line index (4 empty wake lines come first): file line 36,
     ],
 )
 def test_fault_stops_with_one_message_naming_line_and_resume_command(job, kind, words, pen_up):
-    path, lines = job
+    path, _lines = job
     url, name = fresh(f"faults={kind}@{FAULT_AT}")
     with pytest.raises(PlotError) as info:
         draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5, send_and_wait=True)
@@ -182,7 +181,7 @@ def test_resume_after_fault_completes_the_same_drawing(job, reference, kind, sen
 
 
 def test_ctrl_c_holds_lifts_the_pen_and_says_how_to_resume(job, reference):
-    path, lines = job
+    path, _lines = job
     url, name = fresh("realtime=20")
     stop_at = 30
 
@@ -268,7 +267,7 @@ def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
 
 
 def test_a_finished_job_leaves_no_journal_so_a_resume_sends_nothing(job):
-    path, lines = job
+    path, _lines = job
     url, name = fresh()
     draw(path, url, profile=PROFILE, wake_wait=0.2)
     sent = len(protocol_sim.plotter(name).firmware.log)

@@ -17,10 +17,9 @@ from hypothesis import strategies as st
 
 from firmware_protocol.marlin import unframe_line
 from pencilbot.errors import OutOfBedError, PencilbotError
-from pencilbot.machine.bed import Bed
-from pencilbot.machine.profile import load_profile
 from pencilbot.export.gcode import gcode_lines, write_gcode
-from pencilbot.machine.bed import Placement
+from pencilbot.machine.bed import Bed, Placement
+from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
 
 A4 = Page(210.0, 297.0, margin=15.0, name="A4")

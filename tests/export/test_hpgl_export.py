@@ -44,7 +44,7 @@ def test_a_colour_plan_selects_carousel_pens_in_load_order_without_pausing():
     board = _play(program)
     assert board.stroke_pens == [1, 1, 2, 2, 2, 2, 3, 3]
     # Where the sheet lies: page (30, 40) mm is 10, 4 mm right of and above the plotter's origin.
-    assert board.strokes[0][0].tolist() == [20.0, 36.0]
+    assert board.strokes[0][0].tolist() == pytest.approx([20.0, 36.0], abs=PROFILE.paper.unit_mm / 2)  # to a unit
 
 
 def test_pens_beyond_the_carousel_keep_their_numbers_and_the_plotter_refuses_them_unaided():

@@ -1,7 +1,7 @@
 """An HP-GL file written by vpype (`write --device hp7475a`: relative PR moves, many points per
 PD, one pen per layer) is read by `stat` and drawn by the virtual HP-GL plotter where vpype put
-each stroke: the same strokes as pencilbot's own HP-GL of the plan, to a plotter unit, once
-vpype's plotter unit (0.02488 mm in its device table) is taken into account."""
+each stroke: the same strokes as pencilbot's own HP-GL of the plan, to a plotter unit: vpype's
+plotter unit (0.02488 mm in its device table) is the 7475A's, as pencilbot's profile has it."""
 
 from __future__ import annotations
 
@@ -48,10 +48,10 @@ def test_vpype_hpgl_draws_where_vpype_put_it(tmp_path):
 
     got, pens = _drawn(theirs, "vpype-theirs")
     want, _ = _drawn(ours, "vpype-ours")
+    assert profile.paper.unit_mm == VPYPE_UNIT
     assert len(got) == len(want) == len(plan.paths())
     assert pens == [1] * 8 + [2] * 10  # vpype gives each layer its own carousel pen
     for stroke, reference in zip(got, want):
-        scaled = stroke * (VPYPE_UNIT / 0.025)  # vpype's units, read as millimetres at its unit length
-        gap = max(cKDTree(reference).query(scaled)[0].max(), cKDTree(scaled).query(reference)[0].max())
+        gap = max(cKDTree(reference).query(stroke)[0].max(), cKDTree(stroke).query(reference)[0].max())
         assert gap <= 0.05  # a unit of rounding each side
     assert len(hpgl_plan(theirs, profile).layers) == 2  # stat: a layer per pen

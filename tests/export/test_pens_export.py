@@ -29,7 +29,7 @@ def colour_plan(set_name: str = "cmyk") -> Plan:
     """Two hatch layers per pen (load order) and edges in the darkest, each a few lines somewhere."""
     rng = np.random.default_rng(0)
     layers = []
-    for number, pen in enumerate(load_pens(set_name).load_order):
+    for pen in load_pens(set_name).load_order:
         for family in range(2):
             paths = [np.cumsum(rng.uniform(-3, 3, (5, 2)), axis=0) + rng.uniform(40, 160, 2) for _ in range(3)]
             layers.append(Layer(f"{pen.name}-hatch{family + 1}", paths, pen_width=pen.width, role="hatch",

@@ -8,9 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS, write_svg
 from pencilbot.export.svg_read import read_svg
+from pencilbot.planning.plan import Layer, Page, Plan
 
 NS = {"svg": SVG_NS, "inkscape": INKSCAPE_NS}
 
@@ -141,7 +141,7 @@ def test_bad_svgs_are_user_errors(tmp_path, content, message):
 
 
 def test_missing_file_is_a_user_error(tmp_path):
-    with pytest.raises(PencilbotError, match="does not exist"):
+    with pytest.raises(PencilbotError, match="no such file"):
         read_svg(tmp_path / "none.svg")
 
 
@@ -149,3 +149,15 @@ def test_failed_write_leaves_nothing_behind(tmp_path):
     with pytest.raises(PencilbotError, match="cannot write"):
         write_svg(sample_plan(), tmp_path / "missing" / "p.svg")
     assert list(tmp_path.iterdir()) == []
+
+
+@settings(max_examples=50, deadline=None)
+@given(st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=1, max_size=50),
+       st.sampled_from([0.0, 1.0, 0.1, 0.001, 1e-4]))
+def test_numbers_written_in_one_pass_are_the_ones_written_one_by_one(points, grid):
+    from pencilbot.export.svg import _fmt, _numbers_text
+
+    xy = np.array(points)
+    if grid:  # values on a grid, where trailing zeros and minus zeros come up
+        xy = np.round(xy / grid) * grid * np.sign(np.sin(np.arange(xy.size))).reshape(xy.shape)
+    assert _numbers_text(xy).split("\n") == [f"{_fmt(x)} {_fmt(y)}" for x, y in xy.tolist()]

@@ -1,13 +1,13 @@
 """Reading any SVG: Inkscape's (layers with transforms, shapes, curves), vpype's, hatched's and
 linedraw's, through vpype's reader; and pencilbot's own plans through the whole-array path."""
 
+import drawings
 import numpy as np
 import pytest
 
-import drawings
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
-from pencilbot.export.svg_read import _read_any, _read_own, _parse, is_plan_svg, read_svg
+from pencilbot.export.svg_read import _parse, _read_any, _read_own, is_plan_svg, read_svg
 from pencilbot.planning.plan import Layer, Page, Plan
 
 PX = 25.4 / 96  # mm per CSS pixel
@@ -134,7 +134,7 @@ def test_our_own_plans_take_the_whole_array_path_and_agree_with_vpype(tmp_path):
     assert [(l.name, l.role, l.pen_width) for l in fast.layers] == [(l.name, l.role, l.pen_width) for l in plan.layers]
     assert [(l.name, l.role) for l in slow.layers] == [("hatch1-45", "hatch"), ("edges", "edges")]
     assert fast.layer("edges").paths.lengths[-2:].tolist() == [1, 1]
-    for ours, theirs, written in zip(fast.paths(), plan.paths(), plan.paths()):
+    for ours, _, written in zip(fast.paths(), plan.paths(), plan.paths()):
         np.testing.assert_allclose(ours, np.round(written, 3), atol=1e-9)
     nonempty = [l for l in fast.layers if len(l.paths)]
     for a, b in zip(nonempty, slow.layers):

@@ -84,7 +84,7 @@ def test_mtcnn_finds_a_group_tilted_and_small_faces_and_the_cascade_does_not():
 
 def test_the_mask_covers_the_face_and_fades_out():
     mask = face_mask((200, 300), [Face(100, 50, 80, 1.0)])
-    assert mask.dtype == np.float32 and 0 <= mask.min() and mask.max() <= 1
+    assert mask.dtype == np.float32 and mask.min() >= 0 and mask.max() <= 1
     assert mask[50 + 36, 140] == 1.0  # between the eyes
     assert mask[0, 0] == 0.0 and mask[199, 299] == 0.0
     soft = mask[(mask > 0) & (mask < 1)]

@@ -175,7 +175,7 @@ def test_image_from_array_invariants(arr):
     h, w = arr.shape[:2]
     assert loaded.gray.shape == (h, w) and loaded.rgb.shape == (h, w, 3)
     assert loaded.gray.dtype == np.float32
-    assert 0.0 <= loaded.gray.min() and loaded.gray.max() <= 1.0
+    assert loaded.gray.min() >= 0.0 and loaded.gray.max() <= 1.0
     np.testing.assert_allclose(loaded.gray, loaded.rgb @ LUMA_601, atol=1e-5)
     if arr.shape[2] == 4:  # transparency only ever lightens toward paper
         opaque = arr[:, :, :3].astype(np.float32) / 255 @ LUMA_601

@@ -32,7 +32,7 @@ def coffee_grey(coffee):
 def test_grey_sketch_is_line_drawing_times_texture_map(coffee, coffee_grey):
     s = coffee_grey
     assert s.result.dtype == np.float32 and s.result.shape == coffee.shape
-    assert 0 <= s.result.min() and s.result.max() <= 1
+    assert s.result.min() >= 0 and s.result.max() <= 1
     np.testing.assert_array_equal(s.result, s.line.drawing * s.T)
     for stage in (s.tone, s.texture, s.beta, s.T):
         assert stage.shape == coffee.shape
@@ -56,7 +56,7 @@ def test_sketch_reads_as_pencil(coffee, coffee_grey):
 def assert_luma_replaced_chroma_kept(rgb, luma, out, atol):
     """Luma exact everywhere; chroma equal where the photo's colour exists at the new luma,
     elsewhere the same hue at lower saturation."""
-    assert out.dtype == np.float32 and 0 <= out.min() and out.max() <= 1
+    assert out.dtype == np.float32 and out.min() >= 0 and out.max() <= 1
     np.testing.assert_allclose(out @ LUMA, luma, atol=atol)
     c_in, c_out = chroma(rgb.astype(np.float64)), chroma(out.astype(np.float64))
     shifted = rgb + (luma - rgb @ LUMA)[..., None]

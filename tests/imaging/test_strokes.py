@@ -107,7 +107,7 @@ def test_contract_fields_and_B_partition():
     line = line_drawing(E, length=7, width=1.5, gamma=1.0)
     assert isinstance(line, LineDrawing) and line.length == 7
     assert line.drawing.dtype == np.float32 and line.drawing.shape == E.shape
-    assert 0.0 <= line.drawing.min() and line.drawing.max() <= 1.0
+    assert line.drawing.min() >= 0.0 and line.drawing.max() <= 1.0
     assert line.labels.dtype == np.uint8 and line.labels.max() <= 7
     np.testing.assert_array_equal(line.edges, E)
     parts = [line.B(i) for i in range(8)]

@@ -9,7 +9,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.machine.motion import (
-    axis_limited, axis_scale, block_duration, junction_speed, junction_speeds_squared, move_times,
+    axis_limited,
+    axis_scale,
+    block_duration,
+    junction_speed,
+    junction_speeds_squared,
+    move_times,
     path_speeds,
 )
 

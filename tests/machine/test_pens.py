@@ -35,7 +35,7 @@ def write(tmp_path, text: str):
 
 
 def test_the_shipped_sets_load_and_draw_lightest_first_darkest_last():
-    assert [name for name in list_pen_sets()] == SHIPPED
+    assert list(list_pen_sets()) == SHIPPED
     for name in SHIPPED:
         pens = load_pens(name)
         order = pens.load_order

@@ -3,46 +3,18 @@
 from __future__ import annotations
 
 import copy
-import json
 import string
-import tomllib
 
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from profile_tables import shipped_table, toml_text
 
-from pencilbot.configs_io import config_folder
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import TEMPLATE_FIELDS, list_profiles, load_profile
 from pencilbot.machine.templates import TemplateError, check_template, fill_template
 
 SHIPPED = ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4"]
-
-
-def shipped_table(name: str = "grbl-servo-a4") -> dict:
-    text = (config_folder("plotters") / f"{name}.toml").read_text(encoding="utf-8")
-    return tomllib.loads(text)
-
-
-def toml_text(table: dict) -> str:
-    """Just enough TOML for profile tables (JSON strings are valid TOML basic strings)."""
-
-    def value(v) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return json.dumps(v)
-        if isinstance(v, list):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        return repr(v)
-
-    top = [f"{k} = {value(v)}" for k, v in table.items() if not isinstance(v, dict)]
-    tables = [
-        f"[{k}]\n" + "\n".join(f"{kk} = {value(vv)}" for kk, vv in v.items())
-        for k, v in table.items()
-        if isinstance(v, dict)
-    ]
-    return "\n".join(top) + "\n\n" + "\n\n".join(tables) + "\n"
 
 
 def write_profile(tmp_path, table: dict, name: str = "myplotter.toml"):
@@ -124,8 +96,8 @@ BAD = {
     "missing dialect": (_drop("", "dialect"), ["missing key dialect", '"grbl" or "grblhal" or "marlin"']),
     "missing table": (_drop("", "pen"), ["missing table [pen]", "kind"]),
     "not a table": (_set("", "bed", 5), ["bed = 5", "table [bed]"]),
-    "negative feed": (_set("motion", "travel_feed", -100), ["[motion] travel_feed = -100", "> 0 and ≤ 1000000 mm/min"]),
-    "zero feed": (_set("motion", "draw_feed", 0), ["[motion] draw_feed = 0", "> 0 and"]),
+    "negative feed": (_set("motion", "travel_feed", -100), ["[motion] travel_feed = -100", "≥ 1 and ≤ 1000000 mm/min"]),
+    "zero feed": (_set("motion", "draw_feed", 0), ["[motion] draw_feed = 0", "≥ 1 and"]),
     "negative delay": (_set("pen", "down_delay", -0.1), ["[pen] down_delay", "≥ 0 and ≤ 60 seconds"]),
     "absurd feed": (_set("motion", "draw_feed", 3e9), ["[motion] draw_feed", "≤ 1000000 mm/min"]),
     "huge bed": (_set("bed", "height", 1e6), ["[bed] height", "≤ 10000 mm"]),
@@ -209,7 +181,7 @@ _ALPHABET = "{}[].!:0123456789 updownxfG_r>"
 @settings(max_examples=300, deadline=None)
 @given(st.text(alphabet=_ALPHABET, max_size=20))
 def test_templates_fill_only_plain_allowed_fields(template):
-    values = {name: 12.5 for name in TEMPLATE_FIELDS}
+    values = dict.fromkeys(TEMPLATE_FIELDS, 12.5)
     try:
         check_template(template, TEMPLATE_FIELDS)
     except TemplateError:

@@ -17,7 +17,6 @@ from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
-from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.build import (
     at_plot_resolution,
     ink_on_image_grid,
@@ -28,6 +27,7 @@ from pencilbot.planning.build import (
     sketch_and_plan,
 )
 from pencilbot.planning.fidelity import plotted_darkness
+from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes

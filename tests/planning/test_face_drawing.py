@@ -9,9 +9,9 @@ from skimage import data
 
 from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import image_from_array
+from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
 from pencilbot.planning.build import at_plot_resolution, mostly_in, plan_from_sketch
-from pencilbot.imaging.pencil import sketch
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.style import Style
@@ -73,7 +73,7 @@ def test_a_face_is_drawn_closer_to_the_photo_and_the_rest_as_without(astronaut):
 
 def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
     # faces = false plans exactly what a picture without a face would: same layers, same points.
-    drawing, page, on, off = astronaut
+    _drawing, page, on, off = astronaut
     coffee = image_from_array(data.coffee()[::3, ::3].copy())
     coffee_drawing = sketch(at_plot_resolution(coffee, page, FAST.pen_width))
     plain = plan_from_sketch(coffee_drawing, page, FAST)

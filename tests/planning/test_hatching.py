@@ -9,8 +9,8 @@ from scipy import ndimage as ndi
 from pencilbot.paths import Paths
 from pencilbot.planning.flow import Grid, direction_field
 from pencilbot.planning.hatching import HATCH_COVERAGE, hatch_layers, trace_families
-from pencilbot.planning.onset import Onset
 from pencilbot.planning.layout import Layout
+from pencilbot.planning.onset import Onset
 from pencilbot.planning.plan import Page
 from pencilbot.planning.shading import shade
 from pencilbot.render import render_paths
@@ -265,7 +265,7 @@ def test_the_first_request_leaves_out_the_ink_a_contour_lays():
 
     n = 100
     layout = _layout((n, n))
-    x0, y0, x1, y1 = layout.drawing_box
+    x0, y0, _x1, y1 = layout.drawing_box
     ym = (y0 + y1) / 2
     edges = Paths.of([[x0 + 5 + k * 0.5, ym - 10.0], [x0 + 5 + k * 0.5, ym + 10.0]] for k in range(8))
     dark = np.full((n, n), 0.5)

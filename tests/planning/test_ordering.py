@@ -162,7 +162,7 @@ def test_join_touching_keeps_every_point_in_order(ps, tol):
 def joined_one_by_one(ps, tolerance, min_length):
     """join_touching as a loop over the paths: each path joins the one before when the gap is
     within the tolerance and neither is short, dropping its first point if it repeats the end."""
-    out = []
+    out, out_short = [], False
     for p in ps:
         short = np.linalg.norm(np.diff(p, axis=0), axis=1).sum() < min_length
         if out and not short and not out_short and np.hypot(*(p[0] - out[-1][-1])) <= tolerance:
@@ -273,7 +273,7 @@ def test_every_improvement_pass_shortens_the_tour_by_what_it_claims(seed, n):
     ps, tour = random_tour(seed, n)
     before = tour_travel(ps, tour)
     active = tour.movable_ends()
-    for step in range(12):
+    for _ in range(12):
         touched, gain = tour.improve(active)
         after = tour_travel(ps, tour)  # also refreshes: later 2-opt moves see fresh roles
         assert after == pytest.approx(before - gain, abs=1e-6)
@@ -286,7 +286,7 @@ def test_every_improvement_pass_shortens_the_tour_by_what_it_claims(seed, n):
 @given(st.integers(0, 2**32 - 1), st.integers(100, 300))
 def test_vectorised_gains_match_the_float64_check(seed, n):
     """The numpy estimate of every candidate move equals the gain the scalar check applies."""
-    ps, tour = random_tour(seed, n)
+    _ps, tour = random_tour(seed, n)
     kind, e, f, gain = tour._candidates(tour.movable_ends())
     assert len(kind)  # a matching always leaves something to improve on a few hundred strokes
     adj, travel = tour.adj.copy(), tour.travel.copy()

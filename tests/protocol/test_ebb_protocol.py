@@ -6,8 +6,7 @@ import pytest
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
-from firmware_protocol import ProtocolError
-from firmware_protocol import ebb
+from firmware_protocol import ProtocolError, ebb
 
 INT32 = st.integers(-(1 << 31), (1 << 31) - 1)
 

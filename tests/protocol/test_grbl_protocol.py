@@ -4,7 +4,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_protocol import grbl
+from firmware_protocol import ProtocolError, grbl
 from firmware_protocol.grbl import (
     Alarm,
     Error,
@@ -19,7 +19,6 @@ from firmware_protocol.grbl import (
     parse_line,
     significant_length,
 )
-from firmware_protocol import ProtocolError
 
 # (line as the board prints it, message)
 GRAMMAR = [
@@ -93,7 +92,7 @@ def test_error_and_alarm_tables_carry_grbl_texts():
 def test_constants():
     assert grbl.RX_BUFFER_SIZE == 128
     assert grbl.LINE_BUFFER_SIZE == 80
-    assert grbl.REALTIME_BYTES == {0x3F, 0x21, 0x7E, 0x18}
+    assert {0x3F, 0x21, 0x7E, 0x18} == grbl.REALTIME_BYTES
     assert grbl.BANNER == "Grbl 1.1h ['$' for help]"
 
 

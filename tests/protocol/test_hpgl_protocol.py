@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_protocol import ProtocolError
-from firmware_protocol import hpgl
+from firmware_protocol import ProtocolError, hpgl
 
 _MNEMONICS = ["IN", "SP", "PU", "PD", "PA", "PR", "VS", "OI", "OA", "OS", "OE"]
 instructions = st.builds(

@@ -4,11 +4,21 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_protocol.marlin import (
-    Busy, Echo, Error, Ok, Resend, Start, Unknown, checksum, frame_line, parse_line,
-    reset_line_numbers, unframe_line,
-)
 from firmware_protocol import ProtocolError
+from firmware_protocol.marlin import (
+    Busy,
+    Echo,
+    Error,
+    Ok,
+    Resend,
+    Start,
+    Unknown,
+    checksum,
+    frame_line,
+    parse_line,
+    reset_line_numbers,
+    unframe_line,
+)
 
 
 @pytest.mark.parametrize(

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import tempfile
 from pathlib import Path
 
 import numpy as np
-
-import os
-import tempfile
+from selenium.webdriver.common.by import By
+from selenium.webdriver.support.ui import WebDriverWait
 
 #: Where the screenshots go: docs/images for the README with PENCILBOT_SCREENSHOTS=1, else a
 #: temporary folder (a test run leaves the tree as it was).
@@ -33,3 +34,35 @@ def same_plan(a, b) -> bool:
         return False
     return all(x.name == y.name and x.pen_width == y.pen_width and np.array_equal(x.paths.offsets, y.paths.offsets)
                and np.allclose(x.paths.points, y.paths.points, atol=1e-6) for x, y in zip(a.layers, b.layers))
+
+
+WAIT = 90  # s: a loaded machine plans slowly; these are waits for a state, not timing checks
+
+
+def text(browser, element_id: str) -> str:
+    return browser.find_element(By.ID, element_id).text
+
+
+def wait_for(browser, condition, what: str):
+    return WebDriverWait(browser, WAIT, poll_frequency=0.1).until(lambda _: condition(), message=what)
+
+
+def set_control(browser, element_id: str, value) -> None:
+    """Move a slider or pick an option as a person does: the value, then the input event."""
+    browser.execute_script(
+        "const e = document.getElementById(arguments[0]); e.value = arguments[1];"
+        "e.dispatchEvent(new Event('input', {bubbles: true}));", element_id, str(value))
+
+
+def full_generation(browser) -> int:
+    stage = browser.find_element(By.ID, "preview-stage")
+    if not stage.text.startswith("full"):
+        return 0
+    return int(stage.get_attribute("data-generation") or 0)
+
+
+def load_photo(server, browser, photo) -> int:
+    browser.get(server.url)
+    wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
+    browser.find_element(By.ID, "photo-input").send_keys(str(photo))
+    return wait_for(browser, lambda: full_generation(browser), "the full preview of the photo")

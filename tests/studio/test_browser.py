@@ -6,40 +6,8 @@ from __future__ import annotations
 
 import pytest
 from selenium.webdriver.common.by import By
-from selenium.webdriver.support.ui import Select, WebDriverWait
-
-from studio_helpers import same_plan, screenshot
-
-WAIT = 90  # s: a loaded machine plans slowly; these are waits for a state, not timing checks
-
-
-def text(browser, element_id: str) -> str:
-    return browser.find_element(By.ID, element_id).text
-
-
-def wait_for(browser, condition, what: str):
-    return WebDriverWait(browser, WAIT, poll_frequency=0.1).until(lambda _: condition(), message=what)
-
-
-def set_control(browser, element_id: str, value) -> None:
-    """Move a slider or pick an option as a person does: the value, then the input event."""
-    browser.execute_script(
-        "const e = document.getElementById(arguments[0]); e.value = arguments[1];"
-        "e.dispatchEvent(new Event('input', {bubbles: true}));", element_id, str(value))
-
-
-def full_generation(browser) -> int:
-    stage = browser.find_element(By.ID, "preview-stage")
-    if not stage.text.startswith("full"):
-        return 0
-    return int(stage.get_attribute("data-generation") or 0)
-
-
-def load_photo(server, browser, photo) -> int:
-    browser.get(server.url)
-    wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
-    browser.find_element(By.ID, "photo-input").send_keys(str(photo))
-    return wait_for(browser, lambda: full_generation(browser), "the full preview of the photo")
+from selenium.webdriver.support.ui import Select
+from studio_helpers import full_generation, load_photo, same_plan, screenshot, set_control, text, wait_for
 
 
 def test_load_a_photo_move_a_control_see_preview_and_figures_change(server, browser, photo):
@@ -123,6 +91,8 @@ def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, p
     wait_for(browser, lambda: text(browser, "plot-status") == "stopped", "stopped")
     message = text(browser, "plot-message")
     assert "stopped by the stop key" in message and "pen raised" in message
+    assert 'Press "Resume the stopped plot"' in message and "pencilbot draw" not in message
+    assert str(server.studio.folder) not in message and ".gcode" not in message
     assert browser.find_element(By.ID, "resume-job").is_displayed()
     screenshot(browser, "5-stopped")
 

@@ -47,7 +47,7 @@ def test_studio_says_its_url_serves_the_photo_and_stops_on_ctrl_c(tmp_path):
         with urllib.request.urlopen(url) as page:
             assert b"pencilbot studio" in page.read()
         with urllib.request.urlopen(url + "api/state") as answer:
-            assert json.loads(answer.read())["photo"] == "grey.png"
+            assert json.loads(answer.read())["photo"]["name"] == "grey.png"
         port = url.rsplit(":", 1)[1].strip("/")
         refused = urllib.request.Request(url + "api/state", headers={"Host": f"attacker.example:{port}"})
         with pytest.raises(urllib.error.HTTPError) as err:

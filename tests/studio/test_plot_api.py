@@ -52,10 +52,28 @@ def wait(condition, what, timeout=60.0):
     pytest.fail(f"waited for {what}")
 
 
-def test_pen_test_on_the_virtual_plotter(client):
-    for down in (True, False):
-        response = client.post("/api/pen", json={"port": "sim://", "down": down}, headers=OWN)
-        assert response.status_code == 200 and response.json()["pen"] == ("down" if down else "up")
+@pytest.mark.parametrize("profile", ["grbl-z-a3", "grbl-servo-a4", "grblhal-servo-a3", "axidraw-v3", "hp7475a"])
+def test_the_machine_controls_of_every_family_on_the_virtual_plotter(client, profile):
+    def press(action, **extra):
+        response = client.post(f"/api/machine/{action}", json={"port": "sim://", "profile": profile, **extra}, headers=OWN)
+        assert response.status_code == 200, response.text
+        return response.json()["said"]
+
+    said = press("pen-down")
+    assert said in ("the pen is down", "pen down sent")
+    if said == "the pen is down":  # a plotter that reports its pen: the toggle lifts it
+        assert press("pen-toggle") == "the pen is up"
+    assert press("pen-up") in ("the pen is up", "pen up sent")
+    walked = press("walk", dx=10, dy=5)
+    assert walked.startswith("walked"), walked
+    assert press("home").startswith("home"), profile
+    if profile == "hp7475a":  # no motor command: said in plain words, not a 500
+        refused = client.post("/api/machine/motors-off", json={"port": "sim://", "profile": profile}, headers=OWN)
+        assert refused.status_code == 400 and "no command that switches its motors" in refused.json()["error"]
+    else:
+        assert "motors off" in press("motors-off")
+    refused = client.post("/api/machine/walk", json={"port": "sim://", "profile": profile, "dx": 500}, headers=OWN)
+    assert refused.status_code == 400 and "smaller steps" in refused.json()["error"]
 
 
 def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
@@ -63,7 +81,7 @@ def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
     assert response.status_code == 200 and response.json()["status"] == "running"
     session = studio.plotters.get("sim://")
     assert client.post("/api/plot", json={"port": "sim://"}, headers=OWN).status_code == 409
-    assert client.post("/api/pen", json={"port": "sim://", "down": True}, headers=OWN).status_code == 409
+    assert client.post("/api/machine/pen-down", json={"port": "sim://"}, headers=OWN).status_code == 409
     wait(lambda: (session.record.get("running") or 0) > 15, "the machine draws")
     drawing = client.get("/api/plot-paths", params={"port": "sim://"}).json()
     assert drawing["bed"] == [220.0, 310.0] and len(drawing["lines"]) * 2 == len(drawing["points"]) > 0
@@ -108,7 +126,10 @@ def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_pa
     plotters = Plotters()
     session = plotters.start("sim://", "sim://studio-rezero?profile=grbl-servo-a4&realtime=20&faults=abort@60", "grbl-servo-a4", gcode)
     session.thread.join(timeout=60)
-    assert session.status == "stopped" and "ALARM:3" in session.message and session.resumable, session.message
+    assert session.status == "stopped" and "(ALARM:3: the board was reset while moving, so it lost its position)" in session.message, session.message
+    assert session.resumable and 'Press "Resume the stopped plot"' in session.message
+    for terminal_words in (str(tmp_path), "pencilbot draw", "--resume", ".gcode", "Machine position"):  # written for a terminal
+        assert terminal_words not in session.message, session.message
     plotters.resume("sim://")
     wait(lambda: session.prompt is not None or not session.active, "the re-zero dialog")
     assert session.prompt["kind"] == "rezero" and "Jog the raised pen" in session.prompt["text"]
@@ -117,3 +138,31 @@ def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_pa
     session.thread.join(timeout=30)
     assert session.status == "stopped" and session.message.startswith("re-zero abandoned")
     assert session.prompt is None
+
+
+def test_a_double_click_on_a_pen_change_answers_only_that_pen_change(studio, client, tmp_path):
+    """Two presses of "Done, go on" for the first pen change (a double click: both name the
+    dialog shown) must leave the second pen change waiting for its own answer."""
+    from pencilbot.machine.pens import load_pens
+
+    photo = tmp_path / "bars.png"
+    Image.fromarray(np.repeat(np.linspace(0, 255, 40, dtype=np.uint8)[None, :], 30, axis=0)).convert("RGB").save(photo)
+    whole = tmp_path / "cmyk.gcode"
+    api.export_gcode(api.plan(photo, page="A5", pen_width=1.0, pens=load_pens("cmyk")), "grbl-servo-a4", whole)
+    lines = whole.read_text().splitlines()
+    changes = [i for i, line in enumerate(lines) if line.startswith("M0 (pen change")]
+    gcode = tmp_path / "two-pens.gcode"  # the start, the first two pen changes with a few moves each, the end
+    gcode.write_text("\n".join(lines[:changes[0] + 12] + lines[changes[1] - 2:changes[1] + 12] + lines[-6:]) + "\n")
+    session = studio.plotters.start("sim://", "sim://studio-pens?profile=grbl-servo-a4&realtime=20",
+                                    "grbl-servo-a4", gcode)
+    wait(lambda: session.prompt is not None or not session.active, "the first pen change")
+    first = session.prompt
+    assert first is not None and "insert yellow" in first["text"], session.message
+    for _ in range(2):
+        response = client.post("/api/plot/go", json={"port": "sim://", "prompt": first.get("id")}, headers=OWN)
+        assert response.status_code == 200
+    wait(lambda: (session.prompt or first).get("id") != first.get("id") or not session.active, "the second pen change")
+    assert session.active and session.prompt is not None and "insert cyan" in session.prompt["text"], session.message
+    client.post("/api/plot/go", json={"port": "sim://", "prompt": session.prompt.get("id")}, headers=OWN)
+    session.thread.join(timeout=60)
+    assert session.status == "done", session.message

@@ -9,12 +9,12 @@ import io
 import pytest
 from PIL import Image
 
-pytest.importorskip("starlette", reason="the studio extra is part of the test extra")  # noqa: E402 - installed by .[test]
-from starlette.testclient import TestClient  # noqa: E402
+pytest.importorskip("starlette", reason="the studio extra is part of the test extra")
+from starlette.testclient import TestClient
 
-from pencilbot.studio import app as app_module  # noqa: E402
-from pencilbot.studio.app import create_app  # noqa: E402
-from pencilbot.studio.state import Studio  # noqa: E402
+from pencilbot.studio import app as app_module
+from pencilbot.studio.app import create_app
+from pencilbot.studio.state import Studio
 
 PORT = 8765
 OWN = {"X-Studio": "1"}
@@ -123,7 +123,7 @@ def test_a_path_as_port_or_download_is_refused(client, studio):
     for port in ("/etc/passwd", "/dev/null", "socket://10.0.0.1:23", "../sim://"):
         response = client.post("/api/plot", json={"port": port}, headers=OWN)
         assert response.status_code == 400 and "not one of the plotters found" in response.json()["error"]
-        response = client.post("/api/pen", json={"port": port, "down": True}, headers=OWN)
+        response = client.post("/api/machine/pen-down", json={"port": port}, headers=OWN)
         assert response.status_code == 400
     response = client.get("/api/download/plan.gcode", params={"profile": "/etc/passwd"})
     assert response.status_code in (400,)

@@ -85,7 +85,7 @@ def plain_lines(draw, sign: int = 1) -> list[str]:
         elif kind == "feed":
             lines.append(f"F{draw(st.sampled_from(['500', '3000', '12000']))}")
         else:
-            for i in range(1 if kind == "move" else draw(st.integers(2, 40))):
+            for _ in range(1 if kind == "move" else draw(st.integers(2, 40))):
                 g = draw(st.sampled_from(["G0 ", "G1 ", "g1", "G01 ", ""]))
                 same = draw(st.integers(0, 9)) == 0
                 nx, ny = (x, y) if same else (draw(_coord), draw(_coord))

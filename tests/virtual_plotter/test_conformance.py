@@ -27,7 +27,7 @@ def read_table(path: Path = TABLE) -> tuple[list[tuple[int, str, str, str, str]]
     """``(rows, macros)``: rows as (line number, board, sent, reply, source), escapes kept."""
     rows, macros = [], {}
     for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-        if not line or line.startswith("#") or line.startswith("board\t"):
+        if not line or line.startswith(("#", "board\t")):
             continue
         fields = line.split("\t")
         if line.startswith("@"):

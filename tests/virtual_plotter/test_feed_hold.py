@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from machines import description
+
 from sim.faults import Faults
 from sim.firmware import Firmware
 from sim.machine import Machine

@@ -5,7 +5,6 @@ import copy
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-
 from machines import description
 
 from firmware_protocol import grbl

@@ -47,7 +47,7 @@ def test_limits_errors_and_the_carousel():
     # OS after OE: pen down, initialised, paper ready; the error bit went with OE reading it
     assert answers(board) == ["0", "3", "25", f"{width},0,1"]
     # No pen picked: the first PD drew nothing; pen 2 drew to the limit and not beyond.
-    assert [s.tolist() for s in board.strokes] == [[[0.0, 0.0], [width * 0.025, 0.0]]]
+    assert [s.tolist() for s in board.strokes] == [[[0.0, 0.0], [width * PROFILE.paper.unit_mm, 0.0]]]
     assert board.stroke_pens == [2]
 
 
@@ -61,10 +61,11 @@ def test_xon_xoff_follow_the_buffer():
 
 def test_time_is_the_motion_model_and_the_pen_delays():
     board = HpglBoard(PROFILE)
-    board.receive(b"IN;SP1;VS10;PD0,4000;PU;")  # 100 mm at 100 mm/s, pen down and up
+    board.receive(b"IN;SP1;VS10;PD0,4000;PU;")  # 4000 units at 100 mm/s, pen down and up
     board.finish()
     a = PROFILE.motion.acceleration
-    expected = 100 / 100 + 100 / a + PROFILE.pen.down_delay + PROFILE.pen.up_delay  # trapezoid: L/v + v/a
+    length = 4000 * PROFILE.paper.unit_mm  # 99.52 mm of the 7475A's 0.02488 mm units
+    expected = length / 100 + 100 / a + PROFILE.pen.down_delay + PROFILE.pen.up_delay  # trapezoid: L/v + v/a
     assert math.isclose(board.clock, expected, rel_tol=1e-9)
 
 

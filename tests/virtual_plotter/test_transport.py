@@ -50,7 +50,7 @@ def drawing(plotter_):
 
 def check_square(darkness):
     mm = DPI / 25.4  # px per mm
-    rows, cols = darkness.shape
+    rows, _cols = darkness.shape
     def px(x, y):
         return int(round(rows - y * mm)), int(round(x * mm))
     for x, y in [(40, 20), (60, 40), (40, 60), (20, 40)]:  # mid-points of the four sides

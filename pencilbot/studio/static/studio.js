@@ -4,7 +4,11 @@
 
 const $ = (id) => document.getElementById(id);
 const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage"];
-let state = null, choices = null, job = null, loading = null, shown = {}, sendTimer = null;
+// The controls a style sets: each shows the chosen style's value until the person moves it (then
+// it is "touched" and sent); an untouched one is sent as null, so the style's own value applies.
+const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch"];
+let state = null, choices = null, job = null, loading = null, shown = {}, sendTimer = null, sending = 0;
+let touched = new Set(), applied = "";
 
 async function call(method, url, body, headers = {}) {
   const init = { method, headers: { "X-Studio": "1", ...headers } };
@@ -28,11 +32,37 @@ function fill(select, values, chosen, label = (v) => v) {
 
 function options() {
   const form = $("controls"), values = {};
-  for (const name of ["style", "page", "orientation", "pens", "profile"]) values[name] = form[name].value || null;
-  for (const name of NUMBERS) values[name] = Number(form[name].value);
-  if (values.line_length < 2) values.line_length = null;  // 0: chosen from the image size
-  values.hatch = form.hatch.checked;
+  for (const name of ["style", "pens", "profile"]) values[name] = form[name].value || null;
+  for (const name of STYLED) {
+    if (!touched.has(name)) values[name] = null;
+    else if (name === "hatch") values.hatch = form.hatch.checked;
+    else values[name] = NUMBERS.includes(name) ? Number(form[name].value) : form[name].value;
+  }
+  if (values.line_length !== null && values.line_length < 2) values.line_length = null;  // 0: from the image size
   return values;
+}
+
+function setControl(name, value) {
+  const form = $("controls");
+  if (name === "hatch") form.hatch.checked = !!value;
+  else form[name].value = name === "line_length" ? value || 0 : value;
+}
+
+function showStyleDefaults() {  // the untouched controls show the chosen style's values
+  const defaults = choices.style_defaults[$("style").value] || {};
+  for (const name of STYLED) if (!touched.has(name)) setControl(name, defaults[name]);
+  showOutputs();
+}
+
+function applyOptions(values) {  // the server's settings: every tab shows the same ones
+  const form = $("controls");
+  form.style.value = values.style || choices.style;
+  form.pens.value = values.pens || "";
+  form.profile.value = values.profile || choices.profile;
+  touched = new Set(STYLED.filter((name) => values[name] !== null && values[name] !== undefined && values[name] !== ""));
+  for (const name of touched) setControl(name, values[name]);
+  showStyleDefaults();
+  applied = JSON.stringify(values);
 }
 
 function showOutputs() {
@@ -42,23 +72,43 @@ function showOutputs() {
   }
 }
 
-function controlsChanged() {
+function controlsChanged(event) {
+  const name = event && event.target && event.target.name;
+  if (STYLED.includes(name)) touched.add(name);
+  if (name === "style") showStyleDefaults();
   showOutputs();
   clearTimeout(sendTimer);
   sendTimer = setTimeout(async () => {
+    sendTimer = null;
+    sending++;
     try { $("plan-error").textContent = ""; await call("POST", "/api/drawing", options()); }
     catch (err) { $("plan-error").textContent = err.message; }
+    finally { sending--; }
   }, 30);
 }
 
 async function upload(file) {
+  $("photo-error").textContent = "";
   $("photo-name").textContent = `uploading ${file.name}…`;
   try {
-    await call("POST", "/api/drawing", options());
-    const info = await call("PUT", "/api/photo", file, { "X-Filename": file.name });
-    $("photo-name").textContent = `${info.name || "photo"}: ${info.width} × ${info.height} px`;
-    $("photo").src = `/api/picture/photo.png?t=${Date.now()}`;
-  } catch (err) { $("photo-name").textContent = ""; $("plan-error").textContent = err.message; }
+    await call("PUT", "/api/photo", file, { "X-Filename": file.name });  // the server has the settings already
+  } catch (err) {  // the photo in use stays, and says so
+    const old = state && state.photo;
+    $("photo-error").textContent = `${file.name} was not used: ${err.message}.` +
+      (old ? ` The drawing still uses ${old.name || "the earlier photo"}.` : "");
+  }
+  showPhoto(true);
+}
+
+function showPhoto(force = false) {  // the photo in use, as the server says
+  const photo = state && state.photo;
+  $("photo-name").textContent = photo ? `${photo.name || "photo"}: ${photo.width} × ${photo.height} px` : "";
+  $("photo-name").classList.toggle("kept", !!(photo && $("photo-error").textContent));
+  if (photo && (force || shown.photo !== photo.number)) {
+    shown.photo = photo.number;
+    $("photo").src = `/api/picture/photo.png?n=${photo.number}`;
+  }
+  $("photo").closest("figure").hidden = !photo;
 }
 
 function duration(seconds) {
@@ -93,7 +143,9 @@ function showDrawing() {
   $("fig-time").textContent = f ? (f.seconds !== undefined ? duration(f.seconds) : f.estimate_error) : "…";
   $("fig-likeness").textContent = f ? `ρ ${f.likeness}` : "…";
   $("fig-paths").textContent = f ? `${f.paths} on ${f.page}` : "…";
-  for (const id of ["dl-svg", "dl-gcode", "dl-sketch", "plot-start"]) $(id).classList.toggle("off", !f);
+  // Nothing to show or download yet: no empty picture boxes, no links that give nothing.
+  $("preview").hidden = $("sketch").closest("figure").hidden = !shown.preview;
+  document.querySelector(".downloads").hidden = !f;
   $("plot-start").disabled = !f || !!(plotOf($("port").value) || {}).active;
   $("dl-gcode").href = `/api/download/plan.gcode?profile=${encodeURIComponent($("profile").value)}`;
 }
@@ -152,7 +204,7 @@ async function showPlot() {
   const paused = plot && plot.active && (record.state || "").startsWith("paused");
   const pausedWords = (record.state || "").replace(/^paused: from the keyboard.*/, "paused (Resume goes on)");
   $("plot-status").textContent = !plot ? "idle" : plot.prompt ? "waiting for you" : paused ? pausedWords
-    : plot.active ? `plotting (${record.state || "starting"})` : plot.status;
+    : plot.active ? plotting(record.state) : plot.status;
   $("plot-line").textContent = record.running ? `${record.running} (${record.line} of ${record.total} acknowledged)` : record.line ? `${record.line} of ${record.total}` : "–";
   $("plot-percent").textContent = record.percent !== undefined ? `${record.percent.toFixed(1)} % of plot time` : "–";
   $("plot-elapsed").textContent = duration(plot && plot.active ? Date.now() / 1000 - plot.started : record.elapsed_s);
@@ -161,10 +213,11 @@ async function showPlot() {
   $("pause").disabled = $("stop").disabled = !(plot && plot.active);
   $("pause").textContent = paused && !plot.prompt ? "Resume" : "Pause";
   $("resume-job").hidden = !(plot && plot.resumable && !plot.active);
-  $("pen-up").disabled = $("pen-down").disabled = !!(plot && plot.active);
+  for (const b of $("machine").querySelectorAll("button")) b.disabled = !!(plot && plot.active);
   const dialog = $("prompt");
   if (plot && plot.prompt) {
     $("prompt-text").textContent = plot.prompt.text;
+    dialog.dataset.prompt = plot.prompt.id;  // the buttons answer this prompt, never a later one
     $("jog").hidden = $("prompt-giveup").hidden = plot.prompt.kind !== "rezero";
     if (!dialog.open) dialog.showModal();
   } else if (dialog.open) dialog.close();
@@ -178,7 +231,13 @@ async function showPlot() {
   }
 }
 
-function render() { showDrawing(); showPlot(); }
+function plotting(machine) {  // the machine's own state word, only when it says more than "plotting"
+  const said = { Hold: "holding", Jog: "jogging", Home: "homing", Door: "door open", Alarm: "alarm", Check: "checking" };
+  const word = (machine || "").split(":")[0];
+  return !machine ? "starting" : said[word] ? `plotting (${said[word]})` : "plotting";
+}
+
+function render() { showPhoto(); showDrawing(); showPlot(); }
 
 async function plotButton(button, extra = {}) {
   try { await call("POST", `/api/plot/${button}`, { port: $("port").value, ...extra }); }
@@ -189,22 +248,22 @@ function listen() {
   const events = new EventSource("/api/events");
   events.onopen = () => { $("connection").textContent = "connected"; };
   events.onerror = () => { $("connection").textContent = "reconnecting…"; };
-  events.onmessage = (event) => { state = JSON.parse(event.data); render(); };
+  events.onmessage = (event) => {
+    state = JSON.parse(event.data);
+    // Another tab's change: show it here too (not while this tab's own change is on its way).
+    if (!sendTimer && !sending && JSON.stringify(state.options) !== applied) applyOptions(state.options);
+    render();
+  };
 }
 
 async function start() {
   choices = await call("GET", "/api/choices");
-  const d = choices.defaults;
   fill($("style"), choices.styles, choices.style);
-  fill($("page"), choices.pages, d.page);
-  fill($("orientation"), choices.orientations, d.orientation);
+  fill($("page"), choices.pages);
+  fill($("orientation"), choices.orientations);
   fill($("pens"), choices.pens);
   fill($("profile"), choices.profiles, choices.profile);
   fill($("port"), choices.ports);
-  $("margin").value = d.margin; $("pen_width").value = d.pen_width;
-  $("line_length").value = d.line_length || 0; $("hatch_coverage").value = d.hatch_coverage;
-  $("hatch").checked = d.hatch;
-  showOutputs();
   const form = $("controls");
   form.addEventListener("input", controlsChanged);
   form.addEventListener("change", controlsChanged);
@@ -220,27 +279,26 @@ async function start() {
   $("pause").addEventListener("click", () => plotButton("pause"));
   $("stop").addEventListener("click", () => plotButton("stop"));
   $("resume-job").addEventListener("click", () => plotButton("resume-job"));
-  $("prompt-go").addEventListener("click", () => plotButton("go"));
-  $("prompt-giveup").addEventListener("click", () => plotButton("give up"));
+  const shownPrompt = () => ({ prompt: Number($("prompt").dataset.prompt) });
+  $("prompt-go").addEventListener("click", () => plotButton("go", shownPrompt()));
+  $("prompt-giveup").addEventListener("click", () => plotButton("give up", shownPrompt()));
   $("prompt-stop").addEventListener("click", () => plotButton("stop"));
   for (const b of $("jog").querySelectorAll("button")) {
-    b.addEventListener("click", () => { const s = Number($("jog-step").value); plotButton("jog", { dx: s * b.dataset.dx, dy: s * b.dataset.dy }); });
+    b.addEventListener("click", () => { const s = Number($("jog-step").value); plotButton("jog", { dx: s * b.dataset.dx, dy: s * b.dataset.dy, ...shownPrompt() }); });
   }
-  for (const [id, down] of [["pen-up", false], ["pen-down", true]]) {
-    $(id).addEventListener("click", async () => {
-      try { const r = await call("POST", "/api/pen", { port: $("port").value, profile: $("profile").value, down }); $("plot-message").textContent = `pen ${r.pen}`; }
+  for (const b of $("machine").querySelectorAll("button[data-action]")) {  // the library's machine controls
+    b.addEventListener("click", async () => {
+      const step = Number($("walk-step").value), body = { port: $("port").value, profile: $("profile").value };
+      if (b.dataset.action === "walk") Object.assign(body, { dx: step * b.dataset.dx, dy: step * b.dataset.dy });
+      $("plot-message").textContent = "…";
+      try { $("plot-message").textContent = (await call("POST", `/api/machine/${b.dataset.action}`, body)).said; }
       catch (err) { $("plot-message").textContent = err.message; }
     });
   }
   $("port").addEventListener("change", render);
   $("profile").addEventListener("change", () => state && showDrawing());
   state = await call("GET", "/api/state");
-  for (const [name, value] of Object.entries(state.options || {})) {  // a reopened page: the server's choices
-    if (value === null || value === "" || !form[name]) continue;
-    if (name === "hatch") form.hatch.checked = value; else form[name].value = value;
-  }
-  showOutputs();
-  if (state.photo) { $("photo").src = `/api/picture/photo.png?t=${Date.now()}`; $("photo-name").textContent = state.photo; }
+  applyOptions(state.options);  // a reopened page or a second tab: the server's choices
   render();
   listen();
 }
