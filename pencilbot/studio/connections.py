@@ -24,7 +24,7 @@ class HeaderTimeoutProtocol(H11Protocol):
 
     _head_deadline: asyncio.TimerHandle | None = None
 
-    def connection_made(self, transport) -> None:  # type: ignore[override]
+    def connection_made(self, transport) -> None:
         super().connection_made(transport)
         self._wait_for_head()
 
