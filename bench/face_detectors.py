@@ -41,8 +41,8 @@ def hand_landmarks() -> dict:
         path = faceset.folder() / f"{name}.xml"
         if not path.is_file():
             continue
-        for image, body in re.findall(r"<image file='([^']+)'[^>]*>(.*?)</image>", path.read_text("latin-1"), re.S):
-            for box in re.findall(r"<box[^>]*>(.*?)</box>", body, re.S):
+        for image, body in re.findall(r"<image file='([^']+)'[^>]*>(.*?)</image>", path.read_text("latin-1"), re.DOTALL):
+            for box in re.findall(r"<box[^>]*>(.*?)</box>", body, re.DOTALL):
                 points = np.array([(int(x), int(y)) for x, y in re.findall(r"x='(\d+)' y='(\d+)'", box)], float)
                 out.setdefault(image.rsplit(".", 1)[0], []).append(points)
     return out

@@ -5,6 +5,8 @@
 >>> plan = pencilbot.plan("photo.jpg", page="A4")        # pen strokes on a page (Plan)
 >>> pencilbot.export_gcode(plan, "grbl-servo-a4", "drawing.gcode")  # G-code for a plotter
 >>> pencilbot.draw("drawing.gcode", "/dev/ttyUSB0")      # stream it (or port="sim://")
+>>> with pencilbot.open_control("/dev/ttyACM0", "axidraw-v3") as plotter:   # at the plotter
+...     plotter.pen("toggle"); plotter.motors(False); plotter.walk(10, 0); plotter.home()
 >>> lines = pencilbot.gcode(plan, "grbl-servo-a4")       # the G-code as lines
 
 Images may be a path, a numpy array (grey or RGB, uint8 or float in [0, 1]) or a
@@ -145,3 +147,13 @@ def draw(*args, **kwargs) -> DrawResult:
 
     sim.register()
     return _draw(*args, **kwargs)
+
+
+def open_control(port: str, profile: str | Path | Profile = DEFAULT_PROFILE, **kwargs):
+    """The plotter on ``port`` at hand: pen, motors, walk, home (see
+    :func:`pencilbot.driver.control.open_control`; ``sim://…`` reaches the virtual plotter)."""
+    import sim
+    from pencilbot.driver.control import open_control as _open_control
+
+    sim.register()
+    return _open_control(port, profile if isinstance(profile, Profile) else str(profile), **kwargs)

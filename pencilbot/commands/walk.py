@@ -14,9 +14,9 @@ def add_parser(subparsers) -> None:
         "walk", help="move the carriage by a distance (mm)",
         description="Move the carriage by --x and --y mm at the profile's travel speed, the pen as it is "
         "(GRBL: a $J= jog; Marlin: G91 G0; EBB: XM/SM; HP-GL: PR), and print where it then stands.")
-    walk = number("--x/--y", low=-MAX_BED, high=MAX_BED, unit="mm")
-    p.add_argument("--x", type=walk, default=0.0, metavar="MM", help="mm along X (default %(default)g)")
-    p.add_argument("--y", type=walk, default=0.0, metavar="MM", help="mm along Y (default %(default)g)")
+    for axis in ("x", "y"):
+        p.add_argument(f"--{axis}", type=number(f"--{axis}", low=-MAX_BED, high=MAX_BED, unit="mm"), default=0.0,
+                       metavar="MM", help=f"mm along {axis.upper()} (default %(default)g)")
     add_plotter_options(p)
     p.set_defaults(func=run)
 

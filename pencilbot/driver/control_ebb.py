@@ -29,7 +29,11 @@ class EbbControl(Control):
         self.reader = LineReader(open_port(port, baudrate=baud, profile=name))
         self.link = EbbLink(self.reader, timeout)
         try:
-            self.version = self._guard(greet, self.link)
+            try:
+                self.version = greet(self.link)
+            except (EbbFault, PortLost) as exc:
+                raise PlotError(f"no answer from an EBB board on {port} ({exc}): check the port and that the plotter "
+                                "is an AxiDraw, NextDraw or other EBB machine (another needs a profile for it)") from None
             self._pen_setup()
         except BaseException:
             self.close()
@@ -62,7 +66,7 @@ class EbbControl(Control):
     def _set_pen(self, down: bool) -> None:
         pen = self.profile.pen
         ms = max(round(1000 * (pen.down_delay if down else pen.up_delay)), 1)
-        self._do(f"SP,{0 if down else 1},{ms}")
+        self._do(self.profile.ebb.pen_command(up=not down, ms=ms))  # on the servo's own pin (the 8511: RB2)
         self._idle(ms / 1000)
 
     def pen_state(self) -> bool:

@@ -51,16 +51,18 @@ FEATURE_SHARE = 0.7
 FEATURE_BLUR = 0.5
 FEATURE_SURROUND = 2.0
 FEATURE_VALLEY = 0.02
-#: A face at most this size on paper (mm, the detector's square) is drawn at the pen's own scale,
-#: as dithered runs (:mod:`pencilbot.planning.dither`), without its contours: the runs draw its
-#: features too. A larger face keeps the hatching, which has room there for the face's forms.
-#: Measured (bench/fidelity.py, face rho@1mm / @0.5mm, whole-box rho, plot time): messi5's
-#: 17 mm face 0.916 / 0.741, 29.8 min -> 0.961 / 0.894, 29.8 min; dithered too, astronaut's 36 mm
-#: face 0.964 / 0.880 -> 0.952 / 0.907 and whole box 0.975 -> 0.969, grace_hopper's 88 mm
-#: 0.962 / 0.894 -> 0.961 / 0.926 and whole box 0.961 -> 0.952.
-DITHER_FACE = 25.0
-FACE_SKETCH = 0.0
-PORTRAIT_LIFT = 1.0
+#: Every face is drawn at the pen's own scale, as dithered runs (:mod:`pencilbot.planning.dither`)
+#: to its photo's tone (:func:`~pencilbot.imaging.faces.portrait_darkness`), without its
+#: contours: the runs draw its features too. The rest of the sheet is hatched to the pencil
+#: tone, as a picture without a face. (Issue 30, bench/fidelity.py --faceset: hatching faces over
+#: 25 mm and lifting the whole sheet's tone to the faces' curve left 2 of 21 such faces at
+#: rho@1mm >= 0.95 and @0.5mm >= 0.85, plot vs own sketch r down to 0.825 and group photos at
+#: 33-51 min; see docs/faces.md.)
+#: Most pen-down length of a one-pen plan, mm per cm² of the drawing box (40 m on an A4 sheet's
+#: 180 × 267 mm): past it the hatching's tone is drawn lighter by one factor (:func:`_shaded`). On the
+#: face set (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts,
+#: 0.43 min per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min.
+PEN_DOWN_BUDGET = 83.0
 log = logging.getLogger(__name__)
 
 
@@ -237,8 +239,7 @@ def plan_from_sketch(
         fine_threshold=min(threshold, edge_threshold(line, FACE_PEN_DARKNESS)),
     )
     in_color = pens is not None and len(pens.pens) > 1
-    small = [face for face in faces if face.size * layout.mm_per_px <= DITHER_FACE]
-    dithered = face_mask(line.edges.shape, small) if small and style.hatch and not in_color else None
+    dithered = face_mask(line.edges.shape, faces) if faces and style.hatch and not in_color else None
     if faces and important is not None:  # (important: the faces' mask)
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
     if dithered is not None:
@@ -255,27 +256,7 @@ def plan_from_sketch(
             blur=style.hatch_blur, seed=style.seed,
         )
     elif style.hatch:
-        assert drawing.tone is not None  # a hatching style's sketch has its tone
-        lifted = portrait_darkness(1.0 - drawing.tone, 1.0 - drawing.gray, faces)
-        sketched = 1.0 - (drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2))
-        hatches = shade(
-            lifted if PORTRAIT_LIFT else 1.0 - drawing.tone,
-            layout,
-            strokes,
-            paper=1.0 - drawing.gray,
-            pen_width=style.pen_width,
-            angles=style.hatch_angles,
-            coverage=style.hatch_coverage,
-            form_scale=style.hatch_form,
-            min_run=style.min_hatch_run,
-            blank_below=style.hatch_blank_below,
-            wobble=style.hatch_jitter,
-            blur=style.hatch_blur,
-            seed=style.seed,
-            important=important,
-            dithered=dithered,
-            face_darkness=(1 - FACE_SKETCH) * lifted + FACE_SKETCH * sketched,
-        )
+        hatches = _shaded(drawing, layout, strokes, style, important, dithered, faces)
         layers += [layer for layer in hatches if layer.paths]
     if pens is None:
         layers.append(Layer("edges", strokes, pen_width=style.pen_width, role="edges"))
@@ -332,6 +313,35 @@ def plan_from_sketch(
     if pens is not None:
         meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)
     return Plan(page=page, layers=tuple(ordered), meta=meta)
+
+
+def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, dithered, faces: list) -> list:
+    """The hatch layers (and the faces' runs) of a one-pen plan, within ``PEN_DOWN_BUDGET``.
+
+    Past the budget the tone is shaded once more, the hatching's tone scaled by what the budget
+    leaves it over what it drew: every tone lighter by one factor, so the drawing keeps its order
+    of tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
+    """
+    tone = 1.0 - drawing.tone
+    face_tone = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
+    x0, y0, x1, y1 = layout.drawing_box
+    budget = PEN_DOWN_BUDGET * (x1 - x0) * (y1 - y0) / 100 - float(strokes.drawn_lengths().sum())
+    scale = 1.0
+    for _ in range(2):
+        layers = shade(
+            scale * tone, layout, strokes, paper=1.0 - drawing.gray, pen_width=style.pen_width,
+            angles=style.hatch_angles, coverage=style.hatch_coverage, form_scale=style.hatch_form,
+            min_run=style.min_hatch_run, blank_below=style.hatch_blank_below, wobble=style.hatch_jitter,
+            blur=style.hatch_blur, seed=style.seed, important=important, dithered=dithered,
+            face_darkness=face_tone,
+        )
+        drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
+        if drawn <= budget or scale < 1.0:
+            return layers
+        runs = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers if layer.name == FACE_TONE)
+        scale = max(budget - runs, 0.0) / max(drawn - runs, 1e-9)
+        log.debug("pen-down %.1f m over the budget %.1f m: tone scaled by %.2f", drawn / 1e3, budget / 1e3, scale)
+    return layers
 
 
 def features_only(

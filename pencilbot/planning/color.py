@@ -8,11 +8,13 @@ Per cell of a blurred, downsampled copy of the colour sketch (:data:`SEPARATION_
 make the stacked inks match the sketch's colour, by projected Levenberg–Marquardt steps on all
 cells at once (solved once per pen set on a table of colours, :func:`separation_table`, then
 polished per cell).
-The metric is the cube root of linear light (CIELAB's lightness curve per channel), so an error
-in a shadow counts as much as one in a highlight, as the eye sees it. A small cost per unit of
-ink picks, among mixtures that look alike, the one with least ink: a neutral shadow takes black
-rather than three colours on top of each other, which is also how printers separate (grey
-component replacement).
+The metric is CIELAB (cube roots of X, Y, Z), so an error in a shadow counts as much as one in a
+highlight and an error of hue as much as the eye sees it. (It was the cube root of each linear
+RGB channel: that metric weighs chroma about a quarter as much as CIELAB does, and the ink cost
+bought a visible tint with it: grace_hopper's whole plot came out greener and yellower than its
+sketch by Δa* −1.3, Δb* +1.5.) A small cost per unit of ink picks, among mixtures that look
+alike, the one with least ink: a neutral shadow takes black rather than three colours on top of
+each other, which is also how printers separate (grey component replacement).
 
 Each pen's amount then goes through the black plan's own closed loop
 (:func:`~pencilbot.planning.shading.shade`): hatch, render with the exact-area rasteriser, blur,
@@ -41,15 +43,24 @@ from pencilbot.planning.shading import shade
 
 #: Cell (mm) of the grid the separation is solved on: finer than the hatching's 1 mm tone scale.
 SEPARATION_CELL = 0.5
-#: Gaussian sigma (mm) of the colour the separation matches (the scale a hatch pattern reads as one colour).
-SEPARATION_BLUR = 1.0
+#: Gaussian sigma (mm) of the colour the separation matches. Each pen's tone loop blurs its amount
+#: by the style's hatch blur (1 mm) again, so what the pens are asked for is the picture blurred
+#: twice: 0.5 mm here (was 1 mm) keeps the colour of features a millimetre or two across
+#: (bench/colour.py ΔE00 at 1 mm: astronaut 4.10 -> 3.93, grace_hopper 4.18 -> 3.99); none at
+#: all follows the sketch's pencil texture into more, shorter dashes (grace_hopper 64 min of
+#: plot, against 55).
+SEPARATION_BLUR = 0.5
 #: Least coverage a pen is asked for: less is a scatter of stray dashes that reads as specks, not
 #: as a tint (dropping it moved no bench photo's ΔE00 by more than 0.02).
 LEAST_INK = 0.03
 #: Most coverage asked of one pen: all its hatch families at their densest still show some paper.
 MOST_INK = 0.95
-#: Cost of a unit of ink against a unit of squared colour error (cube-root units).
-INK_COST = 2e-3
+#: Cost of a unit of ink against a unit of squared colour error (CIELAB / 116). 1e-3 (2e-3 in the
+#: old cube-root RGB units, where it cost grace_hopper's plot ΔE00 0.5 at 3 mm): a neutral grey
+#: still goes to black; the separation itself (its amounts as exact coverage, stacked) is ΔE00
+#: 1.3 / 1.6 from the sketch at 1 mm on astronaut / grace_hopper (was 2.8 / 3.3), for a few
+#: per cent more ink (plot 62 -> 64 min, 52 -> 61 min).
+INK_COST = 1e-3
 #: Keeps the Gauss–Newton system well posed where pens are interchangeable (more pens than channels).
 DAMPING = 1e-4
 #: Steps from no ink to the optimum (the table's cells converge in 20 to 30).
@@ -66,7 +77,7 @@ SPARE_SHARE = 0.02
 SPARE_CELLS = 0.005
 #: ... change by this CIEDE2000 or more (a difference anyone sees side by side).
 SPARE_DELTA_E = 5.0
-_FLOOR = 0.01  # cube root of linear light, offset: its slope stays finite at black
+_FLOOR = 0.01  # cube roots of X, Y, Z, offset: their slope stays finite at black
 
 
 def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
@@ -111,8 +122,7 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
     spent, filters, reflect, residual = cost(amount)
     trust = np.full(goal.shape[0], 1e-2)  # Levenberg–Marquardt damping, per cell
     for _ in range(rounds):
-        slope = (reflect + _FLOOR) ** (-2.0 / 3.0) / 3.0 * reflect  # d lightness / d log reflectance
-        jac = slope[:, None, :] * (-absorb[None] / np.maximum(filters, 1e-6))  # (N, K, 3)
+        jac = _slope(reflect, -reflect[:, None, :] * absorb[None] / np.maximum(filters, 1e-6))  # (N, K, 3)
         grad = np.einsum("nkc,nc->nk", jac, residual) + ink_cost + DAMPING * amount
         hess = np.einsum("nkc,njc->nkj", jac, jac) + (DAMPING + trust)[:, None, None] * eye
         # Projected Newton: a pen at a bound whose gradient pushes it further out is held there.
@@ -140,8 +150,22 @@ def separation_table(colors: tuple[str, ...]) -> np.ndarray:
     return separate(cube, pens).reshape(len(colors), TABLE_SIZE, TABLE_SIZE, TABLE_SIZE)
 
 
+#: Linear sRGB -> CIE XYZ (D65), each row scaled so that white is (1, 1, 1).
+_XYZ = np.array([[0.4124, 0.3576, 0.1805], [0.2126, 0.7152, 0.0722], [0.0193, 0.1192, 0.9505]])
+_XYZ = _XYZ / _XYZ.sum(axis=1, keepdims=True)
+#: CIELAB's L*, a*, b* from the cube roots of X, Y, Z, in units of L* / 116.
+_LAB = np.array([[0.0, 1.0, 0.0], [500 / 116, -500 / 116, 0.0], [0.0, 200 / 116, -200 / 116]])
+
+
 def _lightness(linear: np.ndarray) -> np.ndarray:
-    return np.cbrt(linear + _FLOOR)
+    """(N, 3) linear RGB -> CIELAB / 116 (the cube roots offset by ``_FLOOR``: finite slope at black)."""
+    return np.cbrt(linear @ _XYZ.T + _FLOOR) @ _LAB.T
+
+
+def _slope(linear: np.ndarray, change: np.ndarray) -> np.ndarray:
+    """(N, K, 3): how :func:`_lightness` of ``linear`` (N, 3) moves along each of K ``change`` (N, K, 3)."""
+    cube = (linear @ _XYZ.T + _FLOOR) ** (-2.0 / 3.0) / 3.0
+    return (cube[:, None, :] * (change @ _XYZ.T)) @ _LAB.T
 
 
 def pen_angles(base: Sequence[float], index: int, count: int) -> tuple[float, ...]:
@@ -214,7 +238,8 @@ def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
     height, width = target.shape[:2]
     linear = srgb_to_linear(target).astype(np.float32)
     # Blurred in linear light: that is how the eye averages ink and paper.
-    blurred = cv2.GaussianBlur(linear, (0, 0), SEPARATION_BLUR / layout.mm_per_px, borderType=cv2.BORDER_REPLICATE)
+    blurred = cv2.GaussianBlur(linear, (0, 0), SEPARATION_BLUR / layout.mm_per_px, borderType=cv2.BORDER_REPLICATE) \
+        if SEPARATION_BLUR > 0 else linear
     factor = max(1.0, SEPARATION_CELL / layout.mm_per_px)
     small = linear_to_srgb(cv2.resize(
         blurred, (max(1, round(width / factor)), max(1, round(height / factor))), interpolation=cv2.INTER_AREA))

@@ -196,3 +196,20 @@ def test_an_ebb_without_motor_power_is_refused_before_anything_moves(tmp_path, n
     line = _one_error_line(capsys.readouterr().err)
     assert "the plotter's motors have no power: its board reads 0.3 V at the power jack" in line
     assert not any(cmd.startswith(("LM", "SP", "EM")) for cmd in protocol_sim.plotter(name).firmware.log)
+
+
+def test_a_resumed_job_keeps_its_one_run_values(tmp_path, name, capsys):
+    import json
+
+    from pencilbot.driver.journal import journal_path
+
+    job = _gcode(tmp_path, "axidraw-v3")
+    port = f"sim://{name}?profile=axidraw-v3&faults=error@30"
+    assert main(["draw", str(job), "--profile", "axidraw-v3", "--port", port, "-q", "--pen-down-height", "42"]) == 3
+    record = json.loads(journal_path(job).read_text())
+    assert record["options"]["overrides"] == {"pen": {"down": 42.0}}
+    board = protocol_sim.plotter(name).firmware
+    board.log.clear()
+    assert main(["draw", "--resume", str(journal_path(job)), "--port", f"sim://{name}", "-q"]) == 0
+    servo = load_profile("axidraw-v3").ebb.servo_position(42)
+    assert f"SC,5,{servo}" in board.log

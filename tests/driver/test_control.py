@@ -153,3 +153,29 @@ def test_the_ebb_nickname_is_read_with_qt(name):
     assert nickname(f"sim://{name}") == "East EBB"
     assert find_named("East EBB", [f"sim://{name}"]) == f"sim://{name}"
     assert find_named("West EBB", [f"sim://{name}"]) is None
+
+
+def test_the_library_api_opens_the_same_control(name):
+    import pencilbot
+
+    with pencilbot.open_control(f"sim://{name}", "axidraw-v3") as plotter:
+        assert plotter.pen("down") is True and not protocol_sim.plotter(name).firmware.pen_up
+
+
+@pytest.mark.parametrize("profile,board", [("axidraw-v3", "hp7475a"), ("hp7475a", "grbl-servo-a4")])
+def test_the_wrong_board_is_one_line_naming_what_was_expected(profile, board, name):
+    with pytest.raises(PlotError, match="no answer from an? (EBB board|HP-GL plotter)"):
+        open_control(f"sim://{name}?profile={board}", profile, timeout=0.5)
+
+
+@pytest.mark.parametrize("profile", ["axidraw-v3", "nextdraw-8511"])
+def test_the_pen_command_moves_the_servo_on_the_profiles_own_pin(profile, name):
+    """The NextDraw 8511's narrow-band servo is on RB2: an ``SP`` without its pin word moves RB1's
+    pulses and leaves the pen where it was."""
+    with open_control(f"sim://{name}", profile) as plotter:
+        board = protocol_sim.plotter(name).firmware
+        setup, pen = plotter.profile.ebb, plotter.profile.pen
+        plotter.pen("down")
+        assert board.servos.target == pytest.approx(setup.servo_position(pen.down))
+        plotter.pen("up")
+        assert board.servos.target == pytest.approx(setup.servo_position(pen.up))
