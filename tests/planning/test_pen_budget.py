@@ -54,6 +54,7 @@ def test_over_the_budget_the_tone_is_lighter_in_the_same_order(dark_steps, monke
 
 def test_under_the_budget_nothing_changes(dark_steps, monkeypatch):
     drawing, page = dark_steps
+    monkeypatch.setattr(build, "PEN_DOWN_BUDGET", float("inf"))  # (dark steps pass the shipped budget)
     free = plan_from_sketch(drawing, page, FAST)
     monkeypatch.setattr(build, "PEN_DOWN_BUDGET", 10 * _pen_down(free))
     again = plan_from_sketch(drawing, page, FAST)
