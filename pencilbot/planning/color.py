@@ -110,7 +110,7 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
         Coverage of each pen, in the order of ``pens``.
     """
     shape = target.shape[:2]
-    goal = _lightness(srgb_to_linear(target).reshape(-1, 3))  # (N, 3)
+    goal = _lab(srgb_to_linear(target).reshape(-1, 3))  # (N, 3)
     absorb = 1.0 - srgb_to_linear(np.array([pen.rgb for pen in pens]))  # (K, 3)
     k = len(pens)
     amount = np.zeros((goal.shape[0], k)) if start is None else np.clip(start.reshape(k, -1).T.astype(np.float64), 0.0, most)
@@ -119,7 +119,7 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
         """Per cell: the cost, each pen's filter (N, K, 3), the reflectance and the residual (N, 3)."""
         filters = 1.0 - a[:, :, None] * absorb[None]
         reflect = np.prod(filters, axis=1)
-        residual = _lightness(reflect) - goal
+        residual = _lab(reflect) - goal
         spent = 0.5 * (residual**2).sum(axis=1) + ink_cost * a.sum(axis=1) + 0.5 * DAMPING * (a**2).sum(axis=1)
         return spent, filters, reflect, residual
 
@@ -162,13 +162,13 @@ _XYZ = _XYZ / _XYZ.sum(axis=1, keepdims=True)
 _LAB = np.array([[0.0, 1.0, 0.0], [500 / 116, -500 / 116, 0.0], [0.0, 200 / 116, -200 / 116]])
 
 
-def _lightness(linear: np.ndarray) -> np.ndarray:
+def _lab(linear: np.ndarray) -> np.ndarray:
     """(N, 3) linear RGB -> CIELAB / 116 (the cube roots offset by ``_FLOOR``: finite slope at black)."""
     return np.cbrt(linear @ _XYZ.T + _FLOOR) @ _LAB.T
 
 
 def _slope(linear: np.ndarray, change: np.ndarray) -> np.ndarray:
-    """(N, K, 3): how :func:`_lightness` of ``linear`` (N, 3) moves along each of K ``change`` (N, K, 3)."""
+    """(N, K, 3): how :func:`_lab` of ``linear`` (N, 3) moves along each of K ``change`` (N, K, 3)."""
     cube = (linear @ _XYZ.T + _FLOOR) ** (-2.0 / 3.0) / 3.0
     return (cube[:, None, :] * (change @ _XYZ.T)) @ _LAB.T
 
@@ -207,7 +207,8 @@ def color_hatching(
     angles : sequence of float
         The style's hatch angles; each pen turns them by :func:`pen_angles`.
     **shading
-        Passed on to :func:`~pencilbot.planning.shading.shade` (coverage, blur, seed, …).
+        Passed on to :func:`~pencilbot.planning.shading.shade` (coverage, blur, seed, …); each pen
+        matches its tone at :data:`PEN_TONE_BLUR` of ``blur``.
 
     Returns
     -------

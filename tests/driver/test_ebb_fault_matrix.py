@@ -2,7 +2,7 @@
 an uninterrupted run — or in a refusal until the position is re-established, and then exactly it.
 
 As :mod:`test_fault_matrix` does for GRBL: a real plan (coffee, :mod:`real_plan`), each fault
-delivered by the virtual EBB at an exact command (``faults=``: a lost answer, the cable pulled
+delivered by the virtual EBB (firmware 3.0.3 and 2.8.1) at an exact command (``faults=``: a lost answer, the cable pulled
 with the board's power, a power cut, and Ctrl-C, SIGTERM or SIGHUP as the signal the sender gets once
 the board took that command); the board runs instantly and only as far as the sender's
 commands and queries take it, and the driver's status queries come by the motion it sent, not
@@ -53,17 +53,24 @@ def drawn(name: str) -> list[np.ndarray]:
     return list(plotter.drawn())
 
 
-@pytest.fixture(scope="module")
-def reference():
-    """The uninterrupted drawing, and the command the faults strike: an LM in the middle of the
-    job, drawing (the last SP before it lowered the pen)."""
+#: The firmware versions the matrix runs on: 3.0.3, and 2.8.1 (its five-field ``ES``, no ``QU``,
+#: a one-deep FIFO).
+FIRMWARES = ("3.0.3", "2.8.1")
+
+
+@pytest.fixture(scope="module", params=FIRMWARES)
+def reference(request):
+    """The uninterrupted drawing on that firmware, the command the faults strike (an LM in the
+    middle of the job, drawing: the last SP before it lowered the pen), and the firmware."""
     sim.register()
-    draw(PLAN, "sim://ebb-matrix-ref", profile=PROFILE)
-    log = protocol_sim.plotter("ebb-matrix-ref").firmware.log
+    firmware = request.param
+    name = f"ebb-matrix-ref-{firmware}"
+    draw(PLAN, f"sim://{name}?profile={PROFILE}&firmware={firmware}", profile=PROFILE)
+    log = protocol_sim.plotter(name).firmware.log
     strike = next(k for k in range(len(log) // 2, len(log)) if log[k].startswith("LM")
                   and next(c for c in reversed(log[:k]) if c.startswith("SP,")).startswith("SP,0"))
-    yield drawn("ebb-matrix-ref"), strike + 1  # the board counts commands from 1
-    protocol_sim.forget("ebb-matrix-ref")
+    yield drawn(name), strike + 1, firmware  # the board counts commands from 1
+    protocol_sim.forget(name)
 
 
 class Hand(hands.Hand):
@@ -76,14 +83,15 @@ class Hand(hands.Hand):
 
 @pytest.mark.parametrize("fault", FAULTS)
 def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, fault):
-    strokes, strike = reference
+    strokes, strike, firmware = reference
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(PLAN) + "\n")
     name = f"ebb-matrix{next(_names)}"
     kind, lost = FAULTS[fault]
     kind, _, code = kind.partition(":")
     with pytest.raises(PlotError) as stopped:
-        draw(path, f"sim://{name}?profile={PROFILE}&faults={kind}@{strike}" + (f":{code}" if code else ""),
+        draw(path, f"sim://{name}?profile={PROFILE}&firmware={firmware}&faults={kind}@{strike}"
+             + (f":{code}" if code else ""),
              profile=PROFILE, timeout=0.5)
     assert STOPPED_BY[fault] in str(stopped.value) and "Resume with: pencilbot draw --resume" in str(stopped.value)
     plotter = protocol_sim.plotter(name)
@@ -104,7 +112,7 @@ def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, 
 
 
 def test_a_pen_change_pauses_and_the_drawing_is_the_same(tmp_path, reference):
-    strokes, _ = reference
+    strokes, _, firmware = reference
     at = len(PLAN) // 2
     while not clean_line(PLAN[at]).startswith("M280P0S60"):  # after a pen lift: it changes no stroke
         at += 1
@@ -112,6 +120,6 @@ def test_a_pen_change_pauses_and_the_drawing_is_the_same(tmp_path, reference):
     path.write_text("\n".join([*PLAN[: at + 1], "M0 (pen change: insert red)", *PLAN[at + 1:]]) + "\n")
     name = f"ebb-matrix{next(_names)}"
     hand = Hand(name)
-    draw(path, f"sim://{name}?profile={PROFILE}", profile=PROFILE, operator=hand)
+    draw(path, f"sim://{name}?profile={PROFILE}&firmware={firmware}", profile=PROFILE, operator=hand)
     assert hand.prompts == ["paused: pen change: insert red"]
     assert drawing_differences(drawn(name), strokes, TOLERANCE) == []

@@ -18,7 +18,7 @@ from real_plan import plan_lines
 from segments import drawing_differences
 
 import sim
-from pencilbot.driver import draw, ebb_link, port, session, stream
+from pencilbot.driver import draw, ebb_link, port, session
 from pencilbot.errors import PlotError
 from sim import protocol_sim
 
@@ -42,7 +42,7 @@ class StalledClock:
 @pytest.fixture
 def stalls(monkeypatch):
     clock = StalledClock()
-    for module in (port, session, stream, ebb_link):
+    for module in (port, session, ebb_link):  # the modules that read the clock
         monkeypatch.setattr(module, "time", clock)
     read_lines = port.LineReader.read_lines
 

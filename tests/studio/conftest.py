@@ -5,10 +5,10 @@ tests fail: they are not skipped."""
 from __future__ import annotations
 
 import shutil
-import threading
 from pathlib import Path
 
 import pytest
+from studio_helpers import serving
 
 CHROMIUM = ("/usr/bin/chromium", "/usr/bin/chromedriver")
 #: The virtual plotter's speed over real time in the browser tests: slow enough to pause a plot
@@ -37,17 +37,34 @@ def config_dir(tmp_path_factory):
         yield folder
 
 
+@pytest.fixture
+def studio():
+    """A studio with no photo, no plot (closed after the test)."""
+    from pencilbot.studio.state import Studio
+
+    made = Studio()
+    yield made
+    made.close()
+
+
+@pytest.fixture
+def client(studio):
+    """The studio's app behind its guard, as its own page reaches it; a server error is a 500
+    answer (not raised), as a browser would get it."""
+    from starlette.testclient import TestClient
+
+    from pencilbot.studio.app import create_app
+
+    app = create_app(studio, port=8765, names=("testserver",))
+    return TestClient(app, base_url="http://testserver:8765", raise_server_exceptions=False)
+
+
 @pytest.fixture(scope="module")
 def server(config_dir):
     from pencilbot.studio.server import prepare
 
     running = prepare(None, listen_port=0, sim_speed=SIM_SPEED)
-    thread = threading.Thread(target=running.serve, name="studio server", daemon=True)
-    thread.start()
-    for _ in range(200):
-        if running.server.started:
-            break
-        threading.Event().wait(0.05)
+    thread = serving(running)
     yield running
     for session in running.studio.plotters.sessions.values():
         session.press("stop")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -66,3 +67,14 @@ def load_photo(server, browser, photo) -> int:
     wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
     browser.find_element(By.ID, "photo-input").send_keys(str(photo))
     return wait_for(browser, lambda: full_generation(browser), "the full preview of the photo")
+
+
+def serving(running) -> threading.Thread:
+    """Serve ``running`` in a thread; back once uvicorn listens (a 10 s bound)."""
+    thread = threading.Thread(target=running.serve, name="studio server", daemon=True)
+    thread.start()
+    for _ in range(200):
+        if running.server.started:
+            break
+        threading.Event().wait(0.05)
+    return thread

@@ -4,9 +4,9 @@ header timeout, while a connection that sends its request is answered."""
 from __future__ import annotations
 
 import socket
-import threading
 
 import pytest
+from studio_helpers import serving
 
 from pencilbot.studio import connections
 
@@ -20,12 +20,7 @@ def running(monkeypatch, tmp_path):
     from pencilbot.studio.server import prepare
 
     made = prepare(None, listen_port=0)
-    thread = threading.Thread(target=made.serve, daemon=True)
-    thread.start()
-    for _ in range(200):
-        if made.server.started:
-            break
-        threading.Event().wait(0.05)
+    thread = serving(made)
     yield made
     made.stop()
     thread.join(timeout=10)

@@ -11,26 +11,10 @@ import pytest
 from PIL import Image
 
 pytest.importorskip("starlette", reason="the studio extra is part of the test extra")
-from starlette.testclient import TestClient
 
-from pencilbot.studio.app import create_app
-from pencilbot.studio.state import Studio
 
 PORT, OWN = 8765, {"X-Studio": "1"}
 JSON = {"Content-Type": "application/json", **OWN}
-
-
-@pytest.fixture
-def studio():
-    made = Studio()
-    yield made
-    made.close()
-
-
-@pytest.fixture
-def client(studio):
-    app = create_app(studio, port=PORT, names=("testserver",))
-    return TestClient(app, base_url=f"http://testserver:{PORT}", raise_server_exceptions=False)
 
 
 def bomb(width: int, height: int, kind: str = "PNG") -> bytes:

@@ -14,22 +14,9 @@ from starlette.testclient import TestClient
 
 from pencilbot.studio import app as app_module
 from pencilbot.studio.app import create_app
-from pencilbot.studio.state import Studio
 
 PORT = 8765
 OWN = {"X-Studio": "1"}
-
-
-@pytest.fixture
-def studio():
-    made = Studio()
-    yield made
-    made.close()
-
-
-@pytest.fixture
-def client(studio):
-    return TestClient(create_app(studio, port=PORT, names=("testserver",)), base_url=f"http://testserver:{PORT}")
 
 
 def nothing_ran(studio) -> None:
