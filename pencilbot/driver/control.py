@@ -54,8 +54,18 @@ class Control:
     def __exit__(self, *exc) -> None:
         self.close()
 
+    def _serial(self):
+        """The serial port this control holds (None before it has one)."""
+        return None
+
     def close(self) -> None:
         """Let go of the port (the plotter stays as it is)."""
+        port = self._serial()
+        if port is not None:
+            try:
+                port.close()
+            except Exception:  # noqa: BLE001 - a vanished port may fail to close
+                pass
 
     # --- the pen ---------------------------------------------------------------------------
 
@@ -149,11 +159,8 @@ class GcodeControl(Control):
             self.close()
             raise
 
-    def close(self) -> None:
-        try:
-            self.link.port.close()
-        except Exception:  # noqa: BLE001 - a vanished port may fail to close
-            pass
+    def _serial(self):
+        return getattr(getattr(self, "link", None), "port", None)
 
     def _do(self, line: str) -> None:
         """Send one line and wait for its ``ok``; a refusal or an alarm is one line."""

@@ -39,11 +39,8 @@ class EbbControl(Control):
             self.close()
             raise
 
-    def close(self) -> None:
-        try:
-            self.reader.port.close()
-        except Exception:  # noqa: BLE001 - a vanished port may fail to close
-            pass
+    def _serial(self):
+        return getattr(getattr(self, "reader", None), "port", None)
 
     def _guard(self, call, *args):
         try:

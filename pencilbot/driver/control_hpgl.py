@@ -40,11 +40,8 @@ class HpglControl(Control):
             self.close()
             raise
 
-    def close(self) -> None:
-        try:
-            self.link.port.close()
-        except Exception:  # noqa: BLE001 - a vanished port may fail to close
-            pass
+    def _serial(self):
+        return getattr(getattr(self, "link", None), "port", None)
 
     def _send(self, data: bytes) -> tuple[int, int, bool]:
         """Send instructions and wait until they ran: the pen's ``(x, y, down)`` after them."""
