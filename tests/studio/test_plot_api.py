@@ -74,6 +74,7 @@ def test_the_machine_controls_of_every_family_on_the_virtual_plotter(client, pro
         assert "motors off" in press("motors-off")
     refused = client.post("/api/machine/walk", json={"port": "sim://", "profile": profile, "dx": 500}, headers=OWN)
     assert refused.status_code == 400 and "smaller steps" in refused.json()["error"]
+    client.post("/api/machine/motors-on", json={"port": "sim://", "profile": profile}, headers=OWN)  # as found
 
 
 def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
