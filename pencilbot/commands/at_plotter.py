@@ -70,6 +70,11 @@ def open_plotter(args: argparse.Namespace):
     return open_control(resolve_port(args.port, quiet=args.quiet), args.profile, baud=args.baud, timeout=args.timeout)
 
 
+def carriage_words(where) -> str:
+    """Where the plotter says its carriage is, to 0.01 mm (an HP-GL unit is 0.02488 mm)."""
+    return f"the carriage is at X{round(where[0], 2):g} Y{round(where[1], 2):g}"
+
+
 def pen_words(down: bool | None) -> str:
     """How the plotter's report of its pen reads."""
     if down is None:

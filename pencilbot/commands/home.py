@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pencilbot.commands.at_plotter import add_plotter_options, open_plotter
+from pencilbot.commands.at_plotter import add_plotter_options, carriage_words, open_plotter
 
 
 def add_parser(subparsers) -> None:
@@ -21,5 +21,5 @@ def run(args: argparse.Namespace) -> int:
     with open_plotter(args) as plotter:
         where = plotter.home()
     if not args.quiet:
-        print("home" + (f": the carriage is at X{round(where[0], 2):g} Y{round(where[1], 2):g}" if where else ""))
+        print("home" + (f": {carriage_words(where)}" if where else ""))
     return 0

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from pencilbot.commands.at_plotter import add_plotter_options, open_plotter
+from pencilbot.commands.at_plotter import add_plotter_options, carriage_words, open_plotter
 from pencilbot.commands.options import number
 from pencilbot.machine.bed import MAX_BED
 
@@ -25,5 +25,5 @@ def run(args: argparse.Namespace) -> int:
     with open_plotter(args) as plotter:
         where = plotter.walk(args.x, args.y)
     if not args.quiet:
-        print(f"walked X{args.x:g} Y{args.y:g} mm" + (f"; the carriage is at X{round(where[0], 2):g} Y{round(where[1], 2):g}" if where else ""))
+        print(f"walked X{args.x:g} Y{args.y:g} mm" + (f"; {carriage_words(where)}" if where else ""))
     return 0
