@@ -28,8 +28,15 @@ from pathlib import Path
 import numpy as np
 
 PROFILES = "axidraw-v3,nextdraw-8511,grbl-servo-a4,grbl-z-a3,grblhal-servo-a3,hp7475a,marlin-servo-a4"
-STEPS = (["pen", "toggle"], ["pen", "toggle"], ["pen", "cycle"], ["align"], ["walk", "--x", "10", "--y", "5"],
-         ["home"], ["pen", "trial"])
+STEPS = (
+    ["pen", "toggle"],
+    ["pen", "toggle"],
+    ["pen", "cycle"],
+    ["align"],
+    ["walk", "--x", "10", "--y", "5"],
+    ["home"],
+    ["pen", "trial"],
+)
 TRIAL_ANSWERS = "35\n+\n\n\n"
 
 
@@ -71,13 +78,38 @@ def run_profile(profile: str, config: Path) -> dict:
     steps = []
     with PtyServer(plotter, reset_on_open=False) as server:
         for step in STEPS:
-            command = [sys.executable, "-m", "pencilbot.cli", *step, "--port", server.path, "--profile", profile]
-            done = subprocess.run(command, input=TRIAL_ANSWERS if step[-1] == "trial" else "", capture_output=True,
-                                  text=True, timeout=120, env=env)
-            said = (done.stdout.strip().splitlines() or [""])[-1] if done.returncode == 0 else done.stderr.strip()
-            steps.append({"command": f"pencilbot {' '.join(step)} --port PTY --profile {profile}",
-                          "exit": done.returncode, "said": said.split(": ", 1)[-1] if step[-1] == "trial" else said,
-                          "board_pen_down": _pen_down(plotter), "board_carriage_mm": _carriage(plotter)})
+            command = [
+                sys.executable,
+                "-m",
+                "pencilbot.cli",
+                *step,
+                "--port",
+                server.path,
+                "--profile",
+                profile,
+            ]
+            done = subprocess.run(
+                command,
+                input=TRIAL_ANSWERS if step[-1] == "trial" else "",
+                capture_output=True,
+                text=True,
+                timeout=120,
+                env=env,
+            )
+            said = (
+                (done.stdout.strip().splitlines() or [""])[-1]
+                if done.returncode == 0
+                else done.stderr.strip()
+            )
+            steps.append(
+                {
+                    "command": f"pencilbot {' '.join(step)} --port PTY --profile {profile}",
+                    "exit": done.returncode,
+                    "said": said.split(": ", 1)[-1] if step[-1] == "trial" else said,
+                    "board_pen_down": _pen_down(plotter),
+                    "board_carriage_mm": _carriage(plotter),
+                }
+            )
     saved = config / "plotters" / f"{profile}.toml"
     heights = None
     if saved.is_file():

@@ -75,9 +75,16 @@ def simulated_plan(plan: Plan, profile) -> tuple[Plan, float]:
         plotter.firmware.finish()
         placement = Placement.on_bed(plan.page, profile.bed)
         default = PenInFile("", plan.layers[0].color if plan.layers else BLACK, plan.pen_width)
-        layers = [Layer(ink.name or "drawn", [placement.to_page(s[:, :2]) for s in strokes], pen_width=ink.width,
-                        pen=ink.name, color=ink.color)
-                  for ink, strokes in strokes_by_pen(plotter.machine, pens, default=default)]
+        layers = [
+            Layer(
+                ink.name or "drawn",
+                [placement.to_page(s[:, :2]) for s in strokes],
+                pen_width=ink.width,
+                pen=ink.name,
+                color=ink.color,
+            )
+            for ink, strokes in strokes_by_pen(plotter.machine, pens, default=default)
+        ]
         seconds = plotter.seconds
     finally:
         protocol_sim.forget(name)
@@ -89,7 +96,10 @@ def per_pen(plan: Plan, profile) -> dict:
     out = {}
     for pen, layers in plan.pen_runs():
         total = estimate(Plan(page=plan.page, layers=layers), profile).total
-        out[pen or "black"] = {"pen_down_m": round(total.pen_down_mm / 1000, 1), "plot_min": round(total.seconds / 60, 1)}
+        out[pen or "black"] = {
+            "pen_down_m": round(total.pen_down_mm / 1000, 1),
+            "plot_min": round(total.seconds / 60, 1),
+        }
     return out
 
 
@@ -103,14 +113,25 @@ def measure(name: str, pen_sets: list[str], scales: list[float], montage: Path |
         drawing, plan = sketch_and_plan(image, pens=None if pens is None else load_pens(pens))
         if reference is None:
             if drawing.result.ndim != 3:
-                raise SystemExit("give at least one pen set of several pens: the colour sketch is the reference")
+                raise SystemExit(
+                    "give at least one pen set of several pens: the colour sketch is the reference"
+                )
             reference = drawing.result  # every plan is of the same image at the same plot size
-            original = cv2.resize(np.asarray(image.rgb, np.float32), reference.shape[1::-1], interpolation=cv2.INTER_AREA)
+            original = cv2.resize(
+                np.asarray(image.rgb, np.float32), reference.shape[1::-1], interpolation=cv2.INTER_AREA
+            )
         drawn, seconds = simulated_plan(plan, profile)
         result[pens or "black_only"] = {
-            **{f"delta_e00_{key}": {f"{s:g}mm": round(color_difference(what, against, blur=s), 2) for s in scales}
-               for key, what, against in (("vs_sketch", drawn, reference), ("vs_photo", drawn, original),
-                                          ("plan_vs_sketch", plan, reference))},
+            **{
+                f"delta_e00_{key}": {
+                    f"{s:g}mm": round(color_difference(what, against, blur=s), 2) for s in scales
+                }
+                for key, what, against in (
+                    ("vs_sketch", drawn, reference),
+                    ("vs_photo", drawn, original),
+                    ("plan_vs_sketch", plan, reference),
+                )
+            },
             "simulated_plot_min": round(seconds / 60, 1),
             "pens": per_pen(plan, profile),
         }
@@ -124,25 +145,35 @@ def write_montage(path: Path, pictures: list[np.ndarray], height: int = 500) -> 
     panels = []
     for picture in pictures:
         h, w = picture.shape[:2]
-        panels += [cv2.resize(np.asarray(picture, np.float32), (round(w * height / h), height), interpolation=cv2.INTER_AREA),
-                   np.ones((height, 12, 3), np.float32)]
+        panels += [
+            cv2.resize(
+                np.asarray(picture, np.float32), (round(w * height / h), height), interpolation=cv2.INTER_AREA
+            ),
+            np.ones((height, 12, 3), np.float32),
+        ]
     row = np.concatenate(panels[:-1], axis=1)
     path.parent.mkdir(parents=True, exist_ok=True)
-    cv2.imwrite(str(path), cv2.cvtColor(np.rint(np.clip(row, 0, 1) * 255).astype(np.uint8), cv2.COLOR_RGB2BGR))
+    cv2.imwrite(
+        str(path), cv2.cvtColor(np.rint(np.clip(row, 0, 1) * 255).astype(np.uint8), cv2.COLOR_RGB2BGR)
+    )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--photos", default=",".join(PHOTOS))
     parser.add_argument("--pens", default="cmyk", help="pen sets to measure, comma-separated (default cmyk)")
-    parser.add_argument("--scales", default="1,3", help="Gaussian blurs (mm) to compare at, comma-separated (default 1,3)")
+    parser.add_argument(
+        "--scales", default="1,3", help="Gaussian blurs (mm) to compare at, comma-separated (default 1,3)"
+    )
     parser.add_argument("--montage", type=Path, help="write photo | sketch | plots PNGs here")
     args = parser.parse_args()
     scales = [float(s) for s in args.scales.split(",")]
-    results: dict = {"setup": f"default style, A4 auto, 15 mm margin, {PROFILE}, simulated through sim://; "
-                     "mean CIEDE2000 after a Gaussian blur (each scale) in linear light, of the simulated plot "
-                     "against the colour sketch it was planned from (vs_sketch) and against the photo (vs_photo), "
-                     "of the plan's own strokes against the sketch (plan_vs_sketch)"}
+    results: dict = {
+        "setup": f"default style, A4 auto, 15 mm margin, {PROFILE}, simulated through sim://; "
+        "mean CIEDE2000 after a Gaussian blur (each scale) in linear light, of the simulated plot "
+        "against the colour sketch it was planned from (vs_sketch) and against the photo (vs_photo), "
+        "of the plan's own strokes against the sketch (plan_vs_sketch)"
+    }
     for name in args.photos.split(","):
         results[name] = measure(name, args.pens.split(","), scales, args.montage)
     results["targets"] = TARGETS

@@ -46,9 +46,11 @@ SVG = """<svg xmlns="http://www.w3.org/2000/svg" width="120mm" height="90mm" vie
 def input_lines() -> list[np.ndarray]:
     """The SVG's shapes as polylines (mm), the circle finely sampled."""
     t = np.linspace(0, 2 * np.pi, 2001)
-    return [np.array([[20, 20], [100, 20], [100, 70], [20, 70], [20, 20]], float),
-            np.array([[30, 30], [90, 60]], float),
-            np.column_stack([60 + 15 * np.cos(t), 45 + 15 * np.sin(t)])]
+    return [
+        np.array([[20, 20], [100, 20], [100, 70], [20, 70], [20, 20]], float),
+        np.array([[30, 30], [90, 60]], float),
+        np.column_stack([60 + 15 * np.cos(t), 45 + 15 * np.sin(t)]),
+    ]
 
 
 def _densify(line: np.ndarray, step: float = 0.02) -> np.ndarray:
@@ -124,8 +126,13 @@ def run_client(name: str, python: str, script: str, env: dict, svg: Path) -> dic
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     with PtyServer(plotter, reset_on_open=False) as served:
         t0 = time.monotonic()
-        done = subprocess.run([python, "-c", script, served.path, str(svg)], capture_output=True, text=True,
-                              env=env, timeout=900)
+        done = subprocess.run(
+            [python, "-c", script, served.path, str(svg)],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=900,
+        )
         seconds = time.monotonic() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
@@ -133,12 +140,23 @@ def run_client(name: str, python: str, script: str, env: dict, svg: Path) -> dic
     board.firmware.finish()
     times = np.array(plotter.times)  # from its first command (not its start-up and imports)
     strokes = list(board.drawn())
-    wanted = input_lines() if name == "pyaxidraw" else [np.array([[20, 20], [100, 20], [100, 70], [20, 70], [20, 20]], float)]
-    return {"client": name, "returncode": done.returncode, "seconds": round(seconds, 2), "client_cpu_s": round(cpu, 2),
-            "refusals": sum("Err" in line for line in plotter.replies),
-            "max_wait_s": round(float(np.diff(times).max()), 3) if len(times) > 1 else None,
-            "strokes": len(strokes), "worst_mm": round(worst_distance(strokes, wanted), 4) if strokes else None,
-            "commands": len(board.firmware.log), "stderr_tail": done.stderr[-300:] if done.returncode else ""}
+    wanted = (
+        input_lines()
+        if name == "pyaxidraw"
+        else [np.array([[20, 20], [100, 20], [100, 70], [20, 70], [20, 20]], float)]
+    )
+    return {
+        "client": name,
+        "returncode": done.returncode,
+        "seconds": round(seconds, 2),
+        "client_cpu_s": round(cpu, 2),
+        "refusals": sum("Err" in line for line in plotter.replies),
+        "max_wait_s": round(float(np.diff(times).max()), 3) if len(times) > 1 else None,
+        "strokes": len(strokes),
+        "worst_mm": round(worst_distance(strokes, wanted), 4) if strokes else None,
+        "commands": len(board.firmware.log),
+        "stderr_tail": done.stderr[-300:] if done.returncode else "",
+    }
 
 
 def main() -> None:

@@ -164,30 +164,37 @@ def main() -> None:
                 for method, c in evaluate(gray, truth).items():
                     f, precision, recall = f_measure(*c)
                     best = int(np.argmax(f))
-                    per_image.append({
-                        "image": scene + ("+texture" if textured else ""),
-                        "noise": noise,
-                        "method": method,
-                        "f": round(float(f[best]), 3),
-                        "precision": round(float(precision[best]), 3),
-                        "recall": round(float(recall[best]), 3),
-                        "edge_fraction": round(float(EDGE_FRACTIONS[best]), 4),
-                    })
+                    per_image.append(
+                        {
+                            "image": scene + ("+texture" if textured else ""),
+                            "noise": noise,
+                            "method": method,
+                            "f": round(float(f[best]), 3),
+                            "precision": round(float(precision[best]), 3),
+                            "recall": round(float(recall[best]), 3),
+                            "edge_fraction": round(float(EDGE_FRACTIONS[best]), 4),
+                        }
+                    )
                     totals.setdefault(noise, {}).setdefault(method, []).append(c)
     ods = {
         noise: {method: round(float(f_measure(*sum(cs))[0].max()), 3) for method, cs in methods.items()}
         for noise, methods in totals.items()
     }
-    print(json.dumps({
-        "protocol": {
-            "tolerance": f"{TOLERANCE} × diagonal",
-            "matching": "greedy one-to-one by distance within tolerance, predictions thinned",
-            "thresholds": f"{len(EDGE_FRACTIONS)} quantiles, edge fraction 0.002..0.25",
-            "noise": f"salt and pepper, amount {NOISE_AMOUNT}",
-        },
-        "ods": ods,
-        "per_image": per_image,
-    }, indent=1))
+    print(
+        json.dumps(
+            {
+                "protocol": {
+                    "tolerance": f"{TOLERANCE} × diagonal",
+                    "matching": "greedy one-to-one by distance within tolerance, predictions thinned",
+                    "thresholds": f"{len(EDGE_FRACTIONS)} quantiles, edge fraction 0.002..0.25",
+                    "noise": f"salt and pepper, amount {NOISE_AMOUNT}",
+                },
+                "ods": ods,
+                "per_image": per_image,
+            },
+            indent=1,
+        )
+    )
 
 
 if __name__ == "__main__":

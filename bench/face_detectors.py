@@ -31,7 +31,13 @@ import numpy as np
 
 from pencilbot.imaging import faces, mtcnn
 
-FIVE = {"left_eye": range(36, 42), "right_eye": range(42, 48), "nose": [30], "mouth_left": [48], "mouth_right": [54]}
+FIVE = {
+    "left_eye": range(36, 42),
+    "right_eye": range(42, 48),
+    "nose": [30],
+    "mouth_left": [48],
+    "mouth_right": [54],
+}
 
 
 def hand_landmarks() -> dict:
@@ -41,9 +47,13 @@ def hand_landmarks() -> dict:
         path = faceset.folder() / f"{name}.xml"
         if not path.is_file():
             continue
-        for image, body in re.findall(r"<image file='([^']+)'[^>]*>(.*?)</image>", path.read_text("latin-1"), re.DOTALL):
+        for image, body in re.findall(
+            r"<image file='([^']+)'[^>]*>(.*?)</image>", path.read_text("latin-1"), re.DOTALL
+        ):
             for box in re.findall(r"<box[^>]*>(.*?)</box>", body, re.DOTALL):
-                points = np.array([(int(x), int(y)) for x, y in re.findall(r"x='(\d+)' y='(\d+)'", box)], float)
+                points = np.array(
+                    [(int(x), int(y)) for x, y in re.findall(r"x='(\d+)' y='(\d+)'", box)], float
+                )
                 out.setdefault(image.rsplit(".", 1)[0], []).append(points)
     return out
 
@@ -76,7 +86,9 @@ def dlib_runner(models: str):
 
     def run(rgb: np.ndarray):
         factor = min(1.0, faces.SEARCH_SIDE / max(rgb.shape[:2]))
-        small = cv2.resize(rgb, None, fx=factor, fy=factor, interpolation=cv2.INTER_AREA) if factor < 1 else rgb
+        small = (
+            cv2.resize(rgb, None, fx=factor, fy=factor, interpolation=cv2.INTER_AREA) if factor < 1 else rgb
+        )
         out = []
         for rect in detector(small, 1):
             shape = predictor(small, rect)
@@ -118,7 +130,9 @@ def evaluate(run, landmarks: dict) -> dict:
         for points in landmarks.get(name, []):
             scale = np.linalg.norm(points[36] - points[45])
             centre = points.mean(axis=0)
-            near = [p for _, p in detections if p is not None and np.linalg.norm(p.mean(axis=0) - centre) < scale]
+            near = [
+                p for _, p in detections if p is not None and np.linalg.norm(p.mean(axis=0) - centre) < scale
+            ]
             if near:
                 p = near[0]
                 guess = p if len(p) == 5 else five(p)
@@ -138,10 +152,16 @@ def evaluate(run, landmarks: dict) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--dlib-models", help="folder with shape_predictor_68_face_landmarks.dat (needs dlib-bin)")
+    parser.add_argument(
+        "--dlib-models", help="folder with shape_predictor_68_face_landmarks.dat (needs dlib-bin)"
+    )
     args = parser.parse_args()
     landmarks = hand_landmarks()
-    runners = {"mtcnn": run_mtcnn, "mtcnn-grey": lambda rgb: run_mtcnn(rgb, grey=True), "cascade": run_cascade}
+    runners = {
+        "mtcnn": run_mtcnn,
+        "mtcnn-grey": lambda rgb: run_mtcnn(rgb, grey=True),
+        "cascade": run_cascade,
+    }
     if args.dlib_models:
         runners["dlib-hog"] = dlib_runner(args.dlib_models)
     print(json.dumps({name: evaluate(run, landmarks) for name, run in runners.items()}, indent=2))

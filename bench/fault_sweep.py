@@ -149,7 +149,13 @@ def reference(firmware: str):
         commands = [line.split(";")[0].strip() for line in lines]
         commands = [c for c in commands if c]
         dwells = np.array([i for i, c in enumerate(commands) if c.startswith("G4")]) + WAKE_LINES + 1
-        _REFERENCES[firmware] = lines, drawn(name), len(commands), dwells, protocol_sim.plotter(name).machine.clock
+        _REFERENCES[firmware] = (
+            lines,
+            drawn(name),
+            len(commands),
+            dwells,
+            protocol_sim.plotter(name).machine.clock,
+        )
     return _REFERENCES[firmware]
 
 
@@ -162,8 +168,9 @@ def case(task) -> tuple[str, str, str, int]:
         # With lines in flight, the ones after a refused line run before the stop: a refused
         # move would leave a different path. A glitch on a dwell changes no stroke.
         k = int(dwells[np.argmin(np.abs(dwells - k))])
-    outcome, detail = one_run(lines, PROFILES[firmware], name, KINDS[kind].format(k=k), clock,
-                              mode == "wait", folder)
+    outcome, detail = one_run(
+        lines, PROFILES[firmware], name, KINDS[kind].format(k=k), clock, mode == "wait", folder
+    )
     overruns = []
     if outcome in ("exact", "refused_then_exact", "finished"):
         # Ink a coasting carriage laid past a corner is there to stay: the rest must be exact.
@@ -172,7 +179,10 @@ def case(task) -> tuple[str, str, str, int]:
         if problems:
             found = [_ONCE_MORE.match(p) for p in problems]
             redrawn = all(m is not None and float(m.group(1)) <= REDRAWN_MAX for m in found)
-            outcome, detail = ("redrawn" if redrawn else "wrong"), f"{len(problems)} differences: {problems[:3]}"
+            outcome, detail = (
+                ("redrawn" if redrawn else "wrong"),
+                f"{len(problems)} differences: {problems[:3]}",
+            )
     protocol_sim.forget(name)
     return name, outcome, detail, len(overruns)
 
@@ -182,12 +192,24 @@ def main() -> None:
     parser.add_argument("--positions", type=int, default=50, help="fault positions spread over the job")
     parser.add_argument("--kinds", default=",".join(KINDS), help="fault kinds, comma-separated")
     parser.add_argument("--firmware", default=",".join(PROFILES), help="grbl, grblhal")
-    parser.add_argument("--clock", default="tick", help="tick (the line clock: deterministic), instant, realtime")
+    parser.add_argument(
+        "--clock", default="tick", help="tick (the line clock: deterministic), instant, realtime"
+    )
     parser.add_argument("--modes", default="counting,wait", help="counting, wait (send-and-wait)")
-    parser.add_argument("--jobs", type=int, default=2, help="worker processes (runs mostly wait on the board)")
+    parser.add_argument(
+        "--jobs", type=int, default=2, help="worker processes (runs mostly wait on the board)"
+    )
     args = parser.parse_args()
-    counts = {"runs": 0, "tracebacks": 0, "exact": 0, "refused_then_exact": 0, "finished": 0, "redrawn": 0,
-              "wrong": 0, "with_overrun": 0}
+    counts = {
+        "runs": 0,
+        "tracebacks": 0,
+        "exact": 0,
+        "refused_then_exact": 0,
+        "finished": 0,
+        "redrawn": 0,
+        "wrong": 0,
+        "with_overrun": 0,
+    }
     examples: dict[str, list] = {"tracebacks": [], "wrong": [], "redrawn": []}
     failed: list[str] = []  # every wrong or traceback run, by name (firmware-clock-mode-kind-line)
     with tempfile.TemporaryDirectory() as folder:
@@ -196,10 +218,14 @@ def main() -> None:
             _, _, n, _, seconds = reference(firmware)
             lines = np.linspace(WAKE_LINES + 8, WAKE_LINES + n - 2, args.positions).round().astype(int)
             moments = np.linspace(0.5, seconds - 0.5, args.positions).round(3)
-            tasks += [(firmware, clock, mode, kind, k.item(), folder) for clock in args.clock.split(",")
-                      for mode in args.modes.split(",") for kind in args.kinds.split(",")
-                      for k in (moments if kind in AT_A_MOMENT else lines)
-                      if not (kind in AT_A_MOMENT and clock == "instant")]
+            tasks += [
+                (firmware, clock, mode, kind, k.item(), folder)
+                for clock in args.clock.split(",")
+                for mode in args.modes.split(",")
+                for kind in args.kinds.split(",")
+                for k in (moments if kind in AT_A_MOMENT else lines)
+                if not (kind in AT_A_MOMENT and clock == "instant")
+            ]
         with multiprocessing.get_context("fork").Pool(args.jobs, maxtasksperchild=50) as pool:
             for name, outcome, detail, overruns in pool.imap_unordered(case, tasks, chunksize=4):
                 key = "tracebacks" if outcome == "traceback" else outcome
@@ -210,9 +236,18 @@ def main() -> None:
                     examples[key].append({"case": name, "detail": detail[-600:]})
                 if key in ("wrong", "tracebacks"):
                     failed.append(name)
-    print(json.dumps({**counts, "positions": args.positions, "redrawn_max_mm": REDRAWN_MAX, "failed": sorted(failed),
-                      "examples": examples},
-                     indent=1))
+    print(
+        json.dumps(
+            {
+                **counts,
+                "positions": args.positions,
+                "redrawn_max_mm": REDRAWN_MAX,
+                "failed": sorted(failed),
+                "examples": examples,
+            },
+            indent=1,
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -72,8 +72,12 @@ TIMING_RUNS = 3
 OPENCV_DATA = Path("/usr/share/doc/opencv-doc/examples/data")
 #: name -> (kind, how to install it if missing)
 PHOTOS = {
-    "coffee": ("scene", ""), "astronaut": ("portrait", ""), "chelsea": ("animal", ""),
-    "camera": ("portrait", ""), "rocket": ("scene", ""), "moon": ("low contrast", ""),
+    "coffee": ("scene", ""),
+    "astronaut": ("portrait", ""),
+    "chelsea": ("animal", ""),
+    "camera": ("portrait", ""),
+    "rocket": ("scene", ""),
+    "moon": ("low contrast", ""),
     "motorcycle_left": ("scene", ""),
     "grace_hopper": ("portrait", "pip install matplotlib"),
     "starry_night": ("painting", "apt-get install opencv-doc"),
@@ -148,18 +152,24 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
     faces = []
     height, width = drawing.gray.shape
     if HAND_BOXES and name in faceset.PHOTOS:
-        return {**figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted),
-                **hand_faces(name, plan, drawing, image, layout, plotted)}
+        return {
+            **figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted),
+            **hand_faces(name, plan, drawing, image, layout, plotted),
+        }
     for face in find_faces(drawing.gray if drawing.rgb is None else drawing.rgb):
         region = (face.x / width, face.y / height, face.size / width, face.size / height)
         reference = 1.0 - drawing.gray
-        faces.append({
-            "box_px": face.describe(),
-            "size_mm": round(face.size * layout.mm_per_px, 1),
-            "rho_1mm": round(region_rho(plotted, reference, region, sigma_mm=1.0), 3),
-            "rho_05mm": round(region_rho(plotted, reference, region, sigma_mm=0.5), 3),
-            "sketch_rho_05mm": round(region_rho(1.0 - drawing.result, reference, region, sigma_mm=0.5), 3),
-        })
+        faces.append(
+            {
+                "box_px": face.describe(),
+                "size_mm": round(face.size * layout.mm_per_px, 1),
+                "rho_1mm": round(region_rho(plotted, reference, region, sigma_mm=1.0), 3),
+                "rho_05mm": round(region_rho(plotted, reference, region, sigma_mm=0.5), 3),
+                "sketch_rho_05mm": round(
+                    region_rho(1.0 - drawing.result, reference, region, sigma_mm=0.5), 3
+                ),
+            }
+        )
         FACE_CROPS.append((name, region, drawing.gray, drawing.result, plotted))
     return {**figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted), "faces": faces}
 
@@ -188,24 +198,33 @@ def hand_faces(name: str, plan, drawing, image: LoadedImage, layout: Layout, plo
     """Each hand-set face of the face set: found by the plan's detector?, size, ρ; and false faces."""
     height, width = drawing.gray.shape
     scale = width / image.shape[1]
-    found = [] if plan.meta["faces"] in ("none", "off") else [
-        tuple(float(v) for v in face.split(",")) for face in plan.meta["faces"].split("; ")]
+    found = (
+        []
+        if plan.meta["faces"] in ("none", "off")
+        else [tuple(float(v) for v in face.split(",")) for face in plan.meta["faces"].split("; ")]
+    )
     matched, faces = set(), []
     for x, y, w, h in faceset.PHOTOS[name].boxes:
         x, y, side = x * scale, y * scale, max(w, h) * scale
-        hits = [i for i, (fx, fy, fs) in enumerate(found)
-                if abs(fx + fs / 2 - x - side / 2) < side / 2 and abs(fy + fs / 2 - y - side / 2) < side / 2
-                and 0.5 < fs / side < 2]
+        hits = [
+            i
+            for i, (fx, fy, fs) in enumerate(found)
+            if abs(fx + fs / 2 - x - side / 2) < side / 2
+            and abs(fy + fs / 2 - y - side / 2) < side / 2
+            and 0.5 < fs / side < 2
+        ]
         matched.update(hits)
         region = (max(0.0, x) / width, max(0.0, y) / height, side / width, side / height)
         reference = 1.0 - drawing.gray
-        faces.append({
-            "box_px": f"{x:.0f},{y:.0f},{side:.0f}",
-            "found": bool(hits),
-            "size_mm": round(side * layout.mm_per_px, 1),
-            "rho_1mm": round(region_rho(plotted, reference, region, sigma_mm=1.0), 3),
-            "rho_05mm": round(region_rho(plotted, reference, region, sigma_mm=0.5), 3),
-        })
+        faces.append(
+            {
+                "box_px": f"{x:.0f},{y:.0f},{side:.0f}",
+                "found": bool(hits),
+                "size_mm": round(side * layout.mm_per_px, 1),
+                "rho_1mm": round(region_rho(plotted, reference, region, sigma_mm=1.0), 3),
+                "rho_05mm": round(region_rho(plotted, reference, region, sigma_mm=0.5), 3),
+            }
+        )
         FACE_CROPS.append((name, region, drawing.gray, drawing.result, plotted))
     return {"faces": faces, "false_faces": len(found) - len(matched)}
 
@@ -275,7 +294,10 @@ def blank_pictures() -> dict[str, np.ndarray]:
     ramp = np.rint(np.tile(np.linspace(0.96, 1.0, 600), (400, 1)) * 255) / 255
     noise = np.clip(0.97 + rng.integers(-2, 3, (400, 600)) / 255, 0, 1)
     white = np.ones((400, 600))
-    return {name: a.astype(np.float32) for name, a in (("flat_ramp", ramp), ("blank_page_noise", noise), ("white", white))}
+    return {
+        name: a.astype(np.float32)
+        for name, a in (("flat_ramp", ramp), ("blank_page_noise", noise), ("white", white))
+    }
 
 
 def pen_down_m(gray: np.ndarray, name: str) -> float:
@@ -294,7 +316,9 @@ def hatched_peer(image: LoadedImage, name: str) -> dict:
         file = Path(tmp) / f"{name}.png"
         cv2.imwrite(str(file), np.rint(image.gray * 255).astype(np.uint8))
         with contextlib.redirect_stdout(sys.stderr):  # hatched prints its errors
-            lines = hatched.hatch(str(file), hatch_pitch=1.0 / layout.mm_per_px, show_plot=False, save_svg=False)
+            lines = hatched.hatch(
+                str(file), hatch_pitch=1.0 / layout.mm_per_px, show_plot=False, save_svg=False
+            )
     paths = Paths.of(layout.px_to_mm(np.asarray(line.coords)) for line in lines.geoms)
     if not len(paths):
         return {"error": "hatched drew nothing (it failed on this photo; see stderr)"}
@@ -310,7 +334,9 @@ def hatched_peer(image: LoadedImage, name: str) -> dict:
 
 def planning_1mp() -> dict:
     """CPU seconds to plan a 1 MP portrait (astronaut enlarged), with MTCNN and with the cascade."""
-    big = image_from_array(cv2.resize(data.astronaut(), (1024, 1024), interpolation=cv2.INTER_CUBIC), source="1mp")
+    big = image_from_array(
+        cv2.resize(data.astronaut(), (1024, 1024), interpolation=cv2.INTER_CUBIC), source="1mp"
+    )
     out = {"photo_1mp_planning_cpu_s": round(plan_photo(big, TIMING_RUNS)[3], 3)}
     detector_nets = mtcnn.nets
     mtcnn.nets = lambda: None  # the cascade alone: the detector before issue 30
@@ -328,8 +354,12 @@ def main() -> None:
     parser.add_argument("--peers", action="store_true", help="also measure hatched")
     parser.add_argument("--montage", type=Path, help="write photo | sketch | plot PNGs here")
     parser.add_argument("--no-blank", action="store_true", help="skip the blank-picture checks")
-    parser.add_argument("--no-1mp", action="store_true", help="skip the 1 MP planning times (while iterating)")
-    parser.add_argument("--faceset", action="store_true", help="measure bench/faceset.py's photos, faces by hand")
+    parser.add_argument(
+        "--no-1mp", action="store_true", help="skip the 1 MP planning times (while iterating)"
+    )
+    parser.add_argument(
+        "--faceset", action="store_true", help="measure bench/faceset.py's photos, faces by hand"
+    )
     args = parser.parse_args()
     if args.faceset:
         HAND_BOXES.append(True)
@@ -342,8 +372,10 @@ def main() -> None:
             parser.error("--peers needs hatched: pip install hatched (not a pencilbot dependency)")
     if args.no_faces:
         STYLE_OVERRIDES["faces"] = False
-    results: dict = {"setup": f"default style{' with faces = false' if args.no_faces else ''}, A4 auto, 15 mm "
-                     f"margin, 0.5 mm pen, {PROFILE}, yardstick at {YARDSTICK_PX_PER_MM:g} px/mm, sigma 1 mm"}
+    results: dict = {
+        "setup": f"default style{' with faces = false' if args.no_faces else ''}, A4 auto, 15 mm "
+        f"margin, 0.5 mm pen, {PROFILE}, yardstick at {YARDSTICK_PX_PER_MM:g} px/mm, sigma 1 mm"
+    }
     missing = {}
     for name in args.photos.split(","):
         image = photo(name)
@@ -379,7 +411,9 @@ def main() -> None:
     if missing:
         results["missing"] = missing
     if not args.no_blank:
-        results["blank_pen_down_m"] = {name: pen_down_m(gray, name) for name, gray in blank_pictures().items()}
+        results["blank_pen_down_m"] = {
+            name: pen_down_m(gray, name) for name, gray in blank_pictures().items()
+        }
     results["targets"] = TARGETS
     print(json.dumps(results, indent=2))
 

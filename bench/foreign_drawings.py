@@ -90,8 +90,11 @@ def _contour_pieces(grey, levels, layout, piece: int = 30):
     for level in levels:
         for contour in measure.find_contours(grey, level):
             xy = contour[:, ::-1]
-            pieces += [layout.px_to_mm(xy[s : s + piece]) for s in range(0, len(xy) - 1, piece - 1)
-                       if len(xy[s : s + piece]) > 1]
+            pieces += [
+                layout.px_to_mm(xy[s : s + piece])
+                for s in range(0, len(xy) - 1, piece - 1)
+                if len(xy[s : s + piece]) > 1
+            ]
     return pieces
 
 
@@ -122,8 +125,10 @@ def text():
     """A page of Hershey text from vpype's ``text`` command (futural, wrapped, justified)."""
     import vpype_cli
 
-    words = ("The quick brown fox jumps over the lazy dog while plotters draw every line twice as "
-             "fast when the pen travels less between strokes. ") * 14
+    words = (
+        "The quick brown fox jumps over the lazy dog while plotters draw every line twice as "
+        "fast when the pen travels less between strokes. "
+    ) * 14
     document = vpype_cli.execute(f'text -f futural -s 5mm -w 180mm -j -p 15mm 20mm "{words}"')
     lines = [np.column_stack([line.real, line.imag]) * 25.4 / 96 for line in document.layers[1]]
     return A4, [("text", [np.column_stack([p[:, 0], A4.height - p[:, 1]]) for p in lines])]
@@ -137,7 +142,10 @@ def stippling():
     rng = np.random.default_rng(7)
     h, w = grey.shape
     candidates = rng.uniform([0, 0], [w, h], (60_000, 2))
-    keep = rng.random(len(candidates)) < (1 - grey[candidates[:, 1].astype(int), candidates[:, 0].astype(int)]) ** 2
+    keep = (
+        rng.random(len(candidates))
+        < (1 - grey[candidates[:, 1].astype(int), candidates[:, 0].astype(int)]) ** 2
+    )
     centres = layout.px_to_mm(candidates[keep][:12_000])
     ring = 0.3 * np.exp(2j * np.pi * np.arange(7) / 6)
     hexagon = np.column_stack([ring.real, ring.imag])

@@ -63,16 +63,34 @@ def export_from_svg(plan: Plan, profile_name: str, repeat: int) -> dict:
         write_svg(plan, svg)
         runs = []
         for _ in range(repeat):
-            child = subprocess.Popen([sys.executable, "-m", "pencilbot.cli", "export", str(svg), "-o", str(out),
-                                      "--profile", profile_name, "-q"])
+            child = subprocess.Popen(
+                [
+                    sys.executable,
+                    "-m",
+                    "pencilbot.cli",
+                    "export",
+                    str(svg),
+                    "-o",
+                    str(out),
+                    "--profile",
+                    profile_name,
+                    "-q",
+                ]
+            )
             _, status, usage = os.wait4(child.pid, 0)
             assert os.waitstatus_to_exitcode(status) == 0
             runs.append((usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024))
         read = best_of(repeat, lambda: read_svg(svg), time.process_time)
         size = svg.stat().st_size
     cpu, peak = min(runs)
-    return {"svg_bytes": size, "export_cpu_seconds": round(cpu, 3), "export_peak_rss_mb": round(peak),
-            "read_svg_cpu_seconds": round(read, 3), "target_cpu_seconds": 4.0, "meets_target": cpu <= 4.0}
+    return {
+        "svg_bytes": size,
+        "export_cpu_seconds": round(cpu, 3),
+        "export_peak_rss_mb": round(peak),
+        "read_svg_cpu_seconds": round(read, 3),
+        "target_cpu_seconds": 4.0,
+        "meets_target": cpu <= 4.0,
+    }
 
 
 def main() -> None:
@@ -80,13 +98,22 @@ def main() -> None:
     parser.add_argument("--strokes", type=int, default=100_000)
     parser.add_argument("--profile", default="grbl-servo-a4")
     parser.add_argument("--repeat", type=int, default=3)
-    parser.add_argument("--from-svg", action="store_true", help="time `pencilbot export PLAN.svg` as a user runs it")
+    parser.add_argument(
+        "--from-svg", action="store_true", help="time `pencilbot export PLAN.svg` as a user runs it"
+    )
     args = parser.parse_args()
     plan = stroke_plan(args.strokes)
     profile = load_profile(args.profile)
     if args.from_svg:
-        print(json.dumps({"profile": profile.name, "strokes": args.strokes,
-                          **export_from_svg(plan, args.profile, args.repeat)}))
+        print(
+            json.dumps(
+                {
+                    "profile": profile.name,
+                    "strokes": args.strokes,
+                    **export_from_svg(plan, args.profile, args.repeat),
+                }
+            )
+        )
         return
     with tempfile.TemporaryDirectory() as folder:
         out = Path(folder) / "bench.gcode"
@@ -94,18 +121,22 @@ def main() -> None:
         cpu = best_of(args.repeat, lambda: write_gcode(plan, profile, out, source="bench"), time.process_time)
         summary = write_gcode(plan, profile, out, source="bench")
     estimate_seconds = best_of(args.repeat, lambda: estimate(plan, profile))
-    print(json.dumps({
-        "profile": profile.name,
-        "strokes": args.strokes,
-        "write_seconds": round(seconds, 3),
-        "write_cpu_seconds": round(cpu, 3),
-        "estimate_seconds": round(estimate_seconds, 3),
-        "target_seconds": 1.0,
-        "meets_target": seconds <= 1.0,
-        "bytes": summary.bytes,
-        "lines": summary.lines,
-        "bytes_per_stroke": round(summary.bytes / args.strokes, 1),
-    }))
+    print(
+        json.dumps(
+            {
+                "profile": profile.name,
+                "strokes": args.strokes,
+                "write_seconds": round(seconds, 3),
+                "write_cpu_seconds": round(cpu, 3),
+                "estimate_seconds": round(estimate_seconds, 3),
+                "target_seconds": 1.0,
+                "meets_target": seconds <= 1.0,
+                "bytes": summary.bytes,
+                "lines": summary.lines,
+                "bytes_per_stroke": round(summary.bytes / args.strokes, 1),
+            }
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -25,7 +25,9 @@ import sweep  # noqa: E402 - found through the path set just above
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sample", type=int, default=0, help="run about this many probes (0: all)")
-    parser.add_argument("--seconds", type=float, default=sweep.SECONDS, help="a probe's alarm (default %(default)g)")
+    parser.add_argument(
+        "--seconds", type=float, default=sweep.SECONDS, help="a probe's alarm (default %(default)g)"
+    )
     args = parser.parse_args()
     with tempfile.TemporaryDirectory(prefix="hostile-") as folder:
         every = sweep.probes(Path(folder))
@@ -34,8 +36,15 @@ def main() -> None:
         results = sweep.run(chosen, Path(folder), args.seconds)
         seconds = time.perf_counter() - start
     table = sweep.counts(results)
-    total = {key: sum(row[key] for row in table.values()) for key in ("probes", "clean errors", "correct", "failures")}
-    print(json.dumps({"surfaces": table, "total": total, "seconds": round(seconds, 1)}, indent=1, ensure_ascii=False))
+    total = {
+        key: sum(row[key] for row in table.values())
+        for key in ("probes", "clean errors", "correct", "failures")
+    }
+    print(
+        json.dumps(
+            {"surfaces": table, "total": total, "seconds": round(seconds, 1)}, indent=1, ensure_ascii=False
+        )
+    )
 
 
 if __name__ == "__main__":

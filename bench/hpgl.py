@@ -52,17 +52,34 @@ def main() -> None:
         small = Path(folder) / "small.hpgl"
         write_hpgl(small_plan, profile, small)
         started = time.perf_counter()
-        draw(small, f"sim://bench-real?profile=hp7475a&baud=9600&realtime={args.realtime}", profile="hp7475a", baud=9600)
+        draw(
+            small,
+            f"sim://bench-real?profile=hp7475a&baud=9600&realtime={args.realtime}",
+            profile="hp7475a",
+            baud=9600,
+        )
         wall = time.perf_counter() - started
         real = protocol_sim.plotter("bench-real").board
-    print(json.dumps({
-        "instructions": summary.instructions, "bytes": summary.bytes,
-        "estimated_s": round(estimated, 2), "simulated_s": round(board.clock, 2),
-        "time_ratio": round(board.clock / estimated, 4), "strokes": len(board.strokes), "plan_paths": len(plan.paths()),
-        "realtime": args.realtime, "paths": args.paths, "motion_s": round(real.clock, 2),
-        "wall_over_motion": round(wall / (real.clock / args.realtime), 3),
-        "max_fill": real.max_fill, "overflows": real.overflows,
-    }, indent=1))
+    print(
+        json.dumps(
+            {
+                "instructions": summary.instructions,
+                "bytes": summary.bytes,
+                "estimated_s": round(estimated, 2),
+                "simulated_s": round(board.clock, 2),
+                "time_ratio": round(board.clock / estimated, 4),
+                "strokes": len(board.strokes),
+                "plan_paths": len(plan.paths()),
+                "realtime": args.realtime,
+                "paths": args.paths,
+                "motion_s": round(real.clock, 2),
+                "wall_over_motion": round(wall / (real.clock / args.realtime), 3),
+                "max_fill": real.max_fill,
+                "overflows": real.overflows,
+            },
+            indent=1,
+        )
+    )
 
 
 if __name__ == "__main__":

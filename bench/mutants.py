@@ -61,51 +61,94 @@ ROOT = Path(__file__).resolve().parent.parent
 EQUIVALENT = Path(__file__).with_name("mutants_equivalent.toml")
 COPIED = ("pencilbot", "firmware_protocol", "sim", "configs", "tests", "pyproject.toml")
 
-_DRIVER_STREAM = ["tests/driver/test_receive_buffer_boundary.py", "tests/driver/test_stop_reports.py",
-                  "tests/driver/test_stop_on_a_return_pass.py",
-                  "tests/driver/test_stream_sim.py",
-                  "tests/driver/test_marlin_stream.py", "tests/driver/test_work_position_board.py"]
+_DRIVER_STREAM = [
+    "tests/driver/test_receive_buffer_boundary.py",
+    "tests/driver/test_stop_reports.py",
+    "tests/driver/test_stop_on_a_return_pass.py",
+    "tests/driver/test_stream_sim.py",
+    "tests/driver/test_marlin_stream.py",
+    "tests/driver/test_work_position_board.py",
+]
 #: Module → the fast tests that cover it (run with -x; the first failure kills).
 TESTS: dict[str, list[str]] = {
     "pencilbot/driver/stream.py": _DRIVER_STREAM,
     "pencilbot/driver/session.py": _DRIVER_STREAM,
-    "pencilbot/driver/plot.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
-                                                  "tests/driver/test_pen_change_draw.py"],
-    "pencilbot/driver/runner.py": _DRIVER_STREAM + ["tests/driver/test_draw_checks.py",
-                                                    "tests/driver/test_pen_change_draw.py",
-                                                    "tests/driver/test_progress_listener.py",
-                                                    "tests/driver/test_stop_on_a_return_pass.py"],
-    "pencilbot/driver/messages.py": ["tests/driver/test_stop_reports.py", "tests/driver/test_stream_sim.py",
-                                     "tests/driver/test_draw_checks.py"],
-    "pencilbot/driver/resume_point.py": ["tests/driver/test_stop_near_a_corner.py", "tests/driver/test_work_position_board.py",
-                                         "tests/driver/test_stream_sim.py"],
-    "pencilbot/driver/resume.py": ["tests/driver/test_stop_near_a_corner.py", "tests/driver/test_modal_resume.py",
-                                   "tests/driver/test_stream_sim.py", "tests/driver/test_work_position_board.py",
-                                   "tests/driver/test_stop_on_a_return_pass.py"],
-    "pencilbot/driver/modal.py": ["tests/driver/test_modal_codes.py", "tests/driver/test_modal_resume.py",
-                                  "tests/driver/test_job.py"],
-    "pencilbot/driver/job.py": ["tests/driver/test_job.py", "tests/driver/test_modal_resume.py",
-                                "tests/driver/test_draw_checks.py", "tests/driver/test_pen_change_draw.py"],
-    "pencilbot/driver/bed_check.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py",
-                                      "tests/driver/test_coordinate_systems.py"],
+    "pencilbot/driver/plot.py": _DRIVER_STREAM
+    + ["tests/driver/test_draw_checks.py", "tests/driver/test_pen_change_draw.py"],
+    "pencilbot/driver/runner.py": _DRIVER_STREAM
+    + [
+        "tests/driver/test_draw_checks.py",
+        "tests/driver/test_pen_change_draw.py",
+        "tests/driver/test_progress_listener.py",
+        "tests/driver/test_stop_on_a_return_pass.py",
+    ],
+    "pencilbot/driver/messages.py": [
+        "tests/driver/test_stop_reports.py",
+        "tests/driver/test_stream_sim.py",
+        "tests/driver/test_draw_checks.py",
+    ],
+    "pencilbot/driver/resume_point.py": [
+        "tests/driver/test_stop_near_a_corner.py",
+        "tests/driver/test_work_position_board.py",
+        "tests/driver/test_stream_sim.py",
+    ],
+    "pencilbot/driver/resume.py": [
+        "tests/driver/test_stop_near_a_corner.py",
+        "tests/driver/test_modal_resume.py",
+        "tests/driver/test_stream_sim.py",
+        "tests/driver/test_work_position_board.py",
+        "tests/driver/test_stop_on_a_return_pass.py",
+    ],
+    "pencilbot/driver/modal.py": [
+        "tests/driver/test_modal_codes.py",
+        "tests/driver/test_modal_resume.py",
+        "tests/driver/test_job.py",
+    ],
+    "pencilbot/driver/job.py": [
+        "tests/driver/test_job.py",
+        "tests/driver/test_modal_resume.py",
+        "tests/driver/test_draw_checks.py",
+        "tests/driver/test_pen_change_draw.py",
+    ],
+    "pencilbot/driver/bed_check.py": [
+        "tests/driver/test_draw_checks.py",
+        "tests/driver/test_job.py",
+        "tests/driver/test_coordinate_systems.py",
+    ],
     "pencilbot/driver/header.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
     "pencilbot/driver/drawn.py": ["tests/cli/test_cli_stat.py", "tests/driver/test_job.py"],
-    "pencilbot/driver/journal.py": ["tests/driver/test_journal_input.py", "tests/driver/test_journal_progress.py",
-                                    "tests/driver/test_stream_sim.py", "tests/driver/test_journal_unwritable.py"],
+    "pencilbot/driver/journal.py": [
+        "tests/driver/test_journal_input.py",
+        "tests/driver/test_journal_progress.py",
+        "tests/driver/test_stream_sim.py",
+        "tests/driver/test_journal_unwritable.py",
+    ],
     "pencilbot/driver/progress.py": ["tests/driver/test_journal_progress.py"],
     "pencilbot/driver/keys.py": ["tests/driver/test_keys.py"],
     "pencilbot/driver/markers.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
     "pencilbot/driver/port.py": ["tests/driver/test_port_in_use.py", "tests/driver/test_stream_sim.py"],
-    "pencilbot/driver/position.py": ["tests/driver/test_modal_resume.py", "tests/driver/test_stream_sim.py",
-                                     "tests/driver/test_work_position_board.py", "tests/driver/test_draw_checks.py"],
+    "pencilbot/driver/position.py": [
+        "tests/driver/test_modal_resume.py",
+        "tests/driver/test_stream_sim.py",
+        "tests/driver/test_work_position_board.py",
+        "tests/driver/test_draw_checks.py",
+    ],
     "pencilbot/planning/ordering.py": ["tests/planning/test_ordering.py"],
     "pencilbot/planning/hatching.py": ["tests/planning/test_hatching.py"],
     "pencilbot/planning/shading.py": ["tests/planning/test_hatching.py"],
-    "firmware_protocol/grbl.py": ["tests/protocol/test_grbl_protocol.py", "tests/protocol/test_grblhal_protocol.py",
-                                  "tests/virtual_plotter/test_firmware.py"],
-    "firmware_protocol/grblhal.py": ["tests/protocol/test_grblhal_protocol.py",
-                                     "tests/virtual_plotter/test_grblhal_front_end.py"],
-    "firmware_protocol/marlin.py": ["tests/protocol/test_marlin_protocol.py", "tests/driver/test_marlin_stream.py"],
+    "firmware_protocol/grbl.py": [
+        "tests/protocol/test_grbl_protocol.py",
+        "tests/protocol/test_grblhal_protocol.py",
+        "tests/virtual_plotter/test_firmware.py",
+    ],
+    "firmware_protocol/grblhal.py": [
+        "tests/protocol/test_grblhal_protocol.py",
+        "tests/virtual_plotter/test_grblhal_front_end.py",
+    ],
+    "firmware_protocol/marlin.py": [
+        "tests/protocol/test_marlin_protocol.py",
+        "tests/driver/test_marlin_stream.py",
+    ],
     "pencilbot/export/gcode.py": ["tests/export/test_gcode.py", "tests/export/test_pens_export.py"],
 }
 
@@ -135,8 +178,18 @@ class Mutant:
         return f"{self.module}:{self.line}"
 
 
-_CMP_SWAP = {ast.Lt: ast.LtE, ast.LtE: ast.Lt, ast.Gt: ast.GtE, ast.GtE: ast.Gt, ast.Eq: ast.NotEq,
-             ast.NotEq: ast.Eq, ast.Is: ast.IsNot, ast.IsNot: ast.Is, ast.In: ast.NotIn, ast.NotIn: ast.In}
+_CMP_SWAP = {
+    ast.Lt: ast.LtE,
+    ast.LtE: ast.Lt,
+    ast.Gt: ast.GtE,
+    ast.GtE: ast.Gt,
+    ast.Eq: ast.NotEq,
+    ast.NotEq: ast.Eq,
+    ast.Is: ast.IsNot,
+    ast.IsNot: ast.Is,
+    ast.In: ast.NotIn,
+    ast.NotIn: ast.In,
+}
 _ARITH_SWAP = {ast.Add: ast.Sub, ast.Sub: ast.Add}
 
 
@@ -150,13 +203,23 @@ def _skipped(tree: ast.AST) -> set[int]:
 
     for node in ast.walk(tree):
         body = getattr(node, "body", None)
-        if isinstance(body, list) and body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+        if (
+            isinstance(body, list)
+            and body
+            and isinstance(body[0], ast.Expr)
+            and isinstance(body[0].value, ast.Constant)
+        ):
             all_of(body[0])
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
             if node.returns is not None:
                 all_of(node.returns)
-            for arg in [*node.args.args, *node.args.kwonlyargs, *node.args.posonlyargs,
-                        node.args.vararg, node.args.kwarg]:
+            for arg in [
+                *node.args.args,
+                *node.args.kwonlyargs,
+                *node.args.posonlyargs,
+                node.args.vararg,
+                node.args.kwarg,
+            ]:
                 if arg is not None and arg.annotation is not None:
                     all_of(arg.annotation)
         elif isinstance(node, ast.AnnAssign):
@@ -193,8 +256,10 @@ def _points(tree: ast.AST):
             yield node, "not", 0
         elif isinstance(node, ast.BoolOp):
             yield node, "boolop", 0
-        elif isinstance(node, ast.Return) and node.value is not None and not (
-            isinstance(node.value, ast.Constant) and not node.value.value
+        elif (
+            isinstance(node, ast.Return)
+            and node.value is not None
+            and not (isinstance(node.value, ast.Constant) and not node.value.value)
         ):  # (return False / 0 / "" → None is the same to every caller that tests it)
             yield node, "return", 0
 
@@ -285,7 +350,9 @@ def groups(selected: list[str] | None) -> dict[str, list[str]]:
         elif name in TESTS:
             out[name] = [name]
         else:
-            raise SystemExit(f"mutants: error: {name!r} is neither a group ({', '.join(GROUPS)}) nor a mapped module")
+            raise SystemExit(
+                f"mutants: error: {name!r} is neither a group ({', '.join(GROUPS)}) nor a mapped module"
+            )
     return out
 
 
@@ -300,7 +367,12 @@ def load_equivalent() -> list[dict]:
 def is_equivalent(m: Mutant, equivalent: list[dict]) -> str | None:
     for entry in equivalent:
         if (entry["module"], entry["line"], entry["operator"], entry["before"], entry["after"]) == (
-                m.module, m.text, m.operator, m.before, m.after):
+            m.module,
+            m.text,
+            m.operator,
+            m.before,
+            m.after,
+        ):
             return entry["reason"]
     return None
 
@@ -328,9 +400,24 @@ class Workspace:
         start = time.monotonic()
         # Its own session: on a timeout the whole group goes (a pty server the tests started too).
         child = subprocess.Popen(
-            [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "--no-header",
-             "-o", "addopts=", *tests],
-            cwd=self.root, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, start_new_session=True,
+            [
+                sys.executable,
+                "-m",
+                "pytest",
+                "-x",
+                "-q",
+                "-p",
+                "no:cacheprovider",
+                "--no-header",
+                "-o",
+                "addopts=",
+                *tests,
+            ],
+            cwd=self.root,
+            env=env,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
         )
         try:
             output, _ = child.communicate(timeout=timeout)
@@ -352,15 +439,26 @@ class Workspace:
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--module", action="append",
-                    help="a group (driver, planning/ordering, …) or one mapped module (repeatable); default: all groups")
+    ap.add_argument(
+        "--module",
+        action="append",
+        help="a group (driver, planning/ordering, …) or one mapped module (repeatable); default: all groups",
+    )
     ap.add_argument("--sample", type=int, default=30, help="mutants per group, drawn at random (0: all)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--jobs", type=int, default=1, help="mutants run in parallel (one tree copy each)")
-    ap.add_argument("--timeout", type=float, default=None,
-                    help="seconds per mutant (default: 3 × the module's clean run + 20)")
-    ap.add_argument("--number", type=int, action="append",
-                    help="only these mutants (their numbers in --list) of the one module given (repeatable)")
+    ap.add_argument(
+        "--timeout",
+        type=float,
+        default=None,
+        help="seconds per mutant (default: 3 × the module's clean run + 20)",
+    )
+    ap.add_argument(
+        "--number",
+        type=int,
+        action="append",
+        help="only these mutants (their numbers in --list) of the one module given (repeatable)",
+    )
     ap.add_argument("--list", action="store_true", help="list the mutants, run nothing")
     args = ap.parse_args(argv)
 
@@ -371,8 +469,10 @@ def main(argv=None) -> None:
         if args.number:
             every = [m for m in every if m.number in set(args.number)]
         rng = random.Random(f"{args.seed}:{group}")
-        plan[group] = sorted(rng.sample(every, min(args.sample, len(every))) if args.sample else every,
-                             key=lambda m: (m.module, m.number))
+        plan[group] = sorted(
+            rng.sample(every, min(args.sample, len(every))) if args.sample else every,
+            key=lambda m: (m.module, m.number),
+        )
     if args.list:
         print(json.dumps({m: [vars(x) for x in ms] for m, ms in plan.items()}, indent=1, ensure_ascii=False))
         return
@@ -394,16 +494,17 @@ def main(argv=None) -> None:
 
         by_suite = {}
         for start in range(0, len(suites), len(workspaces)):
-            batch = list(enumerate(suites[start:start + len(workspaces)]))
+            batch = list(enumerate(suites[start : start + len(workspaces)]))
             with ThreadPoolExecutor(len(batch)) as pool:
                 by_suite.update(pool.map(clean_run, batch))
         clean = {}
         for module in needed:
             outcome, seconds = by_suite[tuple(TESTS[module])]
             if outcome != "survived":
-                raise SystemExit(f"mutants: error: {module}'s tests fail unmutated ({outcome}); fix them first")
+                raise SystemExit(
+                    f"mutants: error: {module}'s tests fail unmutated ({outcome}); fix them first"
+                )
             clean[module] = seconds
-
 
         lock = threading.Lock()
 
@@ -414,8 +515,12 @@ def main(argv=None) -> None:
                 source, _ = mutate(mutant.module, (ROOT / mutant.module).read_text(), mutant.number)
                 timeout = args.timeout or 3 * clean[mutant.module] + 20
                 outcome, seconds = ws.run(TESTS[mutant.module], timeout, mutant.module, source)
-                print(f"{outcome.split(':')[0]:9s} {seconds:5.1f} s  {mutant.where()}  {mutant.operator}: "
-                      f"{mutant.before} -> {mutant.after}", file=sys.stderr, flush=True)
+                print(
+                    f"{outcome.split(':')[0]:9s} {seconds:5.1f} s  {mutant.where()}  {mutant.operator}: "
+                    f"{mutant.before} -> {mutant.after}",
+                    file=sys.stderr,
+                    flush=True,
+                )
                 return mutant, outcome
             finally:
                 with lock:
@@ -434,19 +539,35 @@ def main(argv=None) -> None:
         survivors, equal, errors = [], [], []
         for m, outcome in rows:
             if outcome.startswith("error"):
-                errors.append({"where": m.where(), "operator": m.operator, "before": m.before, "after": m.after,
-                               "outcome": outcome})
+                errors.append(
+                    {
+                        "where": m.where(),
+                        "operator": m.operator,
+                        "before": m.before,
+                        "after": m.after,
+                        "outcome": outcome,
+                    }
+                )
             elif outcome == "survived":
                 reason = is_equivalent(m, equivalent)
-                entry = {"where": m.where(), "operator": m.operator, "line": m.text, "before": m.before, "after": m.after}
+                entry = {
+                    "where": m.where(),
+                    "operator": m.operator,
+                    "line": m.text,
+                    "before": m.before,
+                    "after": m.after,
+                }
                 (equal if reason else survivors).append({**entry, **({"reason": reason} if reason else {})})
         killed = sum(o in ("killed", "timeout") for _, o in rows)
         counted = len(rows) - len(errors)
         report[group] = {
-            "killed": killed, "total": counted, "equivalent": len(equal),
+            "killed": killed,
+            "total": counted,
+            "equivalent": len(equal),
             "score": round(killed / max(counted - len(equal), 1), 3),
             "space": sum(len(mutants_of(module)) for module in chosen[group]),
-            "survivors": survivors, "equivalent_survivors": equal,
+            "survivors": survivors,
+            "equivalent_survivors": equal,
             **({"errors": errors} if errors else {}),
         }
         totals["killed"] += killed
@@ -455,9 +576,13 @@ def main(argv=None) -> None:
     totals["score"] = round(totals["killed"] / max(totals["total"] - totals["equivalent"], 1), 3)
     out = {
         "command": "python bench/mutants.py " + " ".join(argv if argv is not None else sys.argv[1:]),
-        "seed": args.seed, "sample": args.sample, "jobs": args.jobs,
+        "seed": args.seed,
+        "sample": args.sample,
+        "jobs": args.jobs,
         "wall_s": round(time.monotonic() - started, 1),
-        "total": totals, "clean_run_s": {m: round(t, 1) for m, t in clean.items()}, "groups": report,
+        "total": totals,
+        "clean_run_s": {m: round(t, 1) for m, t in clean.items()},
+        "groups": report,
     }
     print(json.dumps(out, indent=1, ensure_ascii=False))
 

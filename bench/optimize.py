@@ -69,8 +69,12 @@ hatched.hatch(sys.argv[1], hatch_pitch=float(sys.argv[2]), show_plot=False, save
     with tempfile.TemporaryDirectory() as tmp:
         photo = Path(tmp) / "coffee.png"
         cv2.imwrite(str(photo), np.rint(grey * 255).astype(np.uint8))
-        subprocess.run([python, "-c", shim, str(photo), str(1.0 / layout.mm_per_px)], check=True,
-                       capture_output=True, timeout=600)
+        subprocess.run(
+            [python, "-c", shim, str(photo), str(1.0 / layout.mm_per_px)],
+            check=True,
+            capture_output=True,
+            timeout=600,
+        )
         drawn = read_svg(photo.with_suffix(".svg"), dpi=25.4 / layout.mm_per_px)  # 1 user unit = 1 px
     return Plan(drawn.page, [Layer("hatching", layer.paths, pen_width=PEN) for layer in drawn.layers])
 
@@ -98,23 +102,39 @@ def vpype_sorted(plan: Plan, home: np.ndarray, repeats: int, *options: str) -> t
     def run():
         document = vpype.Document()
         for lid, layer in enumerate(plan.layers, start=1):
-            document.add(vpype.LineCollection([(p[:, 0] - home[0]) + 1j * (p[:, 1] - home[1]) for p in layer.paths]), lid)
+            document.add(
+                vpype.LineCollection([(p[:, 0] - home[0]) + 1j * (p[:, 1] - home[1]) for p in layer.paths]),
+                lid,
+            )
         return vpype_cli.execute(" ".join(["linesort", *options]), document=document)
 
     document, seconds = timed(run, repeats)
-    layers = [Layer(layer.name, [np.column_stack([line.real, line.imag]) + home for line in document.layers[lid]],
-                    pen_width=layer.pen_width) for lid, layer in enumerate(plan.layers, start=1)]
+    layers = [
+        Layer(
+            layer.name,
+            [np.column_stack([line.real, line.imag]) + home for line in document.layers[lid]],
+            pen_width=layer.pen_width,
+        )
+        for lid, layer in enumerate(plan.layers, start=1)
+    ]
     return Plan(plan.page, layers), seconds
 
 
 def figures(plan: Plan, profile) -> dict:
     total = estimate(plan, profile).total
-    return {"pen_up_m": round(total.pen_up_mm / 1000, 3), "plot_s": round(total.seconds, 1), "lifts": total.lifts}
+    return {
+        "pen_up_m": round(total.pen_up_mm / 1000, 3),
+        "plot_s": round(total.seconds, 1),
+        "lifts": total.lifts,
+    }
 
 
 def compare(plan: Plan, profile, repeats: int) -> dict:
     # vpype drops one-point paths: they leave every tool's result alike.
-    plan = Plan(plan.page, [Layer(l.name, [p for p in l.paths if len(p) > 1], pen_width=l.pen_width) for l in plan.layers])
+    plan = Plan(
+        plan.page,
+        [Layer(l.name, [p for p in l.paths if len(p) > 1], pen_width=l.pen_width) for l in plan.layers],
+    )
     home = Placement.on_bed(plan.page, profile.bed).home()
     row = {"paths": len(plan.paths()), "as_written": figures(plan, profile)}
     greedy, greedy_s = vpype_sorted(plan, home, repeats)
@@ -122,25 +142,40 @@ def compare(plan: Plan, profile, repeats: int) -> dict:
     two_opt, two_opt_s = vpype_sorted(plan, home, repeats, "--two-opt")
     row["vpype_linesort_two_opt"] = {**figures(two_opt, profile), "cpu_s": round(two_opt_s, 3)}
     ours, ours_s = timed(lambda: reorder_plan(plan, start=tuple(home)), repeats)
-    row["pencilbot_optimize"] = {**figures(ours.plan, profile), "cpu_s": round(ours_s, 3), "specks_dropped": ours.specks}
+    row["pencilbot_optimize"] = {
+        **figures(ours.plan, profile),
+        "cpu_s": round(ours_s, 3),
+        "specks_dropped": ours.specks,
+    }
     pen_up = row["pencilbot_optimize"]["pen_up_m"] / row["vpype_linesort_two_opt"]["pen_up_m"]
     cpu = ours_s / two_opt_s
-    row["vs_two_opt"] = {"pen_up": round(pen_up, 3), "cpu": round(cpu, 3),
-                         "met": pen_up <= GOALS["pen_up_vs_two_opt_max"] and cpu <= GOALS["cpu_vs_two_opt_max"]}
+    row["vs_two_opt"] = {
+        "pen_up": round(pen_up, 3),
+        "cpu": round(cpu, 3),
+        "met": pen_up <= GOALS["pen_up_vs_two_opt_max"] and cpu <= GOALS["cpu_vs_two_opt_max"],
+    }
     return row
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--hatched", metavar="PYTHON", help="a Python with hatched installed: use its real output")
-    parser.add_argument("--repeats", type=int, default=3, help="runs of each tool; the median CPU time is reported")
-    parser.add_argument("--drawing", action="append", choices=sorted(DRAWINGS), help="drawings to run (default: all)")
+    parser.add_argument(
+        "--hatched", metavar="PYTHON", help="a Python with hatched installed: use its real output"
+    )
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="runs of each tool; the median CPU time is reported"
+    )
+    parser.add_argument(
+        "--drawing", action="append", choices=sorted(DRAWINGS), help="drawings to run (default: all)"
+    )
     args = parser.parse_args()
     profile = load_profile(PROFILE)
     names = args.drawing or list(DRAWINGS)
-    report = {"setup": f"A4, {PEN} mm pen, {PROFILE}; CPU seconds of the reordering alone, median of "
-                       f"{args.repeats} runs; drawings: bench/foreign_drawings.py (sources: bench/drawings/README.md)",
-              "goals": GOALS}
+    report = {
+        "setup": f"A4, {PEN} mm pen, {PROFILE}; CPU seconds of the reordering alone, median of "
+        f"{args.repeats} runs; drawings: bench/foreign_drawings.py (sources: bench/drawings/README.md)",
+        "goals": GOALS,
+    }
     for name in names:
         plan = real_hatched(args.hatched) if (name == "hatching" and args.hatched) else drawing(name)
         report[name] = compare(plan, profile, args.repeats)

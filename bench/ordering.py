@@ -93,11 +93,24 @@ def main() -> None:
         layers = [r for name, r in results.items() if name.startswith(image + "/")]
         greedy = sum(r["greedy_pen_up_mm"] for r in layers)
         ordered = sum(r["ordered_pen_up_mm"] for r in layers)
-        plans[image] = {"greedy_pen_up_mm": round(greedy, 1), "ordered_pen_up_mm": round(ordered, 1),
-                        "ratio_vs_greedy": round(ordered / greedy, 3)}
+        plans[image] = {
+            "greedy_pen_up_mm": round(greedy, 1),
+            "ordered_pen_up_mm": round(ordered, 1),
+            "ratio_vs_greedy": round(ordered / greedy, 3),
+        }
     ratios = [r["ratio_vs_greedy"] for r in results.values() if r["ratio_vs_greedy"]]
-    print(json.dumps({"rounds": args.rounds, "target_ratio": 0.85, "worst_ratio": max(ratios),
-                      "whole_plans": plans, "sets": results}, indent=2))
+    print(
+        json.dumps(
+            {
+                "rounds": args.rounds,
+                "target_ratio": 0.85,
+                "worst_ratio": max(ratios),
+                "whole_plans": plans,
+                "sets": results,
+            },
+            indent=2,
+        )
+    )
 
 
 if __name__ == "__main__":

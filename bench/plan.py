@@ -92,7 +92,10 @@ def measure(name: str, rgb) -> dict:
         "line_fidelity": round(faithful.line_r, 3),
         "tone_fidelity_r": round(faithful.tone_r, 3),
         "tone_fidelity_mae": round(faithful.tone_mae, 4),
-        "darkness_mean": {"plot": round(float(ink.mean()), 3), "raster": round(float(1 - drawing.result.mean()), 3)},
+        "darkness_mean": {
+            "plot": round(float(ink.mean()), 3),
+            "raster": round(float(1 - drawing.result.mean()), 3),
+        },
     }
 
 

@@ -65,7 +65,7 @@ def _reversed_paths_svg(plan_svg: Path, out: Path) -> None:
 
     def turn(match: re.Match) -> str:
         points = match.group(1).replace("M", " ").replace("L", " ").split()
-        pairs = [points[i:i + 2] for i in range(0, len(points), 2)][::-1]
+        pairs = [points[i : i + 2] for i in range(0, len(points), 2)][::-1]
         coords = [" ".join(p) for p in pairs]
         return f'd="M {coords[0]} L {" ".join(coords[1:])}"'
 

@@ -96,8 +96,13 @@ def run_grbl(exe: str, settings: list[str], job: list[str]) -> dict:
     """
     data = "".join(line + "\n" for line in settings + job).encode()
     with tempfile.TemporaryDirectory() as cwd:  # the simulated EEPROM is a file there
-        run = subprocess.run([exe, "-n", "-k", str(len(settings)), "-b", os.devnull], input=data,
-                             capture_output=True, cwd=cwd, check=True)
+        run = subprocess.run(
+            [exe, "-n", "-k", str(len(settings)), "-b", os.devnull],
+            input=data,
+            capture_output=True,
+            cwd=cwd,
+            check=True,
+        )
     answers = run.stdout.decode().split("Grbl 1.1", 1)[-1].splitlines()
     refused = [line for line in answers if line.startswith(("error", "ALARM"))]
     if refused:
@@ -133,15 +138,23 @@ def compare(path: Path, exe: str, profile_name: str) -> dict:
     ratios = {key: value / grbl["total"] for key, value in ours.items() if value is not None}
     idle = grbl["stops"] * profile.firmware.idle_lock  # the estimate's idle locks, one per stop
     ratios["motion"] = (stat - program_dwell(job) - idle) / grbl["moving"]
-    return {"file": str(path), "profile": profile_name, "grbl": grbl, "pencilbot": ours,
-            "ratio": {key: round(value, 4) for key, value in ratios.items()}}
+    return {
+        "file": str(path),
+        "profile": profile_name,
+        "grbl": grbl,
+        "pencilbot": ours,
+        "ratio": {key: round(value, 4) for key, value in ratios.items()},
+    }
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("gcode", type=Path)
-    parser.add_argument("--grbl-sim", default=os.environ.get("GRBL_SIM"),
-                        help="path of grbl_sim.exe built as this script's docstring says (default $GRBL_SIM)")
+    parser.add_argument(
+        "--grbl-sim",
+        default=os.environ.get("GRBL_SIM"),
+        help="path of grbl_sim.exe built as this script's docstring says (default $GRBL_SIM)",
+    )
     parser.add_argument("--profile", default=DEFAULT_PROFILE)
     args = parser.parse_args(argv)
     if not args.grbl_sim:

@@ -85,8 +85,15 @@ class Stage:
 STAGES: dict[str, Stage] = {}
 
 
-def stage(name: str, *, unit: str, sizes: tuple[int, ...], quick: tuple[int, ...], summary: Callable,
-          extra: Callable[[Path], dict] | None = None):
+def stage(
+    name: str,
+    *,
+    unit: str,
+    sizes: tuple[int, ...],
+    quick: tuple[int, ...],
+    summary: Callable,
+    extra: Callable[[Path], dict] | None = None,
+):
     """Register ``command(size, scratch) -> argv`` as stage ``name`` (``extra(scratch)``: more
     figures from runs of its own)."""
 
@@ -98,6 +105,7 @@ def stage(name: str, *, unit: str, sizes: tuple[int, ...], quick: tuple[int, ...
 
 
 # -- measuring ----------------------------------------------------------------------------------
+
 
 def measure(argv: list[str]) -> dict:
     """Run argv as a fresh process: its own CPU seconds and peak RSS, and its stdout JSON if any."""
@@ -135,8 +143,12 @@ def run_stage(stage_: Stage, sizes: tuple[int, ...], repeats: int, scratch: Path
     for size in sizes:
         results = [measure(stage_.command(size, scratch)) for _ in range(repeats)]
         # Timings take the median over repeats; everything else is the same in every run.
-        row = {key: statistics.median(r[key] for r in results) if key.endswith("_s") or key == "peak_rss_mb"
-               else value for key, value in results[0].items()}
+        row = {
+            key: statistics.median(r[key] for r in results)
+            if key.endswith("_s") or key == "peak_rss_mb"
+            else value
+            for key, value in results[0].items()
+        }
         runs.append({stage_.unit: size, **row})
     extra = stage_.extra(scratch) if stage_.extra else {}
     return {"unit": stage_.unit, "runs": runs, **stage_.summary(runs), **extra}
@@ -152,6 +164,7 @@ def _pencilbot(*args: str) -> list[str]:
 
 # -- stage: ordering ----------------------------------------------------------------------------
 
+
 def _ordering_summary(runs: list[dict]) -> dict:
     big = [r for r in runs if r["paths"] >= 100_000]
     at = {r["paths"]: r for r in runs}
@@ -159,8 +172,13 @@ def _ordering_summary(runs: list[dict]) -> dict:
         "exponent_all": exponent([r["paths"] for r in runs], [r["cpu_s"] for r in runs]),
         "exponent_100k_to_1m": exponent([r["paths"] for r in big], [r["cpu_s"] for r in big]),
     }
-    targets = {"exponent_100k_to_1m_max": 1.1, "cpu_s_1m_max": 25.0, "peak_rss_mb_1m_max": 1536,
-               "travel_vs_bound_100k_max": 1.35, "travel_vs_vpype_10k_max": 1.0}
+    targets = {
+        "exponent_100k_to_1m_max": 1.1,
+        "cpu_s_1m_max": 25.0,
+        "peak_rss_mb_1m_max": 1536,
+        "travel_vs_bound_100k_max": 1.35,
+        "travel_vs_vpype_10k_max": 1.0,
+    }
     met = {}
     if figures["exponent_100k_to_1m"] is not None:
         met["exponent"] = figures["exponent_100k_to_1m"] <= 1.1
@@ -174,8 +192,13 @@ def _ordering_summary(runs: list[dict]) -> dict:
     return {**figures, "targets": targets, "met": met}
 
 
-@stage("ordering", unit="paths", sizes=(10_000, 30_000, 100_000, 300_000, 1_000_000),
-       quick=(10_000, 30_000, 100_000, 300_000), summary=_ordering_summary)
+@stage(
+    "ordering",
+    unit="paths",
+    sizes=(10_000, 30_000, 100_000, 300_000, 1_000_000),
+    quick=(10_000, 30_000, 100_000, 300_000),
+    summary=_ordering_summary,
+)
 def ordering_command(size: int, scratch: Path) -> list[str]:
     return _child(["ordering", str(size)])
 
@@ -203,12 +226,18 @@ def ordering_child(size: int) -> dict:
     ordered = order_paths(paths, start=home, join_tolerance=-1)
     cpu = time.process_time() - cpu
     travel = travel_length(ordered, home)
-    figures = {"cpu_s": round(cpu, 3), "rounds": min(DEFAULT_ROUNDS, max(MIN_ROUNDS, ROUND_WORK // size)),
-               "pen_up_mm": round(travel, 1)}
+    figures = {
+        "cpu_s": round(cpu, 3),
+        "rounds": min(DEFAULT_ROUNDS, max(MIN_ROUNDS, ROUND_WORK // size)),
+        "pen_up_mm": round(travel, 1),
+    }
     if size <= 100_000:
         bound = travel_lower_bound(paths, home)
-        figures.update(lower_bound_mm=round(bound, 1), travel_vs_bound=round(travel / bound, 4),
-                       vs_greedy=round(travel / travel_length(greedy_order(paths, home), home), 4))
+        figures.update(
+            lower_bound_mm=round(bound, 1),
+            travel_vs_bound=round(travel / bound, 4),
+            vs_greedy=round(travel / travel_length(greedy_order(paths, home), home), 4),
+        )
     if size <= 10_000:
         figures.update(_vpype_two_opt(paths, home))
     return figures
@@ -229,10 +258,14 @@ def _vpype_two_opt(paths, home) -> dict:
     document = vpype_cli.execute("linesort --two-opt", document=document)
     cpu = time.process_time() - cpu
     lines = Paths.of(np.stack([line.real, line.imag], axis=1) for line in document.layers[1])
-    return {"vpype_two_opt_pen_up_mm": round(travel_length(lines, home), 1), "vpype_two_opt_cpu_s": round(cpu, 2)}
+    return {
+        "vpype_two_opt_pen_up_mm": round(travel_length(lines, home), 1),
+        "vpype_two_opt_cpu_s": round(cpu, 2),
+    }
 
 
 # -- stages on photos ---------------------------------------------------------------------------
+
 
 def photo(pixels: int, aspect: float, scratch: Path) -> Path:
     """A JPEG of about ``pixels`` pixels (width / height = ``aspect``), made once per scratch folder.
@@ -258,15 +291,23 @@ def photo_child(spec: str) -> None:
     cv2.imwrite(path, cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR), [cv2.IMWRITE_JPEG_QUALITY, 90])
 
 
-def _command_summary(target_size: int, cpu_max: float | None, extra_cpu_max: float | None, rss_max: float | None,
-                     unit: str = "pixels", size_of: Callable[[int], float] = float):
+def _command_summary(
+    target_size: int,
+    cpu_max: float | None,
+    extra_cpu_max: float | None,
+    rss_max: float | None,
+    unit: str = "pixels",
+    size_of: Callable[[int], float] = float,
+):
     """Exponent of CPU over ``size_of(size)``; targets at ``target_size``: CPU, CPU beyond the
     smallest size, peak memory."""
 
     def summary(runs: list[dict]) -> dict:
         at = {r[unit]: r for r in runs}
         smallest, largest = runs[0], at.get(target_size)
-        figures = {"exponent_all": exponent([size_of(r[unit]) for r in runs], [r["process_cpu_s"] for r in runs])}
+        figures = {
+            "exponent_all": exponent([size_of(r[unit]) for r in runs], [r["process_cpu_s"] for r in runs])
+        }
         targets, met = {}, {}
         if largest is not None:
             figures["cpu_s_beyond_smallest"] = round(largest["process_cpu_s"] - smallest["process_cpu_s"], 3)
@@ -284,20 +325,32 @@ def _command_summary(target_size: int, cpu_max: float | None, extra_cpu_max: flo
     return summary
 
 
-@stage("plan", unit="pixels", sizes=(100_000, 400_000, 1_500_000, 6_000_000, 24_000_000),
-       quick=(100_000, 1_500_000, 6_000_000, 24_000_000),
-       summary=_command_summary(24_000_000, None, 1.5, 350))
+@stage(
+    "plan",
+    unit="pixels",
+    sizes=(100_000, 400_000, 1_500_000, 6_000_000, 24_000_000),
+    quick=(100_000, 1_500_000, 6_000_000, 24_000_000),
+    summary=_command_summary(24_000_000, None, 1.5, 350),
+)
 def plan_command(size: int, scratch: Path) -> list[str]:
-    return _pencilbot("plan", str(photo(size, 1.5, scratch)), "-o", str(scratch / "plan.svg"), "-q", "--page", "A4")
+    return _pencilbot(
+        "plan", str(photo(size, 1.5, scratch)), "-o", str(scratch / "plan.svg"), "-q", "--page", "A4"
+    )
 
 
-@stage("sketch", unit="pixels", sizes=(120_000, 500_000, 2_000_000, 5_000_000, 12_000_000),
-       quick=(120_000, 2_000_000, 12_000_000), summary=_command_summary(12_000_000, 3.0, None, None))
+@stage(
+    "sketch",
+    unit="pixels",
+    sizes=(120_000, 500_000, 2_000_000, 5_000_000, 12_000_000),
+    quick=(120_000, 2_000_000, 12_000_000),
+    summary=_command_summary(12_000_000, 3.0, None, None),
+)
 def sketch_command(size: int, scratch: Path) -> list[str]:
     return _pencilbot("sketch", str(photo(size, 1.0, scratch)), "-o", str(scratch / "sketch.png"), "-q")
 
 
 # -- stages on plans and G-code -----------------------------------------------------------------
+
 
 def made_by_child(kind: str, size: int, suffix: str, scratch: Path) -> Path:
     """``scratch/KIND-SIZE.SUFFIX``, made once by a child process (so this process stays small)."""
@@ -344,43 +397,70 @@ def a0_child(spec: str) -> None:
     size, path = spec.split(":", 1)
     shipped = (HERE.parent / "configs" / "plotters" / "grbl-servo-a4.toml").read_text()
     profile = shipped.replace('name = "grbl-servo-a4"', 'name = "grbl-servo-a0"')
-    profile = profile.replace("width = 220.0 ", f"width = {A0_BED[0]} ").replace("height = 310.0 ", f"height = {A0_BED[1]} ")
+    profile = profile.replace("width = 220.0 ", f"width = {A0_BED[0]} ").replace(
+        "height = 310.0 ", f"height = {A0_BED[1]} "
+    )
     Path(path).with_suffix(".toml").write_text(profile)
     rng = np.random.default_rng(0)
     n = int(size)
     start = rng.uniform([20, 20], [821, 1169], size=(n, 2))
     angle, length = rng.uniform(0, np.pi, n), rng.uniform(1, 8, n)
     end = start + length[:, None] * np.column_stack([np.cos(angle), np.sin(angle)])
-    write_svg(Plan(Page(841.0, 1189.0, name="A0"), [Layer("strokes", list(np.stack([start, end], axis=1)))]), path)
+    write_svg(
+        Plan(Page(841.0, 1189.0, name="A0"), [Layer("strokes", list(np.stack([start, end], axis=1)))]), path
+    )
 
 
-@stage("export", unit="strokes", sizes=(10_000, 30_000, 100_000, 300_000, 1_000_000),
-       quick=(10_000, 100_000, 300_000, 1_000_000),
-       summary=_command_summary(1_000_000, 4.0, None, None, unit="strokes"))
+@stage(
+    "export",
+    unit="strokes",
+    sizes=(10_000, 30_000, 100_000, 300_000, 1_000_000),
+    quick=(10_000, 100_000, 300_000, 1_000_000),
+    summary=_command_summary(1_000_000, 4.0, None, None, unit="strokes"),
+)
 def export_command(size: int, scratch: Path) -> list[str]:
     svg = made_by_child("plan_svg", size, ".svg", scratch)
-    return _pencilbot("export", str(svg), "-o", str(scratch / "plan.gcode"), "-q", "--profile", "grbl-servo-a4")
+    return _pencilbot(
+        "export", str(svg), "-o", str(scratch / "plan.gcode"), "-q", "--profile", "grbl-servo-a4"
+    )
 
 
 def _bed_pixels(dpi: float) -> float:
     return math.ceil(A0_BED[0] / 25.4 * dpi) * math.ceil(A0_BED[1] / 25.4 * dpi)
 
 
-@stage("simulate", unit="dpi", sizes=(60, 120, 300, 600), quick=(60, 300, 600),
-       summary=_command_summary(600, None, None, 2048, unit="dpi", size_of=_bed_pixels))
+@stage(
+    "simulate",
+    unit="dpi",
+    sizes=(60, 120, 300, 600),
+    quick=(60, 300, 600),
+    summary=_command_summary(600, None, None, 2048, unit="dpi", size_of=_bed_pixels),
+)
 def simulate_command(size: int, scratch: Path) -> list[str]:
     svg = made_by_child("a0", A0_STROKES, ".svg", scratch)
-    return _pencilbot("simulate", str(svg), "-o", str(scratch / "a0.png"), "-q", "--dpi", str(size),
-                      "--profile", str(svg.with_suffix(".toml")))
+    return _pencilbot(
+        "simulate",
+        str(svg),
+        "-o",
+        str(scratch / "a0.png"),
+        "-q",
+        "--dpi",
+        str(size),
+        "--profile",
+        str(svg.with_suffix(".toml")),
+    )
 
 
 def _draw_summary(runs: list[dict]) -> dict:
     small, big = runs[0], runs[-1]
     per_line = (big["peak_rss_mb"] - small["peak_rss_mb"]) * 2**20 / (big["lines"] - small["lines"])
-    return {"exponent_all": exponent([r["lines"] for r in runs], [r["process_cpu_s"] for r in runs]),
-            "bytes_per_line": round(per_line, 1),
-            "lines_per_cpu_s": round(big["lines"] / big["process_cpu_s"]),
-            "targets": {"bytes_per_line_max": 120}, "met": {"bytes_per_line": per_line <= 120}}
+    return {
+        "exponent_all": exponent([r["lines"] for r in runs], [r["process_cpu_s"] for r in runs]),
+        "bytes_per_line": round(per_line, 1),
+        "lines_per_cpu_s": round(big["lines"] / big["process_cpu_s"]),
+        "targets": {"bytes_per_line_max": 120},
+        "met": {"bytes_per_line": per_line <= 120},
+    }
 
 
 _SERVER: dict[str, str] = {}  # the one `pencilbot sim-serve` of a draw stage: its pty, once started
@@ -389,8 +469,11 @@ _SERVER: dict[str, str] = {}  # the one `pencilbot sim-serve` of a draw stage: i
 def _plotter_port() -> str:
     """The pty of a virtual plotter in its own process (started once, stopped when the bench ends)."""
     if not _SERVER:
-        server = subprocess.Popen(_pencilbot("sim-serve", "--realtime", "0", "--power", "keep", "--abort", "keep",
-                                             "-q"), stdout=subprocess.PIPE, text=True)
+        server = subprocess.Popen(
+            _pencilbot("sim-serve", "--realtime", "0", "--power", "keep", "--abort", "keep", "-q"),
+            stdout=subprocess.PIPE,
+            text=True,
+        )
         atexit.register(lambda: (server.terminate(), server.wait()))
         _SERVER["port"] = server.stdout.readline().strip()  # it prints its device path first
     return _SERVER["port"]
@@ -401,8 +484,14 @@ def _draw_traced(scratch: Path) -> dict:
     return {"traced_bytes_per_line": measure(_child(["draw_traced", str(job)]))}
 
 
-@stage("draw", unit="lines", sizes=(15_014, 50_014, 150_014, 1_500_014), quick=(15_014, 150_014, 1_500_014),
-       summary=_draw_summary, extra=_draw_traced)
+@stage(
+    "draw",
+    unit="lines",
+    sizes=(15_014, 50_014, 150_014, 1_500_014),
+    quick=(15_014, 150_014, 1_500_014),
+    summary=_draw_summary,
+    extra=_draw_traced,
+)
 def draw_command(size: int, scratch: Path) -> list[str]:
     job = made_by_child("job_gcode", (size - 14) // 6, ".gcode", scratch)  # 6 lines a stroke, 14 around
     return _pencilbot("draw", str(job), "--port", _plotter_port(), "-q")
@@ -424,12 +513,15 @@ def draw_traced_child(job: str) -> dict:
     parts: dict[str, int] = {}
     for stat in snapshot.statistics("filename"):
         name = stat.traceback[0].filename
-        part = next((p for p in ("sim/firmware.py", "sim/", "pencilbot/driver/", "pencilbot/") if p in name), "other")
+        part = next(
+            (p for p in ("sim/firmware.py", "sim/", "pencilbot/driver/", "pencilbot/") if p in name), "other"
+        )
         parts[part] = parts.get(part, 0) + stat.size
     return {"lines": lines, **{part: round(size / lines, 1) for part, size in sorted(parts.items())}}
 
 
 # -- stages on inputs at the door (issue 25) -----------------------------------------------------
+
 
 def walk_svg_child(spec: str) -> None:
     """Another tool's SVG of SIZE MB: one path, a random walk of 0.6 mm steps over A4 (a
@@ -440,8 +532,10 @@ def walk_svg_child(spec: str) -> None:
     steps = np.random.default_rng(1).normal(0, 0.6, (int(float(size) * 1e6 / 16), 2))
     points = 10 + np.abs(np.cumsum(steps, axis=0) % 380 - 190)  # folded into 10..200 mm
     with open(path, "w") as out:
-        out.write('<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" viewBox="0 0 210 297">'
-                  '<path stroke="black" fill="none" stroke-width="0.3" d="M')
+        out.write(
+            '<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" viewBox="0 0 210 297">'
+            '<path stroke="black" fill="none" stroke-width="0.3" d="M'
+        )
         for block in np.array_split(points, max(1, len(points) // 100_000)):
             out.write(" L".join(f" {x:.2f} {y:.2f}" for x, y in block.tolist()) + " L")
         out.write(f' {points[-1, 0]:.2f} {points[-1, 1]:.2f}"/></svg>')
@@ -450,19 +544,38 @@ def walk_svg_child(spec: str) -> None:
 _SVG_MB = (5, 15, 50)
 
 
-@stage("svg_stat", unit="megabytes", sizes=_SVG_MB, quick=(5, 50), summary=_command_summary(50, 30.0, None, 2048, unit="megabytes"))
+@stage(
+    "svg_stat",
+    unit="megabytes",
+    sizes=_SVG_MB,
+    quick=(5, 50),
+    summary=_command_summary(50, 30.0, None, 2048, unit="megabytes"),
+)
 def svg_stat_command(size: int, scratch: Path) -> list[str]:
     return _pencilbot("stat", str(made_by_child("walk_svg", size, ".svg", scratch)), "-q")
 
 
-@stage("svg_export", unit="megabytes", sizes=_SVG_MB, quick=(5, 50), summary=_command_summary(50, 30.0, None, 2048, unit="megabytes"))
+@stage(
+    "svg_export",
+    unit="megabytes",
+    sizes=_SVG_MB,
+    quick=(5, 50),
+    summary=_command_summary(50, 30.0, None, 2048, unit="megabytes"),
+)
 def svg_export_command(size: int, scratch: Path) -> list[str]:
     svg = made_by_child("walk_svg", size, ".svg", scratch)
-    return _pencilbot("export", str(svg), "-o", str(scratch / "walk.gcode"), "-q", "--profile", "grbl-servo-a4")
+    return _pencilbot(
+        "export", str(svg), "-o", str(scratch / "walk.gcode"), "-q", "--profile", "grbl-servo-a4"
+    )
 
 
-@stage("simulate_gcode", unit="lines", sizes=(300_014, 1_000_014, 3_000_014), quick=(300_014, 3_000_014),
-       summary=_command_summary(3_000_014, 30.0, None, 2048, unit="lines"))
+@stage(
+    "simulate_gcode",
+    unit="lines",
+    sizes=(300_014, 1_000_014, 3_000_014),
+    quick=(300_014, 3_000_014),
+    summary=_command_summary(3_000_014, 30.0, None, 2048, unit="lines"),
+)
 def simulate_gcode_command(size: int, scratch: Path) -> list[str]:
     job = made_by_child("job_gcode", (size - 14) // 6, ".gcode", scratch)  # 6 lines a stroke, 14 around
     return _pencilbot("simulate", str(job), "-o", str(scratch / "job.png"), "-q")
@@ -479,7 +592,9 @@ def _tiny_stage(name: str) -> None:
         svg = made_by_child("tiny_svg", size, ".svg", scratch)
         return _pencilbot(*scale_tiny.commands(svg, scratch)[name])
 
-    stage(name, unit="paths", sizes=scale_tiny.SIZES, quick=scale_tiny.SIZES[1:], summary=scale_tiny.summary)(command)
+    stage(name, unit="paths", sizes=scale_tiny.SIZES, quick=scale_tiny.SIZES[1:], summary=scale_tiny.summary)(
+        command
+    )
 
 
 for _name in ("tiny_stat", "tiny_optimize", "tiny_export", "tiny_simulate"):
@@ -508,36 +623,68 @@ def big_png_child(spec: str) -> None:
         out.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", side, side, 8, 2, 0, 0, 0)))
         previous = np.zeros(side * 3, np.uint8)
         for top in range(0, side, 1000):
-            rows = source[np.arange(top, min(top + 1000, side)) * source.shape[0] // side][:, columns].reshape(-1, side * 3)
+            rows = source[np.arange(top, min(top + 1000, side)) * source.shape[0] // side][
+                :, columns
+            ].reshape(-1, side * 3)
             up = np.diff(np.vstack([previous, rows]), axis=0)  # uint8: modulo 256, as the Up filter
             previous = rows[-1]
-            out.write(chunk(b"IDAT", squeeze.compress(np.hstack([np.full((len(up), 1), 2, np.uint8), up]).tobytes())))
+            out.write(
+                chunk(
+                    b"IDAT", squeeze.compress(np.hstack([np.full((len(up), 1), 2, np.uint8), up]).tobytes())
+                )
+            )
         out.write(chunk(b"IDAT", squeeze.flush()) + chunk(b"IEND", b""))
 
 
 def _downscale_summary(runs: list[dict]) -> dict:
     big = runs[-1]
     full = big["pixels"] * 4 / 2**20  # Pillow's RGBA-sized buffer of the whole picture, MB
-    return {"full_picture_mb": round(full), "targets": {"peak_rss_mb_max": round(full / 4)},
-            "met": {"memory": big["peak_rss_mb"] <= full / 4}}
+    return {
+        "full_picture_mb": round(full),
+        "targets": {"peak_rss_mb_max": round(full / 4)},
+        "met": {"memory": big["peak_rss_mb"] <= full / 4},
+    }
 
 
-@stage("downscale_png", unit="pixels", sizes=(100_000_000, 900_000_000), quick=(900_000_000,),
-       summary=_downscale_summary)
+@stage(
+    "downscale_png",
+    unit="pixels",
+    sizes=(100_000_000, 900_000_000),
+    quick=(900_000_000,),
+    summary=_downscale_summary,
+)
 def downscale_png_command(size: int, scratch: Path) -> list[str]:
     png = made_by_child("big_png", round(math.sqrt(size)), ".png", scratch)
-    return _pencilbot("sketch", str(png), "-o", str(scratch / "big-sketch.png"), "-q", "--downscale",
-                      "--max-pixels", "1000000")
+    return _pencilbot(
+        "sketch",
+        str(png),
+        "-o",
+        str(scratch / "big-sketch.png"),
+        "-q",
+        "--downscale",
+        "--max-pixels",
+        "1000000",
+    )
 
 
-CHILDREN = {"tiny_svg": scale_tiny.tiny_svg_child, "walk_svg": walk_svg_child, "ordering": lambda size: ordering_child(int(size)), "photo": photo_child, "plan_svg": plan_svg_child,
-            "job_gcode": job_gcode_child, "a0": a0_child, "draw_traced": draw_traced_child,
-            "big_png": big_png_child}
+CHILDREN = {
+    "tiny_svg": scale_tiny.tiny_svg_child,
+    "walk_svg": walk_svg_child,
+    "ordering": lambda size: ordering_child(int(size)),
+    "photo": photo_child,
+    "plan_svg": plan_svg_child,
+    "job_gcode": job_gcode_child,
+    "a0": a0_child,
+    "draw_traced": draw_traced_child,
+    "big_png": big_png_child,
+}
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--stage", action="append", choices=sorted(STAGES), help="stages to run (default: all)")
+    parser.add_argument(
+        "--stage", action="append", choices=sorted(STAGES), help="stages to run (default: all)"
+    )
     parser.add_argument("--quick", action="store_true", help="fewer sizes")
     parser.add_argument("--repeats", type=int, default=1, help="runs per size; the median is reported")
     parser.add_argument("--child", nargs=2, metavar=("STAGE", "SIZE"), help=argparse.SUPPRESS)
@@ -547,13 +694,17 @@ def main() -> None:
         if figures is not None:
             print(json.dumps(figures))
         return
-    report = {"cpu": "user + system seconds of the whole fresh process (cpu_s: the call alone)",
-              "memory": "peak resident set of that process (os.wait4 ru_maxrss)", "stages": {}}
+    report = {
+        "cpu": "user + system seconds of the whole fresh process (cpu_s: the call alone)",
+        "memory": "peak resident set of that process (os.wait4 ru_maxrss)",
+        "stages": {},
+    }
     with tempfile.TemporaryDirectory() as scratch:
         for name in args.stage or list(STAGES):
             chosen = STAGES[name]
-            report["stages"][name] = run_stage(chosen, chosen.quick_sizes if args.quick else chosen.sizes,
-                                               args.repeats, Path(scratch))
+            report["stages"][name] = run_stage(
+                chosen, chosen.quick_sizes if args.quick else chosen.sizes, args.repeats, Path(scratch)
+            )
     print(json.dumps(report, indent=1))
 
 

@@ -28,11 +28,17 @@ def tiny_svg_child(spec: str) -> None:
     a = rng.uniform([10, 10], [200, 287], (int(size), 2))
     b = a + rng.uniform(-0.5, 0.5, a.shape)
     with open(path, "w") as out:
-        out.write('<?xml version="1.0"?>\n<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" '
-                  'viewBox="0 0 210 297">\n<g stroke="black" stroke-width="0.3" fill="none">\n')
+        out.write(
+            '<?xml version="1.0"?>\n<svg xmlns="http://www.w3.org/2000/svg" width="210mm" height="297mm" '
+            'viewBox="0 0 210 297">\n<g stroke="black" stroke-width="0.3" fill="none">\n'
+        )
         for lo in range(0, len(a), 100_000):
-            out.write("".join(f'<path d="M{x:.2f},{y:.2f} L{u:.2f},{v:.2f}"/>\n'
-                              for (x, y), (u, v) in zip(a[lo:lo + 100_000].tolist(), b[lo:lo + 100_000].tolist())))
+            out.write(
+                "".join(
+                    f'<path d="M{x:.2f},{y:.2f} L{u:.2f},{v:.2f}"/>\n'
+                    for (x, y), (u, v) in zip(a[lo : lo + 100_000].tolist(), b[lo : lo + 100_000].tolist())
+                )
+            )
         out.write("</g>\n</svg>\n")
 
 
@@ -41,7 +47,15 @@ def commands(svg: Path, scratch: Path) -> dict[str, list[str]]:
     return {
         "tiny_stat": ["stat", str(svg), "-q"],
         "tiny_optimize": ["optimize", str(svg), "-o", str(scratch / "tiny-opt.svg"), "-q"],
-        "tiny_export": ["export", str(svg), "-o", str(scratch / "tiny.gcode"), "-q", "--profile", "grbl-servo-a4"],
+        "tiny_export": [
+            "export",
+            str(svg),
+            "-o",
+            str(scratch / "tiny.gcode"),
+            "-q",
+            "--profile",
+            "grbl-servo-a4",
+        ],
         "tiny_simulate": ["simulate", str(svg), "-o", str(scratch / "tiny.png"), "-q"],
     }
 
@@ -54,8 +68,10 @@ def summary(runs: list[dict]) -> dict:
         figures["exponent_100k_1m"] = round(math.log(at[1_000_000] / at[100_000]) / math.log(10), 3)
     if 1_000_000 in at:
         figures["targets"] = {"cpu_s_max": CPU_MAX, "exponent_max": EXPONENT_MAX}
-        figures["met"] = {"cpu": at[1_000_000] <= CPU_MAX,
-                          "exponent": figures.get("exponent_100k_1m", 0) <= EXPONENT_MAX}
+        figures["met"] = {
+            "cpu": at[1_000_000] <= CPU_MAX,
+            "exponent": figures.get("exponent_100k_1m", 0) <= EXPONENT_MAX,
+        }
     return figures
 
 

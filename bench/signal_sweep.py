@@ -54,12 +54,24 @@ def _judged(family: str, signame: str, moment, k: int) -> dict:
             if family == "studio":
                 outcome = signal_cases.studio_run(signame, moment, Path(folder))
             else:
-                outcome = signal_cases.run(family, signame, moment, Path(folder), f"sweep-{family}-{signame}-{k}")
-            result = {"stopped": outcome.stopped, "pen_up": outcome.pen_up,
-                      "journal_stopped": outcome.journal_stopped, "exact": outcome.exact, "detail": outcome.detail}
+                outcome = signal_cases.run(
+                    family, signame, moment, Path(folder), f"sweep-{family}-{signame}-{k}"
+                )
+            result = {
+                "stopped": outcome.stopped,
+                "pen_up": outcome.pen_up,
+                "journal_stopped": outcome.journal_stopped,
+                "exact": outcome.exact,
+                "detail": outcome.detail,
+            }
         except Exception:  # noqa: BLE001 - what the sweep counts
-            result = {"stopped": False, "pen_up": False, "journal_stopped": False, "exact": False,
-                      "detail": traceback.format_exc(limit=-3)}
+            result = {
+                "stopped": False,
+                "pen_up": False,
+                "journal_stopped": False,
+                "exact": False,
+                "detail": traceback.format_exc(limit=-3),
+            }
     return result
 
 
@@ -86,12 +98,15 @@ def main() -> None:
         done = [*pool.imap_unordered(case, [task for task in tasks if task[0] != "studio"])]
     for family, signame, moment, result in [*done, *map(case, studio)]:
         row = table.setdefault(family, {}).setdefault(
-            signame, {"runs": 0, "stopped": 0, "pen_up": 0, "journal_stopped": 0, "exact": 0})
+            signame, {"runs": 0, "stopped": 0, "pen_up": 0, "journal_stopped": 0, "exact": 0}
+        )
         row["runs"] += 1
         for key in ("stopped", "pen_up", "journal_stopped", "exact"):
             row[key] += bool(result[key])
         if not all(result[key] for key in ("stopped", "pen_up", "journal_stopped", "exact")):
-            failed.append({"case": f"{family}-{signame}@{moment}", **result, "detail": result["detail"][-400:]})
+            failed.append(
+                {"case": f"{family}-{signame}@{moment}", **result, "detail": result["detail"][-400:]}
+            )
     print(json.dumps({"moments": args.moments, "results": table, "failed": failed}, indent=1))
 
 

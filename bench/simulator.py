@@ -50,9 +50,10 @@ def firmware_run(lines: list[str]):
 
     def run():
         for i in range(0, len(data), 4096):
-            fw.receive(data[i:i + 4096])
+            fw.receive(data[i : i + 4096])
             fw.take_output()
         fw.finish()
+
     return run
 
 
@@ -89,8 +90,13 @@ def driver_run(lines: list[str], folder: Path):
     """Stream the lines from a G-code file with pencilbot's driver to an instant ``sim://``."""
     path = folder / "bench.gcode"
     path.write_text("\n".join(lines) + "\n")
-    return lambda: draw(path, f"sim://bench-driver-{time.monotonic_ns()}", profile="grbl-servo-a4",
-                        progress="quiet", wake_wait=0.0)
+    return lambda: draw(
+        path,
+        f"sim://bench-driver-{time.monotonic_ns()}",
+        profile="grbl-servo-a4",
+        progress="quiet",
+        wake_wait=0.0,
+    )
 
 
 def raster_run(n_segments: int = 100_000):
@@ -118,19 +124,34 @@ def main() -> None:
         driver_wall, driver_cpu = best(lambda: driver_run(port_lines, Path(folder)), 2)
     raster_wall, raster_cpu = best(raster_run, 2)
     port_rate_cpu = len(port_lines) / port_cpu
-    print(json.dumps({
-        "instant_lines_per_s_firmware": {"wall": round(len(lines) / fw_wall), "cpu": round(len(lines) / fw_cpu)},
-        "instant_lines_per_s_sim_url_char_counting": {
-            "wall": round(len(port_lines) / port_wall), "cpu": round(port_rate_cpu)},
-        "instant_lines_per_s_sim_url_pencilbot_driver": {
-            "wall": round(len(port_lines) / driver_wall), "cpu": round(len(port_lines) / driver_cpu)},
-        "target_lines_per_s": 20_000,
-        "raster_100k_segments_a4_300dpi_s": {"wall": round(raster_wall, 3), "cpu": round(raster_cpu, 3)},
-        "target_raster_s": 3.0,
-        "lines_met_cpu": port_rate_cpu >= 20_000,
-        "driver_lines_met_cpu": len(port_lines) / driver_cpu >= 20_000,
-        "raster_met_cpu": raster_cpu <= 3.0,
-    }, indent=2))
+    print(
+        json.dumps(
+            {
+                "instant_lines_per_s_firmware": {
+                    "wall": round(len(lines) / fw_wall),
+                    "cpu": round(len(lines) / fw_cpu),
+                },
+                "instant_lines_per_s_sim_url_char_counting": {
+                    "wall": round(len(port_lines) / port_wall),
+                    "cpu": round(port_rate_cpu),
+                },
+                "instant_lines_per_s_sim_url_pencilbot_driver": {
+                    "wall": round(len(port_lines) / driver_wall),
+                    "cpu": round(len(port_lines) / driver_cpu),
+                },
+                "target_lines_per_s": 20_000,
+                "raster_100k_segments_a4_300dpi_s": {
+                    "wall": round(raster_wall, 3),
+                    "cpu": round(raster_cpu, 3),
+                },
+                "target_raster_s": 3.0,
+                "lines_met_cpu": port_rate_cpu >= 20_000,
+                "driver_lines_met_cpu": len(port_lines) / driver_cpu >= 20_000,
+                "raster_met_cpu": raster_cpu <= 3.0,
+            },
+            indent=2,
+        )
+    )
 
 
 if __name__ == "__main__":

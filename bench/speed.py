@@ -107,7 +107,9 @@ def measure(stage: str, image_name: str) -> dict:
             stage_times.setdefault(name, []).append(seconds)
     extra = {}
     if stage_times:
-        extra["stage_seconds_median"] = {name: round(statistics.median(t), 4) for name, t in stage_times.items()}
+        extra["stage_seconds_median"] = {
+            name: round(statistics.median(t), 4) for name, t in stage_times.items()
+        }
     if getattr(out, "fit", None) is not None:
         extra["cg"] = {"iterations": out.fit.iterations, "residual": out.fit.residual, "block": out.fit.block}
     return {

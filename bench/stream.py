@@ -61,12 +61,18 @@ def drawing_lines(segments: int, per_path: int = 20, seed: int = 0) -> list[str]
     lines = ["G21", "G90", *up]
     x, y = 100.0, min(150.0, top_y / 2)
     for _ in range(math.ceil(segments / per_path)):
-        x, y = float(np.clip(x + rng.uniform(-6, 6), 10, top_x)), float(np.clip(y + rng.uniform(-6, 6), 10, top_y))
+        x, y = (
+            float(np.clip(x + rng.uniform(-6, 6), 10, top_x)),
+            float(np.clip(y + rng.uniform(-6, 6), 10, top_y)),
+        )
         lines.append(f"G0 X{x:.3f} Y{y:.3f}")
         lines.extend(down)
         for _ in range(per_path):
             angle, step = rng.uniform(0, 2 * np.pi), rng.uniform(1, 2)
-            x, y = float(np.clip(x + step * np.cos(angle), 10, top_x)), float(np.clip(y + step * np.sin(angle), 10, top_y))
+            x, y = (
+                float(np.clip(x + step * np.cos(angle), 10, top_x)),
+                float(np.clip(y + step * np.sin(angle), 10, top_y)),
+            )
             lines.append(f"G1 X{x:.3f} Y{y:.3f} F{profile.motion.draw_feed:.0f}")
         lines.extend(up)
     return lines
@@ -78,13 +84,23 @@ def stream_once(path: Path, options: str, send_and_wait: bool) -> dict:
 
     name = f"bench-{'wait' if send_and_wait else 'count'}-{time.monotonic_ns()}"
     wall0, cpu0 = time.perf_counter(), time.process_time()
-    draw(path, f"sim://{name}?profile={PROFILE}&{options}", profile=PROFILE, send_and_wait=send_and_wait,
-         progress="quiet", wake_wait=0.5)
+    draw(
+        path,
+        f"sim://{name}?profile={PROFILE}&{options}",
+        profile=PROFILE,
+        send_and_wait=send_and_wait,
+        progress="quiet",
+        wake_wait=0.5,
+    )
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     motion = protocol_sim.plotter(name).seconds
     protocol_sim.forget(name)
-    return {"wall_s": round(wall, 2), "motion_s": round(motion, 2), "ratio": round(wall / motion, 4),
-            "cpu_s": round(cpu, 2)}
+    return {
+        "wall_s": round(wall, 2),
+        "motion_s": round(motion, 2),
+        "ratio": round(wall / motion, 4),
+        "cpu_s": round(cpu, 2),
+    }
 
 
 def big_job(strokes: int) -> dict:
@@ -113,8 +129,12 @@ def big_job(strokes: int) -> dict:
         draw(path, f"sim://{name}?profile={PROFILE}", profile=PROFILE, progress="quiet", wake_wait=0.2)
         figures["cpu_ms_per_1000_lines"] = round((time.process_time() - cpu0) / lines * 1e6, 1)
         protocol_sim.forget(name)
-    figures["targets"] = {"prepare_s": 1.0, "prepare_peak_mb": 60, "held_bytes_per_line": 120,
-                          "cpu_ms_per_1000_lines": 65}
+    figures["targets"] = {
+        "prepare_s": 1.0,
+        "prepare_peak_mb": 60,
+        "held_bytes_per_line": 120,
+        "cpu_ms_per_1000_lines": 65,
+    }
     return figures
 
 
@@ -154,9 +174,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--segments", type=int, default=2000, help="real-time streaming case (0: skip)")
     parser.add_argument("--strokes", type=int, default=100_000, help="large job case (0: skip)")
-    parser.add_argument("--profile", default=PROFILE, help=f"plotter profile (default {PROFILE}); an EBB one "
-                        "(e.g. axidraw-v3) measures host-planned streaming to the virtual EBB")
-    parser.add_argument("--firmware", default="3.0.3", help="the virtual EBB's firmware (2.8.1: a FIFO one deep)")
+    parser.add_argument(
+        "--profile",
+        default=PROFILE,
+        help=f"plotter profile (default {PROFILE}); an EBB one "
+        "(e.g. axidraw-v3) measures host-planned streaming to the virtual EBB",
+    )
+    parser.add_argument(
+        "--firmware", default="3.0.3", help="the virtual EBB's firmware (2.8.1: a FIFO one deep)"
+    )
     args = parser.parse_args()
     PROFILE = args.profile
     report = {"profile": PROFILE}
@@ -192,7 +218,7 @@ def realtime(segments: int) -> dict:
         "send_and_wait": waiting,
         "cpu_ms_per_1000_lines": round(1000 * instant["cpu_s"] / len(lines) * 1000, 1),
         "note": "wall = whole draw() incl. wake; motion = the plotter's simulated clock; the simulator "
-                "runs in the same process, so CPU includes it (an upper bound); shared 2-core machine",
+        "runs in the same process, so CPU includes it (an upper bound); shared 2-core machine",
     }
 
 
@@ -215,8 +241,12 @@ def realtime_ebb(segments: int, firmware: str = "3.0.3") -> dict:
         LineReader.write = spy
         try:
             wall0, cpu0 = time.perf_counter(), time.process_time()
-            draw(path, f"sim://{name}?profile={PROFILE}&realtime=1&firmware={firmware}", profile=PROFILE,
-                 progress="quiet")
+            draw(
+                path,
+                f"sim://{name}?profile={PROFILE}&realtime=1&firmware={firmware}",
+                profile=PROFILE,
+                progress="quiet",
+            )
             wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         finally:
             LineReader.write = original
@@ -244,7 +274,7 @@ def realtime_ebb(segments: int, firmware: str = "3.0.3") -> dict:
         "board_minimum_ms": profile.ebb.min_move_ms,
         "cpu_s": round(cpu, 2),
         "note": "wall = whole draw() incl. wake and set-up; busy = what the board's motion queue ran "
-                "(its clock at 25 kHz ticks); simulator in the same process; shared 2-core machine",
+        "(its clock at 25 kHz ticks); simulator in the same process; shared 2-core machine",
     }
 
 
@@ -257,8 +287,10 @@ def _shortest_lm_ms(commands: list[bytes]) -> float:
         if not data.startswith(b"LM,"):
             continue
         words = [int(w) for w in data[3:].strip().split(b",")]
-        ticks = max(ebb.lm_ticks(abs(words[3 * i + 1]), words[3 * i], words[3 * i + 2]) if words[3 * i + 1] else 0
-                    for i in range(2))
+        ticks = max(
+            ebb.lm_ticks(abs(words[3 * i + 1]), words[3 * i], words[3 * i + 2]) if words[3 * i + 1] else 0
+            for i in range(2)
+        )
         shortest = min(shortest, ticks * ebb.TICK * 1000)
     return round(shortest, 3)
 

@@ -44,8 +44,12 @@ def photos(folder: Path) -> dict[str, Path]:
     return {"coffee": coffee, "1mp": big}
 
 
-def request(url: str, body: bytes | None = None, method: str = "GET", kind: str = "application/json") -> bytes:
-    made = urllib.request.Request(url, data=body, method=method, headers={"X-Studio": "1", "Content-Type": kind})
+def request(
+    url: str, body: bytes | None = None, method: str = "GET", kind: str = "application/json"
+) -> bytes:
+    made = urllib.request.Request(
+        url, data=body, method=method, headers={"X-Studio": "1", "Content-Type": kind}
+    )
     with urllib.request.urlopen(made, timeout=120) as answer:
         return answer.read()
 
@@ -103,7 +107,7 @@ def main() -> None:
             time.sleep(0.05)
         wait_stage(running.studio, running.studio.planner.generation, "full")
         coarse, full = [], []
-        for width in (WIDTHS * 4)[:args.changes]:
+        for width in (WIDTHS * 4)[: args.changes]:
             c, f = change(running, width)
             coarse.append(c)
             full.append(f)

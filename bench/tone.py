@@ -62,12 +62,23 @@ def main() -> None:
         row["photo"] = round(cdf_distance(image.gray, model), 4)
         photos[name] = row
     closer = {
-        stage: {method: [name for name, row in photos.items() if row[method][stage] < row[other][stage]]
-                for method, other in (("gml", "sml"), ("sml", "gml"))}
+        stage: {
+            method: [name for name, row in photos.items() if row[method][stage] < row[other][stage]]
+            for method, other in (("gml", "sml"), ("sml", "gml"))
+        }
         for stage in ("tone", "result")
     }
-    print(json.dumps({"metric": "L1 of CDFs / 255 vs the 3-layer model (52:37:11)",
-                      "textbook": textbook(), "closer": closer, "photos": photos}, indent=2))
+    print(
+        json.dumps(
+            {
+                "metric": "L1 of CDFs / 255 vs the 3-layer model (52:37:11)",
+                "textbook": textbook(),
+                "closer": closer,
+                "photos": photos,
+            },
+            indent=2,
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -18,8 +18,13 @@ HERE = Path(__file__).resolve().parent
 
 def demo_output() -> str:
     with tempfile.TemporaryDirectory() as tmp:
-        done = subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "-o", "demo-out"], cwd=tmp,
-                              check=True, capture_output=True, text=True)
+        done = subprocess.run(
+            [sys.executable, "-m", "pencilbot.cli", "demo", "-o", "demo-out"],
+            cwd=tmp,
+            check=True,
+            capture_output=True,
+            text=True,
+        )
     return done.stdout
 
 
@@ -39,7 +44,9 @@ def main() -> None:
         "# What the demo prints\n\n"
         "`pencilbot demo -o demo-out` on a fresh install: scikit-image's coffee photo in the default style\n"
         "on A4, turned landscape to suit the photo, 0.5 mm pen, `grbl-servo-a4`.\n"
-        "Written by `python docs/demo_summary.py`; run it again after a change that moves these figures.\n\n```\n" + "\n".join(summary) + "\n```\n"
+        "Written by `python docs/demo_summary.py`; run it again after a change that moves these figures.\n\n```\n"
+        + "\n".join(summary)
+        + "\n```\n"
     )
     print(f"wrote {page}")
 

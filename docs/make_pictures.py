@@ -49,15 +49,34 @@ def main() -> None:
         preview = cv2.imread(str(Path(tmp) / "preview.png"), cv2.IMREAD_GRAYSCALE)
         save_small(crop_to_ink(preview), out / "3-plan.png")
         plot = Path(tmp) / "plot-travel.png"
-        subprocess.run([sys.executable, "-m", "pencilbot.cli", "simulate", str(Path(tmp) / "drawing.gcode"),
-                        "-o", str(plot), "--travel", "-q"], check=True)
+        subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "pencilbot.cli",
+                "simulate",
+                str(Path(tmp) / "drawing.gcode"),
+                "-o",
+                str(plot),
+                "--travel",
+                "-q",
+            ],
+            check=True,
+        )
         bed = cv2.cvtColor(cv2.imread(str(plot)), cv2.COLOR_BGR2RGB)
         # The landscape sheet lies turned a quarter turn on the portrait bed: show it upright.
         save_small(crop_to_ink(np.rot90(bed, k=-1)), out / "4-plot.png")
     with tempfile.TemporaryDirectory() as tmp:
-        subprocess.run([sys.executable, "-m", "pencilbot.cli", "demo", "--pens", "cmyk", "-o", tmp, "-q"], check=True)
-        save_small(cv2.cvtColor(cv2.imread(str(Path(tmp) / "sketch.png")), cv2.COLOR_BGR2RGB), out / "5-colour-sketch.png")
-        plot = cv2.cvtColor(cv2.imread(str(Path(tmp) / "plot.png")), cv2.COLOR_BGR2RGB)  # on the page, upright
+        subprocess.run(
+            [sys.executable, "-m", "pencilbot.cli", "demo", "--pens", "cmyk", "-o", tmp, "-q"], check=True
+        )
+        save_small(
+            cv2.cvtColor(cv2.imread(str(Path(tmp) / "sketch.png")), cv2.COLOR_BGR2RGB),
+            out / "5-colour-sketch.png",
+        )
+        plot = cv2.cvtColor(
+            cv2.imread(str(Path(tmp) / "plot.png")), cv2.COLOR_BGR2RGB
+        )  # on the page, upright
         save_small(crop_to_ink(plot), out / "6-colour-plot.png")
     print(f"wrote {sorted(p.name for p in out.glob('*.png'))} to {out}")
 

@@ -55,11 +55,21 @@ def version_tuple(version: str) -> tuple[int, ...]:
     if len(parts) != 3:
         raise ValueError(f"an EBB firmware version is three numbers (3.0.3), not {version!r}")
     return parts
+
+
 USB_ID = (0x04D8, 0xFD92)
 FIFO_MAX = 32  # what QU,2 reports on the emulated board
 #: Bit masks of the QG status byte (firmware 3.x meanings).
 QG_LIMIT, QG_POWER_LOST, QG_BUTTON, QG_PEN_UP, QG_COMMAND, QG_MOTOR1, QG_MOTOR2, QG_FIFO = (
-    128, 64, 32, 16, 8, 4, 2, 1)
+    128,
+    64,
+    32,
+    16,
+    8,
+    4,
+    2,
+    1,
+)
 
 _INT32 = (-(1 << 31), (1 << 31) - 1)
 _UINT32 = (0, (1 << 32) - 1)
@@ -123,11 +133,7 @@ COMMANDS: dict[str, Spec] = {
 #: Replies whose legacy form repeats the command's name (``QM,0,0,0,0``, ``QU,32``).
 NAMED_LEGACY = ("QM", "QU", "PI")
 
-_ERRORS = {
-    4: "Missing parameter(s)",
-    6: "Invalid parameter value",
-    7: "Extra parameter",
-}
+_ERRORS = {4: "Missing parameter(s)", 6: "Invalid parameter value", 7: "Extra parameter"}
 _NUMBER = re.compile(r"^[-+]?\d+$")
 
 
@@ -193,7 +199,7 @@ def parse_command(text: str) -> Command:
         return Command(name, (text_arg[: spec.ranges[0][1]],))
     args: list = []
     for i, (value, (low, high)) in enumerate(zip(raw, spec.ranges)):
-        if spec.kinds[i:i + 1] == "c":  # a port letter, taken upper-case (checked by the command)
+        if spec.kinds[i : i + 1] == "c":  # a port letter, taken upper-case (checked by the command)
             if len(value) != 1:
                 raise CommandError(name, 6, _ERRORS[6])
             args.append(value.upper())
@@ -268,20 +274,34 @@ def read_reply(name: str, lines: list[str], *, future: bool) -> Reply:
     if first == name:  # future syntax, no data
         return Reply()
     if first.startswith(f"{name},") and (future or name not in NAMED_LEGACY):
-        return Reply(data=first[len(name) + 1:])
+        return Reply(data=first[len(name) + 1 :])
     if first in ("OK", "CUOK"):
         return Reply()
     if name in NAMED_LEGACY and first.startswith(f"{name},"):
-        return Reply(data=first[len(name) + 1:])
+        return Reply(data=first[len(name) + 1 :])
     return Reply(data=first)
 
 
 #: What the data line of a legacy reply looks like, per query (anything else is line noise).
-_DATA = {name: re.compile(pattern) for name, pattern in {
-    "QG": r"[0-9A-Fa-f]{2}", "QS": r"-?\d+,-?\d+", "QE": r"\d+,\d+", "ES": r"[01](,\d+){4}|[01]", "QP": r"[01]",
-    "QC": r"\d+,\d+", "QL": r"\d+", "QN": r"\d+", "PI": r"PI,[01]",
-    "QB": r"[01]", "QR": r"[01]", "V": r"EBB.*|UBW.*", "QM": r"QM,\d,\d,\d,\d", "QU": r"QU,.*",
-}.items()}
+_DATA = {
+    name: re.compile(pattern)
+    for name, pattern in {
+        "QG": r"[0-9A-Fa-f]{2}",
+        "QS": r"-?\d+,-?\d+",
+        "QE": r"\d+,\d+",
+        "ES": r"[01](,\d+){4}|[01]",
+        "QP": r"[01]",
+        "QC": r"\d+,\d+",
+        "QL": r"\d+",
+        "QN": r"\d+",
+        "PI": r"PI,[01]",
+        "QB": r"[01]",
+        "QR": r"[01]",
+        "V": r"EBB.*|UBW.*",
+        "QM": r"QM,\d,\d,\d,\d",
+        "QU": r"QU,.*",
+    }.items()
+}
 
 
 def plausible(name: str, line: str, *, future: bool) -> bool:

@@ -106,7 +106,9 @@ def encode(mnemonic: str, *params: float, text: str = "") -> bytes:
     return f"{mnemonic.upper()}{body};".encode("ascii")
 
 
-def split_instructions(data: bytes, *, final: bool = True, limit: int | None = None) -> tuple[list[Instruction], int]:
+def split_instructions(
+    data: bytes, *, final: bool = True, limit: int | None = None
+) -> tuple[list[Instruction], int]:
     """Parse HP-GL instructions from ``data`` (no device-control sequences in it).
 
     Parameters
@@ -141,7 +143,7 @@ def split_instructions(data: bytes, *, final: bool = True, limit: int | None = N
         if head is None:
             if not final and at + 1 >= n and chr(byte).isalpha():
                 break  # half a mnemonic so far
-            raise ProtocolError(f"byte {at}: {data[at:at + 8]!r} does not start an HP-GL instruction")
+            raise ProtocolError(f"byte {at}: {data[at : at + 8]!r} does not start an HP-GL instruction")
         mnemonic = head.group().decode().upper()
         body_start = head.end()
         if mnemonic == "LB":

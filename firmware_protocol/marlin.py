@@ -113,7 +113,9 @@ def frame_line(number: int, command: str) -> bytes:
     """
     body = f"N{number} {command.strip()}"
     if not body.isascii() or any(ch in body for ch in "\r\n*"):
-        raise ProtocolError(f"G-code line {command!r} cannot be framed for Marlin (non-ASCII, '*' or a line break).")
+        raise ProtocolError(
+            f"G-code line {command!r} cannot be framed for Marlin (non-ASCII, '*' or a line break)."
+        )
     framed = f"{body}*{checksum(body)}"
     if len(framed) >= MAX_CMD_SIZE:
         raise ProtocolError(

@@ -7,7 +7,18 @@ loading them.
 
 __version__ = "0.1.0"
 
-_API = ("sketch", "plan", "export_gcode", "gcode", "write_svg", "read_svg", "draw", "load_image", "as_image", "open_control")
+_API = (
+    "sketch",
+    "plan",
+    "export_gcode",
+    "gcode",
+    "write_svg",
+    "read_svg",
+    "draw",
+    "load_image",
+    "as_image",
+    "open_control",
+)
 __all__ = ["__version__", *_API]
 
 

@@ -51,37 +51,66 @@ def as_image(image: ImageLike) -> LoadedImage:
     return load_image(image)
 
 
-def sketch(image: ImageLike, *, color: bool = False, line_length: int | None = None,
-           stroke_gamma: float = 1.0, stroke_width: float = 1.0,
-           texture: str | Path | np.ndarray | None = None, texture_seed: int = 0,
-           lines_only: bool = False) -> Sketch:
+def sketch(
+    image: ImageLike,
+    *,
+    color: bool = False,
+    line_length: int | None = None,
+    stroke_gamma: float = 1.0,
+    stroke_width: float = 1.0,
+    texture: str | Path | np.ndarray | None = None,
+    texture_seed: int = 0,
+    lines_only: bool = False,
+) -> Sketch:
     """The GMED pencil drawing of an image; ``.result`` is the picture in [0, 1].
 
     ``texture`` is a hand-drawn pencil texture (image file or grey array), default synthesised;
     see :func:`pencilbot.imaging.pencil.sketch` for the other options.
     """
-    return _sketch(as_image(image), color=color, line_length=line_length, stroke_gamma=stroke_gamma,
-                   stroke_width=stroke_width, texture=texture, texture_seed=texture_seed,
-                   lines_only=lines_only)
+    return _sketch(
+        as_image(image),
+        color=color,
+        line_length=line_length,
+        stroke_gamma=stroke_gamma,
+        stroke_width=stroke_width,
+        texture=texture,
+        texture_seed=texture_seed,
+        lines_only=lines_only,
+    )
 
 
-def plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,
-         margin: float | None = None, style: str | Path | Style | None = None,
-         pen_width: float | None = None, pens: str | Path | PenSet | None = None) -> Plan:
+def plan(
+    image: ImageLike,
+    *,
+    page: str | Page | None = None,
+    orientation: str | None = None,
+    margin: float | None = None,
+    style: str | Path | Style | None = None,
+    pen_width: float | None = None,
+    pens: str | Path | PenSet | None = None,
+) -> Plan:
     """Plan the pen drawing of an image on a page (``"A4"``, ``"300x200"`` mm or a Page).
 
     Unset options come from the style (``"default"`` unless given). ``pens`` (a shipped set's
     name such as ``"cmyk"``, a pen set file or a PenSet) draws the colour sketch with those pens,
     one run of layers per pen in load order; their widths replace ``pen_width``.
     """
-    return sketch_and_plan(image, page=page, orientation=orientation, margin=margin, style=style,
-                           pen_width=pen_width, pens=pens)[1]
+    return sketch_and_plan(
+        image, page=page, orientation=orientation, margin=margin, style=style, pen_width=pen_width, pens=pens
+    )[1]
 
 
-def sketch_and_plan(image: ImageLike, *, page: str | Page | None = None, orientation: str | None = None,
-                    margin: float | None = None, style: str | Path | Style | None = None,
-                    pen_width: float | None = None, pens: str | Path | PenSet | None = None,
-                    max_pixels: int = DEFAULT_MAX_PIXELS) -> tuple[Sketch, Plan]:
+def sketch_and_plan(
+    image: ImageLike,
+    *,
+    page: str | Page | None = None,
+    orientation: str | None = None,
+    margin: float | None = None,
+    style: str | Path | Style | None = None,
+    pen_width: float | None = None,
+    pens: str | Path | PenSet | None = None,
+    max_pixels: int = DEFAULT_MAX_PIXELS,
+) -> tuple[Sketch, Plan]:
     """:func:`plan`, also returning the pencil sketch the plan was made from (at the resolution
     it was planned at); an image file larger than ``max_pixels`` is refused before decoding."""
     chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
@@ -94,12 +123,19 @@ def sketch_and_plan(image: ImageLike, *, page: str | Page | None = None, orienta
     def sheet(shape: tuple[int, int]) -> Page:
         if isinstance(page, Page):
             return page
-        return page_size(page or chosen.page, orientation or chosen.orientation, shape,
-                         chosen.margin if margin is None else margin)
+        return page_size(
+            page or chosen.page,
+            orientation or chosen.orientation,
+            shape,
+            chosen.margin if margin is None else margin,
+        )
 
     if isinstance(image, (str, Path)):  # decoded at the size the plan needs, not full size
-        loaded = load_image(image, max_pixels=max_pixels,
-                            shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width))
+        loaded = load_image(
+            image,
+            max_pixels=max_pixels,
+            shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width),
+        )
     else:
         loaded = as_image(image)
     return _sketch_and_plan(loaded, page=sheet(loaded.shape), style=chosen, pens=pen_set)
@@ -110,7 +146,9 @@ def _profile(profile: str | Path | Profile) -> Profile:
 
 
 @overload
-def export_gcode(plan: Plan, profile: str | Path | Profile, path: str | Path, *, source: str = "") -> GcodeSummary: ...
+def export_gcode(
+    plan: Plan, profile: str | Path | Profile, path: str | Path, *, source: str = ""
+) -> GcodeSummary: ...
 
 
 @overload
@@ -120,7 +158,10 @@ def export_gcode(
 
 
 def export_gcode(
-    plan: Plan, profile: str | Path | Profile = DEFAULT_PROFILE, path: str | Path | None = None, *,
+    plan: Plan,
+    profile: str | Path | Profile = DEFAULT_PROFILE,
+    path: str | Path | None = None,
+    *,
     source: str = "",
 ) -> GcodeSummary | list[str]:
     """Write the G-code of ``plan`` for a plotter profile (a name, a TOML path or a loaded
@@ -128,8 +169,11 @@ def export_gcode(
     :class:`~pencilbot.export.gcode.GcodeSummary`. (The lines themselves: :func:`gcode`.)
     """
     if path is None:  # the old spelling for the lines: kept for one release
-        warnings.warn("export_gcode(plan, profile) without a path is deprecated; use gcode(plan, profile)",
-                      DeprecationWarning, stacklevel=2)
+        warnings.warn(
+            "export_gcode(plan, profile) without a path is deprecated; use gcode(plan, profile)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
         return gcode(plan, profile, source=source)
     return write_gcode(plan, _profile(profile), path, source=source)
 

@@ -41,9 +41,7 @@ def hex_to_rgb(color: str) -> np.ndarray:
     return np.array([int(color[i : i + 2], 16) for i in (1, 3, 5)], np.float64) / 255.0
 
 
-def inks_on_paper(
-    coverages: Sequence[np.ndarray], colors: Sequence, *, paper=WHITE
-) -> np.ndarray:
+def inks_on_paper(coverages: Sequence[np.ndarray], colors: Sequence, *, paper=WHITE) -> np.ndarray:
     """The colour of paper under stacked inks, as sRGB.
 
     Parameters
@@ -64,7 +62,9 @@ def inks_on_paper(
     inks = [hex_to_rgb(c) if isinstance(c, str) else np.asarray(c, np.float64) for c in colors]
     if len(inks) != len(coverages):
         raise ValueError(f"{len(coverages)} coverage arrays for {len(inks)} colours")
-    reflect = np.empty((*np.shape(coverages[0]), 3), np.float32) if coverages else np.ones((1, 1, 3), np.float32)
+    reflect = (
+        np.empty((*np.shape(coverages[0]), 3), np.float32) if coverages else np.ones((1, 1, 3), np.float32)
+    )
     reflect[...] = srgb_to_linear(paper).astype(np.float32)
     for cover, ink in zip(coverages, inks):
         absorbed = (1.0 - srgb_to_linear(ink)).astype(np.float32)

@@ -81,7 +81,7 @@ def config_names(folder: str) -> dict[str, Path]:
 #: What ``config.toml`` in the user folder may set: key → what it is the default of.
 SETTINGS = {"profile": "the plotter profile", "style": "the drawing style"}
 #: Its tables: ``[ports]`` names plotters (``big = "/dev/ttyUSB0"``: ``--port big``).
-SETTING_TABLES = {"ports": "plotter names, each a port (big = \"/dev/ttyUSB0\")"}
+SETTING_TABLES = {"ports": 'plotter names, each a port (big = "/dev/ttyUSB0")'}
 
 
 def user_setting(key: str) -> str | None:
@@ -114,20 +114,28 @@ def _user_settings() -> dict:
     except FileNotFoundError:
         return {}
     except (OSError, UnicodeDecodeError) as exc:
-        raise ProfileError(f"cannot read settings file {path} ({getattr(exc, 'strerror', None) or exc})") from None
+        raise ProfileError(
+            f"cannot read settings file {path} ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         raise ProfileError(f"settings file {path} is not valid TOML ({exc}); fix the syntax") from None
     for name, value in table.items():
         if name in SETTING_TABLES:
-            if not isinstance(value, dict) or not all(isinstance(v, str) and v.strip() for v in value.values()):
+            if not isinstance(value, dict) or not all(
+                isinstance(v, str) and v.strip() for v in value.values()
+            ):
                 raise ProfileError(f"settings file {path}: [{name}] must hold {SETTING_TABLES[name]}")
             continue
         if name not in SETTINGS:
-            raise ProfileError(f"settings file {path} has unknown key {name!r}; the keys are: "
-                               f"{', '.join([*SETTINGS, *SETTING_TABLES])}")
+            raise ProfileError(
+                f"settings file {path} has unknown key {name!r}; the keys are: "
+                f"{', '.join([*SETTINGS, *SETTING_TABLES])}"
+            )
         if not isinstance(value, str) or not value.strip():
-            raise ProfileError(f"settings file {path}: {name} = {value!r} is invalid; expected the name or .toml "
-                               f"path of {SETTINGS[name]}")
+            raise ProfileError(
+                f"settings file {path}: {name} = {value!r} is invalid; expected the name or .toml "
+                f"path of {SETTINGS[name]}"
+            )
     return table
 
 
@@ -161,7 +169,9 @@ def read_config_text(folder: str, name_or_path: str, *, kind: str, file_kind: st
         try:
             return read_bounded(own, file_kind).decode("utf-8"), str(own), name_or_path
         except (OSError, UnicodeDecodeError) as exc:
-            raise ProfileError(f"cannot read {file_kind} {own} ({getattr(exc, 'strerror', None) or exc})") from None
+            raise ProfileError(
+                f"cannot read {file_kind} {own} ({getattr(exc, 'strerror', None) or exc})"
+            ) from None
     shipped = config_folder(folder) / f"{name_or_path}.toml"
     if not shipped.is_file():
         raise ProfileError(

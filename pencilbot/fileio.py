@@ -60,7 +60,9 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=folder)
     except OSError as exc:
-        raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the folder's permissions") from None
+        raise PencilbotError(
+            f"cannot write {target} ({exc.strerror}); check the folder's permissions"
+        ) from None
     try:
         with os.fdopen(fd, "wb") as handle:
             yield handle
@@ -69,9 +71,10 @@ def atomic_writer(path: str | os.PathLike) -> Iterator[BinaryIO]:
     except BaseException as exc:
         Path(tmp).unlink(missing_ok=True)
         if isinstance(exc, OSError):
-            raise PencilbotError(f"cannot write {target} ({exc.strerror}); check the path and free space") from None
+            raise PencilbotError(
+                f"cannot write {target} ({exc.strerror}); check the path and free space"
+            ) from None
         raise
-
 
 
 def check_writable(path: str | os.PathLike) -> None:
@@ -144,8 +147,10 @@ def refuse_special_output(path, folder_ok: bool = False) -> None:
     """
     kind = _not_a_file(path)
     if kind is not None and not (folder_ok and kind == "a folder"):
-        raise PencilbotError(f"the output {path} is {kind}, not a file; pencilbot writes only regular files: "
-                             "name a file (a new one, or one to replace)")
+        raise PencilbotError(
+            f"the output {path} is {kind}, not a file; pencilbot writes only regular files: "
+            "name a file (a new one, or one to replace)"
+        )
 
 
 def read_bounded(path, what: str, limit: int = MAX_TEXT_FILE) -> bytes:
@@ -162,8 +167,10 @@ def read_bounded(path, what: str, limit: int = MAX_TEXT_FILE) -> bytes:
     refuse_special_input(path, what)
     with open(path, "rb") as handle:
         if os.fstat(handle.fileno()).st_size > limit or len(data := handle.read(limit + 1)) > limit:
-            raise PencilbotError(f"the {what} {path} is longer than {limit >> 20} MB, far more than any {what}; "
-                                 "is it the right file?")
+            raise PencilbotError(
+                f"the {what} {path} is longer than {limit >> 20} MB, far more than any {what}; "
+                "is it the right file?"
+            )
     return data
 
 
@@ -192,7 +199,9 @@ def refuse_overwriting_inputs(inputs, outputs) -> None:
         if output is None or (source := sources.get(_file_key(output))) is None:
             continue
         also = "" if str(source) == str(output) else f" (the same file as the input {source})"
-        raise PencilbotError(f"the output {output} is an input{also}: writing it would destroy it; name another output")
+        raise PencilbotError(
+            f"the output {output} is an input{also}: writing it would destroy it; name another output"
+        )
 
 
 def _file_key(path) -> tuple[int, int] | None:
@@ -220,9 +229,10 @@ def available_memory() -> tuple[int, str]:
         e.g. ``"this machine has free"``, ``"left under this process's limit, ulimit -v"``.
     """
     found = [(_meminfo("MemAvailable"), "this machine has free")]
-    for limit_file, usage_file in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
-                                   ("/sys/fs/cgroup/memory/memory.limit_in_bytes",
-                                    "/sys/fs/cgroup/memory/memory.usage_in_bytes")):
+    for limit_file, usage_file in (
+        ("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),
+        ("/sys/fs/cgroup/memory/memory.limit_in_bytes", "/sys/fs/cgroup/memory/memory.usage_in_bytes"),
+    ):
         limit, usage = _number_in(limit_file), _number_in(usage_file)
         if limit is not None and usage is not None and limit < 1 << 60:
             found.append((max(0, limit - usage), "left in the container's memory limit"))

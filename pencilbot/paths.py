@@ -170,7 +170,9 @@ class Paths:
         if reverse is None:
             index += ramp
         else:
-            index += np.where(np.repeat(np.asarray(reverse, bool), sizes), np.repeat(sizes - 1, sizes) - ramp, ramp)
+            index += np.where(
+                np.repeat(np.asarray(reverse, bool), sizes), np.repeat(sizes - 1, sizes) - ramp, ramp
+            )
         return Paths(self.points[index], np.concatenate([[0], np.cumsum(sizes)]))
 
     def owners(self) -> np.ndarray:

@@ -47,8 +47,15 @@ def _is_number(value) -> bool:
     return isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def number(low: float | None = None, high: float | None = None, *, above: bool = False,
-           below: bool = False, unit: str = "", as_given: bool = False) -> Rule:
+def number(
+    low: float | None = None,
+    high: float | None = None,
+    *,
+    above: bool = False,
+    below: bool = False,
+    unit: str = "",
+    as_given: bool = False,
+) -> Rule:
     """A finite number in a range: ``≥ low`` (``> low`` when ``above``) and ``≤ high`` (``< high``
     when ``below``); stored as float, or ``as_given`` (an int a template prints stays an int)."""
     bounds = []
@@ -101,8 +108,11 @@ TEXT = kind(str, "a string")
 MAX_ANGLES = 8
 ANGLES = Rule(
     f"a list of 1 to {MAX_ANGLES} angles in degrees, each from -360 to 360",
-    lambda value: isinstance(value, list) and 1 <= len(value) <= MAX_ANGLES
-    and all(_is_number(v) and abs(v) <= 360 for v in value),
+    lambda value: (
+        isinstance(value, list)
+        and 1 <= len(value) <= MAX_ANGLES
+        and all(_is_number(v) and abs(v) <= 360 for v in value)
+    ),
     lambda value: tuple(float(v) for v in value),
 )
 

@@ -47,16 +47,25 @@ def _photo_options(command):
         if action.nargs == 0 and not isinstance(action, argparse.BooleanOptionalAction):
             if action.const is not True:  # the listings (--list-styles, ...) belong to pencilbot's own CLI
                 continue
-            command = click.option(action.option_strings[0], action.dest, is_flag=True, help=action.help)(command)
+            command = click.option(action.option_strings[0], action.dest, is_flag=True, help=action.help)(
+                command
+            )
             continue
         if isinstance(action, argparse.BooleanOptionalAction):
             flag = action.option_strings[0]
-            command = click.option(f"{flag}/--no-{flag[2:]}", action.dest, default=None, help=action.help)(command)
+            command = click.option(f"{flag}/--no-{flag[2:]}", action.dest, default=None, help=action.help)(
+                command
+            )
             continue
         command = click.option(
-            action.option_strings[0], action.dest, metavar=action.metavar, help=action.help,
+            action.option_strings[0],
+            action.dest,
+            metavar=action.metavar,
+            help=action.help,
             type=click.Choice(action.choices) if action.choices else None,
-            default=action.default, show_default=action.default is not None, callback=_checked(action),
+            default=action.default,
+            show_default=action.default is not None,
+            callback=_checked(action),
         )(command)
     return command
 
@@ -69,6 +78,7 @@ def _checked(action: argparse.Action):
             return action.type(value)  # type: ignore[operator]  # our options' types are functions, never names
         except PencilbotError as err:
             raise click.BadParameter(str(err)) from None
+
     return convert
 
 
@@ -83,8 +93,13 @@ def pencilbot(document: vpype.Document, photo, **options) -> vpype.Document:
     """
     args = argparse.Namespace(**options)
     try:
-        plan = plan_photo(photo, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale,
-                          pens=photo_pens(args))
+        plan = plan_photo(
+            photo,
+            photo_style(args),
+            max_pixels=args.max_pixels,
+            downscale=args.downscale,
+            pens=photo_pens(args),
+        )
     except PencilbotError as err:
         raise click.ClickException(str(err)) from None
     return add_plan(document, plan)
@@ -106,10 +121,15 @@ def add_plan(document: vpype.Document, plan: Plan) -> vpype.Document:
     """
     height = plan.page.height
     lid = max(document.layers, default=0)
-    groups = ([(pen, layers) for pen, layers in plan.pen_runs()] if len(plan.pens) > 1
-              else [(layer.name, (layer,)) for layer in plan.layers])
+    groups = (
+        [(pen, layers) for pen, layers in plan.pen_runs()]
+        if len(plan.pens) > 1
+        else [(layer.name, (layer,)) for layer in plan.layers]
+    )
     for name, layers in groups:
-        lines = [path if len(path) > 1 else np.vstack([path, path]) for layer in layers for path in layer.paths]
+        lines = [
+            path if len(path) > 1 else np.vstack([path, path]) for layer in layers for path in layer.paths
+        ]
         lines = [(p[:, 0] + 1j * (height - p[:, 1])) * PX_PER_MM for p in lines]
         lid += 1
         document.add(vpype.LineCollection(lines), lid)

@@ -18,8 +18,9 @@ import numpy as np
 ANGULAR_EPSILON = 5e-7
 
 
-def arc_chords(start, target, offset, radius: float, axes: tuple[int, int, int], clockwise: bool,
-               tolerance: float) -> tuple[np.ndarray, int]:
+def arc_chords(
+    start, target, offset, radius: float, axes: tuple[int, int, int], clockwise: bool, tolerance: float
+) -> tuple[np.ndarray, int]:
     """End points of the chords of one arc, in order (the last is ``target``), and GRBL's count.
 
     Parameters

@@ -41,7 +41,15 @@ _UNUM = rb"(?:\d+\.?\d*|\.\d+)"
 #: feed (groups 1-5), a spindle command (6-7), a dwell (8), a header mode GRBL starts in (9), or
 #: anything else (10). Every line matches exactly one way, the empty line as a move of nothing.
 _LINE = re.compile(
-    rb"(?:(?:G0?([01]))?(?:X(" + _NUM + rb"))?(?:Y(" + _NUM + rb"))?(?:Z(" + _NUM + rb"))?(?:F(" + _UNUM + rb"))?"
+    rb"(?:(?:G0?([01]))?(?:X("
+    + _NUM
+    + rb"))?(?:Y("
+    + _NUM
+    + rb"))?(?:Z("
+    + _NUM
+    + rb"))?(?:F("
+    + _UNUM
+    + rb"))?"
     rb"|M0?([345])(?:S(" + _UNUM + rb"))?"
     rb"|G0?4P(" + _UNUM + rb")"
     rb"|(G(?:21|90|94|17))"
@@ -73,9 +81,17 @@ def fast_path_possible(machine) -> bool:
     """Whether :func:`run_blocks` can play ``machine``: instant clock, a pen on the spindle or Z, a
     machine fresh from power-up (nothing queued, no offsets, GRBL's default modes)."""
     s = machine.state
-    return (machine.instant and machine.pen.kind in ("spindle", "z") and not machine.planner.busy
-            and not machine.check_mode and s.work_offset() == (0.0, 0.0, 0.0) and s.modal.units_mm
-            and s.modal.absolute and not s.modal.inverse_time and machine.slip == (0.0, 0.0, 0.0))
+    return (
+        machine.instant
+        and machine.pen.kind in ("spindle", "z")
+        and not machine.planner.busy
+        and not machine.check_mode
+        and s.work_offset() == (0.0, 0.0, 0.0)
+        and s.modal.units_mm
+        and s.modal.absolute
+        and not s.modal.inverse_time
+        and machine.slip == (0.0, 0.0, 0.0)
+    )
 
 
 def run_blocks(machine, blocks: Iterable[bytes]) -> Stop | None:
@@ -293,7 +309,9 @@ def _record_moves(machine, moves: np.ndarray, closed_before: np.ndarray) -> None
     follows[0] = bool(head) and head[-1] == (float(start[0, 0]), float(start[0, 1]))
     follows &= pen & ~closed_before
     if up.any():
-        machine._travel.extend(np.stack([start[up], end[up]], axis=1).reshape(-1, 2), np.arange(2, 2 * up.sum() + 1, 2))
+        machine._travel.extend(
+            np.stack([start[up], end[up]], axis=1).reshape(-1, 2), np.arange(2, 2 * up.sum() + 1, 2)
+        )
     down = np.flatnonzero(pen)
     if not len(down):
         if up.any() or closed_before.any():
@@ -312,10 +330,10 @@ def _record_moves(machine, moves: np.ndarray, closed_before: np.ndarray) -> None
     firsts = len(head) + slots[new] - 1
     points[firsts] = start[down[new]]
     bounds = np.append(firsts if not len(head) else np.concatenate([[0], firsts]), len(points))
-    tail_closed = up[down[-1] + 1:].any() or closed_before[down[-1] + 1:].any()
+    tail_closed = up[down[-1] + 1 :].any() or closed_before[down[-1] + 1 :].any()
     done = len(bounds) - 1 if tail_closed else len(bounds) - 2  # strokes finished
     if done:
         machine._strokes.extend(points[: bounds[done]], bounds[1 : done + 1])
         machine._stroke_pauses.extend([machine.pauses] * done)
-    machine._stroke = [] if tail_closed else list(map(tuple, points[bounds[-2]:].tolist()))
+    machine._stroke = [] if tail_closed else list(map(tuple, points[bounds[-2] :].tolist()))
     machine._stroke_pause = machine.pauses

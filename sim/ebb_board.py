@@ -55,8 +55,17 @@ class EbbBoard(Queries, PenSide):
     resets_on_open = False  # USB CDC: opening the port does not reset an EBB (no DTR reset)
     MOTOR_VOLTS = 5.0  # below this supply the stepper drivers do not turn the motors
 
-    def __init__(self, profile, record, *, instant: bool = True, faults=None, operator: str = "none",
-                 version: str = protocol.VERSION, supply: float = 9.1):
+    def __init__(
+        self,
+        profile,
+        record,
+        *,
+        instant: bool = True,
+        faults=None,
+        operator: str = "none",
+        version: str = protocol.VERSION,
+        supply: float = 9.1,
+    ):
         self.profile, self.record, self.instant = profile, record, instant
         self.version, self._version = version, protocol.version_tuple(version)
         self.faults = faults.at if faults is not None else {}
@@ -178,7 +187,12 @@ class EbbBoard(Queries, PenSide):
             self._record_move(before, run, t)
         for i in range(2):  # the accumulators keep their remainders for the next command
             if run.steps[i] and run.command.name == "LM" and t >= run.axis_ticks[i]:
-                self.carry[i] = run.carry[i] + run.rates[i] * t + run.accels[i] * t * t // 2 - abs(int(run.steps[i])) * protocol.ACCUMULATOR
+                self.carry[i] = (
+                    run.carry[i]
+                    + run.rates[i] * t
+                    + run.accels[i] * t * t // 2
+                    - abs(int(run.steps[i])) * protocol.ACCUMULATOR
+                )
         self.running = None
 
     # --- the pen and the drawing ---------------------------------------------------------------
@@ -195,7 +209,11 @@ class EbbBoard(Queries, PenSide):
             if not ends:
                 if len(self._rx) >= protocol.MAX_COMMAND:
                     self._rx.clear()
-                    self._reply(b"!3 Err: RX Buffer overrun\r\n" if not self.future else b"!3 Err: RX Buffer overrun\n")
+                    self._reply(
+                        b"!3 Err: RX Buffer overrun\r\n"
+                        if not self.future
+                        else b"!3 Err: RX Buffer overrun\n"
+                    )
                 return
             cut = min(ends)  # CR or LF ends a command (UBW.c); a CR LF pair counts once
             text = _typed(self._rx[:cut])
@@ -216,9 +234,15 @@ class EbbBoard(Queries, PenSide):
             if printed is not None:  # a refusal the command prints itself, before it waits for room
                 del self._rx[: cut + 1]
                 self._count(text)
-                self._reply(ebb_moves.printed_refusal(command.name, printed, future=self.future, version=self._version))
+                self._reply(
+                    ebb_moves.printed_refusal(
+                        command.name, printed, future=self.future, version=self._version
+                    )
+                )
                 continue
-            if command.queued and (len(self.fifo) >= self.fifo_size or (self.running and self.fifo_size == 0)):
+            if command.queued and (
+                len(self.fifo) >= self.fifo_size or (self.running and self.fifo_size == 0)
+            ):
                 if not self.instant:
                     return  # parsed only when there is room: the sender's bytes wait
                 self._advance(self._remaining() + 1e-9)  # an instant board makes room at once
@@ -356,8 +380,12 @@ class EbbBoard(Queries, PenSide):
     def _status(self) -> int:
         qm = self._qm()
         bits = (qm[0] << 3) | (qm[1] << 2) | (qm[2] << 1) | qm[3]
-        return bits | (protocol.QG_PEN_UP if self.pen_up else 0) | (protocol.QG_BUTTON if self.button else 0) \
+        return (
+            bits
+            | (protocol.QG_PEN_UP if self.pen_up else 0)
+            | (protocol.QG_BUTTON if self.button else 0)
             | (protocol.QG_POWER_LOST if self.power_lost else 0)
+        )
 
     def _qm(self) -> tuple[int, int, int, int]:
         run = self.running
@@ -387,15 +415,19 @@ class EbbBoard(Queries, PenSide):
             else:
                 up = (not self.pen_up) if name == "TP" else min(args[0], 3) != 0
                 self._move_servo(up)
-                ms = args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
+                ms = (
+                    args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
+                )
             ticks = int(round(ms / 1000 / protocol.TICK))
-            return _Run(command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock)
+            return _Run(
+                command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock
+            )
         if name in ("T3", "TD"):
             return ebb_moves.timed_run(command, self.counters, self.clock)
         if name == "LM":
             steps, rates, accels = [], [], []
             for i in range(2):
-                rate, n, accel = args[3 * i: 3 * i + 3]
+                rate, n, accel = args[3 * i : 3 * i + 3]
                 if rate < 0:  # deprecated: the rate's sign gives the direction
                     rate, n = -rate, -abs(n)
                 steps.append(n)
@@ -418,16 +450,30 @@ class EbbBoard(Queries, PenSide):
                 n = np.array((a + b, a - b) if name == "XM" else (a, b), dtype=np.int64)
             ticks = max(int(round(seconds / protocol.TICK)), 1)
             steps = [int(v) for v in n]
-            rates = [min(int(abs(v) * protocol.ACCUMULATOR // ticks) + 1, protocol.ACCUMULATOR) if v else 0
-                     for v in steps]  # (over 25 kHz was refused: ebb_moves.check)
+            rates = [
+                min(int(abs(v) * protocol.ACCUMULATOR // ticks) + 1, protocol.ACCUMULATOR) if v else 0
+                for v in steps
+            ]  # (over 25 kHz was refused: ebb_moves.check)
             accels = [0, 0]
             carry = (0, 0)
             if not any(steps):  # a delay
-                return _Run(command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock)
-        axis_ticks = tuple(protocol.lm_ticks(abs(steps[i]), rates[i], accels[i], carry[i]) if steps[i] else 0
-                           for i in range(2))
+                return _Run(
+                    command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock
+                )
+        axis_ticks = tuple(
+            protocol.lm_ticks(abs(steps[i]), rates[i], accels[i], carry[i]) if steps[i] else 0
+            for i in range(2)
+        )
         if min(axis_ticks) < 0:  # an axis that never arrives: the board would hang; refuse to pretend
             axis_ticks = tuple(t if t >= 0 else 0 for t in axis_ticks)
-        return _Run(command, self.counters.copy(), np.array(steps, dtype=np.int64), tuple(rates), tuple(accels),
-                    carry, axis_ticks, max(axis_ticks), self.clock)
-
+        return _Run(
+            command,
+            self.counters.copy(),
+            np.array(steps, dtype=np.int64),
+            tuple(rates),
+            tuple(accels),
+            carry,
+            axis_ticks,
+            max(axis_ticks),
+            self.clock,
+        )

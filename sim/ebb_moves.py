@@ -101,7 +101,9 @@ def timed_run(command: protocol.Command, counters: np.ndarray, clock: float) -> 
         table = np.vstack([first, first[-1] + second[1:]])
         ticks *= 2
     steps = table[-1].copy()
-    return TimedRun(command, counters.copy(), steps, (0, 0), (0, 0), (0, 0), (ticks, ticks), ticks, clock, table)
+    return TimedRun(
+        command, counters.copy(), steps, (0, 0), (0, 0), (0, 0), (ticks, ticks), ticks, clock, table
+    )
 
 
 def stop(board) -> str:
@@ -119,6 +121,7 @@ def stop(board) -> str:
     if board.old:
         return f"{int(interrupted)},{waiting[0]},{waiting[1]},{left[0]},{left[1]}"
     return "1" if interrupted else "0"
+
 
 def _planned_steps(command: protocol.Command) -> tuple[int, int]:
     """The steps a queued motion command would take (0, 0 for anything else)."""

@@ -63,14 +63,30 @@ class VirtualEbb(VirtualPlotter):
         Volts at the power jack (``QC`` reports them; below 5 V the motors do not turn).
     """
 
-    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, operator: str = "none",
-                 version: str | None = None, supply: float = 9.1):
+    def __init__(
+        self,
+        profile,
+        *,
+        baud: int = 0,
+        realtime: float = 0.0,
+        faults=None,
+        operator: str = "none",
+        version: str | None = None,
+        supply: float = 9.1,
+    ):
         self.profile = profile
         self.realtime = realtime
         self.operator = operator
         self.machine = EbbDrawing(profile, lambda: self.firmware.presses)
-        self.firmware = EbbBoard(profile, self.machine.record, instant=realtime == 0, faults=faults, operator=operator, supply=supply,
-                                 **({"version": version} if version else {}))
+        self.firmware = EbbBoard(
+            profile,
+            self.machine.record,
+            instant=realtime == 0,
+            faults=faults,
+            operator=operator,
+            supply=supply,
+            **({"version": version} if version else {}),
+        )
         self._connect(baud)
 
     def pump(self) -> None:

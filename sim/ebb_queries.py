@@ -108,12 +108,26 @@ class Queries:
         """The pins the firmware drives for the stepper drivers (EBB v1.3+): the enables, low
         when a motor is on (RE0, RC1), and the microstep selects MS1..3 (RE2, RE1, RA6)."""
         ms = _MICROSTEP_PINS.get(self.microsteps, (1, 1, 1))
-        return {("E", 0): int(not self.enabled[0]), ("C", 1): int(not self.enabled[1]),
-                ("E", 2): ms[0], ("E", 1): ms[1], ("A", 6): ms[2]}
+        return {
+            ("E", 0): int(not self.enabled[0]),
+            ("C", 1): int(not self.enabled[1]),
+            ("E", 2): ms[0],
+            ("E", 1): ms[1],
+            ("A", 6): ms[2],
+        }
 
     def _qu(self, number: int) -> str:
-        values = {1: "00", 2: str(protocol.FIFO_MAX), 3: str(self.fifo_size), 4: "000", 5: "000",
-                  6: str(len(self.fifo)), 60: str(self.threshold), 61: "0", 200: "0,0"}
+        values = {
+            1: "00",
+            2: str(protocol.FIFO_MAX),
+            3: str(self.fifo_size),
+            4: "000",
+            5: "000",
+            6: str(len(self.fifo)),
+            60: str(self.threshold),
+            61: "0",
+            200: "0,0",
+        }
         if number not in values:
             raise CommandError("QU", 6, "Invalid parameter value")
         return values[number]

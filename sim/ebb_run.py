@@ -26,8 +26,18 @@ class Run:
     t0: float  # board clock when it started
 
     def steps_at(self, t: int) -> np.ndarray:
-        done = [protocol.lm_steps_at(min(t, self.axis_ticks[i]), abs(int(self.steps[i])), self.rates[i],
-                                     self.accels[i], self.carry[i]) if self.steps[i] else 0 for i in range(2)]
+        done = [
+            protocol.lm_steps_at(
+                min(t, self.axis_ticks[i]),
+                abs(int(self.steps[i])),
+                self.rates[i],
+                self.accels[i],
+                self.carry[i],
+            )
+            if self.steps[i]
+            else 0
+            for i in range(2)
+        ]
         return np.sign(self.steps) * np.array(done, dtype=np.int64)
 
 

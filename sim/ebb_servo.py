@@ -110,7 +110,9 @@ class PenSide:
         if len(ticks) == 1 or (len(ticks) == 2 and ticks[0] != ticks[1]):  # one axis finished first
             bend = self.origin + run.start + run.steps_at(min(ticks))
             chord = after - before
-            off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(float(np.hypot(*chord)), 1e-9)
+            off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(
+                float(np.hypot(*chord)), 1e-9
+            )
             if off > 1.5:  # a bend a sender should have avoided (within a step it is the step grid)
                 points.append(bend)
         points.append(after)

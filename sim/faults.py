@@ -66,8 +66,10 @@ class Faults:
             if m.group(3):
                 seconds = float(m.group(3))
                 if not 0 < seconds < math.inf:
-                    raise ValueError(f"fault {item!r}: the moment must be a finite number of seconds after "
-                                     "power-on, more than 0 (the clock starts at 0)")
+                    raise ValueError(
+                        f"fault {item!r}: the moment must be a finite number of seconds after "
+                        "power-on, more than 0 (the clock starts at 0)"
+                    )
                 timed.append((seconds, kind, code))
             else:
                 at[int(m.group(2))] = (kind, code)

@@ -101,8 +101,15 @@ class Firmware(SystemCommands, StatusReport):
         GRBL's HOMING_INIT_LOCK build option: with homing enabled, power up in Alarm.
     """
 
-    def __init__(self, machine: Machine, faults: Faults | None = None, *, power_zero: bool = False,
-                 abort_loses: bool = False, init_lock: bool = True):
+    def __init__(
+        self,
+        machine: Machine,
+        faults: Faults | None = None,
+        *,
+        power_zero: bool = False,
+        abort_loses: bool = False,
+        init_lock: bool = True,
+    ):
         self.machine = machine
         # The protocol's limits and texts: GRBL 1.1's, or a firmware's that speaks it (grblHAL).
         self.protocol = machine.profile.firmware.protocol
@@ -194,7 +201,11 @@ class Firmware(SystemCommands, StatusReport):
         reason for blocking has gone."""
         if self.silent:
             return
-        if seconds > 0 and not (self._critical or self._sleep) and (self.machine.planner.braking or not self._hold):
+        if (
+            seconds > 0
+            and not (self._critical or self._sleep)
+            and (self.machine.planner.braking or not self._hold)
+        ):
             now = self.machine.clock
             due = self.faults.next_due(now, now + seconds)
             if due is None:
@@ -233,8 +244,13 @@ class Firmware(SystemCommands, StatusReport):
 
     @property
     def _blocked(self) -> bool:
-        return (self._task is not None or self._held_line is not None or self._critical
-                or self._hold or self._sleep)
+        return (
+            self._task is not None
+            or self._held_line is not None
+            or self._critical
+            or self._hold
+            or self._sleep
+        )
 
     def _emit(self, text: str) -> None:
         self.out += text.encode("ascii") + b"\r\n"

@@ -27,12 +27,52 @@ from pencilbot.units import MM_PER_INCH
 
 # isort: off
 from sim.gcode_state import (  # noqa: F401 (the parser's names, read as gcode_parser.X by the machine)
-    ARC_RADIUS, AXIS_CONFLICT, AXIS_WORDS_UNUSED, BAD_LINE_NUMBER, BAD_NUMBER, CCW_ARC, COORD_SYSTEMS,
-    CW_ARC, END_M2, END_M30, EXPECTED_LETTER, G28_INDEX, G30_INDEX, G53_MOTION, INVALID_JOG,
-    INVALID_TARGET, LINEAR, MAX_LINE_NUMBER, MAX_TOOL, MODAL_GROUP, MOTION_AXES, NEGATIVE, NO_AXIS_COMMAND,
-    NO_AXIS_IN_PLANE, NO_AXIS_WORDS, NO_MOTION, NO_OFFSETS_IN_PLANE, NON_MODAL_AXES, NOT_INTEGER, OK,
-    PAUSE, PROBES, REPEATED_WORD, RUNNING, SEEK, TOOL_LENGTH_AXES, TOOL_LENGTH_AXIS, TOOL_TOO_BIG,
-    UNDEFINED_FEED, UNSUPPORTED, UNSUPPORTED_COORD, UNUSED_WORDS, VALUE_MISSING, Block, Modal, ParserState
+    ARC_RADIUS,
+    AXIS_CONFLICT,
+    AXIS_WORDS_UNUSED,
+    BAD_LINE_NUMBER,
+    BAD_NUMBER,
+    CCW_ARC,
+    COORD_SYSTEMS,
+    CW_ARC,
+    END_M2,
+    END_M30,
+    EXPECTED_LETTER,
+    G28_INDEX,
+    G30_INDEX,
+    G53_MOTION,
+    INVALID_JOG,
+    INVALID_TARGET,
+    LINEAR,
+    MAX_LINE_NUMBER,
+    MAX_TOOL,
+    MODAL_GROUP,
+    MOTION_AXES,
+    NEGATIVE,
+    NO_AXIS_COMMAND,
+    NO_AXIS_IN_PLANE,
+    NO_AXIS_WORDS,
+    NO_MOTION,
+    NO_OFFSETS_IN_PLANE,
+    NON_MODAL_AXES,
+    NOT_INTEGER,
+    OK,
+    PAUSE,
+    PROBES,
+    REPEATED_WORD,
+    RUNNING,
+    SEEK,
+    TOOL_LENGTH_AXES,
+    TOOL_LENGTH_AXIS,
+    TOOL_TOO_BIG,
+    UNDEFINED_FEED,
+    UNSUPPORTED,
+    UNSUPPORTED_COORD,
+    UNUSED_WORDS,
+    VALUE_MISSING,
+    Block,
+    Modal,
+    ParserState,
 )
 # isort: on
 
@@ -225,8 +265,15 @@ def _command(letter: str, value: float, modal: Modal, block: Block, groups: set[
     return OK
 
 
-def _check(block: Block, state: ParserState, groups: set[str], values: dict[str, float],
-           axes: dict[int, float], ijk: dict[int, float], jog: bool) -> Block | int:
+def _check(
+    block: Block,
+    state: ParserState,
+    groups: set[str],
+    values: dict[str, float],
+    axes: dict[int, float],
+    ijk: dict[int, float],
+    jog: bool,
+) -> Block | int:
     """GRBL's step 3: the block as a whole, in GRBL's order; fills in the machine targets."""
     modal = block.modal
     unused = set(values)
@@ -282,7 +329,9 @@ def _check(block: Block, state: ParserState, groups: set[str], values: dict[str,
         offset = list(state.coord_data[index])
         for i, v in axes.items():
             if l_value == 20:  # the offset that makes the current position read v
-                offset[i] = position[i] - state.coord_offset[i] - v - (state.tool_length_offset if i == 2 else 0.0)
+                offset[i] = (
+                    position[i] - state.coord_offset[i] - v - (state.tool_length_offset if i == 2 else 0.0)
+                )
             else:
                 offset[i] = v
         block.coord_write = (index, tuple(offset))
@@ -291,7 +340,8 @@ def _check(block: Block, state: ParserState, groups: set[str], values: dict[str,
             return NO_AXIS_WORDS
         block.coord_offset = tuple(
             position[i] - block.coord_system[i] - axes[i] - (state.tool_length_offset if i == 2 else 0.0)
-            if i in axes else state.coord_offset[i]
+            if i in axes
+            else state.coord_offset[i]
             for i in range(3)
         )
     else:
@@ -361,8 +411,16 @@ def _check(block: Block, state: ParserState, groups: set[str], values: dict[str,
     return block
 
 
-def _check_arc(block: Block, position, target: list[float], axes: dict[int, float], ijk: dict[int, float],
-               values: dict[str, float], unused: set[str], inch: bool) -> int:
+def _check_arc(
+    block: Block,
+    position,
+    target: list[float],
+    axes: dict[int, float],
+    ijk: dict[int, float],
+    values: dict[str, float],
+    unused: set[str],
+    inch: bool,
+) -> int:
     """G2/G3 checks and the centre offset (GRBL's radius and centre-offset formats)."""
     axis_0, axis_1, _ = block.axes
     if not axes:

@@ -69,7 +69,12 @@ class HpglBoard:
         self.faults = faults
         self.xonxoff = xonxoff
         self.unit = profile.paper.unit_mm
-        self.limits = (0, 0, int(round(profile.bed.width / self.unit)), int(round(profile.bed.height / self.unit)))
+        self.limits = (
+            0,
+            0,
+            int(round(profile.bed.width / self.unit)),
+            int(round(profile.bed.height / self.unit)),
+        )
         self.top_speed = profile.motion.travel_speed  # mm/s
         self.link_dropped = False
         self.out = bytearray()
@@ -416,8 +421,16 @@ class HpglPlotter(VirtualPlotter):
         > 0: the poll clock, ``tick`` plotter seconds per ``ESC.B`` answered (instead of either).
     """
 
-    def __init__(self, profile, *, baud: int = 0, realtime: float = 0.0, faults=None, xonxoff: bool = False,
-                 tick: float = 0.0):
+    def __init__(
+        self,
+        profile,
+        *,
+        baud: int = 0,
+        realtime: float = 0.0,
+        faults=None,
+        xonxoff: bool = False,
+        tick: float = 0.0,
+    ):
         self.profile = profile
         self.board = HpglBoard(profile, faults=faults, xonxoff=xonxoff)
         self.firmware = self.machine = self.board

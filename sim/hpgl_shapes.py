@@ -19,14 +19,91 @@ import math
 import re
 
 #: The 7475A's instructions (the vector ones PU PD PA PR are the board's own).
-KNOWN = frozenset([
-    "AA", "AR", "CA", "CI", "CP", "CS", "DC", "DF", "DI", "DP", "DR", "DT", "EA", "ER", "EW", "FT", "IM", "IN",
-    "IP", "IW", "LB", "LT", "OA", "OC", "OD", "OE", "OF", "OH", "OI", "OO", "OP", "OS", "OW", "PA", "PD", "PR",
-    "PS", "PT", "PU", "RA", "RO", "RR", "SA", "SC", "SI", "SL", "SM", "SP", "SR", "SS", "TL", "UC", "VS", "WG",
-    "XT", "YT"])
+KNOWN = frozenset(
+    [
+        "AA",
+        "AR",
+        "CA",
+        "CI",
+        "CP",
+        "CS",
+        "DC",
+        "DF",
+        "DI",
+        "DP",
+        "DR",
+        "DT",
+        "EA",
+        "ER",
+        "EW",
+        "FT",
+        "IM",
+        "IN",
+        "IP",
+        "IW",
+        "LB",
+        "LT",
+        "OA",
+        "OC",
+        "OD",
+        "OE",
+        "OF",
+        "OH",
+        "OI",
+        "OO",
+        "OP",
+        "OS",
+        "OW",
+        "PA",
+        "PD",
+        "PR",
+        "PS",
+        "PT",
+        "PU",
+        "RA",
+        "RO",
+        "RR",
+        "SA",
+        "SC",
+        "SI",
+        "SL",
+        "SM",
+        "SP",
+        "SR",
+        "SS",
+        "TL",
+        "UC",
+        "VS",
+        "WG",
+        "XT",
+        "YT",
+    ]
+)
 #: Known, taken, and setting nothing the emulated drawing depends on.
-SETTINGS = frozenset(["CA", "CS", "DC", "DF", "DI", "DP", "DR", "DT", "IM", "LT", "PS", "PT", "FT", "SA", "SI",
-                      "SL", "SM", "SR", "SS", "TL"])
+SETTINGS = frozenset(
+    [
+        "CA",
+        "CS",
+        "DC",
+        "DF",
+        "DI",
+        "DP",
+        "DR",
+        "DT",
+        "IM",
+        "LT",
+        "PS",
+        "PT",
+        "FT",
+        "SA",
+        "SI",
+        "SL",
+        "SM",
+        "SR",
+        "SS",
+        "TL",
+    ]
+)
 #: Known, but their drawing (or coordinate mapping) is not emulated.
 UNEMULATED = frozenset(["CP", "LB", "RA", "RR", "WG", "EW", "XT", "YT", "UC", "SC", "IP", "IW", "RO"])
 #: How many parameters each shape takes (least, most).
@@ -59,7 +136,9 @@ def complete_pairs(data: bytes) -> tuple[str, tuple[float, ...], int] | None:
     return head.group(1).decode().upper(), tuple(values[: len(values) // 2 * 2]), cut
 
 
-def arc_points(cx: float, cy: float, x: float, y: float, sweep_deg: float, chord_deg: float) -> list[tuple[float, float]]:
+def arc_points(
+    cx: float, cy: float, x: float, y: float, sweep_deg: float, chord_deg: float
+) -> list[tuple[float, float]]:
     """Points after the start along an arc about (cx, cy) from (x, y) through ``sweep_deg``
     (counter-clockwise positive), in chords of ``chord_deg`` (the last one shorter)."""
     radius = math.hypot(x - cx, y - cy)
@@ -76,7 +155,9 @@ def chord(params: tuple[float, ...], index: int) -> float:
     return min(max(abs(params[index]) if len(params) > index else 5.0, 0.36), 180.0)
 
 
-def shape(mnemonic: str, params: tuple[float, ...], x: float, y: float) -> tuple[list[tuple[float, float]], bool] | None:
+def shape(
+    mnemonic: str, params: tuple[float, ...], x: float, y: float
+) -> tuple[list[tuple[float, float]], bool] | None:
     """What a shape instruction at pen position (x, y) draws: the points the pen goes through
     after (x, y) and whether the pen is down for them regardless of its state (CI, EA, ER
     lower it and put it back); None for a wrong parameter count."""

@@ -54,7 +54,7 @@ class LineLog:
             raise IndexError(f"line {i} of a log of {n}")
         i %= n
         start = self._ends[i - 1] if i else 0
-        text = self._texts[start:self._ends[i]].decode("latin-1")
+        text = self._texts[start : self._ends[i]].decode("latin-1")
         return LoggedLine(self._index[i], text, self._replies[self._reply[i]])
 
     def __iter__(self) -> Iterator[LoggedLine]:

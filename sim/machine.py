@@ -298,8 +298,9 @@ class Machine(MotionControl, StrokeRecorder):
             yield from self._queue_line(target, rapid=motion == gp.SEEK, feed=feed)
         elif motion in (gp.CW_ARC, gp.CCW_ARC):
             offset, radius, clockwise = block.arc
-            chords, count = arc_chords(self.position, target, offset, radius, block.axes, clockwise,
-                                       self.settings[12])
+            chords, count = arc_chords(
+                self.position, target, offset, radius, block.axes, clockwise, self.settings[12]
+            )
             feed = block.feed
             if block.modal.inverse_time:
                 # As GRBL's mc_arc: F times the chord count, then taken as mm/min for each chord
@@ -363,4 +364,3 @@ class Machine(MotionControl, StrokeRecorder):
     def clock(self) -> float:
         """Simulated seconds of motion and dwell since power-on."""
         return self.planner.clock
-

@@ -88,8 +88,9 @@ class MotionControl:
             return
         unit = (delta[0] / length, delta[1] / length, delta[2] / length)
         settings = self.settings
-        rate, accel = axis_limited(unit, (settings[110], settings[111], settings[112]),
-                                   (settings[120], settings[121], settings[122]))
+        rate, accel = axis_limited(
+            unit, (settings[110], settings[111], settings[112]), (settings[120], settings[121], settings[122])
+        )
         rate /= 60.0
         nominal = rate if rapid else min((self.state.feed if feed is None else feed) / 60.0, rate)
         pen = pen_before and (self.pen.kind != "z" or self.pen_down)
@@ -163,7 +164,9 @@ class MotionControl:
             left = math.dist(here, first.end)  # of the move, before it runs past its end
             if first.pen_down and coast > left:
                 end = self.carriage_position()
-                self.overruns.append((tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2]))
+                self.overruns.append(
+                    (tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2])
+                )
         self._close_stroke()
         return moving
 
@@ -171,4 +174,3 @@ class MotionControl:
         """Complete all queued motion (instant mode)."""
         if self.instant and not self.check_mode:
             self._complete(self.planner.finish_all())
-

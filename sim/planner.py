@@ -156,8 +156,9 @@ class Planner:
                 stop = tuple(h + u * stopping for h, u in zip(here, b.unit))
                 if stopping > 0:
                     stretches.append(_braking(b, here, stop, stopping, speed, 0.0))
-                stretches.append(Block(stop, b.end, left - stopping, b.unit, b.nominal, b.accel, b.pen_down,
-                                       rest=True))
+                stretches.append(
+                    Block(stop, b.end, left - stopping, b.unit, b.nominal, b.accel, b.pen_down, rest=True)
+                )
                 break
             out = math.sqrt(max(speed * speed - 2.0 * b.accel * left, 0.0))
             stretches.append(_braking(b, here, b.end, left, speed, out))
@@ -280,11 +281,29 @@ class Planner:
 
 def _cut(block: Block, t: float) -> Block:
     """The part of ``block`` run in its first ``t`` seconds."""
-    return Block(block.start, block.point_at(t), block.distance_at(t), block.unit, block.nominal, block.accel,
-                 block.pen_down)
+    return Block(
+        block.start,
+        block.point_at(t),
+        block.distance_at(t),
+        block.unit,
+        block.nominal,
+        block.accel,
+        block.pen_down,
+    )
 
 
 def _braking(block: Block, start, end, length: float, entry: float, exit_: float) -> Block:
     """A stretch of ``block`` run slowing from ``entry`` to ``exit_`` (mm/s) to a feed hold."""
-    return Block(start, end, length, block.unit, entry, block.accel, block.pen_down,
-                 max_entry=entry, entry=entry, exit=exit_, braking=True)
+    return Block(
+        start,
+        end,
+        length,
+        block.unit,
+        entry,
+        block.accel,
+        block.pen_down,
+        max_entry=entry,
+        entry=entry,
+        exit=exit_,
+        braking=True,
+    )

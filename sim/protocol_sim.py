@@ -87,8 +87,20 @@ from sim.faults import Faults
 from sim.firmware import Firmware
 from sim.machine import Machine
 
-_OPTIONS = ("profile", "baud", "realtime", "tick", "faults", "reset", "power", "abort", "limits", "operator", "xonxoff",
-            "firmware")
+_OPTIONS = (
+    "profile",
+    "baud",
+    "realtime",
+    "tick",
+    "faults",
+    "reset",
+    "power",
+    "abort",
+    "limits",
+    "operator",
+    "xonxoff",
+    "firmware",
+)
 _IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came
 _OPERATORS = ("none", "auto")
 _CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
@@ -138,8 +150,11 @@ def simulated_profile(name_or_path: str) -> Profile:
 
 def check_simulated(profile: Profile) -> None:
     """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
-    if not (profile.firmware.capabilities.realtime_protocol or profile.firmware.capabilities.host_motion
-            or getattr(profile.firmware, "sim_board", None)):
+    if not (
+        profile.firmware.capabilities.realtime_protocol
+        or profile.firmware.capabilities.host_motion
+        or getattr(profile.firmware, "sim_board", None)
+    ):
         raise ProfileError(
             f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
             "GRBL's protocol (GRBL 1.1, grblHAL) and the EBB's: use such a profile (e.g. grbl-servo-a4)"
@@ -167,22 +182,38 @@ class VirtualPlotter:
         ``"auto"``: cycle start is pressed at every ``M0`` pause (see the ``operator`` option).
     """
 
-    def __init__(self, profile: Profile, *, baud: int = 0, realtime: float = 0.0,
-                 faults: Faults | None = None, power: str = DEFAULT_BOARD["power"],
-                 abort: str = DEFAULT_BOARD["abort"], limits: str = DEFAULT_BOARD["limits"],
-                 operator: str = "none", tick: float = 0.0):
+    def __init__(
+        self,
+        profile: Profile,
+        *,
+        baud: int = 0,
+        realtime: float = 0.0,
+        faults: Faults | None = None,
+        power: str = DEFAULT_BOARD["power"],
+        abort: str = DEFAULT_BOARD["abort"],
+        limits: str = DEFAULT_BOARD["limits"],
+        operator: str = "none",
+        tick: float = 0.0,
+    ):
         check_simulated(profile)
         self.operator = operator
         self._pauses_answered = 0
         self.profile = profile
         if limits == "bed":
-            profile = dataclasses.replace(profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True))
+            profile = dataclasses.replace(
+                profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True)
+            )
         self.machine = Machine(profile, instant=realtime == 0 and tick == 0)
         self.tick = tick
         self._answered = self._queries = 0  # lines and queries the line clock has counted
         self._answered_at_query = -1  # lines answered when the last query came
-        self.firmware = Firmware(self.machine, faults, power_zero=power == "zero", abort_loses=abort == "lose",
-                                 init_lock=limits != "bed")
+        self.firmware = Firmware(
+            self.machine,
+            faults,
+            power_zero=power == "zero",
+            abort_loses=abort == "lose",
+            init_lock=limits != "bed",
+        )
         self.realtime = realtime
         self._connect(baud)
 
@@ -235,7 +266,9 @@ class VirtualPlotter:
         self.pump()
         return self._to_host.take(time.monotonic())
 
-    def canvas(self, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> Canvas:
+    def canvas(
+        self, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False
+    ) -> Canvas:
         """The bed as drawn so far (queued motion finished first in instant mode)."""
         self.firmware.finish()
         bed = self.profile.bed
@@ -245,13 +278,22 @@ class VirtualPlotter:
             canvas.draw_travel(self.machine.bed_travel())
         return canvas
 
-    def save_png(self, path, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False) -> None:
+    def save_png(
+        self, path, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False
+    ) -> None:
         """Write the bed as drawn so far to a PNG, a band of rows at a time: the picture
         :meth:`canvas` would give, with memory bounded by a band instead of the bed."""
         self.firmware.finish()
         bed = self.profile.bed
-        save_drawing_png(path, self.machine.bed_strokes(), bed.width, bed.height, dpi=dpi, pen_width=pen_width,
-                         travel=self.machine.bed_travel() if travel else None)
+        save_drawing_png(
+            path,
+            self.machine.bed_strokes(),
+            bed.width,
+            bed.height,
+            dpi=dpi,
+            pen_width=pen_width,
+            travel=self.machine.bed_travel() if travel else None,
+        )
 
     @property
     def seconds(self) -> float:
@@ -302,10 +344,12 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
-    if faults.timed and (profile.firmware.capabilities.host_motion
-                         or getattr(profile.firmware, "sim_board", None) == "hpgl"):
-        raise SerialException("sim:// faults at a moment (KIND@SECONDSs) are for GRBL-protocol boards; "
-                              "use KIND@LINE")
+    if faults.timed and (
+        profile.firmware.capabilities.host_motion or getattr(profile.firmware, "sim_board", None) == "hpgl"
+    ):
+        raise SerialException(
+            "sim:// faults at a moment (KIND@SECONDSs) are for GRBL-protocol boards; use KIND@LINE"
+        )
     if profile.firmware.capabilities.host_motion:  # an EBB board: the firmware is chosen by the profile
         from sim.ebb_plotter import VirtualEbb
 
@@ -322,16 +366,32 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
         except ValueError:
             supply = -1.0
         if not 0 <= supply <= 40:
-            raise SerialException("sim:// option supply: volts at the board's power jack, 0 (unplugged) to 40")
-        return VirtualEbb(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, version=version,
-                          supply=supply)
+            raise SerialException(
+                "sim:// option supply: volts at the board's power jack, 0 (unplugged) to 40"
+            )
+        return VirtualEbb(
+            profile,
+            baud=baud,
+            realtime=realtime,
+            faults=faults,
+            operator=operator,
+            version=version,
+            supply=supply,
+        )
     if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
         from sim.hpgl_plotter import HpglPlotter
 
-        return HpglPlotter(profile, baud=baud, realtime=realtime, faults=faults, xonxoff=options.get("xonxoff") == "1",
-                           tick=tick)
-    return VirtualPlotter(profile, baud=baud, realtime=realtime, faults=faults, operator=operator, tick=tick,
-                          **board)
+        return HpglPlotter(
+            profile,
+            baud=baud,
+            realtime=realtime,
+            faults=faults,
+            xonxoff=options.get("xonxoff") == "1",
+            tick=tick,
+        )
+    return VirtualPlotter(
+        profile, baud=baud, realtime=realtime, faults=faults, operator=operator, tick=tick, **board
+    )
 
 
 class Serial(SerialBase):

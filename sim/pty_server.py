@@ -92,8 +92,13 @@ class PtyServer:
         Called with the new device path after a dropped link was plugged back in.
     """
 
-    def __init__(self, plotter: VirtualPlotter, *, reset_on_open: bool = True,
-                 on_new_path: Callable[[str], None] | None = None):
+    def __init__(
+        self,
+        plotter: VirtualPlotter,
+        *,
+        reset_on_open: bool = True,
+        on_new_path: Callable[[str], None] | None = None,
+    ):
         self.plotter = plotter
         self.reset_on_open = reset_on_open
         self.on_new_path = on_new_path
@@ -116,7 +121,11 @@ class PtyServer:
                 if self.plotter.firmware.link_dropped:
                     self._replug()
                     out = b""  # what was on its way to the old cable is gone
-                if self._watch.opened() and self.reset_on_open and getattr(self.plotter.firmware, "resets_on_open", True):
+                if (
+                    self._watch.opened()
+                    and self.reset_on_open
+                    and getattr(self.plotter.firmware, "resets_on_open", True)
+                ):
                     self.plotter.firmware.power_cycle()
                 readable, _, _ = select.select([self._master], [], [], POLL)
                 if readable:
@@ -127,7 +136,7 @@ class PtyServer:
                 out += self.plotter.read()
                 if out:
                     try:  # a full pty takes part of it; the rest waits, nothing is lost
-                        out = out[os.write(self._master, out):]
+                        out = out[os.write(self._master, out) :]
                     except BlockingIOError:
                         pass
         finally:

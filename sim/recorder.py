@@ -132,4 +132,3 @@ class Polylines:
             points = np.concatenate([points, np.asarray(last, dtype=np.float64)])
             ends = np.append(ends, len(points))
         return Paths(points.copy(), np.concatenate([[0], ends]))
-

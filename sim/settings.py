@@ -16,10 +16,40 @@ _FLAG_SETTINGS = frozenset({4, 5, 6, 13, 20, 21, 22, 32})
 
 #: GRBL 1.1 factory settings (defaults.h, DEFAULTS_GENERIC); a profile overrides the machine's.
 DEFAULT_SETTINGS: dict[int, float] = {
-    0: 10, 1: 25, 2: 0, 3: 0, 4: 0, 5: 0, 6: 0, 10: 1, 11: 0.010, 12: 0.002, 13: 0,
-    20: 0, 21: 0, 22: 0, 23: 0, 24: 25.0, 25: 500.0, 26: 250, 27: 1.0, 30: 1000, 31: 0, 32: 0,
-    100: 250.0, 101: 250.0, 102: 250.0, 110: 500.0, 111: 500.0, 112: 500.0,
-    120: 10.0, 121: 10.0, 122: 10.0, 130: 200.0, 131: 200.0, 132: 200.0,
+    0: 10,
+    1: 25,
+    2: 0,
+    3: 0,
+    4: 0,
+    5: 0,
+    6: 0,
+    10: 1,
+    11: 0.010,
+    12: 0.002,
+    13: 0,
+    20: 0,
+    21: 0,
+    22: 0,
+    23: 0,
+    24: 25.0,
+    25: 500.0,
+    26: 250,
+    27: 1.0,
+    30: 1000,
+    31: 0,
+    32: 0,
+    100: 250.0,
+    101: 250.0,
+    102: 250.0,
+    110: 500.0,
+    111: 500.0,
+    112: 500.0,
+    120: 10.0,
+    121: 10.0,
+    122: 10.0,
+    130: 200.0,
+    131: 200.0,
+    132: 200.0,
 }
 
 
@@ -28,18 +58,26 @@ def grbl_settings(profile: Profile) -> dict[int, float]:
     says, its rates, acceleration, junction deviation, travel and homing directions."""
     motion, bed, pen = profile.motion, profile.bed, profile.pen_model
     s = dict(DEFAULT_SETTINGS)
-    s.update({
-        11: motion.junction_deviation, 20: int(bed.soft_limits), 22: int(bed.homing),
-        110: motion.axis_rate, 111: motion.axis_rate, 112: motion.axis_rate,
-        120: motion.acceleration, 121: motion.acceleration, 122: motion.acceleration,
-        130: bed.width, 131: bed.height,
-    })
+    s.update(
+        {
+            11: motion.junction_deviation,
+            20: int(bed.soft_limits),
+            22: int(bed.homing),
+            110: motion.axis_rate,
+            111: motion.axis_rate,
+            112: motion.axis_rate,
+            120: motion.acceleration,
+            121: motion.acceleration,
+            122: motion.acceleration,
+            130: bed.width,
+            131: bed.height,
+        }
+    )
     # $23 set bits home towards negative: the axes whose machine coordinates grow into the bed.
     s[23] = (0 if bed.invert_x else 1) | (0 if bed.invert_y else 2)
     if pen.kind == "spindle":
         s[30] = max(s[30], pen.up, pen.down)
     return s
-
 
 
 def store_setting(machine, line: str) -> int:
@@ -49,7 +87,7 @@ def store_setting(machine, line: str) -> int:
     key = NUMBER.match(line, 1)
     if key is None:
         return 2
-    if line[key.end():key.end() + 1] != "=":
+    if line[key.end() : key.end() + 1] != "=":
         return 3
     value_match = NUMBER.match(line, key.end() + 1)
     if value_match is None:

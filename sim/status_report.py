@@ -63,6 +63,6 @@ class StatusReport:
             lit = {3: "S", 4: "C"}.get(spindle, "") if speed > 0 else ""
             fields["accessories"] = (lit + ("F" if m.state.modal.coolant == 8 else "")) or None
         name, _, sub = state.partition(":")
-        return grbl.format_status(grbl.Status(name, int(sub) if sub else None, **fields),
-                                  inches=bool(m.settings[13]))
-
+        return grbl.format_status(
+            grbl.Status(name, int(sub) if sub else None, **fields), inches=bool(m.settings[13])
+        )

@@ -110,7 +110,9 @@ class SystemCommands:
             return
         elif kind == "I":
             if len(line) == 2:
-                for report in self.protocol.build_report(self.build_info, "V" + ("" if self.init_lock else "L")):
+                for report in self.protocol.build_report(
+                    self.build_info, "V" + ("" if self.init_lock else "L")
+                ):
                     self._emit(report)
             elif line[2] != "=":
                 return self._status(index, text, 3)
@@ -159,9 +161,9 @@ class SystemCommands:
         number = NUMBER.match(line, 2)
         if number is None:
             return self._status(index, text, 2)
-        if line[number.end():number.end() + 1] != "=":
+        if line[number.end() : number.end() + 1] != "=":
             return self._status(index, text, 3)
-        stored = line[number.end() + 1:]
+        stored = line[number.end() + 1 :]
         block = self.machine.parse(stored)
         if isinstance(block, int):
             return self._status(index, text, block)

@@ -14,7 +14,13 @@ SVG_NS = "http://www.w3.org/2000/svg"
 
 #: What the Inkscape drawing holds, in page mm with Y up (page 120 x 90 mm).
 INKSCAPE_PAGE = (120.0, 90.0)
-INKSCAPE_RECT = [(15.0, 80.0), (45.0, 80.0), (45.0, 60.0), (15.0, 60.0), (15.0, 80.0)]  # after translate(10,5)
+INKSCAPE_RECT = [
+    (15.0, 80.0),
+    (45.0, 80.0),
+    (45.0, 60.0),
+    (15.0, 60.0),
+    (15.0, 80.0),
+]  # after translate(10,5)
 INKSCAPE_CIRCLE = ((70.0, 60.0), 8.0)  # centre after translate, radius
 INKSCAPE_BEZIER_ENDS = ((10.0, 30.0), (50.0, 30.0))
 INKSCAPE_ROTATED_LINE = ((90.0, 40.0), (90.0, 20.0))  # "M 90,50 H 110" rotated 90° about (90, 50)
@@ -54,6 +60,7 @@ def inkscape_svg() -> str:
 
 # -- vpype 1.x: what `vpype … write` writes -----------------------------------------------------
 
+
 def vpype_svg(path) -> dict:
     """Write a two-layer drawing with vpype's own writer (A5 page, named layers with pen widths
     and colours) and return what it holds: layer name → (pen width mm, lines in page mm, Y up)."""
@@ -63,7 +70,10 @@ def vpype_svg(path) -> dict:
     page = (148.0, 210.0)
     rng = np.random.default_rng(7)
     layers = {
-        "outline": (0.3, [np.array([[10.0, 10.0], [138.0, 10.0], [138.0, 200.0], [10.0, 200.0], [10.0, 10.0]])]),
+        "outline": (
+            0.3,
+            [np.array([[10.0, 10.0], [138.0, 10.0], [138.0, 200.0], [10.0, 200.0], [10.0, 10.0]])],
+        ),
         "fill": (0.8, [np.cumsum(rng.uniform(-3, 3, (6, 2)), axis=0) + [74.0, 105.0] for _ in range(5)]),
     }
     document = vpype.Document(page_size=(page[0] * px, page[1] * px))
@@ -80,6 +90,7 @@ def vpype_svg(path) -> dict:
 
 
 # -- hatched 0.2 (svgwrite): one path, width and height without units, and swapped -------------
+
 
 def hatch_lines(width: int = 300, height: int = 200, pitch: float = 4.0) -> list[np.ndarray]:
     """Diagonal hatching of a dark disc and a darker band, in image pixels (Y down), cut into
@@ -112,6 +123,7 @@ def hatched_svg(lines: list[np.ndarray], image_shape=(200, 300)) -> str:
 
 
 # -- linedraw (LingDong-): polylines, no size at all -------------------------------------------
+
 
 def contour_lines(count: int = 12, seed: int = 3) -> list[np.ndarray]:
     """Contour strokes as a tracing tool makes them: pieces of concentric wobbly rings, in

@@ -14,7 +14,24 @@ from pencilbot import __version__
 from pencilbot.errors import PencilbotError
 
 # Order is the order shown in --help.
-COMMANDS = ["sketch", "plan", "optimize", "stat", "export", "simulate", "sim_serve", "draw", "pen", "align", "walk", "home", "ports", "studio", "demo", "completion"]
+COMMANDS = [
+    "sketch",
+    "plan",
+    "optimize",
+    "stat",
+    "export",
+    "simulate",
+    "sim_serve",
+    "draw",
+    "pen",
+    "align",
+    "walk",
+    "home",
+    "ports",
+    "studio",
+    "demo",
+    "completion",
+]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -37,8 +54,7 @@ def build_parser(only: str | None = None) -> argparse.ArgumentParser:
         The user's settings file (which gives the default profile and style) is not valid.
     """
     parser = _Parser(
-        prog="pencilbot",
-        description="Turn a photo into a pencil drawing and draw it with a pen plotter.",
+        prog="pencilbot", description="Turn a photo into a pencil drawing and draw it with a pen plotter."
     )
     parser.add_argument("--version", action="version", version=f"pencilbot {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")

@@ -18,13 +18,24 @@ _DEVICE = re.compile(r"^(?:COM\d+|auto)$", re.IGNORECASE)
 
 def add_plotter_options(parser: argparse.ArgumentParser) -> None:
     """``--port`` (a device, URL or plotter name), ``--profile``, ``--baud``, ``--timeout``, ``-q``/``-v``."""
-    parser.add_argument("--port", required=True, help="serial device or URL (/dev/ttyUSB0, COM3, sim://…), or a "
-                        "plotter's name: an EBB's nickname, or a name under [ports] in config.toml")
+    parser.add_argument(
+        "--port",
+        required=True,
+        help="serial device or URL (/dev/ttyUSB0, COM3, sim://…), or a "
+        "plotter's name: an EBB's nickname, or a name under [ports] in config.toml",
+    )
     add_profile_option(parser)
-    parser.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
-                        help="serial speed in bit/s (default: the firmware's)")
-    parser.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_CONTROL_TIMEOUT, unit="s"),
-                        default=5.0, help="seconds of silence from the plotter before giving up (default %(default)g)")
+    parser.add_argument(
+        "--baud",
+        type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
+        help="serial speed in bit/s (default: the firmware's)",
+    )
+    parser.add_argument(
+        "--timeout",
+        type=number("--timeout", low=0, above=True, high=MAX_CONTROL_TIMEOUT, unit="s"),
+        default=5.0,
+        help="seconds of silence from the plotter before giving up (default %(default)g)",
+    )
     add_verbosity(parser)
 
 
@@ -53,9 +64,11 @@ def resolve_port(text: str, *, quiet: bool = False, devices: list[str] | None = 
     found = find_named(text, devices)
     if found is None:
         config = user_folder() / "config.toml"
-        raise PlotError(f"no plotter named {text!r}: config.toml names {', '.join(sorted(named)) or 'none'} under "
-                        f"[ports], and no EBB board answered with that nickname; give a port (/dev/ttyUSB0, COM3) "
-                        f"or name one: {text} = \"PORT\" under [ports] in {config}")
+        raise PlotError(
+            f"no plotter named {text!r}: config.toml names {', '.join(sorted(named)) or 'none'} under "
+            f"[ports], and no EBB board answered with that nickname; give a port (/dev/ttyUSB0, COM3) "
+            f'or name one: {text} = "PORT" under [ports] in {config}'
+        )
     if not quiet:
         print(f"{text} is the EBB board on {found}", file=sys.stderr, flush=True)
     return found
@@ -67,7 +80,9 @@ def open_plotter(args: argparse.Namespace):
     from pencilbot.driver.control import open_control
 
     sim.register()  # sim://… reaches the virtual plotter
-    return open_control(resolve_port(args.port, quiet=args.quiet), args.profile, baud=args.baud, timeout=args.timeout)
+    return open_control(
+        resolve_port(args.port, quiet=args.quiet), args.profile, baud=args.baud, timeout=args.timeout
+    )
 
 
 def carriage_words(where) -> str:

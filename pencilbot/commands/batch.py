@@ -32,7 +32,10 @@ from pencilbot.fileio import refuse_overwriting_inputs
 def add_jobs_option(parser: argparse.ArgumentParser) -> None:
     """``-j/--jobs``: how many files to work on at once."""
     parser.add_argument(
-        "-j", "--jobs", type=number("--jobs", low=1, high=MAX_JOBS, whole=True), metavar="N",
+        "-j",
+        "--jobs",
+        type=number("--jobs", low=1, high=MAX_JOBS, whole=True),
+        metavar="N",
         help=f"files worked on at once with several inputs (default: all {os.cpu_count()} cores; 1: one by one)",
     )
 
@@ -90,17 +93,23 @@ def output_paths(inputs: Inputs, output: str, *, what: str, suffixes: Sequence[s
             raise PencilbotError(f"name the {what} {out} with {' or '.join(suffixes)}")
         if not out.parent.is_dir():
             # Now, not after minutes of planning, and before a plan is written without its preview.
-            raise PencilbotError(f"cannot write the {what} {out}: folder {out.parent} does not exist; create it first")
+            raise PencilbotError(
+                f"cannot write the {what} {out}: folder {out.parent} does not exist; create it first"
+            )
         return [out]
     if not out.is_dir():
         if out.suffix.lower() in suffixes or out.exists():
-            raise PencilbotError(f"{len(inputs.paths)} inputs need a folder for the {what}, not the file {out}")
+            raise PencilbotError(
+                f"{len(inputs.paths)} inputs need a folder for the {what}, not the file {out}"
+            )
         if not out.parent.is_dir():
             raise PencilbotError(f"cannot create the {what} folder {out}: {out.parent} does not exist")
     return distinct([out / f"{p.stem}{suffixes[0]}" for p in inputs.paths], inputs.paths)
 
 
-def outputs_or_beside(inputs: Inputs, output: str | None, *, what: str, suffixes: Sequence[str]) -> list[Path]:
+def outputs_or_beside(
+    inputs: Inputs, output: str | None, *, what: str, suffixes: Sequence[str]
+) -> list[Path]:
     """:func:`output_paths` of ``-o``; without one, each input's result beside it, named as the
     input with ``suffixes[0]`` (``photo.jpg`` → ``photo.svg``)."""
     if output is None:
@@ -114,7 +123,9 @@ def make_folders(paths: Sequence[Path | None]) -> None:
         try:
             folder.mkdir(exist_ok=True)
         except OSError as err:
-            raise PencilbotError(f"cannot create the folder {folder} ({err.strerror}); choose another -o") from None
+            raise PencilbotError(
+                f"cannot create the folder {folder} ({err.strerror}); choose another -o"
+            ) from None
 
 
 def distinct(targets: list[Path], sources: Sequence[Path]) -> list[Path]:
@@ -184,8 +195,14 @@ def run_batch(
 @contextmanager
 def _elapsed(what: str, quiet: bool) -> Iterator[None]:
     """A live 'working on X: 3s' line on a terminal's stderr while one file is worked on."""
-    bar = tqdm(total=None, desc=f"working on {what}", bar_format="{desc}: {elapsed}",
-               file=sys.stderr, disable=True if quiet else None, leave=False)
+    bar = tqdm(
+        total=None,
+        desc=f"working on {what}",
+        bar_format="{desc}: {elapsed}",
+        file=sys.stderr,
+        disable=True if quiet else None,
+        leave=False,
+    )
     done = threading.Event()
 
     def tick() -> None:

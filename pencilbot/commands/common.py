@@ -38,12 +38,29 @@ _MEMORY_SHARE = 0.75  # of the memory the system says is available
 MAX_RENDER_PIXELS = 1 << 30
 
 # Style keys a command-line option may override, by option name.
-_STYLE_OPTIONS = {"--page": "page", "--orientation": "orientation", "--margin": "margin", "--pen-width": "pen_width",
-                  "--hatch": "hatch", "--faces": "faces"}
+_STYLE_OPTIONS = {
+    "--page": "page",
+    "--orientation": "orientation",
+    "--margin": "margin",
+    "--pen-width": "pen_width",
+    "--hatch": "hatch",
+    "--faces": "faces",
+}
 
 
 #: Options naming the files a command reads, and the files it writes (any command's).
-_INPUT_OPTIONS = ("input", "old_input", "inputs", "plan", "texture", "style", "pens", "profile", "resume", "photo")
+_INPUT_OPTIONS = (
+    "input",
+    "old_input",
+    "inputs",
+    "plan",
+    "texture",
+    "style",
+    "pens",
+    "profile",
+    "resume",
+    "photo",
+)
 _OUTPUT_OPTIONS = ("output", "preview")
 
 
@@ -58,6 +75,7 @@ def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
     PencilbotError
         Naming the output and the input.
     """
+
     def named(keys):
         for key in keys:
             value = getattr(args, key, None)
@@ -66,8 +84,13 @@ def refuse_overwriting(args: argparse.Namespace, outputs=()) -> None:
     for key in _INPUT_OPTIONS:  # a FIFO or a device read would hang or never end: named by its option
         for value in named([key]):
             if value is not None:
-                refuse_special_input(value, "input" if key in ("input", "inputs", "plan", "photo") else
-                                     f"--{key.replace('_', '-')} file", folder_ok=True)
+                refuse_special_input(
+                    value,
+                    "input"
+                    if key in ("input", "inputs", "plan", "photo")
+                    else f"--{key.replace('_', '-')} file",
+                    folder_ok=True,
+                )
     refuse_overwriting_inputs(list(named(_INPUT_OPTIONS)), [*named(_OUTPUT_OPTIONS), *outputs])
 
 
@@ -105,12 +128,19 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
     path = Path(path)
     if path.suffix.lower() == ".svg":
         return read_drawing(path, args)
-    return plan_photo(path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale,
-                      pens=photo_pens(args))
+    return plan_photo(
+        path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale, pens=photo_pens(args)
+    )
 
 
-def plan_photo(path: Path, style: Style, *, max_pixels: int = DEFAULT_MAX_PIXELS, downscale: bool = False,
-               pens: PenSet | None = None) -> Plan:
+def plan_photo(
+    path: Path,
+    style: Style,
+    *,
+    max_pixels: int = DEFAULT_MAX_PIXELS,
+    downscale: bool = False,
+    pens: PenSet | None = None,
+) -> Plan:
     """The plan of the photo ``path`` in ``style`` (with ``pens``), decoded at the size the plan needs."""
     # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
     # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
@@ -163,7 +193,8 @@ def check_plan(style: Style, preview_dpi: float | None = None) -> None:
         raise PencilbotError(
             f"a {page.width:g} x {page.height:g} mm page with a {style.pen_width:g} mm pen needs about "
             f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than {memory_share(budget)}; use a page of at most about {side:.0f} x {side:.0f} mm"
-            + (" (or a wider pen)" if planning > picture else ""))
+            + (" (or a wider pen)" if planning > picture else "")
+        )
 
 
 def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
@@ -176,17 +207,22 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
         An option that does not apply to this SVG, or the file cannot be read.
     """
     given = lambda *flags: [flag for flag in flags if _option(args, flag) not in (None, False)]  # noqa: E731
-    photo_only = given("--style", "--downscale", "--pens") + [flag for flag in ("--hatch", "--faces") if _option(args, flag) is not None]
+    photo_only = given("--style", "--downscale", "--pens") + [
+        flag for flag in ("--hatch", "--faces") if _option(args, flag) is not None
+    ]
     if is_plan_svg(path):
         sheet_flags = given("--page", "--orientation", "--margin", "--pen-width")
         if photo_only or sheet_flags:
             applies = "to photos only" if photo_only else "to photos and to other tools' SVGs only"
             raise PencilbotError(
                 f"{path} is a plan: its page and pen are already set; {', '.join(photo_only or sheet_flags)} "
-                f"apply {applies}")
+                f"apply {applies}"
+            )
         return read_svg(path)
     if photo_only:
-        raise PencilbotError(f"{path} is a drawing, not a photo; {', '.join(photo_only)} apply to photos only")
+        raise PencilbotError(
+            f"{path} is a drawing, not a photo; {', '.join(photo_only)} apply to photos only"
+        )
     sheet = _option(args, "--page")
     if sheet is None and (flags := given("--orientation", "--margin")):
         raise PencilbotError(f"{', '.join(flags)} place a drawing on a sheet; give the sheet too (--page A4)")
@@ -198,7 +234,9 @@ def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
     if sheet is None:
         return plan
     margin = _option(args, "--margin")
-    return fit_plan(plan, sheet, _option(args, "--orientation") or "auto", DEFAULT_MARGIN if margin is None else margin)
+    return fit_plan(
+        plan, sheet, _option(args, "--orientation") or "auto", DEFAULT_MARGIN if margin is None else margin
+    )
 
 
 #: Resolution (dots per inch) of a simulated plot's PNG (simulate, sim-serve).
@@ -230,7 +268,9 @@ def reorder_on(plan: Plan, profile, rounds: int | None = None, time_budget: floa
     from pencilbot.planning.stats import estimate
 
     home = tuple(Placement.on_bed(plan.page, profile.bed).home())
-    reordered = reorder_plan(plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds, time_budget=time_budget)
+    reordered = reorder_plan(
+        plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds, time_budget=time_budget
+    )
     return reordered, estimate(plan, profile), estimate(reordered.plan, profile)
 
 
@@ -238,9 +278,11 @@ def change_summary(before, after, specks: int) -> str:
     """``pen-up 122.91 → 6.49 m, 1175 → 1170 lifts, 0:44:02 → 0:20:14`` (and the specks dropped)."""
     from pencilbot.planning.stats import duration_text
 
-    words = (f"pen-up {before.pen_up_mm / 1000:.2f} → {after.pen_up_mm / 1000:.2f} m, "
-             f"{before.lifts} → {after.lifts} lifts, "
-             f"{duration_text(before.seconds)} → {duration_text(after.seconds)}")
+    words = (
+        f"pen-up {before.pen_up_mm / 1000:.2f} → {after.pen_up_mm / 1000:.2f} m, "
+        f"{before.lifts} → {after.lifts} lifts, "
+        f"{duration_text(before.seconds)} → {duration_text(after.seconds)}"
+    )
     return words + (f" ({specks} covered speck{'s' * (specks != 1)} dropped)" if specks else "")
 
 
@@ -261,7 +303,9 @@ def _overrides(args: argparse.Namespace) -> dict[str, object]:
     return {flag: getattr(args, key, None) for flag, key in _STYLE_OPTIONS.items()}
 
 
-def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False) -> None:
+def check_render(
+    width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False
+) -> None:
     """Refuse a render of a ``width_mm`` × ``height_mm`` bed before anything is allocated.
 
     Raises
@@ -277,7 +321,8 @@ def check_render(width_mm: float, height_mm: float, dpi: float, pen_width: float
             raise PencilbotError(f"{option} must be positive and finite, not {value:g}")
     if pen_width > MAX_RENDER_PEN_WIDTH:
         raise PencilbotError(
-            f"--pen-width {pen_width:g} mm is wider than any pen; give at most {MAX_RENDER_PEN_WIDTH:g} mm")
+            f"--pen-width {pen_width:g} mm is wider than any pen; give at most {MAX_RENDER_PEN_WIDTH:g} mm"
+        )
     cols, rows = (math.ceil(size / MM_PER_INCH * dpi) for size in (width_mm, height_mm))
     if cols * rows > MAX_RENDER_PIXELS:
         fits = max(1, math.floor(dpi * math.sqrt(MAX_RENDER_PIXELS / (cols * rows))))
@@ -306,8 +351,10 @@ def available_memory() -> int:
 def memory_share(budget: float) -> str:
     """Words for a memory ``budget`` (bytes, the share of :func:`available_memory` pencilbot
     uses): ``"the 18.2 GB pencilbot may use (75 % of the 24.3 GB this machine has free)"``."""
-    return (f"the {_size_text(budget)} pencilbot may use ({_MEMORY_SHARE:.0%} of the "
-            f"{_size_text(budget / _MEMORY_SHARE)} {fileio_available_memory()[1]})")
+    return (
+        f"the {_size_text(budget)} pencilbot may use ({_MEMORY_SHARE:.0%} of the "
+        f"{_size_text(budget / _MEMORY_SHARE)} {fileio_available_memory()[1]})"
+    )
 
 
 def _size_text(size: float) -> str:

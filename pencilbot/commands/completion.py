@@ -25,14 +25,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "completion",
         help="print a shell completion script",
         description=(
-            "Print the completion script for a shell. bash: add `eval \"$(pencilbot completion bash)\"` "
+            'Print the completion script for a shell. bash: add `eval "$(pencilbot completion bash)"` '
             "to ~/.bashrc (or save it as ~/.local/share/bash-completion/completions/pencilbot); zsh: "
-            "`eval \"$(pencilbot completion zsh)\"` in ~/.zshrc; fish: `pencilbot completion fish > "
+            '`eval "$(pencilbot completion zsh)"` in ~/.zshrc; fish: `pencilbot completion fish > '
             "~/.config/fish/completions/pencilbot.fish`."
         ),
     )
     parser.add_argument("shell", nargs="?", choices=SHELLS, help="the shell to complete in")
-    parser.add_argument("--names", choices=sorted(NAMED.values()), help=argparse.SUPPRESS)  # what the scripts ask
+    parser.add_argument(
+        "--names", choices=sorted(NAMED.values()), help=argparse.SUPPRESS
+    )  # what the scripts ask
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -69,7 +71,9 @@ def describe(parser: argparse.ArgumentParser) -> dict[str, dict]:
                     continue
                 takes = None if option.nargs == 0 else list(option.choices) if option.choices else ""
                 named = next((NAMED[s] for s in option.option_strings if s in NAMED), None)
-                text = sub._get_formatter()._expand_help(option) if option.help else ""  # %(default)s filled in
+                text = (
+                    sub._get_formatter()._expand_help(option) if option.help else ""
+                )  # %(default)s filled in
                 options.append({"strings": option.option_strings, "help": text, "value": named or takes})
             found[name] = {"help": helps.get(name, ""), "options": options, "words": words}
     return found
@@ -105,17 +109,26 @@ def bash_script(commands: dict[str, dict], *, zsh: bool = False) -> str:
             words = f'"$(pencilbot completion --names {key} 2>/dev/null)"'
             lines.append(f'        {pattern}) COMPREPLY=($(compgen -W {words} -- "$cur")); return ;;')
         else:
-            lines.append(f'        {pattern}) COMPREPLY=($(compgen -W {shlex.quote(key)} -- "$cur")); return ;;')
+            lines.append(
+                f'        {pattern}) COMPREPLY=($(compgen -W {shlex.quote(key)} -- "$cur")); return ;;'
+            )
     # Other options that take a value: a file or a number, left to the shell's default.
-    anything = [f"{name} {s}" for name, command in commands.items() for option in command["options"]
-                if option["value"] == "" for s in option["strings"]]
+    anything = [
+        f"{name} {s}"
+        for name, command in commands.items()
+        for option in command["options"]
+        if option["value"] == ""
+        for s in option["strings"]
+    ]
     if anything:
         lines.append(f"        {'|'.join(shlex.quote(case) for case in anything)}) return ;;")
     lines += ["    esac", '    case "$command" in']
     for name, command in commands.items():
         options = " ".join(s for option in command["options"] for s in option["strings"])
         words = " ".join(command["words"])
-        lines.append(f"        {shlex.quote(name)}) local options={shlex.quote(options)} words={shlex.quote(words)} ;;")
+        lines.append(
+            f"        {shlex.quote(name)}) local options={shlex.quote(options)} words={shlex.quote(words)} ;;"
+        )
     lines += [
         "        *) return ;;",
         "    esac",
@@ -130,8 +143,10 @@ def bash_script(commands: dict[str, dict], *, zsh: bool = False) -> str:
 def fish_script(commands: dict[str, dict]) -> str:
     """The fish completions: one ``complete`` line per command and option."""
     quote = lambda text: "'" + text.replace("\\", "\\\\").replace("'", "\\'") + "'"  # noqa: E731
-    lines = ["# pencilbot shell completion (pencilbot completion --help says how to install it)",
-             "complete -c pencilbot -f"]
+    lines = [
+        "# pencilbot shell completion (pencilbot completion --help says how to install it)",
+        "complete -c pencilbot -f",
+    ]
     for name, command in commands.items():
         lines.append(f"complete -c pencilbot -n __fish_use_subcommand -a {name} -d {quote(command['help'])}")
     for name, command in commands.items():
@@ -141,7 +156,9 @@ def fish_script(commands: dict[str, dict]) -> str:
         else:
             lines.append(f"complete -c pencilbot {when} -F")  # its arguments: files
         for option in command["options"]:
-            flags = " ".join(f"-l {s[2:]}" if s.startswith("--") else f"-s {s[1:]}" for s in option["strings"])
+            flags = " ".join(
+                f"-l {s[2:]}" if s.startswith("--") else f"-s {s[1:]}" for s in option["strings"]
+            )
             value = option["value"]
             if value in NAMED.values():
                 what = f"-x -a {quote(f'(pencilbot completion --names {value})')}"
@@ -151,5 +168,9 @@ def fish_script(commands: dict[str, dict]) -> str:
                 what = "-r -F"
             else:
                 what = ""
-            lines.append(f"complete -c pencilbot {when} {flags} {what} -d {quote(option['help'][:80])}".replace("  ", " "))
+            lines.append(
+                f"complete -c pencilbot {when} {flags} {what} -d {quote(option['help'][:80])}".replace(
+                    "  ", " "
+                )
+            )
     return "\n".join(lines)

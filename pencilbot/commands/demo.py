@@ -40,12 +40,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
             f"uses scikit-image's {DEFAULT_PHOTO!r} photo."
         ),
     )
-    parser.add_argument("input", nargs="?", metavar="PHOTO", help=f"photo to draw (default: skimage.data.{DEFAULT_PHOTO})")
-    parser.add_argument("-o", "--output", default="pencilbot-demo", metavar="DIR", help="folder for the outputs (default %(default)s)")
+    parser.add_argument(
+        "input", nargs="?", metavar="PHOTO", help=f"photo to draw (default: skimage.data.{DEFAULT_PHOTO})"
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        default="pencilbot-demo",
+        metavar="DIR",
+        help="folder for the outputs (default %(default)s)",
+    )
     parser.add_argument("--input", dest="old_input", action=Deprecated, new="a positional PHOTO")
     parser.add_argument("--out", dest="output", action=Deprecated, new="-o/--output")
-    parser.add_argument("--port", metavar="PORT",
-                        help="plotter port or pyserial URL (default: the built-in virtual plotter)")
+    parser.add_argument(
+        "--port", metavar="PORT", help="plotter port or pyserial URL (default: the built-in virtual plotter)"
+    )
     add_profile_option(parser)
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     add_photo_options(parser)
@@ -120,7 +129,9 @@ def run(args: argparse.Namespace) -> int:
         stats = write_hpgl(plan, profile, gcode_path).stats.total
     else:
         gcode_path = out / "drawing.gcode"
-        stats = write_gcode(plan, profile, gcode_path, source=image.source).stats.total  # what its header says
+        stats = write_gcode(
+            plan, profile, gcode_path, source=image.source
+        ).stats.total  # what its header says
     step.done(f"{gcode_path.name}: {profile.name}", started)
 
     started = time.perf_counter()
@@ -135,8 +146,10 @@ def run(args: argparse.Namespace) -> int:
         simulated, simulated_up, agreement = _simulate(args, gcode_path, placement, preview, out)
         step.done("plot.png: what the virtual plotter drew", started)
     elif not step.quiet:
-        print(f"  plot.png: skipped; the virtual plotter speaks GRBL's protocol, not "
-              f"{profile.firmware.title}'s (draw drawing.gcode with --port)")
+        print(
+            f"  plot.png: skipped; the virtual plotter speaks GRBL's protocol, not "
+            f"{profile.firmware.title}'s (draw drawing.gcode with --port)"
+        )
 
     summary = {
         "source": image.source,
@@ -217,7 +230,10 @@ def _simulate(args, gcode_path: Path, placement, preview, out: Path) -> tuple[fl
         # What the pen drew, carried back from machine to page coordinates: same frame as the preview.
         plot.draw_paths([placement.to_page(stroke[:, :2]) for stroke in strokes])
         plots.append(plot)
-    write_png(out / "plot.png", color_image(plots, [ink.color for ink, _ in by_pen]) if pens else plots[0].to_image())
+    write_png(
+        out / "plot.png",
+        color_image(plots, [ink.color for ink, _ in by_pen]) if pens else plots[0].to_image(),
+    )
     darkness = 1.0 - np.prod([1.0 - plot.darkness for plot in plots], axis=0)
     return seconds, pen_up, pearson(darkness, preview.darkness)
 
@@ -231,11 +247,15 @@ def _summary_text(s: dict, duration_text) -> str:
     ]
     lines.append(f"likeness to the photo (Spearman, 1 mm blur): rho = {_or_none(s['photo_rho'])}")
     if s["pens"]:
-        lines.append(f"pens, in load order: {', '.join(s['pens'])}; colour against the colour sketch "
-                     f"(mean CIEDE2000, 3 mm blur): {_or_none(s['colour_delta_e00_3mm'])}")
+        lines.append(
+            f"pens, in load order: {', '.join(s['pens'])}; colour against the colour sketch "
+            f"(mean CIEDE2000, 3 mm blur): {_or_none(s['colour_delta_e00_3mm'])}"
+        )
     if s["tone_fidelity_mae"] is not None:
-        lines.append(f"fidelity to the sketch: lines r = {_or_none(s['line_fidelity_r'])}, "
-                     f"tone r = {_or_none(s['tone_fidelity_r'])} (mean difference {s['tone_fidelity_mae']})")
+        lines.append(
+            f"fidelity to the sketch: lines r = {_or_none(s['line_fidelity_r'])}, "
+            f"tone r = {_or_none(s['tone_fidelity_r'])} (mean difference {s['tone_fidelity_mae']})"
+        )
     if s["simulated_s"] is not None:
         lines.append(f"simulated plot vs plan preview: r = {_or_none(s['plot_vs_preview_r'])}")
     return "\n".join(lines)

@@ -43,29 +43,61 @@ def add_parser(subparsers) -> None:
         "terminal: p or space pauses and resumes (feed hold, cycle start), s stops safely; M0 pauses (a pen "
         "change) wait for Enter.",
     )
-    p.add_argument("input", nargs="?", help="G-code file (from pencilbot export), or an SVG drawing (exported for the "
-                   "profile first); omit with --resume")
-    p.add_argument("--port", help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…; "
-                   "auto: the one plotter that answers (see pencilbot ports)")
-    p.add_argument("--profile", metavar="NAME|FILE.toml",
-                   help="plotter profile: a name (see --list-profiles) or a .toml file (default: the resumed job's, "
-                   f"else the one the file's header names, else {default_profile()}); must be the header's if it names one")
+    p.add_argument(
+        "input",
+        nargs="?",
+        help="G-code file (from pencilbot export), or an SVG drawing (exported for the "
+        "profile first); omit with --resume",
+    )
+    p.add_argument(
+        "--port",
+        help="serial device or URL: /dev/ttyUSB0, COM3, socket://host:23, sim://…; "
+        "auto: the one plotter that answers (see pencilbot ports)",
+    )
+    p.add_argument(
+        "--profile",
+        metavar="NAME|FILE.toml",
+        help="plotter profile: a name (see --list-profiles) or a .toml file (default: the resumed job's, "
+        f"else the one the file's header names, else {default_profile()}); must be the header's if it names one",
+    )
     add_profile_listing(p)
-    p.add_argument("--baud", type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
-                   help="serial speed in bit/s (default: the resumed job's, else the firmware's: 115200 for GRBL)")
+    p.add_argument(
+        "--baud",
+        type=number("--baud", low=1, high=MAX_BAUD, whole=True, unit="bit/s"),
+        help="serial speed in bit/s (default: the resumed job's, else the firmware's: 115200 for GRBL)",
+    )
     p.add_argument("--unlock", action="store_true", help="send $X if the plotter starts in alarm lock")
-    p.add_argument("--check", action="store_true", help="run the file through the board's check mode ($C) first")
-    p.add_argument("--send-and-wait", action="store_true", help="one line at a time instead of character counting")
-    p.add_argument("--on-error", choices=("stop", "continue"),
-                   help="on error:N stop (feed hold, pen up) or log it and continue (default: the resumed job's, else stop)")
+    p.add_argument(
+        "--check", action="store_true", help="run the file through the board's check mode ($C) first"
+    )
+    p.add_argument(
+        "--send-and-wait", action="store_true", help="one line at a time instead of character counting"
+    )
+    p.add_argument(
+        "--on-error",
+        choices=("stop", "continue"),
+        help="on error:N stop (feed hold, pen up) or log it and continue (default: the resumed job's, else stop)",
+    )
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue")
-    where.add_argument("--start-line", type=number("--start-line", low=1, high=2**31 - 1, whole=True), metavar="N",
-                       help="start at file line N, restoring the state before it")
-    p.add_argument("--timeout", type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"),
-                   help=f"seconds of silence before giving up (default: the resumed job's, else {DEFAULT_TIMEOUT:g})")
-    p.add_argument("--restart", action="store_true",
-                   help="draw a file whose job stopped from line 1 again (its journal is replaced)")
+    where.add_argument(
+        "--resume", metavar="JOB", help="job journal (or G-code file) of a stopped job to continue"
+    )
+    where.add_argument(
+        "--start-line",
+        type=number("--start-line", low=1, high=2**31 - 1, whole=True),
+        metavar="N",
+        help="start at file line N, restoring the state before it",
+    )
+    p.add_argument(
+        "--timeout",
+        type=number("--timeout", low=0, above=True, high=MAX_TIMEOUT, unit="s"),
+        help=f"seconds of silence before giving up (default: the resumed job's, else {DEFAULT_TIMEOUT:g})",
+    )
+    p.add_argument(
+        "--restart",
+        action="store_true",
+        help="draw a file whose job stopped from line 1 again (its journal is replaced)",
+    )
     p.add_argument("--json-lines", action="store_true", help="progress as JSON lines on stdout, for scripts")
     add_run_options(p)
     add_system_commands_option(p)
@@ -94,7 +126,9 @@ def run(args: argparse.Namespace) -> int:
         )
     port = args.port or (journal.port if journal else None)
     if gcode is None:
-        raise RefusedError("give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB")
+        raise RefusedError(
+            "give a G-code file to draw (pencilbot draw drawing.gcode --port PORT) or --resume JOB"
+        )
     if port is None:
         raise RefusedError("give the plotter's port with --port (e.g. /dev/ttyUSB0, COM3 or sim://)")
     if svg:  # drawn directly: exported for the profile (its layer, this run's values) into the user folder
@@ -106,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
     progress = "json" if args.json_lines else "quiet" if args.quiet else "bar"
     announce = None
     if args.verbose and not args.quiet:
+
         def announce(banner, job):
             # (port and baud as they stand when the job starts: a port by then)
             print("\n".join(banner_lines(port, baud, banner, job)), file=sys.stderr, flush=True)  # type: ignore[arg-type]
@@ -131,10 +166,22 @@ def run(args: argparse.Namespace) -> int:
             if copy > 1:
                 between_copies(copy - 1, args.copies, args.copy_delay, args.quiet, operator)
             result = draw(
-                gcode, port, profile=profile, baud=baud,
-                unlock=args.unlock, check=args.check, send_and_wait=send_and_wait, on_error=on_error,
-                start_line=args.start_line, resume=args.resume, progress=progress, timeout=timeout,
-                operator=operator, keys=keys, announce=announce, overrides=run_overrides(args) or None,
+                gcode,
+                port,
+                profile=profile,
+                baud=baud,
+                unlock=args.unlock,
+                check=args.check,
+                send_and_wait=send_and_wait,
+                on_error=on_error,
+                start_line=args.start_line,
+                resume=args.resume,
+                progress=progress,
+                timeout=timeout,
+                operator=operator,
+                keys=keys,
+                announce=announce,
+                overrides=run_overrides(args) or None,
                 allow_system=args.allow_system_commands,
             )
     if not args.quiet and not args.json_lines:
@@ -173,7 +220,11 @@ def _suffix_for(profile: str | None) -> str:
     from pencilbot.machine.profile import load_profile
 
     try:
-        return ".hpgl" if profile and getattr(load_profile(profile).firmware, "flow", "") == "polled" else ".gcode"
+        return (
+            ".hpgl"
+            if profile and getattr(load_profile(profile).firmware, "flow", "") == "polled"
+            else ".gcode"
+        )
     except PencilbotError:
         return ".gcode"
 
@@ -192,12 +243,16 @@ def _check_file_kind(path: Path, profile: str | None) -> None:
     hpgl_file = path.suffix.lower() in HPGL_SUFFIXES
     if hpgl_file and not hpgl_profile:
         names = [n for n in list_profiles() if getattr(load_profile(n).firmware, "flow", "") == "polled"]
-        raise RefusedError(f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
-                        f"--profile {' or '.join(names) or 'NAME'}")
+        raise RefusedError(
+            f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
+            f"--profile {' or '.join(names) or 'NAME'}"
+        )
     if hpgl_profile and not hpgl_file:
-        raise RefusedError(f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
-                        f"export the drawing for it: pencilbot export DRAWING.svg -o {path.with_suffix('.hpgl').name} "
-                        f"--profile {profile}")
+        raise RefusedError(
+            f"profile {profile} is an HP-GL plotter's and {path} is not HP-GL ({', '.join(HPGL_SUFFIXES)}); "
+            f"export the drawing for it: pencilbot export DRAWING.svg -o {path.with_suffix('.hpgl').name} "
+            f"--profile {profile}"
+        )
 
 
 def auto_port(quiet: bool = False, profile=None) -> str:
@@ -215,10 +270,15 @@ def auto_port(quiet: bool = False, profile=None) -> str:
         return found[0].device
     if not found:
         listed = ", ".join(p.device for p in list_ports()) or "none"
-        raise PlotError(f"--port auto: no plotter answered on the serial ports (listed: {listed}); "
-                        "check it is on and connected, or give --port (pencilbot ports PORT probes one)")
-    raise PlotError("--port auto: several plotters answered (" + "; ".join(f"{f.device}: {f.summary()}" for f in found)
-                    + "); choose one with --port")
+        raise PlotError(
+            f"--port auto: no plotter answered on the serial ports (listed: {listed}); "
+            "check it is on and connected, or give --port (pencilbot ports PORT probes one)"
+        )
+    raise PlotError(
+        "--port auto: several plotters answered ("
+        + "; ".join(f"{f.device}: {f.summary()}" for f in found)
+        + "); choose one with --port"
+    )
 
 
 def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
@@ -229,12 +289,19 @@ def banner_lines(port: str, baud: int, banner: str, job) -> list[str]:
     board = banner.removeprefix("banner '").removesuffix("'")  # a reset's reply: "banner 'Grbl 1.1h'"
     if not hasattr(job, "seconds_after"):  # an HP-GL program: (profile, instructions)
         profile, count = job
-        return [f"port {port} at {baud} bit/s", f"profile {profile.name} ({profile.source}): {profile.description}",
-                f"board: {board}", f"job: {count} HP-GL instructions"]
+        return [
+            f"port {port} at {baud} bit/s",
+            f"profile {profile.name} ({profile.source}): {profile.description}",
+            f"board: {board}",
+            f"job: {count} HP-GL instructions",
+        ]
     profile = job.profile
     header = estimated_seconds(job.source) if Path(job.source).is_file() else None
-    seconds, how = (header, "the file's estimate") if header is not None else (
-        job.seconds_after(len(job) - 1), "distance over feed, without acceleration")
+    seconds, how = (
+        (header, "the file's estimate")
+        if header is not None
+        else (job.seconds_after(len(job) - 1), "distance over feed, without acceleration")
+    )
     return [
         f"port {port} at {baud} bit/s",
         f"profile {profile.name} ({profile.source}): {profile.description}",
@@ -261,8 +328,10 @@ def _refuse_a_stopped_job(gcode: Path) -> None:
         how = journal.resume or f"pencilbot draw --resume {path} --port {journal.port}"
         why = f" ({journal.message})" if journal.message else ""
         if journal.status == "running":
-            state = (f"is being drawn now (on {journal.port}), or its sender was killed at line "
-                     f"{journal.next_line}; if no pencilbot is drawing it")
+            state = (
+                f"is being drawn now (on {journal.port}), or its sender was killed at line "
+                f"{journal.next_line}; if no pencilbot is drawing it"
+            )
         else:
             state = f"stopped at line {journal.next_line}{why}; drawing it again would draw over what is on the paper."
         raise RefusedError(f"the job of {gcode} {state} Resume it with: {how} — or start over with --restart")

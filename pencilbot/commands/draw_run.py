@@ -31,20 +31,42 @@ MAX_COPY_DELAY = 86_400.0  # s: a day
 def add_run_options(parser: argparse.ArgumentParser) -> None:
     """The one-run overrides, ``--layer``, ``--copies`` and ``--copy-delay``."""
     run = parser.add_argument_group("this run only (the profile is not changed)")
-    words = {"--speed-down": "pen-down speed", "--speed-up": "pen-up (travel) speed", "--accel": "acceleration",
-             "--pen-down-height": "pen-down height (the profile's unit: %% of the servo range on an EBB, S value, "
-             "Z mm or degrees)", "--pen-up-height": "pen-up height (as --pen-down-height)",
-             "--pen-delay": "wait after each pen lift and drop"}
+    words = {
+        "--speed-down": "pen-down speed",
+        "--speed-up": "pen-up (travel) speed",
+        "--accel": "acceleration",
+        "--pen-down-height": "pen-down height (the profile's unit: %% of the servo range on an EBB, S value, "
+        "Z mm or degrees)",
+        "--pen-up-height": "pen-up height (as --pen-down-height)",
+        "--pen-delay": "wait after each pen lift and drop",
+    }
     for flag, _, _, unit, (low, high) in RUN_OPTIONS:
-        run.add_argument(flag, type=number(flag, low=low, high=high, above=low == 0 and unit != "s", unit=unit or "units"),
-                         metavar=unit.split("/")[0].upper() or "VALUE", help=f"{words[flag]}" + (f", {unit}" if unit else ""))
-    run.add_argument("--layer", type=number("--layer", low=0, high=10_000, whole=True), metavar="N",
-                     help="an SVG's layer N only: the layers whose name starts with N (as AxiDraw's layer mode), "
-                     "else the N-th layer")
-    run.add_argument("--copies", type=number("--copies", low=1, high=MAX_COPIES, whole=True), default=1, metavar="N",
-                     help="draw it N times (default 1), pausing between copies for a fresh sheet")
-    run.add_argument("--copy-delay", type=number("--copy-delay", low=0, high=MAX_COPY_DELAY, unit="s"), metavar="S",
-                     help="between copies wait S seconds instead of asking for Enter")
+        run.add_argument(
+            flag,
+            type=number(flag, low=low, high=high, above=low == 0 and unit != "s", unit=unit or "units"),
+            metavar=unit.split("/")[0].upper() or "VALUE",
+            help=f"{words[flag]}" + (f", {unit}" if unit else ""),
+        )
+    run.add_argument(
+        "--layer",
+        type=number("--layer", low=0, high=10_000, whole=True),
+        metavar="N",
+        help="an SVG's layer N only: the layers whose name starts with N (as AxiDraw's layer mode), "
+        "else the N-th layer",
+    )
+    run.add_argument(
+        "--copies",
+        type=number("--copies", low=1, high=MAX_COPIES, whole=True),
+        default=1,
+        metavar="N",
+        help="draw it N times (default 1), pausing between copies for a fresh sheet",
+    )
+    run.add_argument(
+        "--copy-delay",
+        type=number("--copy-delay", low=0, high=MAX_COPY_DELAY, unit="s"),
+        metavar="S",
+        help="between copies wait S seconds instead of asking for Enter",
+    )
 
 
 def run_overrides(args: argparse.Namespace) -> dict[str, dict[str, float]]:
@@ -59,7 +81,11 @@ def run_overrides(args: argparse.Namespace) -> dict[str, dict[str, float]]:
 
 def given_run_options(args: argparse.Namespace) -> list[str]:
     """The one-run flags given (for messages)."""
-    return [flag for flag, *_ in RUN_OPTIONS if getattr(args, flag.lstrip("-").replace("-", "_"), None) is not None]
+    return [
+        flag
+        for flag, *_ in RUN_OPTIONS
+        if getattr(args, flag.lstrip("-").replace("-", "_"), None) is not None
+    ]
 
 
 def svg_job_path(svg: Path, layer: int | None, suffix: str) -> Path:
@@ -98,7 +124,9 @@ def pick_layer(layers, number: int, svg: Path) -> list:
         return numbered
     if any(re.match(r"^\s*\d", layer.name) for layer in layers) or not 1 <= number <= len(layers):
         names = ", ".join(repr(layer.name) for layer in layers) or "none"
-        raise PlotError(f"{svg} has no layer {number} (its layers: {names}); give --layer with a layer's number")
+        raise PlotError(
+            f"{svg} has no layer {number} (its layers: {names}); give --layer with a layer's number"
+        )
     return [layers[number - 1]]
 
 
@@ -113,20 +141,30 @@ def between_copies(done: int, copies: int, delay: float | None, quiet: bool, ope
     elif operator is not None:
         operator.pause(f"{said}: put in a fresh sheet")
     elif not quiet:
-        print(f"{said}; the next at once (no terminal to ask; --copy-delay S waits)", file=sys.stderr, flush=True)
+        print(
+            f"{said}; the next at once (no terminal to ask; --copy-delay S waits)",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def check_run_options(args: argparse.Namespace, job: Path, profile, *, from_svg: bool) -> None:
     """Refuse what this run's options cannot do with ``job``: overrides on a written G-code file
     for a plotter that runs its moves as written, a layer of a file that has none, copies of a resume."""
     if args.layer is not None and not from_svg:
-        raise PlotError(f"--layer picks a layer of an SVG, and {job} is not one; draw the SVG: pencilbot draw DRAWING.svg "
-                        f"--layer {args.layer}")
+        raise PlotError(
+            f"--layer picks a layer of an SVG, and {job} is not one; draw the SVG: pencilbot draw DRAWING.svg "
+            f"--layer {args.layer}"
+        )
     if args.copies > 1 and args.resume:
-        raise PlotError("--copies draws a job again from its start; resume the stopped copy without it, "
-                        "then draw the other copies")
+        raise PlotError(
+            "--copies draws a job again from its start; resume the stopped copy without it, "
+            "then draw the other copies"
+        )
     flags = given_run_options(args)
     if flags and not from_svg and not profile.firmware.capabilities.host_motion:
-        raise PlotError(f"{', '.join(flags)} change the moves and pen commands pencilbot writes for {profile.firmware.title}, "
-                        f"and {job} is already written; draw the SVG it came from (pencilbot draw DRAWING.svg "
-                        f"{' '.join(flags)} …) or export it again")
+        raise PlotError(
+            f"{', '.join(flags)} change the moves and pen commands pencilbot writes for {profile.firmware.title}, "
+            f"and {job} is already written; draw the SVG it came from (pencilbot draw DRAWING.svg "
+            f"{' '.join(flags)} …) or export it again"
+        )

@@ -39,14 +39,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     parser.add_argument("inputs", nargs="*", metavar="INPUT", help="photo, .svg drawing, or folder of photos")
     parser.add_argument(
-        "-o", "--output", metavar="OUT.gcode|DIR",
+        "-o",
+        "--output",
+        metavar="OUT.gcode|DIR",
         help="G-code file to write (a folder for several inputs; default: INPUT's name .gcode beside it)",
     )
     add_profile_option(parser)
     parser.add_argument(
-        "--split-pens", action="store_true",
+        "--split-pens",
+        action="store_true",
         help="write one G-code file per pen of a colour plan (OUT-1-yellow.gcode, OUT-2-cyan.gcode, ...), "
-             "in load order, with no pen-change pauses",
+        "in load order, with no pen-change pauses",
     )
     add_photo_options(parser)
     add_svg_options(parser, reorder=True)
@@ -57,7 +60,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if not args.inputs:
-        raise PencilbotError("give a photo or plan SVG to export (pencilbot export photo.jpg -o drawing.gcode)")
+        raise PencilbotError(
+            "give a photo or plan SVG to export (pencilbot export photo.jpg -o drawing.gcode)"
+        )
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow planning
     inputs = collect_inputs(args.inputs)
     if any(p.suffix.lower() != ".svg" for p in inputs.paths):
@@ -112,8 +117,12 @@ def _export_split(plan: Plan, source: Path, target: Path, profile: Profile) -> s
     written, seconds = [], 0.0
     for number, (pen, layers) in enumerate(plan.pen_runs(), start=1):
         one = replace(plan, layers=layers)
-        summary = write_gcode(one, profile, pen_file(target, number, pen), source=f"{source} (pen {number}: {pen})")
+        summary = write_gcode(
+            one, profile, pen_file(target, number, pen), source=f"{source} (pen {number}: {pen})"
+        )
         written.append(f"{Path(summary.path).name} ({pen}, {summary.paths} paths)")
         seconds += summary.stats.total.seconds
-    return (f"wrote {len(written)} files for {profile.name}, one per pen in load order: {', '.join(written)}; "
-            f"about {duration_text(seconds)} to draw in all")
+    return (
+        f"wrote {len(written)} files for {profile.name}, one per pen in load order: {', '.join(written)}; "
+        f"about {duration_text(seconds)} to draw in all"
+    )

@@ -9,10 +9,12 @@ from pencilbot.commands.at_plotter import add_plotter_options, carriage_words, o
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
-        "home", help="raise the pen and take the carriage home",
+        "home",
+        help="raise the pen and take the carriage home",
         description="Raise the pen and take the carriage home: to its switches on a machine that homes "
         "(GRBL $H, Marlin G28), else to where it started (machine 0,0; an EBB: where its motors were "
-        "switched on, HM; HP-GL: PA0,0).")
+        "switched on, HM; HP-GL: PA0,0).",
+    )
     add_plotter_options(p)
     p.set_defaults(func=run)
 

@@ -32,15 +32,28 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="IN.svg", help="SVG drawing")
-    parser.add_argument("-o", "--output", metavar="OUT.svg", help="SVG to write (default: IN-optimized.svg beside it)")
+    parser.add_argument(
+        "-o", "--output", metavar="OUT.svg", help="SVG to write (default: IN-optimized.svg beside it)"
+    )
     add_profile_option(parser, "plotter profile for home, speeds and delays")
-    parser.add_argument("--rounds", type=number("--rounds", low=0, high=MAX_ROUNDS, whole=True), default=REORDER_ROUNDS, metavar="N",
-                        help="improvement passes per layer: more shortens pen-up a little more, slower "
-                             "(default %(default)s, as a photo's plan; huge layers get fewer, at least 2)")
-    parser.add_argument("--time-budget", type=number("--time-budget", low=0, above=True, high=MAX_TIME_BUDGET, unit="s"),
-                        metavar="SECONDS", help="CPU seconds the reordering may take in all: huge layers then get as "
-                        "many rounds as fit (the order then depends on the machine's speed)")
-    parser.add_argument("--json", action="store_true", help="print the figures as JSON (lengths in mm, time in s)")
+    parser.add_argument(
+        "--rounds",
+        type=number("--rounds", low=0, high=MAX_ROUNDS, whole=True),
+        default=REORDER_ROUNDS,
+        metavar="N",
+        help="improvement passes per layer: more shortens pen-up a little more, slower "
+        "(default %(default)s, as a photo's plan; huge layers get fewer, at least 2)",
+    )
+    parser.add_argument(
+        "--time-budget",
+        type=number("--time-budget", low=0, above=True, high=MAX_TIME_BUDGET, unit="s"),
+        metavar="SECONDS",
+        help="CPU seconds the reordering may take in all: huge layers then get as "
+        "many rounds as fit (the order then depends on the machine's speed)",
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print the figures as JSON (lengths in mm, time in s)"
+    )
     add_svg_options(parser, sheet=True)
     add_verbosity(parser)
     parser.set_defaults(func=run)
@@ -50,8 +63,10 @@ def run(args: argparse.Namespace) -> int:
     source, output = Path(args.input), output_beside(args, "optimized", ".svg")
     for path, what in ((source, "input"), (output, "output")):
         if path.suffix.lower() != ".svg":
-            raise PencilbotError(f"the {what} {path} is not an .svg file; optimize reorders SVG drawings "
-                                 "(a photo becomes one with pencilbot plan)")
+            raise PencilbotError(
+                f"the {what} {path} is not an .svg file; optimize reorders SVG drawings "
+                "(a photo becomes one with pencilbot plan)"
+            )
     profile = load_profile(args.profile)  # a bad profile fails before the file is read
     plan = read_drawing(source, args)
     reordered, before, after = reorder_on(plan, profile, rounds=args.rounds, time_budget=args.time_budget)
@@ -60,10 +75,22 @@ def run(args: argparse.Namespace) -> int:
         result = dataclasses.replace(result, meta={**result.meta, "source": str(source)})
     write_svg(result, output)
     if args.json:
-        print(json.dumps({"input": str(source), "output": str(output), "profile": profile.name,
-                          "specks_dropped": reordered.specks, "before": before.as_dict()["total"],
-                          "after": after.as_dict()["total"]}, indent=2))
+        print(
+            json.dumps(
+                {
+                    "input": str(source),
+                    "output": str(output),
+                    "profile": profile.name,
+                    "specks_dropped": reordered.specks,
+                    "before": before.as_dict()["total"],
+                    "after": after.as_dict()["total"],
+                },
+                indent=2,
+            )
+        )
     elif not args.quiet:
-        print(f"wrote {output}: {before.total.paths} → {after.total.paths} paths on {profile.name}; "
-              + change_summary(before.total, after.total, reordered.specks))
+        print(
+            f"wrote {output}: {before.total.paths} → {after.total.paths} paths on {profile.name}; "
+            + change_summary(before.total, after.total, reordered.specks)
+        )
     return 0

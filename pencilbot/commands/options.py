@@ -22,8 +22,15 @@ from pencilbot.planning.style import MIN_PEN_WIDTH, Style, default_style, list_s
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 
-def number(option: str, *, low: float | None = None, high: float, above: bool = False, whole: bool = False,
-           unit: str = ""):
+def number(
+    option: str,
+    *,
+    low: float | None = None,
+    high: float,
+    above: bool = False,
+    whole: bool = False,
+    unit: str = "",
+):
     """The argparse ``type`` of a numeric option: a finite number in ``[low, high]`` (``(low,
     high]`` with ``above``), a whole one with ``whole``; ``unit`` names what it counts.
 
@@ -32,19 +39,28 @@ def number(option: str, *, low: float | None = None, high: float, above: bool = 
     before anything runs. It raises :class:`PencilbotError`, not ``ValueError``: argparse lets it
     through to the CLI's one-line report instead of printing its usage text.
     """
+
     def text(value: float) -> str:
         return f"{value:.0f}" if float(value).is_integer() else f"{value:g}"
 
     bounds = [f"{'more than' if above else 'at least'} {text(low)}"] if low is not None else []
-    rule = " and ".join([*bounds, f"at most {text(high)}"]) + (f" {unit}" if unit else "") + (", a whole number" if whole else "")
+    rule = (
+        " and ".join([*bounds, f"at most {text(high)}"])
+        + (f" {unit}" if unit else "")
+        + (", a whole number" if whole else "")
+    )
 
     def parse(text: str):
         try:
             value = int(text) if whole else float(text)
         except ValueError:
             value = None
-        if value is None or not math.isfinite(value) or value > high or (
-                low is not None and (value <= low if above else value < low)):
+        if (
+            value is None
+            or not math.isfinite(value)
+            or value > high
+            or (low is not None and (value <= low if above else value < low))
+        ):
             raise PencilbotError(f"{option} must be {rule}, not {text!r}")
         return value
 
@@ -71,8 +87,10 @@ def realtime_option(option: str = "--realtime"):
     def parse(text: str) -> float:
         value = parse_number(text)
         if 0 < value < MIN_REALTIME:
-            raise PencilbotError(f"{option} must be 0 (instant) or from {MIN_REALTIME:g} to {MAX_REALTIME:g} times "
-                                 f"real time, not {text!r}")
+            raise PencilbotError(
+                f"{option} must be 0 (instant) or from {MIN_REALTIME:g} to {MAX_REALTIME:g} times "
+                f"real time, not {text!r}"
+            )
         return value
 
     parse.__name__ = option.lstrip("-")
@@ -93,9 +111,13 @@ def add_system_commands_option(parser: argparse.ArgumentParser) -> None:
 
     parse.__name__ = "allow-system-commands"
     parser.add_argument(
-        "--allow-system-commands", type=parse, default=frozenset(), metavar="'$H,$C'",
+        "--allow-system-commands",
+        type=parse,
+        default=frozenset(),
+        metavar="'$H,$C'",
         help="let a G-code file send these GRBL system commands ($ lines: $H homing, $C check mode, $X unlock, "
-             "$SLP, $RST, $N startup blocks, $100 settings...); any other is refused by line")
+        "$SLP, $RST, $N startup blocks, $100 settings...); any other is refused by line",
+    )
 
 
 def add_verbosity(parser: argparse.ArgumentParser) -> None:
@@ -111,22 +133,35 @@ def add_profile_option(parser: argparse.ArgumentParser, what: str = "plotter pro
 
     name = default_profile()
     parser.add_argument(
-        "--profile", default=name, metavar="NAME|FILE.toml", action=_Given,
+        "--profile",
+        default=name,
+        metavar="NAME|FILE.toml",
+        action=_Given,
         help=f"{what}: a name (see --list-profiles) or a .toml file (default {name}; yours: $PENCILBOT_PROFILE "
-             f"or profile = \"NAME\" in {user_folder() / 'config.toml'})")
+        f'or profile = "NAME" in {user_folder() / "config.toml"})',
+    )
     add_profile_listing(parser)
 
 
 def add_profile_listing(parser: argparse.ArgumentParser) -> None:
     """``--list-profiles``: print the plotter profiles, shipped and the user's, and exit."""
-    parser.add_argument("--list-profiles", action=_Listing, listing=profile_listing,
-                        help="list the plotter profiles, shipped and yours, and exit")
+    parser.add_argument(
+        "--list-profiles",
+        action=_Listing,
+        listing=profile_listing,
+        help="list the plotter profiles, shipped and yours, and exit",
+    )
 
 
 def add_realtime_option(parser: argparse.ArgumentParser) -> None:
     """``--realtime R``, the virtual plotter's speed, with one default wherever it is taken."""
-    parser.add_argument("--realtime", type=realtime_option(), default=0.0, metavar="R",
-                        help="move R times faster than real time (default %(default)g: instant; 1: as fast as the real machine)")
+    parser.add_argument(
+        "--realtime",
+        type=realtime_option(),
+        default=0.0,
+        metavar="R",
+        help="move R times faster than real time (default %(default)g: instant; 1: as fast as the real machine)",
+    )
 
 
 class Deprecated(argparse.Action):
@@ -137,8 +172,10 @@ class Deprecated(argparse.Action):
         super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
 
     def __call__(self, parser, namespace, values, option_string=None):
-        print(f"pencilbot: note: {option_string} is deprecated and goes in the next release; use {self.new}",
-              file=sys.stderr)
+        print(
+            f"pencilbot: note: {option_string} is deprecated and goes in the next release; use {self.new}",
+            file=sys.stderr,
+        )
         setattr(namespace, self.dest, values)
 
 
@@ -170,20 +207,26 @@ def profile_listing() -> list[str]:
     def summary(name):
         return load_profile(name).description
 
-    return [_listing_line(name, path, partial(summary, name)) for name, path in config_names("plotters").items()]
+    return [
+        _listing_line(name, path, partial(summary, name)) for name, path in config_names("plotters").items()
+    ]
 
 
 def style_listing() -> list[str]:
     """One line per style: name, its page, pen and whether it hatches, and whether it is the user's."""
+
     def summary(name):
         style = load_style(name)
         return f"{style.page} {style.orientation}, {style.pen_width:g} mm pen, {'hatching' if style.hatch else 'outline only'}"
 
-    return [_listing_line(name, path, partial(summary, name)) for name, path in config_names("styles").items()]
+    return [
+        _listing_line(name, path, partial(summary, name)) for name, path in config_names("styles").items()
+    ]
 
 
 def pens_listing() -> list[str]:
     """One line per pen set: its pens in load order, and whether it is the user's."""
+
     def summary(name):
         pens = load_pens(name)
         return ", ".join(f"{pen.name} {pen.color} {pen.width:g} mm" for pen in pens.load_order)
@@ -210,58 +253,102 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
     photo = parser.add_argument_group("photo inputs")
     style = default_style()
     photo.add_argument(
-        "--style", metavar="NAME|FILE.toml",
+        "--style",
+        metavar="NAME|FILE.toml",
         help=f"drawing style: {', '.join(list_styles())} or a .toml file (default {style}; yours: "
-             f"style = \"NAME\" in {user_folder() / 'config.toml'})",
+        f'style = "NAME" in {user_folder() / "config.toml"})',
     )
-    photo.add_argument("--list-styles", action=_Listing, listing=style_listing,
-                       help="list the drawing styles, shipped and yours, and exit")
     photo.add_argument(
-        "--pens", metavar="NAME|FILE.toml",
+        "--list-styles",
+        action=_Listing,
+        listing=style_listing,
+        help="list the drawing styles, shipped and yours, and exit",
+    )
+    photo.add_argument(
+        "--pens",
+        metavar="NAME|FILE.toml",
         help=f"draw in colour with a pen set: {', '.join(list_pen_sets())} or a .toml file (default: one "
-             "black pen; the pens' widths replace --pen-width)",
+        "black pen; the pens' widths replace --pen-width)",
     )
-    photo.add_argument("--list-pens", action=_Listing, listing=pens_listing,
-                       help="list the pen sets, shipped and yours, and exit")
-    _add_sheet_options(photo, f"({_style_default('page')}; another tool's SVG is fitted onto it)",
-                       f"({_style_default('margin')})", f"({_style_default('pen_width')}; another tool's SVG: its stroke width)")
     photo.add_argument(
-        "--faces", action=argparse.BooleanOptionalAction,
+        "--list-pens",
+        action=_Listing,
+        listing=pens_listing,
+        help="list the pen sets, shipped and yours, and exit",
+    )
+    _add_sheet_options(
+        photo,
+        f"({_style_default('page')}; another tool's SVG is fitted onto it)",
+        f"({_style_default('margin')})",
+        f"({_style_default('pen_width')}; another tool's SVG: its stroke width)",
+    )
+    photo.add_argument(
+        "--faces",
+        action=argparse.BooleanOptionalAction,
         help="draw the faces found with finer features and hatching, listed in the plan's metadata; "
-             f"--no-faces: do not look for them ({_style_default('faces')})")
+        f"--no-faces: do not look for them ({_style_default('faces')})",
+    )
     photo.add_argument(
-        "--max-pixels", type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True),
-        default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
+        "--max-pixels",
+        type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True),
+        default=DEFAULT_MAX_PIXELS,
+        metavar="N",
+        help="refuse larger images",
     )
     photo.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
-    photo.add_argument("--hatch", action=argparse.BooleanOptionalAction,
-                       help=f"draw the tone as hatching, or only the lines with --no-hatch ({_style_default('hatch')})")
+    photo.add_argument(
+        "--hatch",
+        action=argparse.BooleanOptionalAction,
+        help=f"draw the tone as hatching, or only the lines with --no-hatch ({_style_default('hatch')})",
+    )
 
 
 def _add_sheet_options(group, page_default: str, margin_default: str, pen_default: str) -> None:
-    group.add_argument("--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm {page_default}")
-    group.add_argument("--orientation", choices=ORIENTATIONS,
-                       help=f"auto turns the sheet to suit the picture ({_style_default('orientation')})")
-    group.add_argument("--margin", type=number("--margin", low=0, high=MAX_BED / 2, unit="mm"), metavar="MM",
-                       help=f"blank border in mm {margin_default}")
-    group.add_argument("--pen-width", type=number("--pen-width", low=MIN_PEN_WIDTH, high=MAX_RENDER_PEN_WIDTH, unit="mm"),
-                       metavar="MM", help=f"pen line width in mm {pen_default}")
+    group.add_argument(
+        "--page", metavar="A4|WxH", help=f"paper: A5, A4, A3, Letter or WxH in mm {page_default}"
+    )
+    group.add_argument(
+        "--orientation",
+        choices=ORIENTATIONS,
+        help=f"auto turns the sheet to suit the picture ({_style_default('orientation')})",
+    )
+    group.add_argument(
+        "--margin",
+        type=number("--margin", low=0, high=MAX_BED / 2, unit="mm"),
+        metavar="MM",
+        help=f"blank border in mm {margin_default}",
+    )
+    group.add_argument(
+        "--pen-width",
+        type=number("--pen-width", low=MIN_PEN_WIDTH, high=MAX_RENDER_PEN_WIDTH, unit="mm"),
+        metavar="MM",
+        help=f"pen line width in mm {pen_default}",
+    )
 
 
 def add_svg_options(parser: argparse.ArgumentParser, *, sheet: bool = False, reorder: bool = False) -> None:
     """How an SVG from another tool is read: ``--svg-dpi``, and with ``sheet`` the sheet and pen
     options (commands without photo options), with ``reorder`` ``--keep-order``."""
     svg = parser.add_argument_group("SVG drawings from other tools")
-    svg.add_argument("--svg-dpi", type=number("--svg-dpi", low=0, above=True, high=MAX_SVG_DPI, unit="user units per inch"),
-                     metavar="DPI",
-                     help="user units per inch of an SVG whose size has no unit (96: CSS pixels, as Inkscape reads them)")
+    svg.add_argument(
+        "--svg-dpi",
+        type=number("--svg-dpi", low=0, above=True, high=MAX_SVG_DPI, unit="user units per inch"),
+        metavar="DPI",
+        help="user units per inch of an SVG whose size has no unit (96: CSS pixels, as Inkscape reads them)",
+    )
     if sheet:
-        _add_sheet_options(svg, "(default: the SVG's own page; given: the drawing is fitted onto it)",
-                           f"around a fitted drawing (default {DEFAULT_MARGIN:g})",
-                           f"(default: the SVG's stroke width, else {DEFAULT_PEN_WIDTH:g})")
+        _add_sheet_options(
+            svg,
+            "(default: the SVG's own page; given: the drawing is fitted onto it)",
+            f"around a fitted drawing (default {DEFAULT_MARGIN:g})",
+            f"(default: the SVG's stroke width, else {DEFAULT_PEN_WIDTH:g})",
+        )
     if reorder:
-        svg.add_argument("--keep-order", action="store_true",
-                         help="draw it in its own order (default: reordered as `pencilbot optimize` does)")
+        svg.add_argument(
+            "--keep-order",
+            action="store_true",
+            help="draw it in its own order (default: reordered as `pencilbot optimize` does)",
+        )
 
 
 def _style_default(key: str) -> str:

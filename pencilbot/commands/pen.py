@@ -18,13 +18,18 @@ from pencilbot.machine.profile_edit import profile_with, toml_with_key
 
 def add_parser(subparsers) -> None:
     p = subparsers.add_parser(
-        "pen", help="raise, lower, toggle or cycle the pen; try pen heights",
+        "pen",
+        help="raise, lower, toggle or cycle the pen; try pen heights",
         description="Move the plotter's pen and read back where the plotter says it is: up, down, toggle (the "
         "other of the two), cycle (down, then up). 'trial' lowers and raises the pen to heights you choose "
-        "and keeps the ones you accept in your copy of the profile (in your user folder).")
+        "and keeps the ones you accept in your copy of the profile (in your user folder).",
+    )
     p.add_argument("action", choices=(*PEN_ACTIONS, "trial"), help="what the pen does")
-    p.add_argument("--step", type=number("--step", low=0, above=True, high=1e4),
-                   help="trial: how far + and - move the height, in the profile's unit (default 5; a Z pen 0.5 mm)")
+    p.add_argument(
+        "--step",
+        type=number("--step", low=0, above=True, high=1e4),
+        help="trial: how far + and - move the height, in the profile's unit (default 5; a Z pen 0.5 mm)",
+    )
     add_plotter_options(p)
     p.set_defaults(func=run)
 
@@ -53,8 +58,10 @@ def _trial(plotter, args: argparse.Namespace) -> int:
         plotter.try_height("down", profile.pen.down)  # says why not
     chosen = {}
     step = args.step or (0.5 if profile.pen.kind == "z" else 5.0)
-    print(f"pen heights of {profile.name} in {unit_of(profile)}: Enter keeps a height, a number tries it, "
-          f"+ or - moves it by {step:g}, q stops without saving")
+    print(
+        f"pen heights of {profile.name} in {unit_of(profile)}: Enter keeps a height, a number tries it, "
+        f"+ or - moves it by {step:g}, q stops without saving"
+    )
     for which in ("down", "up"):
         value = float(getattr(profile.pen, which))
         while True:

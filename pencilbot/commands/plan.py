@@ -40,8 +40,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         "inputs", nargs="+", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...) or folder of them"
     )
     parser.add_argument(
-        "-o", "--output", metavar="PLAN.svg|DIR",
-        help="SVG to write (a folder for several inputs; default: INPUT's name .svg beside it)"
+        "-o",
+        "--output",
+        metavar="PLAN.svg|DIR",
+        help="SVG to write (a folder for several inputs; default: INPUT's name .svg beside it)",
     )
     parser.add_argument("--preview", metavar="PREVIEW.png|DIR", help="also render each plan as a PNG")
     add_photo_options(parser)
@@ -55,8 +57,11 @@ def run(args: argparse.Namespace) -> int:
     photo_pens(args)
     inputs = collect_inputs(args.inputs)
     outputs = outputs_or_beside(inputs, args.output, what="plan", suffixes=(".svg",))
-    previews = (output_paths(inputs, args.preview, what="preview", suffixes=(".png",))
-                if args.preview else [None] * len(outputs))
+    previews = (
+        output_paths(inputs, args.preview, what="preview", suffixes=(".png",))
+        if args.preview
+        else [None] * len(outputs)
+    )
     if inputs.batch:
         make_folders([*outputs, *previews])
     jobs = list(zip(inputs.paths, outputs, previews, [args] * len(outputs)))
@@ -70,7 +75,8 @@ def plan_one(source: Path, output: Path, preview: Path | None, args: argparse.Na
     if source.suffix.lower() == ".svg":
         raise PencilbotError(
             f"{source} is a drawing, not a photo: `pencilbot optimize {source} -o {output}` reorders it "
-            f"for the plotter, `pencilbot export {source}` writes its G-code (reordered the same way)")
+            f"for the plotter, `pencilbot export {source}` writes its G-code (reordered the same way)"
+        )
     if preview is not None:
         check_plan(photo_style(args), PREVIEW_DPI)  # the preview's memory too, before any planning
     plan = plan_for_input(source, args)

@@ -54,9 +54,17 @@ def _refuse_missing(named: list[str], infos: list, *, probed: bool) -> None:
     """A port named on the command line that cannot be opened (or, unprobed, a device path that
     does not exist) is a usage mistake: exit 2 after the listing, naming it."""
     if probed:
-        bad = [f"{p.device} ({p.error.removeprefix('cannot open: ')})" for p in infos if p.device in named and p.error.startswith("cannot open")]
+        bad = [
+            f"{p.device} ({p.error.removeprefix('cannot open: ')})"
+            for p in infos
+            if p.device in named and p.error.startswith("cannot open")
+        ]
     else:
-        bad = [f"{name} (no such device)" for name in named if name.startswith("/") and not Path(name).exists()]
+        bad = [
+            f"{name} (no such device)" for name in named if name.startswith("/") and not Path(name).exists()
+        ]
     if bad:
-        raise PencilbotError(f"cannot open the port{'s' if len(bad) > 1 else ''} named: {'; '.join(bad)}; "
-                             "pencilbot ports without a PORT lists the ports there are")
+        raise PencilbotError(
+            f"cannot open the port{'s' if len(bad) > 1 else ''} named: {'; '.join(bad)}; "
+            "pencilbot ports without a PORT lists the ports there are"
+        )

@@ -40,26 +40,63 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     add_profile_option(parser, "GRBL, grblHAL, HP-GL or EBB (axidraw-v3, ...) plotter profile")
     add_realtime_option(parser)
-    parser.add_argument("--baud", type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"), default=0, help="emulated bit/s (default %(default)s: unlimited)")
-    parser.add_argument("--faults", default="", metavar="KIND@LINE,...",
-                        help=f"inject faults, KIND@K (at the K-th line the board takes): KIND one of "
-                             f"{', '.join(FAULT_KINDS)}; error@K:N gives error N, interrupt@K:SIG a signal, and "
-                             "hold and interrupt also strike at a moment of the simulated clock (interrupt@1.45s)")
+    parser.add_argument(
+        "--baud",
+        type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"),
+        default=0,
+        help="emulated bit/s (default %(default)s: unlimited)",
+    )
+    parser.add_argument(
+        "--faults",
+        default="",
+        metavar="KIND@LINE,...",
+        help=f"inject faults, KIND@K (at the K-th line the board takes): KIND one of "
+        f"{', '.join(FAULT_KINDS)}; error@K:N gives error N, interrupt@K:SIG a signal, and "
+        "hold and interrupt also strike at a moment of the simulated clock (interrupt@1.45s)",
+    )
     # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
-    parser.add_argument("--power", choices=("zero", "keep"), default="zero",
-                        help="what a power-up or port-open reset does to the position (default zero)")
-    parser.add_argument("--abort", choices=("lose", "keep"), default="lose",
-                        help="whether a reset in motion or a hard limit loses the position (default lose)")
-    parser.add_argument("--limits", choices=("profile", "bed"), default="profile",
-                        help="profile: the profile's homing and soft limits (default); bed: soft limits "
-                             "at the bed's edges, trusted from power-up")
-    parser.add_argument("--no-reset", action="store_true",
-                        help="a board without auto-reset: opening the port does not reset it")
-    parser.add_argument("--firmware", metavar="VERSION", help="EBB profiles: the firmware the board plays (default 3.0.3; e.g. 2.8.1)")
-    parser.add_argument("--supply", type=number("--supply", low=0, high=40, unit="V"), default=None,
-                        help="EBB profiles: volts at the board's power jack (default 9.1; 0: the motors have no power)")
+    parser.add_argument(
+        "--power",
+        choices=("zero", "keep"),
+        default="zero",
+        help="what a power-up or port-open reset does to the position (default zero)",
+    )
+    parser.add_argument(
+        "--abort",
+        choices=("lose", "keep"),
+        default="lose",
+        help="whether a reset in motion or a hard limit loses the position (default lose)",
+    )
+    parser.add_argument(
+        "--limits",
+        choices=("profile", "bed"),
+        default="profile",
+        help="profile: the profile's homing and soft limits (default); bed: soft limits "
+        "at the bed's edges, trusted from power-up",
+    )
+    parser.add_argument(
+        "--no-reset",
+        action="store_true",
+        help="a board without auto-reset: opening the port does not reset it",
+    )
+    parser.add_argument(
+        "--firmware",
+        metavar="VERSION",
+        help="EBB profiles: the firmware the board plays (default 3.0.3; e.g. 2.8.1)",
+    )
+    parser.add_argument(
+        "--supply",
+        type=number("--supply", low=0, high=40, unit="V"),
+        default=None,
+        help="EBB profiles: volts at the board's power jack (default 9.1; 0: the motors have no power)",
+    )
     parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
-    parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="resolution of the saved drawing in dots per inch (default %(default)g)")
+    parser.add_argument(
+        "--dpi",
+        type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"),
+        default=PLOT_DPI,
+        help="resolution of the saved drawing in dots per inch (default %(default)g)",
+    )
     add_verbosity(parser)
     parser.set_defaults(func=run)
 
@@ -77,9 +114,18 @@ def run(args: argparse.Namespace) -> int:
         raise PencilbotError(f"cannot save to {args.output}: its folder does not exist; create it first")
     if args.output:
         check_writable(args.output)  # a read-only folder: now, not when the session's drawing is saved
-    options = {"profile": args.profile, "realtime": str(args.realtime), "baud": str(args.baud),
-               "faults": args.faults, "power": args.power, "abort": args.abort, "limits": args.limits}
-    options.update({k: str(v) for k, v in (("firmware", args.firmware), ("supply", args.supply)) if v is not None})
+    options = {
+        "profile": args.profile,
+        "realtime": str(args.realtime),
+        "baud": str(args.baud),
+        "faults": args.faults,
+        "power": args.power,
+        "abort": args.abort,
+        "limits": args.limits,
+    }
+    options.update(
+        {k: str(v) for k, v in (("firmware", args.firmware), ("supply", args.supply)) if v is not None}
+    )
     try:
         plotter = plotter_from_options(options)
     except SerialException as exc:
@@ -87,8 +133,9 @@ def run(args: argparse.Namespace) -> int:
     if args.output:  # checked now, not on exit: a session's drawing must not be lost to a typo
         check_render(plotter.profile.bed.width, plotter.profile.bed.height, args.dpi, DEFAULT_PEN_WIDTH)
     resets = getattr(plotter.firmware, "resets_on_open", True)  # an EBB (USB CDC) does not reset on open
-    server = PtyServer(plotter, reset_on_open=not args.no_reset and resets,
-                       on_new_path=lambda path: print(path, flush=True))
+    server = PtyServer(
+        plotter, reset_on_open=not args.no_reset and resets, on_new_path=lambda path: print(path, flush=True)
+    )
     print(server.path, flush=True)
     # Every stop signal (Ctrl-C, a kill, a closed terminal, Ctrl-\) ends the session and saves its
     # drawing, even one the process was started ignoring (a script's background job ignores
@@ -100,8 +147,10 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         pass
     if not args.quiet:
-        print(f"simulated drawing time {plotter.seconds:.1f} s; "
-              f"{len(plotter.firmware.accepted_lines())} lines accepted")
+        print(
+            f"simulated drawing time {plotter.seconds:.1f} s; "
+            f"{len(plotter.firmware.accepted_lines())} lines accepted"
+        )
     if args.output:
         plotter.save_png(args.output, dpi=args.dpi, pen_width=DEFAULT_PEN_WIDTH)
     return 0

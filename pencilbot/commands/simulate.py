@@ -61,9 +61,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("input", metavar="INPUT", help="G-code file, .svg drawing, or photo")
-    parser.add_argument("-o", "--output", metavar="PLOT.png", help="PNG to write (default: INPUT-plot.png beside it)")
+    parser.add_argument(
+        "-o", "--output", metavar="PLOT.png", help="PNG to write (default: INPUT-plot.png beside it)"
+    )
     add_profile_option(parser, "GRBL, grblHAL or HP-GL plotter profile")
-    parser.add_argument("--dpi", type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"), default=PLOT_DPI, help="PNG resolution in dots per inch (default %(default)g)")
+    parser.add_argument(
+        "--dpi",
+        type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"),
+        default=PLOT_DPI,
+        help="PNG resolution in dots per inch (default %(default)g)",
+    )
     parser.add_argument("--travel", action="store_true", help="overlay pen-up travel in red")
     add_realtime_option(parser)
     add_photo_options(parser)
@@ -86,11 +93,18 @@ def run(args: argparse.Namespace) -> int:
         args.profile = _hpgl_profile(args.profile)  # HP-GL is for an HP-GL plotter, whatever the default
     elif source.suffix.lower() in GCODE_SUFFIXES:
         # As draw: the profile the file was exported for, unless another one is asked for.
-        args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
+        args.profile = profile_for(
+            source, args.profile if getattr(args, "profile_given", False) else None, args.profile
+        )
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
-    check_render(profile.bed.width, profile.bed.height, args.dpi, args.pen_width or DEFAULT_PEN_WIDTH,
-                 travel=args.travel)
+    check_render(
+        profile.bed.width,
+        profile.bed.height,
+        args.dpi,
+        args.pen_width or DEFAULT_PEN_WIDTH,
+        travel=args.travel,
+    )
     plotter = _fast_plot(source, profile, args)
     if plotter is not None:  # a plain job run at once on the virtual machine, no pen changes
         _save_plot(output, plotter, [], args, args.pen_width or DEFAULT_PEN_WIDTH)
@@ -115,9 +129,15 @@ def run(args: argparse.Namespace) -> int:
     query = urllib.parse.urlencode({"profile": args.profile, "realtime": args.realtime, "limits": "bed"})
     try:
         # Nobody needs to change a pen in a simulation: an M0 prints its prompt and goes on.
-        draw(program, f"sim://{name}?{query}", profile=args.profile, source=str(source),
-             progress="quiet" if args.quiet else "bar", operator=AutoOperator(),
-             allow_system=args.allow_system_commands)
+        draw(
+            program,
+            f"sim://{name}?{query}",
+            profile=args.profile,
+            source=str(source),
+            progress="quiet" if args.quiet else "bar",
+            operator=AutoOperator(),
+            allow_system=args.allow_system_commands,
+        )
         plotter = protocol_sim.plotter(name)
         _save_plot(output, plotter, pens, args, pen_width)
     finally:
@@ -130,9 +150,13 @@ def _hpgl_profile(default: str) -> str:
     """``default`` if it is an HP-GL plotter's profile, else the first HP-GL profile there is."""
     from pencilbot.machine.profile import list_profiles, load_profile
 
-    names = [n for n in [default, *list_profiles()] if getattr(load_profile(n).firmware, "flow", "") == "polled"]
+    names = [
+        n for n in [default, *list_profiles()] if getattr(load_profile(n).firmware, "flow", "") == "polled"
+    ]
     if not names:
-        raise PencilbotError("the file is HP-GL and no HP-GL plotter profile is known; give one with --profile")
+        raise PencilbotError(
+            "the file is HP-GL and no HP-GL plotter profile is known; give one with --profile"
+        )
     return names[0]
 
 
@@ -155,8 +179,15 @@ def _fast_plot_blocks(blocks, size: int, name: str, args: argparse.Namespace):
     plotter = protocol_sim.plotter_from_options({"profile": args.profile, "realtime": "0", "limits": "bed"})
     if type(plotter) is not protocol_sim.VirtualPlotter or not bulk.fast_path_possible(plotter.machine):
         return None
-    with tqdm(total=size, unit="B", unit_scale=True, desc=f"simulating {name}",
-              file=sys.stderr, disable=args.quiet, leave=False) as bar:
+    with tqdm(
+        total=size,
+        unit="B",
+        unit_scale=True,
+        desc=f"simulating {name}",
+        file=sys.stderr,
+        disable=args.quiet,
+        leave=False,
+    ) as bar:
         return plotter if bulk.run_blocks(plotter.machine, _counted(blocks, bar)) is None else None
 
 
@@ -178,19 +209,32 @@ def _report(output: Path, plotter, pens: list, profile, args: argparse.Namespace
     if not args.quiet:
         strokes = len(plotter.machine.drawn())
         in_pens = f" with {len({p.name for p in pens if p})} pens" if any(pens) else ""
-        print(f"wrote {output}: {strokes} pen-down strokes{in_pens}, simulated drawing time "
-              f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}")
+        print(
+            f"wrote {output}: {strokes} pen-down strokes{in_pens}, simulated drawing time "
+            f"{duration_text(plotter.seconds)} ({plotter.seconds:.1f} s) on {profile.name}"
+        )
 
 
-def _save_color_plot(output: Path, plotter, pens: list, *, dpi: float, pen_width: float, travel: bool) -> None:
+def _save_color_plot(
+    output: Path, plotter, pens: list, *, dpi: float, pen_width: float, travel: bool
+) -> None:
     """Save what the plotter drew, each pen's strokes as a transparent layer of its ink (strokes
     before any pen change in black), band by band."""
     plotter.firmware.finish()
     bed = plotter.profile.bed
-    inks = [([bed.to_view(stroke) for stroke in strokes], ink.color, ink.width)
-            for ink, strokes in strokes_by_pen(plotter.machine, pens, default=PenInFile("", BLACK, pen_width))]
-    save_color_png(output, inks, bed.width, bed.height, dpi=dpi, travel_pen=pen_width,
-                    travel=plotter.machine.bed_travel() if travel else None)
+    inks = [
+        ([bed.to_view(stroke) for stroke in strokes], ink.color, ink.width)
+        for ink, strokes in strokes_by_pen(plotter.machine, pens, default=PenInFile("", BLACK, pen_width))
+    ]
+    save_color_png(
+        output,
+        inks,
+        bed.width,
+        bed.height,
+        dpi=dpi,
+        travel_pen=pen_width,
+        travel=plotter.machine.bed_travel() if travel else None,
+    )
 
 
 def strokes_by_pen(drawing, pens: list, *, default: PenInFile) -> list[tuple[PenInFile, list]]:
@@ -208,8 +252,10 @@ def strokes_by_pen(drawing, pens: list, *, default: PenInFile) -> list[tuple[Pen
 def _recolored(pens: list, pen_set) -> list:
     """The file's pens with the colours and widths ``--pens`` gives for the names it knows."""
     known = {pen.name: pen for pen in pen_set.pens}
-    return [p if p is None or p.name not in known else PenInFile(p.name, known[p.name].color, known[p.name].width)
-            for p in pens]
+    return [
+        p if p is None or p.name not in known else PenInFile(p.name, known[p.name].color, known[p.name].width)
+        for p in pens
+    ]
 
 
 def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float, list]:
@@ -222,7 +268,9 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
         # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
         # no job journal beside the file.
         return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH, []
-    if source.suffix.lower() in HPGL_SUFFIXES or looks_like_hpgl(source):  # HP-GL: one instruction after another
+    if source.suffix.lower() in HPGL_SUFFIXES or looks_like_hpgl(
+        source
+    ):  # HP-GL: one instruction after another
         try:
             return read_bounded(source, "HP-GL file", MAX_HPGL_FILE), args.pen_width or DEFAULT_PEN_WIDTH, []
         except OSError as exc:
@@ -236,9 +284,10 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
             first: dict[str, Layer] = {}
             for layer in plan.layers:
                 first.setdefault(layer.pen, layer)
-            return program, args.pen_width or plan.pen_width, [
-                PenInFile(pen, first[pen].color, first[pen].pen_width) for pen in plan.pens]
+            return (
+                program,
+                args.pen_width or plan.pen_width,
+                [PenInFile(pen, first[pen].color, first[pen].pen_width) for pen in plan.pens],
+            )
         return program, args.pen_width or plan.pen_width, []
     return gcode_program(plan, profile, source=str(source)), args.pen_width or plan.pen_width, []
-
-

@@ -34,28 +34,52 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         description="Turn a photo into a pencil drawing (GMED line drawing + pencil tone and texture).",
     )
     parser.add_argument("input", metavar="INPUT", help="image file (PNG, JPEG, TIFF, ...)")
-    parser.add_argument("-o", "--output", metavar="OUT.png", help="image to write (default: INPUT-sketch.png beside it)")
+    parser.add_argument(
+        "-o", "--output", metavar="OUT.png", help="image to write (default: INPUT-sketch.png beside it)"
+    )
     parser.add_argument("--lines-only", action="store_true", help="write only the line drawing")
     parser.add_argument("--stages", metavar="DIR", help="also write every stage as a PNG in DIR")
-    parser.add_argument("--color", "--colour", action="store_true", help="colour pencil drawing (either spelling)")
     parser.add_argument(
-        "--line-length", type=number("--line-length", low=1, high=LONGEST_LENGTH, whole=True, unit="pixels"), metavar="N",
+        "--color", "--colour", action="store_true", help="colour pencil drawing (either spelling)"
+    )
+    parser.add_argument(
+        "--line-length",
+        type=number("--line-length", low=1, high=LONGEST_LENGTH, whole=True, unit="pixels"),
+        metavar="N",
         help=f"stroke length in pixels, 1-{LONGEST_LENGTH} (default: by image size, {MIN_LENGTH}-{MAX_LENGTH})",
     )
     parser.add_argument(
-        "--stroke-gamma", type=number("--stroke-gamma", low=GAMMA_RANGE[0], high=GAMMA_RANGE[1]), default=1.0, metavar="G",
+        "--stroke-gamma",
+        type=number("--stroke-gamma", low=GAMMA_RANGE[0], high=GAMMA_RANGE[1]),
+        default=1.0,
+        metavar="G",
         help="tone curve of the line drawing: >1 darker strokes, <1 lighter (0.1-10, default 1)",
     )
     parser.add_argument(
-        "--stroke-width", type=number("--stroke-width", low=WIDTH_RANGE[0], high=WIDTH_RANGE[1], unit="pixels"), default=1.0, metavar="PX", help="stroke width in pixels (0.5-20, default 1)"
+        "--stroke-width",
+        type=number("--stroke-width", low=WIDTH_RANGE[0], high=WIDTH_RANGE[1], unit="pixels"),
+        default=1.0,
+        metavar="PX",
+        help="stroke width in pixels (0.5-20, default 1)",
     )
     parser.add_argument(
-        "--texture", metavar="FILE",
+        "--texture",
+        metavar="FILE",
         help="hand-drawn pencil texture image, tiled over the drawing (default: synthesised)",
     )
-    parser.add_argument("--texture-seed", type=number("--texture-seed", low=0, high=2**32 - 1, whole=True), default=0, metavar="S", help="pencil texture seed")
     parser.add_argument(
-        "--max-pixels", type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True), default=DEFAULT_MAX_PIXELS, metavar="N", help="refuse larger images"
+        "--texture-seed",
+        type=number("--texture-seed", low=0, high=2**32 - 1, whole=True),
+        default=0,
+        metavar="S",
+        help="pencil texture seed",
+    )
+    parser.add_argument(
+        "--max-pixels",
+        type=number("--max-pixels", low=1, high=MAX_IMAGE_PIXELS, whole=True),
+        default=DEFAULT_MAX_PIXELS,
+        metavar="N",
+        help="refuse larger images",
     )
     parser.add_argument("--downscale", action="store_true", help="shrink a too-large image instead")
     add_verbosity(parser)
@@ -90,9 +114,18 @@ def run(args: argparse.Namespace) -> int:
     if args.stages:
         stages = gmed_stages(image.gray)
         if not args.lines_only:
-            stages.update({name: stage for name, stage in
-                           (("tone", drawn.tone), ("texture", drawn.texture), ("beta", drawn.beta), ("T", drawn.T))
-                           if stage is not None})
+            stages.update(
+                {
+                    name: stage
+                    for name, stage in (
+                        ("tone", drawn.tone),
+                        ("texture", drawn.texture),
+                        ("beta", drawn.beta),
+                        ("T", drawn.T),
+                    )
+                    if stage is not None
+                }
+            )
         stages["lines"] = line.drawing
         write_stages(Path(args.stages), stages)
     write_image(result, output)
@@ -158,7 +191,10 @@ def write_image(array: np.ndarray, path: Path) -> None:
     image_format = Image.registered_extensions()[path.suffix.lower()]
     options = {}
     if image_format == "PNG" and pixels.shape[0] * pixels.shape[1] >= FAST_PNG_PIXELS:
-        options = {"compress_level": 1, "compress_type": zlib.Z_RLE if pixels.ndim == 2 else zlib.Z_DEFAULT_STRATEGY}
+        options = {
+            "compress_level": 1,
+            "compress_type": zlib.Z_RLE if pixels.ndim == 2 else zlib.Z_DEFAULT_STRATEGY,
+        }
     encoded = io.BytesIO()
     Image.fromarray(pixels).save(encoded, format=image_format, **options)
     write_atomic(path, encoded.getvalue())

@@ -56,15 +56,23 @@ def run(args: argparse.Namespace) -> int:
     if source.suffix.lower() in GCODE_SUFFIXES:  # as draw: the profile the file was exported for
         from pencilbot.driver.header import profile_for
 
-        args.profile = profile_for(source, args.profile if getattr(args, "profile_given", False) else None, args.profile)
+        args.profile = profile_for(
+            source, args.profile if getattr(args, "profile_given", False) else None, args.profile
+        )
     profile = load_profile(args.profile)
     if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL, ours or another tool's (vpype's)
         if getattr(profile.firmware, "flow", "") != "polled":
-            raise PencilbotError(f"{source} is HP-GL and profile {profile.name} is not an HP-GL plotter's; "
-                                 "give its profile (e.g. --profile hp7475a)")
+            raise PencilbotError(
+                f"{source} is HP-GL and profile {profile.name} is not an HP-GL plotter's; "
+                "give its profile (e.g. --profile hp7475a)"
+            )
         plan = hpgl_plan(source, profile)
     else:
-        plan = gcode_plan(source, profile, args.allow_system_commands) if source.suffix.lower() in GCODE_SUFFIXES else read_drawing(source, args)
+        plan = (
+            gcode_plan(source, profile, args.allow_system_commands)
+            if source.suffix.lower() in GCODE_SUFFIXES
+            else read_drawing(source, args)
+        )
     stats = estimate(plan, profile)
     if args.json:
         print(json.dumps({"plan": args.plan, "profile": args.profile, **stats.as_dict()}, indent=2))
@@ -94,7 +102,8 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
         pen = profile.pen_model
         raise PencilbotError(
             f"{path}: the pen never goes down the way profile {profile.name} puts it down ({pen.kind} pen, "
-            f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)")
+            f"down = {pen.down:g}, up = {pen.up:g}); give the profile of the plotter it was written for (--profile)"
+        )
     check_on_bed(job)  # as draw: a move off the bed is no drawing of this plotter
     bed = Page(profile.bed.width, profile.bed.height, margin=0.0, name="bed")
     placement = Placement.on_bed(bed, profile.bed)
@@ -106,10 +115,13 @@ def format_table(stats: PlanStats) -> str:
     header = ("layer", "pen-down", "pen-up", "lifts", "paths", "segments", "time")
     rows = [_row(name, s) for name, s in stats.layers.items()] + [_row("total", stats.total)]
     widths = [max(len(r[i]) for r in [header, *rows]) for i in range(len(header))]
+
     def line(r):
         return "  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(r, widths)))
 
-    return "\n".join([line(header), *(line(r) for r in rows[:-1]), line(["-" * w for w in widths]), line(rows[-1])])
+    return "\n".join(
+        [line(header), *(line(r) for r in rows[:-1]), line(["-" * w for w in widths]), line(rows[-1])]
+    )
 
 
 def _row(name: str, s: Stats) -> list[str]:

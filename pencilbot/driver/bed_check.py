@@ -64,15 +64,27 @@ class BedWatch:
         # Points to check per line: its end, its via point (G28/G30) and each of its arc's four
         # axis crossings (NaN if none).
         via = np.column_stack([c["vx"], c["vy"]])
-        points = np.concatenate([end[:, None, :], via[:, None, :], _arc_extremes(start, end, c, scale)], axis=1)
-        off = self.bed.outside(points.reshape(-1, 2), TOLERANCE).reshape(len(end), -1) & ~np.isnan(points[..., 0])
+        points = np.concatenate(
+            [end[:, None, :], via[:, None, :], _arc_extremes(start, end, c, scale)], axis=1
+        )
+        off = self.bed.outside(points.reshape(-1, 2), TOLERANCE).reshape(len(end), -1) & ~np.isnan(
+            points[..., 0]
+        )
         off[:, 0] |= np.isnan(end).any(axis=1)
         lines = np.flatnonzero(off.any(axis=1))
         if len(lines):
             line = int(lines[0])
             which = int(np.flatnonzero(off[line])[0])
             x, y = points[line, which]
-            what = "unknown" if np.isnan(end[line]).any() else "end" if which == 0 else "via" if which == 1 else "arc"
+            what = (
+                "unknown"
+                if np.isnan(end[line]).any()
+                else "end"
+                if which == 0
+                else "via"
+                if which == 1
+                else "arc"
+            )
             self.first = (index + line, float(x), float(y), what)
 
 
@@ -139,7 +151,9 @@ def arc_geometry(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], s
     return rows, centre, radius, a0, sweep, ccw
 
 
-def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray) -> np.ndarray:
+def _arc_extremes(
+    start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], scale: np.ndarray
+) -> np.ndarray:
     """``(N, 4, 2)`` mm: where each arc line's arc crosses +X, +Y, −X, −Y of its centre; NaN
     where a line is no arc or its arc does not get there."""
     out = np.full((len(end), 4, 2), np.nan)
@@ -149,7 +163,9 @@ def _arc_extremes(start: np.ndarray, end: np.ndarray, c: dict[str, np.ndarray], 
     axes = np.arange(4) * (np.pi / 2)
     along = np.where(ccw[:, None], axes[None, :] - a0[:, None], a0[:, None] - axes[None, :]) % (2 * np.pi)
     reached = along <= sweep[:, None]
-    crossing = centre[:, None, :] + radius[:, None, None] * np.stack([np.cos(axes), np.sin(axes)], axis=1)[None]
+    crossing = (
+        centre[:, None, :] + radius[:, None, None] * np.stack([np.cos(axes), np.sin(axes)], axis=1)[None]
+    )
     out[rows] = np.where(reached[..., None], crossing, np.nan)
     return out
 
@@ -169,18 +185,25 @@ def _refuse_unknown(job: Job, index: int) -> None:
     state = job.state_after(index)
     if stored := re.search(r"G0*(28|30)(?![0-9.])", text):
         code = stored.group(1)
-        what = (f"goes to the position the board stored with G{code}.1, which {job.source} does not set "
-                f"before it")
+        what = (
+            f"goes to the position the board stored with G{code}.1, which {job.source} does not set before it"
+        )
         fix = f"set it in the file first (G{code}.1 where it should go), or move there with G0 X.. Y.."
     elif any(v is None for v in state.frames.data[state.frames.select][:2]):
         system = 54 + state.frames.select
-        what = (f"moves in coordinate system G{system}, whose offset the board keeps and {job.source} "
-                "does not set before it")
-        fix = (f"set it in the file first (G10 L2 P{state.frames.select + 1} X.. Y..), or draw in G54 "
-               "(machine coordinates, as pencilbot export writes)")
+        what = (
+            f"moves in coordinate system G{system}, whose offset the board keeps and {job.source} "
+            "does not set before it"
+        )
+        fix = (
+            f"set it in the file first (G10 L2 P{state.frames.select + 1} X.. Y..), or draw in G54 "
+            "(machine coordinates, as pencilbot export writes)"
+        )
     else:
-        what = (f"moves by a G92 offset that was set in a coordinate system {job.source} never set, so its "
-                "offset is the board's")
+        what = (
+            f"moves by a G92 offset that was set in a coordinate system {job.source} never set, so its "
+            "offset is the board's"
+        )
         fix = "set that coordinate system in the file first (G10 L2 P.. X.. Y..), or use G54"
     raise OutOfBedError(
         f"line {job.number(index)} of {job.source} ({text!r}) {what}, so pencilbot cannot check it against "

@@ -77,8 +77,10 @@ class Control:
         if action == "toggle":
             now = self.pen_state()
             if now is None:
-                raise PlotError(f"{self.family} does not report where its pen is, so it cannot be toggled; "
-                                "say pen up or pen down")
+                raise PlotError(
+                    f"{self.family} does not report where its pen is, so it cannot be toggled; "
+                    "say pen up or pen down"
+                )
             action = "up" if now else "down"
         if action == "cycle":
             self._set_pen(True)
@@ -121,8 +123,9 @@ class Control:
         raise NotImplementedError
 
 
-def open_control(port: str, profile: str | Profile, *, baud: int | None = None,
-                 timeout: float = DEFAULT_TIMEOUT) -> Control:
+def open_control(
+    port: str, profile: str | Profile, *, baud: int | None = None, timeout: float = DEFAULT_TIMEOUT
+) -> Control:
     """Open ``port`` for the plotter of ``profile`` (a name, a .toml path or a :class:`Profile`).
 
     Raises
@@ -131,7 +134,9 @@ def open_control(port: str, profile: str | Profile, *, baud: int | None = None,
         The port cannot be opened, or no board of the profile's firmware answers on it.
     """
     plotter = profile if isinstance(profile, Profile) else load_profile(profile)
-    name = profile.source if isinstance(profile, Profile) and profile.source.endswith(".toml") else plotter.name
+    name = (
+        profile.source if isinstance(profile, Profile) and profile.source.endswith(".toml") else plotter.name
+    )
     fw = plotter.firmware
     baud = baud or fw.baud
     if fw.capabilities.host_motion:
@@ -152,7 +157,9 @@ class GcodeControl(Control):
         super().__init__(profile)
         self.family = self.firmware.title
         self.link = LineReader(open_port(port, baudrate=baud, profile=name))
-        self.session = BoardSession(self.link, self.firmware, receive_buffer=profile.receive_buffer, timeout=timeout)
+        self.session = BoardSession(
+            self.link, self.firmware, receive_buffer=profile.receive_buffer, timeout=timeout
+        )
         try:
             self.session.wake()
         except BaseException:
@@ -236,13 +243,19 @@ class GcodeControl(Control):
         if on:
             if not held:
                 self._do(f"{key}=255")
-            return f"motors on: {fw.title} holds them at rest ({key}=255" + ("" if held else f", was {current}") + ")"
+            return (
+                f"motors on: {fw.title} holds them at rest ({key}=255"
+                + ("" if held else f", was {current}")
+                + ")"
+            )
         if held:
             self._do(f"{key}=25")  # the firmware's default idle delay
             self._move(NUDGE, 0)  # a move ending now lets the idle delay release them
             self._move(-NUDGE, 0)
-            return (f"motors off: {fw.title} releases them 25 ms after each move ({key}=25, was 255); "
-                    "the carriage moves freely (pencilbot align --on holds them again)")
+            return (
+                f"motors off: {fw.title} releases them 25 ms after each move ({key}=25, was 255); "
+                "the carriage moves freely (pencilbot align --on holds them again)"
+            )
         return f"motors off: {fw.title} releases them {current} ms after each move ({key}={current}); the carriage moves freely"
 
     def _move(self, dx: float, dy: float) -> None:

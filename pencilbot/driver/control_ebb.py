@@ -32,8 +32,10 @@ class EbbControl(Control):
             try:
                 self.version = greet(self.link)
             except (EbbFault, PortLost) as exc:
-                raise PlotError(f"no answer from an EBB board on {port} ({exc}): check the port and that the plotter "
-                                "is an AxiDraw, NextDraw or other EBB machine (another needs a profile for it)") from None
+                raise PlotError(
+                    f"no answer from an EBB board on {port} ({exc}): check the port and that the plotter "
+                    "is an AxiDraw, NextDraw or other EBB machine (another needs a profile for it)"
+                ) from None
             self._pen_setup()
         except BaseException:
             self.close()
@@ -81,8 +83,10 @@ class EbbControl(Control):
         self._do(f"EM,{mode},{mode}" if on else "EM,0,0")
         self._idle(0)
         if on:
-            return (f"motors on (EM,{mode},{mode}): the carriage holds where it stands, which is now home "
-                    "(walk and home count from here)")
+            return (
+                f"motors on (EM,{mode},{mode}): the carriage holds where it stands, which is now home "
+                "(walk and home count from here)"
+            )
         return "motors off (EM,0,0): the carriage moves freely; push it to its home corner before a plot"
 
     def _position(self) -> tuple[float, float]:
@@ -96,14 +100,20 @@ class EbbControl(Control):
             self.motors(True)  # a free carriage: switched on where it stands (home from now)
         x, y = self._position()
         if not (-1e-6 <= x + dx <= bed.width + 1e-6 and -1e-6 <= y + dy <= bed.height + 1e-6):
-            raise PlotError(f"walking X{dx:g} Y{dy:g} mm from X{x:g} Y{y:g} (mm from home) would leave the "
-                            f"{bed.width:g} x {bed.height:g} mm bed; nothing moved")
+            raise PlotError(
+                f"walking X{dx:g} Y{dy:g} mm from X{x:g} Y{y:g} (mm from home) would leave the "
+                f"{bed.width:g} x {bed.height:g} mm bed; nothing moved"
+            )
         a, b = round(setup.steps_per_mm * dx), round(setup.steps_per_mm * dy)
         if not (a or b):
             return x, y
         motor = (abs(a + b), abs(a - b)) if setup.kinematics == "corexy" else (abs(a), abs(b))
         speed = self.profile.motion.travel_feed / 60.0  # mm/s
-        ms = max(math.ceil(1000 * math.hypot(dx, dy) / speed), math.ceil(1000 * max(motor) / protocol.MAX_STEP_RATE), 1)
+        ms = max(
+            math.ceil(1000 * math.hypot(dx, dy) / speed),
+            math.ceil(1000 * max(motor) / protocol.MAX_STEP_RATE),
+            1,
+        )
         self._do(f"XM,{ms},{a},{b}" if setup.kinematics == "corexy" else f"SM,{ms},{a},{b}")
         self._idle(ms / 1000)
         return self._position()

@@ -31,8 +31,10 @@ class HpglControl(Control):
             self.link.port.reset_input_buffer()
             self.link.write(self.firmware.wake_bytes)
             if self.link.wait(lambda t: t if t.strip().lstrip("-").isdigit() else None, timeout) is None:
-                raise PlotError(f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
-                                "on a null-modem cable?")
+                raise PlotError(
+                    f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
+                    "on a null-modem cable?"
+                )
         except (Lost, serial.SerialException, OSError) as exc:
             self.close()
             raise PlotError(f"the port {port} was lost ({exc})") from None
@@ -68,12 +70,16 @@ class HpglControl(Control):
         return bool(self._send(b"")[2])
 
     def try_height(self, which: str, value: float) -> bool | None:
-        raise PlotError("an HP-GL plotter's pen is lowered by a solenoid: it has no height to try "
-                        "(pen force, if any, is set on the plotter)")
+        raise PlotError(
+            "an HP-GL plotter's pen is lowered by a solenoid: it has no height to try "
+            "(pen force, if any, is set on the plotter)"
+        )
 
     def motors(self, on: bool) -> str:
-        raise PlotError("an HP-GL plotter has no command that switches its motors off or on; lift the pen "
-                        "(pencilbot pen up) and load the paper with the plotter's own paper lever and keys")
+        raise PlotError(
+            "an HP-GL plotter has no command that switches its motors off or on; lift the pen "
+            "(pencilbot pen up) and load the paper with the plotter's own paper lever and keys"
+        )
 
     def _mm(self, where) -> tuple[float, float]:
         unit = self.profile.paper.unit_mm  # mm per plotter unit
@@ -85,8 +91,10 @@ class HpglControl(Control):
         ux, uy = round(dx / unit), round(dy / unit)
         after = self._send(f"PR{ux},{uy};PA;".encode())
         if (after[0], after[1]) != (before[0] + ux, before[1] + uy):
-            raise PlotError(f"the plotter did not walk X{dx:g} Y{dy:g} mm from X{before[0] * unit:g} "
-                            f"Y{before[1] * unit:g}: past its hard-clip limits; it stands where it was")
+            raise PlotError(
+                f"the plotter did not walk X{dx:g} Y{dy:g} mm from X{before[0] * unit:g} "
+                f"Y{before[1] * unit:g}: past its hard-clip limits; it stands where it was"
+            )
         return self._mm(after)
 
     def home(self) -> tuple[float, float]:

@@ -72,9 +72,17 @@ def _axes(values: np.ndarray) -> _Axes:
     return x, y, z
 
 
-def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray, code: np.ndarray,
-                      select: np.ndarray, l_word: np.ndarray, p_word: np.ndarray, start: Frames,
-                      start_machine: np.ndarray) -> tuple[np.ndarray, np.ndarray, list[Frames], np.ndarray]:
+def machine_positions(
+    words: np.ndarray,
+    moves: np.ndarray,
+    relative: np.ndarray,
+    code: np.ndarray,
+    select: np.ndarray,
+    l_word: np.ndarray,
+    p_word: np.ndarray,
+    start: Frames,
+    start_machine: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, list[Frames], np.ndarray]:
     """Machine X, Y, Z after each line of a block that touches the coordinate systems.
 
     Parameters
@@ -123,8 +131,17 @@ def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray
     here, state, previous = np.asarray(start_machine, dtype=float), start, -1
     for e in events.tolist():
         here = _run_to(e - 1, previous, here, state.offset(), words, summed, last_absolute)
-        state, here, via[e] = _event(state, here, words[e], int(code[e]), int(select[e]), l_word[e], p_word[e],
-                                     bool(relative[e]), bool(moves[e]))
+        state, here, via[e] = _event(
+            state,
+            here,
+            words[e],
+            int(code[e]),
+            int(select[e]),
+            l_word[e],
+            p_word[e],
+            bool(relative[e]),
+            bool(moves[e]),
+        )
         after[e] = here
         if state != frames[-1]:
             frames.append(state)
@@ -139,12 +156,21 @@ def machine_positions(words: np.ndarray, moves: np.ndarray, relative: np.ndarray
     at = np.maximum.accumulate(np.where(assign, index, -1), axis=0)
     pick = np.maximum(at, 0)
     cols = np.arange(3)[None, :]
-    on_machine = np.where(at >= 0, value[pick, cols] + (summed - summed[pick, cols]), start_machine[None, :] + summed)
+    on_machine = np.where(
+        at >= 0, value[pick, cols] + (summed - summed[pick, cols]), start_machine[None, :] + summed
+    )
     return on_machine, frame, frames, via
 
 
-def _run_to(line: int, previous: int, here: np.ndarray, offset: np.ndarray, words: np.ndarray,
-            summed: np.ndarray, last_absolute: np.ndarray) -> np.ndarray:
+def _run_to(
+    line: int,
+    previous: int,
+    here: np.ndarray,
+    offset: np.ndarray,
+    words: np.ndarray,
+    summed: np.ndarray,
+    last_absolute: np.ndarray,
+) -> np.ndarray:
     """Machine position after ordinary line ``line``, from ``here`` after event line ``previous``."""
     if line <= previous:
         return here
@@ -156,8 +182,17 @@ def _run_to(line: int, previous: int, here: np.ndarray, offset: np.ndarray, word
     return np.where(moved, words[rows, cols] + offset + summed[line] - summed[rows, cols], out)
 
 
-def _event(state: Frames, here: np.ndarray, words: np.ndarray, code: int, select: int, l_word: float,
-           p_word: float, relative: bool, move: bool) -> tuple[Frames, np.ndarray, np.ndarray]:
+def _event(
+    state: Frames,
+    here: np.ndarray,
+    words: np.ndarray,
+    code: int,
+    select: int,
+    l_word: float,
+    p_word: float,
+    relative: bool,
+    move: bool,
+) -> tuple[Frames, np.ndarray, np.ndarray]:
     """One line that touches the coordinate systems: (state after, machine position after, via
     point or NaN). A line the board refuses (``G10 L3``, ``P7``) changes nothing, as there."""
     given = ~np.isnan(words)

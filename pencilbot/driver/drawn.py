@@ -52,13 +52,15 @@ def drawn_with_lines(job: Job) -> tuple[Paths, np.ndarray]:
     # where the file leaves an offset to the board, its work coordinates.
     scale = np.where(states["inches"], MM_PER_INCH, 1.0)
     on_machine = np.column_stack([states["mx"], states["my"]])
-    xy = np.where(np.isnan(on_machine), np.column_stack([states["x"] * scale, states["y"] * scale]), on_machine)
+    xy = np.where(
+        np.isnan(on_machine), np.column_stack([states["x"] * scale, states["y"] * scale]), on_machine
+    )
     down = states["pen_down"].astype(bool)
     # Until the program first changes the pen, where it is is unknown (a Z pen at the power-up
     # height 0 reads as down): those lines draw nothing.
     down &= np.cumsum(down != down[0]) > 0
     if job.system.check_from is not None:  # the board parses the lines after a $C and moves for none
-        down[job.system.check_from:] = False
+        down[job.system.check_from :] = False
     before = np.concatenate([[False], down[:-1]])
     moved = np.any(np.diff(xy, axis=0, prepend=xy[:1]) != 0, axis=1)
     starts = down & ~before  # the pen touches the paper here

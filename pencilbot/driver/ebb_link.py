@@ -100,11 +100,15 @@ class EbbLink:
         nothing did."""
         heard = [line.strip() for line in self.noise if line.strip()]
         if heard:
-            return (f"the board on {port} is not an EBB (it answered {heard[0][:40]!r}, not an EBB reply); "
-                    f"profile {profile_name} is an EBB plotter's: give the EBB's port (pencilbot ports lists them) "
-                    f"or the profile of the plotter on {port}")
-        return (f"nothing answered on {port} within {self.timeout:g} s: check that the plotter is powered and "
-                f"plugged in, that {port} is its port and that it is an EBB plotter (pencilbot ports lists them)")
+            return (
+                f"the board on {port} is not an EBB (it answered {heard[0][:40]!r}, not an EBB reply); "
+                f"profile {profile_name} is an EBB plotter's: give the EBB's port (pencilbot ports lists them) "
+                f"or the profile of the plotter on {port}"
+            )
+        return (
+            f"nothing answered on {port} within {self.timeout:g} s: check that the plotter is powered and "
+            f"plugged in, that {port} is its port and that it is an EBB plotter (pencilbot ports lists them)"
+        )
 
     def status(self) -> int:
         """The QG status byte (its power-lost bit, cleared by reading, is kept in :attr:`power_lost`)."""
@@ -143,7 +147,7 @@ def greet(link: EbbLink) -> str:
 def version_at_least(text: str, wanted: tuple[int, ...]) -> bool:
     """Whether an EBB version string (``... Firmware Version 3.0.3``) is at least ``wanted``."""
     try:
-        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[:len(wanted)])
+        numbers = tuple(int(n) for n in text.rsplit(" ", 1)[-1].split(".")[: len(wanted)])
     except ValueError:
         return False
     return numbers >= wanted
@@ -162,6 +166,8 @@ def check_supply(link: EbbLink, version: str) -> None:
         return  # older firmware has no QC: nothing to ask
     volts, counts = supply_volts(link)
     if counts < LOW_SUPPLY:
-        raise PlotError(f"the plotter's motors have no power: its board reads {volts:.1f} V at the power jack "
-                        f"(QC; it needs about 9 V or more); plug in and switch on its power supply, then try again. "
-                        "Nothing was sent")
+        raise PlotError(
+            f"the plotter's motors have no power: its board reads {volts:.1f} V at the power jack "
+            f"(QC; it needs about 9 V or more); plug in and switch on its power supply, then try again. "
+            "Nothing was sent"
+        )

@@ -53,8 +53,21 @@ class _Stop:
     xy: tuple[float, float]
 
 
-def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, baud: int = DEFAULT_BAUD,
-             progress: str = "quiet", timeout: float = DEFAULT_TIMEOUT, operator=None, keys=None, announce=None):
+def draw_ebb(
+    job,
+    profile,
+    port: str,
+    journal,
+    *,
+    start: int = 0,
+    resumed=None,
+    baud: int = DEFAULT_BAUD,
+    progress: str = "quiet",
+    timeout: float = DEFAULT_TIMEOUT,
+    operator=None,
+    keys=None,
+    announce=None,
+):
     """Draw ``job`` (from job line ``start``) on the EBB board at ``port``; see the module text.
     ``announce(banner, job)`` is told what the board said it is (``V``) before anything moves.
 
@@ -108,10 +121,16 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                         checked = done_seconds
                         link.status()
                         if link.power_lost:
-                            raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+                            raise EbbFault(
+                                "the board's supply dropped (QG power-lost bit): the motors may have slipped"
+                            )
                     if keys is not None and _keys_say_pause(keys):
-                        stop = _hold(link, sent, acked, profile, operator, keys, bar, _next_line(work, len(job)))
-                        work = _plan_from(job, xy, down, rows_line, profile, stop.index, stop.steps, None, dwells)
+                        stop = _hold(
+                            link, sent, acked, profile, operator, keys, bar, _next_line(work, len(job))
+                        )
+                        work = _plan_from(
+                            job, xy, down, rows_line, profile, stop.index, stop.steps, None, dwells
+                        )
                         continue
                     work.popleft()
                     sent.append(item)
@@ -121,9 +140,13 @@ def draw_ebb(job, profile, port: str, journal, *, start: int = 0, resumed=None, 
                     bar.update(item.line + 1 - start, done_seconds, "Run")
                 link.wait_idle(timeout + 2 * _in_flight_seconds(sent, link) + 5)
                 if link.power_lost:  # seen while waiting for the last moves
-                    raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+                    raise EbbFault(
+                        "the board's supply dropped (QG power-lost bit): the motors may have slipped"
+                    )
             except (Interrupted, EbbFault, PortLost) as exc:
-                message = _stop(link, exc, sent, acked, job, profile, journal, port, _next_line(work, len(job)))
+                message = _stop(
+                    link, exc, sent, acked, job, profile, journal, port, _next_line(work, len(job))
+                )
                 bar.close("stopped", message)
                 raise PlotError(message) from None
         bar.update(len(job) - start, total, "Idle")
@@ -148,7 +171,7 @@ def _oldest_in_flight(acked: int, link: EbbLink) -> int:
 def _in_flight_seconds(sent: list[EbbMove], link: EbbLink) -> float:
     """How long the commands that may still be queued keep the board busy, s: the one running,
     the FIFO's and the one being parsed."""
-    return sum(m.seconds for m in sent[-(link.fifo_depth + 2):])
+    return sum(m.seconds for m in sent[-(link.fifo_depth + 2) :])
 
 
 ARC_TOLERANCE = 0.002  # mm a chord of an arc may stray from it (GRBL's $12 default)
@@ -166,7 +189,8 @@ def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     down &= np.cumsum(down != down[0]) > 0  # before the first pen command: up
     lines = np.arange(len(job))
     rows, centre, radius, a0, sweep, ccw = arc_geometry(
-        np.vstack([np.zeros(2), xy[:-1]]), xy, c, np.where(c["inches"], MM_PER_INCH, 1.0))
+        np.vstack([np.zeros(2), xy[:-1]]), xy, c, np.where(c["inches"], MM_PER_INCH, 1.0)
+    )
     if not len(rows):
         return xy, down, lines
     with np.errstate(invalid="ignore"):
@@ -181,7 +205,9 @@ def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         n = int(count[k])
         turn = np.where(ccw[k], 1.0, -1.0) * sweep[k] * np.arange(1, n) / n
         angle = a0[k] + turn
-        out_xy[first[row]: first[row] + n - 1] = centre[k] + radius[k] * np.column_stack([np.cos(angle), np.sin(angle)])
+        out_xy[first[row] : first[row] + n - 1] = centre[k] + radius[k] * np.column_stack(
+            [np.cos(angle), np.sin(angle)]
+        )
     return out_xy, down[at], lines[at]
 
 
@@ -197,7 +223,9 @@ def _plan_from(job, xy, down, rows_line, profile, first: int, here, pen_down, dw
         for ms in _dwell_pieces(dwells.get(a, 0.0)):
             work.append(EbbMove(f"SM,{ms},0,0", a, tuple(here), tuple(here), ms / 1000.0, bool(pen_down)))
         ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
-        moves = plan_ebb(xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile, start_steps=here, pen_down=pen_down)
+        moves = plan_ebb(
+            xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile, start_steps=here, pen_down=pen_down
+        )
         work.extend(moves)
         if moves:
             here, pen_down = moves[-1].end, moves[-1].down
@@ -257,7 +285,9 @@ def _chunks(job, start: int, stop: int, dwells=None) -> list[tuple[int, int]]:
     return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
-def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[int, int], bool | None, int | None]:
+def _wake(
+    link: EbbLink, profile, job, resumed, operator=None
+) -> tuple[tuple[int, int], bool | None, int | None]:
     """Greet the board, learn its syntax, and set it up; return the motors' position, the pen
     (None: unknown) and, for a resume, the job line to go on from. A resume whose position is
     lost is re-zeroed with ``operator`` (:mod:`pencilbot.driver.ebb_rezero`), or refused."""
@@ -274,13 +304,19 @@ def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[in
         found = [line for where, line in places if where == steps]
         held = _motors_held(link, profile)
         if link.power_lost or not held or not found:
-            why = ("the board's supply dropped" if link.power_lost
-                   else "its motors were switched off (a restart or power cut), so the carriage was free" if not held
-                   else f"its step counters read {steps[0]},{steps[1]}, where the job never left the pen")
+            why = (
+                "the board's supply dropped"
+                if link.power_lost
+                else "its motors were switched off (a restart or power cut), so the carriage was free"
+                if not held
+                else f"its step counters read {steps[0]},{steps[1]}, where the job never left the pen"
+            )
             if operator is not None:
                 from pencilbot.driver.ebb_rezero import rezero
 
-                steps, start = rezero(link, profile, job, resumed, operator, f"the carriage's position is lost ({why})")
+                steps, start = rezero(
+                    link, profile, job, resumed, operator, f"the carriage's position is lost ({why})"
+                )
                 _configure(link, version)
                 return steps, False, start
             raise PlotError(
@@ -289,7 +325,8 @@ def _wake(link: EbbLink, profile, job, resumed, operator=None) -> tuple[tuple[in
                 f"the raised pen from where it stopped to a mark, and takes the stop point from that jog: "
                 f"{resumed.resume or 'pencilbot draw --resume ' + shlex.quote(str(resumed.path))}. Or push the carriage "
                 f"to its home corner (pen up) and draw again from a line: pencilbot draw {shlex.quote(job.source)} "
-                f"--profile {shlex.quote(profile.name)} --start-line {resumed.next_line}")
+                f"--profile {shlex.quote(profile.name)} --start-line {resumed.next_line}"
+            )
         pen_down, start = None, job.index_of(found[-1])
     else:
         mode = profile.ebb.microstep_mode
@@ -337,7 +374,9 @@ def _pause(link: EbbLink, operator, bar, reason: str) -> None:
         time.sleep(0.05)
 
 
-def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port, unsent: int) -> str:
+def _stop(
+    link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, journal, port, unsent: int
+) -> str:
     """Stop the board, find where, record it, and say how to go on (``unsent``: the job line of
     the first command not sent)."""
     why = f"stopped by {exc.by}" if isinstance(exc, Interrupted) else str(exc)
@@ -359,12 +398,17 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
         where = f"the pen stopped at X{stop.xy[0]:.3f} Y{stop.xy[1]:.3f} (pen up)"
         places = [[*stop.steps, number(stop.index)]]
     elif not answered:
-        where = ("the board did not report where the pen stopped (the resume finds it from the step "
-                 "counters, or refuses)")
-        places = [[*m.end, number(m.line)] for m in sent[_oldest_in_flight(acked, link):]]
+        where = (
+            "the board did not report where the pen stopped (the resume finds it from the step "
+            "counters, or refuses)"
+        )
+        places = [[*m.end, number(m.line)] for m in sent[_oldest_in_flight(acked, link) :]]
     else:
-        where = ("the pen's position is lost (the board restarted or its supply dropped: the motors let go)"
-                 if not held else "the pen's position is lost (the step counters are on none of the moves sent)")
+        where = (
+            "the pen's position is lost (the board restarted or its supply dropped: the motors let go)"
+            if not held
+            else "the pen's position is lost (the step counters are on none of the moves sent)"
+        )
         places = []
     line = number(index)
     text = f"{why}; {where}; line {line} of {job.source} was next."
@@ -374,7 +418,9 @@ def _stop(link: EbbLink, exc, sent: list[EbbMove], acked: int, job, profile, jou
     journal.stop_xy = list(stop.xy) if stop is not None else None
     journal.options["ebb_resume"] = places
     # The moves that may have been running: where a guided re-zero looks for the stop point.
-    journal.options["ebb_moves"] = [[*m.start, *m.end, number(m.line)] for m in sent[_oldest_in_flight(acked, link):]]
+    journal.options["ebb_moves"] = [
+        [*m.start, *m.end, number(m.line)] for m in sent[_oldest_in_flight(acked, link) :]
+    ]
     journal.options["ebb_origin"] = list(link.origin)
     journal.status, journal.message = "stopped", text
     journal.resume = f"pencilbot draw --resume {shlex.quote(str(journal.path))} --port {shlex.quote(port)}"
@@ -387,8 +433,9 @@ def _next_line(work: deque, end: int) -> int:
     return next((item.line if isinstance(item, EbbMove) else item for item in work), end)
 
 
-def _locate(steps: tuple[int, int], sent: list[EbbMove], acked: int, profile, link: EbbLink,
-            unsent: int) -> _Stop | None:
+def _locate(
+    steps: tuple[int, int], sent: list[EbbMove], acked: int, profile, link: EbbLink, unsent: int
+) -> _Stop | None:
     """The job line to resume from, given where the motors stopped: the first command still in
     flight (running, in the FIFO, being parsed) whose segment holds the position and
     that had not finished. When all that was sent ran, the line of the last command sent if

@@ -57,8 +57,10 @@ def rezero(link, profile, job, resumed, operator, why: str) -> tuple[tuple[int, 
     """
     moves = np.array(resumed.options.get("ebb_moves") or [], dtype=np.int64).reshape(-1, 5)
     if not len(moves):
-        raise PlotError("the position is lost and the stop recorded no move in flight to find it on; nothing was "
-                        f"drawn. Restart from a line: pencilbot draw {job.source} --start-line {resumed.next_line}")
+        raise PlotError(
+            "the position is lost and the stop recorded no move in flight to find it on; nothing was "
+            f"drawn. Restart from a line: pencilbot draw {job.source} --start-line {resumed.next_line}"
+        )
     setup, mode = profile.ebb, profile.ebb.microstep_mode
     link.command(f"EM,{mode},{mode}")  # the motors hold where the carriage stands: counters 0 there
     link.origin = (0, 0)
@@ -85,28 +87,41 @@ def rezero(link, profile, job, resumed, operator, why: str) -> tuple[tuple[int, 
 
     operator.jog_to_mark(
         f"{why}. Jog the raised pen from where it stopped (do not move it by hand) until it stands exactly over "
-        f"{mark.text} (close enough: within {FINE_JOG_STEP / 2:g} mm of it in X and in Y), then confirm", mark, jog)
+        f"{mark.text} (close enough: within {FINE_JOG_STEP / 2:g} mm of it in X and in Y), then confirm",
+        mark,
+        jog,
+    )
     link.wait_idle(60)
     counted = np.array(link.steps(), dtype=np.float64)  # the jog, from the stop point
     stop = setup.to_motor(np.array([mark.xy]))[0] - counted
     found = _on_moves(stop, moves, setup, rezero_tolerance())
     if found is None:
         x, y = setup.to_machine(stop[None])[0]
-        raise PlotError(f"by the jog the pen had stopped at X{x:.3f} Y{y:.3f}, on none of the moves the job was making "
-                        "(was the carriage moved by hand?); nothing was drawn. Look at the sheet and restart from a "
-                        f"line: pencilbot draw {job.source} --start-line {resumed.next_line}")
+        raise PlotError(
+            f"by the jog the pen had stopped at X{x:.3f} Y{y:.3f}, on none of the moves the job was making "
+            "(was the carriage moved by hand?); nothing was drawn. Look at the sheet and restart from a "
+            f"line: pencilbot draw {job.source} --start-line {resumed.next_line}"
+        )
     here, line = found
     link.origin = here  # the counters were 0 at the stop point
     now = link.steps()
-    back = plan_ebb(setup.to_machine(np.array([here], dtype=np.float64)), np.array([False]), np.array([0]), profile,
-                    start_steps=now, pen_down=False)  # the raised pen back to the stop point
+    back = plan_ebb(
+        setup.to_machine(np.array([here], dtype=np.float64)),
+        np.array([False]),
+        np.array([0]),
+        profile,
+        start_steps=now,
+        pen_down=False,
+    )  # the raised pen back to the stop point
     for move in back:
         link.command(move.command, wait=link.timeout + 2 * move.seconds)
     link.wait_idle(60)
     return here, job.index_of(line)
 
 
-def _on_moves(stop: np.ndarray, moves: np.ndarray, setup, tolerance: float) -> tuple[tuple[int, int], int] | None:
+def _on_moves(
+    stop: np.ndarray, moves: np.ndarray, setup, tolerance: float
+) -> tuple[tuple[int, int], int] | None:
     """The first move (oldest first) whose segment passes within ``tolerance`` mm of ``stop``
     (motor steps): the nearest point of it, in whole steps, and the move's file line."""
     p = setup.to_machine(stop[None])[0]
@@ -115,6 +130,8 @@ def _on_moves(stop: np.ndarray, moves: np.ndarray, setup, tolerance: float) -> t
         d = b - a
         t = float(np.clip(np.dot(p - a, d) / max(float(np.dot(d, d)), 1e-18), 0.0, 1.0))
         if float(np.hypot(*(a + t * d - p))) <= tolerance:
-            here = np.rint(np.array([a0, a1]) + t * (np.array([b0, b1]) - np.array([a0, a1]))).astype(np.int64)
+            here = np.rint(np.array([a0, a1]) + t * (np.array([b0, b1]) - np.array([a0, a1]))).astype(
+                np.int64
+            )
             return (int(here[0]), int(here[1])), int(line)
     return None

@@ -17,11 +17,12 @@ KINDS = {
     "port": "the serial port vanished",
     "interrupt": "stopped by",  # + who: Ctrl-C, SIGTERM, SIGHUP, the stop key
     "journal": "the job journal could not be written",
-    "unexpected": ("the plotter answered a line pencilbot did not send: another program is writing to the "
-                   "port, and the plotter ran what it wrote (the drawing may hold a stray line); close that "
-                   "program before you resume"),
+    "unexpected": (
+        "the plotter answered a line pencilbot did not send: another program is writing to the "
+        "port, and the plotter ran what it wrote (the drawing may hold a stray line); close that "
+        "program before you resume"
+    ),
 }
-
 
 
 @dataclass

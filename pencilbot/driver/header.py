@@ -105,7 +105,8 @@ def profile_for(path: str | Path, given: str | None, default: str) -> str:
             raise RefusedError(
                 f"{path} was made for plotter profile {header.name} (line {header.line} of its header), "
                 f"which is not known here; give the profile with --profile NAME|FILE.toml "
-                "(see pencilbot export --list-profiles)") from None
+                "(see pencilbot export --list-profiles)"
+            ) from None
         return chosen
     try:
         name = load_profile(given).name
@@ -115,5 +116,6 @@ def profile_for(path: str | Path, given: str | None, default: str) -> str:
         raise RefusedError(
             f"{path} was made for plotter profile {header.name} (line {header.line} of its header), not "
             f"{name}: its pen commands and bed are that plotter's. Leave out --profile (or give "
-            f"--profile {header.name}), or export the drawing again for {name}")
+            f"--profile {header.name}), or export the drawing again for {name}"
+        )
     return given

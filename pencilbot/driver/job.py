@@ -129,12 +129,22 @@ class Job:
     def _track(self, first: int, stop: int) -> Track:
         block = self.frames[self.offsets[first] : self.offsets[stop]]
         fw = self.profile.firmware
-        return track(block, self.profile.pen_model, start=self.checkpoints[first // CHECKPOINT], first=first,
-                     travel_feed=self.profile.motion.travel_feed, dwell_units=fw.dwell_units)
+        return track(
+            block,
+            self.profile.pen_model,
+            start=self.checkpoints[first // CHECKPOINT],
+            first=first,
+            travel_feed=self.profile.motion.travel_feed,
+            dwell_units=fw.dwell_units,
+        )
 
 
-def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source: str | None = None,
-             allow: frozenset[str] = frozenset()) -> Job:
+def load_job(
+    gcode: str | Path | bytes | Iterable[str],
+    profile: Profile,
+    source: str | None = None,
+    allow: frozenset[str] = frozenset(),
+) -> Job:
     """Read G-code, keep its command lines, and check that the firmware can take every one.
 
     Parameters
@@ -174,7 +184,9 @@ def load_job(gcode: str | Path | bytes | Iterable[str], profile: Profile, source
         program = "".join(f"{line}\n" for line in gcode).encode("utf-8", errors="replace")
         job = _prepare(_blocks(_pieces(program), source or "<lines>"), profile, source or "<lines>")
     if not len(job):
-        raise RefusedError(f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)")
+        raise RefusedError(
+            f"{job.source} holds no G-code commands; export a drawing first (pencilbot export)"
+        )
     return dataclasses.replace(job, system=check_system_lines(job, allow))
 
 
@@ -223,7 +235,10 @@ def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]
     for chunk in chunks:
         data, start = rest + chunk, 0
         while True:
-            end = data.rfind(b"\n", start, start + _READ_BLOCK) + 1 or data.find(b"\n", start, start + MAX_FILE_LINE + 1) + 1
+            end = (
+                data.rfind(b"\n", start, start + _READ_BLOCK) + 1
+                or data.find(b"\n", start, start + MAX_FILE_LINE + 1) + 1
+            )
             if end <= start:
                 break  # no whole line left: wait for the next chunk
             lines += data.count(b"\n", start, end)
@@ -233,7 +248,8 @@ def _blocks(chunks: Iterable[bytes], source: str = "<lines>") -> Iterator[bytes]
         if len(rest) > MAX_FILE_LINE:
             raise RefusedError(
                 f"line {lines + 1} of {source} is longer than {MAX_FILE_LINE >> 20} MB (a G-code line holds at most a "
-                "few hundred characters, comments included); is it a G-code file?")
+                "few hundred characters, comments included); is it a G-code file?"
+            )
     if rest:
         yield rest + b"\n"
 
@@ -242,13 +258,19 @@ def _pieces(program: bytes) -> Iterator[bytes]:
     """A whole program in read blocks, as a file is read."""
     view = memoryview(program)
     for start in range(0, len(program), _READ_BLOCK):
-        yield bytes(view[start:start + _READ_BLOCK])
+        yield bytes(view[start : start + _READ_BLOCK])
 
 
 def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
     fw = profile.firmware
     pen = profile.pen_model
-    frames, offsets, numbers, seconds, checkpoints = bytearray(), [np.zeros(1, np.int64)], [], [], [ModalState()]
+    frames, offsets, numbers, seconds, checkpoints = (
+        bytearray(),
+        [np.zeros(1, np.int64)],
+        [],
+        [],
+        [ModalState()],
+    )
     file_lines = done = 0
     state, elapsed = ModalState(), 0.0
     bed = BedWatch(profile.bed)
@@ -259,7 +281,9 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         for m in _PAUSE.finditer(text):  # rare: counting the lines before each costs nothing
             note = _PAUSE_NOTE.search(m.group())
             words = (note.group(1) or note.group(2) or b"") if note else b""
-            pauses[file_lines + 1 + text.count(b"\n", 0, m.start())] = words.decode("utf-8", "replace").strip()
+            pauses[file_lines + 1 + text.count(b"\n", 0, m.start())] = words.decode(
+                "utf-8", "replace"
+            ).strip()
         cleaned = fw.commands(_COMMENT.sub(b"", text).translate(None, _SPACE).upper())
         a = np.frombuffer(cleaned, dtype=np.uint8)
         breaks = np.flatnonzero(a == 10)
@@ -280,8 +304,13 @@ def _prepare(blocks: Iterator[bytes], profile: Profile, source: str) -> Job:
         starts = np.concatenate([[0], np.cumsum(length[kept] + 1)])
         while first < lines:
             stop = min(lines, first + CHECKPOINT - (done + first) % CHECKPOINT)
-            piece = track(block[starts[first] : starts[stop]], pen, start=state, travel_feed=profile.motion.travel_feed,
-                          dwell_units=fw.dwell_units)
+            piece = track(
+                block[starts[first] : starts[stop]],
+                pen,
+                start=state,
+                travel_feed=profile.motion.travel_feed,
+                dwell_units=fw.dwell_units,
+            )
             bed.see(piece, done + first)
             cumulative = elapsed + np.cumsum(piece.seconds)
             seconds.append(cumulative.astype(np.float32))  # an ETA needs no more digits
@@ -328,4 +357,5 @@ def _check(job: Job) -> None:
         raise PencilbotError(
             f"line {job.number(index)} of {job.source} ({job.line(index)[:40]!r}) has a number of "
             f"{len(long.group()) - 1} characters; no plotter coordinate, feed or time needs more than {MAX_DIGITS} "
-            "(a board reads it as a move or a wait without end); nothing was sent. Is it G-code?")
+            "(a board reads it as a move or a wait without end); nothing was sent. Is it G-code?"
+        )

@@ -165,11 +165,15 @@ def save_stopped(journal: Journal) -> str:
     stop = ""
     if journal.stop_xy is not None:
         x, y = journal.stop_xy
-        stop = (f" (the pen stopped at X{x:.4f} Y{y:.4f} inside line {line}'s move, and --start-line draws "
-                "that line whole)")
+        stop = (
+            f" (the pen stopped at X{x:.4f} Y{y:.4f} inside line {line}'s move, and --start-line draws "
+            "that line whole)"
+        )
     journal.resume = f"pencilbot draw {gcode} --port {port} --start-line {line}"
-    return (f"The job journal could not be written {first}; what it would hold: the job goes on at line {line} "
-            f"of {journal.gcode}{stop}. Resume with: {journal.resume}")
+    return (
+        f"The job journal could not be written {first}; what it would hold: the job goes on at line {line} "
+        f"of {journal.gcode}{stop}. Resume with: {journal.resume}"
+    )
 
 
 def why_not(exc: Exception) -> str:
@@ -231,8 +235,11 @@ def _is_int(value) -> bool:
 
 
 def _is_point(value) -> bool:
-    return (isinstance(value, list) and len(value) == 2
-            and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
+    return (
+        isinstance(value, list)
+        and len(value) == 2
+        and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    )
 
 
 def _wrong_field(journal: Journal) -> str | None:
@@ -260,12 +267,18 @@ def _wrong_field(journal: Journal) -> str | None:
     options = journal.options
     if not isinstance(options, dict):
         return f"options is {options!r}, not a table"
-    checks = {"baud": lambda v: _is_int(v) and v > 0,
-              "timeout": lambda v: isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0,
-              "send_and_wait": lambda v: isinstance(v, bool), "on_error": lambda v: v in ("stop", "continue"),
-              # an EBB stop: step positions (and file lines) of where it may stand and what was in flight
-              "ebb_resume": lambda v: _int_rows(v, 3), "ebb_moves": lambda v: _int_rows(v, 5),
-              "ebb_origin": lambda v: _int_rows([v], 2)}
+    checks = {
+        "baud": lambda v: _is_int(v) and v > 0,
+        "timeout": lambda v: (
+            isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0
+        ),
+        "send_and_wait": lambda v: isinstance(v, bool),
+        "on_error": lambda v: v in ("stop", "continue"),
+        # an EBB stop: step positions (and file lines) of where it may stand and what was in flight
+        "ebb_resume": lambda v: _int_rows(v, 3),
+        "ebb_moves": lambda v: _int_rows(v, 5),
+        "ebb_origin": lambda v: _int_rows([v], 2),
+    }
     for name, ok in checks.items():
         if name in options and not ok(options[name]):
             return f"options.{name} is {options[name]!r}"
@@ -274,8 +287,9 @@ def _wrong_field(journal: Journal) -> str | None:
 
 def _int_rows(value, width: int) -> bool:
     """A list of lists of ``width`` whole numbers."""
-    return isinstance(value, list) and all(isinstance(row, list) and len(row) == width and all(map(_is_int, row))
-                                           for row in value)
+    return isinstance(value, list) and all(
+        isinstance(row, list) and len(row) == width and all(map(_is_int, row)) for row in value
+    )
 
 
 def check_against(journal: Journal, job: Job) -> None:
@@ -288,7 +302,9 @@ def check_against(journal: Journal, job: Job) -> None:
         Saying what is wrong and how to go on (:func:`damaged`).
     """
     if journal.total_lines != job.total_lines:
-        raise damaged(journal, f"total_lines is {journal.total_lines}, and {job.source} has {job.total_lines} lines")
+        raise damaged(
+            journal, f"total_lines is {journal.total_lines}, and {job.source} has {job.total_lines} lines"
+        )
     bed = job.profile.bed
     (x0, x1), (y0, y1) = bed.machine_range()
     where = f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)"

@@ -95,14 +95,18 @@ class TerminalOperator:
 
     def jog_to_mark(self, prompt, mark, jog) -> None:
         step = 1.0
-        self._say(f"{prompt}. Keys: h/l move X -/+, j/k move Y -/+, 1/2/3 set the step to 0.1/1/10 mm, "
-                  "Enter when the pen is over the mark, q to give up.")
+        self._say(
+            f"{prompt}. Keys: h/l move X -/+, j/k move Y -/+, 1/2/3 set the step to 0.1/1/10 mm, "
+            "Enter when the pen is over the mark, q to give up."
+        )
         while True:
             key = self.keys.key()
             if key in "\r\n":
                 return
             if key == "q":
-                raise PlotError("re-zero abandoned; nothing was drawn. Resume again when the pen can be jogged")
+                raise PlotError(
+                    "re-zero abandoned; nothing was drawn. Resume again when the pen can be jogged"
+                )
             if key in _JOG_STEPS:
                 step = _JOG_STEPS[key]
                 self._say(f"step {step:g} mm")

@@ -62,14 +62,23 @@ def stop_message(job, fault, index: int, pen_note: str, proven: bool, advice: st
         sends it again.
     """
     line_no = job.number(min(fault.index, len(job) - 1)) if fault.index >= 0 else None
-    where = f"at line {line_no} of {job.source} ({job.line(min(fault.index, len(job) - 1))!r})" if line_no else ""
-    lost = "" if proven else (
-        " The plotter cannot prove where the pen stopped, so the resume re-establishes its position first.")
+    where = (
+        f"at line {line_no} of {job.source} ({job.line(min(fault.index, len(job) - 1))!r})" if line_no else ""
+    )
+    lost = (
+        ""
+        if proven
+        else (
+            " The plotter cannot prove where the pen stopped, so the resume re-establishes its position first."
+        )
+    )
     message = f"{fault} {where}. Stopped; {pen_note}.{lost} {advice}"
     if fault.kind == "error" and line_no:
         if index > fault.index:
-            message += (f" (line {line_no} never ran; the lines the plotter had already taken after it did, "
-                        "so the resume continues after them)")
+            message += (
+                f" (line {line_no} never ran; the lines the plotter had already taken after it did, "
+                "so the resume continues after them)"
+            )
         else:
             # Lines without a journal have no command line to resume them: say it in plain words.
             fix = "use --start-line" if journal is not None else "start from it"

@@ -104,10 +104,28 @@ class Track:
     point a ``G28``/``G30`` passes through, else NaN) and ``frame`` (an index into ``frames``).
     """
 
-    FIELDS = ("inches", "relative", "feed", "motion", "arc", "x", "y", "z", "spindle_on", "s", "servo", "pen_down")
+    FIELDS = (
+        "inches",
+        "relative",
+        "feed",
+        "motion",
+        "arc",
+        "x",
+        "y",
+        "z",
+        "spindle_on",
+        "s",
+        "servo",
+        "pen_down",
+    )
 
-    def __init__(self, first: int, columns: dict[str, np.ndarray], seconds: np.ndarray,
-                 frames: Sequence[Frames] = (Frames(),)) -> None:
+    def __init__(
+        self,
+        first: int,
+        columns: dict[str, np.ndarray],
+        seconds: np.ndarray,
+        frames: Sequence[Frames] = (Frames(),),
+    ) -> None:
         self.first = first
         self.columns = columns
         self.seconds = seconds
@@ -119,7 +137,9 @@ class Track:
     def __getitem__(self, index: int) -> ModalState:
         i = index - self.first
         if not 0 <= i < len(self):
-            raise IndexError(f"line {index} is not in this track (lines {self.first}..{self.first + len(self) - 1})")
+            raise IndexError(
+                f"line {index} is not in this track (lines {self.first}..{self.first + len(self) - 1})"
+            )
         c = {name: self.columns[name][i].item() for name in self.FIELDS}
         c["feed"] = None if np.isnan(c["feed"]) else c["feed"]
         c["servo"] = None if np.isnan(c["servo"]) else c["servo"]
@@ -132,8 +152,15 @@ class Track:
         return self[self.first + len(self) - 1]
 
 
-def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: ModalState = ModalState(),
-          first: int = 0, travel_feed: float = 6000.0, dwell_units: float = 1.0) -> Track:
+def track(
+    block: bytes | bytearray | Sequence[str],
+    pen: PenModel,
+    *,
+    start: ModalState = ModalState(),
+    first: int = 0,
+    travel_feed: float = 6000.0,
+    dwell_units: float = 1.0,
+) -> Track:
     """The modal state after every line of ``block``, starting from ``start``.
 
     Parameters
@@ -173,7 +200,9 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     # What a jog line moves by: its own units and distance mode, else the job's.
     inches_here = np.where(jog & ((g_jog & (G20 | G21)) != 0), (g_jog & G20) != 0, columns["inches"])
     relative = np.where(jog & ((g_jog & (G90 | G91)) != 0), (g_jog & G91) != 0, relative)
-    columns["feed"] = _carry(~np.isnan(word["F"]) & ~jog, word["F"], np.nan if start.feed is None else start.feed)
+    columns["feed"] = _carry(
+        ~np.isnan(word["F"]) & ~jog, word["F"], np.nan if start.feed is None else start.feed
+    )
     columns["motion"] = _carry((g & (G0 | G1)) != 0, ((g & G1) != 0).astype(np.int64), start.motion)
     arc_code = np.where((g & G2) != 0, 2, np.where((g & G3) != 0, 3, 0))
     columns["arc"] = _carry((g & (G0 | G1 | G2 | G3)) != 0, arc_code, start.arc)
@@ -192,7 +221,10 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     # words read, not where the pen is (``x``/``y`` above take the numbers as written); the
     # start state carries its own millimetres across a checkpoint.
     start_mm = start.position_mm()
-    mm = {axis: _position(word[axis.upper()] * scale, moves, relative, start_mm[i]) for i, axis in enumerate("xyz")}
+    mm = {
+        axis: _position(word[axis.upper()] * scale, moves, relative, start_mm[i])
+        for i, axis in enumerate("xyz")
+    }
     # Where the carriage goes: work coordinates plus the work offset, which lines that set up
     # coordinate systems (G10, G53, G54-G59, G92, G28/G30; rare) change, followed one by one.
     start_machine = start_mm + start.frames.offset()
@@ -200,7 +232,8 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     if (code > 0).any() or (select >= 0).any():
         word_mm = np.column_stack([word[a.upper()] * scale for a in "xyz"])
         on_machine, frame, frames, via = coords.machine_positions(
-            word_mm, moves, relative, code, select, word["L"], word["P"], start.frames, start_machine)
+            word_mm, moves, relative, code, select, word["L"], word["P"], start.frames, start_machine
+        )
         work = on_machine - np.array([f.offset() for f in frames])[frame]
         event = (code > 0) | (select >= 0)
         before = np.vstack([start_mm, work[:-1]])
@@ -226,7 +259,9 @@ def track(block: bytes | bytearray | Sequence[str], pen: PenModel, *, start: Mod
     feed = columns["feed"]
     rapid = (columns["motion"] == 0) | np.isnan(feed) | (feed == 0)
     rate = np.where(rapid, travel_feed, np.nan_to_num(feed, nan=1.0) * unit)
-    rate = np.where(jog, np.where(np.isnan(word["F"]), travel_feed / scale, word["F"]) * scale, rate)  # a jog at its own F
+    rate = np.where(
+        jog, np.where(np.isnan(word["F"]), travel_feed / scale, word["F"]) * scale, rate
+    )  # a jog at its own F
     seconds = np.where(distance > 0, distance / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
     dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
     seconds = np.where((g & G4) != 0, dwell, seconds)
@@ -286,8 +321,9 @@ def _words(block: bytes | bytearray) -> _Words:
     point = np.where(n_dots > 0, np.bincount(word, weights=np.where(dot, pos, 0), minlength=count), length)
     point = point.astype(np.int64)[word]
     exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -MAX_DIGITS, MAX_DIGITS)
-    value = np.bincount(word, weights=_POW10[exponent + MAX_DIGITS] * np.where(digit, byte - 48, 0),
-                        minlength=count)
+    value = np.bincount(
+        word, weights=_POW10[exponent + MAX_DIGITS] * np.where(digit, byte - 48, 0), minlength=count
+    )
     negative = np.zeros(count, dtype=bool)
     negative[word[(byte == 45) & (pos == 0)]] = True
     value = np.where(negative, -value, value)
@@ -302,7 +338,9 @@ def _jog_words(line, letter, value, jogging, homing):
     (G20 G21 G90 G91 G53, X Y Z F: anything else the board refuses), a homing line gets
     ``G53 X0 Y0``. The words stay in line order."""
     on_jog = jogging[line]
-    takes = np.isin(letter, [_LETTER[c] for c in "GXYZF"]) & ~((letter == _LETTER["G"]) & ~np.isin(value, _JOG_CODES))
+    takes = np.isin(letter, [_LETTER[c] for c in "GXYZF"]) & ~(
+        (letter == _LETTER["G"]) & ~np.isin(value, _JOG_CODES)
+    )
     keep = ~on_jog | takes
     line = np.concatenate([line[keep], np.repeat(homing, 3)])
     letter = np.concatenate([letter[keep], np.tile([_LETTER["G"], _LETTER["X"], _LETTER["Y"]], len(homing))])
@@ -350,7 +388,11 @@ def _coordinate_codes(words: _Words, lines: int) -> tuple[np.ndarray, np.ndarray
 def _carry(is_set: np.ndarray, value: np.ndarray, initial) -> np.ndarray:
     """The value in force after each line: the last set one, or ``initial`` before any."""
     value = np.broadcast_to(value, is_set.shape)
-    index = np.maximum.accumulate(np.where(is_set, np.arange(len(is_set)), -1)) if len(is_set) else np.zeros(0, np.int64)
+    index = (
+        np.maximum.accumulate(np.where(is_set, np.arange(len(is_set)), -1))
+        if len(is_set)
+        else np.zeros(0, np.int64)
+    )
     return np.where(index >= 0, value[np.maximum(index, 0)], initial)
 
 
@@ -360,7 +402,11 @@ def _position(word: np.ndarray, moves: np.ndarray, relative: np.ndarray, initial
     delta = np.where(given & relative, word, 0.0)
     summed = np.cumsum(delta)
     assigned = given & ~relative
-    index = np.maximum.accumulate(np.where(assigned, np.arange(len(word)), -1)) if len(word) else np.zeros(0, np.int64)
+    index = (
+        np.maximum.accumulate(np.where(assigned, np.arange(len(word)), -1))
+        if len(word)
+        else np.zeros(0, np.int64)
+    )
     at = np.maximum(index, 0)
     return np.where(index >= 0, word[at] + (summed - summed[at]), initial + summed)
 

@@ -128,8 +128,21 @@ def draw(
     fw = plotter.firmware
     baud = baud or fw.baud
     if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
-        return _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
-                            operator, keys)
+        return _draw_polled(
+            gcode,
+            port,
+            plotter,
+            profile,
+            baud,
+            start_line,
+            journal,
+            timeout,
+            progress,
+            announce,
+            source,
+            operator,
+            keys,
+        )
     if check and not fw.capabilities.check_mode:
         raise RefusedError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
@@ -146,25 +159,48 @@ def draw(
         start, stop_xy = job.index_of(journal.next_line), journal.stop_xy
     elif start_line is not None:
         if not 1 <= start_line <= job.total_lines:
-            raise RefusedError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
+            raise RefusedError(
+                f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})"
+            )
         start = job.index_of(start_line)
     check_resumable(job, start)  # a resume restores no work offset the file set up
     if path is not None and journal is None:
         journal = journal_mod.Journal(
-            gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port, profile=profile,
-            total_lines=job.total_lines, path=journal_mod.journal_path(path),
+            gcode=str(path.resolve()),
+            sha256=journal_mod.file_sha256(path),
+            port=port,
+            profile=profile,
+            total_lines=job.total_lines,
+            path=journal_mod.journal_path(path),
         )
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
-        journal.options = {**(journal.options or {}),  # (an EBB stop keeps its step counters here)
-                           "baud": baud, "timeout": timeout, "send_and_wait": send_and_wait, "on_error": on_error,
-                           **({"overrides": overrides} if overrides else {})}
+        journal.options = {
+            **(journal.options or {}),  # (an EBB stop keeps its step counters here)
+            "baud": baud,
+            "timeout": timeout,
+            "send_and_wait": send_and_wait,
+            "on_error": on_error,
+            **({"overrides": overrides} if overrides else {}),
+        }
 
     if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
         from pencilbot.driver.ebb_plot import draw_ebb
 
-        return draw_ebb(job, plotter, sim_url(port, profile), journal, start=start, resumed=journal if resume is not None else None,
-                        baud=baud, progress=progress, timeout=timeout, operator=operator, keys=keys, announce=announce)
+        return draw_ebb(
+            job,
+            plotter,
+            sim_url(port, profile),
+            journal,
+            start=start,
+            resumed=journal if resume is not None else None,
+            baud=baud,
+            progress=progress,
+            timeout=timeout,
+            operator=operator,
+            keys=keys,
+            announce=announce,
+        )
     runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
     runner.announce = announce
     runner.on_progress = on_progress
@@ -180,8 +216,21 @@ def draw(
             pass
 
 
-def _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
-                 operator=None, keys=None):
+def _draw_polled(
+    gcode,
+    port,
+    plotter,
+    profile,
+    baud,
+    start_line,
+    journal,
+    timeout,
+    progress,
+    announce,
+    source,
+    operator=None,
+    keys=None,
+):
     """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
     from pencilbot.driver.polled import draw_polled
 
@@ -194,6 +243,19 @@ def _draw_polled(gcode, port, plotter, profile, baud, start_line, journal, timeo
     else:
         data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
     start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)
-    return draw_polled(data, port, plotter, path=path, profile_arg=profile, baud=baud,
-                       start=start, journal=journal, timeout=timeout, progress=progress, announce=announce,
-                       source=source, operator=operator, keys=keys)
+    return draw_polled(
+        data,
+        port,
+        plotter,
+        path=path,
+        profile_arg=profile,
+        baud=baud,
+        start=start,
+        journal=journal,
+        timeout=timeout,
+        progress=progress,
+        announce=announce,
+        source=source,
+        operator=operator,
+        keys=keys,
+    )

@@ -56,9 +56,23 @@ from pencilbot.errors import PlotError, RefusedError
 from pencilbot.machine.motion import axis_scale, move_times
 
 
-def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_arg: str, baud: int | None,
-                start: int = 0, journal=None, timeout: float = DEFAULT_TIMEOUT, progress: str = "quiet",
-                announce=None, source: str | None = None, operator=None, keys=None):
+def draw_polled(
+    data: bytes,
+    port: str,
+    plotter,
+    *,
+    path: Path | None,
+    profile_arg: str,
+    baud: int | None,
+    start: int = 0,
+    journal=None,
+    timeout: float = DEFAULT_TIMEOUT,
+    progress: str = "quiet",
+    announce=None,
+    source: str | None = None,
+    operator=None,
+    keys=None,
+):
     """Stream an HP-GL program to a polled-flow plotter; see the module docstring.
 
     Parameters
@@ -107,13 +121,21 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         raise RefusedError(f"--start-line {start + 1} is outside {name} (moves 1..{len(program)})")
     baud = baud or fw.baud
     if path is not None and journal is None:
-        journal = journal_mod.Journal(gcode=str(path.resolve()), sha256=journal_mod.file_sha256(path), port=port,
-                                      profile=profile_arg, total_lines=len(program), path=journal_mod.journal_path(path))
+        journal = journal_mod.Journal(
+            gcode=str(path.resolve()),
+            sha256=journal_mod.file_sha256(path),
+            port=port,
+            profile=profile_arg,
+            total_lines=len(program),
+            path=journal_mod.journal_path(path),
+        )
     if journal is not None:
         journal.port, journal.status, journal.options = port, "running", {"baud": baud, "timeout": timeout}
         journal.save()
     seconds = _seconds_after(program, plotter)
-    shown = Progress(progress, len(program) - start, float(seconds[-1] - (seconds[start - 1] if start else 0.0)))
+    shown = Progress(
+        progress, len(program) - start, float(seconds[-1] - (seconds[start - 1] if start else 0.0))
+    )
     done0 = seconds[start - 1] if start else 0.0
     stop = threading.Event()
     why: list[str] = []
@@ -135,17 +157,23 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
             raise Lost(str(exc)) from None
         link.write(fw.wake_bytes)
         if link.wait(lambda t: t if t.strip().lstrip("-").isdigit() else None, timeout) is None:
-            raise PlotError(f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
-                            "on a null-modem cable?")
+            raise PlotError(
+                f"no answer from an HP-GL plotter on {port} (ESC.E): is it on, at {baud} bit/s, "
+                "on a null-modem cable?"
+            )
         link.write(fw.identify_command)
         identity = link.wait(lambda t: t if fw.is_identity(t) else None, timeout)
         link.positions.clear()
         if not resuming and not (start == 0 and len(program) and program.frames[0].startswith(b"IN")):
-            read_status(link, fw, timeout)  # OI answered: idle; this clears the initialised bit of its power-up
+            read_status(
+                link, fw, timeout
+            )  # OI answered: idle; this clears the initialised bit of its power-up
         if announce is not None:
             announce(f"banner '{identity or 'no answer to OI;'}'", (plotter, len(program)))
         if resuming:
-            _wait_empty(link, fw, size, timeout)  # a plotter plugged back in may still be drawing what it held
+            _wait_empty(
+                link, fw, size, timeout
+            )  # a plotter plugged back in may still be drawing what it held
             lost = _check_resume_position(link, fw, program, start, journal, timeout, name, operator is None)
             pen_at = None
             if lost is not None:  # someone at the plotter shows where the drawing on the sheet ends
@@ -207,12 +235,14 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
             used = size - free
             # Bytes of the program not started yet: the buffer's, less the sync points still in it.
             waiting = used - len(fw.sync_command) * len(checkpoints)
-            floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - waiting, side="right")) - 1)
+            floor = max(
+                floor, int(np.searchsorted(program.offsets, base + sent_bytes - waiting, side="right")) - 1
+            )
             if checkpoints and not link.positions and floor > checkpoints[0] + 1:
                 checkpoints.pop(0)  # it ran and its answer came before this one's: lost on the line
             room = max(free - fw.reserve(size), 0) if not link.xoff else 0  # never to the brim
             end = int(np.searchsorted(program.offsets, program.offsets[sent] + room, side="right")) - 1
-            later = list(pending[int(np.searchsorted(pending, sent, side="right")):][:1])
+            later = list(pending[int(np.searchsorted(pending, sent, side="right")) :][:1])
             later += [k for k in after_in if k > sent]
             end = min([end, *later])  # a pen change waits for everything before it; the status, for an IN
             if end <= sent:
@@ -220,7 +250,12 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
                 continue
             chunk = b"".join(program.frames[sent:end])
             sent_bytes += len(chunk)
-            if not checkpoints and end < len(program) and end not in after_in and len(chunk) + len(fw.sync_command) <= room:
+            if (
+                not checkpoints
+                and end < len(program)
+                and end not in after_in
+                and len(chunk) + len(fw.sync_command) <= room
+            ):
                 # A sync point now and then: its answer must be where the program put the pen,
                 # or the plotter lost it (a power cycle clears the buffer and homes the pen).
                 chunk += fw.sync_command
@@ -248,8 +283,16 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
     except Stopped:
         assert link is not None
         at = _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, timeout)
-        _stopped(journal, at, port, f"stopped by {why[0] if why else 'the operator'}", name, program, proven=at is not None,
-                 floor=floor)
+        _stopped(
+            journal,
+            at,
+            port,
+            f"stopped by {why[0] if why else 'the operator'}",
+            name,
+            program,
+            proven=at is not None,
+            floor=floor,
+        )
     except Moved as exc:
         assert link is not None  # Moved comes from reading the plotter
         try:
@@ -257,12 +300,33 @@ def draw_polled(data: bytes, port: str, plotter, *, path: Path | None, profile_a
         except Lost:
             pass
         # What ran after the last sync point the plotter answered right is not known: its buffer went.
-        _stopped(journal, None, port, str(exc), name, program, proven=False, floor=proven, sent=sent, lost=True)
+        _stopped(
+            journal, None, port, str(exc), name, program, proven=False, floor=proven, sent=sent, lost=True
+        )
     except Lost as exc:
-        _stopped(journal, None, port, f"the port was lost ({exc})", name, program, proven=False, floor=floor, sent=sent)
+        _stopped(
+            journal,
+            None,
+            port,
+            f"the port was lost ({exc})",
+            name,
+            program,
+            proven=False,
+            floor=floor,
+            sent=sent,
+        )
     except Silent:
-        _stopped(journal, None, port, f"the plotter did not answer for {timeout:g} s", name, program, proven=False,
-                 floor=floor, sent=sent)
+        _stopped(
+            journal,
+            None,
+            port,
+            f"the plotter did not answer for {timeout:g} s",
+            name,
+            program,
+            proven=False,
+            floor=floor,
+            sent=sent,
+        )
     finally:
         if not finished:
             shown.close("stopped")
@@ -316,7 +380,9 @@ def _stop_here(link, fw, program, size, base, sent_bytes, floor, start, sent, ti
     """Abort, lift, and find the last instruction drawn (None: not found)."""
     try:
         free = poll_free(link, fw, timeout)
-        floor = max(floor, int(np.searchsorted(program.offsets, base + sent_bytes - (size - free), side="right")) - 1)
+        floor = max(
+            floor, int(np.searchsorted(program.offsets, base + sent_bytes - (size - free), side="right")) - 1
+        )
         link.write(fw.abort_bytes)
         poll_free(link, fw, timeout)  # answered after anything the plotter said before the abort
         link.positions.clear()
@@ -359,14 +425,18 @@ def _check_resume_position(link, fw, program, start, journal, timeout, name, ref
     if journal.stop_work and position is not None and (position[0], position[1]) == expected and not reset:
         return None
     where = f"{position[0]},{position[1]}" if position else "unknown"
-    why = (f"the plotter's pen is at {where} (plotter units), not where the job stopped" if not reset else
-           f"the plotter was switched off and on (or reset) since the job stopped (its pen at {where})")
+    why = (
+        f"the plotter's pen is at {where} (plotter units), not where the job stopped"
+        if not reset
+        else f"the plotter was switched off and on (or reset) since the job stopped (its pen at {where})"
+    )
     why += f"; what it drew after instruction {journal.acked_line} is not known"
     if position is None or refuse:
         raise PlotError(
             f"cannot resume {name} exactly: {why}. Run the resume in a terminal: it asks you to jog the raised pen to "
             f"where the last line on the sheet ends, and goes on from there. Or restart from an instruction you "
-            f"choose: pencilbot draw {journal.gcode} --start-line N --port {journal.port} --profile {journal.profile}")
+            f"choose: pencilbot draw {journal.gcode} --start-line N --port {journal.port} --profile {journal.profile}"
+        )
     return why
 
 
@@ -384,15 +454,21 @@ def _stopped(journal, at, port, why, name, program, *, proven, floor, sent=None,
             # Unproven: a lost link lets the plotter finish its buffer; the resume checks the pen stands
             # at the end of what was sent, and refuses otherwise.
             journal.next_line = (sent or floor) + 1
-            journal.stop_work = [float(v) for v in program.xy[journal.next_line - 2]] if journal.next_line > 1 and not lost \
+            journal.stop_work = (
+                [float(v) for v in program.xy[journal.next_line - 2]]
+                if journal.next_line > 1 and not lost
                 else None
+            )
         # The plotter's own count is its position (HP-GL has no work offsets): the same point.
         journal.stop_mpos = None if journal.stop_work is None else list(journal.stop_work)
         how = journal_mod.save_stopped(journal)
     else:
         how = "draw a file (not a program) to be able to resume"
-    state = f"stopped after instruction {at} of {len(program)} (pen up)" if at is not None else (
-        f"instructions up to {floor} ran; the pen position is not proven")
+    state = (
+        f"stopped after instruction {at} of {len(program)} (pen up)"
+        if at is not None
+        else (f"instructions up to {floor} ran; the pen position is not proven")
+    )
     raise PlotError(f"{name}: {why}; {state}; {how}")
 
 
@@ -416,11 +492,16 @@ def _seconds_after(program, plotter) -> np.ndarray:
         return np.zeros(1)
     step = np.diff(program.xy, axis=0, prepend=np.zeros((1, 2), np.int64)) * plotter.paper.unit_mm
     length = np.hypot(*step.T)
-    speed = np.where(program.down, np.where(program.speed > 0, program.speed * 10.0, plotter.motion.draw_speed),
-                     plotter.motion.travel_speed)
+    speed = np.where(
+        program.down,
+        np.where(program.speed > 0, program.speed * 10.0, plotter.motion.draw_speed),
+        plotter.motion.travel_speed,
+    )
     moving = length > 0
     units = np.where(moving[:, None], step / np.where(moving, length, 1.0)[:, None], 1.0)
-    seconds = np.where(moving, move_times(length, 0.0, 0.0, speed, plotter.motion.acceleration * axis_scale(units)), 0.0)
+    seconds = np.where(
+        moving, move_times(length, 0.0, 0.0, speed, plotter.motion.acceleration * axis_scale(units)), 0.0
+    )
     pen = plotter.pen_model
     changed = np.diff(program.down.astype(np.int8), prepend=np.int8(0))
     delays = np.where(changed > 0, pen.down_delay, np.where(changed < 0, pen.up_delay, 0.0))
@@ -432,9 +513,12 @@ def _check_limits(program, plotter, fw, name) -> None:
     if not len(program):
         return
     w, h = round(plotter.bed.width / plotter.paper.unit_mm), round(plotter.bed.height / plotter.paper.unit_mm)
-    bad = np.flatnonzero((program.xy[:, 0] < 0) | (program.xy[:, 1] < 0) | (program.xy[:, 0] > w) | (program.xy[:, 1] > h))
+    bad = np.flatnonzero(
+        (program.xy[:, 0] < 0) | (program.xy[:, 1] < 0) | (program.xy[:, 0] > w) | (program.xy[:, 1] > h)
+    )
     if len(bad):
         k = bad[0]
         raise PlotError(
             f"{name}: instruction {program.lines[k]} goes to {program.xy[k, 0]},{program.xy[k, 1]}, beyond the limits of "
-            f"{plotter.name} (0..{w} x 0..{h} plotter units); export the drawing for this sheet")
+            f"{plotter.name} (0..{w} x 0..{h} plotter units); export the drawing for this sheet"
+        )

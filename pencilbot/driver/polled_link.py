@@ -96,8 +96,12 @@ def check_point(position, program, checkpoints: list[int]) -> int:
     each was sent) still open: it must be their end. An answer that matches a later one means
     the earlier answers were lost on the line; they are dropped with it. Returns the entry the
     answer proves ran (all before it did)."""
-    ends = [(int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1])) if k else (0, 0, False)
-            for k in checkpoints]
+    ends = [
+        (int(program.xy[k - 1, 0]), int(program.xy[k - 1, 1]), bool(program.down[k - 1]))
+        if k
+        else (0, 0, False)
+        for k in checkpoints
+    ]
     for j, end in enumerate(ends):
         if tuple(position) == end:
             proven = checkpoints[j]
@@ -105,12 +109,23 @@ def check_point(position, program, checkpoints: list[int]) -> int:
             return proven
     after, expected = checkpoints[0], ends[0]
     state = lambda p: f"{p[0]},{p[1]} pen {'down' if p[2] else 'up'}"  # noqa: E731
-    raise Moved(f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
-                "it lost its place (switched off and on, or reset)")
+    raise Moved(
+        f"the plotter's pen was at {state(position)} after instruction {after}, not at {state(expected)}: "
+        "it lost its place (switched off and on, or reset)"
+    )
 
 
-def drain(link: Answers, fw, program, checkpoints: list[int], upto: int, floor: int, timeout: float,
-          in_sent: bool | None = None, stop=None) -> None:
+def drain(
+    link: Answers,
+    fw,
+    program,
+    checkpoints: list[int],
+    upto: int,
+    floor: int,
+    timeout: float,
+    in_sent: bool | None = None,
+    stop=None,
+) -> None:
     """Until everything sent (entries before ``upto``) has run: a sync point is answered once
     everything before it ran (the buffer holds ≤ its size in bytes). Unanswered, and ``in_sent``
     given (an ``IN`` sent since the status was read): a reset may have taken the sync point
@@ -139,8 +154,10 @@ def check_initialised(link: Answers, fw, timeout: float, after: int, expected: b
     (``expected`` False) means the plotter was switched off and on, or reset: its buffer is gone,
     though the pen may stand where the program would have put it (at home)."""
     if read_status(link, fw, timeout) & fw.initialised_bit and not expected:
-        raise Moved(f"the plotter says it was initialised after instruction {after} (OS bit 8) with no IN "
-                    "instruction sent: it lost its place (switched off and on, or reset)")
+        raise Moved(
+            f"the plotter says it was initialised after instruction {after} (OS bit 8) with no IN "
+            "instruction sent: it lost its place (switched off and on, or reset)"
+        )
 
 
 def poll_free(link: Answers, fw, timeout: float) -> int:

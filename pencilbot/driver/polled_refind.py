@@ -20,7 +20,9 @@ from pencilbot.driver.position import FINE_JOG_STEP, Mark, rezero_tolerance
 from pencilbot.errors import PlotError
 
 
-def refind(link, fw, program, journal, operator, plotter, timeout: float, why: str) -> tuple[int, tuple[int, int]]:
+def refind(
+    link, fw, program, journal, operator, plotter, timeout: float, why: str
+) -> tuple[int, tuple[int, int]]:
     """Find where the job stopped on the sheet with ``operator`` (see the module docstring).
 
     Returns
@@ -51,7 +53,9 @@ def refind(link, fw, program, journal, operator, plotter, timeout: float, why: s
     operator.jog_to_mark(
         f"{why}. Jog the raised pen until it stands exactly over the end of the last line the plotter drew on the "
         f"sheet (close enough: within {FINE_JOG_STEP / 2:g} mm of it in X and in Y), then confirm",
-        Mark((math.nan, math.nan), "the end of the last line drawn on the sheet"), jog)
+        Mark((math.nan, math.nan), "the end of the last line drawn on the sheet"),
+        jog,
+    )
     link.write(fw.sync_command)
     shown = link.position(fw, timeout)
     if shown is None:
@@ -61,11 +65,14 @@ def refind(link, fw, program, journal, operator, plotter, timeout: float, why: s
         raise PlotError(
             f"the pen stands at {shown[0]},{shown[1]} (plotter units), on none of the lines the job was drawing "
             f"(instructions {low + 1}..{high}); nothing was drawn. Restart from an instruction you choose: "
-            f"pencilbot draw {journal.gcode} --start-line N --port {journal.port} --profile {journal.profile}")
+            f"pencilbot draw {journal.gcode} --start-line N --port {journal.port} --profile {journal.profile}"
+        )
     return found
 
 
-def _on_moves(program, point: np.ndarray, low: int, high: int, tolerance: float) -> tuple[int, tuple[int, int]] | None:
+def _on_moves(
+    program, point: np.ndarray, low: int, high: int, tolerance: float
+) -> tuple[int, tuple[int, int]] | None:
     """The first drawing move among entries ``low .. high - 1`` that passes within ``tolerance``
     units of ``point``, and the nearest whole point of it."""
     for i in range(max(low, 1), high):

@@ -68,8 +68,9 @@ def open_port(url: str, *, baudrate: int = DEFAULT_BAUD, profile: str | None = N
         The port does not exist, is in use by another program, or the URL is malformed.
     """
     try:
-        port = serial.serial_for_url(sim_url(url, profile), baudrate=baudrate, timeout=READ_SLICE,
-                                     write_timeout=10, exclusive=True)
+        port = serial.serial_for_url(
+            sim_url(url, profile), baudrate=baudrate, timeout=READ_SLICE, write_timeout=10, exclusive=True
+        )
         _hold_exclusively(port)
         return port
     except (serial.SerialException, ValueError, OSError) as exc:

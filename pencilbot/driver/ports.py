@@ -30,7 +30,12 @@ PROBES: tuple[tuple[str, int, bytes, re.Pattern], ...] = (
     ("Marlin", DEFAULT_BAUD, b"", re.compile(r"^(?:start|echo:Marlin\s*(\S*))$")),
     ("GRBL", DEFAULT_BAUD, b"\r\n$I\r\n", re.compile(r"^\[VER:([^\]:]+)")),
     ("Marlin", DEFAULT_BAUD, b"\nM115\n", re.compile(r"FIRMWARE_NAME:Marlin\s*(\S*)")),
-    ("EBB", DEFAULT_BAUD, b"\rV\r", re.compile(r"^(?:EBB\S*\s+)?EB(?:Bot)?\S* Firmware Version\s+(\S+)|^(EBBv\S+)")),
+    (
+        "EBB",
+        DEFAULT_BAUD,
+        b"\rV\r",
+        re.compile(r"^(?:EBB\S*\s+)?EB(?:Bot)?\S* Firmware Version\s+(\S+)|^(EBBv\S+)"),
+    ),
     ("HP-GL", HPGL.baud, b"\x1b.J;OI;", re.compile(r"^(\d{4}[A-Z]?|DXY-?\S+)$")),
 )
 BANNER_WAIT = 1.5  # s: an Arduino's bootloader, then GRBL's or Marlin's greeting
@@ -60,11 +65,14 @@ def list_ports() -> list[PortInfo]:
     """The serial ports the operating system lists (USB adapters, built-in, Bluetooth)."""
     from serial.tools import list_ports as lp
 
-    return [PortInfo(p.device, p.description if p.description != "n/a" else "") for p in sorted(lp.comports())]
+    return [
+        PortInfo(p.device, p.description if p.description != "n/a" else "") for p in sorted(lp.comports())
+    ]
 
 
-def probe(device: str, *, description: str = "", banner_wait: float = BANNER_WAIT,
-          answer_wait: float = ANSWER_WAIT) -> PortInfo:
+def probe(
+    device: str, *, description: str = "", banner_wait: float = BANNER_WAIT, answer_wait: float = ANSWER_WAIT
+) -> PortInfo:
     """Ask the board on ``device`` what it is (see the module docstring); nothing moves."""
     opened_at = 0.0  # when the port was (re)opened at the probe's baud
     handle = None
@@ -73,7 +81,9 @@ def probe(device: str, *, description: str = "", banner_wait: float = BANNER_WAI
             if handle is None or handle.baudrate != baud:
                 if handle is not None:
                     handle.close()
-                handle = serial.serial_for_url(device, baudrate=baud, timeout=0.02, write_timeout=2, exclusive=True)
+                handle = serial.serial_for_url(
+                    device, baudrate=baud, timeout=0.02, write_timeout=2, exclusive=True
+                )
                 opened_at = time.monotonic()
                 lines = _Lines(handle)
             if question:
@@ -81,14 +91,18 @@ def probe(device: str, *, description: str = "", banner_wait: float = BANNER_WAI
                 handle.write(question)
                 found = lines.find(pattern, answer_wait)
             else:  # the greeting of a board that reset as the port opened
-                found = lines.find(pattern, max(banner_wait - (time.monotonic() - opened_at), 0.05), keep=True)
+                found = lines.find(
+                    pattern, max(banner_wait - (time.monotonic() - opened_at), 0.05), keep=True
+                )
             if found is not None:
                 text, version = found
                 return PortInfo(device, description, family, version, text)
         return PortInfo(device, description)
     except (serial.SerialException, OSError, ValueError, PencilbotError) as exc:
         busy = "busy" in str(exc).lower() or "lock" in str(exc).lower() or "in use" in str(exc).lower()
-        return PortInfo(device, description, error="in use by another program" if busy else f"cannot open: {exc}")
+        return PortInfo(
+            device, description, error="in use by another program" if busy else f"cannot open: {exc}"
+        )
     finally:
         if handle is not None:
             try:
@@ -157,7 +171,8 @@ def wrong_kind(found: list[PortInfo], profile) -> tuple[list[PortInfo], str]:
     if not others:
         return fits, ""
     named = "; ".join(f"{f.device}: {f.summary()}" for f in others)
-    return fits, (f"--port auto: no {profile.firmware.title} plotter answered for profile {profile.name}, only "
-                  f"plotters of another kind ({named}); connect the {profile.firmware.title} plotter, or draw for "
-                  f"the one found with its own profile and --port")
-
+    return fits, (
+        f"--port auto: no {profile.firmware.title} plotter answered for profile {profile.name}, only "
+        f"plotters of another kind ({named}); connect the {profile.firmware.title} plotter, or draw for "
+        f"the one found with its own profile and --port"
+    )

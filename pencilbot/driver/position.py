@@ -47,8 +47,8 @@ def rezero_tolerance(pen_width: float = DEFAULT_PEN_WIDTH, step: float = FINE_JO
 def coast_limit(motion) -> float:
     """mm a carriage can run on after its motors stop dead (a reset or alarm in motion): from
     the top speed (both axes at their rate) at the machine's acceleration, v²/2a."""
-    speed = motion.axis_rate / 60.0 * 2 ** 0.5
-    return speed * speed / (2.0 * motion.acceleration * 2 ** 0.5)
+    speed = motion.axis_rate / 60.0 * 2**0.5
+    return speed * speed / (2.0 * motion.acceleration * 2**0.5)
 
 
 def near(a, b, tolerance: float = NEAR) -> bool:
@@ -103,8 +103,10 @@ def mark_before(job, limit: int, to_mm: float) -> Mark:
             state = states[i]
             if state.pen_down and previous.pen_down and (state.x, state.y) != (previous.x, previous.y):
                 x, y = previous.x * to_mm, previous.y * to_mm
-                return Mark((x, y), f"the start of the first stroke (X{x:.3f} Y{y:.3f}, drawn by file line "
-                                    f"{job.number(i)})")
+                return Mark(
+                    (x, y),
+                    f"the start of the first stroke (X{x:.3f} Y{y:.3f}, drawn by file line {job.number(i)})",
+                )
             previous = state
     return Mark((0.0, 0.0), "the job's origin X0 Y0 (where the pen stood when the job first started)")
 
@@ -120,8 +122,15 @@ def refusal(why: str, mark: Mark, resume_command: str, homing: bool) -> PlotErro
     )
 
 
-def jog_to_mark(stream, profile, operator: Operator, mark: Mark, why: str, alarm: bool,
-                count: tuple[float, float] | None = None) -> tuple[float, float]:
+def jog_to_mark(
+    stream,
+    profile,
+    operator: Operator,
+    mark: Mark,
+    why: str,
+    alarm: bool,
+    count: tuple[float, float] | None = None,
+) -> tuple[float, float]:
     """Guided re-zero: the user jogs the pen from where it stopped to ``mark``.
 
     ``count``: where the board counted the pen when the job stopped (work mm), kept although it

@@ -42,8 +42,14 @@ class Progress:
         follows the plot through it.
     """
 
-    def __init__(self, mode: str, total_lines: int, total_seconds: float, out: TextIO | None = None,
-                 listener: Callable[[dict], None] | None = None):
+    def __init__(
+        self,
+        mode: str,
+        total_lines: int,
+        total_seconds: float,
+        out: TextIO | None = None,
+        listener: Callable[[dict], None] | None = None,
+    ):
         if mode not in MODES:
             raise ValueError(f"progress mode must be one of {MODES}, not {mode!r}")
         self.mode = mode
@@ -75,28 +81,47 @@ class Progress:
             return min(100.0, 100.0 * done_seconds / self.total_seconds)
         return 100.0 * lines_done / max(self.total_lines, 1)
 
-    def update(self, lines_done: int, done_seconds: float, state: str, force: bool = False,
-               where: Callable[[], dict] | None = None) -> None:
+    def update(
+        self,
+        lines_done: int,
+        done_seconds: float,
+        state: str,
+        force: bool = False,
+        where: Callable[[], dict] | None = None,
+    ) -> None:
         """Report progress: lines acknowledged, their motion estimate (s), machine state;
         ``where()`` (asked only when a listener is told) adds where the machine is."""
         now = time.monotonic()
         self._done = (lines_done, done_seconds)
         if (self.mode == "quiet" and self.listener is None) or (
-                now - self._last_emit < MIN_INTERVAL and lines_done < self.total_lines and not force):
+            now - self._last_emit < MIN_INTERVAL and lines_done < self.total_lines and not force
+        ):
             return
         self._last_emit = now
         eta = self.eta(done_seconds)
         percent = self.percent(done_seconds, lines_done)
         if self.listener is not None:
-            self.listener(dict(event="progress", line=lines_done, total=self.total_lines, percent=round(percent, 2),
-                               state=state, elapsed_s=round(now - self.started, 1), eta_s=round(eta, 1),
-                               **(where() if where is not None else {})))
+            self.listener(
+                dict(
+                    event="progress",
+                    line=lines_done,
+                    total=self.total_lines,
+                    percent=round(percent, 2),
+                    state=state,
+                    elapsed_s=round(now - self.started, 1),
+                    eta_s=round(eta, 1),
+                    **(where() if where is not None else {}),
+                )
+            )
         if self.mode == "quiet":
             return
         if self._bar is not None:
             self._bar.n = round(percent, 1)
-            self._bar.set_postfix_str(f"line {lines_done}/{self.total_lines}, {state or '?'}, "
-                                      f"ETA {time.strftime('%H:%M:%S', time.gmtime(eta))}", refresh=False)
+            self._bar.set_postfix_str(
+                f"line {lines_done}/{self.total_lines}, {state or '?'}, "
+                f"ETA {time.strftime('%H:%M:%S', time.gmtime(eta))}",
+                refresh=False,
+            )
             self._bar.refresh()
         else:
             self._emit(
@@ -116,7 +141,9 @@ class Progress:
     def close(self, status: str, message: str = "") -> None:
         """End the display: ``status`` is ``"done"`` or ``"stopped"``."""
         if self.listener is not None:
-            self.listener(dict(event=status, elapsed_s=round(time.monotonic() - self.started, 2), message=message))
+            self.listener(
+                dict(event=status, elapsed_s=round(time.monotonic() - self.started, 2), message=message)
+            )
         if self._bar is not None:
             self._bar.close()
         elif self.mode == "json":

@@ -23,11 +23,15 @@ _CHUNK = 256  # job lines tracked at a time when counting moves back
 REPORT_RESOLUTION = 0.001
 #: mm: how far a point rounded to :data:`REPORT_RESOLUTION` in X and in Y can be from the true
 #: one (half a digit in each): a reported point this close to a move's end may be either side.
-REPORT_ROUNDING = REPORT_RESOLUTION / 2 * 2 ** 0.5
+REPORT_ROUNDING = REPORT_RESOLUTION / 2 * 2**0.5
 
 
 def resume_preamble(
-    state: ModalState, pen: PenModel, *, stop_xy: tuple[float, float] | None = None, decimals: int = 3,
+    state: ModalState,
+    pen: PenModel,
+    *,
+    stop_xy: tuple[float, float] | None = None,
+    decimals: int = 3,
     dwell=None,
 ) -> list[str]:
     """G-code that puts a freshly woken machine into ``state``, travelling with the pen up.
@@ -119,9 +123,16 @@ def flight_start(job, last: int, receive_buffer: int, moves: int) -> int:
 
 
 def locate_stop(
-    states, last: int, position: tuple[float, float] | None, *, window: int = 40,
-    tolerance: float = REPORT_RESOLUTION, pen_down: bool | None = None, floor: int | None = None,
-    after: tuple[float, float] | None = None, coast: float = 0.0,
+    states,
+    last: int,
+    position: tuple[float, float] | None,
+    *,
+    window: int = 40,
+    tolerance: float = REPORT_RESOLUTION,
+    pen_down: bool | None = None,
+    floor: int | None = None,
+    after: tuple[float, float] | None = None,
+    coast: float = 0.0,
 ) -> tuple[int, tuple[float, float] | None] | None:
     """Where to resume after the machine stopped at ``position``, or ``None`` if it is not on
     the last moves sent (unknown, or the machine was power-cycled or moved by hand).
@@ -262,8 +273,17 @@ class StopLocator:
             return xy[0] / MM_PER_INCH, xy[1] / MM_PER_INCH
         return xy
 
-    def locate(self, last: int, position_xy, pen_down: bool | None = None, floor: int | None = None,
-               answered: int | None = None, window: int | None = None, after=None, **how):
+    def locate(
+        self,
+        last: int,
+        position_xy,
+        pen_down: bool | None = None,
+        floor: int | None = None,
+        answered: int | None = None,
+        window: int | None = None,
+        after=None,
+        **how,
+    ):
         """:func:`~pencilbot.driver.resume.locate_stop` over the lines up to ``last`` (sent) that
         can have been in flight, or the ``window`` lines before it (``how``: its tolerance and
         coast); ``after``: where on ``floor``'s move the machine was then."""
@@ -279,8 +299,16 @@ class StopLocator:
         if sync is not None and (floor is None or sync > floor):
             floor, after = sync, None
         # The state before the window's first line too: its move starts there.
-        return locate_stop(self.job.states(max(first - 1, 0), last + 1), last, position_xy,
-                           window=last - first + 1, pen_down=pen_down, floor=floor, after=after, **how)
+        return locate_stop(
+            self.job.states(max(first - 1, 0), last + 1),
+            last,
+            position_xy,
+            window=last - first + 1,
+            pen_down=pen_down,
+            floor=floor,
+            after=after,
+            **how,
+        )
 
     def coasted(self, at, count, here, tolerance: float):
         """Where to resume after the carriage coasted on from the board's count (a reset or
@@ -294,7 +322,7 @@ class StopLocator:
         index, stop_xy = at
         slack = tolerance + 2 * REPORT_ROUNDING
         c, p = complex(*count), complex(*here)
-        for move in ([index] if stop_xy is not None else [index - 1, index]):
+        for move in [index] if stop_xy is not None else [index - 1, index]:
             if not 0 <= move < len(self.job):
                 continue
             states = self.job.states(max(move - 1, 0), move + 1)
@@ -323,8 +351,12 @@ class StopLocator:
     def flight_start(self, last: int) -> int:
         """The earliest line the machine can have been running with lines up to ``last`` sent:
         what the board's receive buffer and planner hold (its firmware's figures)."""
-        return flight_start(self.job, min(last, len(self.job) - 1), self.profile.receive_buffer,
-                            self.firmware.moves_in_flight())
+        return flight_start(
+            self.job,
+            min(last, len(self.job) - 1),
+            self.profile.receive_buffer,
+            self.firmware.moves_in_flight(),
+        )
 
     def planner_floor(self, status, acked: int, refused: int | None = None) -> int | None:
         """The line the machine was running when it came to rest, from the planner count of the

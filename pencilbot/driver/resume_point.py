@@ -66,24 +66,34 @@ class ResumePointFinder:
                 x, y = journal.stop_work
                 # A Z pen's count restarted too; the stop raised it to its up height.
                 z = f"Z{self.pen.up:.4f}" if self.pen.kind == "z" else ""
-                self.setup_command(stream, self.firmware.set_origin(x, y, z), "restoring the origin at the stop point")
+                self.setup_command(
+                    stream, self.firmware.set_origin(x, y, z), "restoring the origin at the stop point"
+                )
                 return recorded
             if alarm and self.profile.bed.homing:
                 self.setup_command(stream, self.firmware.home_command, "homing")
                 return recorded
-            why = ("the plotter is in alarm" if alarm else
-                   f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped" if mpos else
-                   "the plotter does not report its position")
+            why = (
+                "the plotter is in alarm"
+                if alarm
+                else f"the plotter reports X{mpos[0]:.3f} Y{mpos[1]:.3f}, not where the job stopped"
+                if mpos
+                else "the plotter does not report its position"
+            )
             here = self._reestablish(stream, why, alarm, recorded[0], journal)
             self._origin_from_stop(stream, here, tuple(journal.stop_work))
             return recorded
         if mpos is not None and not alarm and not restarted_at_zero:
             # The stop could not read the position; a board that kept its count tells it now.
             acked = job.index_of(journal.acked_line) if journal.acked_line else -1
-            located = self.locator.locate(sent, self.locator.job_units(stream.work_position(), sent), answered=acked)
+            located = self.locator.locate(
+                sent, self.locator.job_units(stream.work_position(), sent), answered=acked
+            )
             if located is not None:
                 return located
-        why = f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
+        why = (
+            f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
+        )
         acked = job.index_of(journal.acked_line) if journal.acked_line else -1
         here = self._reestablish(stream, why, alarm, self.locator.flight_start(max(sent, acked)), journal)
         tolerance = self._rezero_tolerance()
@@ -98,12 +108,18 @@ class ResumePointFinder:
             # path); the hand, where the carriage coasted to along that move.
             at = self.locator.locate(sent, self.locator.job_units(count, sent), answered=acked)
             if at is not None:
-                located = self.locator.coasted(at, self.locator.job_units(count, at[0]),
-                                               self.locator.job_units(here, at[0]), tolerance)
+                located = self.locator.coasted(
+                    at, self.locator.job_units(count, at[0]), self.locator.job_units(here, at[0]), tolerance
+                )
         if located is None:
             # Found by the hand, after a carriage that may have run on past a move's end.
-            located = self.locator.locate(sent, self.locator.job_units(here, sent), answered=acked, tolerance=tolerance,
-                                   coast=position.coast_limit(self.profile.motion))
+            located = self.locator.locate(
+                sent,
+                self.locator.job_units(here, sent),
+                answered=acked,
+                tolerance=tolerance,
+                coast=position.coast_limit(self.profile.motion),
+            )
         if located is None:
             raise PlotError(
                 f"after the re-zero, the pen had stopped at X{here[0]:.3f} Y{here[1]:.3f}, which is not on the "
@@ -113,7 +129,9 @@ class ResumePointFinder:
                 "--start-line N"
             )
         index, stop_xy = located
-        on_path = stop_xy if stop_xy is not None else (job.state_after(index - 1).x, job.state_after(index - 1).y)
+        on_path = (
+            stop_xy if stop_xy is not None else (job.state_after(index - 1).x, job.state_after(index - 1).y)
+        )
         to_mm = MM_PER_INCH if job.state_after(max(index - 1, 0)).inches else 1.0
         self._origin_from_stop(stream, here, (on_path[0] * to_mm, on_path[1] * to_mm))
         return located
@@ -133,7 +151,9 @@ class ResumePointFinder:
         x, y = stop[0] + mark[0] - here[0], stop[1] + mark[1] - here[1]
         self.setup_command(stream, self.firmware.set_origin(x, y), "setting the origin from the stop point")
 
-    def _reestablish(self, stream: Stream, why: str, alarm: bool, certain: int, journal) -> tuple[float, float]:
+    def _reestablish(
+        self, stream: Stream, why: str, alarm: bool, certain: int, journal
+    ) -> tuple[float, float]:
         """Re-zero with the user (or refuse without one); where the pen stood, work mm."""
         to_mm = MM_PER_INCH if self.job.state_after(max(certain - 1, 0)).inches else 1.0
         mark = position.mark_before(self.job, certain, to_mm)

@@ -49,8 +49,19 @@ class DrawResult:
 class Runner:
     """Holds one job's running state between the stream and the journal/progress."""
 
-    def __init__(self, job: Job, profile: Profile, port, journal, progress, send_and_wait, on_error, unlock,
-                 operator=None, keys=None):
+    def __init__(
+        self,
+        job: Job,
+        profile: Profile,
+        port,
+        journal,
+        progress,
+        send_and_wait,
+        on_error,
+        unlock,
+        operator=None,
+        keys=None,
+    ):
         self.job, self.profile, self.port, self.journal = job, profile, port, journal
         self.firmware = profile.firmware
         self.pen = profile.pen_model
@@ -58,7 +69,9 @@ class Runner:
         self.send_and_wait, self.on_error, self.unlock = send_and_wait, on_error, unlock
         self.operator, self.keys = operator, keys
         self._stopping = False  # in the stop sequence: a further Ctrl-C or signal waits for it
-        self._count: tuple[float, float] | None = None  # the board's count where it stopped (work mm), read by the stop
+        self._count: tuple[float, float] | None = (
+            None  # the board's count where it stopped (work mm), read by the stop
+        )
         self.locator = StopLocator(job, profile)
         self.acked = -1
         self._journal_at = 0.0
@@ -74,19 +87,25 @@ class Runner:
             if resumed is not None:
                 # Where the machine stands now, checked against what the stop proved, tells
                 # whether its position can be trusted and what the stopped job really drew.
-                start, stop_xy = ResumePointFinder(self.job, self.profile, self.port, self.operator, self.locator,
-                                                   self._setup_command).find(stream, resumed)
+                start, stop_xy = ResumePointFinder(
+                    self.job, self.profile, self.port, self.operator, self.locator, self._setup_command
+                ).find(stream, resumed)
                 resumed.message = ""
                 if resumed.pen and self.operator is not None:
-                    self.operator.pause(f"pen change: insert {resumed.pen} (the pen the job was drawing with)")
+                    self.operator.pause(
+                        f"pen change: insert {resumed.pen} (the pen the job was drawing with)"
+                    )
             if start > 0:
                 state = job.state_after(start - 1)
                 decimals = max(self.profile.gcode.decimals, 4)  # a stop point is known to 1 µm
-                for line in resume_preamble(state, self.pen, stop_xy=stop_xy, decimals=decimals,
-                                            dwell=self.firmware.dwell):
+                for line in resume_preamble(
+                    state, self.pen, stop_xy=stop_xy, decimals=decimals, dwell=self.firmware.dwell
+                ):
                     self._setup_command(stream, line, "restoring the job's state")
         except StreamFault as fault:
-            raise PlotError(f"{fault} before the job started; nothing was drawn. Check the plotter and retry.") from None
+            raise PlotError(
+                f"{fault} before the job started; nothing was drawn. Check the plotter and retry."
+            ) from None
 
         self.acked = start - 1
         done0 = job.seconds_after(start - 1)
@@ -103,8 +122,9 @@ class Runner:
             if index in job.pauses and self.journal is not None:
                 pen = _PEN_CHANGE.search(job.pauses[index])
                 self.journal.pen = pen.group(1).strip() if pen else self.journal.pen
-            self.progress.update(index + 1 - start, job.seconds_after(index) - done0, state,
-                                 where=lambda: self._where(stream))
+            self.progress.update(
+                index + 1 - start, job.seconds_after(index) - done0, state, where=lambda: self._where(stream)
+            )
             self._save_journal(stream)
 
         def on_pause(reason):
@@ -116,9 +136,16 @@ class Runner:
 
         with self._stop_signals():
             try:
-                rejected = stream.stream(job, start, on_ack, send_and_wait=self.send_and_wait,
-                                         on_error=self.on_error, on_pause=on_pause, keys=self.keys,
-                                         on_hold=lambda reason: self.progress.show_state(f"paused: {reason}"))
+                rejected = stream.stream(
+                    job,
+                    start,
+                    on_ack,
+                    send_and_wait=self.send_and_wait,
+                    on_error=self.on_error,
+                    on_pause=on_pause,
+                    keys=self.keys,
+                    on_hold=lambda reason: self.progress.show_state(f"paused: {reason}"),
+                )
             except StreamFault as fault:
                 self._stopping = True  # from here a second Ctrl-C must not cut the stop short
                 message = self._stop(stream, fault)
@@ -240,14 +267,21 @@ class Runner:
             # one can have run (lines still in its receive buffer were dropped by the reset).
             last = min(stream.sent, self.acked + 1)
             pen_down = position.pen_down_in(stream.rest_status, self.pen)
-            floor = self.locator.planner_floor(stream.rest_status, self.acked,
-                                               fault.index if fault.kind == "error" else None)
+            floor = self.locator.planner_floor(
+                stream.rest_status, self.acked, fault.index if fault.kind == "error" else None
+            )
             after = None
             if floor is None:
                 # Where it was when the hold began (or at an earlier report): on from there.
                 floor, after = self.locator.floor(stream, last) or (None, None)
-            located = self.locator.locate(last, self.locator.job_units(proven[0], last), pen_down, floor,
-                                          answered=self.acked, after=after)
+            located = self.locator.locate(
+                last,
+                self.locator.job_units(proven[0], last),
+                pen_down,
+                floor,
+                answered=self.acked,
+                after=after,
+            )
             if located is None:
                 proven = None  # where it stands is not on the lines it had: not a stop point
         if located is not None:
@@ -278,7 +312,7 @@ class Runner:
             work, mpos = stream.work_position(), stream.machine_position()
             # At rest before our reset: the count is exact. A board that reset by itself
             # (banner, no alarm) kept it if it was idle, unless it powered up counting from 0, 0.
-            trusted = (at_rest or (fault.kind == "reset" and not alarm and not position.near(mpos, (0.0, 0.0))))
+            trusted = at_rest or (fault.kind == "reset" and not alarm and not position.near(mpos, (0.0, 0.0)))
             proven = (work, mpos) if trusted and work is not None and mpos is not None else None
             # Where the board counts the pen, proven or not; a board that restarted by itself
             # unalarmed counts from where it powered up instead.
@@ -293,8 +327,10 @@ class Runner:
                         # The alarm switched the spindle off, and spindle off is pen up.
                         return "pen up (the alarm switched the spindle off)", proven
                     # (A Z pen left down has no known height to restore the origin with.)
-                    return ("the alarm locks G-code, so the pen could not be raised",
-                            None if self.pen.kind == "z" else proven)
+                    return (
+                        "the alarm locks G-code, so the pen could not be raised",
+                        None if self.pen.kind == "z" else proven,
+                    )
             # Wait until it is up: a Z pen's lift is a move, and closing the port resets an
             # Arduino board (DTR), which would cut the move short and leave the pen down.
             stream.wait_until_still()
@@ -311,8 +347,13 @@ class Runner:
         last = min(self.acked + 1, len(self.job) - 1)
         # The report may be a poll old, older than the answers since: no floor from the answered
         # dwells (answered=-1), the latest pass through the point in the window.
-        found = self.locator.locate(last, self.locator.job_units(xy, last),
-                                    position.pen_down_in(stream.status, self.pen), window=_SHOW_WINDOW, answered=-1)
+        found = self.locator.locate(
+            last,
+            self.locator.job_units(xy, last),
+            position.pen_down_in(stream.status, self.pen),
+            window=_SHOW_WINDOW,
+            answered=-1,
+        )
         where: dict[str, object] = {"xy": [round(xy[0], 3), round(xy[1], 3)]}
         if found is not None:
             where["running"] = self.job.number(found[0])

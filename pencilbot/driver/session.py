@@ -64,7 +64,9 @@ class BoardSession:
         the stream gives up.
     """
 
-    def __init__(self, link: LineReader, firmware: Firmware, *, receive_buffer: int, timeout: float = DEFAULT_TIMEOUT):
+    def __init__(
+        self, link: LineReader, firmware: Firmware, *, receive_buffer: int, timeout: float = DEFAULT_TIMEOUT
+    ):
         self.link = link
         self.firmware = firmware
         self.receive_buffer = receive_buffer
@@ -77,7 +79,9 @@ class BoardSession:
         self.sent = -1  # the last job line written to the board
         self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
         self.answered = -1  # the last job line answered
-        self.seen: tuple[tuple[float, float] | None, Any, int] | None = None  # (work X, Y in mm, status, last line answered) of the last report while streaming
+        self.seen: tuple[tuple[float, float] | None, Any, int] | None = (
+            None  # (work X, Y in mm, status, last line answered) of the last report while streaming
+        )
         self.paused: str | None = None  # why the board is holding, while it is
         self._pause_key: int | str | None = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
@@ -100,6 +104,7 @@ class BoardSession:
         self._on_ack: Callable[[int, str], None] = lambda index, state: None
         self._on_error = "stop"
         self._rejected: list[int] = []
+
     # --- setup -------------------------------------------------------------------------------
 
     def wake(self, wait: float = 2.5) -> str:
@@ -208,6 +213,7 @@ class BoardSession:
                         break  # what came after the answer is the next caller's
                 self._poll()
         return entry.reply
+
     # --- replies -----------------------------------------------------------------------------
 
     def _handle(self, reply: Reply, index: int) -> None:
@@ -275,7 +281,9 @@ class BoardSession:
         """The board lost frame ``number``: it and every later frame go again, in order."""
         later = [e for e in self._sent if e.number >= number]
         if not later and not any(e.number == number for e in self._resend):
-            raise StreamFault("error", index, f"{self.firmware.title} asked to resend line N{number}, never sent")
+            raise StreamFault(
+                "error", index, f"{self.firmware.title} asked to resend line N{number}, never sent"
+            )
         log.info("%s asked to resend N%d", self.firmware.title, number)
         for entry in later:
             self._sent.remove(entry)
@@ -297,8 +305,11 @@ class BoardSession:
                 self._query_unanswered = False
                 if reply.status.wco is not None:
                     self.wco = reply.status.wco
-                if (self.state in (STREAMING, DRAINING, HALTING) and self.firmware.is_moving(reply.status)
-                        and self.work_position() is not None):
+                if (
+                    self.state in (STREAMING, DRAINING, HALTING)
+                    and self.firmware.is_moving(reply.status)
+                    and self.work_position() is not None
+                ):
                     # (Moving: mid-move, so the position names one line; at rest it may not.
                     # Halting: the machine still slows along its path from there.)
                     self.seen = (self.work_position(), reply.status, self.answered)

@@ -25,7 +25,12 @@ from pencilbot.driver.faults import Interrupted
 #: Signal number → how a stop message names it ("stopped by ..."). Only those the platform has.
 STOP_SIGNALS: dict[int, str] = {
     getattr(signal, name): said
-    for name, said in (("SIGINT", "Ctrl-C"), ("SIGTERM", "SIGTERM"), ("SIGHUP", "SIGHUP"), ("SIGQUIT", "SIGQUIT"))
+    for name, said in (
+        ("SIGINT", "Ctrl-C"),
+        ("SIGTERM", "SIGTERM"),
+        ("SIGHUP", "SIGHUP"),
+        ("SIGQUIT", "SIGQUIT"),
+    )
     if hasattr(signal, name)
 }
 
@@ -43,8 +48,11 @@ def caught(on_stop: Callable[[str], None]) -> Iterator[bool]:
     def handler(signum, _frame):
         on_stop(STOP_SIGNALS[signum])
 
-    saved = {signum: signal.signal(signum, handler) for signum in STOP_SIGNALS
-             if signal.getsignal(signum) is not signal.SIG_IGN}
+    saved = {
+        signum: signal.signal(signum, handler)
+        for signum in STOP_SIGNALS
+        if signal.getsignal(signum) is not signal.SIG_IGN
+    }
     try:
         yield True
     finally:

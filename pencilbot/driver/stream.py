@@ -45,9 +45,18 @@ class Stream(BoardSession):
 
     # --- streaming ---------------------------------------------------------------------------
 
-    def stream(self, job: Job, start: int, on_ack: Callable[[int, str], None], *, send_and_wait: bool = False,
-               on_error: str = "stop", on_pause: Callable[[str], bool] | None = None, keys=None,
-               on_hold: Callable[[str], None] | None = None) -> list[int]:
+    def stream(
+        self,
+        job: Job,
+        start: int,
+        on_ack: Callable[[int, str], None],
+        *,
+        send_and_wait: bool = False,
+        on_error: str = "stop",
+        on_pause: Callable[[str], bool] | None = None,
+        keys=None,
+        on_hold: Callable[[str], None] | None = None,
+    ) -> list[int]:
         """Send job lines ``start …`` and wait until the machine has run them.
 
         Parameters
@@ -144,7 +153,11 @@ class Stream(BoardSession):
         if index is not None:
             self.paused = job.pauses[index] or f"program pause ({job.line(index)})"
         else:
-            self.paused = "from the keyboard (press the pause key to go on)" if self._held_by_us else "feed hold on the machine"
+            self.paused = (
+                "from the keyboard (press the pause key to go on)"
+                if self._held_by_us
+                else "feed hold on the machine"
+            )
         self.machine_state = f"paused: {self.paused}"
         if self._held_by_us and index is None:
             if on_hold is not None:
@@ -192,14 +205,20 @@ class Stream(BoardSession):
             # Counted before the write: a stop that lands between the two must not miss lines
             # the board may have (a line counted but never written only widens the search).
             self.sent = max(self.sent, nxt - 1)
-            self._write(entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt))
+            self._write(
+                entries, b"".join(e.frame for e in entries) if numbered else job.frames_between(first, nxt)
+            )
         return nxt
 
     def _moved_alone(self) -> bool:
         """Whether the line before has been answered and a status report newer than that says the
         machine is not moving (a jog or homing cycle over)."""
-        return not self._sent and self.reports > self._answered_at and self.status is not None \
+        return (
+            not self._sent
+            and self.reports > self._answered_at
+            and self.status is not None
             and not self.firmware.is_moving(self.status)
+        )
 
     def _fits(self, size: int, lines: int = 0, batch: int = 0) -> bool:
         """Whether a frame of ``size`` bytes may go now, after ``lines`` frames of ``batch`` bytes
@@ -218,4 +237,8 @@ class Stream(BoardSession):
         # A "?" that reached the board while it parsed the last line is answered right after
         # the ok but before GRBL starts the cycle: that report can say Idle with the move still
         # queued. Only a report newer than that counts.
-        return self.reports > self._answered_at and self.status is not None and self.firmware.is_finished(self.status)
+        return (
+            self.reports > self._answered_at
+            and self.status is not None
+            and self.firmware.is_finished(self.status)
+        )

@@ -83,16 +83,19 @@ def check_system_lines(job: Job, allowed: frozenset[str] = frozenset()) -> Syste
         if not any(fw.system_covers(given, name) for given in allowed):
             raise PencilbotError(
                 f"{where} is a system command for the board, not a drawing: it {effect}; nothing was sent. "
-                f"Take it out of the file, or send it on purpose: --allow-system-commands '{name}'")
+                f"Take it out of the file, or send it on purpose: --allow-system-commands '{name}'"
+            )
         if ends and index < len(job) - 1:
             raise PencilbotError(
                 f"{where} {effect}, and {len(job) - 1 - index} command lines come after it, which the board would "
-                f"never run (it {ends}); nothing was sent. Put it last, or take it out of the file")
+                f"never run (it {ends}); nothing was sent. Put it last, or take it out of the file"
+            )
         if check_mode:
             if check_from is not None:
                 raise PencilbotError(
                     f"{where} leaves check mode, which resets the board and loses the lines queued after it; "
-                    "nothing was sent. Take the second one out of the file")
+                    "nothing was sent. Take the second one out of the file"
+                )
             check_from = index
         notes.append(f"{where} {effect}")
     for note in notes:

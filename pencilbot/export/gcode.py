@@ -45,8 +45,11 @@ _INT_DIGITS = len(str(MAX_BED))
 #: The comment before each pen change of a colour plan (its pen, as :func:`pens_at_pauses` reads it).
 PEN_CHANGE_NOTE = "pen change {number} of {count}: {pen} {color} {width:g} mm"
 _PEN_CHANGE_NOTE = re.compile(
-    rb"(?m)^; pen change \d+ of \d+: (?P<pen>[A-Za-z0-9][A-Za-z0-9 _.+-]*) (?P<color>#[0-9a-f]{6}) (?P<width>[0-9.]+) mm\r?$")
-_PAUSE_LINE = re.compile(rb"(?mi)^[ \t]*(?:N\d+[ \t]*)?M0*0(?![\d.])")  # the bed check keeps |coordinate| ≤ MAX_BED mm
+    rb"(?m)^; pen change \d+ of \d+: (?P<pen>[A-Za-z0-9][A-Za-z0-9 _.+-]*) (?P<color>#[0-9a-f]{6}) (?P<width>[0-9.]+) mm\r?$"
+)
+_PAUSE_LINE = re.compile(
+    rb"(?mi)^[ \t]*(?:N\d+[ \t]*)?M0*0(?![\d.])"
+)  # the bed check keeps |coordinate| ≤ MAX_BED mm
 
 
 @dataclass(frozen=True)
@@ -129,14 +132,24 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
     stats = estimate(plan, profile)
     moves = _Moves.of(on_machine, paths.lengths, profile)
     changes = _pen_changes(plan, profile, placement)
-    notes = ["\n".join([*changes.get(index, []), _comment(f"layer {layer.name}: {n} paths")])
-             for index, (layer, n) in enumerate(zip(plan.layers, layer_sizes)) if n]
+    notes = [
+        "\n".join([*changes.get(index, []), _comment(f"layer {layer.name}: {n} paths")])
+        for index, (layer, n) in enumerate(zip(plan.layers, layer_sizes))
+        if n
+    ]
     head = _header_comments(plan, profile, placement, stats, source) + profile.render(profile.gcode.header)
-    program = b"".join([
-        _text(head),
-        _body(moves, profile, first_paths=(np.cumsum(layer_sizes) - layer_sizes)[layer_sizes > 0], notes=notes),
-        _text(profile.render(profile.gcode.footer)),
-    ])
+    program = b"".join(
+        [
+            _text(head),
+            _body(
+                moves,
+                profile,
+                first_paths=(np.cumsum(layer_sizes) - layer_sizes)[layer_sizes > 0],
+                notes=notes,
+            ),
+            _text(profile.render(profile.gcode.footer)),
+        ]
+    )
     if profile.gcode.line_numbers:
         program = b"\n".join(profile.firmware.number_lines(program.split(b"\n")[:-1])) + b"\n"
     return program, stats, placement, len(paths)
@@ -173,9 +186,20 @@ def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int
     park = profile.pen_change.park
     park_lines = []
     if park is not None:
-        _check_bed(np.array([park]), placement, profile, what=f"the pen-change park position {park[0]:g}, {park[1]:g}")
-        feed = f" F{_number_text(profile.motion.travel_feed, profile.gcode.decimals)}" if profile.firmware.rapids_take_feed else ""
-        park_lines = [f"G0 X{_number_text(park[0], profile.gcode.decimals)} Y{_number_text(park[1], profile.gcode.decimals)}{feed}"]
+        _check_bed(
+            np.array([park]),
+            placement,
+            profile,
+            what=f"the pen-change park position {park[0]:g}, {park[1]:g}",
+        )
+        feed = (
+            f" F{_number_text(profile.motion.travel_feed, profile.gcode.decimals)}"
+            if profile.firmware.rapids_take_feed
+            else ""
+        )
+        park_lines = [
+            f"G0 X{_number_text(park[0], profile.gcode.decimals)} Y{_number_text(park[1], profile.gcode.decimals)}{feed}"
+        ]
     changes: dict[int, list[str]] = {}
     start = 0
     for pen, layers in plan.pen_runs():
@@ -185,8 +209,13 @@ def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int
             continue
         layer, number = plan.layers[first], len(changes) + 1
         changes[first] = [
-            _comment(PEN_CHANGE_NOTE.format(number=number, count=len(pens), pen=pen, color=layer.color, width=layer.pen_width)),
-            *park_lines, *profile.pen_change_lines(pen, number),
+            _comment(
+                PEN_CHANGE_NOTE.format(
+                    number=number, count=len(pens), pen=pen, color=layer.color, width=layer.pen_width
+                )
+            ),
+            *park_lines,
+            *profile.pen_change_lines(pen, number),
         ]
     return changes
 
@@ -205,9 +234,14 @@ def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
     pen-change note names (see :data:`PEN_CHANGE_NOTE`), or the pen before it (None before any)
     for a pause that is no pen change. What a simulator needs to tell the pens' strokes apart.
     """
-    events = sorted([(m.start(), PenInFile(m["pen"].decode(), m["color"].decode(), float(m["width"])))
-                     for m in _PEN_CHANGE_NOTE.finditer(program)]
-                    + [(m.start(), None) for m in _PAUSE_LINE.finditer(program)], key=lambda e: e[0])
+    events = sorted(
+        [
+            (m.start(), PenInFile(m["pen"].decode(), m["color"].decode(), float(m["width"])))
+            for m in _PEN_CHANGE_NOTE.finditer(program)
+        ]
+        + [(m.start(), None) for m in _PAUSE_LINE.finditer(program)],
+        key=lambda e: e[0],
+    )
     pens, current = [], None
     for _, pen in events:
         if pen is not None:
@@ -217,7 +251,9 @@ def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
     return pens
 
 
-def _check_bed(on_machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing") -> None:
+def _check_bed(
+    on_machine: np.ndarray, placement: Placement, profile: Profile, *, what: str = "the drawing"
+) -> None:
     if not len(on_machine):
         return
     if not profile.bed.outside(on_machine).any():
@@ -304,8 +340,10 @@ class _Moves:
     @staticmethod
     def _feed_words(profile: Profile) -> list[str]:
         """``" F<travel>"`` and ``" F<draw>"``."""
-        return [f" F{_number_text(v, profile.gcode.decimals)}"
-                for v in (profile.motion.travel_feed, profile.motion.draw_feed)]
+        return [
+            f" F{_number_text(v, profile.gcode.decimals)}"
+            for v in (profile.motion.travel_feed, profile.motion.draw_feed)
+        ]
 
 
 def _feed_changes(draw: np.ndarray, path_start: np.ndarray, profile: Profile) -> np.ndarray:
@@ -339,22 +377,29 @@ def _pen_lines(lines: tuple[str, ...], delay: float, profile: Profile) -> list[s
     return [*lines, dwell] if dwell else list(lines)
 
 
-def _header_comments(plan: Plan, profile: Profile, placement: Placement, stats: PlanStats,
-                     source: str) -> list[str]:
+def _header_comments(
+    plan: Plan, profile: Profile, placement: Placement, stats: PlanStats, source: str
+) -> list[str]:
     page, bed = plan.page, profile.bed
     total = stats.total
-    pens = [_comment(f"pen {number} of {len(plan.pens)}: {pen} {layers[0].color} {layers[0].pen_width:g} mm")
-            for number, (pen, layers) in enumerate(((p, l) for p, l in plan.pen_runs() if p), start=1)]
+    pens = [
+        _comment(f"pen {number} of {len(plan.pens)}: {pen} {layers[0].color} {layers[0].pen_width:g} mm")
+        for number, (pen, layers) in enumerate(((p, l) for p, l in plan.pen_runs() if p), start=1)
+    ]
     return [
         _comment(f"pencilbot G-code for {profile.name} ({profile.dialect})"),
         _comment(f"source: {source or plan.meta.get('source') or 'plan'}"),
         _comment(f"profile: {profile.source}"),
-        _comment(f"page: {page.name} {page.width:g} x {page.height:g} mm on a {bed.width:g} x "
-                 f"{bed.height:g} mm bed"),
+        _comment(
+            f"page: {page.name} {page.width:g} x {page.height:g} mm on a {bed.width:g} x "
+            f"{bed.height:g} mm bed"
+        ),
         _comment(placement.describe()),
         _comment(f"estimated time: {duration_text(total.seconds)} ({total.seconds:.0f} s)"),
-        _comment(f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
-                 f"{total.paths} paths, {total.lifts} lifts"),
+        _comment(
+            f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
+            f"{total.paths} paths, {total.lifts} lifts"
+        ),
         *pens,
     ]
 

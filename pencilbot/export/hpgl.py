@@ -78,7 +78,9 @@ def write_hpgl(plan: Plan, profile: Profile, path: str | Path) -> HpglSummary:
     program, placement = _program(plan, profile)
     target = Path(path)
     write_atomic(target, program)
-    return HpglSummary(str(target), program.count(b";"), len(program), len(plan.paths()), estimate(plan, profile), placement)
+    return HpglSummary(
+        str(target), program.count(b";"), len(program), len(plan.paths()), estimate(plan, profile), placement
+    )
 
 
 def hpgl_program(plan: Plan, profile: Profile) -> bytes:
@@ -88,8 +90,10 @@ def hpgl_program(plan: Plan, profile: Profile) -> bytes:
 
 def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
     if getattr(profile.firmware, "flow", "") != HPGL.flow:
-        raise PencilbotError(f"profile {profile.name} is for {profile.firmware.title}, not an HP-GL plotter; "
-                             "give an HP-GL profile (e.g. --profile hp7475a) or write .gcode")
+        raise PencilbotError(
+            f"profile {profile.name} is for {profile.firmware.title}, not an HP-GL plotter; "
+            "give an HP-GL profile (e.g. --profile hp7475a) or write .gcode"
+        )
     pens = plan.pens  # more than the carousel holds: SP 7, 8, ... (draw pauses for each)
     placement = SheetPlacement.of(plan.page, profile)
     unit = profile.paper.unit_mm
@@ -102,8 +106,10 @@ def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
         out.append(b"SP%d;\n" % slot)
         for paths in points:
             if not np.isfinite(paths.points).all():
-                raise PencilbotError("the plan has coordinates that are not numbers (NaN or infinity); "
-                                     "make the plan again from the picture")
+                raise PencilbotError(
+                    "the plan has coordinates that are not numbers (NaN or infinity); "
+                    "make the plan again from the picture"
+                )
             on_machine = placement.to_machine(paths.points)
             _check_bed(on_machine, placement, profile)
             units = np.rint(on_machine / unit).astype(np.int64)
@@ -133,7 +139,8 @@ def _check_bed(on_machine: np.ndarray, placement: Placement, profile: Profile) -
     raise OutOfBedError(
         f"the drawing does not fit the limits of plotter profile {profile.name}: it spans X {low[0]:g} .. "
         f"{high[0]:g} and Y {low[1]:g} .. {high[1]:g} mm, the plotter allows X {x0:g} .. {x1:g} and "
-        f"Y {y0:g} .. {y1:g} mm; use a smaller page or a profile with a larger sheet")
+        f"Y {y0:g} .. {y1:g} mm; use a smaller page or a profile with a larger sheet"
+    )
 
 
 def hpgl_plan(path: Path, profile: Profile) -> Plan:

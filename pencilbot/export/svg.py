@@ -63,8 +63,12 @@ def svg_text(plan: Plan) -> str:
             )
             for layer in layers:
                 number += 1
-                out += _layer_group(layer, number, page.height, stroke=layer.color != layers[0].color
-                                    or layer.pen_width != layers[0].pen_width)
+                out += _layer_group(
+                    layer,
+                    number,
+                    page.height,
+                    stroke=layer.color != layers[0].color or layer.pen_width != layers[0].pen_width,
+                )
             out.append("</g>")
     else:
         for number, layer in enumerate(plan.layers, start=1):
@@ -75,8 +79,14 @@ def svg_text(plan: Plan) -> str:
 
 def _layer_group(layer: Layer, number: int, page_height: float, *, stroke: bool) -> list[str]:
     """A plan layer as an Inkscape layer group (with its own stroke, or inheriting its pen's)."""
-    look = (f' fill="none" stroke="{_ink(layer.color)}" stroke-width="{_fmt(layer.pen_width)}"'
-            ' stroke-linecap="round" stroke-linejoin="round"') if stroke else ""
+    look = (
+        (
+            f' fill="none" stroke="{_ink(layer.color)}" stroke-width="{_fmt(layer.pen_width)}"'
+            ' stroke-linecap="round" stroke-linejoin="round"'
+        )
+        if stroke
+        else ""
+    )
     return [
         f'<g inkscape:groupmode="layer" inkscape:label="{_escape(layer.name)}" id="layer{number}"'
         f' pencilbot:role="{layer.role}"{look}>',
@@ -124,6 +134,4 @@ def _fmt(value: float) -> str:
 
 
 def _escape(text: str) -> str:
-    return (
-        str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")
-    )
+    return str(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;").replace('"', "&quot;")

@@ -23,8 +23,27 @@ MAX_DRAWING_MM = 1e6
 MIN_EXPANSION_BYTES = 20_000_000
 
 # Attributes that hold coordinates, sizes or transforms.
-_GEOMETRY = ("d", "points", "x", "y", "x1", "y1", "x2", "y2", "cx", "cy", "r", "rx", "ry", "width", "height",
-             "transform", "viewBox", "stroke-width", "style")
+_GEOMETRY = (
+    "d",
+    "points",
+    "x",
+    "y",
+    "x1",
+    "y1",
+    "x2",
+    "y2",
+    "cx",
+    "cy",
+    "r",
+    "rx",
+    "ry",
+    "width",
+    "height",
+    "transform",
+    "viewBox",
+    "stroke-width",
+    "style",
+)
 # NaN or infinity spelt out; an exponent of 10 or more; an integer part of ten digits or more.
 # Any of these in a coordinate is more than MAX_DRAWING_MM in any unit.
 _WORDS = re.compile(r"(?<![a-z-])(?:nan|inf(?:inity)?)(?![a-z-])", re.I)
@@ -44,6 +63,8 @@ def _insane(text: str) -> re.Match | None:
     if b"0" * 10 not in text.encode("ascii", "replace").translate(_DIGITS):
         return None
     return _LONG.search(text)
+
+
 _XLINK_HREF = "{http://www.w3.org/1999/xlink}href"
 _SVG_NS = "http://www.w3.org/2000/svg"
 
@@ -71,7 +92,8 @@ def check_numbers(root: ET.Element, path, text: str | None = None) -> None:
             if found:
                 raise PencilbotError(
                     f"{path}: the {attribute} of {describe(element)} holds {_around(text, found)!r}, not a finite "
-                    f"number of a size a plotter draws (at most {MAX_DRAWING_MM:.0e} mm); fix or remove it")
+                    f"number of a size a plotter draws (at most {MAX_DRAWING_MM:.0e} mm); fix or remove it"
+                )
 
 
 def check_uses(root: ET.Element, path, file_bytes: int) -> None:
@@ -102,20 +124,29 @@ def check_uses(root: ET.Element, path, file_bytes: int) -> None:
         parts = [*element, *([target] if target is not None else [])]
         if not done:
             if key in busy:
-                raise PencilbotError(f"{path}: {describe(element)} contains itself through <use>; fix the reference")
+                raise PencilbotError(
+                    f"{path}: {describe(element)} contains itself through <use>; fix the reference"
+                )
             busy.add(key)
             stack.append((element, True))
             stack.extend((part, False) for part in parts if id(part) not in cost)
             continue
         for part in parts:
             if id(part) not in cost:  # reached through a <use> of its own ancestor
-                raise PencilbotError(f"{path}: {describe(element)} contains itself through <use>; fix the reference")
+                raise PencilbotError(
+                    f"{path}: {describe(element)} contains itself through <use>; fix the reference"
+                )
         busy.discard(key)
-        total = 16 + sum(len(element.get(name, "")) for name in ("d", "points")) + sum(cost[id(part)] for part in parts)
+        total = (
+            16
+            + sum(len(element.get(name, "")) for name in ("d", "points"))
+            + sum(cost[id(part)] for part in parts)
+        )
         if total > limit:
             raise PencilbotError(
                 f"{path}: its <use> elements repeat its shapes to more than {limit / 1e6:.0f} MB of geometry "
-                f"(at {describe(element)}); flatten the clones first (Inkscape: Edit > Clone > Unlink Clone)")
+                f"(at {describe(element)}); flatten the clones first (Inkscape: Edit > Clone > Unlink Clone)"
+            )
         cost[key] = total
 
 
@@ -135,7 +166,8 @@ def check_drawing(points: np.ndarray, path) -> None:
         raise PencilbotError(
             f"{path}: the drawing reaches {'beyond any number' if not np.isfinite(reach) else f'{reach:.3g} mm'} "
             f"from its origin, more than the {MAX_DRAWING_MM:.0e} mm a plotter drawing may; check its transforms "
-            "and sizes")
+            "and sizes"
+        )
 
 
 def describe(element: ET.Element) -> str:
@@ -146,7 +178,7 @@ def describe(element: ET.Element) -> str:
 
 def _around(text: str, found: re.Match) -> str:
     start = max(0, found.start() - 12)
-    return text[start:found.end() + 12]
+    return text[start : found.end() + 12]
 
 
 def _href(element: ET.Element) -> str:

@@ -69,8 +69,9 @@ def read_svg(path: str | os.PathLike, *, dpi: float | None = None, pen_width: fl
         vpype is not installed or cannot read it.
     """
     data = _read_bytes(path)
-    return _read_own(data, path) or _read_any(_parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data),
-                                                text=data.decode("latin-1"))
+    return _read_own(data, path) or _read_any(
+        _parse(data, path), path, dpi=dpi, pen_width=pen_width, size=len(data), text=data.decode("latin-1")
+    )
 
 
 def is_plan_svg(path: str | os.PathLike) -> bool:
@@ -92,7 +93,9 @@ def _read_bytes(path) -> bytes:
     except FileNotFoundError:
         raise PencilbotError(no_such_file(path, "the path of an .svg file")) from None
     except OSError as exc:
-        raise PencilbotError(f"cannot read {path} ({exc.strerror}); check the path and its permissions") from None
+        raise PencilbotError(
+            f"cannot read {path} ({exc.strerror}); check the path and its permissions"
+        ) from None
 
 
 def _parse(data: bytes, path) -> ET.Element:
@@ -101,8 +104,10 @@ def _parse(data: bytes, path) -> ET.Element:
     except ET.ParseError as exc:
         raise PencilbotError(f"cannot read {path} as SVG ({exc}); is it an SVG drawing?") from None
     except (LookupError, ValueError) as exc:  # expat knows a handful of encodings; Python's codecs the rest
-        raise PencilbotError(f"cannot read {path}: its XML declaration names an encoding that cannot be read ({exc}); "
-                             'save it as UTF-8 (encoding="UTF-8")') from None
+        raise PencilbotError(
+            f"cannot read {path}: its XML declaration names an encoding that cannot be read ({exc}); "
+            'save it as UTF-8 (encoding="UTF-8")'
+        ) from None
     if root.tag != f"{{{SVG_NS}}}svg":
         raise PencilbotError(f"{path} is not an SVG file (root element {root.tag!r})")
     return root
@@ -159,9 +164,19 @@ def _read_own(data: bytes, path="the SVG") -> Plan | None:
             leaves += [(child, top) for child in top]
             if any(child.tag != g for child in top):
                 return None
-    moved = [element for element in (root, *tops, *(leaf for leaf, _ in leaves)) if _MOVES.intersection(element.keys())]
+    moved = [
+        element
+        for element in (root, *tops, *(leaf for leaf, _ in leaves))
+        if _MOVES.intersection(element.keys())
+    ]
     origin = [float(v) for v in _NUMBER.findall(root.get("viewBox", "0 0"))[:2]]
-    if others or moved or origin != [0.0, 0.0] or len(leaves) != len(cuts) or any(len(leaf) for leaf, _ in leaves):
+    if (
+        others
+        or moved
+        or origin != [0.0, 0.0]
+        or len(leaves) != len(cuts)
+        or any(len(leaf) for leaf, _ in leaves)
+    ):
         return None
     check_numbers(root, path)
     layers: list[Layer] = []
@@ -171,8 +186,9 @@ def _read_own(data: bytes, path="the SVG") -> Plan | None:
             return None
         check_drawing(paths.points, path)
         attributes = _layer_attributes(group, number, scale, pen=pen)
-        attributes["pen_width"] = _checked_pen(attributes["pen_width"] or DEFAULT_PEN_WIDTH, attributes["name"], path,
-                                                own=True)
+        attributes["pen_width"] = _checked_pen(
+            attributes["pen_width"] or DEFAULT_PEN_WIDTH, attributes["name"], path, own=True
+        )
         layers.append(Layer(paths=paths, **attributes))
     return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
 
@@ -193,7 +209,11 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
         return None
     starts = np.flatnonzero(np.isnan(numbers))
     counts = np.diff(np.append(starts, len(numbers))) - 1
-    if len(starts) != cut.count(b"<path") or (len(starts) and starts[0]) or np.any((counts < 4) | (counts % 2 == 1)):
+    if (
+        len(starts) != cut.count(b"<path")
+        or (len(starts) and starts[0])
+        or np.any((counts < 4) | (counts % 2 == 1))
+    ):
         return None
     points = numbers[~np.isnan(numbers)].reshape(-1, 2)
     lengths = counts // 2
@@ -212,8 +232,15 @@ def _own_paths(cut: bytes, scale: float, page_height: float) -> Paths | None:
 _NOT_DRAWN = {"defs", "metadata", "style", "title", "desc", "namedview", "script"}
 
 
-def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | None, size: int = 0,
-              text: str | None = None) -> Plan:
+def _read_any(
+    root: ET.Element,
+    path,
+    *,
+    dpi: float | None,
+    pen_width: float | None,
+    size: int = 0,
+    text: str | None = None,
+) -> Plan:
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
     check_numbers(root, path, text)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
@@ -227,19 +254,31 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if _local(element.tag) == "g":
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
+
     def loose_layer() -> tuple[dict, bool]:
         return {"name": "default", "role": "other"}, _declares_stroke(loose)
 
     straight = read_straight(root, tops, loose) if height is not None else None
-    if straight is not None and height is not None:  # straight lines only: read in whole arrays, as vpype would read them
+    if (
+        straight is not None and height is not None
+    ):  # straight lines only: read in whole arrays, as vpype would read them
         if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
             scale = MM_PER_INCH / _px_per_inch(root, dpi)
         layers: list[Layer] = []
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
-            layers.append(Layer(paths=Paths(_to_page(points, scale, height), offsets), **_pen_of(
-                *(groups.get(place) or loose_layer()),
-                stroke * scale if stroke else None, pen_width, root, path=path)))
+            layers.append(
+                Layer(
+                    paths=Paths(_to_page(points, scale, height), offsets),
+                    **_pen_of(
+                        *(groups.get(place) or loose_layer()),
+                        stroke * scale if stroke else None,
+                        pen_width,
+                        root,
+                        path=path,
+                    ),
+                )
+            )
         return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
     try:
         import vpype
@@ -253,9 +292,12 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
     try:
         document = vpype.read_multilayer_svg(
-            io.StringIO(ET.tostring(root, encoding="unicode")), quantization=quantization, crop=False)
+            io.StringIO(ET.tostring(root, encoding="unicode")), quantization=quantization, crop=False
+        )
     except Exception as exc:  # noqa: BLE001 - whatever the third-party parser trips on is in the file
-        raise PencilbotError(f"vpype cannot read {path} ({type(exc).__name__}: {exc}); check the file") from None
+        raise PencilbotError(
+            f"vpype cannot read {path} ({type(exc).__name__}: {exc}); check the file"
+        ) from None
     if height is not None and document.page_size and document.page_size[0] > 0:
         px_to_mm = width / document.page_size[0]  # exactly: svgelements rounds its mm to px factor
     stylesheet = any(_local(el.tag) == "style" and "stroke-width" in (el.text or "") for el in root.iter())
@@ -265,24 +307,42 @@ def _read_any(root: ET.Element, path, *, dpi: float | None, pen_width: float | N
         if not lines:
             continue
         vpype_pen = document.layers[lid].property("vp_pen_width")
-        attributes = _pen_of(*(groups.get(lid) or loose_layer()),
-                             float(vpype_pen) * px_to_mm if vpype_pen else None, pen_width, root, stylesheet, path=path)
+        attributes = _pen_of(
+            *(groups.get(lid) or loose_layer()),
+            float(vpype_pen) * px_to_mm if vpype_pen else None,
+            pen_width,
+            root,
+            stylesheet,
+            path=path,
+        )
         points = np.concatenate(lines)
         offsets = np.concatenate([[0], np.cumsum([len(line) for line in lines])])
         found.append((attributes, np.column_stack([points.real, points.imag]) * px_to_mm, offsets))
         check_drawing(found[-1][1], path)
     if height is None:  # no size at all: the page reaches to the drawing's far corner
-        width, height = (float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in found] or [[1.0, 1.0]], axis=0))
+        width, height = (
+            float(v) for v in np.max([mm.max(axis=0) for _, mm, _ in found] or [[1.0, 1.0]], axis=0)
+        )
     return Plan(
         page=_page(root, width, height),
-        layers=tuple(Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
-                     for attributes, mm, offsets in found),
+        layers=tuple(
+            Layer(paths=Paths(_to_page(mm, 1.0, height), offsets), **attributes)
+            for attributes, mm, offsets in found
+        ),
         meta=_meta(root),
     )
 
 
-def _pen_of(attributes: dict, declared: bool, stroke: float | None, pen_width: float | None, root: ET.Element,
-            stylesheet: bool = False, *, path) -> dict:
+def _pen_of(
+    attributes: dict,
+    declared: bool,
+    stroke: float | None,
+    pen_width: float | None,
+    root: ET.Element,
+    stylesheet: bool = False,
+    *,
+    path,
+) -> dict:
     """A layer's attributes with its pen width (mm): ``pen_width`` if given, else the stroke
     width all its shapes draw with (``stroke``, mm) where the file declares one (checked: see
     :func:`_checked_pen`), else the default."""
@@ -304,7 +364,8 @@ def _checked_pen(width: float, layer: str, path, *, own: bool = False) -> float:
         raise PencilbotError(
             f"{path}: layer {layer!r} draws with a stroke width of {width:.6g} mm, which no pen draws (a pen is "
             f"wider than 0 and at most {MAX_PEN_WIDTH:g} mm); fix its stroke-width"
-            + ("" if own else ", or give the pen with --pen-width"))
+            + ("" if own else ", or give the pen with --pen-width")
+        )
     return width
 
 
@@ -316,13 +377,23 @@ def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
 
 # --- what both readers share -------------------------------------------------------------------
 
-_UNITS_TO_MM = {"mm": 1.0, "cm": 10.0, "q": 0.25, "in": MM_PER_INCH, "pt": MM_PER_INCH / 72,
-                "pc": MM_PER_INCH / 6, "px": MM_PER_INCH / CSS_PX_PER_INCH}
+_UNITS_TO_MM = {
+    "mm": 1.0,
+    "cm": 10.0,
+    "q": 0.25,
+    "in": MM_PER_INCH,
+    "pt": MM_PER_INCH / 72,
+    "pc": MM_PER_INCH / 6,
+    "px": MM_PER_INCH / CSS_PX_PER_INCH,
+}
 
 
 def _size_unit(root: ET.Element) -> str | None:
     """The physical unit both ``width`` and ``height`` are given in, or None."""
-    width, height = (re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, "")) for attr in ("width", "height"))
+    width, height = (
+        re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, ""))
+        for attr in ("width", "height")
+    )
     if width and height and width[1].lower() in _UNITS_TO_MM and height[1].lower() in _UNITS_TO_MM:
         return width[1].lower()
     return None
@@ -348,10 +419,16 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
             assert given_number is not None  # _size_unit found one
             number = float(given_number[0]) * _UNITS_TO_MM[size_unit]
             if not 0 < number <= MAX_DRAWING_MM:
-                raise PencilbotError(f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm")
+                raise PencilbotError(
+                    f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm"
+                )
             sizes.append(number)
         return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[size_unit]
-    given = f"width {root.get('width')!r} and height {root.get('height')!r}" if root.get("width") else "no width or height"
+    given = (
+        f"width {root.get('width')!r} and height {root.get('height')!r}"
+        if root.get("width")
+        else "no width or height"
+    )
     if dpi is None:
         raise PencilbotError(
             f"{path} gives {given}, no size on paper (no mm, cm, in, pt or px), so how large to draw it is "
@@ -359,8 +436,14 @@ def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float |
             "to fit it onto a sheet"
         )
     unit = MM_PER_INCH / dpi
-    given_width, given_height = (_NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height"))
-    if given_width and given_height and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in (given_width, given_height)):
+    given_width, given_height = (
+        _NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")
+    )
+    if (
+        given_width
+        and given_height
+        and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in (given_width, given_height))
+    ):
         width, height = (float(n[0]) * unit for n in (given_width, given_height))
         return width, height, width / view[2] if view else unit
     if view:
@@ -401,7 +484,10 @@ _HEX = re.compile(r"#([0-9a-fA-F]{6}|[0-9a-fA-F]{3})")
 
 def _stroke_color(el: ET.Element) -> str | None:
     """The element's stroke colour as ``#rrggbb`` when it gives one in hex, else None."""
-    style = {key.strip(): value for key, _, value in (part.partition(":") for part in el.get("style", "").split(";"))}
+    style = {
+        key.strip(): value
+        for key, _, value in (part.partition(":") for part in el.get("style", "").split(";"))
+    }
     found = _HEX.fullmatch((el.get("stroke") or style.get("stroke") or "").strip())
     if not found:
         return None
@@ -410,7 +496,10 @@ def _stroke_color(el: ET.Element) -> str | None:
 
 
 def _stroke_width(el: ET.Element) -> str | None:
-    style = {key.strip(): value for key, _, value in (part.partition(":") for part in el.get("style", "").split(";"))}
+    style = {
+        key.strip(): value
+        for key, _, value in (part.partition(":") for part in el.get("style", "").split(";"))
+    }
     value = el.get("stroke-width") or style.get("stroke-width")
     return value.strip() if value else None
 

@@ -59,15 +59,21 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
         paths' starts, ``stroke`` the stroke width (user units) every shape of the layer has, or
         None when they differ.
     """
-    if _moves(root) or not _even_view(root) or any(next(root.iter(tag), None) is not None for tag in _STYLE_TAGS):
+    if (
+        _moves(root)
+        or not _even_view(root)
+        or any(next(root.iter(tag), None) is not None for tag in _STYLE_TAGS)
+    ):
         return None
     shapes = _shapes(root, tops, loose)
     if shapes is None:
         return None
     keys, kinds, texts, strokes = shapes
     kinds = np.array(kinds, np.int8)
-    lines = [_path_lines([t for t, k in zip(texts, kinds.tolist()) if k == _PATH]),
-             _point_lines([t for t, k in zip(texts, kinds.tolist()) if k != _PATH], kinds[kinds != _PATH])]
+    lines = [
+        _path_lines([t for t, k in zip(texts, kinds.tolist()) if k == _PATH]),
+        _point_lines([t for t, k in zip(texts, kinds.tolist()) if k != _PATH], kinds[kinds != _PATH]),
+    ]
     if any(found is None for found in lines):
         return None
     # Every line's shape in document order: the paths' and the point lists' numbered back.
@@ -86,8 +92,14 @@ def read_straight(root: ET.Element, tops: list[ET.Element], loose: list[ET.Eleme
         take = np.repeat(starts[chosen] - np.cumsum(np.r_[0, counts[chosen][:-1]]), counts[chosen])
         take += np.arange(len(take))
         widths = {stroke for stroke, key in zip(strokes, keys) if key == place}
-        layers.append((place, points[take] - _view_origin(root), np.concatenate([[0], np.cumsum(counts[chosen])]),
-                       widths.pop() if len(widths) == 1 else None))
+        layers.append(
+            (
+                place,
+                points[take] - _view_origin(root),
+                np.concatenate([[0], np.cumsum(counts[chosen])]),
+                widths.pop() if len(widths) == 1 else None,
+            )
+        )
     return layers
 
 
@@ -113,8 +125,11 @@ def _shapes(root: ET.Element, tops: list[ET.Element], loose: list[ET.Element]):
             styled = "style" in attrib
             if (styled or not _MOVING_SET.isdisjoint(attrib)) and _moves(element):
                 return None
-            stroke = _stroke(element, inherited) if (styled or "stroke-width" in attrib) else (
-                1.0 if inherited is None else inherited)
+            stroke = (
+                _stroke(element, inherited)
+                if (styled or "stroke-width" in attrib)
+                else (1.0 if inherited is None else inherited)
+            )
             if name == "g":
                 stack.extend(zip(reversed(element), itertools.repeat(stroke)))
                 continue
@@ -204,7 +219,11 @@ def _path_lines(ds: list[str]):
     single = np.isin(letters, np.frombuffer(b"HhVv", np.uint8))
     close = ~pair & ~single & ~cut
     relative = letters >= ord("a")
-    if (pair & ((counts < 2) | (counts % 2 == 1))).any() or (single & (counts < 1)).any() or ((close | cut) & (counts > 0)).any():
+    if (
+        (pair & ((counts < 2) | (counts % 2 == 1))).any()
+        or (single & (counts < 1)).any()
+        or ((close | cut) & (counts > 0)).any()
+    ):
         return None
     # A path starts with a move (or is empty: its cut is followed by the next cut or the end).
     after_cut = np.flatnonzero(cut) + 1
@@ -212,7 +231,10 @@ def _path_lines(ds: list[str]):
     if ((after_cut < len(letters)) & (opening != ord("M")) & (opening != ord("X"))).any():
         return None
     per = len(ds)
-    if (np.bincount(element[close], minlength=per).astype(bool) & np.bincount(element[relative], minlength=per).astype(bool)).any():
+    if (
+        np.bincount(element[close], minlength=per).astype(bool)
+        & np.bincount(element[relative], minlength=per).astype(bool)
+    ).any():
         return None  # relative moves after a Z start from the subpath's start: vpype's business
     first_move = np.zeros(len(letters), bool)  # a path's first move is absolute, whatever its case
     first_move[after_cut[after_cut < len(letters)]] = True
@@ -254,7 +276,9 @@ def _follow(value: np.ndarray, absolute: np.ndarray, delta: np.ndarray) -> np.nd
     return base + total - np.where(last >= 0, total[np.maximum(last, 0)], 0.0)
 
 
-def _tidy(points: np.ndarray, offsets: np.ndarray, *, keep: np.ndarray | None = None, with_kept: bool = False):
+def _tidy(
+    points: np.ndarray, offsets: np.ndarray, *, keep: np.ndarray | None = None, with_kept: bool = False
+):
     """vpype's lines: a point equal to the one before it dropped (except where ``keep``), paths of
     fewer than two gone; with ``with_kept`` also which of the paths are left."""
     if not len(points):
@@ -315,7 +339,10 @@ def _view_origin(root: ET.Element) -> np.ndarray:
 def _moves(element: ET.Element) -> bool:
     """Whether ``element`` transforms, clips, filters or hides what it holds (``display:inline``,
     which vpype and Inkscape write on every layer, does not)."""
-    style = {k.strip(): v.strip() for k, _, v in (part.partition(":") for part in element.get("style", "").split(";"))}
+    style = {
+        k.strip(): v.strip()
+        for k, _, v in (part.partition(":") for part in element.get("style", "").split(";"))
+    }
     for name in _MOVING:
         value = element.get(name, style.get(name))
         if value is not None and (name, value) not in (("display", "inline"), ("visibility", "visible")):
@@ -326,7 +353,9 @@ def _moves(element: ET.Element) -> bool:
 def _stroke(element: ET.Element, inherited):
     """The stroke width (user units) ``element`` draws with: its own, else its group's (svgelements'
     default: 1); ``False`` for one given in another unit (not read here)."""
-    style = {k.strip(): v for k, _, v in (part.partition(":") for part in element.get("style", "").split(";"))}
+    style = {
+        k.strip(): v for k, _, v in (part.partition(":") for part in element.get("style", "").split(";"))
+    }
     given = style.get("stroke-width") or element.get("stroke-width")
     if given is None:
         return 1.0 if inherited is None else inherited

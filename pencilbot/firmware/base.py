@@ -242,7 +242,9 @@ class Firmware:
     def _first_refused(self, job, suspects, number: int | None = None) -> tuple[int, str] | None:
         """Frame each suspect line (numbered ``number``, else its position); the first refusal."""
         for index in suspects:
-            text = job.frames[job.offsets[index] : job.offsets[index + 1] - 1].decode("utf-8", errors="replace")
+            text = job.frames[job.offsets[index] : job.offsets[index + 1] - 1].decode(
+                "utf-8", errors="replace"
+            )
             try:
                 self.frame(text, index + 1 if number is None else number)
             except ProtocolError as exc:

@@ -95,7 +95,9 @@ class EbbSetup:
         steps = np.asarray(steps, dtype=np.float64)
         k = self.steps_per_mm
         if self.kinematics == "corexy":
-            return np.column_stack([(steps[:, 0] + steps[:, 1]) / (2 * k), (steps[:, 0] - steps[:, 1]) / (2 * k)])
+            return np.column_stack(
+                [(steps[:, 0] + steps[:, 1]) / (2 * k), (steps[:, 0] - steps[:, 1]) / (2 * k)]
+            )
         return steps / k
 
     @property

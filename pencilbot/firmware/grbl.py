@@ -25,7 +25,11 @@ class Grbl(Firmware):
     title = "GRBL"
     protocol = protocol
     capabilities = Capabilities(
-        status_reports=True, feed_hold=True, soft_reset=True, check_mode=True, unlock=True,
+        status_reports=True,
+        feed_hold=True,
+        soft_reset=True,
+        check_mode=True,
+        unlock=True,
         realtime_protocol=True,
     )
     receive_buffer = protocol.RX_BUFFER_SIZE

@@ -9,14 +9,14 @@ import re
 #: What each system command does to a plot, by name (``$N`` and ``$<n>`` stand for every number).
 EFFECTS = {
     "$C": "turns on the board's check mode: it parses every line after it and moves for none, so "
-          "nothing after it is drawn",
+    "nothing after it is drawn",
     "$H": "homes the machine: the carriage runs to its home switches, at machine X0 Y0",
     "$X": "unlocks the board from an alarm without homing it",
     "$SLP": "puts the board to sleep: it runs nothing after it until it is reset",
     "$RST": "restores the board's factory settings or offsets and resets it",
     "$N": "stores a startup block the board runs after every reset and homing",
     "$n": "changes a setting stored in the board (steps per mm, speeds, limits, pen output), so its "
-          "moves may no longer be the file's",
+    "moves may no longer be the file's",
     "$I": "reads or stores the board's build information",
 }
 #: After these the board runs nothing more of a job: what it does then.

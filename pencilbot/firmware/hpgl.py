@@ -43,6 +43,8 @@ def looks_like_hpgl(path) -> bool:
     except OSError:
         return False
     return bool(_HPGL_START.match(head))
+
+
 #: The longest HP-GL file read (bytes), whole: a plot of a million pen moves is about 20 MB.
 MAX_HPGL_FILE = 256 << 20
 #: The highest pen number (HP-GL's integers are 16-bit) and speed (``VS``, cm/s: the 7475A's
@@ -53,10 +55,27 @@ MAX_SPEED = 128.0
 _PASSED = {"DF", "PS", "OI", "OS", "OE", "OA", "OH", "OP", "OW", "OC", "CS", "CA", "SS", "SA", "LT", "DT"}
 #: Instructions that change how coordinates map to the paper or draw shapes: not translated.
 _REFUSED = {
-    "SC": "user scaling", "IP": "scaling points", "IW": "a window", "RO": "rotation",
-    "AA": "arcs", "AR": "arcs", "CI": "circles", "LB": "labels", "EA": "rectangles", "ER": "rectangles",
-    "RA": "filled rectangles", "RR": "filled rectangles", "EW": "wedges", "WG": "wedges", "FT": "fill types",
-    "PT": "fill spacing", "XT": "ticks", "YT": "ticks", "TL": "ticks", "SM": "symbol mode", "PM": "polygons",
+    "SC": "user scaling",
+    "IP": "scaling points",
+    "IW": "a window",
+    "RO": "rotation",
+    "AA": "arcs",
+    "AR": "arcs",
+    "CI": "circles",
+    "LB": "labels",
+    "EA": "rectangles",
+    "ER": "rectangles",
+    "RA": "filled rectangles",
+    "RR": "filled rectangles",
+    "EW": "wedges",
+    "WG": "wedges",
+    "FT": "fill types",
+    "PT": "fill spacing",
+    "XT": "ticks",
+    "YT": "ticks",
+    "TL": "ticks",
+    "SM": "symbol mode",
+    "PM": "polygons",
 }
 
 
@@ -130,7 +149,9 @@ class Program:
                 holds[k] = pen
             frames[i] = protocol.encode("SP", k) + b"\n"
         lengths = np.fromiter(map(len, frames), dtype=np.int64, count=len(frames))
-        return replace(self, frames=frames, offsets=np.concatenate([[0], np.cumsum(lengths)]), pen=slot), changes
+        return replace(
+            self, frames=frames, offsets=np.concatenate([[0], np.cumsum(lengths)]), pen=slot
+        ), changes
 
     def drawn(self) -> tuple[Paths, np.ndarray]:
         """The pen-down polylines (plotter units) and the carousel pen of each, in order."""
@@ -187,6 +208,7 @@ class Hpgl(Firmware):
     def reserve(self, size: int) -> int:
         """Bytes of a ``size``-byte buffer a sender leaves free."""
         return min(self.buffer_reserve, size // 8)
+
     park_command = b"PU;SP0;"
 
     def frame(self, command: str, number: int = 0) -> bytes:
@@ -283,7 +305,8 @@ class _Interpreter:
         if m in _REFUSED:
             raise ProtocolError(
                 f"instruction {number} ({m}: {_REFUSED[m]}) is not translated by pencilbot's HP-GL sender; "
-                "convert the drawing to lines first (e.g. vpype read … write --device hp7475a)")
+                "convert the drawing to lines first (e.g. vpype read … write --device hp7475a)"
+            )
         if m == "IN":
             self.down, self.relative, self.speed = False, False, 0.0
             self._emit(b"IN;", number)
@@ -293,8 +316,10 @@ class _Interpreter:
             self._emit(protocol.encode("SP", self.pen), number)
         elif m == "VS":
             if p and not 0 < p[0] <= MAX_SPEED:
-                raise ProtocolError(f"instruction {number} (VS): speed {p[0]:g} cm/s is not one a plotter takes "
-                                    f"(more than 0, at most {MAX_SPEED:g})")
+                raise ProtocolError(
+                    f"instruction {number} (VS): speed {p[0]:g} cm/s is not one a plotter takes "
+                    f"(more than 0, at most {MAX_SPEED:g})"
+                )
             self.speed = float(p[0]) if p else 0.0
             self._emit(protocol.encode("VS", *p[:1]), number)
         elif m in ("PA", "PR"):
@@ -316,13 +341,17 @@ class _Interpreter:
         word = "PD" if self.down else "PU"
         for k in range(0, len(p), 2):
             if not max(abs(p[k]), abs(p[k + 1])) <= protocol.MAX_COORDINATE:  # (NaN and inf too)
-                raise ProtocolError(f"instruction {number}: coordinate {p[k]:g},{p[k + 1]:g} is beyond "
-                                    f"±{protocol.MAX_COORDINATE}")
+                raise ProtocolError(
+                    f"instruction {number}: coordinate {p[k]:g},{p[k + 1]:g} is beyond "
+                    f"±{protocol.MAX_COORDINATE}"
+                )
             x, y = round(p[k]), round(p[k + 1])
             if self.relative:
                 x, y = self.x + x, self.y + y
             if max(abs(x), abs(y)) > protocol.MAX_COORDINATE:
-                raise ProtocolError(f"instruction {number}: coordinate {x},{y} is beyond ±{protocol.MAX_COORDINATE}")
+                raise ProtocolError(
+                    f"instruction {number}: coordinate {x},{y} is beyond ±{protocol.MAX_COORDINATE}"
+                )
             self.x, self.y = x, y
             self._emit(protocol.encode(word, x, y), number)
 

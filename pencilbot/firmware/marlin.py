@@ -56,7 +56,9 @@ class Marlin(Firmware):
         lengths = np.diff(job.offsets) - 1
         room = self.protocol.MAX_CMD_SIZE - len(f"N{widest} *0")  # the shortest checksum
         odd = np.flatnonzero(_ODD[a])
-        suspects = np.union1d(np.flatnonzero(lengths >= room), np.searchsorted(job.offsets, odd, side="right") - 1)
+        suspects = np.union1d(
+            np.flatnonzero(lengths >= room), np.searchsorted(job.offsets, odd, side="right") - 1
+        )
         return self._first_refused(job, suspects.tolist(), number=widest)
 
     def renumber(self) -> tuple[str, int]:

@@ -84,7 +84,9 @@ class Face:
 
     def scaled(self, factor: float) -> Face:
         """The same face in a picture ``factor`` times as large."""
-        points = None if self.landmarks is None else tuple((x * factor, y * factor) for x, y in self.landmarks)
+        points = (
+            None if self.landmarks is None else tuple((x * factor, y * factor) for x, y in self.landmarks)
+        )
         return Face(self.x * factor, self.y * factor, self.size * factor, self.score, points)
 
     def describe(self) -> str:
@@ -122,8 +124,15 @@ def find_faces(gray: np.ndarray) -> list[Face]:
     gray = np.asarray(gray, np.float32)
     height, width = gray.shape[:2]
     factor = min(1.0, SEARCH_SIDE / max(height, width))
-    small = gray if factor == 1.0 else cv2.resize(
-        gray, (max(1, round(width * factor)), max(1, round(height * factor))), interpolation=cv2.INTER_AREA)
+    small = (
+        gray
+        if factor == 1.0
+        else cv2.resize(
+            gray,
+            (max(1, round(width * factor)), max(1, round(height * factor))),
+            interpolation=cv2.INTER_AREA,
+        )
+    )
     if mtcnn.nets() is not None:
         faces = _mtcnn_faces(small)
     else:
@@ -142,8 +151,15 @@ def _mtcnn_faces(picture: np.ndarray) -> list[Face]:
             continue
         centre = (marks[:2].mean(axis=0) + marks[3:].mean(axis=0)) / 2
         side = SIDE_PER_BOX * (box[2] - box[0])
-        faces.append(Face(float(centre[0] - side / 2), float(centre[1] - side / 2), float(side), float(box[4]),
-                          tuple((float(x), float(y)) for x, y in marks)))
+        faces.append(
+            Face(
+                float(centre[0] - side / 2),
+                float(centre[1] - side / 2),
+                float(side),
+                float(box[4]),
+                tuple((float(x), float(y)) for x, y in marks),
+            )
+        )
     return sorted(faces, key=lambda face: -face.score)
 
 
@@ -165,8 +181,11 @@ def _cascade_faces(small: np.ndarray) -> list[Face]:
 
 def _detect(picture: np.ndarray, least: int) -> list[tuple[int, int, int, float]]:
     boxes, _, weights = _cascade().detectMultiScale3(
-        picture, scaleFactor=1.1, minNeighbors=NEIGHBOURS, minSize=(least, least), outputRejectLevels=True)
-    return [(int(x), int(y), int(w), float(s)) for (x, y, w, _), s in zip(boxes, np.ravel(weights), strict=True)]
+        picture, scaleFactor=1.1, minNeighbors=NEIGHBOURS, minSize=(least, least), outputRejectLevels=True
+    )
+    return [
+        (int(x), int(y), int(w), float(s)) for (x, y, w, _), s in zip(boxes, np.ravel(weights), strict=True)
+    ]
 
 
 def _overlap(a, b) -> float:
@@ -214,7 +233,7 @@ def face_squares(shape: tuple[int, int], faces: list[Face]) -> np.ndarray:
     inside = np.zeros(shape, bool)
     for face in faces:
         x0, y0 = max(0, int(round(face.x))), max(0, int(round(face.y)))
-        inside[y0: int(round(face.y + face.size)), x0: int(round(face.x + face.size))] = True
+        inside[y0 : int(round(face.y + face.size)), x0 : int(round(face.x + face.size))] = True
     return inside
 
 

@@ -190,12 +190,16 @@ def _without_pillow_pixel_limit():
         Image.MAX_IMAGE_PIXELS = saved
 
 
-def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrink_to) -> tuple[np.ndarray, tuple[int, int]]:
+def _decode(
+    img: Image.Image, name: str, max_pixels: int, downscale: bool, shrink_to
+) -> tuple[np.ndarray, tuple[int, int]]:
     """Decode ``img`` upright, at reduced scale where that is free: (samples, wanted (w, h))."""
     width, height = img.size
     frames = getattr(img, "n_frames", 1)
     if frames > 1:
-        log.warning("%s holds %d frames (an animation or a multi-page file): using the first only.", name, frames)
+        log.warning(
+            "%s holds %d frames (an animation or a multi-page file): using the first only.", name, frames
+        )
     too_large = width * height > max_pixels
     if too_large and not downscale:
         raise ImageLoadError(
@@ -209,7 +213,12 @@ def _decode(img: Image.Image, name: str, max_pixels: int, downscale: bool, shrin
     if shrink_to is not None:
         h, w = shrink_to((wanted[1], wanted[0]))
         wanted = (min(wanted[0], w), min(wanted[1], h))
-    if wanted != upright and img.format == "PNG" and orientation == 1 and (too_large or width * height > DECODE_LIMIT):
+    if (
+        wanted != upright
+        and img.format == "PNG"
+        and orientation == 1
+        and (too_large or width * height > DECODE_LIMIT)
+    ):
         # PNG has no reduced decode: a picture too large to hold is read a strip of rows at a
         # time, shrunk as it goes (a whole factor, then the rest as any picture).
         factor = min(width // wanted[0], height // wanted[1])
@@ -259,7 +268,12 @@ _RESULT_BYTES_PER_PIXEL = 32
 def _strip_bytes(layout: PngLayout, factor: int, reduced: tuple[int, int], wanted: tuple[int, int]) -> int:
     """Peak bytes of a PNG read in strips: a strip's copies, the picture at 1/factor (premultiplied
     uint16 RGBA, and its copy as the strips join), the result."""
-    strip = factor * max(1, STRIP_BYTES // ((layout.stride + 1) * factor)) * layout.width * _DECODE_BYTES_PER_PIXEL
+    strip = (
+        factor
+        * max(1, STRIP_BYTES // ((layout.stride + 1) * factor))
+        * layout.width
+        * _DECODE_BYTES_PER_PIXEL
+    )
     return strip + reduced[0] * reduced[1] * 16 + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
 
 
@@ -267,13 +281,17 @@ def _check_memory(name: str, img: Image.Image, wanted: tuple[int, int], need: in
     """Refuse a decode that needs more memory than this process can get, before it starts
     (``need``: bytes, when not the whole picture's decode)."""
     if need is None:
-        need = img.size[0] * img.size[1] * _DECODE_BYTES_PER_PIXEL + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
+        need = (
+            img.size[0] * img.size[1] * _DECODE_BYTES_PER_PIXEL
+            + wanted[0] * wanted[1] * _RESULT_BYTES_PER_PIXEL
+        )
     have, words = available_memory()
     if need > have:
         raise ImageLoadError(
             f"{name} is {img.size[0]}×{img.size[1]} pixels as decoded: loading it needs about "
             f"{need / 1e9:.2g} GB, more than the {have / 1e9:.2g} GB {words}. Shrink it with an image "
-            "editor first, or lower --max-pixels with --downscale.")
+            "editor first, or lower --max-pixels with --downscale."
+        )
 
 
 def _samples(img: Image.Image) -> np.ndarray:

@@ -86,10 +86,16 @@ def _proposals(pnet, image: np.ndarray, min_face: float) -> np.ndarray:
         shift = regression[0].transpose(1, 0, 2)
         rows, cols = np.nonzero(score >= THRESHOLDS[0])
         if len(rows):
-            boxes = np.column_stack([
-                (2 * cols + 1) / scale, (2 * rows + 1) / scale, (2 * cols + 12) / scale, (2 * rows + 12) / scale,
-                score[rows, cols], shift[rows, cols],
-            ])
+            boxes = np.column_stack(
+                [
+                    (2 * cols + 1) / scale,
+                    (2 * rows + 1) / scale,
+                    (2 * cols + 12) / scale,
+                    (2 * rows + 12) / scale,
+                    score[rows, cols],
+                    shift[rows, cols],
+                ]
+            )
             found.append(boxes[_nms(boxes, 0.5)])
         scale *= PYRAMID_STEP
     if not found:
@@ -125,7 +131,7 @@ def _crop(image: np.ndarray, box: np.ndarray, side: int) -> np.ndarray:
     out = np.full((max(1, y2 - y1 + 1), max(1, x2 - x1 + 1), 3), -127.5 * 0.0078125, np.float32)
     c0, r0, c1, r1 = max(0, x1 - 1), max(0, y1 - 1), min(width, x2), min(height, y2)
     if c1 > c0 and r1 > r0:
-        out[r0 - (y1 - 1): r1 - (y1 - 1), c0 - (x1 - 1): c1 - (x1 - 1)] = image[r0:r1, c0:c1]
+        out[r0 - (y1 - 1) : r1 - (y1 - 1), c0 - (x1 - 1) : c1 - (x1 - 1)] = image[r0:r1, c0:c1]
     return cv2.resize(out, (side, side), interpolation=cv2.INTER_AREA)
 
 

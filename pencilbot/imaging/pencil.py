@@ -142,12 +142,20 @@ def sketch(
             f"{image.source or 'the image'} is {w} x {h} px, too thin to sketch: its short side is drawn enlarged to "
             f"{MIN_SIDE} px, which would make it {w * factor} x {h * factor} px (over "
             f"{MAX_ENLARGED_PIXELS / 1e6:.1f} megapixels). Crop it to a wider strip, or scale it to at least "
-            f"{MIN_SIDE} px on its short side")
+            f"{MIN_SIDE} px on its short side"
+        )
     if factor > 1:
-        enlarged = image_from_array(np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source)
+        enlarged = image_from_array(
+            np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source
+        )
         drawn = sketch(
-            enlarged, line_length=line_length, stroke_gamma=stroke_gamma, stroke_width=stroke_width,
-            texture=texture, texture_seed=texture_seed, lines_only=lines_only,
+            enlarged,
+            line_length=line_length,
+            stroke_gamma=stroke_gamma,
+            stroke_width=stroke_width,
+            texture=texture,
+            texture_seed=texture_seed,
+            lines_only=lines_only,
         )
         return _reduced(drawn, image, color)
     timings: dict[str, float] = {}
@@ -179,11 +187,23 @@ def sketch(
     result = with_luma(image.rgb, luma) if color else luma
     lap("compose")
     log.debug(
-        "sketch of %s (%d×%d px, ℓ = %d px): %s", image.source, image.shape[1], image.shape[0], line.length,
+        "sketch of %s (%d×%d px, ℓ = %d px): %s",
+        image.source,
+        image.shape[1],
+        image.shape[0],
+        line.length,
         ", ".join(f"{stage} {seconds:.2f} s" for stage, seconds in timings.items()),
     )
-    return Sketch(result=result, gray=image.gray, line=line, tone=tone, texture=texture, fit=fit, timings=timings,
-                  rgb=image.rgb)
+    return Sketch(
+        result=result,
+        gray=image.gray,
+        line=line,
+        tone=tone,
+        texture=texture,
+        fit=fit,
+        timings=timings,
+        rgb=image.rgb,
+    )
 
 
 def _check_range(name: str, value: float, bounds: tuple[float, float]) -> None:
@@ -206,7 +226,9 @@ def _reduced(drawn: Sketch, image: LoadedImage, color: bool) -> Sketch:
     fit = drawn.fit and replace(drawn.fit, T=area(drawn.fit.T), beta=area(drawn.fit.beta))
     luma = line.drawing * fit.T if fit else line.drawing.copy()
     result = with_luma(image.rgb, luma) if color else luma
-    return Sketch(result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings, image.rgb)
+    return Sketch(
+        result, image.gray, line, area(drawn.tone), area(drawn.texture), fit, drawn.timings, image.rgb
+    )
 
 
 def with_luma(rgb: np.ndarray, luma: np.ndarray) -> np.ndarray:

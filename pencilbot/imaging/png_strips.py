@@ -83,8 +83,11 @@ def png_layout(path) -> PngLayout | None:
                 sixteen_bit_color = depth == 16 and color_type in (2, 4, 6)
                 if interlace or color_type not in _CHANNELS or sixteen_bit_color or not width or not height:
                     return None
-                if (depth not in (1, 2, 4, 8, 16) or (color_type in (2, 4, 6) and depth != 8)
-                        or (color_type == 3 and (depth == 16 or not palette))):
+                if (
+                    depth not in (1, 2, 4, 8, 16)
+                    or (color_type in (2, 4, 6) and depth != 8)
+                    or (color_type == 3 and (depth == 16 or not palette))
+                ):
                     return None
                 return PngLayout(width, height, depth, color_type, palette, transparency, offset)
     return None
@@ -180,8 +183,10 @@ def _filtered_strips(path, layout: PngLayout, rows: int) -> Iterator[bytes]:
                 if not pending:
                     pending = next(pieces, b"")
                     if not pending or inflater.eof:
-                        raise ValueError(f"its pixel data ends after {layout.height - left // row_bytes} of "
-                                         f"{layout.height} rows")
+                        raise ValueError(
+                            f"its pixel data ends after {layout.height - left // row_bytes} of "
+                            f"{layout.height} rows"
+                        )
                 buffered += inflater.decompress(pending, size - len(buffered))
                 pending = inflater.unconsumed_tail
             yield bytes(buffered[:size])
@@ -200,8 +205,12 @@ def _unfilter(raw: bytes, layout: PngLayout, rows: int) -> np.ndarray:
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
-    small = (_SIGNATURE + chunk(b"IHDR", struct.pack(">IIBBBBB", width, rows, 8, _LIE[bpp], 0, 0, 0))
-             + chunk(b"IDAT", zlib.compress(raw, 0)) + chunk(b"IEND", b""))
+    small = (
+        _SIGNATURE
+        + chunk(b"IHDR", struct.pack(">IIBBBBB", width, rows, 8, _LIE[bpp], 0, 0, 0))
+        + chunk(b"IDAT", zlib.compress(raw, 0))
+        + chunk(b"IEND", b"")
+    )
     with Image.open(io.BytesIO(small)) as img:
         img.load()
         return np.frombuffer(img.tobytes(), np.uint8).reshape(rows, layout.stride)
@@ -214,7 +223,9 @@ def _samples(rows: np.ndarray, layout: PngLayout) -> np.ndarray:
         return rows.view(">u2").astype(np.uint16)[:, :width]
     if depth < 8:
         bits = np.unpackbits(rows, axis=1).reshape(len(rows), -1, depth)
-        values = (bits * (1 << np.arange(depth - 1, -1, -1, dtype=np.uint8))).sum(axis=2, dtype=np.uint8)[:, :width]
+        values = (bits * (1 << np.arange(depth - 1, -1, -1, dtype=np.uint8))).sum(axis=2, dtype=np.uint8)[
+            :, :width
+        ]
     else:
         values = rows.reshape(len(rows), width, _CHANNELS[color_type])
         if _CHANNELS[color_type] == 1:
@@ -242,7 +253,9 @@ def _samples(rows: np.ndarray, layout: PngLayout) -> np.ndarray:
         rgb = values[..., :3]
         alpha = values[..., 3] if color_type == 6 else None
         if color_type == 2 and key is not None and len(key) >= 6:
-            alpha = np.where((rgb == np.array(struct.unpack(">HHH", key[:6]))).all(axis=2), 0, 255).astype(np.uint8)
+            alpha = np.where((rgb == np.array(struct.unpack(">HHH", key[:6]))).all(axis=2), 0, 255).astype(
+                np.uint8
+            )
     if alpha is None:
         return np.ascontiguousarray(rgb)
     alpha16 = alpha.astype(np.uint16)[..., None]

@@ -191,7 +191,9 @@ def line_drawing(
         raise ValueError(f"floor must be in [0, 1), got {floor}")
     length = default_line_length(E.shape) if length is None else int(length)
     if not 1 <= length <= LONGEST_LENGTH:
-        raise PencilbotError(f"stroke length {length} px is not in 1..{LONGEST_LENGTH} px; choose a length in that range")
+        raise PencilbotError(
+            f"stroke length {length} px is not in 1..{LONGEST_LENGTH} px; choose a length in that range"
+        )
     kernels = [_trim(kernel) for kernel in line_kernels(length, width)]
 
     best = cv2.filter2D(E, -1, kernels[0], borderType=cv2.BORDER_REFLECT)

@@ -141,7 +141,10 @@ def pencil_texture(
     if reduction == 1:
         grid = (h, w)
     else:
-        grid = (scipy.fft.next_fast_len(-(-h // reduction)), scipy.fft.next_fast_len(-(-w // reduction), real=True))
+        grid = (
+            scipy.fft.next_fast_len(-(-h // reduction)),
+            scipy.fft.next_fast_len(-(-w // reduction), real=True),
+        )
     gh, gw = grid
     rng = np.random.default_rng(seed)
     # Marks: impulses of random pressure through an oriented Gaussian, one direction at a
@@ -223,7 +226,9 @@ def user_texture(
     scale = reference_scale((h, w)) if scale is None else float(scale)
     if scale > 1:
         size = (max(1, round(gray.shape[1] * scale)), max(1, round(gray.shape[0] * scale)))
-        gray = np.asarray(cv2.resize(gray, size, interpolation=cv2.INTER_LINEAR), np.float32)  # float32 already
+        gray = np.asarray(
+            cv2.resize(gray, size, interpolation=cv2.INTER_LINEAR), np.float32
+        )  # float32 already
     density = -np.log(np.clip(gray, 1.0 / 255.0, 1.0))
     if density.shape[0] < h or density.shape[1] < w:
         density = _seamless(density)

@@ -55,7 +55,9 @@ class Bed:
         xy = np.asarray(machine, dtype=np.float64)[:, :2]
         (x0, x1), (y0, y1) = self.machine_range()
         x, y = xy[:, 0], xy[:, 1]
-        return ~((x >= x0 - tolerance) & (x <= x1 + tolerance) & (y >= y0 - tolerance) & (y <= y1 + tolerance))
+        return ~(
+            (x >= x0 - tolerance) & (x <= x1 + tolerance) & (y >= y0 - tolerance) & (y <= y1 + tolerance)
+        )
 
     def to_view(self, machine: np.ndarray) -> np.ndarray:
         """Machine XY ``(N, 2+)`` mm → the bed seen from above: mm from its bottom-left, Y up."""
@@ -136,5 +138,3 @@ class Placement:
     def home(self) -> np.ndarray:
         """Where machine ``X0 Y0`` (the pen's home, where a plot starts and ends) is on the page."""
         return self.to_page(np.zeros((1, 2)))[0]
-
-

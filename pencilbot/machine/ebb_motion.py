@@ -66,8 +66,15 @@ def pen_commands(profile) -> list[str]:
     ]
 
 
-def plan_ebb(xy: np.ndarray, down: np.ndarray, lines: np.ndarray, profile, *,
-             start_steps: tuple[int, int] = (0, 0), pen_down: bool | None = False) -> list[EbbMove]:
+def plan_ebb(
+    xy: np.ndarray,
+    down: np.ndarray,
+    lines: np.ndarray,
+    profile,
+    *,
+    start_steps: tuple[int, int] = (0, 0),
+    pen_down: bool | None = False,
+) -> list[EbbMove]:
     """The EBB commands that move through ``xy`` with the pen as ``down`` says.
 
     Parameters
@@ -106,7 +113,9 @@ def plan_ebb(xy: np.ndarray, down: np.ndarray, lines: np.ndarray, profile, *,
             state = bool(down[first])
             delay = pen.down_delay if state else pen.up_delay
             ms = max(int(round(delay * 1000)), 1)
-            moves.append(EbbMove(setup.pen_command(not state, ms), int(lines[first]), here, here, ms / 1000.0, state))
+            moves.append(
+                EbbMove(setup.pen_command(not state, ms), int(lines[first]), here, here, ms / 1000.0, state)
+            )
         rows = moved[(moved >= first) & (moved < stop)]
         if len(rows):
             points = np.vstack([setup.to_machine(np.array([here], dtype=np.float64)), xy[rows]])
@@ -114,8 +123,9 @@ def plan_ebb(xy: np.ndarray, down: np.ndarray, lines: np.ndarray, profile, *,
     return moves
 
 
-def _plan_run(points: np.ndarray, lines: np.ndarray, drawing: bool, here: tuple[int, int], profile,
-              moves: list[EbbMove]) -> tuple[int, int]:
+def _plan_run(
+    points: np.ndarray, lines: np.ndarray, drawing: bool, here: tuple[int, int], profile, moves: list[EbbMove]
+) -> tuple[int, int]:
     """Plan one run of moves without a pen change (vertices ``points``, the first where the pen
     stands); append its commands to ``moves``; return the motor position at its end."""
     setup, motion = profile.ebb, profile.motion
@@ -126,12 +136,15 @@ def _plan_run(points: np.ndarray, lines: np.ndarray, drawing: bool, here: tuple[
     accel = motion.acceleration * scale
     nominal = motion.draw_speed if drawing else motion.travel_speed
     nominal = np.minimum(nominal, _motor_limit(units, setup))
-    speeds = path_speeds(lengths, units, np.ones(len(lengths) - 1, bool), nominal, accel, motion.junction_deviation)
+    speeds = path_speeds(
+        lengths, units, np.ones(len(lengths) - 1, bool), nominal, accel, motion.junction_deviation
+    )
     min_t = setup.min_move_ms / 1000.0
     goals = np.rint(setup.to_motor(points)).astype(np.int64).tolist()
     starts, vec = points.tolist(), vectors.tolist()
-    for k, (length_k, v_in, v_out, top, acc) in enumerate(zip(
-            lengths.tolist(), speeds[:-1].tolist(), speeds[1:].tolist(), nominal.tolist(), accel.tolist())):
+    for k, (length_k, v_in, v_out, top, acc) in enumerate(
+        zip(lengths.tolist(), speeds[:-1].tolist(), speeds[1:].tolist(), nominal.tolist(), accel.tolist())
+    ):
         pieces = _pieces(length_k, v_in, v_out, top, acc, min_t)
         along = 0.0
         for n, (length, v0, v1) in enumerate(pieces):
@@ -156,8 +169,9 @@ def _motor_limit(units: np.ndarray, setup) -> np.ndarray:
     return protocol.MAX_STEP_RATE * 0.999 / np.maximum(motor.max(axis=1), 1e-12)
 
 
-def _pieces(length: float, v_in: float, v_out: float, nominal: float, accel: float,
-            min_t: float) -> list[tuple[float, float, float]]:
+def _pieces(
+    length: float, v_in: float, v_out: float, nominal: float, accel: float, min_t: float
+) -> list[tuple[float, float, float]]:
     """The trapezoid of one move as (length, start speed, end speed) pieces of constant
     acceleration, none shorter than ``min_t`` seconds where the move allows."""
     v_in, v_out = max(v_in, FLOOR_SPEED), max(v_out, FLOOR_SPEED)
@@ -167,7 +181,9 @@ def _pieces(length: float, v_in: float, v_out: float, nominal: float, accel: flo
     cruise = max(length - d_acc - d_dec, 0.0)
     if d_acc + d_dec > length:  # rounding: scale the ramps into the move
         d_acc, d_dec = d_acc * length / (d_acc + d_dec), d_dec * length / (d_acc + d_dec)
-    raw = [(d, a, b) for d, a, b in ((d_acc, v_in, peak), (cruise, peak, peak), (d_dec, peak, v_out)) if d > 1e-9]
+    raw = [
+        (d, a, b) for d, a, b in ((d_acc, v_in, peak), (cruise, peak, peak), (d_dec, peak, v_out)) if d > 1e-9
+    ]
     merged: list[list[float]] = []
     for d, a, b in raw:
         if merged and (_seconds(*merged[-1]) < min_t or _seconds(d, a, b) < min_t):
@@ -188,8 +204,16 @@ def _seconds(length: float, v0: float, v1: float) -> float:
     return 2.0 * length / (v0 + v1)
 
 
-def _lm(steps: tuple[int, int], length: float, v0: float, v1: float, line: int, start: tuple[int, int],
-        end: tuple[int, int], drawing: bool) -> EbbMove:
+def _lm(
+    steps: tuple[int, int],
+    length: float,
+    v0: float,
+    v1: float,
+    line: int,
+    start: tuple[int, int],
+    end: tuple[int, int],
+    drawing: bool,
+) -> EbbMove:
     """One LM command: both motors at constant acceleration from ``v0`` to ``v1`` (mm/s along
     the path) over ``length`` mm, ``steps`` motor steps."""
     seconds = _seconds(length, v0, v1)
@@ -219,4 +243,3 @@ def _rescale(r0: int, r1: int, mean: float) -> tuple[int, int]:
     r0, r1 = int(round(r0 * f)), int(round(r1 * f))
     cap = protocol.ACCUMULATOR - 1
     return min(max(r0, 1), cap), min(max(r1, 1), cap)
-

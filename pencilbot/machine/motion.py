@@ -135,8 +135,9 @@ def axis_scale(units: np.ndarray) -> np.ndarray:
     return 1.0 / np.maximum(np.abs(units).max(axis=1), 1e-12)
 
 
-def path_speeds(lengths: np.ndarray, units: np.ndarray, joined: np.ndarray, speed,
-                accel, deviation: float) -> np.ndarray:
+def path_speeds(
+    lengths: np.ndarray, units: np.ndarray, joined: np.ndarray, speed, accel, deviation: float
+) -> np.ndarray:
     """Speed (mm/s) at every vertex of a run of moves, planned with unlimited look-ahead.
 
     Parameters

@@ -97,7 +97,9 @@ def load_pens(name_or_path: str | Path) -> PenSet:
     ProfileError
         No such set, not TOML, or a key, pen name, colour or width that is not as documented.
     """
-    table, where, stem = read_config_table("pens", str(name_or_path), kind="pen set", file_kind="pen set file")
+    table, where, stem = read_config_table(
+        "pens", str(name_or_path), kind="pen set", file_kind="pen set file"
+    )
     return pens_from_mapping(table, where=where, name=stem)
 
 
@@ -117,8 +119,10 @@ def pens_from_mapping(table: dict, *, where: str = "<pens>", name: str = "custom
     if not isinstance(found, list) or not found or not all(isinstance(p, dict) for p in found):
         raise ProfileError(f"{context}: expected one [[pen]] table per pen (name, color, width); found none")
     if len(found) > MAX_PENS:
-        raise ProfileError(f"{context}: {len(found)} pens; a set holds at most {MAX_PENS} (each pen is a pass "
-                           "of planning and a pen change at the plotter)")
+        raise ProfileError(
+            f"{context}: {len(found)} pens; a set holds at most {MAX_PENS} (each pen is a pass "
+            "of planning and a pen change at the plotter)"
+        )
     pens = [_pen(entry, number, context) for number, entry in enumerate(found, start=1)]
     names = [pen.name for pen in pens]
     for pen in pens:
@@ -130,10 +134,13 @@ def pens_from_mapping(table: dict, *, where: str = "<pens>", name: str = "custom
 _PEN_RULES = {
     "name": schema.Rule(
         f"a name of letters, digits, spaces and - _ . + (at most {LONGEST_PEN_NAME}, starting with a letter or digit)",
-        lambda value: isinstance(value, str) and PEN_NAME.fullmatch(value) is not None),
-    "color": schema.Rule("an sRGB colour written #rrggbb, e.g. \"#009fe3\"",
-                         lambda value: isinstance(value, str) and _COLOR.fullmatch(value) is not None,
-                         lambda value: value.lower()),
+        lambda value: isinstance(value, str) and PEN_NAME.fullmatch(value) is not None,
+    ),
+    "color": schema.Rule(
+        'an sRGB colour written #rrggbb, e.g. "#009fe3"',
+        lambda value: isinstance(value, str) and _COLOR.fullmatch(value) is not None,
+        lambda value: value.lower(),
+    ),
     "width": schema.number(*PEN_WIDTH_RANGE, unit="mm"),
 }
 

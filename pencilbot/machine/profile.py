@@ -157,9 +157,13 @@ class Profile:
         """The pen as the estimate, the driver and the simulator see it (commands filled in)."""
         pen = self.pen
         return PenModel(
-            kind=pen.kind, up=float(pen.up), down=float(pen.down),
-            up_lines=tuple(self.render(pen.up_command)), down_lines=tuple(self.render(pen.down_command)),
-            up_delay=float(pen.up_delay), down_delay=float(pen.down_delay),
+            kind=pen.kind,
+            up=float(pen.up),
+            down=float(pen.down),
+            up_lines=tuple(self.render(pen.up_command)),
+            down_lines=tuple(self.render(pen.down_command)),
+            up_delay=float(pen.up_delay),
+            down_delay=float(pen.down_delay),
         )
 
     @property
@@ -198,8 +202,9 @@ class Profile:
 
 # --- schema: what every key must be; defaults are the dataclasses' -----------------------------
 
-_TEMPLATE = schema.kind(str, "a string of G-code (a template using " + ", ".join(
-    f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")")
+_TEMPLATE = schema.kind(
+    str, "a string of G-code (a template using " + ", ".join(f"{{{f}}}" for f in TEMPLATE_FIELDS) + ")"
+)
 # Upper bounds keep every formatted line short (and catch unit mix-ups such as mm/s vs mm/min×1000).
 _FEED = schema.number(1, 1e6, unit="mm/min", as_given=True)  # under 1 mm/min a plot takes years
 _SECONDS = schema.number(0, 60, unit="seconds", as_given=True)
@@ -207,70 +212,107 @@ _BED = schema.number(0, MAX_BED, above=True, unit="mm", as_given=True)
 _PEN_VALUE = schema.any_number("S value, Z mm or servo degrees")
 
 _TOP: dict[str, schema.Rule] = {
-    "name": schema.TEXT, "dialect": schema.choice(firmware_registry.names()), "description": schema.TEXT,
+    "name": schema.TEXT,
+    "dialect": schema.choice(firmware_registry.names()),
+    "description": schema.TEXT,
 }
 _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
-    "bed": (Bed, {
-        "width": _BED,
-        "height": _BED,
-        "origin": schema.choice(ORIGINS),
-        "invert_x": schema.FLAG,
-        "invert_y": schema.FLAG,
-        "homing": schema.FLAG,
-        "soft_limits": schema.FLAG,
-    }),
-    "motion": (Motion, {
-        "draw_feed": _FEED,
-        "travel_feed": _FEED,
-        "acceleration": schema.number(1, 1e6, unit="mm/s²", as_given=True),
-        "junction_deviation": schema.number(0, 10, unit="mm", as_given=True),
-    }),
-    "pen": (Pen, {
-        "kind": schema.choice(PEN_KINDS),
-        "up": _PEN_VALUE,
-        "down": _PEN_VALUE,
-        "up_command": _TEMPLATE,
-        "down_command": _TEMPLATE,
-        "up_delay": _SECONDS,
-        "down_delay": _SECONDS,
-    }),
-    "gcode": (GcodeFormat, {
-        "decimals": schema.whole(0, 6, "digits after the decimal point"),
-        "line_numbers": schema.FLAG,
-        # one whole line (80 characters + newline) must fit, or a sender could never send it
-        "receive_buffer": schema.whole(MAX_LINE + 1, 1 << 20, "bytes"),
-        "header": _TEMPLATE,
-        "footer": _TEMPLATE,
-    }),
-    "paper": (Paper, {
-        "offset": schema.Rule(
-            "a list of two numbers, mm from the sheet's bottom-left corner to machine (0, 0)",
-            lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
-            lambda value: (float(value[0]), float(value[1]))),
-        "carousel": schema.whole(1, 32, "pens the carousel holds"),
-        "unit_mm": schema.number(0.001, 1.0, unit="mm per plotter unit", as_given=True),
-    }),
-    "pen_change": (PenChange, {
-        "command": schema.kind(str, "a string of G-code (a template using " + ", ".join(
-            f"{{{f}}}" for f in PEN_CHANGE_FIELDS) + ")"),
-        "park": schema.Rule(
-            "a list of two numbers, machine X and Y in mm",
-            lambda value: isinstance(value, list) and len(value) == 2 and all(schema.any_number("mm").accepts(v) for v in value),
-            lambda value: (float(value[0]), float(value[1]))),
-    }),
-    "ebb": (EbbSetup, {
-        "kinematics": schema.choice(("corexy", "xy")),
-        # under a step a mm, a drawing is a staircase of millimetre steps (1e-9 drew nothing)
-        "steps_per_mm": schema.number(1, 1e5, unit="motor steps per mm", as_given=True),
-        "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
-        "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
-        "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
-        "servo_rate_up": schema.whole(0, 65535, "servo units per PWM period"),
-        "servo_rate_down": schema.whole(0, 65535, "servo units per PWM period"),
-        "min_move_ms": schema.number(0, 100, unit="ms", as_given=True),
-        "servo_pin": schema.whole(0, 7, "port B pin of the pen servo (1 standard, 2 narrow-band)"),
-        "servo_channels": schema.whole(1, 8, "servo channels (SC,8): 8 standard, 1 narrow-band"),
-    }),
+    "bed": (
+        Bed,
+        {
+            "width": _BED,
+            "height": _BED,
+            "origin": schema.choice(ORIGINS),
+            "invert_x": schema.FLAG,
+            "invert_y": schema.FLAG,
+            "homing": schema.FLAG,
+            "soft_limits": schema.FLAG,
+        },
+    ),
+    "motion": (
+        Motion,
+        {
+            "draw_feed": _FEED,
+            "travel_feed": _FEED,
+            "acceleration": schema.number(1, 1e6, unit="mm/s²", as_given=True),
+            "junction_deviation": schema.number(0, 10, unit="mm", as_given=True),
+        },
+    ),
+    "pen": (
+        Pen,
+        {
+            "kind": schema.choice(PEN_KINDS),
+            "up": _PEN_VALUE,
+            "down": _PEN_VALUE,
+            "up_command": _TEMPLATE,
+            "down_command": _TEMPLATE,
+            "up_delay": _SECONDS,
+            "down_delay": _SECONDS,
+        },
+    ),
+    "gcode": (
+        GcodeFormat,
+        {
+            "decimals": schema.whole(0, 6, "digits after the decimal point"),
+            "line_numbers": schema.FLAG,
+            # one whole line (80 characters + newline) must fit, or a sender could never send it
+            "receive_buffer": schema.whole(MAX_LINE + 1, 1 << 20, "bytes"),
+            "header": _TEMPLATE,
+            "footer": _TEMPLATE,
+        },
+    ),
+    "paper": (
+        Paper,
+        {
+            "offset": schema.Rule(
+                "a list of two numbers, mm from the sheet's bottom-left corner to machine (0, 0)",
+                lambda value: (
+                    isinstance(value, list)
+                    and len(value) == 2
+                    and all(schema.any_number("mm").accepts(v) for v in value)
+                ),
+                lambda value: (float(value[0]), float(value[1])),
+            ),
+            "carousel": schema.whole(1, 32, "pens the carousel holds"),
+            "unit_mm": schema.number(0.001, 1.0, unit="mm per plotter unit", as_given=True),
+        },
+    ),
+    "pen_change": (
+        PenChange,
+        {
+            "command": schema.kind(
+                str,
+                "a string of G-code (a template using "
+                + ", ".join(f"{{{f}}}" for f in PEN_CHANGE_FIELDS)
+                + ")",
+            ),
+            "park": schema.Rule(
+                "a list of two numbers, machine X and Y in mm",
+                lambda value: (
+                    isinstance(value, list)
+                    and len(value) == 2
+                    and all(schema.any_number("mm").accepts(v) for v in value)
+                ),
+                lambda value: (float(value[0]), float(value[1])),
+            ),
+        },
+    ),
+    "ebb": (
+        EbbSetup,
+        {
+            "kinematics": schema.choice(("corexy", "xy")),
+            # under a step a mm, a drawing is a staircase of millimetre steps (1e-9 drew nothing)
+            "steps_per_mm": schema.number(1, 1e5, unit="motor steps per mm", as_given=True),
+            "microstep_mode": schema.whole(1, 5, "EM mode (1: 1/16 step .. 5: full step)"),
+            "servo_min": schema.whole(1, 65535, "servo units of 83.3 ns"),
+            "servo_max": schema.whole(1, 65535, "servo units of 83.3 ns"),
+            "servo_rate_up": schema.whole(0, 65535, "servo units per PWM period"),
+            "servo_rate_down": schema.whole(0, 65535, "servo units per PWM period"),
+            "min_move_ms": schema.number(0, 100, unit="ms", as_given=True),
+            "servo_pin": schema.whole(0, 7, "port B pin of the pen servo (1 standard, 2 narrow-band)"),
+            "servo_channels": schema.whole(1, 8, "servo channels (SC,8): 8 standard, 1 narrow-band"),
+        },
+    ),
 }
 
 
@@ -292,7 +334,9 @@ def load_profile(name_or_path: str | Path) -> Profile:
         The profile does not exist, is not TOML, or has an unknown key, a missing key, a value
         of the wrong type or range, or a template that uses anything but plain named fields.
     """
-    table, where, stem = read_config_table("plotters", str(name_or_path), kind="plotter profile", file_kind="plotter profile")
+    table, where, stem = read_config_table(
+        "plotters", str(name_or_path), kind="plotter profile", file_kind="plotter profile"
+    )
     return profile_from_mapping(table, where=where, default_name=stem)
 
 
@@ -353,7 +397,13 @@ def _section(table: dict, name: str, cls: type, rules: dict[str, schema.Rule], c
     for key, rule in rules.items():
         if key not in found and not schema.has_default(cls, key):
             raise ProfileError(f"{context}: missing key [{name}] {key}; expected {rule.expected}")
-    return cls(**{key: rule.apply(found[key], f"[{name}] {key}", context) for key, rule in rules.items() if key in found})
+    return cls(
+        **{
+            key: rule.apply(found[key], f"[{name}] {key}", context)
+            for key, rule in rules.items()
+            if key in found
+        }
+    )
 
 
 def _check_consistency(profile: Profile, where: str) -> None:
@@ -372,7 +422,8 @@ def _check_consistency(profile: Profile, where: str) -> None:
     if profile.pen.up == profile.pen.down:
         raise ProfileError(
             f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid; expected a value other than "
-            f"down = {profile.pen.down:g} (with both the same the pen never lifts)")
+            f"down = {profile.pen.down:g} (with both the same the pen never lifts)"
+        )
     if profile.pen.kind == "z" and not profile.pen.up > profile.pen.down:
         raise ProfileError(
             f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid for a Z pen; "
@@ -404,7 +455,7 @@ def _check_consistency(profile: Profile, where: str) -> None:
         if section == "pen" and not lines:
             raise ProfileError(
                 f"plotter profile {where}: {_label(section, key)} is empty; expected the G-code "
-                f"that moves the pen, e.g. \"M3 S{{{key[:-8]}}}\""
+                f'that moves the pen, e.g. "M3 S{{{key[:-8]}}}"'
             )
         check_sendable(profile, where, _label(section, key), lines)
         limit = MAX_LINE - (profile.firmware.frame_room if profile.gcode.line_numbers else 0)

@@ -53,16 +53,20 @@ def check_values(profile: Profile, where: str) -> None:
     for key in ("up", "down"):
         value = getattr(profile.pen, key)
         if not low <= value <= high:
-            raise ProfileError(f"plotter profile {where}: [pen] {key} = {value!r} is invalid; expected a number "
-                               f"from {low:g} to {high:g} ({unit})")
+            raise ProfileError(
+                f"plotter profile {where}: [pen] {key} = {value!r} is invalid; expected a number "
+                f"from {low:g} to {high:g} ({unit})"
+            )
     if getattr(fw, "flow", "") == "polled" and profile.motion.draw_feed / 600 > MAX_HPGL_SPEED:
         raise ProfileError(
             f"plotter profile {where}: [motion] draw_feed = {profile.motion.draw_feed!r} is invalid; expected at most "
-            f"{MAX_HPGL_SPEED * 600:g} mm/min (VS {MAX_HPGL_SPEED:g} cm/s, the fastest an HP-GL plotter takes)")
+            f"{MAX_HPGL_SPEED * 600:g} mm/min (VS {MAX_HPGL_SPEED:g} cm/s, the fastest an HP-GL plotter takes)"
+        )
     if fw.capabilities.host_motion and not profile.ebb.servo_min < profile.ebb.servo_max:
         raise ProfileError(
             f"plotter profile {where}: [ebb] servo_max = {profile.ebb.servo_max} is invalid; expected more than "
-            f"servo_min = {profile.ebb.servo_min} (pen heights are percent of the range between them)")
+            f"servo_min = {profile.ebb.servo_min} (pen heights are percent of the range between them)"
+        )
 
 
 def check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -> None:
@@ -85,8 +89,10 @@ def check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -
             problem = "a '%', which GRBL refuses and senders take for a tape marker"
         elif command.strip().startswith("$"):
             name = fw.system_command(command.replace(" ", "").upper()) or command.strip()
-            problem = (f"{name} is a system command for the board, not G-code: a plot must not change the board's "
-                       "settings or state (draw refuses it in a file)")
+            problem = (
+                f"{name} is a system command for the board, not G-code: a plot must not change the board's "
+                "settings or state (draw refuses it in a file)"
+            )
         elif _EXPONENT.search(command):
             problem = "a number in exponent form, which G-code has not (keep the value in range)"
         elif command.strip() and not fw.capabilities.host_motion:  # (EBB: the host reads it)
@@ -101,7 +107,9 @@ def check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -
             for axis, value in _AXIS_WORD.findall(command):
                 low, high = (x0, x1) if axis.upper() == "X" else (y0, y1)
                 if not low - 1e-6 <= float(value) <= high + 1e-6:
-                    problem = (f"{axis.upper()}{value} lies off the bed (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)")
+                    problem = (
+                        f"{axis.upper()}{value} lies off the bed (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)"
+                    )
                     break
         if problem:
             raise ProfileError(f"plotter profile {where}: {label} line {line!r} is invalid: {problem}")
@@ -110,4 +118,5 @@ def check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -
         back = "G90" if relative else "G21"
         raise ProfileError(
             f"plotter profile {where}: {label} leaves {mode} in force, and every move pencilbot writes after it is "
-            f"absolute millimetres; end it with {back}")
+            f"absolute millimetres; end it with {back}"
+        )

@@ -14,7 +14,9 @@ from dataclasses import replace
 from pencilbot.machine.profile import _TABLES, Profile, _check_consistency
 
 
-def profile_with(profile: Profile, changes: Mapping[str, Mapping[str, object]], *, where: str = "command line") -> Profile:
+def profile_with(
+    profile: Profile, changes: Mapping[str, Mapping[str, object]], *, where: str = "command line"
+) -> Profile:
     """``profile`` with some keys of its tables changed, e.g. ``{"pen": {"down": 35}}``.
 
     Raises

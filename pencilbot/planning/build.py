@@ -69,7 +69,10 @@ log = logging.getLogger(__name__)
 
 
 def make_plan(
-    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None,
+    image: LoadedImage,
+    *,
+    page: Page | None = None,
+    style: Style | str | Path | None = None,
     pens: PenSet | str | Path | None = None,
 ) -> Plan:
     """Plan the pen drawing of a photo.
@@ -99,7 +102,10 @@ def make_plan(
 
 
 def sketch_and_plan(
-    image: LoadedImage, *, page: Page | None = None, style: Style | str | Path | None = None,
+    image: LoadedImage,
+    *,
+    page: Page | None = None,
+    style: Style | str | Path | None = None,
     pens: PenSet | str | Path | None = None,
 ) -> tuple[Sketch, Plan]:
     """:func:`make_plan`, also returning the pencil sketch it was planned from (in colour when
@@ -144,7 +150,8 @@ def _check_drawable(image: LoadedImage, page: Page, pen_width: float) -> None:
         raise PencilbotError(
             f"{image.source or 'the picture'} is {width} x {height} pixels (as planned): fitted onto the "
             f"{page.width:g} x {page.height:g} mm page it is {across:.2g} mm across, thinner than the "
-            f"{pen_width:g} mm pen; crop or pad it to a wider shape")
+            f"{pen_width:g} mm pen; crop or pad it to a wider shape"
+        )
 
 
 def with_pens(style: Style, pens: PenSet) -> Style:
@@ -248,14 +255,26 @@ def plan_from_sketch(
         strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
     layers = []
     if style.hatch and in_color:
-        assert pens is not None and drawing.tone is not None  # in colour: pens; hatching: a sketch with its tone
+        assert (
+            pens is not None and drawing.tone is not None
+        )  # in colour: pens; hatching: a sketch with its tone
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
         layers += color_hatching(
-            drawing.result, layout, pens.load_order, strokes, form=1.0 - drawing.tone, paper=1.0 - drawing.gray,
-            angles=style.hatch_angles, coverage=style.hatch_coverage, form_scale=style.hatch_form,
-            min_run=style.min_hatch_run, blank_below=style.hatch_blank_below, wobble=style.hatch_jitter,
-            blur=style.hatch_blur, seed=style.seed,
+            drawing.result,
+            layout,
+            pens.load_order,
+            strokes,
+            form=1.0 - drawing.tone,
+            paper=1.0 - drawing.gray,
+            angles=style.hatch_angles,
+            coverage=style.hatch_coverage,
+            form_scale=style.hatch_form,
+            min_run=style.min_hatch_run,
+            blank_below=style.hatch_blank_below,
+            wobble=style.hatch_jitter,
+            blur=style.hatch_blur,
+            seed=style.seed,
         )
     elif style.hatch:
         hatches = _shaded(drawing, layout, strokes, style, important, dithered, faces)
@@ -265,8 +284,16 @@ def plan_from_sketch(
     else:
         dark = pens.darkest
         layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
-        layers.append(Layer(f"{dark.name}-edges" if in_color else "edges", strokes, pen_width=dark.width,
-                            role="edges", pen=dark.name, color=dark.color))
+        layers.append(
+            Layer(
+                f"{dark.name}-edges" if in_color else "edges",
+                strokes,
+                pen_width=dark.width,
+                role="edges",
+                pen=dark.name,
+                color=dark.color,
+            )
+        )
 
     ordered, position = [], HOME
     for layer in layers:
@@ -285,12 +312,18 @@ def plan_from_sketch(
         # (bench/fidelity.py), the joins within the pen's own width.
         zigzag = 0.0 if exact else 1.5 * style.min_hatch_run
         paths = order_paths(
-            layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=style.order_rounds
+            layer.paths,
+            start=position,
+            join_tolerance=join,
+            join_min_length=zigzag,
+            rounds=style.order_rounds,
         )
         ordered.append(replace(layer, paths=paths))
         if len(paths):
             position = tuple(paths.points[-1])
-        log.debug("layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started)
+        log.debug(
+            "layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started
+        )
 
     meta = {
         "source": source,
@@ -310,10 +343,14 @@ def plan_from_sketch(
         "edge_lines": str(style.edge_lines),
         "edge_budget_mm_per_cm2": f"{style.edge_budget:g}",
         # Faces treated with care, "x,y,size" in px of the image as planned (image_px).
-        "faces": "; ".join(face.describe() for face in faces) if faces else ("none" if style.faces else "off"),
+        "faces": "; ".join(face.describe() for face in faces)
+        if faces
+        else ("none" if style.faces else "off"),
     }
     if pens is not None:
-        meta["pens"] = f"{pens.name}: " + ", ".join(f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order)
+        meta["pens"] = f"{pens.name}: " + ", ".join(
+            f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order
+        )
     return Plan(page=page, layers=tuple(ordered), meta=meta)
 
 
@@ -326,14 +363,27 @@ def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, di
     """
     tone = 1.0 - drawing.tone
     face_tone = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
-    budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(strokes.drawn_lengths().sum())
+    budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(
+        strokes.drawn_lengths().sum()
+    )
     scale = 1.0
     for _ in range(2):
         layers = shade(
-            scale * tone, layout, strokes, paper=1.0 - drawing.gray, pen_width=style.pen_width,
-            angles=style.hatch_angles, coverage=style.hatch_coverage, form_scale=style.hatch_form,
-            min_run=style.min_hatch_run, blank_below=style.hatch_blank_below, wobble=style.hatch_jitter,
-            blur=style.hatch_blur, seed=style.seed, important=important, dithered=dithered,
+            scale * tone,
+            layout,
+            strokes,
+            paper=1.0 - drawing.gray,
+            pen_width=style.pen_width,
+            angles=style.hatch_angles,
+            coverage=style.hatch_coverage,
+            form_scale=style.hatch_form,
+            min_run=style.min_hatch_run,
+            blank_below=style.hatch_blank_below,
+            wobble=style.hatch_jitter,
+            blur=style.hatch_blur,
+            seed=style.seed,
+            important=important,
+            dithered=dithered,
             face_darkness=face_tone,
         )
         drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
@@ -343,7 +393,9 @@ def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, di
         # ¾: the hatching's ink falls faster than its tone (fewer families reach a lighter one);
         # linear, the dark bar photo came to 24.8 min but its whole-box rho 0.944 -> 0.929.
         scale = (max(budget - runs, 0.0) / max(drawn - runs, 1e-9)) ** 0.75
-        log.debug("pen-down %.1f m over the budget %.1f m: tone scaled by %.2f", drawn / 1e3, budget / 1e3, scale)
+        log.debug(
+            "pen-down %.1f m over the budget %.1f m: tone scaled by %.2f", drawn / 1e3, budget / 1e3, scale
+        )
     return layers
 
 
@@ -395,9 +447,7 @@ def _path_means(strokes: Paths, layout: Layout, values: np.ndarray) -> np.ndarra
     return np.bincount(strokes.owners(), values[rows, cols], minlength=len(strokes)) / strokes.lengths
 
 
-def ink_on_image_grid(
-    paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1
-) -> np.ndarray:
+def ink_on_image_grid(paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1) -> np.ndarray:
     """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
 
     Parameters
@@ -424,6 +474,9 @@ def ink_on_image_grid(
     points[:, 1] = height - 0.5 - points[:, 1]
     points[:, 0] += 0.5
     return render_paths(
-        paths.with_points(points), width, height, dpi=MM_PER_INCH / coarsen,
+        paths.with_points(points),
+        width,
+        height,
+        dpi=MM_PER_INCH / coarsen,
         pen_width=pen_width / layout.mm_per_px,
     )

@@ -85,8 +85,15 @@ SPARE_DELTA_E = 5.0
 _FLOOR = 0.01  # cube roots of X, Y, Z, offset: their slope stays finite at black
 
 
-def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
-             ink_cost: float = INK_COST, rounds: int = ROUNDS, start: np.ndarray | None = None) -> np.ndarray:
+def separate(
+    target: np.ndarray,
+    pens: Sequence[Pen],
+    *,
+    most: float = MOST_INK,
+    ink_cost: float = INK_COST,
+    rounds: int = ROUNDS,
+    start: np.ndarray | None = None,
+) -> np.ndarray:
     """The coverage of each pen whose stacked inks best match a colour picture.
 
     Parameters
@@ -113,14 +120,20 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
     goal = _lab(srgb_to_linear(target).reshape(-1, 3))  # (N, 3)
     absorb = 1.0 - srgb_to_linear(np.array([pen.rgb for pen in pens]))  # (K, 3)
     k = len(pens)
-    amount = np.zeros((goal.shape[0], k)) if start is None else np.clip(start.reshape(k, -1).T.astype(np.float64), 0.0, most)
+    amount = (
+        np.zeros((goal.shape[0], k))
+        if start is None
+        else np.clip(start.reshape(k, -1).T.astype(np.float64), 0.0, most)
+    )
 
     def cost(a):
         """Per cell: the cost, each pen's filter (N, K, 3), the reflectance and the residual (N, 3)."""
         filters = 1.0 - a[:, :, None] * absorb[None]
         reflect = np.prod(filters, axis=1)
         residual = _lab(reflect) - goal
-        spent = 0.5 * (residual**2).sum(axis=1) + ink_cost * a.sum(axis=1) + 0.5 * DAMPING * (a**2).sum(axis=1)
+        spent = (
+            0.5 * (residual**2).sum(axis=1) + ink_cost * a.sum(axis=1) + 0.5 * DAMPING * (a**2).sum(axis=1)
+        )
         return spent, filters, reflect, residual
 
     eye = np.eye(k)
@@ -139,7 +152,11 @@ def separate(target: np.ndarray, pens: Sequence[Pen], *, most: float = MOST_INK,
         # A step is kept only where it lowers the cost; elsewhere the next one is shorter.
         better = trial_cost < spent
         amount[better], spent[better] = trial[better], trial_cost[better]
-        filters[better], reflect[better], residual[better] = trial_filters[better], trial_reflect[better], trial_residual[better]
+        filters[better], reflect[better], residual[better] = (
+            trial_filters[better],
+            trial_reflect[better],
+            trial_residual[better],
+        )
         trust = np.where(better, np.maximum(trust * 0.3, 1e-9), trust * 10.0)
     return amount.T.reshape(k, *shape).astype(np.float32)
 
@@ -186,8 +203,15 @@ def pen_angles(base: Sequence[float], index: int, count: int) -> tuple[float, ..
 
 
 def color_hatching(
-    target: np.ndarray, layout, pens: Sequence[Pen], edges: Paths, *,
-    form: np.ndarray, paper: np.ndarray, angles: Sequence[float], **shading,
+    target: np.ndarray,
+    layout,
+    pens: Sequence[Pen],
+    edges: Paths,
+    *,
+    form: np.ndarray,
+    paper: np.ndarray,
+    angles: Sequence[float],
+    **shading,
 ) -> list[Layer]:
     """Hatch layers of every pen whose stacked inks follow a colour picture.
 
@@ -225,12 +249,27 @@ def color_hatching(
             continue
         last = index == len(pens) - 1
         hatches = shade(
-            amount, layout, edges if last else Paths.empty(), paper=paper, form=form, pen_width=pen.width,
-            angles=pen_angles(angles, index, len(pens)), seed=seed + 101 * index, **shading,
+            amount,
+            layout,
+            edges if last else Paths.empty(),
+            paper=paper,
+            form=form,
+            pen_width=pen.width,
+            angles=pen_angles(angles, index, len(pens)),
+            seed=seed + 101 * index,
+            **shading,
         )
         layers += [
-            Layer(f"{pen.name}-{layer.name}", layer.paths, pen_width=pen.width, role="hatch", pen=pen.name, color=pen.color)
-            for layer in hatches if layer.paths
+            Layer(
+                f"{pen.name}-{layer.name}",
+                layer.paths,
+                pen_width=pen.width,
+                role="hatch",
+                pen=pen.name,
+                color=pen.color,
+            )
+            for layer in hatches
+            if layer.paths
         ]
     return layers
 
@@ -245,11 +284,19 @@ def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
     height, width = target.shape[:2]
     linear = srgb_to_linear(target).astype(np.float32)
     # Blurred in linear light: that is how the eye averages ink and paper.
-    blurred = cv2.GaussianBlur(linear, (0, 0), SEPARATION_BLUR / layout.mm_per_px, borderType=cv2.BORDER_REPLICATE) \
-        if SEPARATION_BLUR > 0 else linear
+    blurred = (
+        cv2.GaussianBlur(linear, (0, 0), SEPARATION_BLUR / layout.mm_per_px, borderType=cv2.BORDER_REPLICATE)
+        if SEPARATION_BLUR > 0
+        else linear
+    )
     factor = max(1.0, SEPARATION_CELL / layout.mm_per_px)
-    small = linear_to_srgb(cv2.resize(
-        blurred, (max(1, round(width / factor)), max(1, round(height / factor))), interpolation=cv2.INTER_AREA))
+    small = linear_to_srgb(
+        cv2.resize(
+            blurred,
+            (max(1, round(width / factor)), max(1, round(height / factor))),
+            interpolation=cv2.INTER_AREA,
+        )
+    )
     amounts = separate_cells(small, pens)
     dropped = unneeded_pens(small, pens, amounts)
     if dropped:
@@ -264,7 +311,9 @@ def separate_cells(colors: np.ndarray, pens: Sequence[Pen]) -> np.ndarray:
     polished by :data:`POLISH_ROUNDS`; coverage under :data:`LEAST_INK` left out."""
     table = separation_table(tuple(pen.color for pen in pens))
     at = colors.reshape(-1, 3).T * (TABLE_SIZE - 1)
-    guess = np.stack([ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(colors.shape[:2]) for t in table])
+    guess = np.stack(
+        [ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(colors.shape[:2]) for t in table]
+    )
     amounts = separate(colors, pens, rounds=POLISH_ROUNDS, start=guess)
     amounts[amounts < LEAST_INK] = 0.0
     return amounts

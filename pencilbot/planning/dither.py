@@ -164,7 +164,11 @@ def _links(on: np.ndarray, rows: np.ndarray, first: np.ndarray, last: np.ndarray
     count = rows.size
     lengths = last - first + 1
     run_of = np.repeat(np.arange(count), lengths)
-    columns = np.repeat(first, lengths) + np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    columns = (
+        np.repeat(first, lengths)
+        + np.arange(lengths.sum())
+        - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    )
     owner = np.full((on.shape[0] + 2, on.shape[1] + 2), -1, np.int64)  # a bare border all round
     owner[np.repeat(rows, lengths) + 1, columns + 1] = run_of
     end_row, end_col = np.repeat(rows, 2) + 1, np.stack([first, last], 1).ravel() + 1

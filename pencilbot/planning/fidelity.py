@@ -127,7 +127,9 @@ def photo_likeness(plan: Plan, drawing: Sketch) -> Likeness:
     return likeness(plotted, 1.0 - drawing.gray)
 
 
-def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = YARDSTICK_PX_PER_MM) -> Likeness:
+def likeness(
+    plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = YARDSTICK_PX_PER_MM
+) -> Likeness:
     """Compare a plotted darkness with a reference darkness (any size; resampled onto the plot's grid).
 
     Parameters
@@ -166,8 +168,12 @@ def likeness(plotted: np.ndarray, reference: np.ndarray, *, px_per_mm: float = Y
 
 
 def region_rho(
-    plotted: np.ndarray, reference: np.ndarray, region: tuple[float, float, float, float], *,
-    sigma_mm: float = YARDSTICK_SIGMA_MM, px_per_mm: float = YARDSTICK_PX_PER_MM,
+    plotted: np.ndarray,
+    reference: np.ndarray,
+    region: tuple[float, float, float, float],
+    *,
+    sigma_mm: float = YARDSTICK_SIGMA_MM,
+    px_per_mm: float = YARDSTICK_PX_PER_MM,
 ) -> float:
     """Spearman's ρ of plotted and reference darkness inside one region (a face), at one blur.
 
@@ -202,7 +208,10 @@ def region_rho(
     window = (slice(max(0, r0 - pad), min(height, r1 + pad)), slice(max(0, c0 - pad), min(width, c1 + pad)))
     a = ndi.gaussian_filter(np.asarray(plotted, np.float32)[window], sigma)
     b = ndi.gaussian_filter(ref[window], sigma)
-    inner = (slice(r0 - window[0].start, r1 - window[0].start), slice(c0 - window[1].start, c1 - window[1].start))
+    inner = (
+        slice(r0 - window[0].start, r1 - window[0].start),
+        slice(c0 - window[1].start, c1 - window[1].start),
+    )
     stride = max(1, int(sigma // 3))
     sa, sb = a[inner][::stride, ::stride].ravel(), b[inner][::stride, ::stride].ravel()
     if sa.size < 3 or np.ptp(sa) == 0 or np.ptp(sb) == 0:
@@ -221,8 +230,14 @@ def plan_color(plan: Plan, shape: tuple[int, int], *, cell: float = COLOR_CELL) 
     coarsen = max(1, round(cell / layout.mm_per_px))
     covers, colors = [], []
     for _, layers in plan.pen_runs():
-        covers.append(ink_on_image_grid(
-            Paths.concat(layer.paths for layer in layers), layout, pen_width=layers[0].pen_width, coarsen=coarsen))
+        covers.append(
+            ink_on_image_grid(
+                Paths.concat(layer.paths for layer in layers),
+                layout,
+                pen_width=layers[0].pen_width,
+                coarsen=coarsen,
+            )
+        )
         colors.append(layers[0].color)
     if not covers:
         rows, cols = -(-shape[0] // coarsen), -(-shape[1] // coarsen)
@@ -250,11 +265,15 @@ def color_difference(plan: Plan, reference: np.ndarray, *, blur: float = TONE_SI
     shape = reference.shape[:2]
     plotted, coarsen = plan_color(plan, shape)
     height, width = plotted.shape[:2]
-    ref = cv2.resize(srgb_to_linear(reference).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA)
+    ref = cv2.resize(
+        srgb_to_linear(reference).astype(np.float32), (width, height), interpolation=cv2.INTER_AREA
+    )
     sigma = blur / (Layout.fit(shape, plan.page).mm_per_px * coarsen)
 
     def seen(linear):
-        blurred = cv2.GaussianBlur(np.asarray(linear, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REFLECT)
+        blurred = cv2.GaussianBlur(
+            np.asarray(linear, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REFLECT
+        )
         return rgb2lab(linear_to_srgb(blurred))
 
     return float(deltaE_ciede2000(seen(ref), seen(srgb_to_linear(plotted))).mean())

@@ -69,7 +69,9 @@ class Grid:
         """Fractional (row, col) of page points (…, 2)."""
         x0, _, _, y1 = self.box
         points = np.asarray(points, np.float64)
-        return np.stack([(y1 - points[..., 1]) / self.cell - 0.5, (points[..., 0] - x0) / self.cell - 0.5], axis=-1)
+        return np.stack(
+            [(y1 - points[..., 1]) / self.cell - 0.5, (points[..., 0] - x0) / self.cell - 0.5], axis=-1
+        )
 
     def to_mm(self, rc: np.ndarray) -> np.ndarray:
         """Page mm of fractional (row, col) (…, 2)."""
@@ -191,10 +193,14 @@ def direction_field(
     trace = jxx + jyy
     coherence = spread / np.maximum(trace, 1e-12)
     strength = np.clip(trace / calm**2, 0.0, 1.0) if np.isfinite(calm) and calm > 0 else np.zeros_like(trace)
-    follow = strength * np.clip((coherence - COHERENCE_RANGE[0]) / (COHERENCE_RANGE[1] - COHERENCE_RANGE[0]), 0, 1)
+    follow = strength * np.clip(
+        (coherence - COHERENCE_RANGE[0]) / (COHERENCE_RANGE[1] - COHERENCE_RANGE[0]), 0, 1
+    )
     across = np.deg2rad(2 * (default_angle + 90.0))  # the default's gradient, doubled
     default = np.array([np.cos(across), np.sin(across)])
-    blend = follow[..., None] * form / np.maximum(spread, 1e-12)[..., None] + (1 - follow[..., None]) * default
+    blend = (
+        follow[..., None] * form / np.maximum(spread, 1e-12)[..., None] + (1 - follow[..., None]) * default
+    )
     # The blend's angle halved is the gradient's orientation; isophotes run across it.
     theta = 0.5 * np.arctan2(blend[..., 1], blend[..., 0]) + np.pi / 2
     axial = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
@@ -298,7 +304,8 @@ def sample_image(image: np.ndarray, layout, grid: Grid) -> np.ndarray:
     factor = np.array([1.0, 1.0])
     if ratio > 1.5:
         shrunk = cv2.resize(
-            image, (max(1, round(image.shape[1] / ratio)), max(1, round(image.shape[0] / ratio))),
+            image,
+            (max(1, round(image.shape[1] / ratio)), max(1, round(image.shape[0] / ratio))),
             interpolation=cv2.INTER_AREA,
         )
         factor = np.array([image.shape[1] / shrunk.shape[1], image.shape[0] / shrunk.shape[0]])
@@ -312,6 +319,8 @@ def sample_image(image: np.ndarray, layout, grid: Grid) -> np.ndarray:
 def grid_gradient(values: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """``np.gradient`` of a 2-D grid (per mm; along rows, along columns), zero along an axis the
     grid is one cell across: the grid of a 1 x N picture's sheet has one row, with no slope."""
-    along_rows, along_columns = (np.gradient(values, spacing, axis=axis) if values.shape[axis] > 1
-                                 else np.zeros_like(values) for axis in (0, 1))
+    along_rows, along_columns = (
+        np.gradient(values, spacing, axis=axis) if values.shape[axis] > 1 else np.zeros_like(values)
+        for axis in (0, 1)
+    )
     return along_rows, along_columns

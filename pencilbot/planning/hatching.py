@@ -181,7 +181,12 @@ def family_lines(
 
 
 def hatch_strokes(
-    lines: HatchLines, request: np.ndarray, *, pen_width: float, min_run: float = 2.0, offset: float = 0.0,
+    lines: HatchLines,
+    request: np.ndarray,
+    *,
+    pen_width: float,
+    min_run: float = 2.0,
+    offset: float = 0.0,
     fine: np.ndarray | None = None,
 ) -> Paths:
     """The pen strokes of one family for a per-sample coverage request.
@@ -246,7 +251,9 @@ def hatch_strokes(
     keep_start = np.flatnonzero(~merged)
     run_start = starts[keep_start]
     run_stop = stops[np.append(keep_start[1:], starts.size) - 1]
-    long_enough = (run_stop - run_start) * SAMPLE_STEP >= min_run * np.minimum(scale[run_start], scale[run_stop])
+    long_enough = (run_stop - run_start) * SAMPLE_STEP >= min_run * np.minimum(
+        scale[run_start], scale[run_stop]
+    )
     run_start, run_stop = run_start[long_enough], run_stop[long_enough]
     if run_start.size == 0:
         return Paths.empty()
@@ -258,7 +265,9 @@ def hatch_strokes(
     strokes = Paths(lines.points[index], np.concatenate([[0], np.cumsum(kept)]))
     # A run long enough along its line can still fold back on itself where the form turns
     # sharply: its pen stroke is then a hook shorter than a shortest stroke. Drop those.
-    hooked = strokes.drawn_lengths() < min_run * np.minimum(scale[run_start], scale[run_stop]) - FOLD_TOLERANCE
+    hooked = (
+        strokes.drawn_lengths() < min_run * np.minimum(scale[run_start], scale[run_stop]) - FOLD_TOLERANCE
+    )
     return strokes.take(np.flatnonzero(~hooked)) if hooked.any() else strokes
 
 
@@ -318,7 +327,9 @@ def hatch_layers(
     if not 0 < coverage < 1:
         raise ValueError(f"coverage must be in (0, 1), got {coverage}")
     if lines is None:
-        lines = trace_families(field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed)
+        lines = trace_families(
+            field, pen_width=pen_width, angles=angles, coverage=coverage, wobble=wobble, seed=seed
+        )
     onset = Onset.spread(len(angles), coverage, overlap)
     if capacity is None:
         capacity = family_capacity(lines, field, grid, families=len(angles))
@@ -330,7 +341,9 @@ def hatch_layers(
         # longer strokes, and the loop hands what they leave to the first.
         shortest = min_run * (1.0 if j == 0 else CROSS_RUN)
         where = None if fine is None else grid.sample(fine, family.points)
-        strokes = hatch_strokes(family, request, pen_width=pen_width, min_run=shortest, offset=j * GOLDEN / 3, fine=where)
+        strokes = hatch_strokes(
+            family, request, pen_width=pen_width, min_run=shortest, offset=j * GOLDEN / 3, fine=where
+        )
         layers.append(Layer(f"hatch{j + 1}-{angle % 180:g}", strokes, pen_width=pen_width, role="hatch"))
     return layers
 
@@ -347,11 +360,19 @@ def family_capacity(
 
 
 def trace_families(
-    field: DirectionField, *, pen_width: float, angles: tuple[float, ...], coverage: float, wobble: float = 0.0, seed: int = 0
+    field: DirectionField,
+    *,
+    pen_width: float,
+    angles: tuple[float, ...],
+    coverage: float,
+    wobble: float = 0.0,
+    seed: int = 0,
 ) -> list[HatchLines]:
     """:func:`family_lines` for every family angle (the part of hatching that does not depend on tone)."""
     return [
-        family_lines(field.rotated(angle), pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed + j)
+        family_lines(
+            field.rotated(angle), pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed + j
+        )
         for j, angle in enumerate(angles)
     ]
 
@@ -361,7 +382,9 @@ def _bilinear(grid: np.ndarray, rc: np.ndarray) -> np.ndarray:
     return bilinear(grid, rc)
 
 
-def _resample(points: np.ndarray, piece: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _resample(
+    points: np.ndarray, piece: np.ndarray, step: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Points every ``step`` mm along each piece (consecutive points with one ``piece`` id).
 
     Returns the points, the piece of each and its arc length from the piece's start.
@@ -411,4 +434,6 @@ def _runs(on: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def _no_lines(shape: tuple[int, int]) -> HatchLines:
     empty = np.zeros(0)
-    return HatchLines(np.zeros((0, 2)), empty.astype(np.int64), empty.astype(np.int64), empty, empty, np.zeros(shape))
+    return HatchLines(
+        np.zeros((0, 2)), empty.astype(np.int64), empty.astype(np.int64), empty, empty, np.zeros(shape)
+    )

@@ -101,9 +101,7 @@ class Layout:
     drawing_box: tuple[float, float, float, float]
 
     @classmethod
-    def fit(
-        cls, image_shape: tuple[int, int], page: Page, align: str = "center", rotate: int = 0
-    ) -> Layout:
+    def fit(cls, image_shape: tuple[int, int], page: Page, align: str = "center", rotate: int = 0) -> Layout:
         """Scale an image as large as fits inside the page margins, keeping its aspect ratio.
 
         Parameters
@@ -183,14 +181,20 @@ def fit_plan(plan: Plan, sheet: str, orientation: str = "auto", margin: float = 
     """
     points = plan.paths().points
     low = np.minimum(points.min(axis=0), 0.0) if len(points) else np.zeros(2)
-    high = np.maximum(points.max(axis=0), (plan.page.width, plan.page.height)) if len(points) else np.array(
-        [plan.page.width, plan.page.height])
+    high = (
+        np.maximum(points.max(axis=0), (plan.page.width, plan.page.height))
+        if len(points)
+        else np.array([plan.page.width, plan.page.height])
+    )
     size = np.maximum(high - low, 1e-9)
     page = page_size(sheet, orientation, (size[1], size[0]), margin)
     free = np.array([page.width, page.height]) - 2 * page.margin
     scale = float(np.min(free / size))
     offset = page.margin + (free - size * scale) / 2 - low * scale
-    layers = [replace(layer, paths=layer.paths.with_points(layer.paths.points * scale + offset)) for layer in plan.layers]
+    layers = [
+        replace(layer, paths=layer.paths.with_points(layer.paths.points * scale + offset))
+        for layer in plan.layers
+    ]
     return replace(plan, page=page, layers=tuple(layers))
 
 

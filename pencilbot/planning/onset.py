@@ -51,7 +51,6 @@ class Onset:
         u = np.linspace(0.0, 1.0, 1025)
         return np.interp(np.clip(darkness, 0.0, self.darkest), self.darkness(u), u)
 
-
     def allocate(self, darkness: np.ndarray, capacity: np.ndarray) -> np.ndarray:
         """(families, N) coverage of each family for ``darkness`` (N,) when family j can cover
         at most ``capacity[j]`` there (its lines spread where the field fans out).

@@ -47,8 +47,13 @@ class Reordering:
     specks: int
 
 
-def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds: int = REORDER_ROUNDS,
-                 time_budget: float | None = None) -> Reordering:
+def reorder_plan(
+    plan: Plan,
+    *,
+    start: tuple[float, float] = (0.0, 0.0),
+    rounds: int = REORDER_ROUNDS,
+    time_budget: float | None = None,
+) -> Reordering:
     """Reorder every layer of ``plan`` for short pen-up travel, joining and dropping as above.
 
     Parameters
@@ -78,9 +83,16 @@ def reorder_plan(plan: Plan, *, start: tuple[float, float] = (0.0, 0.0), rounds:
         kept = layer.paths.take(np.flatnonzero(~speck)) if speck.any() else layer.paths
         share += len(layer.paths)
         deadline = None if time_budget is None else began + time_budget * share / total
-        ordered = order_paths(kept, start=position, join_tolerance=layer.pen_width, pen_width=layer.pen_width,
-                              rounds=rounds, matching_from=MATCHING_FROM, nearest_until=NEAREST_UNTIL,
-                              deadline=deadline)
+        ordered = order_paths(
+            kept,
+            start=position,
+            join_tolerance=layer.pen_width,
+            pen_width=layer.pen_width,
+            rounds=rounds,
+            matching_from=MATCHING_FROM,
+            nearest_until=NEAREST_UNTIL,
+            deadline=deadline,
+        )
         if len(layer.paths) and pen_up_length(ordered, position) > pen_up_length(layer.paths, position):
             ordered, kept = layer.paths, layer.paths  # the file's own order is the shorter
         dropped += len(layer.paths) - len(kept)

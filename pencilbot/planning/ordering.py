@@ -40,7 +40,9 @@ from pencilbot.units import DEFAULT_PEN_WIDTH
 # A round of improvement, about one full pass with its checks, costs 1.5 work units per end
 # (see tour_search.CALL_COST for the units).
 _ROUND_COST = 1.5
-DEFAULT_ROUNDS = 40  # ~0.74 of greedy's pen-up travel on photo plans (bench/ordering.py: coffee 0.73, astronaut 0.74)
+DEFAULT_ROUNDS = (
+    40  # ~0.74 of greedy's pen-up travel on photo plans (bench/ordering.py: coffee 0.73, astronaut 0.74)
+)
 # Rounds × paths is capped so that huge layers stay linear in cost: 2 rounds from 100 000
 # paths on (1.28x the lower bound there, bench/scale.py), all 40 on photo layers.
 ROUND_WORK = 200_000
@@ -99,8 +101,16 @@ def order_paths(
     tolerance = pen_width if join_tolerance is None else join_tolerance
     # (The improvement counts every gap within the tolerance as joined, also those next to a
     # path too short to join: a small bias, and no worse a tour for the pen-up it actually pays.)
-    order, reverse = improve_order(paths.firsts, paths.lasts, start, rounds=rounds, join_tolerance=tolerance,
-                                   matching_from=matching_from, nearest_until=nearest_until, deadline=deadline)
+    order, reverse = improve_order(
+        paths.firsts,
+        paths.lasts,
+        start,
+        rounds=rounds,
+        join_tolerance=tolerance,
+        matching_from=matching_from,
+        nearest_until=nearest_until,
+        deadline=deadline,
+    )
     ordered = paths.take(order, reverse)
     return join_touching(ordered, tolerance, min_length=join_min_length) if tolerance >= 0 else ordered
 

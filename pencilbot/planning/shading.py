@@ -168,8 +168,15 @@ def shade(
         fine_goal = _blur(raw, FACE_BLUR / cell)
         fine_goal[photo < blank_below] = 0.0
     field_grid = Grid(box, FIELD_CELL)
-    field = direction_field(sample_image(darkness if form is None else form, layout, field_grid), field_grid, scale=form_scale, calm=0.008 if form_scale > 0 else np.inf)
-    families = _Families(field, grid, angles, pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed)
+    field = direction_field(
+        sample_image(darkness if form is None else form, layout, field_grid),
+        field_grid,
+        scale=form_scale,
+        calm=0.008 if form_scale > 0 else np.inf,
+    )
+    families = _Families(
+        field, grid, angles, pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed
+    )
     edge_ink = ink_on_grid(edges, grid, pen_width)
     goal = tone
     # Where the tone itself changes over a millimetre or two, the loop corrects at that scale.
@@ -178,8 +185,15 @@ def shade(
     paper = tone == 0.0
     runs = Paths.empty()
     if dithered is not None and np.any(dithered > 0.5):
-        runs = face_runs(darkness if face_darkness is None else face_darkness, dithered, layout, edges, pen_width=pen_width, blank_below=blank_below,
-                         paper=photo_darkness)
+        runs = face_runs(
+            darkness if face_darkness is None else face_darkness,
+            dithered,
+            layout,
+            edges,
+            pen_width=pen_width,
+            blank_below=blank_below,
+            paper=photo_darkness,
+        )
         edge_ink = 1.0 - (1.0 - edge_ink) * (1.0 - ink_on_grid(runs, grid, pen_width))
         paper |= sample_image(dithered, layout, grid) > 0.5
     # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
@@ -191,8 +205,17 @@ def shade(
     for round_ in range(max(1, rounds)):
         families.trace_for(request)
         layers = hatch_layers(
-            request, grid, field, pen_width=pen_width, angles=angles, coverage=coverage,
-            overlap=overlap, min_run=min_run, lines=families.lines, capacity=families.capacity, fine=fine,
+            request,
+            grid,
+            field,
+            pen_width=pen_width,
+            angles=angles,
+            coverage=coverage,
+            overlap=overlap,
+            min_run=min_run,
+            lines=families.lines,
+            capacity=families.capacity,
+            fine=fine,
         )
         if round_ == rounds - 1:
             break
@@ -215,7 +238,13 @@ def shade(
 
 
 def face_runs(
-    darkness: np.ndarray, dithered: np.ndarray, layout, edges: Paths, *, pen_width: float, blank_below: float,
+    darkness: np.ndarray,
+    dithered: np.ndarray,
+    layout,
+    edges: Paths,
+    *,
+    pen_width: float,
+    blank_below: float,
     paper: np.ndarray,
 ) -> Paths:
     """The dithered runs (:mod:`pencilbot.planning.dither`) that draw ``darkness`` where
@@ -254,8 +283,11 @@ class _Families:
     def trace_for(self, request: np.ndarray) -> None:
         while len(self.lines) < len(self.angles) and self._short(request):
             j = len(self.lines)
-            family = family_lines(self.field.rotated(self.angles[j]), seed=self.options["seed"] + j, **{
-                k: v for k, v in self.options.items() if k != "seed"})
+            family = family_lines(
+                self.field.rotated(self.angles[j]),
+                seed=self.options["seed"] + j,
+                **{k: v for k, v in self.options.items() if k != "seed"},
+            )
             self.lines.append(family)
             self.capacity[j] = family_capacity([family], self.field, self.grid)[0]
 
@@ -274,7 +306,12 @@ def ink_on_grid(paths: Paths, grid: Grid, pen_width: float) -> np.ndarray:
     x0, _, _, y1 = grid.box
     height = rows * grid.cell
     return render_paths(
-        paths, cols * grid.cell, height, dpi=MM_PER_INCH / grid.cell, pen_width=pen_width, origin=(x0, y1 - height)
+        paths,
+        cols * grid.cell,
+        height,
+        dpi=MM_PER_INCH / grid.cell,
+        pen_width=pen_width,
+        origin=(x0, y1 - height),
     )
 
 

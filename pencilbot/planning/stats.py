@@ -77,7 +77,9 @@ def estimate(plan: Plan, profile: Profile) -> PlanStats:
     motion = profile.motion
     seconds = np.zeros(0)
     if len(moves.length):
-        v = path_speeds(moves.length, moves.unit, moves.joined, moves.nominal, moves.accel, motion.junction_deviation)
+        v = path_speeds(
+            moves.length, moves.unit, moves.joined, moves.nominal, moves.accel, motion.junction_deviation
+        )
         seconds = move_times(moves.length, v[:-1], v[1:], moves.nominal, moves.accel)
     pen, n_layers = profile.pen_model, max(len(plan.layers), 1)
     per_layer = lambda values: np.bincount(moves.layer, weights=values, minlength=n_layers)  # noqa: E731
@@ -86,11 +88,19 @@ def estimate(plan: Plan, profile: Profile) -> PlanStats:
     stops = np.append(~moves.joined, True) if len(moves.length) else np.zeros(0, bool)  # runs' last moves
     time = per_layer(seconds + stops * profile.firmware.idle_lock) + paths * (pen.up_delay + pen.down_delay)
     time[0] += pen.up_delay  # the first lift
-    columns = (per_layer(moves.length * drawn), per_layer(moves.length * travelled), paths, paths,
-               np.bincount(moves.layer[drawn], minlength=n_layers), time)
+    columns = (
+        per_layer(moves.length * drawn),
+        per_layer(moves.length * travelled),
+        paths,
+        paths,
+        np.bincount(moves.layer[drawn], minlength=n_layers),
+        time,
+    )
     layers: dict[str, Stats] = {}
     for index, layer in enumerate(plan.layers):
-        values: list[Any] = [float(c[index]) if f.type == "float" else int(c[index]) for c, f in zip(columns, fields(Stats))]
+        values: list[Any] = [
+            float(c[index]) if f.type == "float" else int(c[index]) for c, f in zip(columns, fields(Stats))
+        ]
         row = Stats(*values)
         layers[layer.name] = layers.get(layer.name, Stats()) + row
     total = sum(layers.values(), Stats()) if layers else Stats(seconds=float(time[0]))
@@ -129,7 +139,12 @@ class _Program:
         hop = np.column_stack([heads - tails, np.zeros(count + 1)])
         pieces = [  # (vectors, sort keys, kind, path)
             (hop, np.arange(count + 1) * stride, _TRAVEL, np.append(np.arange(count), max(count - 1, 0))),
-            (np.column_stack([step[within], np.zeros(len(draw_path))]), draw_path * stride + 1.5 + local, _DRAW, draw_path),
+            (
+                np.column_stack([step[within], np.zeros(len(draw_path))]),
+                draw_path * stride + 1.5 + local,
+                _DRAW,
+                draw_path,
+            ),
         ]
         syncs = []
         if z_pen:
@@ -161,8 +176,12 @@ class _Program:
         scale = axis_scale(self.unit) if len(order) else np.zeros(0)  # GRBL limits each axis
         self.accel = motion.acceleration * scale
         rapid = motion.travel_speed if firmware.rapids_take_feed else motion.axis_rate / 60.0 * scale
-        pen_speed = np.where(self.unit[:, 2] > 0, pen.z_speed(motion, lifting=True), pen.z_speed(motion, lifting=False))
-        self.nominal = np.select([self.kind == _TRAVEL, self.kind == _DRAW], [rapid, motion.draw_speed], pen_speed)
+        pen_speed = np.where(
+            self.unit[:, 2] > 0, pen.z_speed(motion, lifting=True), pen.z_speed(motion, lifting=False)
+        )
+        self.nominal = np.select(
+            [self.kind == _TRAVEL, self.kind == _DRAW], [rapid, motion.draw_speed], pen_speed
+        )
 
 
 def duration_text(seconds: float) -> str:

@@ -235,7 +235,9 @@ STYLE_SCHEMA: dict[str, schema.Rule] = {
     "line_length": schema.whole(2, LONGEST_LENGTH, "pixels"),
     "stroke_gamma": schema.number(*GAMMA_RANGE),
     "stroke_width": schema.number(*WIDTH_RANGE, unit="pixels"),
-    "texture": schema.Rule("the path of a pencil texture image", lambda value: isinstance(value, str) and bool(value.strip())),
+    "texture": schema.Rule(
+        "the path of a pencil texture image", lambda value: isinstance(value, str) and bool(value.strip())
+    ),
     "edge_threshold": schema.number(0, 1, unit="(or leave it out for automatic)"),
     "min_edge_pixels": schema.whole(0, 1_000_000, unit="pixels"),
     "edge_join": schema.number(0, 100, unit="stroke lengths"),

@@ -84,7 +84,10 @@ class Ends:
             # Equal distances (regular hatching) in id order, as the matching breaks ties by it.
             tied = np.flatnonzero((d[:, 1:] == d[:, :-1]).any(axis=1))
             by = np.lexsort((idx[tied], d[tied]), axis=1)
-            d[tied], idx[tied] = np.take_along_axis(d[tied], by, axis=1), np.take_along_axis(idx[tied], by, axis=1)
+            d[tied], idx[tied] = (
+                np.take_along_axis(d[tied], by, axis=1),
+                np.take_along_axis(idx[tied], by, axis=1),
+            )
             other = (idx >> 1) != (rows >> 1)[:, None]
             # The first k other-node ends, nearest first (at least k among k + 2 answers).
             keep = other & (np.cumsum(other, axis=1, dtype=np.int8) <= self.k)

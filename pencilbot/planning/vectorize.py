@@ -178,14 +178,19 @@ def edge_strokes(
     keep = _contours(strokes, links, pixels, texture, ell, min_pixels, clutter)
     if budget is not None:
         allowed = budget * edges.size * layout.mm_per_px  # mm per mm² × mm² / (mm per px): px
-        protected = None if important is None else np.bincount(
-            comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
+        protected = (
+            None
+            if important is None
+            else np.bincount(comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
+        )
         keep &= _within_budget(strokes, links, texture, keep, allowed, protected)
     strokes, links, lines = _select(strokes, keep), relinked(links, keep), lines[keep]
     paths_px = [chain_polylines(strokes, links, edges.shape)]
     for k in range(1, max(1, max_lines)):  # the further lines of bold contours, chained alike
         extra = _select(strokes, lines > k, shift_px=k * pen_px)
-        paths_px.append(chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape))
+        paths_px.append(
+            chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape)
+        )
     paths = Paths.concat(paths_px)
     return paths.with_points(layout.px_to_mm(paths.points)) if len(paths) else paths
 
@@ -362,7 +367,13 @@ def _select(strokes: Strokes, which: np.ndarray, shift_px: float = 0.0) -> Strok
     offsets = np.append(0, np.cumsum(sizes))
     core = strokes.core[keep] + shift_px * across[keep][:, None, :]
     return Strokes(
-        points, offsets, core, strokes.outward[keep], strokes.unit[keep], strokes.extent[keep], strokes.overshoot[keep]
+        points,
+        offsets,
+        core,
+        strokes.outward[keep],
+        strokes.unit[keep],
+        strokes.extent[keep],
+        strokes.overshoot[keep],
     )
 
 

@@ -42,6 +42,18 @@ from pencilbot.render.canvas import (
 from pencilbot.render.output import color_image, save_color_png, save_drawing_png, write_png
 
 __all__ = [
-    "BAND_PIXELS", "DEFAULT_DPI", "TRAVEL_RGB", "Bands", "Canvas", "band_rows", "color_image", "render_band",
-    "render_paths", "save_color_png", "save_drawing_png", "sheet_pixels", "travel_width", "write_png",
+    "BAND_PIXELS",
+    "DEFAULT_DPI",
+    "TRAVEL_RGB",
+    "Bands",
+    "Canvas",
+    "band_rows",
+    "color_image",
+    "render_band",
+    "render_paths",
+    "save_color_png",
+    "save_drawing_png",
+    "sheet_pixels",
+    "travel_width",
+    "write_png",
 ]

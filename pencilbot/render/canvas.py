@@ -73,7 +73,9 @@ class Canvas:
         if self._log_travel is None:
             self._log_travel = np.zeros(self.shape, np.float64)
         # Half the pen width, but at least a pixel so the overlay shows in coarse previews.
-        accumulate(self._log_travel, Paths.of(paths), self._grid(travel_width(self.pen_width, self.mm_per_px)))
+        accumulate(
+            self._log_travel, Paths.of(paths), self._grid(travel_width(self.pen_width, self.mm_per_px))
+        )
 
     def to_image(self) -> np.ndarray:
         """The sheet as uint8 (255 = paper): gray (H, W), or RGB (H, W, 3) with a travel overlay."""
@@ -93,7 +95,9 @@ class Canvas:
         return Grid(self.shape, self.mm_per_px, self.origin, self.height_mm, width)
 
 
-def sheet_pixels(width_mm: float, height_mm: float, dpi: float, pen_width: float) -> tuple[float, tuple[int, int]]:
+def sheet_pixels(
+    width_mm: float, height_mm: float, dpi: float, pen_width: float
+) -> tuple[float, tuple[int, int]]:
     """Millimetres per pixel and ``(rows, columns)`` of a sheet rendered at ``dpi``.
 
     Raises

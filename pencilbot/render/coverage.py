@@ -183,17 +183,27 @@ class _Columns:
         self.v = v.astype(np.int64)
         # Candidate j of a column lies at along + j·sin, across + j·cos in the segment's frame.
         # Distances beyond each end are kept separately so float32 stays exact near the caps.
-        self.f32 = {name: arr.astype(np.float32) for name, arr in {
-            "before": -along, "after": along - f.length[seg], "across": y * f.cos[seg] - x * f.sin[seg],
-            "sin": f.sin[seg], "cos": f.cos[seg], "outer": (f.cos[seg] + np.abs(f.sin[seg])) / 2,
-            "inner": (f.cos[seg] - np.abs(f.sin[seg])) / 2, "inv_cos": 1.0 / f.cos[seg],
-            "inv_2cs": 0.5 / (f.cos[seg] * np.maximum(np.abs(f.sin[seg]), 1e-12)),
-        }.items()}
+        self.f32 = {
+            name: arr.astype(np.float32)
+            for name, arr in {
+                "before": -along,
+                "after": along - f.length[seg],
+                "across": y * f.cos[seg] - x * f.sin[seg],
+                "sin": f.sin[seg],
+                "cos": f.cos[seg],
+                "outer": (f.cos[seg] + np.abs(f.sin[seg])) / 2,
+                "inner": (f.cos[seg] - np.abs(f.sin[seg])) / 2,
+                "inv_cos": 1.0 / f.cos[seg],
+                "inv_2cs": 0.5 / (f.cos[seg] * np.maximum(np.abs(f.sin[seg]), 1e-12)),
+            }.items()
+        }
 
     def block(self, start: int, stop: int) -> dict[str, np.ndarray]:
         """Columns ``start:stop`` as row vectors (float32 geometry, int64 positions)."""
         out = {name: arr[None, start:stop] for name, arr in self.f32.items()}
-        out.update(u=self.u[None, start:stop], v=self.v[None, start:stop], segment=self.segment[None, start:stop])
+        out.update(
+            u=self.u[None, start:stop], v=self.v[None, start:stop], segment=self.segment[None, start:stop]
+        )
         return out
 
 

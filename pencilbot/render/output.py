@@ -46,15 +46,21 @@ def save_drawing_png(
         The PNG's (rows, columns).
     """
     ink = Bands(paths, width_mm, height_mm, dpi=dpi, pen_width=pen_width)
-    moves = None if travel is None else Bands(
-        travel, width_mm, height_mm, dpi=dpi, pen_width=travel_width(pen_width, ink.mm_per_px))
+    moves = (
+        None
+        if travel is None
+        else Bands(travel, width_mm, height_mm, dpi=dpi, pen_width=travel_width(pen_width, ink.mm_per_px))
+    )
     rows, columns = ink.shape
     step = band_rows(columns, band_pixels)
 
     def bands():
         for first in range(0, rows, step):
             stop = min(first + step, rows)
-            yield picture(ink.log_transmittance(first, stop), None if moves is None else moves.log_transmittance(first, stop))
+            yield picture(
+                ink.log_transmittance(first, stop),
+                None if moves is None else moves.log_transmittance(first, stop),
+            )
 
     write_png_bands(path, ink.shape if travel is None else (rows, columns, 3), bands())
     return ink.shape
@@ -121,8 +127,11 @@ def save_color_png(
     layers = [Bands(paths, width_mm, height_mm, dpi=dpi, pen_width=width) for paths, _, width in inks]
     colors = [color for _, color, _ in inks]
     mm_per_px, (rows, columns) = sheet_pixels(width_mm, height_mm, dpi, travel_pen)
-    moves = None if travel is None else Bands(
-        travel, width_mm, height_mm, dpi=dpi, pen_width=travel_width(travel_pen, mm_per_px))
+    moves = (
+        None
+        if travel is None
+        else Bands(travel, width_mm, height_mm, dpi=dpi, pen_width=travel_width(travel_pen, mm_per_px))
+    )
     step = band_rows(columns * max(1, len(layers)), band_pixels)
 
     def bands():

@@ -59,8 +59,10 @@ def write_png_bands(path: str | os.PathLike, shape: tuple[int, ...], bands: Iter
         for band in bands:
             band = np.asarray(band)
             if band.dtype != np.uint8 or band.shape[1:] != tuple(shape[1:]):
-                raise ValueError(f"a band must be uint8 of shape (rows, {', '.join(map(str, shape[1:]))}), "
-                                 f"got {band.dtype} {band.shape}")
+                raise ValueError(
+                    f"a band must be uint8 of shape (rows, {', '.join(map(str, shape[1:]))}), "
+                    f"got {band.dtype} {band.shape}"
+                )
             if not len(band):
                 continue
             flat = band.reshape(len(band), row_bytes)

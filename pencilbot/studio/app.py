@@ -36,6 +36,7 @@ def error(status: int, message: str) -> JSONResponse:
 
 def _refusals(handler):
     """A user's mistake as a 4xx answer, never a traceback."""
+
     async def wrapped(request: Request):
         try:
             return await handler(request)
@@ -47,6 +48,7 @@ def _refusals(handler):
             return error(400, str(err))
         except (json.JSONDecodeError, UnicodeDecodeError, RecursionError):
             return error(400, "the request body is not JSON")
+
     return wrapped
 
 
@@ -56,7 +58,9 @@ async def json_body(request: Request) -> dict:
     async for chunk in request.stream():
         total += len(chunk)
         if total > MAX_JSON_BYTES:
-            raise TooLarge(f"the request is larger than the {MAX_JSON_BYTES // 1024} kB the studio's page ever sends")
+            raise TooLarge(
+                f"the request is larger than the {MAX_JSON_BYTES // 1024} kB the studio's page ever sends"
+            )
         chunks.append(chunk)
     body = json.loads(b"".join(chunks) or b"{}")
     if not isinstance(body, dict):
@@ -77,8 +81,9 @@ def profile_of(body: dict):
     return parse_options({"profile": body.get("profile", "")}).plotter()
 
 
-def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None,
-               names=()) -> Guard:
+def create_app(
+    studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None, names=()
+) -> Guard:
     """The studio as an ASGI app, behind its :class:`~pencilbot.studio.guard.Guard`."""
 
     async def index(request: Request):
@@ -96,17 +101,29 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
 
         def defaults(name: str) -> dict:  # what a control shows until the person moves it
             style = load_style(name)
-            return {"page": style.page, "orientation": style.orientation, "margin": style.margin,
-                    "pen_width": style.pen_width, "hatch_coverage": style.hatch_coverage,
-                    "line_length": style.line_length, "hatch": style.hatch}
+            return {
+                "page": style.page,
+                "orientation": style.orientation,
+                "margin": style.margin,
+                "pen_width": style.pen_width,
+                "hatch_coverage": style.hatch_coverage,
+                "line_length": style.line_length,
+                "hatch": style.hatch,
+            }
 
-        return JSONResponse({
-            "styles": list_styles(), "style": default_style(), "pens": list_pen_sets(),
-            "profiles": list(config_names("plotters")), "profile": studio.profile or default_profile(),
-            "orientations": list(ORIENTATIONS), "pages": ["A5", "A4", "A3", "Letter"],
-            "style_defaults": {name: defaults(name) for name in list_styles()},
-            "ports": await run_in_threadpool(plotter_ports, studio.ports),
-        })
+        return JSONResponse(
+            {
+                "styles": list_styles(),
+                "style": default_style(),
+                "pens": list_pen_sets(),
+                "profiles": list(config_names("plotters")),
+                "profile": studio.profile or default_profile(),
+                "orientations": list(ORIENTATIONS),
+                "pages": ["A5", "A4", "A3", "Letter"],
+                "style_defaults": {name: defaults(name) for name in list_styles()},
+                "ports": await run_in_threadpool(plotter_ports, studio.ports),
+            }
+        )
 
     async def state(request: Request):
         return JSONResponse(studio.summary())
@@ -116,14 +133,19 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         if size is None or not size.isdigit():
             return error(411, "send the photo with its length (Content-Length)")
         if int(size) > MAX_UPLOAD_BYTES:
-            return error(413, f"the photo is {int(size) / 1e6:.0f} MB, more than the {MAX_UPLOAD_BYTES / 1e6:.0f} MB the studio takes")
+            return error(
+                413,
+                f"the photo is {int(size) / 1e6:.0f} MB, more than the {MAX_UPLOAD_BYTES / 1e6:.0f} MB the studio takes",
+            )
         chunks, total = [], 0
         async for chunk in request.stream():
             total += len(chunk)
             if total > MAX_UPLOAD_BYTES:
                 return error(413, "the photo is larger than it said")
             chunks.append(chunk)
-        info = await run_in_threadpool(studio.set_photo, b"".join(chunks), request.headers.get("x-filename", ""))
+        info = await run_in_threadpool(
+            studio.set_photo, b"".join(chunks), request.headers.get("x-filename", "")
+        )
         return JSONResponse(info)
 
     async def drawing(request: Request):
@@ -141,7 +163,11 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         else:
             stage, _, kind = name.partition("-")
             result = studio.results.get(stage)
-            data = getattr(result, f"{kind}_png", b"") if result is not None and kind in ("preview", "sketch") else b""
+            data = (
+                getattr(result, f"{kind}_png", b"")
+                if result is not None and kind in ("preview", "sketch")
+                else b""
+            )
         if not data:
             return error(404, "no such picture yet")
         return Response(data, media_type="image/png", headers={"Cache-Control": "no-store"})
@@ -174,7 +200,10 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
                 if version != seen:
                     seen = version
                     yield f"data: {json.dumps(studio.summary())}\n\n"
-        return StreamingResponse(stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"})
+
+        return StreamingResponse(
+            stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"}
+        )
 
     def chosen_port(body: dict) -> str:
         port = body.get("port")
@@ -193,9 +222,12 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
             from pencilbot import api
 
             api.export_gcode(plan, profile, gcode)
+
         await run_in_threadpool(write)
         await run_in_threadpool(studio.controls.release)  # the plot takes the port over
-        session = studio.plotters.start(port, port_url(port, profile.name, studio.sim_speed), profile.name, gcode)
+        session = studio.plotters.start(
+            port, port_url(port, profile.name, studio.sim_speed), profile.name, gcode
+        )
         return JSONResponse(session.summary())
 
     async def plot_button(request: Request):
@@ -222,8 +254,9 @@ def create_app(studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, tok
         session = studio.plotters.sessions.get(port)
         if session is not None and session.active:
             raise PlotBusy(f"{port} is plotting; its controls wait until the plot is done or stopped")
-        said = await run_in_threadpool(studio.controls.press, port_url(port, profile, studio.sim_speed), profile,
-                                       action, dx, dy)
+        said = await run_in_threadpool(
+            studio.controls.press, port_url(port, profile, studio.sim_speed), profile, action, dx, dy
+        )
         return JSONResponse({"said": said})
 
     async def plot_paths(request: Request):

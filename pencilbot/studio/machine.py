@@ -39,7 +39,9 @@ class Controls:
         if action not in ACTIONS:
             raise PencilbotError(f"no machine control called {action}; known: {', '.join(ACTIONS)}")
         if max(abs(dx), abs(dy)) > MAX_WALK:
-            raise PencilbotError(f"a walk of more than {MAX_WALK:g} mm at once is refused; walk in smaller steps")
+            raise PencilbotError(
+                f"a walk of more than {MAX_WALK:g} mm at once is refused; walk in smaller steps"
+            )
         with self._lock:
             plotter = self._plotter(url, profile)
             try:

@@ -58,14 +58,21 @@ class DrawingOptions:
 
     def resolved_style(self) -> Style:
         """The style with the page's values applied (checked by the style schema)."""
-        overrides = {f.name: getattr(self, f.name) for f in fields(self)
-                     if f.name not in ("style", "pens", "profile") and getattr(self, f.name) is not None}
+        overrides = {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if f.name not in ("style", "pens", "profile") and getattr(self, f.name) is not None
+        }
         style = with_overrides(load_style(self.style or default_style()), overrides, where="the studio page")
         sheet = page_size(style.page, None, margin=style.margin)
         if max(sheet.width, sheet.height) > MAX_SHEET_MM:
-            raise PencilbotError(f"page {style.page} is larger than the studio plans ({MAX_SHEET_MM:g} mm a side)")
+            raise PencilbotError(
+                f"page {style.page} is larger than the studio plans ({MAX_SHEET_MM:g} mm a side)"
+            )
         if style.pen_width < MIN_STUDIO_PEN:
-            raise PencilbotError(f"pen width {style.pen_width:g} mm is below the studio's {MIN_STUDIO_PEN:g} mm")
+            raise PencilbotError(
+                f"pen width {style.pen_width:g} mm is below the studio's {MIN_STUDIO_PEN:g} mm"
+            )
         return style
 
     def pen_set(self) -> PenSet | None:
@@ -87,16 +94,23 @@ def parse_options(values: dict) -> DrawingOptions:
         raise PencilbotError("the drawing options must be a JSON object")
     known = {f.name for f in fields(DrawingOptions)}
     if unknown := sorted(set(values) - known):
-        raise PencilbotError(f"unknown drawing option {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+        raise PencilbotError(
+            f"unknown drawing option {', '.join(unknown)}; known: {', '.join(sorted(known))}"
+        )
     given = {key: value for key, value in values.items() if value not in (None, "")}
-    for key, listing in (("style", list_styles), ("pens", list_pen_sets), ("profile", lambda: config_names("plotters"))):
+    for key, listing in (
+        ("style", list_styles),
+        ("pens", list_pen_sets),
+        ("profile", lambda: config_names("plotters")),
+    ):
         name = given.get(key)
         if name is not None and (not isinstance(name, str) or name not in listing()):
             raise PencilbotError(f"{key} {name!r} is not one of {', '.join(listing())}")
     for key in ("margin", "pen_width", "hatch_coverage", "line_length"):
         value = given.get(key)
-        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))
-                                  or not math.isfinite(value)):
+        if value is not None and (
+            isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)
+        ):
             raise PencilbotError(f"{key} must be a number, not {value!r}")
     options = DrawingOptions(**given)
     options.resolved_style()  # every value checked now, before a worker starts

@@ -78,16 +78,24 @@ def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
         style, pens = coarse(style, pens)
         dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
     drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
-    result: dict[str, object] = {"preview_png": png_bytes(preview_image(plan, dpi)),
-              "sketch_png": png_bytes(drawing.result)}
+    result: dict[str, object] = {
+        "preview_png": png_bytes(preview_image(plan, dpi)),
+        "sketch_png": png_bytes(drawing.result),
+    }
     if stage == "full":
-        figures = {"paths": sum(len(layer.paths) for layer in plan.layers),
-                   "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
-                   "pens": list(plan.pens)}
+        figures = {
+            "paths": sum(len(layer.paths) for layer in plan.layers),
+            "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
+            "pens": list(plan.pens),
+        }
         try:
             total = estimate(plan, options.plotter()).total
-            figures.update(pen_down_m=round(total.pen_down_mm / 1000, 2), pen_up_m=round(total.pen_up_mm / 1000, 2),
-                           lifts=total.lifts, seconds=round(total.seconds, 1))
+            figures.update(
+                pen_down_m=round(total.pen_down_mm / 1000, 2),
+                pen_up_m=round(total.pen_up_mm / 1000, 2),
+                lifts=total.lifts,
+                seconds=round(total.seconds, 1),
+            )
         except PencilbotError as err:
             figures["estimate_error"] = str(err)
         figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
@@ -103,11 +111,17 @@ def coarse(style, pens):
     sheet = page_size(style.page, None, margin=style.margin)
     widen = COARSE_PEN_FACTOR / COARSE_SCALE
     lengths = {key: getattr(style, key) / COARSE_SCALE for key in _STYLE_LENGTHS}
-    style = dataclasses.replace(style, page=f"{sheet.width / COARSE_SCALE:g}x{sheet.height / COARSE_SCALE:g}",
-                                pen_width=style.pen_width * widen, order_rounds=0, **lengths)
+    style = dataclasses.replace(
+        style,
+        page=f"{sheet.width / COARSE_SCALE:g}x{sheet.height / COARSE_SCALE:g}",
+        pen_width=style.pen_width * widen,
+        order_rounds=0,
+        **lengths,
+    )
     if pens is not None:  # the pens' widths set the plan's: widen them as well
-        pens = dataclasses.replace(pens, pens=tuple(dataclasses.replace(pen, width=pen.width * widen)
-                                                    for pen in pens.pens))
+        pens = dataclasses.replace(
+            pens, pens=tuple(dataclasses.replace(pen, width=pen.width * widen) for pen in pens.pens)
+        )
     return style, pens
 
 
@@ -155,14 +169,19 @@ class Planner:
             generation = self.generation
             self._end_process()
             receive, send = self._context.Pipe(duplex=False)
-            process = self._context.Process(target=_work, args=(send, str(photo), options, self.stages, small),
-                                            daemon=True)
+            process = self._context.Process(
+                target=_work, args=(send, str(photo), options, self.stages, small), daemon=True
+            )
             started = time.monotonic()
             process.start()
             send.close()
             self._process = process
-        threading.Thread(target=self._read, args=(receive, generation, started, process), daemon=True,
-                         name=f"planner-{generation}").start()
+        threading.Thread(
+            target=self._read,
+            args=(receive, generation, started, process),
+            daemon=True,
+            name=f"planner-{generation}",
+        ).start()
         return generation
 
     def cancel(self) -> None:

@@ -89,7 +89,9 @@ class WebOperator:
             if answer[0] == "go":
                 return
             if answer[0] == "give up":
-                raise PlotError("re-zero abandoned; nothing was drawn. Resume again when the pen can be jogged")
+                raise PlotError(
+                    "re-zero abandoned; nothing was drawn. Resume again when the pen can be jogged"
+                )
             if answer[0] == "jog":
                 jog(answer[1], answer[2])
 
@@ -127,15 +129,25 @@ class PlotSession:
             self.on_change()
 
     def summary(self) -> dict:
-        return {"port": self.port, "profile": self.profile, "status": self.status, "record": self.record,
-                "prompt": self.prompt, "message": self.message, "resumable": self.resumable,
-                "active": self.active, "started": self.started}
+        return {
+            "port": self.port,
+            "profile": self.profile,
+            "status": self.status,
+            "record": self.record,
+            "prompt": self.prompt,
+            "message": self.message,
+            "resumable": self.resumable,
+            "active": self.active,
+            "started": self.started,
+        }
 
     def start(self, resume: bool = False) -> None:
         self.stop_requested.clear()
         self.keys = WebKeys()
         self.set(status="running", message="", resumable=False, prompt=None, record={})
-        self.thread = threading.Thread(target=self._run, args=(resume,), name=f"plot {self.port}", daemon=True)
+        self.thread = threading.Thread(
+            target=self._run, args=(resume,), name=f"plot {self.port}", daemon=True
+        )
         self.thread.start()
 
     def _listen(self, record: dict) -> None:
@@ -151,16 +163,27 @@ class PlotSession:
         from pencilbot.driver.journal import journal_path
 
         try:
-            result = api.draw(self.gcode, self.url, profile=self.profile,
-                              operator=self.operator, keys=self.keys, on_progress=self._listen,
-                              resume=journal_path(self.gcode) if resume else None)
-            self.set(status="done", message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",
-                     record={**self.record, "percent": 100.0, "eta_s": 0.0})
+            result = api.draw(
+                self.gcode,
+                self.url,
+                profile=self.profile,
+                operator=self.operator,
+                keys=self.keys,
+                on_progress=self._listen,
+                resume=journal_path(self.gcode) if resume else None,
+            )
+            self.set(
+                status="done",
+                message=f"drew {result.lines_sent} lines in {result.seconds:.1f} s",
+                record={**self.record, "percent": 100.0, "eta_s": 0.0},
+            )
         except PencilbotError as err:
             from pencilbot.studio.words import page_words
 
             resumable = journal_path(self.gcode).is_file()
-            self.set(status="stopped", message=page_words(str(err), self.gcode, resumable), resumable=resumable)
+            self.set(
+                status="stopped", message=page_words(str(err), self.gcode, resumable), resumable=resumable
+            )
         except Exception as err:  # noqa: BLE001 - the page must hear of anything, not a silent thread
             self.set(status="stopped", message=f"the plot stopped: {err!r}")
 

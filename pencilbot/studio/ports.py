@@ -28,4 +28,6 @@ def port_url(port: str, profile: str, sim_speed: float) -> str:
     and a board of its own per profile (a board made for one firmware must not answer another's)."""
     if port != VIRTUAL:
         return port
-    return f"sim://studio-{profile}?" + urllib.parse.urlencode({"profile": profile, "realtime": f"{sim_speed:g}"})
+    return f"sim://studio-{profile}?" + urllib.parse.urlencode(
+        {"profile": profile, "realtime": f"{sim_speed:g}"}
+    )

@@ -45,8 +45,16 @@ class Running:
         self.server.should_exit = True
 
 
-def prepare(photo: Path | None = None, *, port: str | None = None, profile: str = "", host: str = "127.0.0.1",
-            listen_port: int = 8765, sim_speed: float = 1.0, stages=None) -> Running:
+def prepare(
+    photo: Path | None = None,
+    *,
+    port: str | None = None,
+    profile: str = "",
+    host: str = "127.0.0.1",
+    listen_port: int = 8765,
+    sim_speed: float = 1.0,
+    stages=None,
+) -> Running:
     """Bind the address, start the planner, take the photo: a :class:`Running` ready to serve."""
     import uvicorn
 
@@ -61,7 +69,9 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
         sock.bind((host, listen_port))
     except OSError as err:
         sock.close()
-        raise PencilbotError(f"cannot listen on {host}:{listen_port} ({err.strerror}); give another --listen-port") from None
+        raise PencilbotError(
+            f"cannot listen on {host}:{listen_port} ({err.strerror}); give another --listen-port"
+        ) from None
     sock.listen(128)  # the URL is said before uvicorn runs: a browser that comes at once waits in the backlog
     bound = sock.getsockname()[1]
     studio = Studio(ports=(port,) if port else (), profile=profile, sim_speed=sim_speed, stages=stages)
@@ -76,8 +86,9 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     app = create_app(studio, host=host, port=bound, token=token)
     shown = f"[{host}]" if ":" in host else host
     url = f"http://{shown}:{bound}/" + (f"?token={token}" if token else "")
-    config = uvicorn.Config(app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2,
-                            http=HeaderTimeoutProtocol)
+    config = uvicorn.Config(
+        app, log_level="warning", lifespan="off", timeout_graceful_shutdown=2, http=HeaderTimeoutProtocol
+    )
 
     class Server(uvicorn.Server):
         @contextmanager
@@ -97,8 +108,17 @@ def prepare(photo: Path | None = None, *, port: str | None = None, profile: str 
     return Running(studio, Server(config), url, sock)
 
 
-def serve(photo: Path | None = None, *, port: str | None = None, profile: str = "", host: str = "127.0.0.1",
-          listen_port: int = 8765, browser: bool = True, sim_speed: float = 1.0, out=None) -> None:
+def serve(
+    photo: Path | None = None,
+    *,
+    port: str | None = None,
+    profile: str = "",
+    host: str = "127.0.0.1",
+    listen_port: int = 8765,
+    browser: bool = True,
+    sim_speed: float = 1.0,
+    out=None,
+) -> None:
     """Serve the studio until Ctrl-C.
 
     Parameters
@@ -118,9 +138,15 @@ def serve(photo: Path | None = None, *, port: str | None = None, profile: str = 
     sim_speed : float
         The virtual plotter's speed over real time.
     """
-    running = prepare(photo, port=port, profile=profile, host=host, listen_port=listen_port, sim_speed=sim_speed)
+    running = prepare(
+        photo, port=port, profile=profile, host=host, listen_port=listen_port, sim_speed=sim_speed
+    )
     note = "; the token in it is needed from other machines" if "token=" in running.url else ""
-    print(f"pencilbot studio: {running.url}  (Ctrl-C stops the server{note})", file=out or sys.stdout, flush=True)
+    print(
+        f"pencilbot studio: {running.url}  (Ctrl-C stops the server{note})",
+        file=out or sys.stdout,
+        flush=True,
+    )
     if browser:
         threading.Timer(0.5, webbrowser.open, args=(running.url,)).start()
     for line in running.serve():

@@ -28,8 +28,9 @@ THUMBNAIL_PIXELS = 160_000
 class Studio:
     """The server's state; ``version`` grows with every change the page should see."""
 
-    def __init__(self, *, ports: tuple[str, ...] = (), profile: str = "", sim_speed: float = 1.0,
-                 stages=None):
+    def __init__(
+        self, *, ports: tuple[str, ...] = (), profile: str = "", sim_speed: float = 1.0, stages=None
+    ):
         self.folder = Path(tempfile.mkdtemp(prefix="pencilbot-studio-"))
         self.ports, self.profile, self.sim_speed = ports, profile, sim_speed
         self.version = 0
@@ -77,8 +78,10 @@ class Studio:
         said = []
         for session in self.plotters.sessions.values():
             if session.resumable and session.gcode.is_file():
-                said.append(f"the plot on {session.port} stopped with the pen up; "
-                            f"{keep_stopped(session.gcode, session.port)}")
+                said.append(
+                    f"the plot on {session.port} stopped with the pen up; "
+                    f"{keep_stopped(session.gcode, session.port)}"
+                )
         shutil.rmtree(self.folder, ignore_errors=True)
         return said
 
@@ -98,24 +101,37 @@ class Studio:
                 width, height = img.size
         except Image.DecompressionBombError:
             path.unlink(missing_ok=True)
-            raise TooLarge(f"the photo has more pixels than the {DEFAULT_MAX_PIXELS:,} pencilbot reads "
-                           "(more than the image library even opens); shrink it first") from None
+            raise TooLarge(
+                f"the photo has more pixels than the {DEFAULT_MAX_PIXELS:,} pencilbot reads "
+                "(more than the image library even opens); shrink it first"
+            ) from None
         except (UnidentifiedImageError, OSError, ValueError, SyntaxError, EOFError, IndexError, struct.error):
             path.unlink(missing_ok=True)
-            raise PencilbotError("that file is not an image pencilbot can read; give a PNG, JPEG, TIFF, BMP or WebP file") from None
+            raise PencilbotError(
+                "that file is not an image pencilbot can read; give a PNG, JPEG, TIFF, BMP or WebP file"
+            ) from None
         if width * height > DEFAULT_MAX_PIXELS:
             path.unlink(missing_ok=True)
-            raise TooLarge(f"the photo has {width} × {height} pixels, more than the {DEFAULT_MAX_PIXELS:,} "
-                           "pencilbot reads; shrink it first")
+            raise TooLarge(
+                f"the photo has {width} × {height} pixels, more than the {DEFAULT_MAX_PIXELS:,} "
+                "pencilbot reads; shrink it first"
+            )
         scale = min(1.0, (THUMBNAIL_PIXELS / max(width * height, 1)) ** 0.5)
-        small = load_image(path, shrink_to=lambda shape: (max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale))))
+        small = load_image(
+            path, shrink_to=lambda shape: (max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale)))
+        )
         if self.photo is not None:
             self.photo.unlink(missing_ok=True)  # the folder keeps one photo
         self.thumbnail = png_bytes(small.rgb)
         self.small = small  # the coarse stage plans this, not the file: no decoding per change
         self.photo, self.photo_name = path, name[:200]
         self.photo_number += 1
-        self.photo_info = {"name": self.photo_name, "width": width, "height": height, "number": self.photo_number}
+        self.photo_info = {
+            "name": self.photo_name,
+            "width": width,
+            "height": height,
+            "number": self.photo_number,
+        }
         self.plan()
         return self.photo_info
 
@@ -143,11 +159,23 @@ class Studio:
         return result.plan
 
     def summary(self) -> dict:
-        stages = {name: {"generation": r.generation, "figures": r.figures, "error": r.error,
-                         "seconds": round(r.seconds, 3)} for name, r in self.results.items()}
-        return {"version": self.version, "generation": self.planner.generation, "options": asdict(self.options),
-                "photo": self.photo_info, "stages": stages,
-                "plots": self.plotters.summary()}
+        stages = {
+            name: {
+                "generation": r.generation,
+                "figures": r.figures,
+                "error": r.error,
+                "seconds": round(r.seconds, 3),
+            }
+            for name, r in self.results.items()
+        }
+        return {
+            "version": self.version,
+            "generation": self.planner.generation,
+            "options": asdict(self.options),
+            "photo": self.photo_info,
+            "stages": stages,
+            "plots": self.plotters.summary(),
+        }
 
 
 class TooLarge(PencilbotError):

@@ -14,11 +14,16 @@ from pathlib import Path
 
 #: GRBL's alarm codes in plain words.
 ALARMS = {
-    "1": "a limit switch was hit", "2": "a move would leave the plotter's travel",
+    "1": "a limit switch was hit",
+    "2": "a move would leave the plotter's travel",
     "3": "the board was reset while moving, so it lost its position",
-    "4": "the probe was not in the state expected", "5": "the probe did not touch",
-    "6": "homing was reset", "7": "a door opened while homing", "8": "homing could not leave the switch",
-    "9": "homing found no switch", "10": "a limit switch was hit while homing",
+    "4": "the probe was not in the state expected",
+    "5": "the probe did not touch",
+    "6": "homing was reset",
+    "7": "a door opened while homing",
+    "8": "homing could not leave the switch",
+    "9": "homing found no switch",
+    "10": "a limit switch was hit while homing",
 }
 RESUME_BUTTON = 'Press "Resume the stopped plot" to go on from there.'
 _RESUME = re.compile(r"(?:Resume with|continue with): pencilbot draw [^\n]*?(?=$| \(line \d+ )")

@@ -20,8 +20,18 @@ PRODUCT = sorted(p for d in ("pencilbot", "sim") for p in (ROOT / d).rglob("*.py
 
 #: Parameters and fields whose default must name a constant, not repeat a number.
 SHARED_SETTINGS = {
-    "pen_width", "travel_pen", "angles", "hatch_angles", "coverage", "hatch_coverage", "overlap",
-    "dpi", "baud", "baudrate", "timeout", "order_rounds",
+    "pen_width",
+    "travel_pen",
+    "angles",
+    "hatch_angles",
+    "coverage",
+    "hatch_coverage",
+    "overlap",
+    "dpi",
+    "baud",
+    "baudrate",
+    "timeout",
+    "order_rounds",
 }
 #: Where each shared constant is defined: the one place.
 HOMES = {
@@ -66,18 +76,28 @@ def _defaults(tree):
         if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
             args = node.args
             positional = args.posonlyargs + args.args
-            yield from ((a.arg, d, d.lineno) for a, d in zip(positional[len(positional) - len(args.defaults):], args.defaults))
-            yield from ((a.arg, d, d.lineno) for a, d in zip(args.kwonlyargs, args.kw_defaults) if d is not None)
+            yield from (
+                (a.arg, d, d.lineno)
+                for a, d in zip(positional[len(positional) - len(args.defaults) :], args.defaults)
+            )
+            yield from (
+                (a.arg, d, d.lineno) for a, d in zip(args.kwonlyargs, args.kw_defaults) if d is not None
+            )
         elif isinstance(node, ast.ClassDef):
             for item in node.body:
-                if isinstance(item, ast.AnnAssign) and isinstance(item.target, ast.Name) and item.value is not None:
+                if (
+                    isinstance(item, ast.AnnAssign)
+                    and isinstance(item.target, ast.Name)
+                    and item.value is not None
+                ):
                     yield item.target.id, item.value, item.lineno
 
 
 def test_shared_settings_take_their_default_from_the_constant():
     repeated = [
         f"{path}:{line}: {name} = {ast.unparse(default)}"
-        for path, tree in _trees() for name, default, line in _defaults(tree)
+        for path, tree in _trees()
+        for name, default, line in _defaults(tree)
         if name in SHARED_SETTINGS and _literal(default)
     ]
     assert not repeated, "defaults written again instead of named:\n" + "\n".join(repeated)
@@ -86,8 +106,11 @@ def test_shared_settings_take_their_default_from_the_constant():
 @pytest.mark.parametrize("name", sorted(HOMES))
 def test_each_shared_constant_is_defined_once_in_its_home(name):
     defined = sorted(
-        path for path, tree in _trees() for node in ast.walk(tree)
-        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == name for t in node.targets)
+        path
+        for path, tree in _trees()
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Assign)
+        and any(isinstance(t, ast.Name) and t.id == name for t in node.targets)
     )
     assert defined == [HOMES[name]]
 
@@ -95,9 +118,12 @@ def test_each_shared_constant_is_defined_once_in_its_home(name):
 def test_shared_numbers_are_written_only_in_their_home():
     stray = [
         f"{path}:{node.lineno}: {node.value!r}"
-        for path, tree in _trees() for node in ast.walk(tree)
-        if isinstance(node, ast.Constant) and type(node.value) in (int, float)
-        and node.value in HOME_OF_NUMBER and HOME_OF_NUMBER[node.value] != path
+        for path, tree in _trees()
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant)
+        and type(node.value) in (int, float)
+        and node.value in HOME_OF_NUMBER
+        and HOME_OF_NUMBER[node.value] != path
     ]
     assert not stray, "a shared number written outside its home:\n" + "\n".join(stray)
 

@@ -31,11 +31,27 @@ ALLOWED: dict[str, set[str]] = {
     "pencilbot.imaging": BASE | {"pencilbot.fileio"},
     "pencilbot.firmware": {"firmware_protocol"} | BASE,
     "pencilbot.machine": {"pencilbot.firmware", "pencilbot.configs_io", "pencilbot.schema"} | BASE,
-    "pencilbot.planning": {"pencilbot.imaging", "pencilbot.render", "pencilbot.machine", "pencilbot.configs_io",
-                           "pencilbot.schema", "pencilbot.fileio"} | BASE,
-    "pencilbot.export": {"pencilbot.planning", "pencilbot.machine", "pencilbot.firmware", "pencilbot.fileio"} | BASE,
-    "pencilbot.driver": {"pencilbot.firmware", "firmware_protocol", "pencilbot.machine", "pencilbot.fileio"} | BASE,
-    "sim": {"firmware_protocol", "pencilbot.firmware", "pencilbot.machine", "pencilbot.render", "pencilbot.fileio"} | BASE,
+    "pencilbot.planning": {
+        "pencilbot.imaging",
+        "pencilbot.render",
+        "pencilbot.machine",
+        "pencilbot.configs_io",
+        "pencilbot.schema",
+        "pencilbot.fileio",
+    }
+    | BASE,
+    "pencilbot.export": {"pencilbot.planning", "pencilbot.machine", "pencilbot.firmware", "pencilbot.fileio"}
+    | BASE,
+    "pencilbot.driver": {"pencilbot.firmware", "firmware_protocol", "pencilbot.machine", "pencilbot.fileio"}
+    | BASE,
+    "sim": {
+        "firmware_protocol",
+        "pencilbot.firmware",
+        "pencilbot.machine",
+        "pencilbot.render",
+        "pencilbot.fileio",
+    }
+    | BASE,
 }
 # The front ends may use everything below them; nothing below may use them.
 _BELOW = set(ALLOWED)
@@ -129,16 +145,28 @@ def test_every_component_of_the_project_is_in_the_table():
 @pytest.mark.parametrize(
     ("module", "source", "complaint"),
     [
-        ("pencilbot/planning/bad.py", "from pencilbot.export.gcode import write_gcode\n", "pencilbot.planning imports"),
+        (
+            "pencilbot/planning/bad.py",
+            "from pencilbot.export.gcode import write_gcode\n",
+            "pencilbot.planning imports",
+        ),
         ("firmware_protocol/bad.py", "from pencilbot.errors import PlotError\n", "firmware_protocol imports"),
         ("pencilbot/driver/bad.py", "def f():\n    import sim\n", "pencilbot.driver imports sim"),
-        ("pencilbot/machine/bad.py", "from ..planning import plan\n", "pencilbot.machine imports pencilbot.planning.plan"),
+        (
+            "pencilbot/machine/bad.py",
+            "from ..planning import plan\n",
+            "pencilbot.machine imports pencilbot.planning.plan",
+        ),
         ("sim/bad.py", "from pencilbot import driver\n", "sim imports pencilbot.driver"),
     ],
 )
 def test_the_checker_catches_an_import_against_the_flow(tmp_path, module, source, complaint):
     for package in PACKAGES:
-        for sub in ("", "/planning", "/export", "/driver", "/machine", "/errors") if package == "pencilbot" else ("",):
+        for sub in (
+            ("", "/planning", "/export", "/driver", "/machine", "/errors")
+            if package == "pencilbot"
+            else ("",)
+        ):
             (tmp_path / f"{package}{sub}").mkdir(parents=True, exist_ok=True)
             (tmp_path / f"{package}{sub}" / "__init__.py").write_text("")
     (tmp_path / "pencilbot/planning/plan.py").write_text("")
@@ -149,7 +177,6 @@ def test_the_checker_catches_an_import_against_the_flow(tmp_path, module, source
     assert len(found) == 1 and complaint in found[0] and module in found[0]
 
 
-
 def test_the_firmware_neutral_driver_speaks_no_firmware_s_words():
     """Homing, setting an origin and jogging are asked of the firmware registry (issue 20): a GRBL
     command written in the driver would be sent to an EBB, HP-GL or Marlin board too."""
@@ -157,10 +184,20 @@ def test_the_firmware_neutral_driver_speaks_no_firmware_s_words():
     found = []
     for path in sorted((ROOT / "pencilbot" / "driver").glob("*.py")):
         tree = ast.parse(path.read_text())
-        docstrings = {id(node.body[0].value) for node in ast.walk(tree)
-                      if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef)) and node.body
-                      and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)}
-        found += [f"{path.relative_to(ROOT)}:{node.lineno}: {node.value!r}" for node in ast.walk(tree)
-                  if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings
-                  and any(word in node.value.replace(" ", "") for word in commands)]
+        docstrings = {
+            id(node.body[0].value)
+            for node in ast.walk(tree)
+            if isinstance(node, (ast.Module, ast.ClassDef, ast.FunctionDef))
+            and node.body
+            and isinstance(node.body[0], ast.Expr)
+            and isinstance(node.body[0].value, ast.Constant)
+        }
+        found += [
+            f"{path.relative_to(ROOT)}:{node.lineno}: {node.value!r}"
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Constant)
+            and isinstance(node.value, str)
+            and id(node) not in docstrings
+            and any(word in node.value.replace(" ", "") for word in commands)
+        ]
     assert not found, "firmware commands in the driver:\n" + "\n".join(found)

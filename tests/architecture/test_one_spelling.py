@@ -39,14 +39,25 @@ def identifiers(source: str):
 def test_the_scan_reads_names_and_never_strings_or_comments():
     source = 'from a.colour import b as colours\ncolour_x = f"colour {y.colour}"  # colour\ndef f(colour=1): g(colour=2)\n'
     assert sorted(name for _, name in identifiers(source) if "colour" in name) == [
-        "a.colour", "colour", "colour", "colour", "colour_x", "colours"]
+        "a.colour",
+        "colour",
+        "colour",
+        "colour",
+        "colour_x",
+        "colours",
+    ]
 
 
 def test_identifiers_in_pencilbot_spell_color_one_way():
     files = sorted(PACKAGE.rglob("*.py"))
     names = [(path, line, name) for path in files for line, name in identifiers(path.read_text())]
     assert sum("color" in name.lower() for _, _, name in names) > 50  # the scan sees the package's names
-    other = [f"{path.relative_to(PACKAGE.parent)}:{line}: {name}" for path, line, name in names
-             if "colour" in name.lower()]
-    other += [str(path.relative_to(PACKAGE.parent)) for path in PACKAGE.rglob("*") if "colour" in path.name.lower()]
+    other = [
+        f"{path.relative_to(PACKAGE.parent)}:{line}: {name}"
+        for path, line, name in names
+        if "colour" in name.lower()
+    ]
+    other += [
+        str(path.relative_to(PACKAGE.parent)) for path in PACKAGE.rglob("*") if "colour" in path.name.lower()
+    ]
     assert not other, "identifiers say color (docs/architecture.md, Names):\n" + "\n".join(other)

@@ -44,21 +44,27 @@ def test_ci_installs_the_readme_test_tools():
 
 
 def test_ci_runs_the_readme_steps_after_the_install_in_order():
-    ci_lines = [line.strip() for line in CI.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    ci_lines = [
+        line.strip() for line in CI.splitlines() if line.strip() and not line.lstrip().startswith("#")
+    ]
     readme = after_install(steps(readme_test_command()))
     assert readme == after_install(ci_lines)
     assert readme[-1] == "pytest -q"
-    assert {"ruff check .", "mypy pencilbot firmware_protocol"} <= set(readme[:-1])  # the static checks, before the tests
+    assert {"ruff check .", "mypy pencilbot firmware_protocol"} <= set(
+        readme[:-1]
+    )  # the static checks, before the tests
 
 
 def test_the_test_command_needs_sudo_only_when_not_root():
     command = readme_test_command()
     assert not re.search(r"(^|[;&|]\s*)sudo\s", command)  # no bare sudo: root has none
     prefix = steps(command)[0]  # the guard choosing the prefix
-    chosen = subprocess.run(["bash", "-c", f"{prefix}; printf %s \"$S\""], capture_output=True, text=True,
-                            check=True).stdout
-    assert chosen == ("" if subprocess.run(["id", "-u"], capture_output=True, text=True).stdout.strip() == "0"
-                      else "sudo")
+    chosen = subprocess.run(
+        ["bash", "-c", f'{prefix}; printf %s "$S"'], capture_output=True, text=True, check=True
+    ).stdout
+    assert chosen == (
+        "" if subprocess.run(["id", "-u"], capture_output=True, text=True).stdout.strip() == "0" else "sudo"
+    )
 
 
 def test_the_readme_is_a_short_page():

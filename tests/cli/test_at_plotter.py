@@ -64,15 +64,20 @@ def test_pen_toggle_on_an_ebb_sim_serve_pty_reads_the_pen_back(tmp_path):
     with PtyServer(plotter, reset_on_open=False) as server:
         said = []
         for _ in range(2):
-            done = subprocess.run([*cli, "--port", server.path], capture_output=True, text=True, timeout=60, env=env)
+            done = subprocess.run(
+                [*cli, "--port", server.path], capture_output=True, text=True, timeout=60, env=env
+            )
             assert done.returncode == 0, done.stderr
             said.append((done.stdout.strip(), plotter.firmware.pen_up))
-    assert said == [("pen toggle: the plotter reports the pen down", False),
-                    ("pen toggle: the plotter reports the pen up", True)]
+    assert said == [
+        ("pen toggle: the plotter reports the pen down", False),
+        ("pen toggle: the plotter reports the pen up", True),
+    ]
 
 
-@pytest.mark.parametrize("profile,where", [("axidraw-v3", "X10 Y5"), ("grbl-servo-a4", "X10 Y5"),
-                                           ("hp7475a", "X10 Y5")])
+@pytest.mark.parametrize(
+    "profile,where", [("axidraw-v3", "X10 Y5"), ("grbl-servo-a4", "X10 Y5"), ("hp7475a", "X10 Y5")]
+)
 def test_walk_align_and_home_commands(profile, where, name, capsys):
     port = ["--port", f"sim://{name}", "--profile", profile]
     assert main(["walk", "--x", "10", "--y", "5", *port]) == 0
@@ -121,7 +126,7 @@ def test_a_plotter_named_in_the_config_and_an_unknown_name(name, capsys):
 
 
 def test_a_bad_ports_table_is_one_line(capsys):
-    _config('[ports]\nstudio = 3\n')
+    _config("[ports]\nstudio = 3\n")
     assert main(["pen", "up", "--port", "studio"]) == 2
     assert "[ports] must hold plotter names, each a port" in _one_error_line(capsys.readouterr().err)
 
@@ -133,14 +138,27 @@ def _drawn(name):
 def test_draw_an_svgs_layer_2_twice(tmp_path, name, capsys):
     svg = tmp_path / "drawing.svg"
     svg.write_text(LAYERED)
-    args = ["draw", str(svg), "--profile", "axidraw-v3", "--layer", "2", "--copies", "2", "--port", f"sim://{name}"]
+    args = [
+        "draw",
+        str(svg),
+        "--profile",
+        "axidraw-v3",
+        "--layer",
+        "2",
+        "--copies",
+        "2",
+        "--port",
+        f"sim://{name}",
+    ]
     assert main(args) == 0
     err = capsys.readouterr().err
     assert "layer 2 triangle" in err and "copy 1 of 2 drawn" in err
     drawn = _drawn(name)
     assert len(drawn) == 4
     for got, want in zip(drawn, [TRIANGLE, BAR, TRIANGLE, BAR]):
-        assert _off_polyline(got, want) < 0.02 and _off_polyline(want, got) < 0.02  # both ways: all of it, only it
+        assert (
+            _off_polyline(got, want) < 0.02 and _off_polyline(want, got) < 0.02
+        )  # both ways: all of it, only it
 
 
 def _off_polyline(points, line) -> float:
@@ -155,7 +173,9 @@ def test_draw_layer_that_is_not_there_is_one_line(tmp_path, name, capsys):
     svg = tmp_path / "drawing.svg"
     svg.write_text(LAYERED)
     assert main(["draw", str(svg), "--profile", "axidraw-v3", "--layer", "7", "--port", f"sim://{name}"]) != 0
-    assert "has no layer 7 (its layers: '1 frame', '2 triangle', '3 notes')" in _one_error_line(capsys.readouterr().err)
+    assert "has no layer 7 (its layers: '1 frame', '2 triangle', '3 notes')" in _one_error_line(
+        capsys.readouterr().err
+    )
 
 
 def _gcode(tmp_path, profile):
@@ -168,8 +188,19 @@ def _gcode(tmp_path, profile):
 
 def test_one_run_pen_height_and_speed_on_an_ebb(tmp_path, name, capsys):
     job = _gcode(tmp_path, "axidraw-v3")
-    args = ["draw", str(job), "--profile", "axidraw-v3", "--port", f"sim://{name}", "-q",
-            "--pen-down-height", "42", "--speed-down", "1200"]
+    args = [
+        "draw",
+        str(job),
+        "--profile",
+        "axidraw-v3",
+        "--port",
+        f"sim://{name}",
+        "-q",
+        "--pen-down-height",
+        "42",
+        "--speed-down",
+        "1200",
+    ]
     assert main(args) == 0
     board = protocol_sim.plotter(name).firmware
     servo = load_profile("axidraw-v3").ebb.servo_position(42)
@@ -185,7 +216,8 @@ def test_one_run_values_on_a_written_gcode_file_for_grbl_are_refused(tmp_path, n
     job = _gcode(tmp_path, "grbl-servo-a4")
     assert main(["draw", str(job), "--port", f"sim://{name}", "--speed-down", "900"]) == 3
     assert "--speed-down change the moves and pen commands pencilbot writes for GRBL" in _one_error_line(
-        capsys.readouterr().err)
+        capsys.readouterr().err
+    )
 
 
 def test_an_ebb_without_motor_power_is_refused_before_anything_moves(tmp_path, name, capsys):
@@ -205,7 +237,10 @@ def test_a_resumed_job_keeps_its_one_run_values(tmp_path, name, capsys):
 
     job = _gcode(tmp_path, "axidraw-v3")
     port = f"sim://{name}?profile=axidraw-v3&faults=error@30"
-    assert main(["draw", str(job), "--profile", "axidraw-v3", "--port", port, "-q", "--pen-down-height", "42"]) == 3
+    assert (
+        main(["draw", str(job), "--profile", "axidraw-v3", "--port", port, "-q", "--pen-down-height", "42"])
+        == 3
+    )
     record = json.loads(journal_path(job).read_text())
     assert record["options"]["overrides"] == {"pen": {"down": 42.0}}
     board = protocol_sim.plotter(name).firmware

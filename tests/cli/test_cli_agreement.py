@@ -70,7 +70,10 @@ def test_hpgl_demo_stat_and_simulator_agree(name, photo, tmp_path, capsys):
     """An HP-GL plotter: demo writes drawing.hpgl; stat of it reads back the plan's strokes (to a
     plotter unit) and the virtual plotter takes the estimated time."""
     out = tmp_path / "demo"
-    demo = run_json(["demo", "--input", str(photo), "--out", str(out), "--profile", name, "--page", "A5", "--json"], capsys)
+    demo = run_json(
+        ["demo", "--input", str(photo), "--out", str(out), "--profile", name, "--page", "A5", "--json"],
+        capsys,
+    )
     stat = run_json(["stat", str(out / "plan.svg"), "--profile", name, "--json"], capsys)["total"]
     hpgl = run_json(["stat", str(out / "drawing.hpgl"), "--profile", name, "--json"], capsys)["total"]
     assert hpgl["paths"] == stat["paths"] and hpgl["lifts"] == stat["lifts"]

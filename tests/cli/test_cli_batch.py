@@ -50,15 +50,20 @@ def test_export_of_three_photos_and_a_broken_one(photos, tmp_path, capsys):
     assert len({(out / f"{name}.gcode").read_bytes() for name in NAMES}) == 3  # each its own photo
     captured = capsys.readouterr()
     errors = [line for line in captured.err.splitlines() if "error" in line]
-    assert errors == [f"pencilbot: error: {photos / 'broken.png'} could not be decoded (image file is truncated); "
-                      "it is probably truncated or corrupt. Re-export or re-download the image."]
+    assert errors == [
+        f"pencilbot: error: {photos / 'broken.png'} could not be decoded (image file is truncated); "
+        "it is probably truncated or corrupt. Re-export or re-download the image."
+    ]
     assert "Traceback" not in captured.err
     assert captured.out.splitlines() == ["3 written, 1 failed"]
 
 
 def test_plan_of_a_folder_writes_a_plan_and_a_preview_per_photo(photos, tmp_path, capsys):
     plans, previews = tmp_path / "plans", tmp_path / "previews"
-    assert main(["plan", str(photos), "-o", str(plans), "--preview", str(previews), "--style", "outline", "-v"]) == 2
+    assert (
+        main(["plan", str(photos), "-o", str(plans), "--preview", str(previews), "--style", "outline", "-v"])
+        == 2
+    )
     assert sorted(p.name for p in plans.iterdir()) == ["camera.svg", "coins.svg", "moon.svg"]
     assert sorted(p.name for p in previews.iterdir()) == ["camera.png", "coins.png", "moon.png"]
     for name in NAMES:
@@ -101,13 +106,22 @@ def test_one_input_still_writes_the_file_named(photos, tmp_path, capsys):
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["plan", "{a}", "{b}", "-o", "{tmp}/plans.svg"], "2 inputs need a folder for the plan, not the file"),
+        (
+            ["plan", "{a}", "{b}", "-o", "{tmp}/plans.svg"],
+            "2 inputs need a folder for the plan, not the file",
+        ),
         (["export", "{a}", "{b}", "-o", "{tmp}/x.gcode"], "2 inputs need a folder for the output"),
         (["plan", "{a}", "{b}", "-o", "{tmp}/missing/plans"], "missing does not exist"),
         # an existing file, whatever its name, is no folder (this was a FileExistsError traceback)
         (["plan", "{a}", "{b}", "-o", "{tmp}/other/camera.png"], "need a folder for the plan, not the file"),
-        (["export", "{a}", "{b}", "-o", "{tmp}/other/camera.png"], "need a folder for the output, not the file"),
-        (["plan", "{a}", "{b}", "-o", "{tmp}/plans", "--preview", "{tmp}/p.png"], "need a folder for the preview"),
+        (
+            ["export", "{a}", "{b}", "-o", "{tmp}/other/camera.png"],
+            "need a folder for the output, not the file",
+        ),
+        (
+            ["plan", "{a}", "{b}", "-o", "{tmp}/plans", "--preview", "{tmp}/p.png"],
+            "need a folder for the preview",
+        ),
         (["export", "{a}", "{tmp}/other/camera.png", "-o", "{tmp}/out"], "would both be written to"),
         (["export", "{tmp}/empty", "-o", "{tmp}/out"], "holds no photo"),
         (["plan", "{a}", "{b}", "-o", "{tmp}/plans", "--style", "nope"], "no style named 'nope'"),
@@ -128,8 +142,13 @@ def test_batch_mistakes_are_one_line_before_any_file(photos, tmp_path, capsys, a
 
 @pytest.mark.parametrize("jobs", ["0", "-2", "two"])
 def test_jobs_must_be_a_count(photos, tmp_path, capsys, jobs):
-    assert main(["export", *files(photos, "camera", "coins"), "-o", str(tmp_path / "out"), "--jobs", jobs]) == 2
-    assert capsys.readouterr().err == f"pencilbot: error: --jobs must be at least 1 and at most 256, a whole number, not {jobs!r}\n"
+    assert (
+        main(["export", *files(photos, "camera", "coins"), "-o", str(tmp_path / "out"), "--jobs", jobs]) == 2
+    )
+    assert (
+        capsys.readouterr().err
+        == f"pencilbot: error: --jobs must be at least 1 and at most 256, a whole number, not {jobs!r}\n"
+    )
     assert list(tmp_path.iterdir()) == []
 
 

@@ -32,8 +32,10 @@ def square(x: float, y: float, size: float = 20.0, step: float = 0.5) -> list[np
 
 def two_pen_plan() -> Plan:
     pens = {pen.name: pen for pen in load_pens("cmyk").pens}
-    layers = [Layer(f"{name}-hatch", square(x, 50.0), pen_width=0.5, role="hatch", pen=name, color=pens[name].color)
-              for name, x in (("yellow", 20.0), ("magenta", 60.0), ("black", 100.0))]
+    layers = [
+        Layer(f"{name}-hatch", square(x, 50.0), pen_width=0.5, role="hatch", pen=name, color=pens[name].color)
+        for name, x in (("yellow", 20.0), ("magenta", 60.0), ("black", 100.0))
+    ]
     return Plan(Page(150.0, 150.0, margin=10.0, name="test"), layers)
 
 
@@ -67,13 +69,35 @@ def test_simulate_passes_every_pen_change_and_draws_each_pen_in_its_ink(tmp_path
 
 def test_plan_and_export_with_a_pen_set_and_split_pens(tmp_path, photo, capsys):
     svg, preview = tmp_path / "plan.svg", tmp_path / "preview.png"
-    assert main(["plan", str(photo), "--pens", "cmyk", "-o", str(svg), "--preview", str(preview), "--page", "120x90"]) == 0
+    assert (
+        main(
+            [
+                "plan",
+                str(photo),
+                "--pens",
+                "cmyk",
+                "-o",
+                str(svg),
+                "--preview",
+                str(preview),
+                "--page",
+                "120x90",
+            ]
+        )
+        == 0
+    )
     said = capsys.readouterr().out
-    assert "pens in load order: yellow, cyan, magenta, black" in said or "pens in load order: yellow, magenta, black" in said
+    assert (
+        "pens in load order: yellow, cyan, magenta, black" in said
+        or "pens in load order: yellow, magenta, black" in said
+    )
     picture = np.asarray(Image.open(preview))
     assert picture.ndim == 3 and np.ptp(picture.astype(int), axis=2).max() > 100  # in colour
     out = tmp_path / "job.gcode"
-    assert main(["export", str(photo), "--pens", "cmyk", "--page", "120x90", "--split-pens", "-o", str(out)]) == 0
+    assert (
+        main(["export", str(photo), "--pens", "cmyk", "--page", "120x90", "--split-pens", "-o", str(out)])
+        == 0
+    )
     files = sorted(tmp_path.glob("job-*.gcode"))
     drawn = [f.stem.split("-", 2)[2] for f in files]
     assert drawn == [p for p in ["yellow", "cyan", "magenta", "black"] if p in drawn] and drawn[-1] == "black"
@@ -105,11 +129,18 @@ def test_the_vpype_plugin_gives_one_layer_per_pen_in_load_order_with_its_ink(tmp
 
     command = shutil.which("vpype", path=str(Path(sys.executable).parent))
     out = tmp_path / "vp.svg"
-    done = subprocess.run([command, "pencilbot", "--pens", "primaries", "--page", "120x90", str(photo), "write", str(out)],
-                          capture_output=True, text=True, timeout=300)
+    done = subprocess.run(
+        [command, "pencilbot", "--pens", "primaries", "--page", "120x90", str(photo), "write", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr
     document = vpype.read_multilayer_svg(str(out), quantization=0.1)
-    found = [(layer.property("vp_name"), layer.property("vp_color").as_hex()[:7]) for _, layer in sorted(document.layers.items())]
+    found = [
+        (layer.property("vp_name"), layer.property("vp_color").as_hex()[:7])
+        for _, layer in sorted(document.layers.items())
+    ]
     order = [(pen.name, pen.color) for pen in load_pens("primaries").load_order]
     assert found == [pen for pen in order if pen[0] in dict(found)] and found[-1] == order[-1]
 

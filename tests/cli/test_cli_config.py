@@ -44,17 +44,22 @@ def shipped(name: str) -> str:
 @pytest.fixture
 def plan_svg(tmp_path) -> Path:
     path = tmp_path / "plan.svg"
-    write_svg(Plan(Page(148, 210, 10, "A5"), [Layer("edges", [np.array([[20.0, 20.0], [120.0, 190.0]])])]), path)
+    write_svg(
+        Plan(Page(148, 210, 10, "A5"), [Layer("edges", [np.array([[20.0, 20.0], [120.0, 190.0]])])]), path
+    )
     return path
 
 
-@pytest.mark.parametrize(("platform", "env", "want"), [
-    ("linux", {"XDG_CONFIG_HOME": "/x/cfg"}, "/x/cfg/pencilbot"),
-    ("linux", {}, "~/.config/pencilbot"),
-    ("darwin", {}, "~/Library/Application Support/pencilbot"),
-    ("win32", {"APPDATA": "/x/Roaming"}, "/x/Roaming/pencilbot"),
-    ("linux", {"PENCILBOT_CONFIG_DIR": "/x/mine", "XDG_CONFIG_HOME": "/x/cfg"}, "/x/mine"),
-])
+@pytest.mark.parametrize(
+    ("platform", "env", "want"),
+    [
+        ("linux", {"XDG_CONFIG_HOME": "/x/cfg"}, "/x/cfg/pencilbot"),
+        ("linux", {}, "~/.config/pencilbot"),
+        ("darwin", {}, "~/Library/Application Support/pencilbot"),
+        ("win32", {"APPDATA": "/x/Roaming"}, "/x/Roaming/pencilbot"),
+        ("linux", {"PENCILBOT_CONFIG_DIR": "/x/mine", "XDG_CONFIG_HOME": "/x/cfg"}, "/x/mine"),
+    ],
+)
 def test_the_user_folder_follows_the_platform(monkeypatch, platform, env, want):
     for name in ("PENCILBOT_CONFIG_DIR", "XDG_CONFIG_HOME", "APPDATA"):
         monkeypatch.delenv(name, raising=False)
@@ -65,14 +70,29 @@ def test_the_user_folder_follows_the_platform(monkeypatch, platform, env, want):
 
 
 def test_a_users_profile_is_found_by_name_before_the_shipped_one(mine, plan_svg, capsys):
-    (mine / "plotters" / "grbl-servo-a4.toml").write_text(shipped("grbl-servo-a4").replace("draw_feed = 3000.0", "draw_feed = 1500.0"))
-    (mine / "plotters" / "slow.toml").write_text(shipped("grbl-servo-a4").replace('name = "grbl-servo-a4"\n', ""))
+    (mine / "plotters" / "grbl-servo-a4.toml").write_text(
+        shipped("grbl-servo-a4").replace("draw_feed = 3000.0", "draw_feed = 1500.0")
+    )
+    (mine / "plotters" / "slow.toml").write_text(
+        shipped("grbl-servo-a4").replace('name = "grbl-servo-a4"\n', "")
+    )
     assert load_profile("grbl-servo-a4").motion.draw_feed == 1500.0
     assert load_profile("slow").name == "slow"
     listing(["export", "--list-profiles"])
     listed = {line.split()[0]: line for line in capsys.readouterr().out.splitlines()}
-    assert set(listed) == {"grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3", "marlin-servo-a4", "hp7475a", "hp7475a-a3",
-                           "axidraw-v3", "axidraw-a3", "nextdraw-8511", "idraw-a4", "slow"}
+    assert set(listed) == {
+        "grbl-servo-a4",
+        "grbl-z-a3",
+        "grblhal-servo-a3",
+        "marlin-servo-a4",
+        "hp7475a",
+        "hp7475a-a3",
+        "axidraw-v3",
+        "axidraw-a3",
+        "nextdraw-8511",
+        "idraw-a4",
+        "slow",
+    }
     assert f"(yours: {mine / 'plotters' / 'slow.toml'})" in listed["slow"]
     assert "(yours:" in listed["grbl-servo-a4"] and "(yours:" not in listed["grbl-z-a3"]
     assert main(["stat", str(plan_svg), "--profile", "slow", "--json"]) == 0
@@ -95,7 +115,9 @@ def test_a_users_style_by_name_and_the_listing(mine, tmp_path, capsys):
     assert "A4 auto, 0.5 mm pen, hatching" in listed["default"]
 
 
-def test_the_default_profile_comes_from_the_environment_then_the_settings(mine, plan_svg, monkeypatch, capsys):
+def test_the_default_profile_comes_from_the_environment_then_the_settings(
+    mine, plan_svg, monkeypatch, capsys
+):
     def profile_used():
         assert main(["stat", str(plan_svg), "--json"]) == 0
         return json.loads(capsys.readouterr().out)["profile"]
@@ -124,11 +146,14 @@ def test_the_default_style_comes_from_the_settings(mine, tmp_path, capsys):
     assert [layer.name for layer in plan.layers] == ["edges"] and plan.meta["style"] == "outline"
 
 
-@pytest.mark.parametrize(("text", "message"), [
-    ('profil = "x"\n', "unknown key 'profil'; the keys are: profile, style"),
-    ("profile = 3\n", "profile = 3 is invalid"),
-    ("profile = \n", "not valid TOML"),
-])
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('profil = "x"\n', "unknown key 'profil'; the keys are: profile, style"),
+        ("profile = 3\n", "profile = 3 is invalid"),
+        ("profile = \n", "not valid TOML"),
+    ],
+)
 def test_a_bad_settings_file_is_one_plain_message(mine, plan_svg, capsys, text, message):
     (mine / "config.toml").write_text(text)
     assert main(["stat", str(plan_svg)]) == 2
@@ -140,9 +165,16 @@ def complete(script: Path, *words: str) -> list[str]:
     """What bash's completion function offers for the command line ``words`` (the last one being typed)."""
     line = " ".join(f"'{w}'" for w in words)
     done = subprocess.run(
-        ["bash", "-c", f'source {script}; COMP_WORDS=({line}); COMP_CWORD=$(({len(words)} - 1)); _pencilbot; '
-                       'printf "%s\\n" "${COMPREPLY[@]}"'],
-        capture_output=True, text=True, timeout=60, env={**os.environ, "PATH": f"{Path(sys.executable).parent}:{os.environ['PATH']}"},
+        [
+            "bash",
+            "-c",
+            f"source {script}; COMP_WORDS=({line}); COMP_CWORD=$(({len(words)} - 1)); _pencilbot; "
+            'printf "%s\\n" "${COMPREPLY[@]}"',
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env={**os.environ, "PATH": f"{Path(sys.executable).parent}:{os.environ['PATH']}"},
     )
     assert done.returncode == 0, done.stderr
     return [w for w in done.stdout.splitlines() if w]
@@ -152,12 +184,18 @@ def test_bash_completes_commands_options_choices_and_names(mine, tmp_path, capsy
     assert main(["completion", "bash"]) == 0
     script = tmp_path / "pencilbot.bash"
     script.write_text(capsys.readouterr().out)
-    (mine / "plotters" / "grbl-mine.toml").write_text(shipped("grbl-servo-a4"))  # added after the script was made
+    (mine / "plotters" / "grbl-mine.toml").write_text(
+        shipped("grbl-servo-a4")
+    )  # added after the script was made
     assert complete(script, "pencilbot", "s") == ["sketch", "stat", "simulate", "sim-serve", "studio"]
     assert complete(script, "pencilbot", "export", "--keep") == ["--keep-order"]
     assert complete(script, "pencilbot", "plan", "--keep") == []  # plan has no such option
     assert complete(script, "pencilbot", "export", "photo.jpg", "--profile", "grbl") == [
-        "grbl-mine", "grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3"]
+        "grbl-mine",
+        "grbl-servo-a4",
+        "grbl-z-a3",
+        "grblhal-servo-a3",
+    ]
     assert complete(script, "pencilbot", "plan", "--style", "") == ["default", "outline", "sketchy"]
     assert complete(script, "pencilbot", "plan", "--orientation", "l") == ["landscape"]
     assert complete(script, "pencilbot", "completion", "") == ["bash", "zsh", "fish"]
@@ -190,7 +228,9 @@ def test_each_script_is_valid_in_its_shell(shell, capsys):
     if shutil.which(shell) is None:
         pytest.skip(f"{shell} is not installed here: its script's syntax is not checked")
     assert main(["completion", shell]) == 0
-    checked = subprocess.run([shell, "-n"], input=capsys.readouterr().out, capture_output=True, text=True, timeout=60)
+    checked = subprocess.run(
+        [shell, "-n"], input=capsys.readouterr().out, capture_output=True, text=True, timeout=60
+    )
     assert checked.returncode == 0, checked.stderr
 
 

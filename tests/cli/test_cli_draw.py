@@ -1,6 +1,5 @@
 """`pencilbot draw` argument handling: every user mistake is one plain message, never a traceback."""
 
-
 from pencilbot.cli import main
 
 
@@ -82,7 +81,10 @@ def test_verbose_draw_says_where_what_and_how_long_before_streaming(capsys, tmp_
     from pencilbot.planning.stats import duration_text
 
     sim.register()
-    plan = Plan(Page(210.0, 297.0, name="A4"), [Layer("edges", [np.array([[30.0, 30.0], [90.0, 60.0], [90.0, 90.0]])])])
+    plan = Plan(
+        Page(210.0, 297.0, name="A4"),
+        [Layer("edges", [np.array([[30.0, 30.0], [90.0, 60.0], [90.0, 90.0]])])],
+    )
     path = tmp_path / "v.gcode"
     summary = write_gcode(plan, load_profile("grbl-servo-a4"), path)
     code = main(["draw", str(path), "--port", "sim://verbose", "--baud", "57600", "-v", "--json-lines"])
@@ -117,9 +119,23 @@ def test_a_stopped_job_is_not_drawn_again_from_line_1_without_restart(capsys, tm
 
     path = _plot(tmp_path)
     profile = tmp_path / "mine.toml"
-    profile.write_text((__import__("pathlib").Path(__file__).parents[2] / "configs/plotters/grbl-servo-a4.toml").read_text())
-    code, err = run(capsys, str(path), "--port", "sim://jobs1?faults=error@30", "--profile", str(profile),
-                    "--send-and-wait", "--baud", "57600", "--timeout", "3", "-q")
+    profile.write_text(
+        (__import__("pathlib").Path(__file__).parents[2] / "configs/plotters/grbl-servo-a4.toml").read_text()
+    )
+    code, err = run(
+        capsys,
+        str(path),
+        "--port",
+        "sim://jobs1?faults=error@30",
+        "--profile",
+        str(profile),
+        "--send-and-wait",
+        "--baud",
+        "57600",
+        "--timeout",
+        "3",
+        "-q",
+    )
     assert code != 0 and "Resume with: pencilbot draw --resume" in err
     journal = json.loads((tmp_path / "plot.gcode.job.json").read_text())
     # Every connection option, and a profile path that works from any folder.
@@ -129,9 +145,15 @@ def test_a_stopped_job_is_not_drawn_again_from_line_1_without_restart(capsys, tm
     code, err = run(capsys, str(path), "--port", "sim://jobs1")
     assert code == 2 and "stopped at line" in err and journal["resume"] in err and "--restart" in err
     record = path.with_name(path.name + ".job.json")
-    record.write_text(json.dumps({**json.loads(record.read_text()), "status": "running"}))  # a killed sender's
+    record.write_text(
+        json.dumps({**json.loads(record.read_text()), "status": "running"})
+    )  # a killed sender's
     code, err = run(capsys, str(path), "--port", "sim://jobs1")
-    assert code == 2 and "is being drawn now (on sim://jobs1" in err and "or its sender was killed at line" in err
+    assert (
+        code == 2
+        and "is being drawn now (on sim://jobs1" in err
+        and "or its sender was killed at line" in err
+    )
     assert journal["resume"] in err
     record.write_text(json.dumps({**json.loads(record.read_text()), "status": "stopped"}))
     assert len(protocol_sim.plotter("jobs1").firmware.log) == sent  # nothing was sent
@@ -148,27 +170,44 @@ def test_sigterm_stops_safely_and_prints_the_resume_command(tmp_path):
     import time
 
     path = _plot(tmp_path)
-    command = [sys.executable, "-c", "from pencilbot.cli import main; raise SystemExit(main())", "draw", str(path),
-               "--port", "sim://term?realtime=2", "--profile", "grbl-servo-a4", "--json-lines"]
+    command = [
+        sys.executable,
+        "-c",
+        "from pencilbot.cli import main; raise SystemExit(main())",
+        "draw",
+        str(path),
+        "--port",
+        "sim://term?realtime=2",
+        "--profile",
+        "grbl-servo-a4",
+        "--json-lines",
+    ]
     proc = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     journal = tmp_path / "plot.gcode.job.json"
     deadline = time.monotonic() + 600  # a bound for a broken run only: a loaded machine starts slowly
-    while proc.poll() is None and time.monotonic() < deadline and not (
-            journal.exists() and json.loads(journal.read_text())["acked_line"] > 10):
+    while (
+        proc.poll() is None
+        and time.monotonic() < deadline
+        and not (journal.exists() and json.loads(journal.read_text())["acked_line"] > 10)
+    ):
         time.sleep(0.05)
     assert proc.poll() is None, "the plot ended before the signal"
     proc.send_signal(signal.SIGTERM)
     _out, err = proc.communicate(timeout=30)
     assert proc.returncode != 0
-    assert "stopped by SIGTERM" in err and "pen raised" in err and "Resume with: pencilbot draw --resume" in err
+    assert (
+        "stopped by SIGTERM" in err and "pen raised" in err and "Resume with: pencilbot draw --resume" in err
+    )
     record = json.loads(journal.read_text())
     assert record["status"] == "stopped" and record["resume"] in err and record["stop_work"] is not None
 
 
 def test_simulate_of_a_file_with_a_pen_change_prints_the_prompt_and_finishes(capsys, tmp_path):
     src = tmp_path / "two-pens.gcode"
-    src.write_text("G21\nG90\nM3 S30\nG0 X10 Y10\nM3 S90\nG1 X40 Y10 F3000\nM3 S30\n"
-                   "M0 (pen change: insert red)\nM3 S90\nG1 X40 Y40\nM3 S30\n")
+    src.write_text(
+        "G21\nG90\nM3 S30\nG0 X10 Y10\nM3 S90\nG1 X40 Y10 F3000\nM3 S30\n"
+        "M0 (pen change: insert red)\nM3 S90\nG1 X40 Y40\nM3 S30\n"
+    )
     code = main(["simulate", str(src), "-o", str(tmp_path / "p.png"), "--profile", "grbl-servo-a4"])
     captured = capsys.readouterr()
     assert code == 0 and "paused: pen change: insert red (simulate presses cycle start)" in captured.err

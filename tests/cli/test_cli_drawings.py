@@ -16,8 +16,14 @@ from pencilbot.export.svg_read import is_plan_svg, read_svg
 DRAWINGS = {
     "inkscape": (lambda path: path.write_text(drawings.inkscape_svg()), []),
     "vpype": (drawings.vpype_svg, []),
-    "hatched": (lambda path: path.write_text(drawings.hatched_svg(drawings.hatch_lines())), ["--svg-dpi", "96"]),
-    "linedraw": (lambda path: path.write_text(drawings.linedraw_svg(drawings.contour_lines())), ["--svg-dpi", "96"]),
+    "hatched": (
+        lambda path: path.write_text(drawings.hatched_svg(drawings.hatch_lines())),
+        ["--svg-dpi", "96"],
+    ),
+    "linedraw": (
+        lambda path: path.write_text(drawings.linedraw_svg(drawings.contour_lines())),
+        ["--svg-dpi", "96"],
+    ),
 }
 
 
@@ -52,7 +58,11 @@ def test_a_drawing_is_stated_exported_reordered_and_simulated(drawing, tmp_path,
     # Joins draw at most a pen width each: the ink is the same, give or take the joins.
     joins = as_written["paths"] - reordered["paths"]
     pen = max(layer.pen_width for layer in read.layers)
-    assert as_written["pen_down_mm"] - 0.01 <= reordered["pen_down_mm"] <= as_written["pen_down_mm"] + joins * pen + 0.01
+    assert (
+        as_written["pen_down_mm"] - 0.01
+        <= reordered["pen_down_mm"]
+        <= as_written["pen_down_mm"] + joins * pen + 0.01
+    )
 
     kept = tmp_path / "kept.gcode"
     assert main(["export", str(path), "-o", str(kept), "--keep-order", *options]) == 0
@@ -73,7 +83,17 @@ def test_a_drawing_is_stated_exported_reordered_and_simulated(drawing, tmp_path,
 def test_a_drawing_without_a_size_is_one_plain_message(tmp_path, capsys, command):
     path = tmp_path / "hatched.svg"
     path.write_text(drawings.hatched_svg(drawings.hatch_lines()))
-    argv = [command, str(path)] + (["-o", str(tmp_path / ("x.png" if command == "simulate" else "x.svg" if command == "optimize" else "x.gcode"))] if command != "stat" else [])
+    argv = [command, str(path)] + (
+        [
+            "-o",
+            str(
+                tmp_path
+                / ("x.png" if command == "simulate" else "x.svg" if command == "optimize" else "x.gcode")
+            ),
+        ]
+        if command != "stat"
+        else []
+    )
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "no size on paper" in err and "--svg-dpi 96" in err and "--page A4" in err
@@ -94,7 +114,9 @@ def test_a_page_fits_a_drawing_onto_the_sheet(tmp_path, capsys):
     assert points[:, 0].max() == pytest.approx(138, abs=0.01)
     original = read_svg(path, dpi=96).paths().points
     span = lambda p: p.max(axis=0) - p.min(axis=0)  # noqa: E731
-    np.testing.assert_allclose(span(points) / span(original), 128 / read_svg(path, dpi=96).page.width, rtol=1e-4)
+    np.testing.assert_allclose(
+        span(points) / span(original), 128 / read_svg(path, dpi=96).page.width, rtol=1e-4
+    )
 
 
 def test_optimize_writes_a_plan_and_reports_before_and_after(tmp_path, capsys):
@@ -106,7 +128,9 @@ def test_optimize_writes_a_plan_and_reports_before_and_after(tmp_path, capsys):
     assert is_plan_svg(out)
     assert report["after"]["pen_up_mm"] < 0.5 * report["before"]["pen_up_mm"]
     assert report["after"]["seconds"] < report["before"]["seconds"]
-    assert stat(capsys, out) == pytest.approx(report["after"], rel=1e-4)  # what it wrote (to µm) is what it said
+    assert stat(capsys, out) == pytest.approx(
+        report["after"], rel=1e-4
+    )  # what it wrote (to µm) is what it said
     assert stat(capsys, path, "--svg-dpi", "96") == pytest.approx(report["before"], rel=1e-6)
     assert read_svg(out).meta["source"] == str(path)
     # A plan of ours, once ordered, goes through export as it is.
@@ -119,4 +143,8 @@ def test_plan_of_a_drawing_points_to_optimize_and_export(tmp_path, capsys):
     path.write_text(drawings.inkscape_svg())
     assert main(["plan", str(path), "-o", str(tmp_path / "p.svg")]) == 2
     err = capsys.readouterr().err
-    assert "is a drawing, not a photo" in err and f"pencilbot optimize {path}" in err and f"pencilbot export {path}" in err
+    assert (
+        "is a drawing, not a photo" in err
+        and f"pencilbot optimize {path}" in err
+        and f"pencilbot export {path}" in err
+    )

@@ -18,9 +18,21 @@ from plotink import ebb_motion, ebb_serial  # the test extra (pip install -e .[t
 def served(tmp_path):
     out = tmp_path / "served.png"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--profile", "axidraw-v3", "--realtime", "0",
-         "-o", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        [
+            sys.executable,
+            "-m",
+            "pencilbot.cli",
+            "sim-serve",
+            "--profile",
+            "axidraw-v3",
+            "--realtime",
+            "0",
+            "-o",
+            str(out),
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     path = proc.stdout.readline().strip()
     yield proc, path, out
@@ -71,12 +83,25 @@ def test_export_then_draw_over_sim(tmp_path):
     from pencilbot.export.svg import write_svg
     from pencilbot.planning.plan import Layer, Page, Plan
 
-    lines = [np.array([[10.0, 10.0 + y], [60.0, 12.0 + y], [60.0, 30.0 + y]]) for y in np.arange(0.0, 20.0, 2.0)]
+    lines = [
+        np.array([[10.0, 10.0 + y], [60.0, 12.0 + y], [60.0, 30.0 + y]]) for y in np.arange(0.0, 20.0, 2.0)
+    ]
     svg = tmp_path / "plan.svg"
-    write_svg(Plan(Page(100.0, 80.0, margin=5.0, name="test"), (Layer("hatch", lines, pen_width=0.5, role="hatch"),)), svg)
+    write_svg(
+        Plan(
+            Page(100.0, 80.0, margin=5.0, name="test"), (Layer("hatch", lines, pen_width=0.5, role="hatch"),)
+        ),
+        svg,
+    )
     gcode = tmp_path / "d.gcode"
     cli = [sys.executable, "-m", "pencilbot.cli"]
-    subprocess.run([*cli, "export", str(svg), "-o", str(gcode), "--profile", "axidraw-v3"], check=True, timeout=120)
-    done = subprocess.run([*cli, "draw", str(gcode), "--profile", "axidraw-v3", "--port", "sim://", "-q"],
-                          capture_output=True, text=True, timeout=300)
+    subprocess.run(
+        [*cli, "export", str(svg), "-o", str(gcode), "--profile", "axidraw-v3"], check=True, timeout=120
+    )
+    done = subprocess.run(
+        [*cli, "draw", str(gcode), "--profile", "axidraw-v3", "--port", "sim://", "-q"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert done.returncode == 0, done.stderr

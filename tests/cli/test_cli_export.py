@@ -31,7 +31,9 @@ def photo(tmp_path_factory):
 def plan_svg(tmp_path_factory):
     """A hand-built plan written by pencilbot's own SVG writer: a square and a diagonal."""
     square = np.array([[20.0, 20.0], [120.0, 20.0], [120.0, 120.0], [20.0, 120.0], [20.0, 20.0]])
-    plan = Plan(Page(210.0, 297.0, name="A4"), [Layer("edges", [square, np.array([[20.0, 20.0], [120.0, 120.0]])])])
+    plan = Plan(
+        Page(210.0, 297.0, name="A4"), [Layer("edges", [square, np.array([[20.0, 20.0], [120.0, 120.0]])])]
+    )
     path = tmp_path_factory.mktemp("plan") / "square.svg"
     write_svg(plan, path)
     return path
@@ -48,9 +50,24 @@ def test_console_script_exports_a_photo_that_the_virtual_grbl_draws(photo, tmp_p
 
     out = tmp_path / "camera.gcode"
     proc = subprocess.run(
-        [sys.executable, "-m", "pencilbot.cli", "export", str(photo), "-o", str(out),
-         "--profile", "grbl-servo-a4", "--page", "A5", "--pen-width", "0.8"],
-        capture_output=True, text=True, timeout=300,
+        [
+            sys.executable,
+            "-m",
+            "pencilbot.cli",
+            "export",
+            str(photo),
+            "-o",
+            str(out),
+            "--profile",
+            "grbl-servo-a4",
+            "--page",
+            "A5",
+            "--pen-width",
+            "0.8",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
     )
     assert proc.returncode == 0, proc.stderr
     assert f"wrote {out} for grbl-servo-a4" in proc.stdout
@@ -80,7 +97,11 @@ def test_plan_svg_exports_its_paths_exactly(plan_svg, tmp_path, capsys):
     # grbl-z-a3 is homed back-right with negative work space, the A4 sheet in that corner:
     # page (x, y) is machine (x - 210, y - 297)
     assert moves == [
-        ("G0", -190, -277), ("G1", -90, -277), ("G1", -90, -177), ("G1", -190, -177), ("G1", -190, -277),
+        ("G0", -190, -277),
+        ("G1", -90, -277),
+        ("G1", -90, -177),
+        ("G1", -190, -177),
+        ("G1", -190, -277),
         ("G1", -90, -177),  # the diagonal starts where the square ended: no travel, lift kept
         ("G0", 0, 0),
     ]
@@ -99,7 +120,9 @@ def test_several_inputs_go_into_a_folder(plan_svg, tmp_path):
     second.write_bytes(plan_svg.read_bytes())
     folder = tmp_path / "out"
     folder.mkdir()
-    assert main(["export", str(plan_svg), str(second), "-o", str(folder), "--profile", "marlin-servo-a4"]) == 0
+    assert (
+        main(["export", str(plan_svg), str(second), "-o", str(folder), "--profile", "marlin-servo-a4"]) == 0
+    )
     assert sorted(p.name for p in folder.iterdir()) == ["again.gcode", "square.gcode"]
     assert any(c.command_str == "M280" for c in commands(folder / "again.gcode"))
 
@@ -152,7 +175,9 @@ def test_mistakes_with_a_plan_are_one_line_and_leave_no_file(plan_svg, tmp_path,
 
 def test_bad_profile_file_is_refused_before_planning(photo, tmp_path, capsys):
     bad = tmp_path / "bad.toml"
-    bad.write_text(open_shipped("plotters/grbl-servo-a4.toml").replace("draw_feed = 3000.0", "draw_feed = -5"))
+    bad.write_text(
+        open_shipped("plotters/grbl-servo-a4.toml").replace("draw_feed = 3000.0", "draw_feed = -5")
+    )
     assert main(["export", str(photo), "-o", str(tmp_path / "x.gcode"), "--profile", str(bad)]) == 2
     err = capsys.readouterr().err
     assert f"plotter profile {bad}: [motion] draw_feed = -5 is invalid" in err

@@ -16,7 +16,11 @@ def test_an_output_named_in_bytes_that_are_not_utf8_is_printed_escaped(tmp_path)
     Image.fromarray(np.random.default_rng(1).integers(0, 255, (48, 64), dtype=np.uint8)).save(photo)
     out = os.fsencode(tmp_path) + b"/sk\xff\xfeetch.png"
     env = {**os.environ, "PYTHONIOENCODING": "utf-8"}  # strict on stdout, as a UTF-8 terminal is
-    done = subprocess.run([sys.executable, "-m", "pencilbot.cli", "sketch", str(photo), "-o", out],
-                          capture_output=True, env=env, timeout=120)
+    done = subprocess.run(
+        [sys.executable, "-m", "pencilbot.cli", "sketch", str(photo), "-o", out],
+        capture_output=True,
+        env=env,
+        timeout=120,
+    )
     assert done.returncode == 0, done.stderr.decode("utf-8", "replace")
     assert b"sk\\udcff\\udcfeetch.png" in done.stdout and os.path.exists(out)

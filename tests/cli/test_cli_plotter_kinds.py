@@ -39,12 +39,19 @@ def test_simulate_picks_an_hpgl_plotter_for_hpgl(tmp_path, capsys, name):
     assert "1 pen-down strokes" in said and "on hp7475a" in said and out.is_file()
 
 
-@pytest.mark.parametrize("profile, suffix, program, board", [
-    ("hp7475a", ".hpgl", HPGL, "board: 7475A"),
-    ("axidraw-v3", ".gcode", GCODE.encode(), "board: EBBv13_and_above EB Firmware Version 3.0.3"),
-    ("grbl-servo-a4", ".gcode", GCODE.replace("M280 P0 S60", "M5").replace("M280 P0 S30", "M3 S1000").encode(),
-     "board: Grbl 1.1h"),
-])
+@pytest.mark.parametrize(
+    "profile, suffix, program, board",
+    [
+        ("hp7475a", ".hpgl", HPGL, "board: 7475A"),
+        ("axidraw-v3", ".gcode", GCODE.encode(), "board: EBBv13_and_above EB Firmware Version 3.0.3"),
+        (
+            "grbl-servo-a4",
+            ".gcode",
+            GCODE.replace("M280 P0 S60", "M5").replace("M280 P0 S30", "M3 S1000").encode(),
+            "board: Grbl 1.1h",
+        ),
+    ],
+)
 def test_draw_verbose_says_what_answered_on_every_family(tmp_path, capsys, profile, suffix, program, board):
     job = tmp_path / f"d{suffix}"
     job.write_bytes(program)

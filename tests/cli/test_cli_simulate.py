@@ -50,7 +50,7 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
     assert np.allclose(dark.shape, (310 / 25.4 * DPI, 220 / 25.4 * DPI), atol=1)  # the whole bed
     for x, y in [(40, 20), (60, 40), (40, 60), (20, 40)]:
         r, c = px(rows, x, y)
-        assert dark[r - 1:r + 2, c - 1:c + 2].max() > 0.5
+        assert dark[r - 1 : r + 2, c - 1 : c + 2].max() > 0.5
     r0, c0 = px(rows, 25, 55)
     r1, c1 = px(rows, 55, 25)
     assert dark[r0:r1, c0:c1].max() < 0.02
@@ -61,7 +61,7 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
     assert "pen-down strokes" in said and "simulated drawing time 0:00:0" in said
     travel = np.asarray(Image.open(out).convert("RGB"), dtype=int)
     r, c = px(rows, 10, 10)  # on the pen-up diagonal from (0,0) to (20,20)
-    red = travel[r - 2:r + 3, c - 2:c + 3]
+    red = travel[r - 2 : r + 3, c - 2 : c + 3]
     assert ((red[..., 0] - red[..., 2]) > 60).any()
 
 
@@ -75,8 +75,14 @@ def test_simulate_gcode_draws_the_square_and_reports_time(tmp_path, capsys):
         (["simulate", "{src}", "-o", "{out}", "--dpi", "0"], "--dpi"),
         # Without the bounds these grew to 22.5 GB, died in MemoryError / ZeroDivisionError, or hung.
         (["simulate", "{src}", "-o", "{out}", "--dpi", "5000"], "gigapixels pencilbot renders; use --dpi"),
-        (["simulate", "{src}", "-o", "{out}", "--dpi", "30000"], "--dpi must be at least 1 and at most 10000"),
-        (["simulate", "{src}", "-o", "{out}", "--pen-width", "1e9"], "--pen-width must be at least 0.05 and at most 50 mm"),
+        (
+            ["simulate", "{src}", "-o", "{out}", "--dpi", "30000"],
+            "--dpi must be at least 1 and at most 10000",
+        ),
+        (
+            ["simulate", "{src}", "-o", "{out}", "--pen-width", "1e9"],
+            "--pen-width must be at least 0.05 and at most 50 mm",
+        ),
         (["simulate", "{src}", "-o", "{out}", "--dpi", "inf"], "--dpi must be at least 1"),
         (["simulate", "{src}", "-o", "{out}", "--realtime", "nan"], "--realtime must be at least 0"),
     ],
@@ -160,7 +166,7 @@ def test_simulate_foreign_gcode_draws_the_picture_it_describes(tmp_path):
 
     def inked(x, y):
         r, c = px(rows, x, y)
-        return dark[r - 1:r + 2, c - 1:c + 2].max()
+        return dark[r - 1 : r + 2, c - 1 : c + 2].max()
 
     # the full circle: centre (60, 35), r = 25
     for angle in np.radians([0, 45, 90, 135, 180, 225, 270, 315]):
@@ -187,8 +193,10 @@ def test_simulate_a_plan_svg_draws_its_paths(tmp_path):
     from pencilbot.export.svg import write_svg
     from pencilbot.planning.plan import Layer, Page, Plan
 
-    plan = Plan(Page(210.0, 297.0, margin=15.0, name="A4"),
-                [Layer("edges", [np.array([[50.0, 50.0], [150.0, 50.0], [150.0, 150.0]])], pen_width=0.5)])
+    plan = Plan(
+        Page(210.0, 297.0, margin=15.0, name="A4"),
+        [Layer("edges", [np.array([[50.0, 50.0], [150.0, 50.0], [150.0, 150.0]])], pen_width=0.5)],
+    )
     svg = tmp_path / "plan.svg"
     write_svg(plan, svg)
     out = tmp_path / "plot.png"
@@ -203,7 +211,9 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     out = tmp_path / "served.png"
     proc = subprocess.Popen(
         [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", "-o", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         path = proc.stdout.readline().strip()
@@ -233,7 +243,9 @@ def serve(tmp_path, *argv):
     """A running ``sim-serve`` and its first device path."""
     proc = subprocess.Popen(
         [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", *argv],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     return proc, proc.stdout.readline().strip()
 
@@ -279,7 +291,9 @@ def test_sim_serve_stops_on_sigint_even_started_ignoring_it(tmp_path):
     out = tmp_path / "served.png"
     proc = subprocess.Popen(
         [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--realtime", "0", "-o", str(out)],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
     )
     try:
@@ -316,19 +330,25 @@ def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
     assert "12 lines accepted" in stdout and ink(out).max() > 0.5
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--dpi", "0", "-o", "x.png"], "--dpi must be at least 1"),
-    (["--dpi", "9000", "-o", "x.png"], "use --dpi"),
-    (["--realtime", "nan"], "--realtime must be at least 0"),
-    (["-o", "no/such/folder/x.png"], "folder does not exist"),
-    (["--realtime", "-1"], "--realtime must be at least 0"),
-    (["--baud", "-9600"], "--baud must be at least 0"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--dpi", "0", "-o", "x.png"], "--dpi must be at least 1"),
+        (["--dpi", "9000", "-o", "x.png"], "use --dpi"),
+        (["--realtime", "nan"], "--realtime must be at least 0"),
+        (["-o", "no/such/folder/x.png"], "folder does not exist"),
+        (["--realtime", "-1"], "--realtime must be at least 0"),
+        (["--baud", "-9600"], "--baud must be at least 0"),
+    ],
+)
 def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
     # Without the check these would serve until Ctrl-C and only then fail to save.
     proc = subprocess.run(
         [sys.executable, "-m", "pencilbot.cli", "sim-serve", *argv],
-        cwd=tmp_path, capture_output=True, text=True, timeout=60,
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert proc.returncode != 0 and proc.stdout == ""
     assert proc.stderr.startswith("pencilbot: error:") and message in proc.stderr
@@ -344,7 +364,10 @@ def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, ca
     src.write_text(SQUARE)
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600"]) == 2
     err = capsys.readouterr().err
-    assert "a band of rows at a time needs about 160 MB, more than the 38 MB pencilbot may use (75% of the 50 MB " in err
+    assert (
+        "a band of rows at a time needs about 160 MB, more than the 38 MB pencilbot may use (75% of the 50 MB "
+        in err
+    )
     assert not out.exists()
     monkeypatch.setattr(common, "available_memory", lambda: 400_000_000)  # a band fits: it runs
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600", "-q"]) == 0 and out.exists()
@@ -355,14 +378,23 @@ def test_sim_serve_outlives_its_senders_and_saves_what_they_drew_on_sigterm(tmp_
     # pty (the board resets on each first open, as an Arduino does): the server serves both.
     first, second = tmp_path / "first.gcode", tmp_path / "second.gcode"
     first.write_text(SQUARE)
-    second.write_text(SQUARE.replace("X20 Y20", "X120 Y120").replace("X60", "X160").replace("Y60", "Y160")
-                      .replace("X20\n", "X120\n").replace("Y20\n", "Y120\n"))
+    second.write_text(
+        SQUARE.replace("X20 Y20", "X120 Y120")
+        .replace("X60", "X160")
+        .replace("Y60", "Y160")
+        .replace("X20\n", "X120\n")
+        .replace("Y20\n", "Y120\n")
+    )
     out = tmp_path / "served.png"
     proc, path = serve(tmp_path, "-o", str(out), "--dpi", str(DPI))  # a real board: zeroed on each open
     try:
         for job in (first, second):
-            drawn = subprocess.run([sys.executable, "-m", "pencilbot.cli", "draw", str(job), "--port", path, "-q"],
-                                   capture_output=True, text=True, timeout=60)
+            drawn = subprocess.run(
+                [sys.executable, "-m", "pencilbot.cli", "draw", str(job), "--port", path, "-q"],
+                capture_output=True,
+                text=True,
+                timeout=60,
+            )
             assert drawn.returncode == 0, drawn.stderr
     finally:
         proc.send_signal(signal.SIGTERM)
@@ -372,4 +404,4 @@ def test_sim_serve_outlives_its_senders_and_saves_what_they_drew_on_sigterm(tmp_
     rows = dark.shape[0]
     for x, y in ((40, 20), (60, 40), (140, 120), (160, 140)):  # an edge of each square
         r, c = px(rows, x, y)
-        assert dark[r - 1:r + 2, c - 1:c + 2].max() > 0.5, (x, y)
+        assert dark[r - 1 : r + 2, c - 1 : c + 2].max() > 0.5, (x, y)

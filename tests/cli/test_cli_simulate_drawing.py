@@ -20,8 +20,11 @@ from pencilbot.planning.plan import Layer, Page, Plan
 def _run(argv, monkeypatch, *, fast: bool):
     taken = []
     original = simulate._fast_plot_blocks
-    monkeypatch.setattr(simulate, "_fast_plot_blocks",
-                        (lambda *a: taken.append(original(*a)) or taken[-1]) if fast else (lambda *a: None))
+    monkeypatch.setattr(
+        simulate,
+        "_fast_plot_blocks",
+        (lambda *a: taken.append(original(*a)) or taken[-1]) if fast else (lambda *a: None),
+    )
     out = io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
         assert main(argv) == 0
@@ -33,13 +36,18 @@ def test_a_drawing_simulated_at_once_is_the_one_drawn_line_by_line(tmp_path, mon
     rng = np.random.default_rng(3)
     starts = rng.uniform([20, 20], [180, 260], (300, 2))
     paths = [np.array([a, a + rng.uniform(-4, 4, 2), a + rng.uniform(-4, 4, 2)]) for a in starts]
-    plan = Plan(Page(210, 297, 10, "A4"), [Layer("a", paths[:200], pen_width=0.4), Layer("b", paths[200:], pen_width=0.4)])
+    plan = Plan(
+        Page(210, 297, 10, "A4"),
+        [Layer("a", paths[:200], pen_width=0.4), Layer("b", paths[200:], pen_width=0.4)],
+    )
     svg = tmp_path / "d.svg"
     write_svg(plan, svg)
     if foreign:  # the same drawing as another tool's: reordered first
         svg.write_text(svg.read_text().replace(' pencilbot:page="A4"', ""))
     fast_png, slow_png = tmp_path / "fast.png", tmp_path / "slow.png"
-    said_fast, taken = _run(["simulate", str(svg), "-o", str(fast_png), "--dpi", "60"], monkeypatch, fast=True)
+    said_fast, taken = _run(
+        ["simulate", str(svg), "-o", str(fast_png), "--dpi", "60"], monkeypatch, fast=True
+    )
     said_slow, _ = _run(["simulate", str(svg), "-o", str(slow_png), "--dpi", "60"], monkeypatch, fast=False)
     assert taken and taken[0] is not None  # the fast path ran the job
     assert said_fast.replace("fast.png", "") == said_slow.replace("slow.png", "")  # strokes, time

@@ -22,9 +22,23 @@ def test_console_script_writes_line_drawing_and_stages(photo, tmp_path):
     out = tmp_path / "lines.png"
     stages = tmp_path / "stages"
     proc = subprocess.run(
-        [sys.executable, "-m", "pencilbot.cli", "sketch", str(photo), "-o", str(out), "--lines-only",
-         "--stages", str(stages), "--line-length", "8"],
-        capture_output=True, text=True, timeout=120,
+        [
+            sys.executable,
+            "-m",
+            "pencilbot.cli",
+            "sketch",
+            str(photo),
+            "-o",
+            str(out),
+            "--lines-only",
+            "--stages",
+            str(stages),
+            "--line-length",
+            "8",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     assert "stroke length 8 px" in proc.stdout
@@ -32,7 +46,12 @@ def test_console_script_writes_line_drawing_and_stages(photo, tmp_path):
     assert drawing.shape == (512, 512) and drawing.dtype == np.uint8
     # A line drawing: mostly paper, some dark strokes, not a plain grey photo.
     assert np.median(drawing) > 235 and drawing.min() < 40 and (drawing < 128).mean() < 0.1
-    assert sorted(p.name for p in stages.iterdir()) == ["denoised.png", "edges.png", "gradient.png", "lines.png"]
+    assert sorted(p.name for p in stages.iterdir()) == [
+        "denoised.png",
+        "edges.png",
+        "gradient.png",
+        "lines.png",
+    ]
     np.testing.assert_array_equal(np.asarray(Image.open(stages / "lines.png")), drawing)
     assert [p.name for p in tmp_path.iterdir() if p.name.startswith(".")] == []  # no temp files left
 
@@ -63,7 +82,22 @@ def test_bad_options_clear_error(photo, tmp_path, capsys, extra, message):
 
 def test_downscale_flag(photo, tmp_path):
     out = tmp_path / "small.png"
-    assert main(["sketch", str(photo), "-o", str(out), "--lines-only", "--max-pixels", "10000", "--downscale", "-q"]) == 0
+    assert (
+        main(
+            [
+                "sketch",
+                str(photo),
+                "-o",
+                str(out),
+                "--lines-only",
+                "--max-pixels",
+                "10000",
+                "--downscale",
+                "-q",
+            ]
+        )
+        == 0
+    )
     w, h = Image.open(out).size
     assert w * h <= 10000 and w == h
 

@@ -74,7 +74,9 @@ def test_console_script_on_a_jpeg(tmp_path):
     out = tmp_path / "chelsea-sketch.jpg"
     proc = subprocess.run(
         [sys.executable, "-m", "pencilbot.cli", "sketch", str(photo), "-o", str(out), "--color"],
-        capture_output=True, text=True, timeout=120,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert proc.returncode == 0, proc.stderr
     written = np.asarray(Image.open(out))
@@ -137,10 +139,16 @@ def test_an_unreadable_texture_is_one_message(photo, tmp_path, capsys, make_text
 
 def test_stroke_gamma_and_width_options(photo, tmp_path):
     outputs = {}
-    for name, extra in {"plain": [], "gamma": ["--stroke-gamma", "3"], "wide": ["--stroke-width", "3"]}.items():
+    for name, extra in {
+        "plain": [],
+        "gamma": ["--stroke-gamma", "3"],
+        "wide": ["--stroke-width", "3"],
+    }.items():
         outputs[name] = tmp_path / f"{name}.png"
         assert main(["sketch", str(photo), "-o", str(outputs[name]), "--lines-only", "-q", *extra]) == 0
-    plain, gamma, wide = (np.asarray(Image.open(outputs[n])).astype(float) for n in ("plain", "gamma", "wide"))
+    plain, gamma, wide = (
+        np.asarray(Image.open(outputs[n])).astype(float) for n in ("plain", "gamma", "wide")
+    )
     # γ > 1 darkens strokes without moving them; a wider stroke covers more paper.
     assert gamma.mean() < plain.mean() - 1 and np.all(gamma <= plain + 1)
     assert (wide < 128).sum() > 1.5 * (plain < 128).sum()
@@ -148,8 +156,13 @@ def test_stroke_gamma_and_width_options(photo, tmp_path):
 
 @pytest.mark.parametrize(
     "extra",
-    [["--stroke-gamma", "0"], ["--stroke-gamma", "nan"], ["--stroke-width", "0.1"], ["--stroke-width", "500"],
-     ["--lines-only", "--texture", "x.png"]],
+    [
+        ["--stroke-gamma", "0"],
+        ["--stroke-gamma", "nan"],
+        ["--stroke-width", "0.1"],
+        ["--stroke-width", "500"],
+        ["--lines-only", "--texture", "x.png"],
+    ],
 )
 def test_bad_stroke_and_texture_options_are_one_message(photo, tmp_path, capsys, extra):
     out = tmp_path / "x.png"

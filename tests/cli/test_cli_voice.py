@@ -70,14 +70,17 @@ def _gcode(tmp_path, lines=("G21", "G90", "M3 S30", "G0 X10 Y10", "M3 S90", "G1 
     return path
 
 
-@pytest.mark.parametrize("argv", [
-    ["draw", "{job}"],  # no port
-    ["draw", "{tmp}/missing.gcode", "--port", "sim://"],
-    ["draw", "{tmp}/cat.jpg", "--port", "sim://"],  # a picture, not G-code
-    ["draw", "{job}", "--port", "sim://", "--start-line", "99"],
-    ["draw", "--resume", "{tmp}/nothing.gcode", "--port", "sim://"],  # no journal
-    ["draw", "{job}", "--port", "sim://", "--profile", "hp7475a"],  # G-code to an HP-GL plotter
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["draw", "{job}"],  # no port
+        ["draw", "{tmp}/missing.gcode", "--port", "sim://"],
+        ["draw", "{tmp}/cat.jpg", "--port", "sim://"],  # a picture, not G-code
+        ["draw", "{job}", "--port", "sim://", "--start-line", "99"],
+        ["draw", "--resume", "{tmp}/nothing.gcode", "--port", "sim://"],  # no journal
+        ["draw", "{job}", "--port", "sim://", "--profile", "hp7475a"],  # G-code to an HP-GL plotter
+    ],
+)
 def test_draw_usage_mistakes_exit_2_and_send_nothing(argv, tmp_path, capsys):
     job = _gcode(tmp_path)
     code = main([a.format(job=job, tmp=tmp_path) for a in argv])
@@ -88,7 +91,9 @@ def test_draw_usage_mistakes_exit_2_and_send_nothing(argv, tmp_path, capsys):
 
 def test_a_plotter_that_stops_exits_3_with_the_resume_command(tmp_path, capsys):
     job = _gcode(tmp_path)
-    code = main(["draw", str(job), "--port", "sim://voice-stop?faults=error@6", "--profile", "grbl-servo-a4", "-q"])
+    code = main(
+        ["draw", str(job), "--port", "sim://voice-stop?faults=error@6", "--profile", "grbl-servo-a4", "-q"]
+    )
     err = capsys.readouterr().err
     assert code == 3 and "Resume with: pencilbot draw --resume" in err, err
 
@@ -98,27 +103,35 @@ def test_ports_names_a_port_that_cannot_be_opened_and_exits_2(tmp_path, capsys):
     for argv in (["ports", missing], ["ports", missing, "--no-probe"], ["ports", missing, "--json"]):
         assert main(argv) == 2
         err = capsys.readouterr().err
-        assert err.startswith(f"pencilbot: error: cannot open the port named: {missing} (") and err.count("\n") == 1
+        assert (
+            err.startswith(f"pencilbot: error: cannot open the port named: {missing} (")
+            and err.count("\n") == 1
+        )
     assert main(["ports", "sim://", "--no-probe", "-q"]) == 0
 
 
-@pytest.mark.parametrize("argv", [
-    ["sketch", "{missing}.png", "-o", "{tmp}/out.png"],
-    ["plan", "{missing}.png", "-o", "{tmp}/out.svg"],
-    ["export", "{missing}.png", "-o", "{tmp}/out.gcode"],
-    ["export", "{missing}.svg", "-o", "{tmp}/out.gcode"],
-    ["stat", "{missing}.svg"],
-    ["optimize", "{missing}.svg", "-o", "{tmp}/out.svg"],
-    ["simulate", "{missing}.gcode", "-o", "{tmp}/out.png"],
-    ["draw", "{missing}.gcode", "--port", "sim://"],
-    ["studio", "{missing}.png", "--no-browser"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["sketch", "{missing}.png", "-o", "{tmp}/out.png"],
+        ["plan", "{missing}.png", "-o", "{tmp}/out.svg"],
+        ["export", "{missing}.png", "-o", "{tmp}/out.gcode"],
+        ["export", "{missing}.svg", "-o", "{tmp}/out.gcode"],
+        ["stat", "{missing}.svg"],
+        ["optimize", "{missing}.svg", "-o", "{tmp}/out.svg"],
+        ["simulate", "{missing}.gcode", "-o", "{tmp}/out.png"],
+        ["draw", "{missing}.gcode", "--port", "sim://"],
+        ["studio", "{missing}.png", "--no-browser"],
+    ],
+)
 def test_a_missing_input_is_said_one_way_by_every_command(argv, tmp_path, capsys):
     missing = tmp_path / "missing"
     code = main([a.format(missing=missing, tmp=tmp_path) for a in argv])
     err = capsys.readouterr().err
     assert code == 2, err
-    assert re.fullmatch(rf"pencilbot: error: (.*: )?{re.escape(str(missing))}\.\w+: no such file; give .+\n", err), err
+    assert re.fullmatch(
+        rf"pencilbot: error: (.*: )?{re.escape(str(missing))}\.\w+: no such file; give .+\n", err
+    ), err
 
 
 def command_help(command: str) -> str:

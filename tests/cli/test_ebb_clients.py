@@ -21,8 +21,23 @@ from plotink import ebb_motion, ebb_serial  # the test extra (pip install -e .[t
 def _serve(tmp_path, *extra):
     out = tmp_path / "served.png"
     proc = subprocess.Popen(
-        [sys.executable, "-m", "pencilbot.cli", "sim-serve", "--profile", "axidraw-v3", "--realtime", "0",
-         "-o", str(out), *extra], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        [
+            sys.executable,
+            "-m",
+            "pencilbot.cli",
+            "sim-serve",
+            "--profile",
+            "axidraw-v3",
+            "--realtime",
+            "0",
+            "-o",
+            str(out),
+            *extra,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     return proc, proc.stdout.readline().strip(), out
 
 
@@ -64,6 +79,7 @@ def test_saxi_commands_are_answered_and_its_pen_draws(tmp_path):
     proc, path, out = _serve(tmp_path)
     lines: list[str] = []
     with serial.Serial(path, timeout=5) as port:
+
         def send(cmd, until_ok=True):
             port.write(f"{cmd}\r".encode())
             got = []

@@ -20,17 +20,34 @@ BIN = os.path.dirname(sys.executable)
 
 def test_hpgl_buddy_plots_one_instruction_four_times_the_buffer(tmp_path):
     house = tmp_path / "house.hpgl"
-    subprocess.run([os.path.join(BIN, "hpgl-buddy"), "demo", "--scene", "house", "--out", str(house)], check=True,
-                   capture_output=True, timeout=60)
+    subprocess.run(
+        [os.path.join(BIN, "hpgl-buddy"), "demo", "--scene", "house", "--out", str(house)],
+        check=True,
+        capture_output=True,
+        timeout=60,
+    )
     found, _ = protocol.split_instructions(house.read_bytes())
     at = next(k for k, i in enumerate(found) if i.mnemonic == "PD")
     pd, start = found[at], found[at - 1].params  # PU to the first point, then the one PD
     assert len(pd.encode()) > 4 * 1000
     plotter = plotter_from_options({"profile": "hp7475a"})
     with PtyServer(plotter) as served:
-        done = subprocess.run([os.path.join(BIN, "hpgl-buddy"), "plot", str(house), "--port", served.path,
-                               "--model", "hp7475a", "--buffer-stall-timeout", "5"],
-                              capture_output=True, text=True, timeout=120)
+        done = subprocess.run(
+            [
+                os.path.join(BIN, "hpgl-buddy"),
+                "plot",
+                str(house),
+                "--port",
+                served.path,
+                "--model",
+                "hp7475a",
+                "--buffer-stall-timeout",
+                "5",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     assert done.returncode == 0, done.stderr[-800:]
     board = plotter.board
     board.finish()
@@ -61,8 +78,14 @@ def test_chiplotle3_draws_a_square_and_a_circle(tmp_path):
     plotter = plotter_from_options({"profile": "hp7475a"})
     env = {**os.environ, "HOME": str(tmp_path)}  # chiplotle3 keeps its settings in ~/.chiplotle
     with PtyServer(plotter) as served:
-        done = subprocess.run([sys.executable, "-c", CHIPLOTLE, served.path], input="\n\n", env=env,
-                              capture_output=True, text=True, timeout=120)
+        done = subprocess.run(
+            [sys.executable, "-c", CHIPLOTLE, served.path],
+            input="\n\n",
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
     assert done.returncode == 0, done.stderr[-800:]
     assert "[Coordinate([5000, 2000]), 0]" in done.stdout  # OA: back at the circle's centre, pen up
     board = plotter.board

@@ -42,36 +42,69 @@ def vpype(*args, cwd) -> subprocess.CompletedProcess:
 def test_vpype_stat_shows_the_plans_layers(photo, planned, tmp_path):
     done = vpype("pencilbot", str(photo), "stat", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
-    layers = re.findall(r"Layer (\d+)\n(?:  .*\n)*?  Path count: (\d+)\n(?:  .*\n)*?    vp_name: '([^']*)'\n"
-                        r"    vp_pen_width: ([\d.]+)\n    vp_color: Color\(red=0, green=0, blue=0", done.stdout)
+    layers = re.findall(
+        r"Layer (\d+)\n(?:  .*\n)*?  Path count: (\d+)\n(?:  .*\n)*?    vp_name: '([^']*)'\n"
+        r"    vp_pen_width: ([\d.]+)\n    vp_color: Color\(red=0, green=0, blue=0",
+        done.stdout,
+    )
     assert [(int(lid), name, int(count)) for lid, count, name, _ in layers] == [
-        (i, layer.name, len(layer.paths)) for i, layer in enumerate(planned.layers, start=1)]
-    assert [float(width) / PX_PER_MM for *_, width in layers] == pytest.approx([l.pen_width for l in planned.layers])
+        (i, layer.name, len(layer.paths)) for i, layer in enumerate(planned.layers, start=1)
+    ]
+    assert [float(width) / PX_PER_MM for *_, width in layers] == pytest.approx(
+        [l.pen_width for l in planned.layers]
+    )
     page = re.search(r"Current page size: \(([\d.]+), ([\d.]+)\)", done.stdout)
-    assert (float(page[1]) / PX_PER_MM, float(page[2]) / PX_PER_MM) == pytest.approx((planned.page.width, planned.page.height))
+    assert (float(page[1]) / PX_PER_MM, float(page[2]) / PX_PER_MM) == pytest.approx(
+        (planned.page.width, planned.page.height)
+    )
 
 
 def test_vpype_write_gives_the_plans_paths(photo, planned, tmp_path):
     done = vpype("pencilbot", str(photo), "write", "x.svg", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     written = read_svg(tmp_path / "x.svg")  # vpype's own SVG, read as any SVG is
-    assert (written.page.width, written.page.height) == pytest.approx((planned.page.width, planned.page.height))
+    assert (written.page.width, written.page.height) == pytest.approx(
+        (planned.page.width, planned.page.height)
+    )
     # A dot (a face's one-cell run) is written by vpype as a zero-length <line>, which vpype's
     # reader, and ours as it, reads as nothing drawn: the plan's lines are what comes back.
     lines = [[path for path in layer.paths if len(path) > 1] for layer in planned.layers]
-    assert [(l.name, len(l.paths)) for l in written.layers] == [(l.name, len(k)) for l, k in zip(planned.layers, lines)]
-    assert [l.pen_width for l in written.layers] == pytest.approx([l.pen_width for l in planned.layers], abs=1e-4)
+    assert [(l.name, len(l.paths)) for l in written.layers] == [
+        (l.name, len(k)) for l, k in zip(planned.layers, lines)
+    ]
+    assert [l.pen_width for l in written.layers] == pytest.approx(
+        [l.pen_width for l in planned.layers], abs=1e-4
+    )
     for ours, theirs in zip(written.paths(), [path for kept in lines for path in kept]):
         np.testing.assert_allclose(ours, theirs, atol=2e-3)  # vpype writes 4 decimals of px, we 3 of mm
 
 
 def test_a_pipeline_adds_after_its_own_layers_and_takes_the_options(photo, tmp_path):
     # vpype's commands take their options before their arguments.
-    done = vpype("rect", "1cm", "1cm", "2cm", "2cm", "pencilbot", "--no-hatch", "--pen-width", "0.3", "--page", "A5",
-                 str(photo), "linesimplify", "write", "y.svg", cwd=tmp_path)
+    done = vpype(
+        "rect",
+        "1cm",
+        "1cm",
+        "2cm",
+        "2cm",
+        "pencilbot",
+        "--no-hatch",
+        "--pen-width",
+        "0.3",
+        "--page",
+        "A5",
+        str(photo),
+        "linesimplify",
+        "write",
+        "y.svg",
+        cwd=tmp_path,
+    )
     assert done.returncode == 0, done.stderr
     written = read_svg(tmp_path / "y.svg")
-    assert [l.name for l in written.layers] == ["1", "edges"]  # the rect's layer (vpype names it by number), then ours
+    assert [l.name for l in written.layers] == [
+        "1",
+        "edges",
+    ]  # the rect's layer (vpype names it by number), then ours
     assert written.layers[1].pen_width == pytest.approx(0.3, abs=1e-4)
     assert len(written.layers[1].paths) > 10  # contours of a small coffee, one line each (edge_lines = 1)
 
@@ -93,7 +126,9 @@ def test_the_plugin_takes_the_plan_command_s_photo_options_declared_once():
 
     parser = argparse.ArgumentParser(add_help=False)
     add_photo_options(parser)
-    cli = {flag for action in parser._actions for flag in action.option_strings if not flag.startswith("--list-")}
+    cli = {
+        flag for action in parser._actions for flag in action.option_strings if not flag.startswith("--list-")
+    }
     plugin_flags = {flag for param in plugin.params for flag in (*param.opts, *param.secondary_opts)}
     assert cli <= plugin_flags and plugin_flags - cli <= {"--help", "photo"}
 

@@ -21,12 +21,18 @@ def test_a_source_checkout_finds_the_configs_without_being_installed():
     # `python -m` from the checkout imports the checkout's pencilbot, whatever is installed.
     done = subprocess.run(
         [sys.executable, "-m", "pencilbot.cli", "export", "--list-profiles"],
-        cwd=CHECKOUT, capture_output=True, text=True, timeout=120,
+        cwd=CHECKOUT,
+        capture_output=True,
+        text=True,
+        timeout=120,
     )
     assert done.returncode == 0, done.stderr
     assert [line.split()[0] for line in done.stdout.splitlines()] == shipped_names("plotters")
     done = subprocess.run(
         [sys.executable, "-c", "import pencilbot.configs_io as c; print(c.config_folder('styles'))"],
-        cwd=CHECKOUT, capture_output=True, text=True, timeout=60,
+        cwd=CHECKOUT,
+        capture_output=True,
+        text=True,
+        timeout=60,
     )
     assert Path(done.stdout.strip()) == CHECKOUT / "configs" / "styles"

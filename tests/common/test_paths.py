@@ -94,7 +94,10 @@ def test_paths_and_plans_pickle_for_worker_processes():
 
     from pencilbot.planning.plan import Layer, Page, Plan
 
-    plan = Plan(Page(100, 100), [Layer("edges", [np.array([[1.0, 2.0], [3.0, 4.0]])], role="edges")],
-                meta={"source": "x"})
+    plan = Plan(
+        Page(100, 100),
+        [Layer("edges", [np.array([[1.0, 2.0], [3.0, 4.0]])], role="edges")],
+        meta={"source": "x"},
+    )
     back = pickle.loads(pickle.dumps(plan))
     assert back == plan and back.meta["source"] == "x" and back.paths().points.flags.writeable is False

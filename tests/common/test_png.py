@@ -11,20 +11,30 @@ from pencilbot.render.png import write_png_bands
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(1, 40), st.integers(1, 50), st.sampled_from([1, 3]), st.integers(1, 45), st.integers(0, 2**32 - 1))
+@given(
+    st.integers(1, 40),
+    st.integers(1, 50),
+    st.sampled_from([1, 3]),
+    st.integers(1, 45),
+    st.integers(0, 2**32 - 1),
+)
 def test_bands_of_any_height_decode_to_the_image(tmp_path_factory, rows, columns, channels, step, seed):
     rng = np.random.default_rng(seed)
     shape = (rows, columns) if channels == 1 else (rows, columns, 3)
     # Mostly paper with dark marks, plus noise: both runs and every byte value get through the filter.
     image = np.where(rng.random(shape) < 0.7, 255, rng.integers(0, 256, shape)).astype(np.uint8)
     path = tmp_path_factory.mktemp("png") / "image.png"
-    write_png_bands(path, shape, (image[r:r + step] for r in range(0, rows, step)))
+    write_png_bands(path, shape, (image[r : r + step] for r in range(0, rows, step)))
     with Image.open(path) as decoded:
         decoded.load()  # Pillow checks each chunk's CRC
         assert decoded.mode == ("L" if channels == 1 else "RGB")
         np.testing.assert_array_equal(np.asarray(decoded), image)
-    np.testing.assert_array_equal(cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[..., ::-1] if channels == 3
-                                  else cv2.imread(str(path), cv2.IMREAD_UNCHANGED), image)
+    np.testing.assert_array_equal(
+        cv2.imread(str(path), cv2.IMREAD_UNCHANGED)[..., ::-1]
+        if channels == 3
+        else cv2.imread(str(path), cv2.IMREAD_UNCHANGED),
+        image,
+    )
 
 
 def test_bands_that_do_not_make_the_image_leave_no_file(tmp_path):

@@ -148,7 +148,10 @@ def test_chunking_does_not_change_the_result(monkeypatch):
     rng = np.random.default_rng(3)
     paths = [rng.uniform(0, 30, (rng.integers(1, 6), 2)) for _ in range(300)]
     # long paths that retrace themselves span many chunks and must still ink each pixel once
-    paths[100:100] = [np.tile([[2.0, 2.0], [28.0, 28.0]], (20, 1)), np.tile([[2.0, 28.0], [28.0, 2.0]], (15, 1))]
+    paths[100:100] = [
+        np.tile([[2.0, 2.0], [28.0, 28.0]], (20, 1)),
+        np.tile([[2.0, 28.0], [28.0, 2.0]], (15, 1)),
+    ]
     whole = render_paths(paths, 30, 30, dpi=100, pen_width=0.4)
     for chunk in (5000, 500, 50):
         monkeypatch.setattr(coverage_module, "_CHUNK_CANDIDATES", chunk)
@@ -203,8 +206,12 @@ def _scribble(seed=3, count=400, size=40.0):
     rng = np.random.default_rng(seed)
     paths = [rng.uniform(0, size, (rng.integers(1, 6), 2)) for _ in range(count)]
     # Steep, flat and retraced long paths that cross many bands; one off the sheet's top edge.
-    paths += [np.tile([[1.0, 1.0], [39.0, 38.0]], (12, 1)), np.array([[1.0, 20.0], [39.0, 20.3]]),
-              np.array([[20.0, 1.0], [20.2, 39.0]]), np.array([[5.0, 39.9], [35.0, 41.0]])]
+    paths += [
+        np.tile([[1.0, 1.0], [39.0, 38.0]], (12, 1)),
+        np.array([[1.0, 20.0], [39.0, 20.3]]),
+        np.array([[20.0, 1.0], [20.2, 39.0]]),
+        np.array([[5.0, 39.9], [35.0, 41.0]]),
+    ]
     return paths
 
 
@@ -232,8 +239,9 @@ def test_a_drawing_streamed_to_png_is_the_canvas_picture(tmp_path, travel):
     if travel:
         canvas.draw_travel(moves)
     out = tmp_path / "plot.png"
-    shape = canvas_module.save_drawing_png(out, paths, 40, 30, dpi=150, pen_width=0.4,
-                                           travel=moves if travel else None, band_pixels=5000)
+    shape = canvas_module.save_drawing_png(
+        out, paths, 40, 30, dpi=150, pen_width=0.4, travel=moves if travel else None, band_pixels=5000
+    )
     back = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)
     if travel:
         back = back[..., ::-1]
@@ -258,9 +266,16 @@ def test_a_colour_drawing_streamed_to_png_is_the_stacked_canvases(tmp_path, trav
     colors = ["#00a0e0", "#e0007a"]
     want = canvas_module.color_image(canvases, colors)
     out = tmp_path / "colour.png"
-    shape = canvas_module.save_color_png(out, [(cyan, colors[0], 0.3), (magenta, colors[1], 0.6)], 40, 30,
-                                          dpi=150, travel=moves if travel else None, travel_pen=0.3,
-                                          band_pixels=5000)
+    shape = canvas_module.save_color_png(
+        out,
+        [(cyan, colors[0], 0.3), (magenta, colors[1], 0.6)],
+        40,
+        30,
+        dpi=150,
+        travel=moves if travel else None,
+        travel_pen=0.3,
+        band_pixels=5000,
+    )
     back = cv2.imread(str(out), cv2.IMREAD_UNCHANGED)[..., ::-1]
     assert shape == canvases[0].shape
     assert np.abs(back.astype(int) - want.astype(int)).max() <= 1

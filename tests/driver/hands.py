@@ -30,7 +30,7 @@ class _Keys:
                     if self.step != step:
                         self.step = step
                         return self._press(name)
-                    direction = (1 if d > 0 else -1)
+                    direction = 1 if d > 0 else -1
                     want = (direction, 0) if axis == 0 else (0, direction)
                     return self._press(next(k for k, v in _JOG_KEYS.items() if v == want))
         return self._press("\n")

@@ -92,7 +92,11 @@ def drawing_differences(got, reference, tolerance: float = TOLERANCE) -> list[st
     # shorter than the tolerance: the one it lies on, overlapping or not).
     i, j, overlap = _lying_on(drawn, ref, tolerance, touch=True)
     short = np.linalg.norm(drawn[i, 1] - drawn[i, 0], axis=1) <= tolerance
-    i, j, overlap = i[short | (overlap > tolerance)], j[short | (overlap > tolerance)], overlap[short | (overlap > tolerance)]
+    i, j, overlap = (
+        i[short | (overlap > tolerance)],
+        j[short | (overlap > tolerance)],
+        overlap[short | (overlap > tolerance)],
+    )
     best = np.lexsort((-overlap, i))
     first = best[np.flatnonzero(np.r_[True, i[best][1:] != i[best][:-1]])] if len(best) else best
     piece_group = np.full(len(drawn), -1)
@@ -124,10 +128,17 @@ def drawing_differences(got, reference, tolerance: float = TOLERANCE) -> list[st
     for k in bad:
         start, end = origin[g[k]] + lo[k] * unit[g[k]], origin[g[k]] + hi[k] * unit[g[k]]
         want, have = ref_count[k], drawn_count[k]
-        what = ("drawn where the reference has no stroke" if want == 0 else
-                "missing" if have < want else f"drawn {have} times")
-        problems.append(f"{hi[k] - lo[k]:.4f} mm of {start.round(4)} -> {end.round(4)} {what} "
-                        f"(reference: {want}, drawn: {have})")
+        what = (
+            "drawn where the reference has no stroke"
+            if want == 0
+            else "missing"
+            if have < want
+            else f"drawn {have} times"
+        )
+        problems.append(
+            f"{hi[k] - lo[k]:.4f} mm of {start.round(4)} -> {end.round(4)} {what} "
+            f"(reference: {want}, drawn: {have})"
+        )
     return problems
 
 

@@ -37,7 +37,11 @@ FAMILIES = {
     "ebb-2.8.1": ("axidraw-v3", "firmware=2.8.1", 0.0125),
     "hpgl": ("hp7475a", "tick=0.1", 0.0125),  # half a plotter unit
 }
-SIGNALS = {name: getattr(signal, name) for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT") if hasattr(signal, name)}
+SIGNALS = {
+    name: getattr(signal, name)
+    for name in ("SIGINT", "SIGTERM", "SIGHUP", "SIGQUIT")
+    if hasattr(signal, name)
+}
 DRAINED = "realtime=1e6"  # an EBB that runs at once what it takes: its FIFO drained when the signal comes
 
 
@@ -155,13 +159,21 @@ def inside_a_move(family: str, n: int) -> list[int]:
     profile = load_profile("axidraw-v3")
     job = load_job(list(plan_lines(profile.name)), profile)
     xy, down, rows = ebb_plot._rows(job)
-    work = [w for w in ebb_plot._plan_from(job, xy, down, rows, profile, 0, (0, 0), None, ebb_plot._dwells(job))
-            if not isinstance(w, int)]
+    work = [
+        w
+        for w in ebb_plot._plan_from(job, xy, down, rows, profile, 0, (0, 0), None, ebb_plot._dwells(job))
+        if not isinstance(w, int)
+    ]
     log = _uninterrupted(family)[1]
     at, k = [], 0  # the board's log holds the job's commands in order, among set-up and queries
     for i, text in enumerate(log):
         if k < len(work) and text == work[k].command:
-            if k + 1 < len(work) and work[k].down and text.startswith("LM") and work[k + 1].line == work[k].line:
+            if (
+                k + 1 < len(work)
+                and work[k].down
+                and text.startswith("LM")
+                and work[k + 1].line == work[k].line
+            ):
                 at.append(i + 1)
             k += 1
     return [at[int(i)] for i in np.linspace(0, len(at) - 1, n).round()]
@@ -191,8 +203,13 @@ def run(family: str, signame: str, moment: str, folder: Path, name: str) -> Outc
         getattr(faults, "at", faults).clear()  # the person has stopped pressing keys
         draw(path, f"sim://{name}", resume=str(journal), timeout=2.0)
         problems = drawing_differences(_drawn(family, name), reference(family)[0], tolerance)
-        return Outcome(stopped, pen_up, journal_stopped, not problems,
-                       "" if stopped else message[:300] if not problems else f"{problems[:2]}")
+        return Outcome(
+            stopped,
+            pen_up,
+            journal_stopped,
+            not problems,
+            "" if stopped else message[:300] if not problems else f"{problems[:2]}",
+        )
     except PlotError as exc:
         return Outcome(True, _pen_up(family, name), False, False, f"resume failed: {str(exc)[:300]}")
     finally:
@@ -246,9 +263,12 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
                 if running.server.started:
                     break
                 threading.Event().wait(1 / 60)
-            request = urllib.request.Request(running.url.rstrip("/") + "/api/plot", method="POST",
-                                             data=json.dumps({"port": "sim://", "profile": profile}).encode(),
-                                             headers={"X-Studio": "1", "Content-Type": "application/json"})
+            request = urllib.request.Request(
+                running.url.rstrip("/") + "/api/plot",
+                method="POST",
+                data=json.dumps({"port": "sim://", "profile": profile}).encode(),
+                headers={"X-Studio": "1", "Content-Type": "application/json"},
+            )
             urllib.request.urlopen(request, timeout=60).close()
             session = running.studio.plotters.get("sim://")
             seen["gcode"] = session.gcode.read_text()
@@ -267,7 +287,11 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
     try:
         if not seen.get("active"):
             return Outcome(False, True, False, False, "the plot ended before the signal")
-        kept = len(said) == 1 and "stopped with the pen up" in said[0] and "Resume with: pencilbot draw --resume" in said[0]
+        kept = (
+            len(said) == 1
+            and "stopped with the pen up" in said[0]
+            and "Resume with: pencilbot draw --resume" in said[0]
+        )
         plotter = protocol_sim.plotter(board)
         plotter.firmware.finish()
         pen_up = not plotter.machine.pen_down
@@ -281,8 +305,9 @@ def studio_run(signame: str, fraction: float, folder: Path) -> Outcome:
         draw(journal.gcode, f"sim://studio-ref?profile={profile}", profile=profile)
         reference_plotter = protocol_sim.plotter("studio-ref")
         reference_plotter.firmware.finish()
-        problems = drawing_differences(list(plotter.machine.strokes), list(reference_plotter.machine.strokes),
-                                       FAMILIES["grbl"][2])
+        problems = drawing_differences(
+            list(plotter.machine.strokes), list(reference_plotter.machine.strokes), FAMILIES["grbl"][2]
+        )
         return Outcome(not server_folder.exists(), pen_up, journal_stopped, not problems, f"{problems[:2]}")
     finally:
         protocol_sim.forget(board)

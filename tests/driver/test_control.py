@@ -138,8 +138,10 @@ def test_a_grbl_height_trial_sends_the_height_the_machine_then_reports(name):
 
 
 def test_a_trial_height_the_profile_rules_refuse_is_one_line(name):
-    with open_control(f"sim://{name}", "axidraw-v3") as plotter, \
-            pytest.raises(PencilbotError, match=r"pen down height: \[pen\] up = 60 is invalid"):
+    with (
+        open_control(f"sim://{name}", "axidraw-v3") as plotter,
+        pytest.raises(PencilbotError, match=r"pen down height: \[pen\] up = 60 is invalid"),
+    ):
         plotter.try_height("down", 60)
 
 

@@ -34,12 +34,22 @@ OFF_BED = {
     "G92": (["G21", "G90", "G0 X200 Y100", "G92 X0 Y0", "G0 X150 Y0"], 5, "X 350.000 Y 100.000"),
     "G10 L20": (["G21", "G90", "G0 X200 Y10", "G10 L20 P1 X0 Y0", "G0 X200 Y0"], 5, "X 400.000 Y 10.000"),
     "G10 L2": (["G21", "G90", "G10 L2 P1 X150 Y0", "G0 X200 Y10"], 4, "X 350.000 Y 10.000"),
-    "G10 L2 P2 + G55": (["G21", "G90", "G10 L2 P2 X150 Y0", "G0 X200 Y10", "G55", "G0 X200 Y10"], 6,
-                        "X 350.000 Y 10.000"),
+    "G10 L2 P2 + G55": (
+        ["G21", "G90", "G10 L2 P2 X150 Y0", "G0 X200 Y10", "G55", "G0 X200 Y10"],
+        6,
+        "X 350.000 Y 10.000",
+    ),
     "G20 G92": (["G20", "G90", "G0 X8 Y4", "G92 X0 Y0", "G0 X6 Y0"], 5, "X 355.600 Y 101.600"),
-    "G91 G10 L20 P0": (["G21", "G91", "G0 X200 Y10", "G10 L20 P0 X0 Y0", "G90", "G0 X0 Y0", "G91", "G0 X150"], 8,
-                       "X 350.000 Y 10.000"),
-    "G28 via": (["G21", "G90", "G28.1", "G0 X100 Y100", "G92 X0 Y0", "G28 X300 Y0"], 6, "X 400.000 Y 100.000"),
+    "G91 G10 L20 P0": (
+        ["G21", "G91", "G0 X200 Y10", "G10 L20 P0 X0 Y0", "G90", "G0 X0 Y0", "G91", "G0 X150"],
+        8,
+        "X 350.000 Y 10.000",
+    ),
+    "G28 via": (
+        ["G21", "G90", "G28.1", "G0 X100 Y100", "G92 X0 Y0", "G28 X300 Y0"],
+        6,
+        "X 400.000 Y 100.000",
+    ),
 }
 
 
@@ -50,7 +60,8 @@ def test_a_move_an_offset_sends_off_the_bed_is_refused_by_line_and_nothing_is_se
     reaches = "passes through" if "via" in case else "moves to"
     assert code == 2 and err.startswith(
         f"pencilbot: error: line {line} of {path} ({clean_line(lines[line - 1])!r}) {reaches} {where} mm, "
-        "off the bed of plotter profile grbl-servo-a4"), err
+        "off the bed of plotter profile grbl-servo-a4"
+    ), err
     assert "Traceback" not in err and err.count("\n") == 1
     assert name not in protocol_sim._PLOTTERS  # the port was never opened
 
@@ -69,16 +80,26 @@ def test_the_virtual_plotter_sends_the_carriage_where_the_bed_check_says(tmp_pat
         assert load_job(lines, GRBL).off_bed[:3] == (line - 1, pytest.approx(x), pytest.approx(y))
 
 
-@pytest.mark.parametrize("lines, line, what", [
-    (["G21", "G90", "G55", "G0 X10 Y10"], 4, "moves in coordinate system G55, whose offset the board keeps"),
-    (["G21", "G90", "G10 L2 P3 X5", "G56 G0 X10 Y10"], 4, "moves in coordinate system G56"),
-    (["G21", "G90", "G0 X10 Y10", "G28"], 4, "goes to the position the board stored with G28.1"),
-    (["G21", "G90", "G0 X10 Y10", "G30 X20"], 4, "goes to the position the board stored with G30.1"),
-])
-def test_a_move_that_rests_on_an_offset_only_the_board_knows_is_refused_by_line(capsys, tmp_path, lines, line, what):
+@pytest.mark.parametrize(
+    "lines, line, what",
+    [
+        (
+            ["G21", "G90", "G55", "G0 X10 Y10"],
+            4,
+            "moves in coordinate system G55, whose offset the board keeps",
+        ),
+        (["G21", "G90", "G10 L2 P3 X5", "G56 G0 X10 Y10"], 4, "moves in coordinate system G56"),
+        (["G21", "G90", "G0 X10 Y10", "G28"], 4, "goes to the position the board stored with G28.1"),
+        (["G21", "G90", "G0 X10 Y10", "G30 X20"], 4, "goes to the position the board stored with G30.1"),
+    ],
+)
+def test_a_move_that_rests_on_an_offset_only_the_board_knows_is_refused_by_line(
+    capsys, tmp_path, lines, line, what
+):
     code, err, name, path = draw_cli(capsys, tmp_path, lines)
     assert code == 2 and err.startswith(
-        f"pencilbot: error: line {line} of {path} ({clean_line(lines[line - 1])!r}) {what}"), err
+        f"pencilbot: error: line {line} of {path} ({clean_line(lines[line - 1])!r}) {what}"
+    ), err
     assert "nothing was sent" in err and "To draw it, set it in the file first" in err
     assert name not in protocol_sim._PLOTTERS
 
@@ -87,27 +108,49 @@ def test_offsets_that_keep_the_drawing_on_the_bed_draw_where_the_board_puts_them
     # A square drawn at work 0..20 after G92 at machine (50, 60); then G92.1, G55 set by G10,
     # G53 and G28 with its stored position: every move lands where GRBL puts it, on the bed.
     square = ["M3 S90", "G1 X20 Y0 F3000", "G1 X20 Y20", "G1 X0 Y20", "G1 X0 Y0", "M3 S30"]
-    lines = ["G21", "G90", "M3 S30", "G0 X50 Y60", "G92 X0 Y0", *square, "G92.1", "G10 L2 P2 X100 Y100",
-             "G55 G0 X0 Y0", *square, "G54", "G53 G0 X5 Y5", "G0 X30 Y30", "G28.1", "G0 X60 Y10", "G28"]
+    lines = [
+        "G21",
+        "G90",
+        "M3 S30",
+        "G0 X50 Y60",
+        "G92 X0 Y0",
+        *square,
+        "G92.1",
+        "G10 L2 P2 X100 Y100",
+        "G55 G0 X0 Y0",
+        *square,
+        "G54",
+        "G53 G0 X5 Y5",
+        "G0 X30 Y30",
+        "G28.1",
+        "G0 X60 Y10",
+        "G28",
+    ]
     code, err, name, _ = draw_cli(capsys, tmp_path, lines)
     assert code == 0, err
     strokes = sorted(np.round(s[:, :2], 3).tolist() for s in drawn(name))
-    assert strokes == [[[50, 60], [70, 60], [70, 80], [50, 80], [50, 60]],
-                       [[100, 100], [120, 100], [120, 120], [100, 120], [100, 100]]]
+    assert strokes == [
+        [[50, 60], [70, 60], [70, 80], [50, 80], [50, 60]],
+        [[100, 100], [120, 100], [120, 120], [100, 120], [100, 100]],
+    ]
     machine = protocol_sim.plotter(name).machine
     assert machine.position[:2] == pytest.approx((30.0, 30.0))  # G28: the G28.1 point
     assert [clean_line(line) for line in lines] == accepted(name)
     # `stat` reads the same pen-down paths from the file alone.
     paths = drawn_paths(load_job(lines, GRBL))
-    assert sorted(np.round(paths.points[a:b], 3).tolist() for a, b in zip(paths.offsets[:-1], paths.offsets[1:])) \
+    assert (
+        sorted(np.round(paths.points[a:b], 3).tolist() for a, b in zip(paths.offsets[:-1], paths.offsets[1:]))
         == strokes
+    )
 
 
 def test_a_start_line_after_an_offset_is_refused_before_anything_is_sent(capsys, tmp_path):
     lines = ["G21", "G90", "G0 X50 Y60", "G92 X0 Y0", "G0 X10 Y10", "G92.1", "G0 X10 Y10"]
     code, err, name, path = draw_cli(capsys, tmp_path, lines, "--start-line", "5")
-    assert code == 2 and err.startswith(f"pencilbot: error: line 5 of {path} comes after lines that change the "
-                                        "work coordinates (G92, G10, G54-G59), which a resume cannot restore")
+    assert code == 2 and err.startswith(
+        f"pencilbot: error: line 5 of {path} comes after lines that change the "
+        "work coordinates (G92, G10, G54-G59), which a resume cannot restore"
+    )
     assert name not in protocol_sim._PLOTTERS
     code, err, name, _ = draw_cli(capsys, tmp_path, lines, "--start-line", "7")  # G92.1: machine again
     assert code == 0, err
@@ -147,6 +190,8 @@ def test_tracked_positions_equal_the_virtual_plotter_s_line_by_line(tokens):
         state = advance(state, line, GRBL.pen_model)  # line by line, as a checkpoint continues
         expected = machine.position[:2]
         assert (columns["mx"][i], columns["my"][i]) == pytest.approx(expected, abs=1e-9), lines[: i + 1]
-        work = tuple(np.subtract(machine.position, machine.work_offset())[:2])  # the parser's, not the carriage's
+        work = tuple(
+            np.subtract(machine.position, machine.work_offset())[:2]
+        )  # the parser's, not the carriage's
         assert (columns["x_mm"][i], columns["y_mm"][i]) == pytest.approx(work, abs=1e-9), lines[: i + 1]
         assert state.position_mm()[:2] == pytest.approx(work, abs=1e-9), lines[: i + 1]

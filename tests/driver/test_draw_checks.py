@@ -45,14 +45,17 @@ def test_a_move_off_the_bed_is_named_by_line_and_coordinate_and_nothing_is_sent(
         draw(path, url, profile=PROFILE, wake_wait=0.2)
     assert str(info.value).startswith(
         f"line 5 of {path} ('G1X400Y500F3000') moves to X 400.000 Y 500.000 mm, off the bed of plotter "
-        "profile grbl-servo-a4 (X 0 .. 220, Y 0 .. 310 mm); nothing was sent")
+        "profile grbl-servo-a4 (X 0 .. 220, Y 0 .. 310 mm); nothing was sent"
+    )
     assert name not in protocol_sim._PLOTTERS  # the port was never opened
 
 
 def test_inch_and_relative_moves_are_checked_in_millimetres():
     # 8 in = 203.2 mm fits the 220 mm bed; three relative inch steps of 3 in (228.6 mm) do not.
     assert refusal(["G20", "G0 X8 Y8"]) is None
-    assert "line 5 of <lines> ('G0X3') moves to X 228.600 Y 0.000 mm" in refusal(["G20", "G91", "G0 X3", "G0 X3", "G0 X3"])
+    assert "line 5 of <lines> ('G0X3') moves to X 228.600 Y 0.000 mm" in refusal(
+        ["G20", "G91", "G0 X3", "G0 X3", "G0 X3"]
+    )
     # Units switched mid-file change how later words read, not where the pen is.
     assert refusal(["G21", "G0 X200", "G20", "G91", "G0 X0.5"]) == refusal(["G21", "G0 X212.7"])
 
@@ -62,7 +65,9 @@ def narrow(tmp_path_factory):
     """The profile with a bed cut to 110 mm wide, as a TOML file."""
     path = tmp_path_factory.mktemp("profile") / "narrow.toml"
     text = (config_folder("plotters") / f"{PROFILE}.toml").read_text()
-    path.write_text(text.replace("width = 220.0", "width = 110.0").replace(f'name = "{PROFILE}"', 'name = "narrow"'))
+    path.write_text(
+        text.replace("width = 220.0", "width = 110.0").replace(f'name = "{PROFILE}"', 'name = "narrow"')
+    )
     return str(path)
 
 
@@ -83,17 +88,27 @@ def test_an_arc_bulging_off_the_bed_is_refused_though_its_ends_are_on_it(narrow)
 
 @settings(max_examples=150, deadline=None)
 @given(
-    cx=st.floats(20, 200), cy=st.floats(20, 290), r=st.floats(1, 60),
-    a0=st.floats(0, 2 * math.pi), sweep=st.floats(0.05, 2 * math.pi - 0.05),
-    ccw=st.booleans(), by_radius=st.booleans(), inches=st.booleans(), relative=st.booleans(),
+    cx=st.floats(20, 200),
+    cy=st.floats(20, 290),
+    r=st.floats(1, 60),
+    a0=st.floats(0, 2 * math.pi),
+    sweep=st.floats(0.05, 2 * math.pi - 0.05),
+    ccw=st.booleans(),
+    by_radius=st.booleans(),
+    inches=st.booleans(),
+    relative=st.booleans(),
 )
-def test_any_arc_is_refused_exactly_when_its_curve_leaves_the_bed(cx, cy, r, a0, sweep, ccw, by_radius, inches, relative):
+def test_any_arc_is_refused_exactly_when_its_curve_leaves_the_bed(
+    cx, cy, r, a0, sweep, ccw, by_radius, inches, relative
+):
     a1 = a0 + sweep if ccw else a0 - sweep
     p0 = np.array([cx + r * math.cos(a0), cy + r * math.sin(a0)])
     p1 = np.array([cx + r * math.cos(a1), cy + r * math.sin(a1)])
     curve = np.array([[cx + r * math.cos(a), cy + r * math.sin(a)] for a in np.linspace(a0, a1, 4000)])
     (x0, x1), (y0, y1) = BED.machine_range()
-    margin = np.min(np.stack([curve[:, 0] - x0, x1 - curve[:, 0], curve[:, 1] - y0, y1 - curve[:, 1]]), axis=0)
+    margin = np.min(
+        np.stack([curve[:, 0] - x0, x1 - curve[:, 0], curve[:, 1] - y0, y1 - curve[:, 1]]), axis=0
+    )
     if np.min(np.abs(margin)) < 0.05 or not (x0 <= p0[0] <= x1 and y0 <= p0[1] <= y1):
         return  # too close to an edge to tell by sampling, or the start itself is off
     k = 25.4 if inches else 1.0
@@ -102,8 +117,14 @@ def test_any_arc_is_refused_exactly_when_its_curve_leaves_the_bed(cx, cy, r, a0,
         centre = f"R{(r if sweep <= math.pi else -r) / k:.9f}"
     else:
         centre = "I{:.9f}J{:.9f}".format(*((np.array([cx, cy]) - p0) / k))
-    lines = ["G21", "G90", f"G0X{p0[0]:.9f}Y{p0[1]:.9f}", "G20" if inches else "G21", "G91" if relative else "G90",
-             f"G{3 if ccw else 2}X{end[0]:.9f}Y{end[1]:.9f}{centre}F100"]
+    lines = [
+        "G21",
+        "G90",
+        f"G0X{p0[0]:.9f}Y{p0[1]:.9f}",
+        "G20" if inches else "G21",
+        "G91" if relative else "G90",
+        f"G{3 if ccw else 2}X{end[0]:.9f}Y{end[1]:.9f}{centre}F100",
+    ]
     assert (refusal(lines) is not None) == bool((margin < 0).any())
 
 
@@ -132,8 +153,11 @@ def test_a_profile_other_than_the_header_s_is_refused_with_what_to_do(tmp_path, 
     assert err == (
         f"pencilbot: error: {path} was made for plotter profile grbl-z-a3 (line 1 of its header), not "
         "grbl-servo-a4: its pen commands and bed are that plotter's. Leave out --profile (or give "
-        "--profile grbl-z-a3), or export the drawing again for grbl-servo-a4\n")
-    assert main(["draw", str(path), "--port", "sim://?profile=grbl-z-a3", "--profile", "grbl-z-a3", "-q"]) == 0
+        "--profile grbl-z-a3), or export the drawing again for grbl-servo-a4\n"
+    )
+    assert (
+        main(["draw", str(path), "--port", "sim://?profile=grbl-z-a3", "--profile", "grbl-z-a3", "-q"]) == 0
+    )
 
 
 def test_simulate_takes_the_header_s_profile_too_and_refuses_another(tmp_path, capsys):
@@ -148,7 +172,9 @@ def test_simulate_takes_the_header_s_profile_too_and_refuses_another(tmp_path, c
 
 def test_a_header_naming_an_unknown_profile_asks_for_one(tmp_path, capsys):
     path = tmp_path / "theirs.gcode"
-    path.write_text("; pencilbot G-code for someone-elses (grbl)\n; source: x\n; profile: /nowhere/theirs.toml\nG21\n")
+    path.write_text(
+        "; pencilbot G-code for someone-elses (grbl)\n; source: x\n; profile: /nowhere/theirs.toml\nG21\n"
+    )
     assert main(["draw", str(path), "--port", "sim://"]) == 2
     err = capsys.readouterr().err
     assert "made for plotter profile someone-elses" in err and "--profile" in err and "Traceback" not in err
@@ -156,7 +182,9 @@ def test_a_header_naming_an_unknown_profile_asks_for_one(tmp_path, capsys):
 
 # --- G-code from other tools ---------------------------------------------------------------------
 
-FOREIGN = b"\xef\xbb\xbf" + b"""%
+FOREIGN = (
+    b"\xef\xbb\xbf"
+    + b"""%
 (from a CAM tool: a BOM, tape markers, comments, inch and relative moves, arcs)
 G21 G90 G17 ; millimetres, absolute
 M3 S30
@@ -179,6 +207,7 @@ M3 S30
 G0 X0 Y0
 %
 """
+)
 
 
 SQUARE = np.array([[101.6, 152.4], [152.4, 152.4], [152.4, 203.2], [101.6, 203.2], [101.6, 152.4]])
@@ -212,8 +241,13 @@ def test_foreign_gcode_draws_exactly_the_shapes_it_describes(tmp_path):
     url, name = fresh()
     draw(path, url, profile=PROFILE, wake_wait=0.2)
     strokes = protocol_sim.plotter(name).machine.strokes
-    drawn = np.vstack([np.linspace(a, b, int(np.hypot(*(b - a)) / 0.02) + 2)  # a point every 0.02 mm
-                       for s in strokes for a, b in zip(s[:-1, :2], s[1:, :2])])
+    drawn = np.vstack(
+        [
+            np.linspace(a, b, int(np.hypot(*(b - a)) / 0.02) + 2)  # a point every 0.02 mm
+            for s in strokes
+            for a, b in zip(s[:-1, :2], s[1:, :2])
+        ]
+    )
     # Every drawn point is on one of the shapes (arcs are chords within GRBL's $12 = 0.002 mm)...
     assert distance_to_shapes(drawn).max() < 0.005
     # ...and every shape is drawn all the way round.
@@ -241,4 +275,6 @@ def test_stat_of_gcode_reads_it_with_the_header_s_profile(tmp_path, capsys):
     path = exported(tmp_path, "grbl-z-a3")
     assert main(["stat", str(path), "--json"]) == 0  # the default profile's servo pen would never go down
     report = json.loads(capsys.readouterr().out)
-    assert report["profile"] == "grbl-z-a3" and report["total"]["pen_down_mm"] == pytest.approx(math.hypot(60, 30), abs=0.01)
+    assert report["profile"] == "grbl-z-a3" and report["total"]["pen_down_mm"] == pytest.approx(
+        math.hypot(60, 30), abs=0.01
+    )

@@ -32,8 +32,12 @@ def reference():
     sim.register()
     draw(PLAN, "sim://ebb-281-ref?firmware=2.8.1", profile="axidraw-v3")
     log = protocol_sim.plotter("ebb-281-ref").firmware.log
-    strike = next(k for k in range(len(log) // 2, len(log)) if log[k].startswith("LM")
-                  and next(c for c in reversed(log[:k]) if c.startswith("SP,")).startswith("SP,0"))
+    strike = next(
+        k
+        for k in range(len(log) // 2, len(log))
+        if log[k].startswith("LM")
+        and next(c for c in reversed(log[:k]) if c.startswith("SP,")).startswith("SP,0")
+    )
     yield _drawn("ebb-281-ref"), strike + 1
     protocol_sim.forget("ebb-281-ref")
 
@@ -47,8 +51,12 @@ def test_a_stop_on_firmware_2_8_1_lifts_the_pen_and_resumes_exactly(tmp_path, re
     path.write_text("\n".join(PLAN) + "\n")
     name = f"ebb-281-{next(_names)}"
     with pytest.raises(PlotError) as stopped:
-        draw(path, f"sim://{name}?profile=axidraw-v3&firmware=2.8.1&faults=interrupt@{strike}{signal_code}",
-             profile="axidraw-v3", timeout=0.5)
+        draw(
+            path,
+            f"sim://{name}?profile=axidraw-v3&firmware=2.8.1&faults=interrupt@{strike}{signal_code}",
+            profile="axidraw-v3",
+            timeout=0.5,
+        )
     assert "the pen stopped at X" in str(stopped.value), str(stopped.value)
     board = protocol_sim.plotter(name).firmware
     es = board.log.index("ES")
@@ -62,8 +70,17 @@ def test_the_nextdraw_8511_pen_moves_on_its_own_pin(tmp_path):
     """The narrow-band servo is on RB2 and runs on one 3 ms channel: an SP without pin (RB1)
     never moves it, and nothing would be drawn."""
     sim.register()
-    lines = ["G21", "G90", "M280 P0 S60", "G0 X20 Y20", "M280 P0 S40", "G1 X60 Y20 F3000", "G1 X60 Y40",
-             "M280 P0 S60", "G0 X0 Y0"]
+    lines = [
+        "G21",
+        "G90",
+        "M280 P0 S60",
+        "G0 X20 Y20",
+        "M280 P0 S40",
+        "G1 X60 Y20 F3000",
+        "G1 X60 Y40",
+        "M280 P0 S60",
+        "G0 X0 Y0",
+    ]
     protocol_sim.forget("nd8511")
     draw(lines, "sim://nd8511?profile=nextdraw-8511", profile="nextdraw-8511")
     board = protocol_sim.plotter("nd8511")

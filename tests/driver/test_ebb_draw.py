@@ -59,7 +59,9 @@ def drawing_differences(got, reference, tolerance, clean=None):
         else:
             want, slack = _length(r), tolerance + len(r) * STEP
         if far > tolerance or abs(_length(g) - want) > slack:
-            problems.append(f"stroke {k}: {far:.4f} mm from the plan, {_length(g):.3f} mm drawn of {want:.3f}")
+            problems.append(
+                f"stroke {k}: {far:.4f} mm from the plan, {_length(g):.3f} mm drawn of {want:.3f}"
+            )
     return problems
 
 
@@ -224,7 +226,9 @@ class _Operator:
 
     def pause(self, prompt):
         board = protocol_sim.plotter(self.name)
-        self.seen.append((prompt, board.firmware.pen_up, board.firmware.running is None and not board.firmware.fifo))
+        self.seen.append(
+            (prompt, board.firmware.pen_up, board.firmware.running is None and not board.firmware.fifo)
+        )
 
 
 def _colour_job(path):
@@ -236,7 +240,9 @@ def _colour_job(path):
     for k, pen in enumerate(("yellow", "magenta", "black")):
         x = 20.0 + 30.0 * k
         lines = [np.array([[x, 20.0 + y], [x + 20.0, 20.0 + y]]) for y in np.arange(0.0, 6.0, 1.0)]
-        layers.append(Layer(f"{pen}-hatch", lines, pen_width=0.5, role="hatch", pen=pen, color=inks[pen].color))
+        layers.append(
+            Layer(f"{pen}-hatch", lines, pen_width=0.5, role="hatch", pen=pen, color=inks[pen].color)
+        )
     plan = Plan(Page(120.0, 80.0, margin=5.0, name="test"), tuple(layers))
     profile = load_profile(PROFILE)
     write_gcode(plan, profile, path)
@@ -278,7 +284,9 @@ def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
 
     profile = load_profile(PROFILE)
     lines = [np.array([[10.0, 10.0 + 2 * k], [40.0, 11.0 + 2 * k], [70.0, 10.0 + 2 * k]]) for k in range(12)]
-    plan = Plan(Page(100.0, 80.0, margin=5.0, name="test"), (Layer("hatch", lines, pen_width=0.5, role="hatch"),))
+    plan = Plan(
+        Page(100.0, 80.0, margin=5.0, name="test"), (Layer("hatch", lines, pen_width=0.5, role="hatch"),)
+    )
     job = tmp_path / "lines.gcode"
     write_gcode(plan, profile, job)
     placement = Placement.on_bed(plan.page, profile.bed)
@@ -290,8 +298,12 @@ def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
     plotter = VirtualEbb(profile, realtime=20)
     cli = [sys.executable, "-m", "pencilbot.cli", "draw"]
     with PtyServer(plotter, reset_on_open=False) as server:
-        proc = subprocess.Popen([*cli, str(job), "--profile", PROFILE, "-q", "--port", server.path],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        proc = subprocess.Popen(
+            [*cli, str(job), "--profile", PROFILE, "-q", "--port", server.path],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         deadline = time.monotonic() + 60
         while len(plotter.drawn()) < 4 and proc.poll() is None and time.monotonic() < deadline:
             time.sleep(0.005)
@@ -299,7 +311,9 @@ def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
         _, err = proc.communicate(timeout=60)
         assert proc.returncode != 0 and "stopped by SIGTERM" in err and "the pen stopped at X" in err, err
         journal, _ = _journal(job)
-        done = subprocess.run([*cli, "--resume", str(journal), "-q"], capture_output=True, text=True, timeout=120)
+        done = subprocess.run(
+            [*cli, "--resume", str(journal), "-q"], capture_output=True, text=True, timeout=120
+        )
         assert done.returncode == 0, done.stderr
     plotter.firmware.finish()
     assert drawing_differences(list(plotter.drawn()), reference, TOLERANCE, clean=list(clean.drawn())) == []
@@ -308,8 +322,10 @@ def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
 def test_arcs_from_other_tools_are_drawn_as_arcs(name, tmp_path):
     """G2/G3 by I J and by R, as another tool writes them: the pen follows the circle."""
     job = tmp_path / "arcs.gcode"
-    job.write_text("G21\nG90\nM280 P0 S60\nG0 X60 Y50\nM280 P0 S30\nG2 X60 Y50 I20 J0 F3000\n"
-                   "G3 X100 Y50 R20\nM280 P0 S60\nG0 X0 Y0\n")
+    job.write_text(
+        "G21\nG90\nM280 P0 S60\nG0 X60 Y50\nM280 P0 S30\nG2 X60 Y50 I20 J0 F3000\n"
+        "G3 X100 Y50 R20\nM280 P0 S60\nG0 X0 Y0\n"
+    )
     pencilbot.draw(job, f"sim://{name}", profile=PROFILE)
     board = protocol_sim.plotter(name)
     board.firmware.finish()
@@ -336,7 +352,9 @@ class _Keys:
 def test_the_pause_key_holds_mid_stroke_and_goes_on_from_the_very_point(coffee, clean, name):
     _, _, path, reference = coffee
     operator = _Operator(name)
-    pencilbot.draw(path, f"sim://{name}?profile={PROFILE}", profile=PROFILE, operator=operator, keys=_Keys(900))
+    pencilbot.draw(
+        path, f"sim://{name}?profile={PROFILE}", profile=PROFILE, operator=operator, keys=_Keys(900)
+    )
     assert [prompt for prompt, _, _ in operator.seen] == ["paused: the pause key"]
     assert all(pen_up and idle for _, pen_up, idle in operator.seen)  # held: the pen up, nothing moving
     board = protocol_sim.plotter(name)

@@ -42,9 +42,14 @@ FAULTS = {
     "SIGTERM": ("interrupt:15", False),
     "SIGHUP": ("interrupt:1", False),  # the terminal closed: as Ctrl-C (it left the pen down before)
 }
-STOPPED_BY = {"Ctrl-C": "stopped by Ctrl-C", "SIGTERM": "stopped by SIGTERM", "SIGHUP": "stopped by SIGHUP",
-              "lost reply": "did not answer",
-              "unplug": "did not report where the pen stopped", "power cycle": "position is lost"}
+STOPPED_BY = {
+    "Ctrl-C": "stopped by Ctrl-C",
+    "SIGTERM": "stopped by SIGTERM",
+    "SIGHUP": "stopped by SIGHUP",
+    "lost reply": "did not answer",
+    "unplug": "did not report where the pen stopped",
+    "power cycle": "position is lost",
+}
 
 
 def drawn(name: str) -> list[np.ndarray]:
@@ -67,8 +72,12 @@ def reference(request):
     name = f"ebb-matrix-ref-{firmware}"
     draw(PLAN, f"sim://{name}?profile={PROFILE}&firmware={firmware}", profile=PROFILE)
     log = protocol_sim.plotter(name).firmware.log
-    strike = next(k for k in range(len(log) // 2, len(log)) if log[k].startswith("LM")
-                  and next(c for c in reversed(log[:k]) if c.startswith("SP,")).startswith("SP,0"))
+    strike = next(
+        k
+        for k in range(len(log) // 2, len(log))
+        if log[k].startswith("LM")
+        and next(c for c in reversed(log[:k]) if c.startswith("SP,")).startswith("SP,0")
+    )
     yield drawn(name), strike + 1, firmware  # the board counts commands from 1
     protocol_sim.forget(name)
 
@@ -90,10 +99,16 @@ def test_a_fault_ends_in_exactly_the_uninterrupted_drawing(tmp_path, reference, 
     kind, lost = FAULTS[fault]
     kind, _, code = kind.partition(":")
     with pytest.raises(PlotError) as stopped:
-        draw(path, f"sim://{name}?profile={PROFILE}&firmware={firmware}&faults={kind}@{strike}"
-             + (f":{code}" if code else ""),
-             profile=PROFILE, timeout=0.5)
-    assert STOPPED_BY[fault] in str(stopped.value) and "Resume with: pencilbot draw --resume" in str(stopped.value)
+        draw(
+            path,
+            f"sim://{name}?profile={PROFILE}&firmware={firmware}&faults={kind}@{strike}"
+            + (f":{code}" if code else ""),
+            profile=PROFILE,
+            timeout=0.5,
+        )
+    assert STOPPED_BY[fault] in str(stopped.value) and "Resume with: pencilbot draw --resume" in str(
+        stopped.value
+    )
     plotter = protocol_sim.plotter(name)
     plotter.firmware.faults.clear()  # the glitch is over
     journal = f"{path}.job.json"
@@ -117,7 +132,7 @@ def test_a_pen_change_pauses_and_the_drawing_is_the_same(tmp_path, reference):
     while not clean_line(PLAN[at]).startswith("M280P0S60"):  # after a pen lift: it changes no stroke
         at += 1
     path = tmp_path / "plot.gcode"
-    path.write_text("\n".join([*PLAN[: at + 1], "M0 (pen change: insert red)", *PLAN[at + 1:]]) + "\n")
+    path.write_text("\n".join([*PLAN[: at + 1], "M0 (pen change: insert red)", *PLAN[at + 1 :]]) + "\n")
     name = f"ebb-matrix{next(_names)}"
     hand = Hand(name)
     draw(path, f"sim://{name}?profile={PROFILE}&firmware={firmware}", profile=PROFILE, operator=hand)

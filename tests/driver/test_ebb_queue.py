@@ -10,9 +10,23 @@ from pencilbot.driver.ebb_plot import FIFO_DEPTH
 from sim import protocol_sim
 
 PROFILE = "axidraw-v3"
-DRAWING = ["G21", "G90", "M280 P0 S60", "G0 X20 Y20", "M280 P0 S30", "G1 X60 Y20 F3000", "G1 X60 Y40",
-           "M280 P0 S60", "G4 P0.5", "G0 X80 Y60", "M280 P0 S30", "G4 P1.25", "G1 X100 Y60", "M280 P0 S60",
-           "G0 X0 Y0"]
+DRAWING = [
+    "G21",
+    "G90",
+    "M280 P0 S60",
+    "G0 X20 Y20",
+    "M280 P0 S30",
+    "G1 X60 Y20 F3000",
+    "G1 X60 Y40",
+    "M280 P0 S60",
+    "G4 P0.5",
+    "G0 X80 Y60",
+    "M280 P0 S30",
+    "G4 P1.25",
+    "G1 X100 Y60",
+    "M280 P0 S60",
+    "G0 X0 Y0",
+]
 
 
 def _run(name, lines, options=""):
@@ -43,7 +57,9 @@ def test_the_fifo_is_deepened_only_on_firmware_that_has_it(version, depth):
     board = _run(f"ebb-q-{version}", DRAWING, f"&firmware={version}")
     log = board.firmware.log
     assert board.firmware.fifo_size == depth
-    assert ("QU,2" in log, f"CU,4,{FIFO_DEPTH}" in log) == ((True, True) if version == "3.0.3" else (False, False))
+    assert ("QU,2" in log, f"CU,4,{FIFO_DEPTH}" in log) == (
+        (True, True) if version == "3.0.3" else (False, False)
+    )
     reference = _run("ebb-q-ref", DRAWING)
     assert all(np.array_equal(a, b) for a, b in zip(board.drawn(), reference.drawn()))
     assert len(board.drawn()) == 2

@@ -112,7 +112,7 @@ def reference():
 def with_pen_change(after: int) -> list[str]:
     """The plan with a pen change (``M0``) after job line ``after``."""
     where = [i for i, line in enumerate(PLAN) if clean_line(line)][after]
-    return [*PLAN[: where + 1], "M0 (pen change: insert red)", *PLAN[where + 1:]]
+    return [*PLAN[: where + 1], "M0 (pen change: insert red)", *PLAN[where + 1 :]]
 
 
 #: For other tests of the driver (the keys): the plan, and a line it is drawing mid-stroke.
@@ -142,7 +142,14 @@ def resume_until_drawn(path, name, lost: bool) -> None:
         assert "position cannot be trusted" in refused and "jog the raised pen" in refused
         # A refusal sends no G-code (the wake-up's empty lines, nothing else).
         assert not any(line.text for line in list(plotter.firmware.log)[before:])
-        draw(path, f"sim://{name}", resume=journal, wake_wait=0.2, timeout=2.0, operator=HandOnTheMachine(plotter))
+        draw(
+            path,
+            f"sim://{name}",
+            resume=journal,
+            wake_wait=0.2,
+            timeout=2.0,
+            operator=HandOnTheMachine(plotter),
+        )
 
 
 CASES = [(fault, board) for fault in [*SIM_FAULTS, *PAUSES] for board in BOARDS]
@@ -193,8 +200,13 @@ def test_over_a_pty_a_board_that_restarts_at_zero_is_re_zeroed_and_drawn_exactly
     # The same file-descriptor path as a USB adapter; opening the pty resets the board (DTR).
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(PLAN) + "\n")
-    plotter = VirtualPlotter(load_profile(PROFILE), tick=0.01, faults=Faults.parse(spec(fault, TWICE + 2)),
-                             power="zero", abort="lose")
+    plotter = VirtualPlotter(
+        load_profile(PROFILE),
+        tick=0.01,
+        faults=Faults.parse(spec(fault, TWICE + 2)),
+        power="zero",
+        abort="lose",
+    )
     journal = f"{path}.job.json"
     with PtyServer(plotter) as server:
         with pytest.raises(PlotError, match="Resume with") as stop:
@@ -207,7 +219,9 @@ def test_over_a_pty_a_board_that_restarts_at_zero_is_re_zeroed_and_drawn_exactly
             with pytest.raises(PlotError, match="position cannot be trusted"):
                 draw(path, server.path, resume=journal, wake_wait=0.2, timeout=2.0)
             assert len(drawn_by(plotter)) == before
-        draw(path, server.path, resume=journal, wake_wait=0.2, timeout=2.0, operator=HandOnTheMachine(plotter))
+        draw(
+            path, server.path, resume=journal, wake_wait=0.2, timeout=2.0, operator=HandOnTheMachine(plotter)
+        )
     assert_same_drawing(drawn_by(plotter), with_overruns(reference, plotter))
 
 
@@ -224,8 +238,13 @@ def test_a_resume_asks_for_the_pen_the_job_was_drawing_with_first(tmp_path, refe
     stroke = next(i for i in range(TRAVEL + 1, len(COMMANDS)) if COMMANDS[i].startswith("G1")) + 1
     operator = HandOnTheMachine(None)
     with pytest.raises(PlotError, match="stopped by Ctrl-C"):
-        draw(path, f"sim://{name}?{TICK}&faults=interrupt@{_board_line(stroke + 2)}", profile=PROFILE,
-             wake_wait=0.2, operator=operator)
+        draw(
+            path,
+            f"sim://{name}?{TICK}&faults=interrupt@{_board_line(stroke + 2)}",
+            profile=PROFILE,
+            wake_wait=0.2,
+            operator=operator,
+        )
     assert operator.prompts == ["paused: pen change: insert red"]
     assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["pen"] == "red"
     draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2, operator=operator)
@@ -238,8 +257,11 @@ def test_a_board_with_homing_is_homed_before_the_resume_instead_of_asking(tmp_pa
 
     profile = tmp_path / "homing.toml"
     text = (pathlib.Path(__file__).parents[2] / "configs/plotters/grbl-servo-a4.toml").read_text()
-    profile.write_text(text.replace('name = "grbl-servo-a4"', 'name = "homing-a4"').replace(
-        "invert_y = false", "invert_y = false\nhoming = true"))
+    profile.write_text(
+        text.replace('name = "grbl-servo-a4"', 'name = "homing-a4"').replace(
+            "invert_y = false", "invert_y = false\nhoming = true"
+        )
+    )
 
     def homed(name: str) -> None:
         """Open the board (it powers up in Alarm: HOMING_INIT_LOCK) and home it."""
@@ -268,8 +290,17 @@ def loop_drawing() -> list[str]:
     lines = ["G21", "G90", "M3 S30", "G4 P0.15"]
     for i in range(4):
         x, y = 40 + 30 * i, 60.0
-        lines += [f"G0 X{x} Y{y}", "M3 S90", "G4 P0.2", f"G1 X{x + 10} Y{y} F3000", f"G1 X{x + 10} Y{y + 10}",
-                  f"G1 X{x} Y{y + 10}", f"G1 X{x} Y{y}", "M3 S30", "G4 P0.15"]
+        lines += [
+            f"G0 X{x} Y{y}",
+            "M3 S90",
+            "G4 P0.2",
+            f"G1 X{x + 10} Y{y} F3000",
+            f"G1 X{x + 10} Y{y + 10}",
+            f"G1 X{x} Y{y + 10}",
+            f"G1 X{x} Y{y}",
+            "M3 S30",
+            "G4 P0.15",
+        ]
     return lines
 
 
@@ -285,8 +316,12 @@ def test_a_stop_where_a_closed_stroke_begins_resumes_at_its_start_not_after_its_
     first_move = 4 + 9 * 2 + 3  # the third square's first G1 arrives when the board is idle there
     name = f"loop-{clock}"
     with pytest.raises(PlotError, match="reset in the middle"):
-        draw(path, f"sim://{name}?faults=abort@{WAKE_LINES + first_move + 1}{options}", profile=PROFILE,
-             wake_wait=0.2)
+        draw(
+            path,
+            f"sim://{name}?faults=abort@{WAKE_LINES + first_move + 1}{options}",
+            profile=PROFILE,
+            wake_wait=0.2,
+        )
     draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2)
     assert_same_drawing(drawn(name), drawn(f"loop-ref-{clock}"))
 
@@ -300,8 +335,12 @@ def test_a_z_pen_gets_its_height_back_with_the_origin_or_the_resume_refuses(tmp_
     path = tmp_path / "z.gcode"
     path.write_text("\n".join(lines) + "\n")
     with pytest.raises(PlotError, match="stopped by Ctrl-C.*pen raised"):
-        draw(path, f"sim://z1?profile={profile}&{TICK}&faults=interrupt@{WAKE_LINES + 30}", profile=profile,
-             wake_wait=0.2)
+        draw(
+            path,
+            f"sim://z1?profile={profile}&{TICK}&faults=interrupt@{WAKE_LINES + 30}",
+            profile=profile,
+            wake_wait=0.2,
+        )
     # The port's reset zeroed X, Y and Z where the raised pen stood: all three come back.
     draw(path, "sim://z1", resume=f"{path}.job.json", wake_wait=0.2)
     assert_same_drawing(drawn("z1"), drawn("z-ref"))
@@ -309,7 +348,9 @@ def test_a_z_pen_gets_its_height_back_with_the_origin_or_the_resume_refuses(tmp_
     path2 = tmp_path / "z2.gcode"
     path2.write_text("\n".join(lines) + "\n")
     with pytest.raises(PlotError, match="Resume with"):
-        draw(path2, f"sim://z2?profile={profile}&faults=reset@30", profile=profile, wake_wait=0.2, timeout=0.5)
+        draw(
+            path2, f"sim://z2?profile={profile}&faults=reset@30", profile=profile, wake_wait=0.2, timeout=0.5
+        )
     plotter = protocol_sim.plotter("z2")
     plotter.firmware.faults.at.clear()
     with pytest.raises(PlotError, match="with a Z pen its height is lost too.*--start-line"):

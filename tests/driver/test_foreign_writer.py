@@ -27,8 +27,11 @@ def test_another_program_writing_to_the_port_mid_job_stops_the_job_with_a_messag
     results = []
     with PtyServer(plotter) as server:
         os.chmod(server.path, 0o666)  # as a USB adapter in the dialout group: others may open it
-        sender = threading.Thread(target=lambda: _catch(
-            results, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]))
+        sender = threading.Thread(
+            target=lambda: _catch(
+                results, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]
+            )
+        )
         sender.start()
         try:
             while sender.is_alive() and len(plotter.firmware.accepted_lines()) < 25:

@@ -81,6 +81,10 @@ def test_a_stalled_host_finishes_the_plot(stalls, profile, options):
 def test_a_silent_board_is_still_caught(stalls, profile, options):
     name = f"stall{next(_names)}"
     with pytest.raises(PlotError, match="stopped answering|did not answer"):
-        draw(list(plan_lines(profile))[:400], f"sim://{name}?profile={profile}&{options}&faults=silent@60",
-             profile=profile, timeout=1.0)
+        draw(
+            list(plan_lines(profile))[:400],
+            f"sim://{name}?profile={profile}&{options}&faults=silent@60",
+            profile=profile,
+            timeout=1.0,
+        )
     protocol_sim.forget(name)

@@ -103,7 +103,10 @@ def test_ctrl_c_stops_and_the_resume_draws_the_rest_exactly_once(signum, name, c
     # The virtual plotter fast but not instant, so the buffer holds work when Ctrl-C comes; Ctrl-C
     # is pressed when the plotter starts its 300th instruction (a fixed point of the job).
     port = _fresh("hpgl-stop").replace("profile=", "realtime=200&xonxoff=1&profile=")
-    with _ctrl_c_at(300, monkeypatch, signum), pytest.raises(PlotError, match=f"stopped by {name}; stopped after instruction"):
+    with (
+        _ctrl_c_at(300, monkeypatch, signum),
+        pytest.raises(PlotError, match=f"stopped by {name}; stopped after instruction"),
+    ):
         draw(target, port, profile="hp7475a")
     journal = load_journal(target)
     assert journal.status == "stopped" and journal.stop_work is not None
@@ -145,8 +148,12 @@ def test_a_lost_answer_and_line_noise_cost_nothing(coffee, tmp_path):
     target = _small_job(plan, profile, tmp_path, count=30)
     draw(target, _fresh("hpgl-ref3"), profile="hp7475a")
     reference = protocol_sim.plotter("hpgl-ref3").board.strokes
-    draw(target, _fresh("hpgl-noise").replace("profile=", "faults=silent@50,garbage@120&profile="),
-         profile="hp7475a", timeout=1.0)
+    draw(
+        target,
+        _fresh("hpgl-noise").replace("profile=", "faults=silent@50,garbage@120&profile="),
+        profile="hp7475a",
+        timeout=1.0,
+    )
     assert drawing_differences(protocol_sim.plotter("hpgl-noise").board.strokes, reference) == []
 
 
@@ -179,7 +186,9 @@ def test_a_reset_after_everything_was_sent_is_caught_though_the_pen_ends_at_home
     with pytest.raises(PlotError, match="lost its place"):
         draw(target, port, profile="hp7475a")
     board = protocol_sim.plotter("hpgl-home").board
-    assert [s.tolist() for s in board.strokes] == (np.array([[[400, 400], [800, 400], [800, 800]]]) * UNIT).tolist()  # the last line: never
+    assert [s.tolist() for s in board.strokes] == (
+        np.array([[[400, 400], [800, 400], [800, 800]]]) * UNIT
+    ).tolist()  # the last line: never
     assert (board.x, board.y, board.down) == (0, 0, False)
     journal = load_journal(target)
     assert journal.status == "stopped" and journal.stop_work is None
@@ -220,8 +229,13 @@ def test_the_pause_key_stops_at_once_and_goes_on_from_the_very_instruction(coffe
     name = "hpgl-pause"
     person = _Person(name)
     # Fast but not instant, so the buffer holds work the pause discards and sends again.
-    draw(target, _fresh(name).replace("profile=", "realtime=200&profile="), profile="hp7475a",
-         operator=person, keys=_KeysAt(name, 300))
+    draw(
+        target,
+        _fresh(name).replace("profile=", "realtime=200&profile="),
+        profile="hp7475a",
+        operator=person,
+        keys=_KeysAt(name, 300),
+    )
     assert [prompt for prompt, *_ in person.seen] == ["paused: the pause key"]
     assert all(not down and not buffer for _, down, buffer, _ in person.seen)  # at rest, pen up
     assert drawing_differences(protocol_sim.plotter(name).board.strokes, reference) == []
@@ -231,8 +245,14 @@ def _eight_pens(tmp_path):
     from pencilbot.paths import Paths
     from pencilbot.planning.plan import Layer, Page, Plan
 
-    layers = [Layer(f"l{k}", Paths.of([np.array([[20.0 + 30 * k, 40.0], [45.0 + 30 * k, 60.0], [46.0 + 30 * k, 120.0]])]),
-                    pen=f"pen{k + 1}") for k in range(8)]
+    layers = [
+        Layer(
+            f"l{k}",
+            Paths.of([np.array([[20.0 + 30 * k, 40.0], [45.0 + 30 * k, 60.0], [46.0 + 30 * k, 120.0]])]),
+            pen=f"pen{k + 1}",
+        )
+        for k in range(8)
+    ]
     plan = Plan(Page(297, 210, margin=0.0, name="A4"), layers)
     target = tmp_path / "eight.hpgl"
     write_hpgl(plan, load_profile("hp7475a"), target)
@@ -247,7 +267,8 @@ def test_a_pen_the_carousel_lacks_pauses_with_the_pen_put_away_and_draws_in_its_
     draw(target, _fresh(name), profile="hp7475a", operator=person)
     assert [prompt for prompt, *_ in person.seen] == [
         "paused: pen change: put pen 7 in carousel slot 1 (in place of pen 1)",
-        "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)"]
+        "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)",
+    ]
     # Everything before ran, the pen is up and back in the carousel (its slot can be filled).
     assert all(not down and not buffer and pen == 0 for _, down, buffer, pen in person.seen)
     board = protocol_sim.plotter(name).board
@@ -266,7 +287,8 @@ def test_a_pen_change_with_nobody_at_the_terminal_stops_and_the_resume_asks_for_
     draw(target, f"sim://{name}", resume=str(target), operator=person)
     assert [prompt for prompt, *_ in person.seen] == [
         "paused: pen change: put pen 7 in carousel slot 1 (in place of pen 1)",
-        "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)"]
+        "paused: pen change: put pen 8 in carousel slot 2 (in place of pen 2)",
+    ]
     assert board.stroke_pens == [1, 2, 3, 4, 5, 6, 1, 2]
     assert drawing_differences(board.strokes, reference, tolerance=UNIT) == []
 
@@ -276,8 +298,13 @@ def test_the_buffer_is_never_filled_to_the_brim(tmp_path):
     128 bytes (the plotter's XON threshold) free, and still keeps the rest of the buffer busy."""
     sim.register()
     target = tmp_path / "long.hpgl"
-    target.write_bytes(b"IN;SP1;" + b"".join(b"PU%d,400;PD%d,2000,%d,2000;" % (400 + 3 * i, 400 + 3 * i, 410 + 3 * i)
-                                            for i in range(150)) + b"PU;SP0;")
+    target.write_bytes(
+        b"IN;SP1;"
+        + b"".join(
+            b"PU%d,400;PD%d,2000,%d,2000;" % (400 + 3 * i, 400 + 3 * i, 410 + 3 * i) for i in range(150)
+        )
+        + b"PU;SP0;"
+    )
     draw(target, _fresh("hpgl-brim").replace("profile=", "tick=0.5&profile="), profile="hp7475a")
     board = protocol_sim.plotter("hpgl-brim").board
     size = load_profile("hp7475a").receive_buffer

@@ -62,7 +62,9 @@ def job(tmp_path_factory):
     draw(target, f"sim://hpgl-matrix-ref?profile={PROFILE}", profile=PROFILE)
     board = protocol_sim.plotter("hpgl-matrix-ref").board
     log = board.log
-    strike = next(k for k in range(len(log) // 2, len(log)) if log[k].startswith("PD") and log[k - 1].startswith("PD"))
+    strike = next(
+        k for k in range(len(log) // 2, len(log)) if log[k].startswith("PD") and log[k - 1].startswith("PD")
+    )
     last = max(k for k in range(len(log)) if log[k].startswith("PD") and log[k - 1].startswith("PD"))
     yield target.read_bytes(), board.strokes, strike + 1, last + 1  # the plotter counts instructions from 1
     protocol_sim.forget("hpgl-matrix-ref")

@@ -16,7 +16,12 @@ GRBL = load_profile("grbl-servo-a4")
 MARLIN = load_profile("marlin-servo-a4")
 
 command = st.one_of(
-    st.builds(lambda g, x, y: f"G{g} X{x:.3f} Y{y:.3f}", st.sampled_from([0, 1]), st.floats(0, 200), st.floats(0, 200)),
+    st.builds(
+        lambda g, x, y: f"G{g} X{x:.3f} Y{y:.3f}",
+        st.sampled_from([0, 1]),
+        st.floats(0, 200),
+        st.floats(0, 200),
+    ),
     st.sampled_from(["M3 S30", "M3 S90", "G4 P0.2", "G1 F2400", "G91", "G90", "G21", "X5", "g0 y7"]),
 )
 raw_line = st.one_of(
@@ -52,7 +57,9 @@ def test_lines_numbers_and_states_match_a_line_by_line_reading(small_blocks, raw
     job = load_job(program, GRBL)
     kept = [(n, c) for n, c in enumerate(cleaned, start=1) if c]
     assert [job.line(i) for i in range(len(job))] == [c for _, c in kept]
-    assert job.numbers.tolist() == [n for n, _ in kept] and job.total_lines == len(program.decode().splitlines())
+    assert job.numbers.tolist() == [n for n, _ in kept] and job.total_lines == len(
+        program.decode().splitlines()
+    )
     assert bytes(job.frames) == "".join(f"{c}\n" for _, c in kept).encode()
     state, pen = ModalState(), GRBL.pen_model
     whole = track([c for _, c in kept], pen, travel_feed=GRBL.motion.travel_feed)
@@ -65,7 +72,9 @@ def test_lines_numbers_and_states_match_a_line_by_line_reading(small_blocks, raw
 
 def test_a_file_is_read_in_blocks_and_checked_before_anything_is_sent(tmp_path, small_blocks):
     path = tmp_path / "job.gcode"
-    long_line = "G1 X1." + "0" * 20 + " Y1." + "0" * 20 + " Z0." + "0" * 20 + " F1000." + "0" * 17  # numbers <= 24
+    long_line = (
+        "G1 X1." + "0" * 20 + " Y1." + "0" * 20 + " Z0." + "0" * 20 + " F1000." + "0" * 17
+    )  # numbers <= 24
     path.write_text("G21\n" * 30 + long_line + "\n")
     size = len(long_line.replace(" ", ""))
     with pytest.raises(PlotError, match=rf"line 31 of {path}: G-code line is {size} characters long"):

@@ -26,13 +26,21 @@ def stopped(tmp_path, capsys):
 
 
 TAMPERED = {
-    "stop_xy off the bed": ({"stop_xy": [5000, 5000]},
-                            "stop_xy [5000, 5000] is off the bed of plotter profile grbl-servo-a4 (X 0 .. 220, Y 0 .. 310 mm)"),
+    "stop_xy off the bed": (
+        {"stop_xy": [5000, 5000]},
+        "stop_xy [5000, 5000] is off the bed of plotter profile grbl-servo-a4 (X 0 .. 220, Y 0 .. 310 mm)",
+    ),
     "stop_xy NaN": ('"stop_xy": [NaN, 1.0]', "stop_xy is [nan, 1.0], not two finite numbers (X, Y)"),
-    "stop_xy infinite": ('"stop_xy": [Infinity, 1.0]', "stop_xy is [inf, 1.0], not two finite numbers (X, Y)"),
+    "stop_xy infinite": (
+        '"stop_xy": [Infinity, 1.0]',
+        "stop_xy is [inf, 1.0], not two finite numbers (X, Y)",
+    ),
     "stop_xy text": ({"stop_xy": "here"}, "stop_xy is 'here', not two finite numbers (X, Y)"),
     "stop_xy off the bed in X": ({"stop_xy": [500, 10]}, "stop_xy [500, 10] is off the bed"),
-    "stop_work off the bed": ({"stop_work": [-50, 10], "stop_mpos": [-50, 10]}, "stop_work [-50, 10] is off the bed"),
+    "stop_work off the bed": (
+        {"stop_work": [-50, 10], "stop_mpos": [-50, 10]},
+        "stop_work [-50, 10] is off the bed",
+    ),
     "stop_mpos NaN": ('"stop_mpos": [1.0, NaN]', "stop_mpos is [1.0, nan], not two finite numbers (X, Y)"),
     "stop_work alone": ({"stop_work": [10, 10], "stop_mpos": None}, "stop_work and stop_mpos go together"),
     "next_line huge": ({"next_line": 1e9}, "next_line is 1000000000.0, not a whole number of at least 1"),
@@ -70,7 +78,9 @@ def test_a_tampered_journal_is_one_message_and_nothing_is_sent(stopped, capsys, 
     code = main(["draw", "--resume", str(journal), "--port", port, "-q"])
     err = capsys.readouterr().err
     assert code == 2, err
-    assert err.startswith(f"pencilbot: error: job journal {journal} is unreadable or was edited: {wrong}"), err
+    assert err.startswith(f"pencilbot: error: job journal {journal} is unreadable or was edited: {wrong}"), (
+        err
+    )
     assert "nothing was sent" in err and "--start-line N" in err and "--restart" in err
     assert err.count("\n") == 1 and "Traceback" not in err
     assert len(protocol_sim.plotter(name).firmware.log) == sent  # not a byte more reached the board
@@ -91,8 +101,19 @@ def test_the_untampered_journal_resumes_and_finishes(stopped, capsys):
 def test_a_stop_point_is_checked_on_the_bed_through_the_file_s_work_offset_in_x_and_y(tmp_path, capsys):
     # G92 makes work X 0 machine X 100 (Y unchanged): a stop point at work X 150 is machine
     # X 250, off the 220 mm bed, though 150 itself would be on it.
-    lines = ["G21", "G90", "M3 S30", "G4 P0.15", "G0 X100 Y20", "G92 X0 Y20", "M3 S90", "G4 P0.2",
-             *[f"G1 X{10 * i} Y{20 + (i % 2)} F3000" for i in range(1, 10)], "M3 S30", "G4 P0.15"]
+    lines = [
+        "G21",
+        "G90",
+        "M3 S30",
+        "G4 P0.15",
+        "G0 X100 Y20",
+        "G92 X0 Y20",
+        "M3 S90",
+        "G4 P0.2",
+        *[f"G1 X{10 * i} Y{20 + (i % 2)} F3000" for i in range(1, 10)],
+        "M3 S30",
+        "G4 P0.15",
+    ]
     path = tmp_path / "offset.gcode"
     path.write_text("\n".join(lines) + "\n")
     url, name = fresh("faults=error@16")

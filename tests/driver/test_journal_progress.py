@@ -94,7 +94,9 @@ def test_the_bar_shows_percent_of_plot_time_elapsed_time_and_where_the_job_is(ca
 
 
 @pytest.mark.parametrize("status", ["done", "stopped"])
-def test_the_last_record_says_the_time_since_the_start_to_the_hundredth_and_the_listener_gets_the_same(status):
+def test_the_last_record_says_the_time_since_the_start_to_the_hundredth_and_the_listener_gets_the_same(
+    status,
+):
     import time
 
     out, heard = io.StringIO(), []

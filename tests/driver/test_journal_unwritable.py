@@ -23,8 +23,9 @@ def run_until_the_journal_breaks(path, url):
     """Draw ``path`` in a thread; once it has acknowledged 10 lines, turn its journal into a folder."""
     journal = path.with_name(path.name + ".job.json")
     results = []
-    sender = threading.Thread(target=lambda: _catch(results, main, ["draw", str(path), "--port", url,
-                                                                    "--profile", PROFILE, "-q"]))
+    sender = threading.Thread(
+        target=lambda: _catch(results, main, ["draw", str(path), "--port", url, "--profile", PROFILE, "-q"])
+    )
     sender.start()
     try:
         broken = False
@@ -60,7 +61,10 @@ def test_the_stop_runs_and_the_journal_goes_to_the_state_folder(job, tmp_path, m
     assert "Stopped; pen raised" in err and "Traceback" not in err and err.count("\n") == 1, err
     moved = list((tmp_path / "state" / "pencilbot" / "jobs").iterdir())
     assert len(moved) == 1
-    assert f"The job journal could not be written at {job}.job.json (Is a directory), so it is at {moved[0]}." in err
+    assert (
+        f"The job journal could not be written at {job}.job.json (Is a directory), so it is at {moved[0]}."
+        in err
+    )
     record = json.loads(moved[0].read_text())
     assert record["status"] == "stopped" and record["stop_work"] is not None
     assert err.rstrip().endswith(f"Resume with: {record['resume']}") and str(moved[0]) in record["resume"]
@@ -68,7 +72,9 @@ def test_the_stop_runs_and_the_journal_goes_to_the_state_folder(job, tmp_path, m
     plotter.firmware.finish()
     assert not plotter.machine.pen_down
     # That journal resumes the job to its end.
-    assert main(["draw", "--resume", str(moved[0]), "--port", f"sim://{name}", "-q"]) == 0, capsys.readouterr().err
+    assert main(["draw", "--resume", str(moved[0]), "--port", f"sim://{name}", "-q"]) == 0, (
+        capsys.readouterr().err
+    )
     assert not moved[0].exists()
 
 
@@ -79,7 +85,10 @@ def test_written_nowhere_the_message_holds_the_whole_resume(job, tmp_path, monke
     assert run_until_the_journal_breaks(job, url) == [3]
     err = capsys.readouterr().err
     assert "Stopped; pen raised" in err and "Traceback" not in err and err.count("\n") == 1, err
-    assert f"The job journal could not be written at {job}.job.json (Is a directory) or at {tmp_path}/state/" in err
+    assert (
+        f"The job journal could not be written at {job}.job.json (Is a directory) or at {tmp_path}/state/"
+        in err
+    )
     assert "(Not a directory); what it would hold: the job goes on at line" in err
     command = err.rstrip().split("Resume with: ")[-1]
     line = int(command.split("--start-line ")[-1])
@@ -90,8 +99,9 @@ def test_written_nowhere_the_message_holds_the_whole_resume(job, tmp_path, monke
     # The command printed finishes the job once the folder can hold a journal again.
     (job.parent / (job.name + ".job.json") / "full").unlink()
     (job.parent / (job.name + ".job.json")).rmdir()
-    assert main(["draw", str(job), "--port", f"sim://{name}", "--start-line", str(line), "-q"]) == 0, \
+    assert main(["draw", str(job), "--port", f"sim://{name}", "--start-line", str(line), "-q"]) == 0, (
         capsys.readouterr().err
+    )
 
 
 def test_a_stop_inside_a_move_written_nowhere_gives_its_point(tmp_path, monkeypatch):
@@ -102,10 +112,21 @@ def test_a_stop_inside_a_move_written_nowhere_gives_its_point(tmp_path, monkeypa
     where = tmp_path / "plot.gcode.job.json"
     where.mkdir()
     (where / "full").write_text("")
-    journal = Journal(str(gcode), "0" * 64, "/dev/ttyUSB0", PROFILE, 40, next_line=12, stop_xy=[10.25, 7.5],
-                      status="stopped", path=where)
+    journal = Journal(
+        str(gcode),
+        "0" * 64,
+        "/dev/ttyUSB0",
+        PROFILE,
+        40,
+        next_line=12,
+        stop_xy=[10.25, 7.5],
+        status="stopped",
+        path=where,
+    )
     advice = save_stopped(journal)
     assert advice.startswith(f"The job journal could not be written at {where} (")
-    assert advice.endswith(f"what it would hold: the job goes on at line 12 of {gcode} (the pen stopped at "
-                           "X10.2500 Y7.5000 inside line 12's move, and --start-line draws that line whole). "
-                           f"Resume with: pencilbot draw {gcode} --port /dev/ttyUSB0 --start-line 12")
+    assert advice.endswith(
+        f"what it would hold: the job goes on at line 12 of {gcode} (the pen stopped at "
+        "X10.2500 Y7.5000 inside line 12's move, and --start-line draws that line whole). "
+        f"Resume with: pencilbot draw {gcode} --port /dev/ttyUSB0 --start-line 12"
+    )

@@ -40,8 +40,9 @@ def test_a_pen_change_prompt_waits_for_enter_and_a_jog_follows_the_keys(tmp_path
         keys = KeyReader(terminal)
         operator = TerminalOperator(keys, out=out)
         done = threading.Event()
-        waiter = threading.Thread(target=lambda: (operator.pause("paused: pen change: insert red"), done.set()),
-                                  daemon=True)
+        waiter = threading.Thread(
+            target=lambda: (operator.pause("paused: pen change: insert red"), done.set()), daemon=True
+        )
         waiter.start()
         os.write(master, b"p")
         assert not done.wait(0.2)  # only Enter goes on
@@ -96,6 +97,11 @@ def test_the_pause_key_holds_a_running_plot_without_timing_out_and_the_stop_key_
             keys.close()
     os.close(master)
     assert held == [True]
-    draw(path, "sim://keys1", resume=f"{path}.job.json", wake_wait=0.2,
-         operator=HandOnTheMachine(protocol_sim.plotter("keys1")))
+    draw(
+        path,
+        "sim://keys1",
+        resume=f"{path}.job.json",
+        wake_wait=0.2,
+        operator=HandOnTheMachine(protocol_sim.plotter("keys1")),
+    )
     assert_same_drawing(drawn("keys1"), drawn(reference_name))

@@ -209,5 +209,5 @@ def test_a_marlin_job_resumes_after_the_last_acknowledged_line(tmp_path):
     done = board.commands
     with MarlinBoard() as board:
         draw(path, board.path, resume=f"{path}.job.json", wake_wait=0.5, timeout=2.0)
-    rest = [clean_line(line) for line in lines][len(done):]
-    assert board.commands[-len(rest) - 1:-1] == rest and board.commands[-1] == "M400"
+    rest = [clean_line(line) for line in lines][len(done) :]
+    assert board.commands[-len(rest) - 1 : -1] == rest and board.commands[-1] == "M400"

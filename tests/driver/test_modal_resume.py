@@ -36,8 +36,12 @@ def test_tracks_units_distance_feed_and_position():
 
 @pytest.mark.parametrize(
     "pen, down, up",
-    [(SPINDLE, ["M3 S1000"], ["M5"]), (SPINDLE, ["M3 S900"], ["S10"]), (ZPEN, ["G1 Z0.5"], ["G0 Z4"]),
-     (SERVO, ["M280 P0 S35"], ["M280 P0 S80"])],
+    [
+        (SPINDLE, ["M3 S1000"], ["M5"]),
+        (SPINDLE, ["M3 S900"], ["S10"]),
+        (ZPEN, ["G1 Z0.5"], ["G0 Z4"]),
+        (SERVO, ["M280 P0 S35"], ["M280 P0 S80"]),
+    ],
 )
 def test_pen_state_follows_the_pen_model(pen, down, up):
     assert run(down, pen).pen_down
@@ -70,17 +74,22 @@ def test_dwell_units_follow_the_firmware():
 
 def test_move_time_is_distance_over_feed():
     start = ModalState(feed=600.0, motion=1)
-    assert track(["G1X30Y40"], SPINDLE, start=start, travel_feed=6000).seconds[0] == pytest.approx(5.0)  # 50 mm at 10 mm/s
+    assert track(["G1X30Y40"], SPINDLE, start=start, travel_feed=6000).seconds[0] == pytest.approx(
+        5.0
+    )  # 50 mm at 10 mm/s
     assert track(["G0X30Y40"], SPINDLE, start=start, travel_feed=6000).seconds[0] == pytest.approx(0.5)
     assert track(["G20", "G1X1"], SPINDLE, start=start).seconds[1] == pytest.approx(0.1)  # 1 in at 600 in/min
 
 
 job_words = st.lists(
     st.one_of(
-        st.builds(lambda a, v: f"{a}{v}", st.sampled_from("XYZFS"), st.floats(-300, 300).map(lambda v: round(v, 4))),
+        st.builds(
+            lambda a, v: f"{a}{v}", st.sampled_from("XYZFS"), st.floats(-300, 300).map(lambda v: round(v, 4))
+        ),
         st.sampled_from(["G0", "G1", "G4", "G20", "G21", "G90", "G91", "G92", "M3", "M5", "M280", "P0.2"]),
     ),
-    min_size=1, max_size=5,
+    min_size=1,
+    max_size=5,
 ).map("".join)
 
 
@@ -128,7 +137,9 @@ def test_preamble_then_rest_ends_like_the_whole_job(job, data):
     woken = ModalState(x=-7.0, y=3.0, spindle_on=True, s=1000.0)
     after_preamble = run(resume_preamble(before, SPINDLE), SPINDLE, woken)
     fields = ("inches", "relative", "feed", "motion", "x", "y", "pen_down")
-    assert {f: getattr(after_preamble, f) for f in fields} == pytest.approx({f: getattr(before, f) for f in fields})
+    assert {f: getattr(after_preamble, f) for f in fields} == pytest.approx(
+        {f: getattr(before, f) for f in fields}
+    )
     resumed = run(cleaned[k:], SPINDLE, after_preamble)
     assert {f: getattr(resumed, f) for f in fields} == pytest.approx({f: getattr(full, f) for f in fields})
 
@@ -188,7 +199,10 @@ def test_locate_stop_takes_the_move_drawn_with_the_pen_as_the_board_said(pen_dow
     states = job_states(CROSSING)
     assert states[5].pen_down and not states[8].pen_down
     assert locate_stop(states, len(CROSSING) - 1, (10.0, 0.0), pen_down=pen_down) == expected
-    assert locate_stop(job_states(CROSSING), len(CROSSING) - 1, (10.0, 0.0)) == (8, (10.0, 0.0))  # not known: the latest
+    assert locate_stop(job_states(CROSSING), len(CROSSING) - 1, (10.0, 0.0)) == (
+        8,
+        (10.0, 0.0),
+    )  # not known: the latest
 
 
 # --- the search window: what the firmware can hold in flight, never read past -----------------
@@ -218,7 +232,9 @@ def test_the_window_follows_the_receive_buffer_and_the_planner_depth():
         job = load_job(["G21", "G90", *moves], profile)
         last = len(job) - 1
         first = flight_start(job, last, profile.receive_buffer, profile.firmware.moves_in_flight())
-        unread = sum(1 for i in range(last + 1) if job.offsets[last + 1] - job.offsets[i] <= profile.receive_buffer)
+        unread = sum(
+            1 for i in range(last + 1) if job.offsets[last + 1] - job.offsets[i] <= profile.receive_buffer
+        )
         # Every line whose bytes can wait in the receive buffer, then the planner's moves.
         assert last - first + 1 == unread + profile.firmware.moves_in_flight()
     assert grblhal.receive_buffer > 5 * grbl.receive_buffer  # so its window is much longer

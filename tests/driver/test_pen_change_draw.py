@@ -27,7 +27,9 @@ def colour_job(tmp_path_factory):
     for k, name in enumerate(PENS):
         x = 20.0 + 40.0 * k
         lines = [np.array([[x, 50.0 + y], [x + 20.0, 50.0 + y]]) for y in np.arange(0.0, 10.0, 1.0)]
-        layers.append(Layer(f"{name}-hatch", lines, pen_width=0.5, role="hatch", pen=name, color=inks[name].color))
+        layers.append(
+            Layer(f"{name}-hatch", lines, pen_width=0.5, role="hatch", pen=name, color=inks[name].color)
+        )
     path = tmp_path_factory.mktemp("pens") / "colour.gcode"
     write_gcode(Plan(Page(150.0, 150.0, margin=10.0, name="test"), layers), load_profile(PROFILE), path)
     return path

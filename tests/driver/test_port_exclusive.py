@@ -42,8 +42,13 @@ def exclusive(fd: int) -> bool:
 def other_program_opens(path: str) -> tuple[int, str]:
     """Another program, not root, opens the port read-write: its exit code and complaint."""
     kwargs = {"user": NOBODY} if os.geteuid() == 0 else {}
-    done = subprocess.run(["/bin/sh", "-c", f"exec 3<> {path} && echo opened"], capture_output=True, text=True,
-                          timeout=30, **kwargs)
+    done = subprocess.run(
+        ["/bin/sh", "-c", f"exec 3<> {path} && echo opened"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+        **kwargs,
+    )
     return done.returncode, done.stdout + done.stderr
 
 

@@ -79,14 +79,30 @@ def test_second_draw_on_a_pty_in_use_is_one_message_and_the_first_is_exact(long_
     errors = []
     with PtyServer(plotter) as server:
         first = threading.Thread(
-            target=lambda: _catch(errors, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]))
+            target=lambda: _catch(
+                errors, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]
+            )
+        )
         first.start()
         started(plotter, first)
         other = path.with_name("another.gcode")  # another job (the same file's own journal would refuse it)
         other.write_bytes(path.read_bytes())
         second = subprocess.run(
-            [sys.executable, "-m", "pencilbot.cli", "draw", str(other), "--port", server.path, "--profile", PROFILE],
-            capture_output=True, text=True, timeout=60)
+            [
+                sys.executable,
+                "-m",
+                "pencilbot.cli",
+                "draw",
+                str(other),
+                "--port",
+                server.path,
+                "--profile",
+                PROFILE,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
         assert first.is_alive()  # the second gave up at once, not after waiting on the board
         first.join(60)
     assert second.returncode != 0 and second.stdout == ""
@@ -102,7 +118,9 @@ def test_a_port_is_free_again_once_its_job_ends(long_job):
     url, name = fresh()
     draw(lines, url, profile=PROFILE, wake_wait=0.2)
     draw(lines, f"sim://{name}", profile=PROFILE, wake_wait=0.2)  # no "in use": the first closed it
-    assert len([line for line in protocol_sim.plotter(name).firmware.accepted_lines() if line]) == 2 * len(lines)
+    assert len([line for line in protocol_sim.plotter(name).firmware.accepted_lines() if line]) == 2 * len(
+        lines
+    )
 
 
 def _catch(results, function, *args, **kwargs):

@@ -11,9 +11,15 @@ from sim.pty_server import PtyServer
 
 
 def test_ports_names_each_virtual_board(capsys):
-    boards = {name: plotter_from_options({"profile": name}) for name in ("hp7475a", "grbl-servo-a4", "grblhal-servo-a3")}
-    with PtyServer(boards["hp7475a"]) as hpgl, PtyServer(boards["grbl-servo-a4"]) as grbl, \
-            PtyServer(boards["grblhal-servo-a3"]) as grblhal:
+    boards = {
+        name: plotter_from_options({"profile": name})
+        for name in ("hp7475a", "grbl-servo-a4", "grblhal-servo-a3")
+    }
+    with (
+        PtyServer(boards["hp7475a"]) as hpgl,
+        PtyServer(boards["grbl-servo-a4"]) as grbl,
+        PtyServer(boards["grblhal-servo-a3"]) as grblhal,
+    ):
         assert main(["ports", hpgl.path, grbl.path, grblhal.path]) == 0
         out = dict(line.split("\t")[::2] for line in capsys.readouterr().out.splitlines())
         assert out[hpgl.path].startswith("HP-GL 7475A")

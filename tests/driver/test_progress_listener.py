@@ -41,7 +41,12 @@ def test_records_say_which_line_the_machine_runs_and_where(tmp_path):
     gcode = tmp_path / "zigzag.gcode"
     api.export_gcode(zigzag_plan(), PROFILE, gcode)
     records = []
-    api.draw(gcode, f"sim://listener-records?profile={PROFILE}&realtime=200", profile=PROFILE, on_progress=records.append)
+    api.draw(
+        gcode,
+        f"sim://listener-records?profile={PROFILE}&realtime=200",
+        profile=PROFILE,
+        on_progress=records.append,
+    )
     assert records[-1]["event"] == "done"
     moving = [r for r in records if r["event"] == "progress" and r.get("running") is not None]
     assert len(moving) >= 2
@@ -97,7 +102,9 @@ def test_the_stop_key_stops_a_plot_whose_machine_trails(tmp_path):
             return ["stop"] if time.monotonic() - self.started > 1.0 else []
 
     with pytest.raises(PlotError, match="stopped by the stop key.*pen raised"):
-        api.draw(gcode, f"sim://listener-stop?profile={PROFILE}&realtime=20", profile=PROFILE, keys=StopSoon())
+        api.draw(
+            gcode, f"sim://listener-stop?profile={PROFILE}&realtime=20", profile=PROFILE, keys=StopSoon()
+        )
 
 
 def test_a_job_started_from_a_later_line_counts_its_plot_time_from_that_line(tmp_path):
@@ -108,9 +115,20 @@ def test_a_job_started_from_a_later_line_counts_its_plot_time_from_that_line(tmp
     job = load_job(gcode, load_profile(PROFILE))
     start = len(job) // 2
     records = []
-    api.draw(gcode, f"sim://listener-start?profile={PROFILE}", profile=PROFILE, start_line=job.number(start),
-             on_progress=records.append)
-    before, left = job.seconds_after(start - 1), job.seconds_after(len(job) - 1) - job.seconds_after(start - 1)
-    shares = [(r["percent"], 100.0 * (job.seconds_after(start + r["line"] - 1) - before) / left)
-              for r in records if r["event"] == "progress"]
+    api.draw(
+        gcode,
+        f"sim://listener-start?profile={PROFILE}",
+        profile=PROFILE,
+        start_line=job.number(start),
+        on_progress=records.append,
+    )
+    before, left = (
+        job.seconds_after(start - 1),
+        job.seconds_after(len(job) - 1) - job.seconds_after(start - 1),
+    )
+    shares = [
+        (r["percent"], 100.0 * (job.seconds_after(start + r["line"] - 1) - before) / left)
+        for r in records
+        if r["event"] == "progress"
+    ]
     assert len(shares) >= 2 and all(abs(got - want) <= 0.005 for got, want in shares), shares

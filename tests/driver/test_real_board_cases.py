@@ -41,9 +41,16 @@ def board_lines():
     """Board lines (1-based, after the wake-up) where the faults strike: the pen-down command
     after a travel (the travel queued: pen up), and the fifth move of a long stroke (pen down)."""
     commands = [c for c in (clean_line(line) for line in plan_lines(PROFILE)) if c]
-    up = next(i for i in range(1, len(commands)) if commands[i - 1].startswith("G0") and i > len(commands) // 3)
-    starts = [i for i in range(len(commands) - 8) if commands[i].startswith("G4")
-              and all(c.startswith("G1") for c in commands[i + 1 : i + 8]) and i > len(commands) // 2]
+    up = next(
+        i for i in range(1, len(commands)) if commands[i - 1].startswith("G0") and i > len(commands) // 3
+    )
+    starts = [
+        i
+        for i in range(len(commands) - 8)
+        if commands[i].startswith("G4")
+        and all(c.startswith("G1") for c in commands[i + 1 : i + 8])
+        and i > len(commands) // 2
+    ]
     return {"pen up": WAKE_LINES + up + 1, "pen down": WAKE_LINES + starts[0] + 5 + 1}
 
 
@@ -72,13 +79,20 @@ def resume_twice(path, port, plotter):
 
 
 @pytest.mark.parametrize("fault, pen", CASES)
-def test_over_sim_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_exactly(tmp_path, reference,
-                                                                                      fault, pen):
+def test_over_sim_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_exactly(
+    tmp_path, reference, fault, pen
+):
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(plan_lines(PROFILE)) + "\n")
     name = f"real{next(_names)}"
     with pytest.raises(PlotError, match="Resume with"):
-        draw(path, f"sim://{name}?{BOARD}&faults={fault}@{AT[pen]}", profile=PROFILE, wake_wait=0.2, timeout=0.5)
+        draw(
+            path,
+            f"sim://{name}?{BOARD}&faults={fault}@{AT[pen]}",
+            profile=PROFILE,
+            wake_wait=0.2,
+            timeout=0.5,
+        )
     plotter = protocol_sim.plotter(name)
     plotter.firmware.faults.at.clear()
     # A board whose port does not reset it (a pty, a USB adapter without DTR wired).
@@ -87,12 +101,14 @@ def test_over_sim_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_ex
 
 
 @pytest.mark.parametrize("fault, pen", CASES)
-def test_over_a_pty_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_exactly(tmp_path, reference,
-                                                                                       fault, pen):
+def test_over_a_pty_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_exactly(
+    tmp_path, reference, fault, pen
+):
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(plan_lines(PROFILE)) + "\n")
-    plotter = VirtualPlotter(load_profile(PROFILE), faults=Faults.parse(f"{fault}@{AT[pen]}"), power="zero",
-                             abort="keep")
+    plotter = VirtualPlotter(
+        load_profile(PROFILE), faults=Faults.parse(f"{fault}@{AT[pen]}"), power="zero", abort="keep"
+    )
     with PtyServer(plotter, reset_on_open=False) as server:
         with pytest.raises(PlotError, match="Resume with"):
             draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=0.5)

@@ -40,7 +40,9 @@ def stream_to_held_board(lines: list[str]):
     port = open_port(f"sim://{name}")
     seen = []
     try:
-        stream = Stream(LineReader(port), profile.firmware, receive_buffer=profile.receive_buffer, timeout=5.0)
+        stream = Stream(
+            LineReader(port), profile.firmware, receive_buffer=profile.receive_buffer, timeout=5.0
+        )
         stream.wake(0.2)
         stream.link.write(profile.firmware.feed_hold)  # the machine's hold button, before the job
         firmware = protocol_sim.plotter(name).firmware

@@ -69,8 +69,12 @@ def overlapping(strokes):
     """(stroke, segment) of a segment that a collinear segment elsewhere in ``strokes`` overlaps."""
     from segments import _lying_on
 
-    where = [(k, s) for k, stroke in enumerate(strokes) for s in range(len(stroke) - 1)
-             if np.linalg.norm(stroke[s + 1, :2] - stroke[s, :2]) > 1e-3]
+    where = [
+        (k, s)
+        for k, stroke in enumerate(strokes)
+        for s in range(len(stroke) - 1)
+        if np.linalg.norm(stroke[s + 1, :2] - stroke[s, :2]) > 1e-3
+    ]
     flat = np.array([[strokes[k][s, :2], strokes[k][s + 1, :2]] for k, s in where])
     i, j, _ = _lying_on(flat, flat, 1e-3, touch=False)
     return [where[n] for n in i[i != j]]
@@ -78,7 +82,9 @@ def overlapping(strokes):
 
 def test_a_real_plot_is_the_same_as_itself_and_as_its_real_time_run(real):
     instant, realtime = real
-    assert sum(len(s) - 1 for s in instant) > 400 and max(len(s) for s in instant) > 10  # a real, multi-segment plan
+    assert (
+        sum(len(s) - 1 for s in instant) > 400 and max(len(s) for s in instant) > 10
+    )  # a real, multi-segment plan
     assert drawing_differences(instant, instant) == []
     assert drawing_differences(realtime, instant) == []
     assert drawing_differences(instant, realtime) == []
@@ -90,7 +96,7 @@ def test_a_real_plot_passes_some_points_twice_and_each_pass_counts(real):
     assert twice  # the plan draws collinear segments over each other
     k, s = twice[0]
     # Leave out that one segment: the stretch drawn twice by the reference is drawn once.
-    cut = [*instant[:k], instant[k][: s + 1], instant[k][s + 1:], *instant[k + 1:]]
+    cut = [*instant[:k], instant[k][: s + 1], instant[k][s + 1 :], *instant[k + 1 :]]
     problems = drawing_differences(cut, instant)
     assert any("missing (reference: 2, drawn: 1)" in p for p in problems), problems
     assert all("missing" in p for p in problems), problems
@@ -102,7 +108,7 @@ def test_a_real_plot_with_one_stroke_changed_is_caught(real, which):
     k = which % len(instant)
     stroke = instant[k]
     assert any("drawn 2 times" in p for p in drawing_differences([*instant, stroke], instant))
-    assert any("missing" in p for p in drawing_differences([*instant[:k], *instant[k + 1:]], instant))
+    assert any("missing" in p for p in drawing_differences([*instant[:k], *instant[k + 1 :]], instant))
     moved = [s + (0.002, 0.0) if n == k else s for n, s in enumerate(instant)]
     assert drawing_differences(moved, instant)
     across = [s + (0.0, 0.002) if n == k else s for n, s in enumerate(instant)]
@@ -114,11 +120,20 @@ def test_a_real_stroke_split_where_the_resume_splits_it_is_the_same_but_a_gap_is
     k = max(range(len(instant)), key=lambda n: len(instant[n]))
     stroke = instant[k]
     at = stroke[4] + 0.37 * (stroke[5] - stroke[4])
-    split = [*instant[:k], np.vstack([stroke[:5], at]), np.vstack([at, stroke[5:]]), *instant[k + 1:]]
+    split = [*instant[:k], np.vstack([stroke[:5], at]), np.vstack([at, stroke[5:]]), *instant[k + 1 :]]
     assert drawing_differences(split, instant) == []
     unit = (stroke[5] - stroke[4]) / np.linalg.norm(stroke[5] - stroke[4])
-    gap = [*instant[:k], np.vstack([stroke[:5], at]), np.vstack([at + 0.002 * unit, stroke[5:]]), *instant[k + 1:]]
+    gap = [
+        *instant[:k],
+        np.vstack([stroke[:5], at]),
+        np.vstack([at + 0.002 * unit, stroke[5:]]),
+        *instant[k + 1 :],
+    ]
     assert any("0.0020 mm" in p and "missing" in p for p in drawing_differences(gap, instant))
-    overlap = [*instant[:k], np.vstack([stroke[:5], at]), np.vstack([at - 0.002 * unit, stroke[5:]]),
-               *instant[k + 1:]]
+    overlap = [
+        *instant[:k],
+        np.vstack([stroke[:5], at]),
+        np.vstack([at - 0.002 * unit, stroke[5:]]),
+        *instant[k + 1 :],
+    ]
     assert any("drawn 2 times" in p for p in drawing_differences(overlap, instant))

@@ -35,11 +35,14 @@ def states_of(lines):
     return track([clean_line(line) for line in lines], SPINDLE)
 
 
-@pytest.mark.parametrize("position, expected", [
-    ((19.999, 0.0), (5, (19.999, 0.0))),  # a digit short of the corner: the last micrometre is to draw
-    ((20.0, 0.0005), (6, None)),  # within a report's rounding of the corner: at it
-    ((20.0, 0.001), (6, (20.0, 0.001))),  # a digit up the next move: inside it
-])
+@pytest.mark.parametrize(
+    "position, expected",
+    [
+        ((19.999, 0.0), (5, (19.999, 0.0))),  # a digit short of the corner: the last micrometre is to draw
+        ((20.0, 0.0005), (6, None)),  # within a report's rounding of the corner: at it
+        ((20.0, 0.001), (6, (20.0, 0.001))),  # a digit up the next move: inside it
+    ],
+)
 def test_a_reported_point_a_digit_from_a_corner_is_inside_the_move_not_at_the_corner(position, expected):
     assert REPORT_ROUNDING < 0.001
     assert locate_stop(states_of(JOB), len(JOB) - 1, position) == expected
@@ -51,14 +54,18 @@ def locator():
     return StopLocator(load_job(JOB, profile), profile)
 
 
-@pytest.mark.parametrize("here, expected", [
-    ((21.0, 0.0), (6, None)),  # ran on past the corner: the stroke's first move was drawn
-    ((20.0, 0.0), (6, None)),  # came to rest at the corner
-    ((18.0, 0.0), (5, (18.0, 0.0))),  # stopped inside the move, past the count
-    ((15.0, 3.0), None),  # not straight on from the count: the hand alone must say
-])
-def test_a_carriage_that_coasted_on_from_its_count_finished_the_move_if_it_ran_past_the_end(locator, here,
-                                                                                           expected):
+@pytest.mark.parametrize(
+    "here, expected",
+    [
+        ((21.0, 0.0), (6, None)),  # ran on past the corner: the stroke's first move was drawn
+        ((20.0, 0.0), (6, None)),  # came to rest at the corner
+        ((18.0, 0.0), (5, (18.0, 0.0))),  # stopped inside the move, past the count
+        ((15.0, 3.0), None),  # not straight on from the count: the hand alone must say
+    ],
+)
+def test_a_carriage_that_coasted_on_from_its_count_finished_the_move_if_it_ran_past_the_end(
+    locator, here, expected
+):
     at = locator.locate(len(JOB) - 1, (15.0, 0.0), answered=-1)  # the count: inside G1X20Y0
     assert at == (5, (15.0, 0.0))
     assert locator.coasted(at, (15.0, 0.0), here, tolerance=0.001) == expected
@@ -81,7 +88,9 @@ def _stop_and_resume(profile: str, spec: str, send_and_wait: bool, tmp_path) -> 
         draw(path, f"sim://{name}", resume=journal, timeout=2.0, **options)
     except PlotError as exc:
         assert "position cannot be trusted" in str(exc)
-        draw(path, f"sim://{name}", resume=journal, timeout=2.0, operator=HandOnTheMachine(plotter), **options)
+        draw(
+            path, f"sim://{name}", resume=journal, timeout=2.0, operator=HandOnTheMachine(plotter), **options
+        )
     return name
 
 
@@ -98,7 +107,8 @@ def reference(profile: str):
 
 @pytest.mark.parametrize("kind", ["alarm", "abort"])
 def test_a_reset_or_alarm_that_lets_the_carriage_coast_past_a_corner_redraws_nothing_and_misses_nothing(
-        tmp_path, kind):
+    tmp_path, kind
+):
     # Board line 339 of the real plan arrives while the machine runs a stroke's move to a corner
     # whose next move goes on almost straight: the carriage coasts past the corner to a point
     # within a micrometre of the next move's line. (Before: the resume took that point as inside
@@ -118,10 +128,16 @@ def test_a_stop_a_micrometre_short_of_a_corner_draws_that_micrometre_on_resume(t
     assert_same_drawing(drawn(name), reference(profile))
 
 
-@pytest.mark.parametrize("back, expected", [
-    ("G1X10Y1", 6),  # a sharp corner: the point lies on the move back, 4 µm from the corner
-    ("G1X10Y-1", 5),  # straight back over itself: nothing tells the passes apart; the first (nothing missing)
-])
+@pytest.mark.parametrize(
+    "back, expected",
+    [
+        ("G1X10Y1", 6),  # a sharp corner: the point lies on the move back, 4 µm from the corner
+        (
+            "G1X10Y-1",
+            5,
+        ),  # straight back over itself: nothing tells the passes apart; the first (nothing missing)
+    ],
+)
 def test_a_point_near_a_sharp_corner_is_on_the_move_it_lies_nearer_to(back, expected):
     lines = ["G21", "G90", "M3S30", "G0X10Y-1", "M3S90", "G1X20Y0F600", back, "M3S30", "G0X0Y0"]
     states = states_of(lines)

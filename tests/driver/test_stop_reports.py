@@ -33,7 +33,9 @@ def test_a_refused_line_the_board_ran_past_is_named_and_the_resume_continues_aft
     message = str(stop.value)
     assert f"(line {refused + 1} never ran; the lines the plotter had already taken after it did" in message
     assert json.loads((tmp_path / "plot.gcode.job.json").read_text())["next_line"] > refused + 2
-    assert "pen raised" in message and "cannot prove where the pen stopped" not in message  # a hold at rest: proven
+    assert (
+        "pen raised" in message and "cannot prove where the pen stopped" not in message
+    )  # a hold at rest: proven
 
 
 def test_a_stop_that_cannot_prove_the_position_says_so(tmp_path):
@@ -43,8 +45,10 @@ def test_a_stop_that_cannot_prove_the_position_says_so(tmp_path):
     url, _name = fresh(f"{TICK}&faults=reset@{WAKE_LINES + 30}")  # the board restarts mid-job
     with pytest.raises(PlotError) as stop:
         draw(path, url, profile=PROFILE, wake_wait=0.2, timeout=0.5)
-    assert "The plotter cannot prove where the pen stopped, so the resume re-establishes its position first" in str(
-        stop.value)
+    assert (
+        "The plotter cannot prove where the pen stopped, so the resume re-establishes its position first"
+        in str(stop.value)
+    )
 
 
 def test_a_resume_without_anyone_at_the_machine_does_not_ask_for_the_pen(tmp_path):
@@ -112,7 +116,9 @@ class DoubleTapAtSpeed(DoubleTap):
         return super().poll()
 
 
-@pytest.mark.parametrize("tap", [DoubleTap, DoubleTapAtSpeed], ids=["before the hold is reported", "while it slows"])
+@pytest.mark.parametrize(
+    "tap", [DoubleTap, DoubleTapAtSpeed], ids=["before the hold is reported", "while it slows"]
+)
 def test_a_second_press_of_the_pause_key_resumes_the_plot(tmp_path, tap):
     # Before the board reports the hold; or while the hold still slows the machine, when GRBL
     # drops the cycle start and the driver sends it again once the board stands.
@@ -121,5 +127,6 @@ def test_a_second_press_of_the_pause_key_resumes_the_plot(tmp_path, tap):
     keys = tap(name, WAKE_LINES + 30)
     draw(lines, url, profile=PROFILE, wake_wait=0.2, timeout=0.5, keys=keys)
     assert keys.tapped and not keys.stopped
-    assert [line for line in accepted(name) if not re.match(r"^\$", line)][-len(lines):] == \
-        [line.replace(" ", "").split(";")[0] for line in lines]
+    assert [line for line in accepted(name) if not re.match(r"^\$", line)][-len(lines) :] == [
+        line.replace(" ", "").split(";")[0] for line in lines
+    ]

@@ -43,8 +43,12 @@ def test_a_signal_stops_with_the_pen_up_and_the_resume_is_exact(tmp_path, family
     # A different moment for each signal: four places of the job per family.
     moment = moments(family, len(SIGNALS))[list(SIGNALS).index(signame)]
     outcome = run(family, signame, moment, tmp_path, f"signals{next(_names)}")
-    assert (outcome.stopped, outcome.pen_up, outcome.journal_stopped, outcome.exact) == (True, True, True, True), \
-        outcome.detail
+    assert (outcome.stopped, outcome.pen_up, outcome.journal_stopped, outcome.exact) == (
+        True,
+        True,
+        True,
+        True,
+    ), outcome.detail
 
 
 @pytest.mark.parametrize("firmware", ["ebb", "ebb-2.8.1"])
@@ -62,8 +66,11 @@ def test_under_nohup_a_closed_terminal_does_not_stop_the_plot(tmp_path):
     signal.signal(signal.SIGHUP, signal.SIG_IGN)  # as nohup starts a process
     name = f"signals{next(_names)}"
     at = signal_cases.inside_a_move("ebb", 1)[0]
-    draw(list(signal_cases.plan_lines("axidraw-v3")), f"sim://{name}?profile=axidraw-v3&faults=interrupt@{at}:1",
-         profile="axidraw-v3")
+    draw(
+        list(signal_cases.plan_lines("axidraw-v3")),
+        f"sim://{name}?profile=axidraw-v3&faults=interrupt@{at}:1",
+        profile="axidraw-v3",
+    )
     assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN  # left as it was
     assert signal_cases.drawing_differences(signal_cases._drawn("ebb", name), strokes, 0.0125) == []
     protocol_sim.forget(name)

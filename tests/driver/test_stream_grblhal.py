@@ -1,7 +1,6 @@
 """A third firmware, grblHAL, end to end: a drawing streamed to the virtual plotter speaking
 grblHAL's dialect, its 1024-byte buffer filled by character counting, and every fault recovered."""
 
-
 import pytest
 from test_stream_sim import accepted, assert_same_drawing, drawing, drawn, fresh, resume
 

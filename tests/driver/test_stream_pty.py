@@ -76,8 +76,19 @@ def test_a_hold_from_the_machine_shows_paused_and_waits_past_the_timeout_for_its
             os.close(fd)
 
         threading.Thread(target=press_cycle_start_on_the_machine, daemon=True).start()
-        code = main(["draw", str(path), "--port", server.path, "--profile", PROFILE, "--json-lines",
-                     "--timeout", "0.5"])
+        code = main(
+            [
+                "draw",
+                str(path),
+                "--port",
+                server.path,
+                "--profile",
+                PROFILE,
+                "--json-lines",
+                "--timeout",
+                "0.5",
+            ]
+        )
     assert code == 0
     assert accepted(plotter) == lines
     records = [json.loads(line) for line in capsys.readouterr().out.splitlines()]

@@ -160,8 +160,9 @@ def resume(path, name):
     plotter = protocol_sim.plotter(name)
     plotter.firmware.faults.at.clear()  # the glitch is over
     plotter.firmware.silent = False
-    return draw(path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2,
-                operator=HandOnTheMachine(plotter))
+    return draw(
+        path, f"sim://{name}", resume=f"{path}.job.json", wake_wait=0.2, operator=HandOnTheMachine(plotter)
+    )
 
 
 @pytest.mark.parametrize("kind", ["error", "alarm", "reset", "silent", "drop"])
@@ -196,7 +197,9 @@ def test_ctrl_c_holds_lifts_the_pen_and_says_how_to_resume(job, reference):
         _thread.interrupt_main()  # what a Ctrl-C in the terminal does to the main thread
 
     threading.Thread(target=press_ctrl_c, daemon=True).start()
-    with pytest.raises(PlotError, match=r"stopped by Ctrl-C at line \d+ .*pen raised.*Resume with: pencilbot draw --resume"):
+    with pytest.raises(
+        PlotError, match=r"stopped by Ctrl-C at line \d+ .*pen raised.*Resume with: pencilbot draw --resume"
+    ):
         draw(path, url, profile=PROFILE, wake_wait=0.2)
     assert not protocol_sim.plotter(name).machine.pen_down
     resume(path, name)
@@ -209,7 +212,7 @@ def test_start_line_restores_state_and_sends_only_the_rest(job):
     start = 20  # file line 20 lies inside a stroke: the pen must travel up, then go down
     draw(path, url, profile=PROFILE, start_line=start, wake_wait=0.2)
     got = accepted(name)
-    assert got[-(len(lines) - start + 1):] == lines[start - 1:]
+    assert got[-(len(lines) - start + 1) :] == lines[start - 1 :]
     preamble = got[: len(got) - (len(lines) - start + 1)]
     assert preamble[:4] == ["G21", "G90", "M3S30", "G4P0.15"]  # the pen is up before it travels
     assert preamble[-3:-1] == ["M3S90", "G4P0.2"]  # and down before it draws
@@ -230,7 +233,7 @@ def test_check_mode_then_draw(job):
     path, lines = job
     url, name = fresh()
     draw(path, url, profile=PROFILE, check=True, wake_wait=0.2)
-    assert accepted(name)[-len(lines):] == lines
+    assert accepted(name)[-len(lines) :] == lines
     assert protocol_sim.plotter(name).machine.strokes
 
 
@@ -260,8 +263,13 @@ def test_check_mode_names_the_line_that_leaves_the_bed(tmp_path):
     path.write_text("\n".join(lines) + "\n")
     url, name = fresh(f"limits=bed&profile={PROFILE}")  # a board with homing and soft limits: the shipped bed
     mine = tmp_path / "wide.toml"  # a profile whose bed takes the move, on a board whose limits do not
-    mine.write_text((config_folder("plotters") / f"{PROFILE}.toml").read_text().replace("width = 220.0", "width = 1000.0"))
-    with pytest.raises(PlotError, match=r"check mode \(\$C\) stopped at line 13 of .*'G1X900Y10F3000'.*ALARM:2.*nothing was drawn"):
+    mine.write_text(
+        (config_folder("plotters") / f"{PROFILE}.toml").read_text().replace("width = 220.0", "width = 1000.0")
+    )
+    with pytest.raises(
+        PlotError,
+        match=r"check mode \(\$C\) stopped at line 13 of .*'G1X900Y10F3000'.*ALARM:2.*nothing was drawn",
+    ):
         draw(path, url, profile=str(mine), check=True, wake_wait=0.2)
     assert protocol_sim.plotter(name).machine.strokes == []
 
@@ -306,7 +314,7 @@ def test_alarm_lock_at_start_needs_unlock(job, tmp_path):
     with pytest.raises(PlotError, match="alarm lock.*--unlock"):
         draw(path, f"sim://{name}?reset=0", profile=PROFILE, wake_wait=0.2)
     draw(path, f"sim://{name}?reset=0", profile=PROFILE, wake_wait=0.2, unlock=True)
-    assert accepted(name)[-len(lines):] == lines
+    assert accepted(name)[-len(lines) :] == lines
 
 
 def test_on_error_continue_reports_rejected_lines(tmp_path):
@@ -322,7 +330,10 @@ def test_on_error_continue_reports_rejected_lines(tmp_path):
 
 move = st.builds(
     lambda x, y, d, g: f"G{g} X{x:.{d}f} Y{y:.{d}f}" + (" F3000" if g == 1 else ""),
-    st.floats(5, 200), st.floats(5, 300), st.integers(0, 5), st.sampled_from([0, 1]),
+    st.floats(5, 200),
+    st.floats(5, 300),
+    st.integers(0, 5),
+    st.sampled_from([0, 1]),
 )
 
 

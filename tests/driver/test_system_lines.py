@@ -40,22 +40,31 @@ def run_cli(capsys, tmp_path, command, lines, *extra):
     return code, captured.err, name, path
 
 
-@pytest.mark.parametrize("jog, where", [
-    ("$J=G53 X900 Y900 F3000", "X 900.000 Y 900.000"),
-    ("$J=G91 X500 F3000", "X 510.000 Y 10.000"),
-    ("$J=G20 X10 Y1 F100", "X 254.000 Y 25.400"),
-])
+@pytest.mark.parametrize(
+    "jog, where",
+    [
+        ("$J=G53 X900 Y900 F3000", "X 900.000 Y 900.000"),
+        ("$J=G91 X500 F3000", "X 510.000 Y 10.000"),
+        ("$J=G20 X10 Y1 F100", "X 254.000 Y 25.400"),
+    ],
+)
 def test_a_jog_off_the_bed_is_refused_by_line_and_nothing_is_sent(capsys, tmp_path, jog, where):
     lines = ["G21", "G90", "G0 X10 Y10", jog, "G0 X20 Y20"]
     code, err, name, path = run_cli(capsys, tmp_path, "draw", lines)
     assert code == 2 and err.startswith(
-        f"pencilbot: error: line 4 of {path} ({jog.replace(' ', '')!r}) moves to {where} mm, off the bed"), err
+        f"pencilbot: error: line 4 of {path} ({jog.replace(' ', '')!r}) moves to {where} mm, off the bed"
+    ), err
     assert err.count("\n") == 1 and name not in protocol_sim._PLOTTERS
 
 
 @settings(max_examples=60, deadline=None)
-@given(x=st.floats(-50, 300), y=st.floats(-50, 400), relative=st.booleans(), machine=st.booleans(),
-       inches=st.booleans())
+@given(
+    x=st.floats(-50, 300),
+    y=st.floats(-50, 400),
+    relative=st.booleans(),
+    machine=st.booleans(),
+    inches=st.booleans(),
+)
 def test_the_bed_check_follows_a_jog_as_grbl_moves_it_and_the_job_modes_stay(x, y, relative, machine, inches):
     modes = ("G53" if machine else "G91" if relative else "G90") + ("G20" if inches else "")
     before = (10.0, 20.0)
@@ -75,15 +84,29 @@ def test_the_bed_check_follows_a_jog_as_grbl_moves_it_and_the_job_modes_stay(x, 
     assert np.allclose(after.position_mm()[:2], [1.0, target[1]], atol=1e-6)
 
 
-@pytest.mark.parametrize("line, name", [
-    ("$N0=G0X5", "$N0"), ("$100=250", "$100"), ("$3=1", "$3"), ("$130=10", "$130"), ("$SLP", "$SLP"),
-    ("$C", "$C"), ("$RST=*", "$RST"), ("$H", "$H"), ("$X", "$X"), ("$$", "$$"), ("$#", "$#"),
-])
+@pytest.mark.parametrize(
+    "line, name",
+    [
+        ("$N0=G0X5", "$N0"),
+        ("$100=250", "$100"),
+        ("$3=1", "$3"),
+        ("$130=10", "$130"),
+        ("$SLP", "$SLP"),
+        ("$C", "$C"),
+        ("$RST=*", "$RST"),
+        ("$H", "$H"),
+        ("$X", "$X"),
+        ("$$", "$$"),
+        ("$#", "$#"),
+    ],
+)
 @pytest.mark.parametrize("command", ["draw", "simulate", "stat"])
 def test_a_system_command_is_refused_by_line_unless_named(capsys, tmp_path, command, line, name):
     lines = ["G21", "G90", "M3 S30", line, "M3 S90", "G1 X10 Y10 F1000", "M3 S30"]
     code, err, plotter, path = run_cli(capsys, tmp_path, command, lines)
-    assert code == 2 and err.startswith(f"pencilbot: error: line 4 of {path} ({line!r}) is a system command"), err
+    assert code == 2 and err.startswith(
+        f"pencilbot: error: line 4 of {path} ({line!r}) is a system command"
+    ), err
     assert f"--allow-system-commands '{name}'" in err and err.count("\n") == 1
     assert plotter not in protocol_sim._PLOTTERS and not (tmp_path / "out.png").exists()
 
@@ -96,7 +119,9 @@ def test_check_mode_when_allowed_is_said_and_draws_nothing_after_it(capsys, capl
     path.write_text("\n".join(lines) + "\n")
     code = main(["stat", str(path), "--profile", PROFILE, "--allow-system-commands", "$C", "--json"])
     assert code == 0 and "check mode" in caplog.text
-    assert json.loads(capsys.readouterr().out)["total"]["pen_down_mm"] == pytest.approx(5.0)  # the X5 before $C only
+    assert json.loads(capsys.readouterr().out)["total"]["pen_down_mm"] == pytest.approx(
+        5.0
+    )  # the X5 before $C only
     only_check = ["G21", "$C", "M3 S90", "G1 X10 Y10 F1000", "M3 S30"]
     code, err, _, path = run_cli(capsys, tmp_path, "stat", only_check, "--allow-system-commands", "C")
     assert code == 2 and err.startswith(f"pencilbot: error: {path} draws nothing: line 2"), err
@@ -109,7 +134,9 @@ def test_sleep_when_allowed_must_be_last_and_ends_the_job(capsys, caplog, tmp_pa
         load_job(["G21", "$SLP", "G0 X1"], GRBL, allow=allowed_names("$SLP"))
     lines = ["G21", "M3 S90", "G1 X10 Y10 F1000", "M3 S30", "$SLP"]
     # Asleep, the board answers status reports and nothing else: the job is over, not waiting.
-    code, err, name, _ = run_cli(capsys, tmp_path, "draw", lines, "--allow-system-commands", "$SLP", "--timeout", "5")
+    code, err, name, _ = run_cli(
+        capsys, tmp_path, "draw", lines, "--allow-system-commands", "$SLP", "--timeout", "5"
+    )
     assert code == 0 and "puts the board to sleep" in caplog.text, err
     assert len(protocol_sim.plotter(name).machine.drawn()) == 1
 
@@ -117,14 +144,25 @@ def test_sleep_when_allowed_must_be_last_and_ends_the_job(capsys, caplog, tmp_pa
 def test_names_are_read_as_a_person_writes_them():
     assert allowed_names("$H,$C") == {"$H", "$C"}
     assert allowed_names("h c $100= $n0") == {"$H", "$C", "$100", "$N0"}
-    assert command_name("$RST=*") == "$RST" and command_name("$J=G91X1F1") is None and command_name("$$") == "$$"
+    assert (
+        command_name("$RST=*") == "$RST" and command_name("$J=G91X1F1") is None and command_name("$$") == "$$"
+    )
     assert command_name("$N0=G0X5") == "$N0" and command_name("G0X1") is None
 
 
 def test_a_jog_on_the_bed_is_drawn_around_as_grbl_runs_it(capsys, tmp_path):
     # GRBL refuses G-code while it jogs (error:9): the sender waits the jog out, then goes on
     # from where it ended.
-    lines = ["G21", "G90", "M3 S30", "G0 X10 Y10", "$J=G91 X30 Y5 F3000", "M3 S90", "G91 G1 X10 F1000", "M3 S30"]
+    lines = [
+        "G21",
+        "G90",
+        "M3 S30",
+        "G0 X10 Y10",
+        "$J=G91 X30 Y5 F3000",
+        "M3 S90",
+        "G91 G1 X10 F1000",
+        "M3 S30",
+    ]
     code, err, name, _ = run_cli(capsys, tmp_path, "draw", lines)
     assert code == 0, err
     (stroke,) = protocol_sim.plotter(name).machine.drawn()

@@ -129,7 +129,7 @@ def check_program(plan: Plan, profile) -> Reading:
     assert reading.pen_ups == len(expected) + 1  # one before the first move, one after each path
     assert len(reading.strokes) == len(expected)
     placement = Placement.on_bed(plan.page, profile.bed)
-    tolerance = 0.5 * 10.0 ** -profile.gcode.decimals + 1e-9
+    tolerance = 0.5 * 10.0**-profile.gcode.decimals + 1e-9
     for got, (machine, page_points) in zip(reading.strokes, expected):
         np.testing.assert_allclose(got, machine + 0.0, atol=1e-9)
         np.testing.assert_allclose(placement.to_page(got), page_points, atol=tolerance, rtol=0)
@@ -282,8 +282,10 @@ def test_a_sheet_that_only_fits_turned_is_turned():
 @settings(max_examples=80, deadline=None)
 @given(
     st.sampled_from(["bottom-left", "top-left", "bottom-right", "top-right"]),
-    st.booleans(), st.booleans(),
-    st.floats(50, 400), st.floats(50, 400),
+    st.booleans(),
+    st.booleans(),
+    st.floats(50, 400),
+    st.floats(50, 400),
     st.lists(st.tuples(st.floats(0, 1), st.floats(0, 1)), min_size=1, max_size=20),
 )
 def test_machine_mapping_inverts_and_stays_on_the_bed(origin, ix, iy, width, height, unit_points):
@@ -297,8 +299,12 @@ def test_machine_mapping_inverts_and_stays_on_the_bed(origin, ix, iy, width, hei
     assert (machine[:, 0] >= x0 - 1e-9).all() and (machine[:, 0] <= x1 + 1e-9).all()
     assert (machine[:, 1] >= y0 - 1e-9).all() and (machine[:, 1] <= y1 + 1e-9).all()
     # mirror images are a wiring fault, not a placement: orientation is kept (det > 0 up to signs)
-    signs = (-1 if ix else 1) * (-1 if iy else 1) * (-1 if origin.endswith("right") else 1) * (
-        -1 if origin.startswith("top") else 1)
+    signs = (
+        (-1 if ix else 1)
+        * (-1 if iy else 1)
+        * (-1 if origin.endswith("right") else 1)
+        * (-1 if origin.startswith("top") else 1)
+    )
     e = placement.to_machine(np.array([[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]]))
     det = np.linalg.det(np.array([e[1] - e[0], e[2] - e[0]]))
     assert np.sign(det) == signs
@@ -394,8 +400,12 @@ def test_virtual_grbl_accepts_every_line_and_draws_the_plan(name):
 @pytest.mark.parametrize(("travel", "draw"), [(600, 12000.25), (7200, 3000), (1e4, 1)])
 def test_feeds_of_any_length_are_written_whole(travel, draw):
     marlin = load_profile("marlin-servo-a4")
-    profile = dataclasses.replace(marlin, motion=dataclasses.replace(marlin.motion, travel_feed=travel, draw_feed=draw))
-    reading = check_program(plan_of([np.array([[20.0, 20], [30, 30]]), np.array([[40.0, 40], [50, 50]])]), profile)
+    profile = dataclasses.replace(
+        marlin, motion=dataclasses.replace(marlin.motion, travel_feed=travel, draw_feed=draw)
+    )
+    reading = check_program(
+        plan_of([np.array([[20.0, 20], [30, 30]]), np.array([[40.0, 40], [50, 50]])]), profile
+    )
     assert reading.feeds_written == [travel, draw, travel, draw, travel]
 
 

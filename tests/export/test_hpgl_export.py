@@ -19,8 +19,17 @@ A4 = Page(297, 210, margin=0.0, name="A4")
 
 
 def _layer(name, pen, x, color="#000000"):
-    return Layer(name, Paths.of([np.array([[x, 40.0], [x + 30.0, 60.0], [x + 31.0, 120.0]]),
-                                 np.array([[x, 150.0], [x + 5.0, 160.0]])]), pen=pen, color=color)
+    return Layer(
+        name,
+        Paths.of(
+            [
+                np.array([[x, 40.0], [x + 30.0, 60.0], [x + 31.0, 120.0]]),
+                np.array([[x, 150.0], [x + 5.0, 160.0]]),
+            ]
+        ),
+        pen=pen,
+        color=color,
+    )
 
 
 def _play(program: bytes, error: int = 0) -> HpglBoard:
@@ -33,8 +42,15 @@ def _play(program: bytes, error: int = 0) -> HpglBoard:
 
 
 def test_a_colour_plan_selects_carousel_pens_in_load_order_without_pausing():
-    plan = Plan(A4, [_layer("y", "yellow", 30, "#ffff00"), _layer("c", "cyan", 90, "#00ffff"),
-                     _layer("c2", "cyan", 120, "#00ffff"), _layer("k", "black", 200)])
+    plan = Plan(
+        A4,
+        [
+            _layer("y", "yellow", 30, "#ffff00"),
+            _layer("c", "cyan", 90, "#00ffff"),
+            _layer("c2", "cyan", 120, "#00ffff"),
+            _layer("k", "black", 200),
+        ],
+    )
     program = hpgl_program(plan, PROFILE)
     found, _ = grammar.split_instructions(program)
     selects = [int(i.params[0]) for i in found if i.mnemonic == "SP"]
@@ -44,7 +60,9 @@ def test_a_colour_plan_selects_carousel_pens_in_load_order_without_pausing():
     board = _play(program)
     assert board.stroke_pens == [1, 1, 2, 2, 2, 2, 3, 3]
     # Where the sheet lies: page (30, 40) mm is 10, 4 mm right of and above the plotter's origin.
-    assert board.strokes[0][0].tolist() == pytest.approx([20.0, 36.0], abs=PROFILE.paper.unit_mm / 2)  # to a unit
+    assert board.strokes[0][0].tolist() == pytest.approx(
+        [20.0, 36.0], abs=PROFILE.paper.unit_mm / 2
+    )  # to a unit
 
 
 def test_pens_beyond_the_carousel_keep_their_numbers_and_the_plotter_refuses_them_unaided():

@@ -20,14 +20,19 @@ from pencilbot.planning.fidelity import pearson
 from pencilbot.planning.plan import Layer, Page, Plan
 from sim.hpgl_plotter import HpglBoard
 
-pytestmark = pytest.mark.skipif(shutil.which("hp2xx") is None, reason="hp2xx is not installed (apt-get install hp2xx)")
+pytestmark = pytest.mark.skipif(
+    shutil.which("hp2xx") is None, reason="hp2xx is not installed (apt-get install hp2xx)"
+)
 SIZE = (300, 420)
 
 
 def _plan(mirror: bool = False) -> Plan:
     rng = np.random.default_rng(7)
     t = np.linspace(0, 2 * np.pi, 60)
-    paths = [np.column_stack([150 + r * np.cos(t + r / 9), 105 + 0.6 * r * np.sin(2 * t)]) for r in range(10, 90, 8)]
+    paths = [
+        np.column_stack([150 + r * np.cos(t + r / 9), 105 + 0.6 * r * np.sin(2 * t)])
+        for r in range(10, 90, 8)
+    ]
     paths += [np.array([[x, 30.0], [x + 20 * rng.random(), 80.0]]) for x in np.arange(30, 120, 6)]
     if mirror:
         paths = [np.column_stack([300 - p[:, 0], p[:, 1]]) for p in paths]
@@ -60,8 +65,13 @@ def _simulated(path, profile, tmp_path) -> np.ndarray:
 
 def _hp2xx(path, tmp_path) -> np.ndarray:
     out = tmp_path / f"{path.stem}-hp2xx.png"
-    subprocess.run(["hp2xx", "-q", "-m", "png", "-d", "100", "-p", "3", "-f", str(out), str(path)],
-                   check=True, stdin=subprocess.DEVNULL, capture_output=True, timeout=60)
+    subprocess.run(
+        ["hp2xx", "-q", "-m", "png", "-d", "100", "-p", "3", "-f", str(out), str(path)],
+        check=True,
+        stdin=subprocess.DEVNULL,
+        capture_output=True,
+        timeout=60,
+    )
     return skio.imread(out)
 
 

@@ -26,7 +26,10 @@ def _plan() -> Plan:
     t = np.linspace(0, 2 * np.pi, 40)
     first = [np.column_stack([150 + r * np.cos(t), 105 + 0.6 * r * np.sin(2 * t)]) for r in range(10, 90, 10)]
     second = [np.array([[x, 30.0], [x + 7.0, 80.0], [x + 2.0, 95.0]]) for x in np.arange(30, 120, 9.0)]
-    return Plan(Page(297, 210, margin=0.0, name="A4"), [Layer("curves", Paths.of(first)), Layer("lines", Paths.of(second))])
+    return Plan(
+        Page(297, 210, margin=0.0, name="A4"),
+        [Layer("curves", Paths.of(first)), Layer("lines", Paths.of(second))],
+    )
 
 
 def _drawn(path, name):
@@ -42,7 +45,9 @@ def test_vpype_hpgl_draws_where_vpype_put_it(tmp_path):
     plan = _plan()
     write_svg(plan, tmp_path / "plan.svg")
     theirs, ours = tmp_path / "vpype.hpgl", tmp_path / "ours.hpgl"
-    vpype_cli.execute(f"read {tmp_path / 'plan.svg'} write --device hp7475a --page-size a4 --landscape {theirs}")
+    vpype_cli.execute(
+        f"read {tmp_path / 'plan.svg'} write --device hp7475a --page-size a4 --landscape {theirs}"
+    )
     write_hpgl(plan, profile, ours)
     assert b"PR;" in theirs.read_bytes()  # relative moves: the reader follows them
 

@@ -31,12 +31,30 @@ def colour_plan(set_name: str = "cmyk") -> Plan:
     layers = []
     for pen in load_pens(set_name).load_order:
         for family in range(2):
-            paths = [np.cumsum(rng.uniform(-3, 3, (5, 2)), axis=0) + rng.uniform(40, 160, 2) for _ in range(3)]
-            layers.append(Layer(f"{pen.name}-hatch{family + 1}", paths, pen_width=pen.width, role="hatch",
-                                pen=pen.name, color=pen.color))
+            paths = [
+                np.cumsum(rng.uniform(-3, 3, (5, 2)), axis=0) + rng.uniform(40, 160, 2) for _ in range(3)
+            ]
+            layers.append(
+                Layer(
+                    f"{pen.name}-hatch{family + 1}",
+                    paths,
+                    pen_width=pen.width,
+                    role="hatch",
+                    pen=pen.name,
+                    color=pen.color,
+                )
+            )
     dark = load_pens(set_name).darkest
-    layers.append(Layer(f"{dark.name}-edges", [np.array([[30.0, 30.0], [60.0, 70.0]])], pen_width=dark.width,
-                        role="edges", pen=dark.name, color=dark.color))
+    layers.append(
+        Layer(
+            f"{dark.name}-edges",
+            [np.array([[30.0, 30.0], [60.0, 70.0]])],
+            pen_width=dark.width,
+            role="edges",
+            pen=dark.name,
+            color=dark.color,
+        )
+    )
     return Plan(A4, layers, meta={"source": "test"})
 
 
@@ -58,7 +76,8 @@ def test_each_pens_layers_sit_in_their_own_svg_layer_with_the_pens_colour(tmp_pa
     # Read back by pencilbot: every layer keeps its pen, colour, width and role.
     back = read_svg(path)
     assert [(l.name, l.pen, l.color, l.pen_width, l.role) for l in back.layers] == [
-        (l.name, l.pen, l.color, l.pen_width, l.role) for l in plan.layers]
+        (l.name, l.pen, l.color, l.pen_width, l.role) for l in plan.layers
+    ]
     assert back.pens == plan.pens
     for a, b in zip(plan.layers, back.layers):
         assert np.allclose(a.paths.points, b.paths.points, atol=1e-3)
@@ -84,7 +103,9 @@ def test_a_plan_of_one_pen_is_written_as_before_without_pen_groups(tmp_path):
     path = tmp_path / "black.svg"
     write_svg(plan, path)
     groups = [g for g in ET.parse(path).getroot() if g.tag == f"{{{SVG_NS}}}g"]
-    assert [g.get(f"{{{INKSCAPE_NS}}}label") for g in groups] == ["edges"] and groups[0].get("stroke") == "black"
+    assert [g.get(f"{{{INKSCAPE_NS}}}label") for g in groups] == ["edges"] and groups[0].get(
+        "stroke"
+    ) == "black"
     assert read_svg(path).pens == ()
 
 
@@ -103,7 +124,11 @@ def test_gcode_stops_for_each_pen_by_name_in_load_order_with_the_pen_up(name):
     plan = colour_plan("cmyk")
     lines = gcode_lines(plan, profile)
     pauses = [i for i, line in enumerate(lines) if "M0" in line.split(";")[0].split("(")[0]]
-    names = [line.split("insert ", 1)[1].rstrip(")").split(")")[0] for line in lines if "pen change: insert" in line]
+    names = [
+        line.split("insert ", 1)[1].rstrip(")").split(")")[0]
+        for line in lines
+        if "pen change: insert" in line
+    ]
     assert names == [pen.name for pen in load_pens("cmyk").load_order]
     assert len(pauses) == len(names)
     up, down = set(profile.pen_model.up_lines), set(profile.pen_model.down_lines)
@@ -131,10 +156,14 @@ def test_a_plan_of_one_pen_has_no_pause():
 
 def test_the_profiles_pen_change_template_and_park_position_replace_the_plain_pause():
     profile = load_profile("grbl-servo-a4")
-    profile = dataclasses.replace(profile, pen_change=PenChange(command="M5\nM0 (load {pen}, pen {number})", park=(5.0, 200.0)))
+    profile = dataclasses.replace(
+        profile, pen_change=PenChange(command="M5\nM0 (load {pen}, pen {number})", park=(5.0, 200.0))
+    )
     lines = gcode_lines(colour_plan("cmyk"), profile)
     at = [i for i, line in enumerate(lines) if line.startswith("M0")]
-    assert [lines[i] for i in at] == [f"M0 (load {pen.name}, pen {n})" for n, pen in enumerate(load_pens("cmyk").load_order, 1)]
+    assert [lines[i] for i in at] == [
+        f"M0 (load {pen.name}, pen {n})" for n, pen in enumerate(load_pens("cmyk").load_order, 1)
+    ]
     for i in at:
         assert lines[i - 2 : i] == ["G0 X5 Y200", "M5"]
     far = dataclasses.replace(profile, pen_change=PenChange(park=(5.0, 900.0)))
@@ -142,14 +171,17 @@ def test_the_profiles_pen_change_template_and_park_position_replace_the_plain_pa
         gcode_lines(colour_plan("cmyk"), far)
 
 
-@pytest.mark.parametrize(("pen_change", "words"), [
-    ({"command": "M0 ({pen.__class__})"}, "[pen_change] command"),
-    ({"command": "M0 ({colour})"}, "{colour} is not a known field"),
-    ({"park": [1.0]}, "[pen_change] park"),
-    ({"park": "home"}, "[pen_change] park"),
-    ({"parking": [1.0, 2.0]}, "unknown key [pen_change] parking"),
-    ({"command": "M0 (" + "x" * 70 + " {pen})"}, "characters; expected at most 80"),
-])
+@pytest.mark.parametrize(
+    ("pen_change", "words"),
+    [
+        ({"command": "M0 ({pen.__class__})"}, "[pen_change] command"),
+        ({"command": "M0 ({colour})"}, "{colour} is not a known field"),
+        ({"park": [1.0]}, "[pen_change] park"),
+        ({"park": "home"}, "[pen_change] park"),
+        ({"parking": [1.0, 2.0]}, "unknown key [pen_change] parking"),
+        ({"command": "M0 (" + "x" * 70 + " {pen})"}, "characters; expected at most 80"),
+    ],
+)
 def test_a_bad_pen_change_table_is_one_message(pen_change, words):
     import tomllib
 
@@ -163,22 +195,34 @@ def test_a_bad_pen_change_table_is_one_message(pen_change, words):
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(st.tuples(st.sampled_from(["cyan", "sky blue", "red-2", "ink.7", "black"]), st.integers(1, 3),
-                          st.sampled_from(["#009fe3", "#d7262b", "#1a1a1a"]), st.sampled_from([0.3, 0.5])),
-                min_size=1, max_size=6))
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from(["cyan", "sky blue", "red-2", "ink.7", "black"]),
+            st.integers(1, 3),
+            st.sampled_from(["#009fe3", "#d7262b", "#1a1a1a"]),
+            st.sampled_from([0.3, 0.5]),
+        ),
+        min_size=1,
+        max_size=6,
+    )
+)
 def test_any_plan_of_pens_reads_back_as_it_was_written(tmp_path, runs):
     rng = np.random.default_rng(len(runs))
     layers = []
     for pen, count, color, width in runs:
         for k in range(count):
-            paths = [rng.uniform(20, 180, (int(rng.integers(1, 5)), 2)) for _ in range(int(rng.integers(1, 4)))]
+            paths = [
+                rng.uniform(20, 180, (int(rng.integers(1, 5)), 2)) for _ in range(int(rng.integers(1, 4)))
+            ]
             layers.append(Layer(f"{pen}-{k}", paths, pen_width=width, role="hatch", pen=pen, color=color))
     plan = Plan(A4, layers)
     path = tmp_path / "round.svg"
     write_svg(plan, path)
     back = read_svg(path)
     assert [(l.name, l.pen, l.color, l.pen_width, l.role) for l in back.layers] == [
-        (l.name, l.pen, l.color, l.pen_width, l.role) for l in plan.layers]
+        (l.name, l.pen, l.color, l.pen_width, l.role) for l in plan.layers
+    ]
     for a, b in zip(plan.layers, back.layers):
         assert np.array_equal(a.paths.offsets, b.paths.offsets)
         assert np.allclose(a.paths.points, b.paths.points, atol=1e-3)

@@ -20,10 +20,13 @@ def sample_plan():
         Page(210, 297, margin=15, name="A4"),
         [
             Layer("hatch-45", [np.array([[20.0, 20.0], [100.0, 100.0]])], pen_width=0.3, role="hatch"),
-            Layer("edges", [np.array([[15.0, 290.0], [195.0, 290.0], [195.0, 15.0]]), np.array([[50.0, 60.0]])],
-                  role="edges"),
+            Layer(
+                "edges",
+                [np.array([[15.0, 290.0], [195.0, 290.0], [195.0, 15.0]]), np.array([[50.0, 60.0]])],
+                role="edges",
+            ),
         ],
-        meta={"source": "coffee <test> & \"more\""},
+        meta={"source": 'coffee <test> & "more"'},
     )
 
 
@@ -58,7 +61,8 @@ def test_round_trip_keeps_page_layers_paths_and_meta(tmp_path):
     assert back.page == plan.page
     assert back.meta == plan.meta
     assert [(l.name, l.pen_width, l.role) for l in back.layers] == [
-        (l.name, l.pen_width, l.role) for l in plan.layers]
+        (l.name, l.pen_width, l.role) for l in plan.layers
+    ]
     assert [l.role for l in back.layers] == ["hatch", "edges"]
     for a, b in zip(back.paths(), plan.paths()):
         np.testing.assert_allclose(a, b)
@@ -77,10 +81,16 @@ names = st.text(st.characters(codec="utf-8", exclude_categories=("Cs", "Cc")), m
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.lists(st.tuples(names, paths, st.floats(0.05, 3)), min_size=1, max_size=4), st.floats(10, 500), st.floats(10, 500))
+@given(
+    st.lists(st.tuples(names, paths, st.floats(0.05, 3)), min_size=1, max_size=4),
+    st.floats(10, 500),
+    st.floats(10, 500),
+)
 def test_round_trip_any_plan(tmp_path_factory, layers, width, height):
-    plan = Plan(Page(round(width, 3), round(height, 3), margin=5, name="300x200"),
-                [Layer(n, ps, pen_width=round(w, 3)) for n, ps, w in layers])
+    plan = Plan(
+        Page(round(width, 3), round(height, 3), margin=5, name="300x200"),
+        [Layer(n, ps, pen_width=round(w, 3)) for n, ps, w in layers],
+    )
     path = tmp_path_factory.mktemp("svg") / "plan.svg"
     write_svg(plan, path)
     back = read_svg(path)
@@ -96,6 +106,7 @@ def test_round_trip_any_plan(tmp_path_factory, layers, width, height):
 
 def test_vpype_reads_layers_and_physical_size(tmp_path):
     import vpype  # a test dependency: vpype must read our SVG as the plotter community does
+
     write_svg(sample_plan(), tmp_path / "p.svg")
     doc = vpype.read_multilayer_svg(str(tmp_path / "p.svg"), quantization=0.1)
     px_per_mm = 96 / 25.4  # vpype works in CSS pixels
@@ -105,7 +116,9 @@ def test_vpype_reads_layers_and_physical_size(tmp_path):
     assert names == ["edges", "hatch-45"]
     edges = next(doc.layers[i] for i in doc.layers if doc.layers[i].property("vp_name") == "edges")
     line = edges[0] / px_per_mm  # complex x + iy, SVG Y down
-    np.testing.assert_allclose([line[0].real, line[0].imag, line[-1].real, line[-1].imag], [15, 7, 195, 282], atol=0.01)
+    np.testing.assert_allclose(
+        [line[0].real, line[0].imag, line[-1].real, line[-1].imag], [15, 7, 195, 282], atol=0.01
+    )
 
 
 def test_straight_line_svg_from_elsewhere_loads(tmp_path):
@@ -130,7 +143,10 @@ def test_straight_line_svg_from_elsewhere_loads(tmp_path):
         (f'<svg xmlns="{SVG_NS}" width="100" height="100%"/>', "no size on paper.*--svg-dpi 96.*--page A4"),
         (f'<svg xmlns="{SVG_NS}" width="1e999mm" height="10mm"/>', "width '1e999mm' is not a size"),
         (f'<svg xmlns="{SVG_NS}" width="0mm" height="10mm"/>', "width '0mm' is not a size"),
-        (f'<svg xmlns="{SVG_NS}" xmlns:p="{PENCILBOT_NS}" width="10mm" height="10mm" p:margin="wide"/>', "margin"),
+        (
+            f'<svg xmlns="{SVG_NS}" xmlns:p="{PENCILBOT_NS}" width="10mm" height="10mm" p:margin="wide"/>',
+            "margin",
+        ),
         ('<html xmlns="http://www.w3.org/1999/xhtml"/>', "not an SVG"),
     ],
 )
@@ -152,8 +168,10 @@ def test_failed_write_leaves_nothing_behind(tmp_path):
 
 
 @settings(max_examples=50, deadline=None)
-@given(st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=1, max_size=50),
-       st.sampled_from([0.0, 1.0, 0.1, 0.001, 1e-4]))
+@given(
+    st.lists(st.tuples(st.floats(-1e6, 1e6), st.floats(-1e6, 1e6)), min_size=1, max_size=50),
+    st.sampled_from([0.0, 1.0, 0.1, 0.001, 1e-4]),
+)
 def test_numbers_written_in_one_pass_are_the_ones_written_one_by_one(points, grid):
     from pencilbot.export.svg import _fmt, _numbers_text
 

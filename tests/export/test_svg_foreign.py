@@ -59,7 +59,9 @@ def test_vpype_files_keep_layer_names_pen_widths_and_coordinates(tmp_path):
 def test_hatched_files_need_a_size_and_then_read_whole(tmp_path):
     lines = drawings.hatch_lines()
     (tmp_path / "h.svg").write_text(drawings.hatched_svg(lines))
-    with pytest.raises(PencilbotError, match=r"width '200' and height '300', no size on paper.*--svg-dpi 96.*--page"):
+    with pytest.raises(
+        PencilbotError, match=r"width '200' and height '300', no size on paper.*--svg-dpi 96.*--page"
+    ):
         read_svg(tmp_path / "h.svg")
     plan = read_svg(tmp_path / "h.svg", dpi=96)
     assert (plan.page.width, plan.page.height) == pytest.approx((200 * PX, 300 * PX))
@@ -113,13 +115,19 @@ def test_layers_with_the_same_number_in_their_label_stay_apart(tmp_path):
 
 def sample_plan():
     rng = np.random.default_rng(0)
-    strokes = [rng.uniform(10, 190, 2) + np.cumsum(rng.normal(0, 2, (k, 2)), axis=0) for k in rng.integers(2, 9, 300)]
+    strokes = [
+        rng.uniform(10, 190, 2) + np.cumsum(rng.normal(0, 2, (k, 2)), axis=0) for k in rng.integers(2, 9, 300)
+    ]
     dots = [np.array([[5.0, 5.0]]), np.array([[6.5, 7.25]])]
-    return Plan(Page(210, 297, margin=12, name="A4"),
-                [Layer("hatch1-45", strokes[:200], pen_width=0.3, role="hatch"),
-                 Layer("empty", [], pen_width=0.4, role="hatch"),
-                 Layer("edges", strokes[200:] + dots, role="edges")],
-                meta={"source": "a & b", "style": "default"})
+    return Plan(
+        Page(210, 297, margin=12, name="A4"),
+        [
+            Layer("hatch1-45", strokes[:200], pen_width=0.3, role="hatch"),
+            Layer("empty", [], pen_width=0.4, role="hatch"),
+            Layer("edges", strokes[200:] + dots, role="edges"),
+        ],
+        meta={"source": "a & b", "style": "default"},
+    )
 
 
 def test_our_own_plans_take_the_whole_array_path_and_agree_with_vpype(tmp_path):
@@ -131,7 +139,9 @@ def test_our_own_plans_take_the_whole_array_path_and_agree_with_vpype(tmp_path):
     slow = _read_any(_parse(data, "p.svg"), "p.svg", dpi=None, pen_width=None)
     assert fast.page == plan.page == slow.page and fast.meta == plan.meta == slow.meta
     # vpype drops an empty layer and dots (zero-length paths); everything else is the same.
-    assert [(l.name, l.role, l.pen_width) for l in fast.layers] == [(l.name, l.role, l.pen_width) for l in plan.layers]
+    assert [(l.name, l.role, l.pen_width) for l in fast.layers] == [
+        (l.name, l.role, l.pen_width) for l in plan.layers
+    ]
     assert [(l.name, l.role) for l in slow.layers] == [("hatch1-45", "hatch"), ("edges", "edges")]
     assert fast.layer("edges").paths.lengths[-2:].tolist() == [1, 1]
     for ours, _, written in zip(fast.paths(), plan.paths(), plan.paths()):
@@ -144,11 +154,16 @@ def test_our_own_plans_take_the_whole_array_path_and_agree_with_vpype(tmp_path):
             np.testing.assert_allclose(p, q, atol=1e-6)
 
 
-@pytest.mark.parametrize("edit", [
-    lambda text: text.replace('<path d="M 5 292 L 5 292"/>', '<path d="m 5,292 0,0"/>'),  # Inkscape's own path data
-    lambda text: text.replace("<metadata>", '<g inkscape:label="new"/><metadata>'),
-    lambda text: text.replace('id="layer3"', 'id="layer3" transform="translate(1,0)"'),
-])
+@pytest.mark.parametrize(
+    "edit",
+    [
+        lambda text: text.replace(
+            '<path d="M 5 292 L 5 292"/>', '<path d="m 5,292 0,0"/>'
+        ),  # Inkscape's own path data
+        lambda text: text.replace("<metadata>", '<g inkscape:label="new"/><metadata>'),
+        lambda text: text.replace('id="layer3"', 'id="layer3" transform="translate(1,0)"'),
+    ],
+)
 def test_an_edited_plan_of_ours_is_read_as_any_svg_and_keeps_its_metadata(tmp_path, edit):
     plan = sample_plan()
     write_svg(plan, tmp_path / "p.svg")

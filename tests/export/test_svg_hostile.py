@@ -20,8 +20,10 @@ from pencilbot.planning.plan import Layer, Page, Plan
 
 
 def _own(tmp_path, name="own.svg") -> tuple:
-    plan = Plan(Page(210, 297, 10, "A4"),
-                [Layer("l", [np.array([[10, 10], [20, 20.0]]), np.array([[30, 30], [40, 40.0]])], pen_width=0.5)])
+    plan = Plan(
+        Page(210, 297, 10, "A4"),
+        [Layer("l", [np.array([[10, 10], [20, 20.0]]), np.array([[30, 30], [40, 40.0]])], pen_width=0.5)],
+    )
     path = tmp_path / name
     write_svg(plan, path)
     return path, path.read_text()
@@ -29,8 +31,12 @@ def _own(tmp_path, name="own.svg") -> tuple:
 
 def _foreign(text: str) -> str:
     """The same file without what makes it ours: another tool's SVG."""
-    for ours in (' pencilbot:page="A4"', ' pencilbot:margin="10"', ' pencilbot:role="other"',
-                 ' xmlns:pencilbot="https://pencilbot.invalid/plan"'):
+    for ours in (
+        ' pencilbot:page="A4"',
+        ' pencilbot:margin="10"',
+        ' pencilbot:role="other"',
+        ' xmlns:pencilbot="https://pencilbot.invalid/plan"',
+    ):
         assert ours in text
         text = text.replace(ours, "")
     return text
@@ -104,4 +110,3 @@ def test_sane_stroke_widths_still_set_the_pen(tmp_path):
     assert [layer.pen_width for layer in read_svg(path).layers] == [1.25]
     path.write_text(text.replace('stroke-width="0.5"', 'stroke-width="50"'))
     assert [layer.pen_width for layer in read_svg(path).layers] == [50.0]
-

@@ -19,15 +19,19 @@ def _path(moves) -> str:
     words = []
     for i, (command, (x, y)) in enumerate(moves):
         command = ("M" if command.isupper() else "m") if i == 0 else command
-        words.append({"H": f"H{x}", "h": f"h{x}", "V": f"V{y}", "v": f"v{y}"}.get(command, f"{command}{x},{y}"))
+        words.append(
+            {"H": f"H{x}", "h": f"h{x}", "V": f"V{y}", "v": f"v{y}"}.get(command, f"{command}{x},{y}")
+        )
     return " ".join(words)
 
 
 _SHAPE = st.one_of(
-    st.lists(st.tuples(st.sampled_from(["M", "m", "L", "l", "H", "h", "V", "v"]), _XY), min_size=1, max_size=5).map(
-        lambda moves: f'<path d="{_path(moves)}"/>'),
+    st.lists(
+        st.tuples(st.sampled_from(["M", "m", "L", "l", "H", "h", "V", "v"]), _XY), min_size=1, max_size=5
+    ).map(lambda moves: f'<path d="{_path(moves)}"/>'),
     st.tuples(st.sampled_from(["polyline", "polygon"]), st.lists(_XY, max_size=4)).map(
-        lambda s: f'<{s[0]} points="{" ".join(f"{x},{y}" for x, y in s[1])}"/>'),
+        lambda s: f'<{s[0]} points="{" ".join(f"{x},{y}" for x, y in s[1])}"/>'
+    ),
     st.tuples(_XY, _XY).map(lambda s: f'<line x1="{s[0][0]}" y1="{s[0][1]}" x2="{s[1][0]}" y2="{s[1][1]}"/>'),
     st.just('<path d=""/>'),
 )
@@ -36,7 +40,9 @@ _SHAPE = st.one_of(
 def _read(path, straight: bool):
     original = svg_straight.read_straight
     taken = []
-    svg_read.read_straight = (lambda *a: taken.append(original(*a)) or taken[-1]) if straight else (lambda *_: None)
+    svg_read.read_straight = (
+        (lambda *a: taken.append(original(*a)) or taken[-1]) if straight else (lambda *_: None)
+    )
     try:
         return svg_read.read_svg(path), taken
     finally:
@@ -44,13 +50,20 @@ def _read(path, straight: bool):
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(tops=st.lists(st.one_of(_SHAPE, st.lists(_SHAPE, max_size=6).map(lambda s: "<g>" + "".join(s) + "</g>")),
-                     min_size=1, max_size=5))
+@given(
+    tops=st.lists(
+        st.one_of(_SHAPE, st.lists(_SHAPE, max_size=6).map(lambda s: "<g>" + "".join(s) + "</g>")),
+        min_size=1,
+        max_size=5,
+    )
+)
 def test_many_shapes_in_groups_read_as_vpype_reads_them(tmp_path, tops):
     body = "".join(tops)
     path = tmp_path / "s.svg"
-    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100" '
-                    f'stroke="black" fill="none">{body}</svg>')
+    path.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100" '
+        f'stroke="black" fill="none">{body}</svg>'
+    )
     fast, taken = _read(path, straight=True)
     assert taken and taken[0] is not None  # read in arrays, not by vpype
     slow, _ = _read(path, straight=False)
@@ -63,8 +76,10 @@ def test_many_shapes_in_groups_read_as_vpype_reads_them(tmp_path, tops):
 @pytest.mark.parametrize("d", ["M 1 1 L 2 2 C 3 3 4 4 5 5", "L 1 1", "1 1 L 2 2", "M 1 1 Z l 1 1"])
 def test_a_path_the_arrays_do_not_take_sends_the_file_to_vpype(tmp_path, d):
     path = tmp_path / "s.svg"
-    path.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">'
-                    f'<path d="M 0 0 L 5 5"/><path d="{d}"/></svg>')
+    path.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" width="100mm" height="100mm" viewBox="0 0 100 100">'
+        f'<path d="M 0 0 L 5 5"/><path d="{d}"/></svg>'
+    )
     original, taken = svg_straight.read_straight, []
     svg_read.read_straight = lambda *a: taken.append(original(*a)) or taken[-1]
     try:

@@ -101,7 +101,6 @@ for line in sys.stdin:
 """
 
 
-
 def _limit_memory() -> None:
     resource.setrlimit(resource.RLIMIT_AS, (LIMIT, LIMIT))
 
@@ -123,20 +122,45 @@ def run(probes: list[Probe], folder: Path, seconds: float = SECONDS) -> list[dic
     """Run ``probes`` in a child process (a new one after a probe that hangs, raises or kills it); each result is the probe's fields, ``code``, ``err``,
     ``verdict`` ("clean error", "correct" or "failure") and ``why`` (for a failure)."""
     kept = {p: state(folder / p) for probe in probes for p in probe.keep}
-    env = {**os.environ, "PYTHONFAULTHANDLER": "0", "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1",
-           "PENCILBOT_CONFIG_DIR": str(folder / "config")}
+    env = {
+        **os.environ,
+        "PYTHONFAULTHANDLER": "0",
+        "OPENBLAS_NUM_THREADS": "1",
+        "OMP_NUM_THREADS": "1",
+        "PENCILBOT_CONFIG_DIR": str(folder / "config"),
+    }
     env.pop("PENCILBOT_PROFILE", None)
-    cases = [json.dumps({"argv": p.argv, "env": p.env, "keep": p.keep, "absent": p.absent,
-                         "clean": [*p.absent, *_OUTPUTS]}) for p in probes]
+    cases = [
+        json.dumps(
+            {
+                "argv": p.argv,
+                "env": p.env,
+                "keep": p.keep,
+                "absent": p.absent,
+                "clean": [*p.absent, *_OUTPUTS],
+            }
+        )
+        for p in probes
+    ]
     child = [sys.executable, "-c", _RUNNER, str(folder), str(seconds), str(Path(__file__).parent)]
     answers: list[dict] = []
     while len(answers) < len(probes):  # a child per run of probes up to one that hangs, raises or kills it
-        proc = subprocess.run(child, input="".join(c + "\n" for c in cases[len(answers):]), text=True, check=False,
-                              capture_output=True, preexec_fn=_limit_memory, env=env, cwd=folder,
-                              timeout=seconds * (len(probes) - len(answers)) + 120, errors="surrogateescape")
+        proc = subprocess.run(
+            child,
+            input="".join(c + "\n" for c in cases[len(answers) :]),
+            text=True,
+            check=False,
+            capture_output=True,
+            preexec_fn=_limit_memory,
+            env=env,
+            cwd=folder,
+            timeout=seconds * (len(probes) - len(answers)) + 120,
+            errors="surrogateescape",
+        )
         lines = [json.loads(line) for line in proc.stdout.splitlines()]
-        answers += lines or [{"code": None, "err": proc.stderr[-2000:], "escaped": "", "hung": False, "kept": {},
-                              "left": []}]
+        answers += lines or [
+            {"code": None, "err": proc.stderr[-2000:], "escaped": "", "hung": False, "kept": {}, "left": []}
+        ]
     results = []
     for probe, result in zip(probes, answers):
         result.update(asdict(probe))
@@ -179,8 +203,9 @@ def counts(results: list[dict]) -> dict:
     """Per surface: probes, clean errors, correct runs, failures (and the failures' names)."""
     out: dict[str, dict] = {}
     for r in results:
-        row = out.setdefault(r["surface"], {"probes": 0, "clean errors": 0, "correct": 0, "failures": 0,
-                                            "failed": []})
+        row = out.setdefault(
+            r["surface"], {"probes": 0, "clean errors": 0, "correct": 0, "failures": 0, "failed": []}
+        )
         row["probes"] += 1
         key = {"failure": "failures", "correct": "correct", "clean error": "clean errors"}[r["verdict"]]
         row[key] += 1
@@ -191,8 +216,10 @@ def counts(results: list[dict]) -> dict:
 
 # --- the surfaces ------------------------------------------------------------------------------
 
-_SVG = ('<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">'
-        '<path d="M 5 5 L 40 40 L 50 10" stroke="black"/><path d="M 10 50 L 30 20" stroke="black"/></svg>')
+_SVG = (
+    '<svg xmlns="http://www.w3.org/2000/svg" width="60mm" height="60mm" viewBox="0 0 60 60">'
+    '<path d="M 5 5 L 40 40 L 50 10" stroke="black"/><path d="M 10 50 L 30 20" stroke="black"/></svg>'
+)
 _GCODE = "G21\nG90\nM3 S30\nG0 X10 Y10\nM3 S90\nG1 X20 Y10 F1000\nG1 X20 Y20\nM3 S30\n"
 _HPGL = "IN;SP1;PU400,400;PD800,400,800,800;PU;SP0;\n"
 
@@ -262,15 +289,36 @@ def _file_probes() -> list[Probe]:
         absent = [output] if output else []
         for kind in ("fifo", "dir", "dev", "empty", "sparse"):
             name = f"{kind}.{suffix}"
-            out.append(Probe("files", f"{command} {name}", [a.replace("{}", name) for a in argv], keep=[name],
-                             absent=absent))
+            out.append(
+                Probe(
+                    "files",
+                    f"{command} {name}",
+                    [a.replace("{}", name) for a in argv],
+                    keep=[name],
+                    absent=absent,
+                )
+            )
         if suffix == "png":
-            out.append(Probe("files", f"{command} truncated.png", [a.replace("{}", "truncated.png") for a in argv],
-                             keep=["truncated.png"], absent=absent))
+            out.append(
+                Probe(
+                    "files",
+                    f"{command} truncated.png",
+                    [a.replace("{}", "truncated.png") for a in argv],
+                    keep=["truncated.png"],
+                    absent=absent,
+                )
+            )
         good = {"png": os.fsdecode(b"ph\xff\xfeoto.png"), "svg": os.fsdecode(b"dr\xe9.svg")}.get(suffix)
         if good and (command != "plan" or suffix == "png"):
-            out.append(Probe("files", f"{command} a name not UTF-8 ({suffix})",
-                             [a.replace("{}", good) for a in argv], good=True, keep=[good]))
+            out.append(
+                Probe(
+                    "files",
+                    f"{command} a name not UTF-8 ({suffix})",
+                    [a.replace("{}", good) for a in argv],
+                    good=True,
+                    keep=[good],
+                )
+            )
         if output:
             for kind in ("outfifo", "outdev"):
                 target = f"{kind}{Path(output).suffix}"
@@ -280,8 +328,25 @@ def _file_probes() -> list[Probe]:
     return out
 
 
-_SYSTEM = ["$N0=G0X5", "$100=250", "$3=1", "$130=10", "$SLP", "$C", "$RST=*", "$RST=$", "$H", "$X", "$$", "$#",
-           "$I", "$G", "$", "$N1=M3S90", "$J"]
+_SYSTEM = [
+    "$N0=G0X5",
+    "$100=250",
+    "$3=1",
+    "$130=10",
+    "$SLP",
+    "$C",
+    "$RST=*",
+    "$RST=$",
+    "$H",
+    "$X",
+    "$$",
+    "$#",
+    "$I",
+    "$G",
+    "$",
+    "$N1=M3S90",
+    "$J",
+]
 _BAD_LINES = {
     "jog G53 off the bed": "$J=G53 X900 Y900 F3000",
     "jog G91 off the bed": "$J=G91 X500 F3000",
@@ -303,21 +368,36 @@ def _gcode_probes(folder: Path) -> list[Probe]:
     out = []
     head, tail = "G21\nG90\nM3 S30\nG0 X10 Y10\n", "M3 S90\nG1 X20 Y10 F1000\nG1 X20 Y20\nM3 S30\n"
     cases = {f"system command {line}": line for line in _SYSTEM} | _BAD_LINES
-    goods = {"jog on the bed": "$J=G91 X5 Y5 F1000", "jog G53 on the bed": "$J=G53 X50 Y50 F3000",
-             "homing allowed by name": "$H", "check mode allowed by name": "$C"}
+    goods = {
+        "jog on the bed": "$J=G91 X5 Y5 F1000",
+        "jog G53 on the bed": "$J=G53 X50 Y50 F3000",
+        "homing allowed by name": "$H",
+        "check mode allowed by name": "$C",
+    }
     for index, (name, line) in enumerate([*cases.items(), *goods.items()]):
         path = f"line{index}.gcode"
         (folder / path).write_text(head + line + "\n" + tail, encoding="utf-8")
         allow = ["--allow-system-commands", line] if "allowed" in name else []
-        for argv in (["stat", path, *allow], ["simulate", path, "-o", "o.png", *allow],
-                     ["draw", path, "--port", "sim://", *allow]):
+        for argv in (
+            ["stat", path, *allow],
+            ["simulate", path, "-o", "o.png", *allow],
+            ["draw", path, "--port", "sim://", *allow],
+        ):
             # Check mode from before the first stroke: it draws nothing, which stat says (an
             # error); simulate and draw run it as asked, and warn.
             good = name in goods and not (name == "check mode allowed by name" and argv[0] == "stat")
             if name == "homing allowed by name" and argv[0] != "stat":
                 continue  # the virtual board has no homing switches ($22=0): it refuses $H, as GRBL does
-            out.append(Probe("gcode lines", f"{argv[0]}: {name}", [*argv, "-q"], good=good, keep=[path],
-                             absent=["o.png"] if argv[0] == "simulate" and not good else []))
+            out.append(
+                Probe(
+                    "gcode lines",
+                    f"{argv[0]}: {name}",
+                    [*argv, "-q"],
+                    good=good,
+                    keep=[path],
+                    absent=["o.png"] if argv[0] == "simulate" and not good else [],
+                )
+            )
     return out
 
 
@@ -342,9 +422,18 @@ def _hpgl_probes(folder: Path) -> list[Probe]:
         path = f"bad{index}.hpgl"
         (folder / path).write_bytes(text.encode("latin-1"))
         for argv in (["stat", path], ["simulate", path, "-o", "o.png"], ["draw", path, "--port", "sim://"]):
-            out.append(Probe("hpgl", f"{argv[0]}: {name}", [*argv, "--profile", "hp7475a", "-q"], keep=[path],
-                             absent=["o.png"] if argv[0] == "simulate" else []))
-    out.append(Probe("hpgl", "stat: a right file", ["stat", "d.hpgl", "--profile", "hp7475a", "-q"], good=True))
+            out.append(
+                Probe(
+                    "hpgl",
+                    f"{argv[0]}: {name}",
+                    [*argv, "--profile", "hp7475a", "-q"],
+                    keep=[path],
+                    absent=["o.png"] if argv[0] == "simulate" else [],
+                )
+            )
+    out.append(
+        Probe("hpgl", "stat: a right file", ["stat", "d.hpgl", "--profile", "hp7475a", "-q"], good=True)
+    )
     (folder / "travel.hpgl").write_text("IN;SP1;PU100,100;PU200,200;SP0;\n")
     out.append(Probe("hpgl", "stat: no pen down", ["stat", "travel.hpgl", "--profile", "hp7475a", "-q"]))
     for argv in (["simulate", "travel.hpgl", "-o", "o.png"], ["draw", "travel.hpgl", "--port", "sim://"]):
@@ -355,16 +444,37 @@ def _hpgl_probes(folder: Path) -> list[Probe]:
 
 _BAD_NUMBERS = [-1e300, -1.0, 0.0, 1e-9, 1e300, math.nan, math.inf, "text", True]
 # Keys a 0 (or a tiny number) is right for: delays, cornering, the servo's instant rate, offsets.
-_ZERO_OK = {"up_delay", "down_delay", "junction_deviation", "servo_rate_up", "servo_rate_down", "min_move_ms", "up",
-            "down", "offset", "park", "decimals"}
+_ZERO_OK = {
+    "up_delay",
+    "down_delay",
+    "junction_deviation",
+    "servo_rate_up",
+    "servo_rate_down",
+    "min_move_ms",
+    "up",
+    "down",
+    "offset",
+    "park",
+    "decimals",
+}
 _FAMILY_BAD = [
-    ("axidraw-v3", "ebb", "steps_per_mm", 1e-9), ("axidraw-v3", "pen", "up", 200), ("axidraw-a3", "pen", "down", 101),
-    ("axidraw-v3", "ebb", "servo_max", 100), ("grbl-servo-a4", "pen", "up", 1e308), ("grbl-servo-a4", "pen", "up", -30),
-    ("grbl-servo-a4", "pen", "up", 1e-7), ("grbl-servo-a4", "pen", "up_command", "$RST=*"),
-    ("grbl-servo-a4", "pen", "down_command", "$J=G91X5F100"), ("grbl-servo-a4", "gcode", "header", "G21\nG91"),
-    ("grbl-servo-a4", "gcode", "header", "G20"), ("grbl-servo-a4", "pen", "up_command", "M3 S{up}\n$SLP"),
-    ("marlin-servo-a4", "pen", "up", 400), ("grbl-z-a3", "pen", "down", -5000), ("hp7475a", "motion", "draw_feed", 1e6),
-    ("hp7475a", "paper", "carousel", 0), ("grblhal-servo-a3", "gcode", "receive_buffer", 10),
+    ("axidraw-v3", "ebb", "steps_per_mm", 1e-9),
+    ("axidraw-v3", "pen", "up", 200),
+    ("axidraw-a3", "pen", "down", 101),
+    ("axidraw-v3", "ebb", "servo_max", 100),
+    ("grbl-servo-a4", "pen", "up", 1e308),
+    ("grbl-servo-a4", "pen", "up", -30),
+    ("grbl-servo-a4", "pen", "up", 1e-7),
+    ("grbl-servo-a4", "pen", "up_command", "$RST=*"),
+    ("grbl-servo-a4", "pen", "down_command", "$J=G91X5F100"),
+    ("grbl-servo-a4", "gcode", "header", "G21\nG91"),
+    ("grbl-servo-a4", "gcode", "header", "G20"),
+    ("grbl-servo-a4", "pen", "up_command", "M3 S{up}\n$SLP"),
+    ("marlin-servo-a4", "pen", "up", 400),
+    ("grbl-z-a3", "pen", "down", -5000),
+    ("hp7475a", "motion", "draw_feed", 1e6),
+    ("hp7475a", "paper", "carousel", 0),
+    ("grblhal-servo-a3", "gcode", "receive_buffer", 10),
 ]
 
 
@@ -379,8 +489,15 @@ def _profile_probes(folder: Path) -> list[Probe]:
         count += 1
         (folder / path).write_text(toml_text(table))
         output = "o.hpgl" if base.startswith("hp") else "o.gcode"
-        out.append(Probe("profiles", f"export {base} [{section}] {key} = {name}",
-                         ["export", "d.svg", "-o", output, "--profile", path, "-q"], keep=[path], absent=[output]))
+        out.append(
+            Probe(
+                "profiles",
+                f"export {base} [{section}] {key} = {name}",
+                ["export", "d.svg", "-o", output, "--profile", path, "-q"],
+                keep=[path],
+                absent=[output],
+            )
+        )
 
     for base in ("grbl-servo-a4", "axidraw-v3", "hp7475a"):
         table = shipped_table(base)
@@ -391,7 +508,9 @@ def _profile_probes(folder: Path) -> list[Probe]:
                 if isinstance(value, bool) or not isinstance(value, int | float):
                     continue
                 for bad in _BAD_NUMBERS:
-                    if (bad in (0.0, 1e-9) and key in _ZERO_OK) or (bad == -1.0 and key in ("offset", "park")):
+                    if (bad in (0.0, 1e-9) and key in _ZERO_OK) or (
+                        bad == -1.0 and key in ("offset", "park")
+                    ):
                         continue
                     if key in ("up", "down") and bad in (-1.0, 1e-9):
                         if base == "axidraw-v3" and bad == -1.0:
@@ -412,23 +531,57 @@ def _settings_probes(folder: Path) -> list[Probe]:
     if not (folder / "config-dev" / "config.toml").exists():
         device(folder / "config-dev" / "config.toml", 5)
     out = []
-    for value in ("dev.toml", "fifo.toml", "dir.toml", "sparse.toml", "empty.toml", "/nonexistent/p.toml", "no-such-name"):
-        out.append(Probe("settings", f"PENCILBOT_PROFILE={value}", ["stat", "d.svg", "-q"],
-                         env={"PENCILBOT_PROFILE": str(folder / value) if "." in value and "/" not in value else value}))
+    for value in (
+        "dev.toml",
+        "fifo.toml",
+        "dir.toml",
+        "sparse.toml",
+        "empty.toml",
+        "/nonexistent/p.toml",
+        "no-such-name",
+    ):
+        out.append(
+            Probe(
+                "settings",
+                f"PENCILBOT_PROFILE={value}",
+                ["stat", "d.svg", "-q"],
+                env={
+                    "PENCILBOT_PROFILE": str(folder / value) if "." in value and "/" not in value else value
+                },
+            )
+        )
     for sub in ("config-fifo", "config-dev"):
-        out.append(Probe("settings", f"config.toml in {sub}", ["stat", "d.svg", "-q"],
-                         env={"PENCILBOT_CONFIG_DIR": str(folder / sub)}, keep=[f"{sub}/config.toml"]))
+        out.append(
+            Probe(
+                "settings",
+                f"config.toml in {sub}",
+                ["stat", "d.svg", "-q"],
+                env={"PENCILBOT_CONFIG_DIR": str(folder / sub)},
+                keep=[f"{sub}/config.toml"],
+            )
+        )
     for journal in ("fifo.json", "dev.json", "dir.json", "sparse.json", "empty.json"):
-        out.append(Probe("settings", f"draw --resume {journal}", ["draw", "--resume", journal, "--port", "sim://"],
-                         keep=[journal]))
+        out.append(
+            Probe(
+                "settings",
+                f"draw --resume {journal}",
+                ["draw", "--resume", journal, "--port", "sim://"],
+                keep=[journal],
+            )
+        )
     return out
 
 
 def probes(folder: Path) -> list[Probe]:
     """Every probe of the sweep, with the files they read made in ``folder``."""
     _files(folder)
-    return [*_file_probes(), *_gcode_probes(folder), *_hpgl_probes(folder), *_profile_probes(folder),
-            *_settings_probes(folder)]
+    return [
+        *_file_probes(),
+        *_gcode_probes(folder),
+        *_hpgl_probes(folder),
+        *_profile_probes(folder),
+        *_settings_probes(folder),
+    ]
 
 
 def sample(every: list[Probe], size: int) -> list[Probe]:

@@ -25,16 +25,19 @@ HUGE_INT = "9" * 30
 HUGE_FLOAT = "9" * 400
 
 
-@pytest.mark.parametrize("program, instruction, words", [
-    (f"IN;SP{HUGE_INT};PD100,100;", 2, "pen"),
-    (f"IN;SP1;PA{HUGE_FLOAT},100;", 3, "beyond"),
-    (f"IN;SP1;PD{HUGE_FLOAT},{HUGE_FLOAT};", 3, "beyond"),
-    (f"IN;SP1;PU0,0;PR{HUGE_INT},0;", 4, "beyond"),
-    ("IN;SP-3;PU0,0;PD100,100;", 2, "pen -3"),
-    ("IN;SP1.5;PD1,1;", 2, "pen 1.5"),
-    ("IN;VS-5;SP1;PD100,100;", 2, "speed -5"),
-    (f"IN;VS{HUGE_FLOAT};SP1;PD100,100;", 2, "speed inf"),
-])
+@pytest.mark.parametrize(
+    "program, instruction, words",
+    [
+        (f"IN;SP{HUGE_INT};PD100,100;", 2, "pen"),
+        (f"IN;SP1;PA{HUGE_FLOAT},100;", 3, "beyond"),
+        (f"IN;SP1;PD{HUGE_FLOAT},{HUGE_FLOAT};", 3, "beyond"),
+        (f"IN;SP1;PU0,0;PR{HUGE_INT},0;", 4, "beyond"),
+        ("IN;SP-3;PU0,0;PD100,100;", 2, "pen -3"),
+        ("IN;SP1.5;PD1,1;", 2, "pen 1.5"),
+        ("IN;VS-5;SP1;PD100,100;", 2, "speed -5"),
+        (f"IN;VS{HUGE_FLOAT};SP1;PD100,100;", 2, "speed inf"),
+    ],
+)
 def test_an_hpgl_number_out_of_range_is_one_error_naming_the_instruction(program, instruction, words):
     with pytest.raises(ProtocolError, match=f"instruction {instruction}.*{words}"):
         HPGL.program(program.encode())
@@ -44,19 +47,34 @@ def test_an_hpgl_number_out_of_range_is_one_error_naming_the_instruction(program
 def test_the_commands_say_it_in_one_line(tmp_path, capsys, command):
     path = tmp_path / "big.hpgl"
     path.write_text(f"IN;SP1;PA{HUGE_FLOAT},100;PD100,100;SP0;\n")
-    argv = {"stat": ["stat", str(path)], "simulate": ["simulate", str(path), "-o", str(tmp_path / "x.png"), "-q"],
-            "draw": ["draw", str(path), "--port", "sim://", "-q"]}[command]
+    argv = {
+        "stat": ["stat", str(path)],
+        "simulate": ["simulate", str(path), "-o", str(tmp_path / "x.png"), "-q"],
+        "draw": ["draw", str(path), "--port", "sim://", "-q"],
+    }[command]
     assert main([*argv, "--profile", "hp7475a"]) == 2
     err = capsys.readouterr().err
-    assert err.startswith(f"pencilbot: error: {path}: instruction 3: coordinate inf,100") and err.count("\n") == 1
+    assert (
+        err.startswith(f"pencilbot: error: {path}: instruction 3: coordinate inf,100")
+        and err.count("\n") == 1
+    )
     assert not (tmp_path / "x.png").exists()
 
 
 @settings(max_examples=150, deadline=None)
-@given(mnemonic=st.sampled_from(["SP", "VS", "PA", "PR", "PD", "PU"]),
-       numbers=st.lists(st.one_of(st.integers(-10**40, 10**40).map(str),
-                                  st.floats(allow_nan=False, allow_infinity=False).map(repr),
-                                  st.just(HUGE_FLOAT), st.just("-" + HUGE_FLOAT)), min_size=1, max_size=4))
+@given(
+    mnemonic=st.sampled_from(["SP", "VS", "PA", "PR", "PD", "PU"]),
+    numbers=st.lists(
+        st.one_of(
+            st.integers(-(10**40), 10**40).map(str),
+            st.floats(allow_nan=False, allow_infinity=False).map(repr),
+            st.just(HUGE_FLOAT),
+            st.just("-" + HUGE_FLOAT),
+        ),
+        min_size=1,
+        max_size=4,
+    ),
+)
 def test_any_number_after_any_instruction_reads_or_is_refused(mnemonic, numbers):
     text = f"IN;SP1;PU0,0;{mnemonic}{','.join(numbers)};PU;SP0;"
     try:
@@ -64,7 +82,9 @@ def test_any_number_after_any_instruction_reads_or_is_refused(mnemonic, numbers)
     except ProtocolError as exc:
         assert str(exc)  # the one error the commands report
         return
-    assert np.abs(program.xy).max(initial=0) <= 32767 and (program.pen >= 0).all() and (program.speed >= 0).all()
+    assert (
+        np.abs(program.xy).max(initial=0) <= 32767 and (program.pen >= 0).all() and (program.speed >= 0).all()
+    )
 
 
 def test_a_photo_named_in_bytes_that_are_not_utf8_is_planned(tmp_path, capsys):

@@ -52,9 +52,13 @@ def test_export_with_such_a_profile_writes_nothing(tmp_path, capsys, name, secti
     found.setdefault(section, {})[key] = value
     (tmp_path / "p.toml").write_text(toml_text(found))
     svg = tmp_path / "d.svg"
-    svg.write_text('<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" viewBox="0 0 50 50">'
-                   '<path d="M 5 5 L 40 40" stroke="black"/></svg>')
-    code = main(["export", str(svg), "-o", str(tmp_path / "d.gcode"), "--profile", str(tmp_path / "p.toml"), "-q"])
+    svg.write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" viewBox="0 0 50 50">'
+        '<path d="M 5 5 L 40 40" stroke="black"/></svg>'
+    )
+    code = main(
+        ["export", str(svg), "-o", str(tmp_path / "d.gcode"), "--profile", str(tmp_path / "p.toml"), "-q"]
+    )
     err = capsys.readouterr().err
     assert code == 2 and named.split(" =")[0].split(" line")[0] in err and err.count("\n") == 1, err
     assert not (tmp_path / "d.gcode").exists()
@@ -66,8 +70,11 @@ def test_a_template_may_switch_modes_if_it_switches_back():
 
 
 @settings(max_examples=80, deadline=None)
-@given(up=st.floats(-1e9, 1e9), down=st.floats(-1e9, 1e9), name=st.sampled_from(
-    ["axidraw-v3", "grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4", "hp7475a"]))
+@given(
+    up=st.floats(-1e9, 1e9),
+    down=st.floats(-1e9, 1e9),
+    name=st.sampled_from(["axidraw-v3", "grbl-servo-a4", "grbl-z-a3", "marlin-servo-a4", "hp7475a"]),
+)
 def test_every_pen_value_loads_in_range_or_is_refused_by_key(up, down, name):
     found = shipped_table(name)
     found["pen"].update(up=up, down=down)

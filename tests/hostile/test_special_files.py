@@ -28,37 +28,50 @@ def test_an_output_that_is_no_regular_file_is_refused_and_stays(tmp_path, kind):
     assert os.listdir(tmp_path) == ["out.png"]  # no temporary file either
 
 
-@pytest.mark.parametrize("argv", [
-    ["sketch", "p.png", "-o", "OUT.png"], ["plan", "p.png", "-o", "OUT.svg"], ["export", "d.svg", "-o", "OUT.gcode"],
-    ["simulate", "d.gcode", "-o", "OUT.png"], ["optimize", "d.svg", "-o", "OUT.svg"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["sketch", "p.png", "-o", "OUT.png"],
+        ["plan", "p.png", "-o", "OUT.svg"],
+        ["export", "d.svg", "-o", "OUT.gcode"],
+        ["simulate", "d.gcode", "-o", "OUT.png"],
+        ["optimize", "d.svg", "-o", "OUT.svg"],
+    ],
+)
 def test_the_commands_refuse_a_fifo_output_in_one_line(tmp_path, capsys, monkeypatch, argv):
     import numpy as np
     from PIL import Image
 
     monkeypatch.chdir(tmp_path)
     Image.fromarray(np.full((40, 40), 128, np.uint8)).save("p.png")
-    (tmp_path / "d.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" '
-                                    'viewBox="0 0 50 50"><path d="M 5 5 L 40 40" stroke="black"/></svg>')
+    (tmp_path / "d.svg").write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" '
+        'viewBox="0 0 50 50"><path d="M 5 5 L 40 40" stroke="black"/></svg>'
+    )
     (tmp_path / "d.gcode").write_text("G21\nG90\nM3 S30\nG0 X10 Y10\nM3 S90\nG1 X20 F900\nM3 S30\n")
     output = next(a for a in argv if a.startswith("OUT"))
     os.mkfifo(output)
     assert main([*argv, "-q"]) == 2
     err = capsys.readouterr().err
-    assert err == f"pencilbot: error: the output {output} is a FIFO (named pipe), not a file; pencilbot writes only " \
-                  "regular files: name a file (a new one, or one to replace)\n"
+    assert (
+        err
+        == f"pencilbot: error: the output {output} is a FIFO (named pipe), not a file; pencilbot writes only "
+        "regular files: name a file (a new one, or one to replace)\n"
+    )
     assert stat.S_ISFIFO(os.lstat(output).st_mode)
 
 
 def _unblock(path):
     """Open the FIFO's other end if a reader waits on it (so an old reader that opened it does not
     hang the test: it then reads nothing and fails some other way)."""
+
     def run():
         try:
             fd = os.open(path, os.O_WRONLY)
             os.close(fd)
         except OSError:
             pass
+
     thread = threading.Thread(target=run, daemon=True)
     thread.start()
     return thread
@@ -67,8 +80,10 @@ def _unblock(path):
 @pytest.mark.parametrize("what", ["journal", "config", "profile", "gcode"])
 def test_a_fifo_or_device_input_is_refused_at_the_door(tmp_path, capsys, monkeypatch, what):
     monkeypatch.chdir(tmp_path)
-    (tmp_path / "d.svg").write_text('<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" '
-                                    'viewBox="0 0 50 50"><path d="M 5 5 L 40 40" stroke="black"/></svg>')
+    (tmp_path / "d.svg").write_text(
+        '<svg xmlns="http://www.w3.org/2000/svg" width="50mm" height="50mm" '
+        'viewBox="0 0 50 50"><path d="M 5 5 L 40 40" stroke="black"/></svg>'
+    )
     if what == "journal":
         os.mkfifo("job.json")
         argv, path = ["draw", "--resume", "job.json", "--port", "sim://"], "job.json"

@@ -23,8 +23,11 @@ def test_every_probe_of_the_sample_is_a_clean_error_or_a_correct_run(results):
 
 def test_the_sample_covers_every_surface_and_both_verdicts(results):
     every, done = results
-    assert {r["surface"] for r in done} == {p.surface for p in every} == {
-        "files", "gcode lines", "hpgl", "profiles", "settings"}
+    assert (
+        {r["surface"] for r in done}
+        == {p.surface for p in every}
+        == {"files", "gcode lines", "hpgl", "profiles", "settings"}
+    )
     assert {r["verdict"] for r in done} == {"clean error", "correct"} and len(done) >= 60
 
 
@@ -32,8 +35,10 @@ def test_the_judge_counts_what_breaks_as_failures(tmp_path):
     # A run that succeeds on a wrong input, and one that refuses a right one, are failures.
     (tmp_path / "config").mkdir()
     (tmp_path / "ok.svg").write_text(sweep._SVG)
-    probes = [sweep.Probe("t", "wrong but accepted", ["stat", "ok.svg", "-q"]),
-              sweep.Probe("t", "right but refused", ["stat", "missing.svg", "-q"], good=True),
-              sweep.Probe("t", "right", ["stat", "ok.svg", "-q"], good=True)]
+    probes = [
+        sweep.Probe("t", "wrong but accepted", ["stat", "ok.svg", "-q"]),
+        sweep.Probe("t", "right but refused", ["stat", "missing.svg", "-q"], good=True),
+        sweep.Probe("t", "right", ["stat", "ok.svg", "-q"], good=True),
+    ]
     verdicts = [r["verdict"] for r in sweep.run(probes, tmp_path)]
     assert verdicts == ["failure", "failure", "correct"]

@@ -65,15 +65,22 @@ def test_mtcnn_finds_a_group_tilted_and_small_faces_and_the_cascade_does_not():
     head = ASTRONAUT[30:230, 120:320]
     wall = np.full((450, 640, 3), 0.55, np.float32)
     placed = []
-    for (row, col), angle, scale in [((10, 10), 0, 1.0), ((10, 220), 25, 1.0), ((10, 430), -25, 1.0), ((240, 270), 0, 0.5)]:
+    for (row, col), angle, scale in [
+        ((10, 10), 0, 1.0),
+        ((10, 220), 25, 1.0),
+        ((10, 430), -25, 1.0),
+        ((240, 270), 0, 0.5),
+    ]:
         turn = cv2.getRotationMatrix2D((100, 100), angle, scale)
         tile = cv2.warpAffine(head, turn, (200, 200), borderMode=cv2.BORDER_REPLICATE)
-        wall[row: row + 200, col: col + 200] = tile
+        wall[row : row + 200, col : col + 200] = tile
         placed.append((col + 100, row + 100 - 10 * scale))
     found = find_faces(wall)
     assert len(found) == 4
     for x, y in placed:  # one face at each head, centred within a fifth of its size
-        assert len([f for f in found if abs(f.x + f.size / 2 - x) < 40 and abs(f.y + f.size / 2 - y) < 40]) == 1
+        assert (
+            len([f for f in found if abs(f.x + f.size / 2 - x) < 40 and abs(f.y + f.size / 2 - y) < 40]) == 1
+        )
     sizes = sorted(f.size for f in found)
     assert sizes[0] < 0.7 * sizes[1]
     # The cascade (frontal only) misses the tilted ones.

@@ -68,10 +68,7 @@ def test_sixteen_bit_grey_keeps_precision(tmp_path):
     assert loaded.gray[0, 1] != loaded.gray[0, 2]
 
 
-@pytest.mark.parametrize(
-    ("orientation", "dark_side"),
-    [(1, "left"), (3, "right"), (6, "top"), (8, "bottom")],
-)
+@pytest.mark.parametrize(("orientation", "dark_side"), [(1, "left"), (3, "right"), (6, "top"), (8, "bottom")])
 def test_exif_orientation_applied(tmp_path, orientation, dark_side):
     # Stored 64 wide × 32 high, left half black. Orientation 6 = "rotate 90° clockwise to view".
     stored = np.full((32, 64, 3), 255, dtype=np.uint8)
@@ -108,7 +105,9 @@ def test_a_pixel_limit_below_one_is_refused_not_a_one_pixel_photo(tmp_path, limi
 def test_downscale_fits_limit_and_keeps_aspect(tmp_path, suffix):
     img = np.zeros((600, 900, 3), dtype=np.uint8)
     img[:, 450:] = 255
-    loaded = load_image(save(tmp_path, Image.fromarray(img), f"big.{suffix}"), max_pixels=20_000, downscale=True)
+    loaded = load_image(
+        save(tmp_path, Image.fromarray(img), f"big.{suffix}"), max_pixels=20_000, downscale=True
+    )
     h, w = loaded.gray.shape
     assert h * w <= 20_000
     assert abs(w / h - 1.5) < 0.05
@@ -164,12 +163,7 @@ def test_image_from_array_rejects(arr):
 
 
 @settings(max_examples=40, deadline=None)
-@given(
-    arrays(
-        np.uint8,
-        st.tuples(st.integers(1, 9), st.integers(1, 9), st.sampled_from([1, 3, 4])),
-    )
-)
+@given(arrays(np.uint8, st.tuples(st.integers(1, 9), st.integers(1, 9), st.sampled_from([1, 3, 4]))))
 def test_image_from_array_invariants(arr):
     loaded = image_from_array(arr)
     h, w = arr.shape[:2]
@@ -188,7 +182,9 @@ def photo(shape=(480, 640)):
 
 @pytest.mark.parametrize(("suffix", "tolerance"), [("png", 1.5 / 255), ("jpg", 0.02)])
 def test_shrink_to_decodes_at_the_size_asked_for_and_matches_shrinking_after(tmp_path, suffix, tolerance):
-    path = save(tmp_path, Image.fromarray(photo()), f"p.{suffix}", **({"quality": 95} if suffix == "jpg" else {}))
+    path = save(
+        tmp_path, Image.fromarray(photo()), f"p.{suffix}", **({"quality": 95} if suffix == "jpg" else {})
+    )
     asked = []
 
     def half(shape):

@@ -52,23 +52,54 @@ def _image(kind: str, pixels: np.ndarray) -> tuple[Image.Image, dict]:
     return image, options
 
 
-KINDS = ["RGB", "RGBA", "L", "LA", "1", "I;16", "L key", "RGB key", "P8", "P4", "P2", "P1", "P8 alpha", "P4 alpha"]
+KINDS = [
+    "RGB",
+    "RGBA",
+    "L",
+    "LA",
+    "1",
+    "I;16",
+    "L key",
+    "RGB key",
+    "P8",
+    "P4",
+    "P2",
+    "P1",
+    "P8 alpha",
+    "P4 alpha",
+]
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(kind=st.sampled_from(KINDS), factor=st.integers(2, 4), blocks=st.tuples(st.integers(1, 12), st.integers(1, 12)),
-       seed=st.integers(0, 2**32 - 1), strip=st.integers(1, 3000), writer=st.sampled_from(["pillow", "opencv"]))
+@given(
+    kind=st.sampled_from(KINDS),
+    factor=st.integers(2, 4),
+    blocks=st.tuples(st.integers(1, 12), st.integers(1, 12)),
+    seed=st.integers(0, 2**32 - 1),
+    strip=st.integers(1, 3000),
+    writer=st.sampled_from(["pillow", "opencv"]),
+)
 def test_strips_give_the_whole_decode_shrunk(tmp_path_factory, kind, factor, blocks, seed, strip, writer):
     height, width = blocks[0] * factor, blocks[1] * factor
     rng = np.random.default_rng(seed)
-    smooth = cv2.resize(rng.integers(0, 256, (3, 3, 4), dtype=np.uint8), (width, height), interpolation=cv2.INTER_LINEAR)
-    pixels = np.where(rng.random((height, width, 1)) < 0.3, rng.integers(0, 256, (height, width, 4), dtype=np.uint8), smooth)
+    smooth = cv2.resize(
+        rng.integers(0, 256, (3, 3, 4), dtype=np.uint8), (width, height), interpolation=cv2.INTER_LINEAR
+    )
+    pixels = np.where(
+        rng.random((height, width, 1)) < 0.3, rng.integers(0, 256, (height, width, 4), dtype=np.uint8), smooth
+    )
     path = tmp_path_factory.mktemp("png") / "p.png"
     image, options = _image(kind, pixels)
     if writer == "opencv" and kind in ("RGB", "L", "RGBA"):  # libpng's own choice of filters (Paeth, ...)
         array = np.asarray(image)
-        cv2.imwrite(str(path), cv2.cvtColor(array, cv2.COLOR_RGB2BGR) if kind == "RGB" else
-                    cv2.cvtColor(array, cv2.COLOR_RGBA2BGRA) if kind == "RGBA" else array)
+        cv2.imwrite(
+            str(path),
+            cv2.cvtColor(array, cv2.COLOR_RGB2BGR)
+            if kind == "RGB"
+            else cv2.cvtColor(array, cv2.COLOR_RGBA2BGRA)
+            if kind == "RGBA"
+            else array,
+        )
     else:
         image.save(path, **options)
     layout = png_strips.png_layout(path)
@@ -110,7 +141,10 @@ def _write_grey_png(path, width: int, height: int, interlace: int = 0) -> None:
     """A grey PNG of ten horizontal bands (row y is 25 * (10 y // height)), a strip at a time."""
     squeeze = zlib.compressobj(1)
     with open(path, "wb") as out:
-        out.write(b"\x89PNG\r\n\x1a\n" + _chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, interlace)))
+        out.write(
+            b"\x89PNG\r\n\x1a\n"
+            + _chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 8, 0, 0, 0, interlace))
+        )
         for top in range(0, height, 500):
             rows = np.arange(top, min(top + 500, height))
             body = np.empty((len(rows), width + 1), np.uint8)
@@ -129,7 +163,9 @@ def test_a_png_whose_pixels_end_early_is_one_message(tmp_path):
     _write_grey_png(tmp_path / "t.png", 400, 300)
     data = (tmp_path / "t.png").read_bytes()
     (tmp_path / "t.png").write_bytes(data[: len(data) // 2])
-    with pytest.raises(ImageLoadError, match=r"could not be decoded \(its pixel data ends after \d+ of 300 rows\)"):
+    with pytest.raises(
+        ImageLoadError, match=r"could not be decoded \(its pixel data ends after \d+ of 300 rows\)"
+    ):
         load_image(tmp_path / "t.png", max_pixels=1000, downscale=True)
 
 
@@ -147,16 +183,24 @@ def test_a_400_megapixel_png_loads_downscaled_under_a_memory_limit(tmp_path):
     # The peak is the child's own VmHWM (its ru_maxrss would start from this process's at the
     # fork), less its peak once the libraries are imported (which varies by 10 MB or so between
     # runs): what the load itself added.
-    child = ("import json, re, sys\n"
-             "from pencilbot.imaging.io import load_image\n"
-             "hwm = lambda: int(re.search(r'VmHWM:\\s*(\\d+)', open('/proc/self/status').read())[1])\n"
-             "base = hwm()\n"
-             "image = load_image(sys.argv[1], max_pixels=250_000, downscale=True)\n"
-             "bands = [float(image.gray[round((i + 0.5) * image.shape[0] / 10)].mean()) for i in range(10)]\n"
-             "print(json.dumps({'shape': image.shape, 'bands': bands, 'added_mb': (hwm() - base) / 1024}))\n")
+    child = (
+        "import json, re, sys\n"
+        "from pencilbot.imaging.io import load_image\n"
+        "hwm = lambda: int(re.search(r'VmHWM:\\s*(\\d+)', open('/proc/self/status').read())[1])\n"
+        "base = hwm()\n"
+        "image = load_image(sys.argv[1], max_pixels=250_000, downscale=True)\n"
+        "bands = [float(image.gray[round((i + 0.5) * image.shape[0] / 10)].mean()) for i in range(10)]\n"
+        "print(json.dumps({'shape': image.shape, 'bands': bands, 'added_mb': (hwm() - base) / 1024}))\n"
+    )
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-    proc = subprocess.run([sys.executable, "-c", child, str(path)], capture_output=True, text=True, timeout=120,
-                          preexec_fn=_limit_memory, env=env)
+    proc = subprocess.run(
+        [sys.executable, "-c", child, str(path)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        preexec_fn=_limit_memory,
+        env=env,
+    )
     assert proc.returncode == 0, proc.stderr[-2000:]
     said = json.loads(proc.stdout)
     assert said["shape"] == [500, 500]

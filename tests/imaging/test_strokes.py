@@ -63,11 +63,7 @@ def draw_line(shape, angle_deg, centre, half_length, thickness=2):
 
 
 @settings(max_examples=40, deadline=None)
-@given(
-    k=st.integers(0, 7),
-    length=st.integers(6, 13),
-    offset=st.tuples(st.floats(-3, 3), st.floats(-3, 3)),
-)
+@given(k=st.integers(0, 7), length=st.integers(6, 13), offset=st.tuples(st.floats(-3, 3), st.floats(-3, 3)))
 def test_straight_line_at_k_is_labelled_k(k, length, offset):
     centre = (60 + offset[0], 60 + offset[1])  # (col, row)
     E = draw_line((121, 121), 22.5 * k, centre, half_length=45)
@@ -187,7 +183,14 @@ def test_flat_edge_map_is_blank_paper():
 
 @pytest.mark.parametrize(
     ("shape", "expected"),
-    [((10, 10), 6), ((400, 600), 7), ((512, 512), 7), ((1000, 1000), 9), ((3000, 4000), 13), ((9000, 9000), 13)],
+    [
+        ((10, 10), 6),
+        ((400, 600), 7),
+        ((512, 512), 7),
+        ((1000, 1000), 9),
+        ((3000, 4000), 13),
+        ((9000, 9000), 13),
+    ],
 )
 def test_default_line_length_examples(shape, expected):
     assert default_line_length(shape) == expected

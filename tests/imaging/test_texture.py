@@ -128,6 +128,7 @@ def test_a_user_texture_is_tiled_over_the_image_seamlessly_and_normalised():
     # Tiles repeat unturned (a 45° hatching stays 45°, no herringbone) ...
     np.testing.assert_array_equal(H[:60, 80:160], H[:60, :80])
     np.testing.assert_array_equal(H[60:120, :80], H[:60, :80])
+
     # ... and meet without a seam: across a tile edge the texture steps like between neighbours,
     # where plain tiles of the scan jump from its last column to its first.
     def step(a, b):
@@ -138,7 +139,9 @@ def test_a_user_texture_is_tiled_over_the_image_seamlessly_and_normalised():
         [step(d[r], d[r + 1]) for r in range(10, 50)]
     )
     raw = -np.log(tile.astype(np.float64))
-    assert step(raw[:, -1], raw[:, 0]) > 1.3 * np.mean([step(raw[:, c], raw[:, c + 1]) for c in range(10, 70)])
+    assert step(raw[:, -1], raw[:, 0]) > 1.3 * np.mean(
+        [step(raw[:, c], raw[:, c + 1]) for c in range(10, 70)]
+    )
     # Its marks are the scan's, where the blend leaves it alone (the middle of each tile) ...
     centre = (slice(20, 40), slice(25, 55))
     assert np.corrcoef(d[:60, :80][centre].ravel(), raw[centre].ravel())[0, 1] > 0.95
@@ -166,7 +169,9 @@ def test_a_texture_file_is_read_as_its_luma_and_a_bad_one_is_a_user_error(tmp_pa
     path = tmp_path / "hatching.png"
     Image.fromarray(np.rint(tile * 255).astype(np.uint8)).save(path)
     from_file = user_texture(path, (100, 100), scale=1.0)
-    np.testing.assert_allclose(from_file, user_texture(np.rint(tile * 255) / 255, (100, 100), scale=1.0), rtol=1e-5)
+    np.testing.assert_allclose(
+        from_file, user_texture(np.rint(tile * 255) / 255, (100, 100), scale=1.0), rtol=1e-5
+    )
     with pytest.raises(ImageLoadError, match="pencil texture: .*no such file"):
         user_texture(tmp_path / "missing.png", (10, 10))
 

@@ -120,7 +120,11 @@ def test_tone_target_follows_the_model_and_keeps_order(method):
     # By default a fifth of the photo's own histogram is mixed in: J lies between the two.
     mixed = tone_target(gray, method=method, never_darker=False)
     assert np.all(np.diff(mixed.ravel()[order]) >= 0)
-    assert cdf_distance(J, pencil_histogram()) < cdf_distance(mixed, pencil_histogram()) < cdf_distance(gray, pencil_histogram())
+    assert (
+        cdf_distance(J, pencil_histogram())
+        < cdf_distance(mixed, pencil_histogram())
+        < cdf_distance(gray, pencil_histogram())
+    )
 
 
 def test_tone_target_on_a_ramp_hits_the_layers():

@@ -39,7 +39,9 @@ def test_trapezoid_forms_agree(length, nominal, accel, f_in, f_out):
     v_out = f_out * min(nominal, math.sqrt(v_in**2 + 2 * accel * length))
     v_in = min(v_in, math.sqrt(v_out**2 + 2 * accel * length))
     scalar = block_duration(length, accel, v_in, v_out, nominal)
-    assert move_times(np.array([length]), v_in, v_out, nominal, accel)[0] == pytest.approx(scalar, rel=1e-9, abs=1e-12)
+    assert move_times(np.array([length]), v_in, v_out, nominal, accel)[0] == pytest.approx(
+        scalar, rel=1e-9, abs=1e-12
+    )
 
 
 @settings(max_examples=100, deadline=None)
@@ -81,7 +83,9 @@ def sequential_plan(lengths, units, joined, speed, accel, deviation):
 @given(
     st.lists(st.tuples(st.floats(0, 50), st.floats(0, 50)), min_size=2, max_size=14),
     st.lists(st.booleans(), min_size=13, max_size=13),
-    st.lists(st.floats(5, 80), min_size=13, max_size=13), st.floats(50, 3000), st.floats(0.001, 0.2),
+    st.lists(st.floats(5, 80), min_size=13, max_size=13),
+    st.floats(50, 3000),
+    st.floats(0.001, 0.2),
 )
 def test_closed_form_speeds_equal_a_sequential_planner(points, joins, speeds, accel, deviation):
     step = np.diff(np.array(points), axis=0)

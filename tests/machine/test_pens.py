@@ -48,23 +48,29 @@ def test_the_shipped_sets_load_and_draw_lightest_first_darkest_last():
 
 def test_a_set_from_a_file_keeps_its_values(tmp_path):
     pens = load_pens(write(tmp_path, GOOD))
-    assert [(p.name, p.color, p.width) for p in pens.pens] == [("sepia", "#704214", 0.3), ("sky", "#87ceeb", 0.8)]
+    assert [(p.name, p.color, p.width) for p in pens.pens] == [
+        ("sepia", "#704214", 0.3),
+        ("sky", "#87ceeb", 0.8),
+    ]
     assert [p.name for p in pens.load_order] == ["sky", "sepia"]
     assert pens.pen("sky").rgb.tolist() == pytest.approx([0x87 / 255, 0xCE / 255, 0xEB / 255])
 
 
-@pytest.mark.parametrize(("change", "words"), [
-    (('color = "#704214"', 'color = "brown"'), ["pen 1 ('sepia') color", "#rrggbb"]),
-    (('color = "#704214"', 'color = "#70421"'), ["pen 1 ('sepia') color"]),
-    (("width = 0.8", "width = 0"), ["pen 2 ('sky') width", "mm"]),
-    (("width = 0.8", 'width = "0.8"'), ["pen 2 ('sky') width"]),
-    (("width = 0.8", "width = nan"), ["pen 2 ('sky') width"]),
-    (("width = 0.8", "width = 0.8\nink = \"gel\""), ["pen 2 ('sky') has unknown key ink"]),
-    (('name = "sky"', 'name = "sky (blue)"'), ["pen 2 ('sky (blue)') name", "letters"]),
-    (('name = "sky"', 'name = "sepia"'), ["two pens are called 'sepia'"]),
-    (("width = 0.3\n", ""), ["pen 1 ('sepia') has no width"]),
-    (('description = "two pens"', 'descripton = "two pens"'), ["unknown key descripton"]),
-])
+@pytest.mark.parametrize(
+    ("change", "words"),
+    [
+        (('color = "#704214"', 'color = "brown"'), ["pen 1 ('sepia') color", "#rrggbb"]),
+        (('color = "#704214"', 'color = "#70421"'), ["pen 1 ('sepia') color"]),
+        (("width = 0.8", "width = 0"), ["pen 2 ('sky') width", "mm"]),
+        (("width = 0.8", 'width = "0.8"'), ["pen 2 ('sky') width"]),
+        (("width = 0.8", "width = nan"), ["pen 2 ('sky') width"]),
+        (("width = 0.8", 'width = 0.8\nink = "gel"'), ["pen 2 ('sky') has unknown key ink"]),
+        (('name = "sky"', 'name = "sky (blue)"'), ["pen 2 ('sky (blue)') name", "letters"]),
+        (('name = "sky"', 'name = "sepia"'), ["two pens are called 'sepia'"]),
+        (("width = 0.3\n", ""), ["pen 1 ('sepia') has no width"]),
+        (('description = "two pens"', 'descripton = "two pens"'), ["unknown key descripton"]),
+    ],
+)
 def test_every_mistake_is_one_message_naming_the_pen_and_key(tmp_path, change, words):
     path = write(tmp_path, GOOD.replace(*change, 1))
     with pytest.raises(ProfileError) as err:
@@ -94,7 +100,9 @@ def test_a_users_set_is_found_by_name_before_the_shipped_ones():
 @given(st.text(st.characters(codec="ascii"), min_size=1, max_size=30))
 def test_only_names_that_fit_a_gcode_comment_are_accepted(tmp_path_factory, name):
     path = tmp_path_factory.mktemp("pens") / "p.toml"
-    path.write_text(f'[[pen]]\nname = "{name.replace(chr(92), "").replace(chr(34), "")}"\ncolor = "#000000"\nwidth = 0.5\n')
+    path.write_text(
+        f'[[pen]]\nname = "{name.replace(chr(92), "").replace(chr(34), "")}"\ncolor = "#000000"\nwidth = 0.5\n'
+    )
     try:
         pens = load_pens(path)
     except ProfileError as err:

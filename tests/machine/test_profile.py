@@ -65,7 +65,13 @@ def test_motion_is_in_mm_per_second_and_the_pen_model_has_its_commands():
     assert profile.motion.travel_speed == pytest.approx(6000.0 / 60)
     assert (profile.motion.acceleration, profile.motion.junction_deviation) == (800.0, 0.01)
     pen = profile.pen_model
-    assert (pen.kind, pen.up, pen.down, pen.up_lines, pen.down_lines) == ("spindle", 30, 90, ("M3 S30",), ("M3 S90",))
+    assert (pen.kind, pen.up, pen.down, pen.up_lines, pen.down_lines) == (
+        "spindle",
+        30,
+        90,
+        ("M3 S30",),
+        ("M3 S90",),
+    )
     assert (pen.up_delay, pen.down_delay) == (0.15, 0.2)
     assert not pen.moves_with_the_axes and load_profile("grbl-z-a3").pen_model.moves_with_the_axes
     assert profile.firmware.title == "GRBL" and profile.receive_buffer == 128
@@ -96,7 +102,10 @@ BAD = {
     "missing dialect": (_drop("", "dialect"), ["missing key dialect", '"grbl" or "grblhal" or "marlin"']),
     "missing table": (_drop("", "pen"), ["missing table [pen]", "kind"]),
     "not a table": (_set("", "bed", 5), ["bed = 5", "table [bed]"]),
-    "negative feed": (_set("motion", "travel_feed", -100), ["[motion] travel_feed = -100", "≥ 1 and ≤ 1000000 mm/min"]),
+    "negative feed": (
+        _set("motion", "travel_feed", -100),
+        ["[motion] travel_feed = -100", "≥ 1 and ≤ 1000000 mm/min"],
+    ),
     "zero feed": (_set("motion", "draw_feed", 0), ["[motion] draw_feed = 0", "≥ 1 and"]),
     "negative delay": (_set("pen", "down_delay", -0.1), ["[pen] down_delay", "≥ 0 and ≤ 60 seconds"]),
     "absurd feed": (_set("motion", "draw_feed", 3e9), ["[motion] draw_feed", "≤ 1000000 mm/min"]),
@@ -125,7 +134,9 @@ BAD = {
 
 
 def test_homing_and_soft_limits_are_off_unless_the_profile_says(tmp_path):
-    assert all(not (p.bed.homing or p.bed.soft_limits) for p in map(load_profile, SHIPPED))  # GRBL's factory state
+    assert all(
+        not (p.bed.homing or p.bed.soft_limits) for p in map(load_profile, SHIPPED)
+    )  # GRBL's factory state
     table = shipped_table()
     table["bed"].update(homing=True, soft_limits=True)
     bed = load_profile(write_profile(tmp_path, table)).bed

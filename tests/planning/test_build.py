@@ -87,8 +87,14 @@ def test_ordering_keeps_every_edge_stroke(camera):
     plan = plan_from_sketch(drawing, page, Style(order_rounds=4, faces=False))
     layout = Layout.fit(camera.shape, page)
     assert plan.meta["faces"] == "off"
-    raw = edge_strokes(drawing.line, layout, threshold=float(plan.meta["edge_threshold"]), clutter=FAST.edge_clutter,
-                       max_lines=FAST.edge_lines, budget=FAST.edge_budget / 100)
+    raw = edge_strokes(
+        drawing.line,
+        layout,
+        threshold=float(plan.meta["edge_threshold"]),
+        clutter=FAST.edge_clutter,
+        max_lines=FAST.edge_lines,
+        budget=FAST.edge_budget / 100,
+    )
     ordered = plan.layer("edges").paths
     # Ordering only reverses and joins: ink length is kept up to the joins' short bridges
     # (each at most a pen width).
@@ -219,7 +225,9 @@ def test_style_stroke_and_texture_keys_reach_the_drawing(camera, tmp_path):
     paper = np.full((64, 64), 230, np.uint8)
     paper[::5] = 90  # a ruled "hatching" scan
     Image.fromarray(paper).save(folder / "ruled.png")
-    (folder / "mine.toml").write_text('texture = "ruled.png"\nstroke_gamma = 3.0\nstroke_width = 2.0\norder_rounds = 4\n')
+    (folder / "mine.toml").write_text(
+        'texture = "ruled.png"\nstroke_gamma = 3.0\nstroke_width = 2.0\norder_rounds = 4\n'
+    )
     style = load_style(folder / "mine.toml")
     assert style.texture == str(folder / "ruled.png")  # relative to the style file, not the cwd
     assert (style.stroke_gamma, style.stroke_width) == (3.0, 2.0)
@@ -356,7 +364,9 @@ def test_a_photo_file_is_decoded_at_plot_resolution_not_reduced_after(tmp_path):
     lean = load_image(path, shrink_to=plot_resolution(style))
     after = at_plot_resolution(load_image(path), page, style.pen_width)
     assert lean.shape == after.shape == plot_shape((1800, 1200), page, style.pen_width)
-    assert Layout.fit(lean.shape, page).mm_per_px >= style.pen_width / 3  # a pixel is at least a third of the pen
+    assert (
+        Layout.fit(lean.shape, page).mm_per_px >= style.pen_width / 3
+    )  # a pixel is at least a third of the pen
     assert at_plot_resolution(lean, page, style.pen_width) is lean
     assert np.abs(lean.gray - after.gray).mean() < 1 / 255  # 8-bit area averaging, then float
     assert make_plan(lean, style=style).meta["image_px"] == f"{lean.shape[1]}x{lean.shape[0]}"

@@ -104,8 +104,17 @@ def patch_plan(rgb, pens):
     layout = Layout.fit(PATCH_PX, PAGE)
     target = np.broadcast_to(np.asarray(rgb, np.float32), (*PATCH_PX, 3)).copy()
     tone = np.full(PATCH_PX, 0.5, np.float32)
-    layers = color_hatching(target, layout, pens, Paths.empty(), form=tone, paper=tone, angles=(0.0, 90.0, 45.0, -45.0),
-                             form_scale=0.0, seed=3)
+    layers = color_hatching(
+        target,
+        layout,
+        pens,
+        Paths.empty(),
+        form=tone,
+        paper=tone,
+        angles=(0.0, 90.0, 45.0, -45.0),
+        form_scale=0.0,
+        seed=3,
+    )
     inks = {}
     for pen in pens:
         mine = Paths.concat(layer.paths for layer in layers if layer.pen == pen.name)
@@ -114,8 +123,12 @@ def patch_plan(rgb, pens):
 
 
 def pen_down(layers, pen: str) -> float:
-    return sum(float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) for layer in layers if layer.pen == pen
-               for p in layer.paths)
+    return sum(
+        float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+        for layer in layers
+        if layer.pen == pen
+        for p in layer.paths
+    )
 
 
 @pytest.mark.parametrize("which", ["magenta", "cyan"])
@@ -133,7 +146,9 @@ def test_a_grey_patch_with_cmyk_comes_out_grey_on_paper():
     pens = load_pens("cmyk").load_order
     grey = [0.55] * 3
     layers, inks = patch_plan(grey, pens)
-    stacked = inks_on_paper([inks[p.name].mean(keepdims=True)[None] for p in pens], [p.color for p in pens])[0, 0]
+    stacked = inks_on_paper([inks[p.name].mean(keepdims=True)[None] for p in pens], [p.color for p in pens])[
+        0, 0
+    ]
     assert float(deltaE_ciede2000(lab(stacked), lab(grey))) < 4.0
     lengths = {p.name: pen_down(layers, p.name) for p in pens}
     colour = [lengths["cyan"], lengths["magenta"], lengths["yellow"]]
@@ -188,8 +203,13 @@ def test_colours_the_pens_can_make_are_separated_to_under_a_just_noticeable_diff
 
 
 FLAT_COLOURS = {
-    "skin": [0.93, 0.78, 0.68], "shadowed skin": [0.85, 0.55, 0.40], "sky": [0.55, 0.75, 0.90],
-    "leaf": [0.40, 0.60, 0.30], "navy": [0.20, 0.25, 0.45], "orange": [0.90, 0.50, 0.20], "grey": [0.6, 0.6, 0.6],
+    "skin": [0.93, 0.78, 0.68],
+    "shadowed skin": [0.85, 0.55, 0.40],
+    "sky": [0.55, 0.75, 0.90],
+    "leaf": [0.40, 0.60, 0.30],
+    "navy": [0.20, 0.25, 0.45],
+    "orange": [0.90, 0.50, 0.20],
+    "grey": [0.6, 0.6, 0.6],
 }
 
 

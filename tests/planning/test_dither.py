@@ -31,7 +31,7 @@ def _cells_drawn(paths: Paths, shape) -> np.ndarray:
         drawn[rc[:, 0], rc[:, 1]] = True
         for (r0, c0), (r1, c1) in zip(rc[:-1], rc[1:]):
             if r0 == r1:
-                drawn[r0, min(c0, c1): max(c0, c1) + 1] = True
+                drawn[r0, min(c0, c1) : max(c0, c1) + 1] = True
     return drawn
 
 
@@ -99,7 +99,9 @@ def test_a_run_s_round_end_is_counted():
 def test_ink_already_there_stacks_with_the_runs(given):
     # Rows PITCH pen widths apart: a run of k cells lays (k - 1) pen + CAP pen² cells of ink.
     pen = 1 / PITCH
-    on = error_diffuse(np.full(GRID.shape, 0.8), np.ones(GRID.shape, bool), np.full(GRID.shape, given), pen=pen)
+    on = error_diffuse(
+        np.full(GRID.shape, 0.8), np.ones(GRID.shape, bool), np.full(GRID.shape, given), pen=pen
+    )
     _, first, last = row_runs(on)
     laid = ((last - first) * pen + CAP * pen**2).sum() / on.size
     assert 1.0 - (1.0 - given) * (1.0 - laid) == pytest.approx(0.8, abs=0.02)
@@ -120,7 +122,7 @@ def test_a_join_runs_back_over_at_most_reach_cells(inset, strokes):
     # over ``inset`` cells of one of the two.
     on = np.zeros((2, 40), bool)
     on[0, 0:20] = True
-    on[1, inset: 20 - inset] = True
+    on[1, inset : 20 - inset] = True
     assert len(run_strokes(on, GRID)) == strokes
 
 
@@ -149,7 +151,9 @@ def test_face_runs_draw_a_grey_face_and_leave_a_white_one_blank():
     px = layout.mm_to_px(runs.points)
     assert np.all((px > 28) & (px < 92))  # inside the face only
     white = np.zeros((120, 120), np.float32)
-    assert len(face_runs(white, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=white)) == 0
+    assert (
+        len(face_runs(white, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=white)) == 0
+    )
 
 
 def test_shade_draws_a_dithered_face_as_runs_and_hatches_around_it():
@@ -163,4 +167,6 @@ def test_shade_draws_a_dithered_face_as_runs_and_hatches_around_it():
     px = layout.mm_to_px(hatching.points)
     deep_inside = np.all((px > 36) & (px < 84), axis=1)
     assert len(hatching) and not deep_inside.any()  # the hatching leaves the face to the runs
-    assert FACE_TONE not in [layer.name for layer in shade(grey, layout, Paths.empty(), pen_width=PEN, rounds=1)]
+    assert FACE_TONE not in [
+        layer.name for layer in shade(grey, layout, Paths.empty(), pen_width=PEN, rounds=1)
+    ]

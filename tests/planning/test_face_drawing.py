@@ -63,9 +63,15 @@ def test_a_face_is_drawn_closer_to_the_photo_and_the_rest_as_without(astronaut):
     far = (0, drawing.gray.shape[0] * 0.75, drawing.gray.shape[1], drawing.gray.shape[0])
 
     def far_lengths(plan):
-        return np.array([np.linalg.norm(np.diff(p, axis=0), axis=1).sum()
-                         for layer in plan.layers if layer.role == "hatch" for p in layer.paths
-                         if _inside([p], layout, far) == len(p)])
+        return np.array(
+            [
+                np.linalg.norm(np.diff(p, axis=0), axis=1).sum()
+                for layer in plan.layers
+                if layer.role == "hatch"
+                for p in layer.paths
+                if _inside([p], layout, far) == len(p)
+            ]
+        )
 
     assert np.median(far_lengths(on)) == pytest.approx(np.median(far_lengths(off)), rel=0.1)
     assert far_lengths(on).sum() == pytest.approx(far_lengths(off).sum(), rel=0.1)
@@ -81,7 +87,9 @@ def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
     assert plain.meta["faces"] == "none" and no_faces.meta["faces"] == "off"
     assert [layer.name for layer in plain.layers] == [layer.name for layer in no_faces.layers]
     for a, b in zip(plain.layers, no_faces.layers, strict=True):
-        assert np.array_equal(a.paths.points, b.paths.points) and np.array_equal(a.paths.offsets, b.paths.offsets)
+        assert np.array_equal(a.paths.points, b.paths.points) and np.array_equal(
+            a.paths.offsets, b.paths.offsets
+        )
     # And on the astronaut, with a face, the two differ.
     assert not all(np.array_equal(a.paths.points, b.paths.points) for a, b in zip(on.layers, off.layers))
 
@@ -92,7 +100,9 @@ def test_in_a_face_only_dark_features_keep_their_contours():
 
     page = page_size("A5", "portrait", (200, 200), 10.0)
     layout = Layout.fit((200, 200), page)
-    photo = np.tile(np.linspace(0.2, 0.4, 200, dtype=np.float32)[:, None], (1, 200))  # light skin, shaded downwards
+    photo = np.tile(
+        np.linspace(0.2, 0.4, 200, dtype=np.float32)[:, None], (1, 200)
+    )  # light skin, shaded downwards
     photo[100:103, 60:140] = 0.8  # a dark line: a mouth
     faces = [Face(40, 40, 120, 1.0)]
     mask = face_mask(photo.shape, faces)
@@ -124,6 +134,8 @@ def test_a_face_small_or_large_is_drawn_in_dithered_runs(page_name):
     assert len(runs) and mostly_in(runs, layout, mask).all()
     assert not mostly_in(layers["edges"].paths, layout, mask).any()
     # The hatching leaves the face to the runs: none of its points well inside.
-    hatching = Paths.concat(layer.paths for layer in plan.layers if layer.role == "hatch" and layer.name != FACE_TONE)
+    hatching = Paths.concat(
+        layer.paths for layer in plan.layers if layer.role == "hatch" and layer.name != FACE_TONE
+    )
     px = np.rint(layout.mm_to_px(hatching.points)).astype(int)
     assert not np.any(mask[px[:, 1].clip(0, mask.shape[0] - 1), px[:, 0].clip(0, mask.shape[1] - 1)] > 0.9)

@@ -29,9 +29,12 @@ def test_a_plan_is_faithful_to_its_own_sketch(planned):
 def test_shifted_edges_and_missing_hatching_lower_the_figures(planned):
     drawing, plan = planned
     good = fidelity(plan, drawing)
-    shifted = dataclasses.replace(plan, layers=[
-        dataclasses.replace(layer, paths=[p + (4.0, -3.0) for p in layer.paths]) for layer in plan.layers
-    ])
+    shifted = dataclasses.replace(
+        plan,
+        layers=[
+            dataclasses.replace(layer, paths=[p + (4.0, -3.0) for p in layer.paths]) for layer in plan.layers
+        ],
+    )
     edges_only = dataclasses.replace(plan, layers=[plan.layer("edges")])
     assert fidelity(shifted, drawing).line_r < good.line_r - 0.3
     assert fidelity(edges_only, drawing).tone_mae > good.tone_mae + 0.05

@@ -57,7 +57,12 @@ def test_hatching_runs_along_the_isophotes_of_a_radial_gradient():
     darkness = np.clip(0.15 + 0.6 * radius / (n / 2), 0, 0.9)
     layout = _layout((n, n))
     layers = shade(darkness, layout, Paths.empty(), pen_width=0.5)
-    centre = np.array([(layout.drawing_box[0] + layout.drawing_box[2]) / 2, (layout.drawing_box[1] + layout.drawing_box[3]) / 2])
+    centre = np.array(
+        [
+            (layout.drawing_box[0] + layout.drawing_box[2]) / 2,
+            (layout.drawing_box[1] + layout.drawing_box[3]) / 2,
+        ]
+    )
     pts = np.concatenate([p for p in layers[0].paths if len(p) > 1])
     segments = [np.diff(p, axis=0) for p in layers[0].paths if len(p) > 1]
     mids = np.concatenate([(p[1:] + p[:-1]) / 2 for p in layers[0].paths if len(p) > 1])
@@ -72,9 +77,19 @@ def test_hatching_runs_along_the_isophotes_of_a_radial_gradient():
     # Radial cross-hatching has no single-valued phase (see stripe_phase): the other families
     # bend, but together they still deliver the dark outer ring.
     x0, y0, x1, y1 = layout.drawing_box
-    ink = render_paths([p for layer in layers for p in layer.paths], x1 - x0, y1 - y0, dpi=127, pen_width=0.5, origin=(x0, y0))
+    ink = render_paths(
+        [p for layer in layers for p in layer.paths],
+        x1 - x0,
+        y1 - y0,
+        dpi=127,
+        pen_width=0.5,
+        origin=(x0, y0),
+    )
     rr, cc = np.mgrid[0 : ink.shape[0], 0 : ink.shape[1]]
-    ring = np.abs(np.hypot(rr - ink.shape[0] / 2, cc - ink.shape[1] / 2) - 0.85 * ink.shape[0] / 2) < 0.05 * ink.shape[0]
+    ring = (
+        np.abs(np.hypot(rr - ink.shape[0] / 2, cc - ink.shape[1] / 2) - 0.85 * ink.shape[0] / 2)
+        < 0.05 * ink.shape[0]
+    )
     assert ink[ring].mean() == pytest.approx(0.15 + 0.6 * 0.85, abs=0.06)
 
 
@@ -156,7 +171,13 @@ def test_strokes_stay_in_the_picture_and_are_never_crumbs(seed, pen, angles, min
     from pencilbot.planning.flow import sample_image
 
     layers = hatch_layers(
-        sample_image(darkness, layout, grid), grid, field, pen_width=pen, angles=tuple(angles), min_run=min_run, lines=lines
+        sample_image(darkness, layout, grid),
+        grid,
+        field,
+        pen_width=pen,
+        angles=tuple(angles),
+        min_run=min_run,
+        lines=lines,
     )
     x0, y0, x1, y1 = layout.drawing_box
     for layer in layers:
@@ -287,16 +308,26 @@ def test_a_gap_shorter_than_half_the_shortest_stroke_is_bridged():
     from pencilbot.planning.hatching import SAMPLE_STEP, HatchLines, hatch_strokes
 
     n = 30
-    lines = HatchLines(np.column_stack([np.arange(n) * SAMPLE_STEP, np.zeros(n)]), np.zeros(n, np.int64),
-                       np.zeros(n, np.int64), np.arange(n) * SAMPLE_STEP, np.ones(n), np.zeros((1, 1)))
+    lines = HatchLines(
+        np.column_stack([np.arange(n) * SAMPLE_STEP, np.zeros(n)]),
+        np.zeros(n, np.int64),
+        np.zeros(n, np.int64),
+        np.arange(n) * SAMPLE_STEP,
+        np.ones(n),
+        np.zeros((1, 1)),
+    )
 
     def strokes_with_gap(first, last):
         request = np.ones(n)
-        request[first:last + 1] = 0.0
+        request[first : last + 1] = 0.0
         return hatch_strokes(lines, request, pen_width=0.5, min_run=2.0)
 
     bridged = strokes_with_gap(3, 8)
-    assert len(bridged) == 1 and bridged[0][0, 0] == 0.0 and bridged[0][-1, 0] == pytest.approx((n - 1) * SAMPLE_STEP)
+    assert (
+        len(bridged) == 1
+        and bridged[0][0, 0] == 0.0
+        and bridged[0][-1, 0] == pytest.approx((n - 1) * SAMPLE_STEP)
+    )
     split = strokes_with_gap(12, 18)  # 3 samples off: 1.2 mm, not bridged
     assert len(split) == 2
 
@@ -309,8 +340,14 @@ def test_tone_that_changes_over_a_few_millimetres_is_followed_at_that_scale():
     tone = np.where((np.arange(160) // 8) % 2 == 0, 0.25, 0.75).astype(np.float32)
     layers = shade(np.tile(tone, (160, 1)), layout, [], pen_width=0.5)
     x0, y0, x1, y1 = layout.drawing_box
-    ink = render_paths([p for layer in layers for p in layer.paths], x1 - x0, y1 - y0, dpi=254, pen_width=0.5,
-                       origin=(x0, y0))
+    ink = render_paths(
+        [p for layer in layers for p in layer.paths],
+        x1 - x0,
+        y1 - y0,
+        dpi=254,
+        pen_width=0.5,
+        origin=(x0, y0),
+    )
     across = ndi.gaussian_filter(ink, 10).mean(axis=0)[60:-60]  # 1 mm blur, away from the sides
     dark = np.repeat(tone, 5)[60:-60] > 0.5
     assert across[dark].mean() - across[~dark].mean() > 0.24

@@ -10,8 +10,7 @@ from pencilbot.planning.layout import Layout, page_size
 
 
 @pytest.mark.parametrize(
-    "name, size",
-    [("A5", (148, 210)), ("a4", (210, 297)), ("A3", (297, 420)), ("letter", (215.9, 279.4))],
+    "name, size", [("A5", (148, 210)), ("a4", (210, 297)), ("A3", (297, 420)), ("letter", (215.9, 279.4))]
 )
 def test_named_pages_in_both_orientations(name, size):
     assert (page_size(name).width, page_size(name).height) == size
@@ -79,7 +78,11 @@ def test_mm_to_px_flips_back():
 
 @pytest.mark.parametrize(
     "align, expect",
-    [("top-left", (15, None, None, 282)), ("bottom", (None, 15, None, None)), ("right", (None, None, 195, None))],
+    [
+        ("top-left", (15, None, None, 282)),
+        ("bottom", (None, 15, None, None)),
+        ("right", (None, None, 195, None)),
+    ],
 )
 def test_alignment_moves_the_box_to_the_margin(align, expect):
     box = Layout.fit((300, 300), page_size("A4"), align=align).drawing_box
@@ -109,7 +112,9 @@ def test_rotate_90_turns_the_picture_counter_clockwise():
     margin=st.floats(0, 30),
     pts=st.lists(st.tuples(st.floats(0, 1), st.floats(0, 1)), min_size=1, max_size=20),
 )
-def test_mapping_round_trips_and_stays_inside_the_margins(h, w, rotate, align, name, orientation, margin, pts):
+def test_mapping_round_trips_and_stays_inside_the_margins(
+    h, w, rotate, align, name, orientation, margin, pts
+):
     page = page_size(name, orientation, margin=margin)
     layout = Layout.fit((h, w), page, align=align, rotate=rotate)
     px = np.array(pts) * [w, h] - 0.5  # anywhere on the image
@@ -126,7 +131,9 @@ def test_mapping_round_trips_and_stays_inside_the_margins(h, w, rotate, align, n
     assert max((x1 - x0) / free[0], (y1 - y0) / free[1]) == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("kwargs, message", [(dict(rotate=45), "rotation 45"), (dict(align="diagonal"), "alignment")])
+@pytest.mark.parametrize(
+    "kwargs, message", [(dict(rotate=45), "rotation 45"), (dict(align="diagonal"), "alignment")]
+)
 def test_bad_fit_options_are_user_errors(kwargs, message):
     with pytest.raises(PencilbotError, match=message):
         Layout.fit((10, 10), page_size("A4"), **kwargs)

@@ -52,10 +52,16 @@ def test_reordering_loses_nothing_draws_nothing_twice_and_never_travels_further(
     plan = Plan(Page(40, 40), [Layer(f"l{i}", ps, pen_width=w) for i, (ps, w) in enumerate(layers)])
     result = reorder_plan(plan, start=home)
     assert pen_up_length(result.plan.paths(), home) <= pen_up_length(plan.paths(), home) + 1e-9
-    assert [(l.name, l.pen_width, l.role) for l in result.plan.layers] == [(l.name, l.pen_width, l.role) for l in plan.layers]
+    assert [(l.name, l.pen_width, l.role) for l in result.plan.layers] == [
+        (l.name, l.pen_width, l.role) for l in plan.layers
+    ]
     dropped_total = 0
     for before, after in zip(plan.layers, result.plan.layers):
-        speck = np.zeros(len(before.paths), bool) if after.paths == before.paths else specks(before.paths, before.pen_width)
+        speck = (
+            np.zeros(len(before.paths), bool)
+            if after.paths == before.paths
+            else specks(before.paths, before.pen_width)
+        )
         kept = [p for p, s in zip(before.paths, speck) if not s]
         for dropped in (p for p, s in zip(before.paths, speck) if s):  # specks only: short, on another line
             assert ink_length(dropped) < before.pen_width
@@ -90,8 +96,10 @@ def test_a_shuffled_drawing_gets_much_shorter_and_layers_chain_from_home():
     assert pen_up_length(result.paths(), (200, 0)) < 0.2 * pen_up_length(plan.paths(), (200, 0))
     # The first path starts near home; layer b starts near where layer a ended.
     firsts = plan.layer("a").paths.firsts
-    assert np.hypot(*(result.layer("a").paths.firsts[0] - (200, 0))) <= np.hypot(*(np.concatenate(
-        [firsts, plan.layer("a").paths.lasts]) - (200, 0)).T).min() + 1e-9
+    assert (
+        np.hypot(*(result.layer("a").paths.firsts[0] - (200, 0)))
+        <= np.hypot(*(np.concatenate([firsts, plan.layer("a").paths.lasts]) - (200, 0)).T).min() + 1e-9
+    )
     end_a = result.layer("a").paths.points[-1]
     ends_b = np.concatenate([plan.layer("b").paths.firsts, plan.layer("b").paths.lasts])
     assert np.hypot(*(result.layer("b").paths.firsts[0] - end_a)) <= np.sort(np.hypot(*(ends_b - end_a).T))[5]
@@ -103,7 +111,13 @@ def test_a_covered_speck_goes_and_an_isolated_dot_stays():
     beside = np.array([[4.0, 0.4], [4.3, 0.4]])  # 0.4 mm away: its ink shows
     dot = np.array([[5.0, 5.0]])
     on_line = np.array([[7.0, 0.0]])  # a dot on the line: covered
-    assert specks(Paths.of([line, covered, beside, dot, on_line]), 0.5).tolist() == [False, True, False, False, True]
+    assert specks(Paths.of([line, covered, beside, dot, on_line]), 0.5).tolist() == [
+        False,
+        True,
+        False,
+        False,
+        True,
+    ]
     assert not specks(Paths.of([covered, dot]), 0.5).any()  # nothing long to cover them
 
 

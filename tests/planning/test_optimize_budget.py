@@ -46,8 +46,13 @@ def test_a_small_layer_is_ordered_well_from_nearest_neighbour_alone():
     rng = np.random.default_rng(5)
     a = rng.uniform(0, 200, (60, 2))
     paths = [np.array([p, p + rng.uniform(-3, 3, 2)]) for p in a]
-    order, reverse = improve_order(np.array([p[0] for p in paths]), np.array([p[-1] for p in paths]), (0.0, 0.0),
-                                   rounds=REORDER_ROUNDS, matching_from=256)
+    order, reverse = improve_order(
+        np.array([p[0] for p in paths]),
+        np.array([p[-1] for p in paths]),
+        (0.0, 0.0),
+        rounds=REORDER_ROUNDS,
+        matching_from=256,
+    )
     assert sorted(order.tolist()) == list(range(60)) and len(reverse) == 60
     plan = Plan(PAGE, [Layer("dots", paths, pen_width=0.1)])
     shuffled = _travel(plan)

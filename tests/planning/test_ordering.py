@@ -177,7 +177,9 @@ def joined_one_by_one(ps, tolerance, min_length):
 @given(paths, st.sampled_from([0.0, 0.5, 3.0, 40.0]), st.sampled_from([0.0, 2.0, 30.0]))
 def test_join_touching_joins_as_a_loop_over_the_paths_would(ps, tol, min_length):
     # Paths that share ends exactly, as hatch runs and contours do.
-    snapped = Paths.of(p if k == 0 or k % 3 else np.concatenate([ps[k - 1][-1:], p]) for k, p in enumerate(ps))
+    snapped = Paths.of(
+        p if k == 0 or k % 3 else np.concatenate([ps[k - 1][-1:], p]) for k, p in enumerate(ps)
+    )
     want = joined_one_by_one(list(snapped), tol, min_length)
     got = join_touching(snapped, tol, min_length=min_length)
     assert len(got) == len(want)
@@ -255,8 +257,9 @@ def test_empty_and_degenerate_inputs():
 
 def random_tour(seed, n):
     rng = np.random.default_rng(seed)
-    ps = Paths.of([rng.uniform(0, 100, 2) + np.cumsum(rng.normal(0, 3, (rng.integers(1, 4), 2)), 0)
-                   for _ in range(n)])
+    ps = Paths.of(
+        [rng.uniform(0, 100, 2) + np.cumsum(rng.normal(0, 3, (rng.integers(1, 4), 2)), 0) for _ in range(n)]
+    )
     ends = tour_ends.Ends(ps.firsts, ps.lasts, (0.0, 0.0))
     return ps, tour_search.Tour(ends, tour_ends.greedy_matching(ends))
 
@@ -327,8 +330,16 @@ def test_interval_set_accepts_exactly_the_intervals_that_nest_or_stay_apart(size
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(st.floats(allow_nan=True, allow_infinity=True, width=64),
-                          st.floats(allow_nan=True, allow_infinity=True, width=64)), min_size=1, max_size=30))
+@given(
+    st.lists(
+        st.tuples(
+            st.floats(allow_nan=True, allow_infinity=True, width=64),
+            st.floats(allow_nan=True, allow_infinity=True, width=64),
+        ),
+        min_size=1,
+        max_size=30,
+    )
+)
 @example([(0.0, 0.0), (5e-324, 0.0), (0.0, 1e-323)])
 def test_the_z_order_of_any_points_is_a_permutation_without_overflow(points):
     # Extents from subnormal to the float limit, NaN and infinities: a permutation, computed

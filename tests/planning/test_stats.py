@@ -34,7 +34,9 @@ def drawn_seconds(stats, p, *hops):
     for dx, dy in hops:
         length = math.hypot(dx, dy)
         boost = length / max(abs(dx), abs(dy))
-        rapid += move_times(np.array([length]), 0, 0, p.motion.axis_rate / 60 * boost, p.motion.acceleration * boost)[0]
+        rapid += move_times(
+            np.array([length]), 0, 0, p.motion.axis_rate / 60 * boost, p.motion.acceleration * boost
+        )[0]
     return stats.total.seconds - rapid
 
 
@@ -81,7 +83,9 @@ def test_travel_lifts_delays_and_layers_add_up():
 def test_a_diagonal_rapid_runs_at_both_axes_rates_on_grbl_but_at_its_feed_on_marlin():
     plan = plan_of(("a", [np.array([[100.0, 100.0]])]))
     grbl = estimate(plan, profile(acceleration=1e7)).total.seconds
-    assert grbl == pytest.approx(2 * math.hypot(100, 100) / (6000 / 60) / math.sqrt(2) + 2 * IDLE_LOCK, rel=1e-3)
+    assert grbl == pytest.approx(
+        2 * math.hypot(100, 100) / (6000 / 60) / math.sqrt(2) + 2 * IDLE_LOCK, rel=1e-3
+    )
     marlin = profile(load_profile("marlin-servo-a4"), acceleration=1e7, travel_feed=6000)
     home = Placement.on_bed(plan.page, marlin.bed).home()  # the sheet lies turned on this bed
     hop = math.dist(home, (100.0, 100.0))
@@ -91,8 +95,12 @@ def test_a_diagonal_rapid_runs_at_both_axes_rates_on_grbl_but_at_its_feed_on_mar
 def test_a_z_pen_spends_its_z_travel_on_every_lift_and_drop():
     z = load_profile("grbl-z-a3")
     plan = plan_of(("a", [np.array([[100.0, 100.0], [120.0, 100.0]])]))
-    lift = move_times(np.array([z.pen.up - z.pen.down]), 0, 0, z.motion.axis_rate / 60, z.motion.acceleration)[0]
-    no_z = estimate(plan, dataclasses.replace(z, pen=dataclasses.replace(z.pen, up=0.0, down=0.0))).total.seconds
+    lift = move_times(
+        np.array([z.pen.up - z.pen.down]), 0, 0, z.motion.axis_rate / 60, z.motion.acceleration
+    )[0]
+    no_z = estimate(
+        plan, dataclasses.replace(z, pen=dataclasses.replace(z.pen, up=0.0, down=0.0))
+    ).total.seconds
     # Three Z moves (the first lift, the drop, the lift); GRBL takes the corners between them and
     # the XY moves without stopping, so each costs a little less than a move from rest to rest.
     # (tests/test_agreement.py holds the estimate to the virtual plotter's planner.)

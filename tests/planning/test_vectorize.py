@@ -173,7 +173,9 @@ def test_a_circle_on_grey_is_a_chain_of_crossing_strokes_on_its_contour():
     turns = 0
     for p in paths:
         d = np.diff(p, axis=0)
-        cos = np.einsum("ij,ij->i", d[:-1], d[1:]) / (np.linalg.norm(d[:-1], axis=1) * np.linalg.norm(d[1:], axis=1))
+        cos = np.einsum("ij,ij->i", d[:-1], d[1:]) / (
+            np.linalg.norm(d[:-1], axis=1) * np.linalg.norm(d[1:], axis=1)
+        )
         turns += int(np.count_nonzero(cos < -0.9))
     assert turns >= len(unjoined) - len(paths)
 
@@ -319,7 +321,9 @@ def test_a_picture_of_texture_keeps_its_clean_contour_within_the_budget():
     def on_rim(paths):
         return ink_on_image_grid(paths, layout, pen_width=0.5)[rim].sum()
 
-    assert on_rim(capped) >= 0.9 * on_rim(edge_strokes(line_drawing(edge_map(clean)), layout, clutter=2.0, max_lines=1))
+    assert on_rim(capped) >= 0.9 * on_rim(
+        edge_strokes(line_drawing(edge_map(clean)), layout, clutter=2.0, max_lines=1)
+    )
     # An important region (a face) is never trimmed: the texture inside one stays drawn.
     important = np.zeros(gray.shape, np.float32)
     important[:, :80] = 1.0

@@ -24,15 +24,18 @@ def test_lm_round_trip(words, clear):
     assert ebb.parse_command(text).args == (*words, clear)
 
 
-@pytest.mark.parametrize("text, code", [
-    ("SM,100", 4),                 # a required parameter missing (the reference's own example)
-    ("SM,1,1,1,0,0", 7),           # one too many
-    ("SM,100A,1", 6),              # not a number
-    ("SM,0,5", 6),                 # zero duration is refused
-    ("EM,6", 6),                   # out of range
-    ("HM,1000,5", 4),              # Position1 without Position2
-    ("BB", 8),
-])
+@pytest.mark.parametrize(
+    "text, code",
+    [
+        ("SM,100", 4),  # a required parameter missing (the reference's own example)
+        ("SM,1,1,1,0,0", 7),  # one too many
+        ("SM,100A,1", 6),  # not a number
+        ("SM,0,5", 6),  # zero duration is refused
+        ("EM,6", 6),  # out of range
+        ("HM,1000,5", 4),  # Position1 without Position2
+        ("BB", 8),
+    ],
+)
 def test_refusals_carry_the_boards_codes(text, code):
     with pytest.raises(ebb.CommandError) as err:
         ebb.parse_command(text)
@@ -53,15 +56,18 @@ def test_encode_refuses_what_the_board_would():
         ebb.encode("LM", *([1] * 40))
 
 
-@pytest.mark.parametrize("name, data, legacy, future", [
-    ("SM", None, b"OK\r\n", b"SM\n"),
-    ("QS", "1421,-429", b"1421,-429\n\rOK\r\n", b"QS,1421,-429\n"),      # the reference's examples
-    ("QG", "3E", b"3E\r\n", b"QG,3E\n"),
-    ("ES", "1", b"1\n\rOK\r\n", b"ES,1\n"),
-    ("QP", "1", b"1\n\rOK\r\n", b"QP,1\n"),
-    ("QU", "32", b"QU,32\r\nOK\r\n", b"QU,32\n"),
-    ("V", ebb.VERSION_TEXT, f"{ebb.VERSION_TEXT}\r\n".encode(), f"V,{ebb.VERSION_TEXT}\n".encode()),
-])
+@pytest.mark.parametrize(
+    "name, data, legacy, future",
+    [
+        ("SM", None, b"OK\r\n", b"SM\n"),
+        ("QS", "1421,-429", b"1421,-429\n\rOK\r\n", b"QS,1421,-429\n"),  # the reference's examples
+        ("QG", "3E", b"3E\r\n", b"QG,3E\n"),
+        ("ES", "1", b"1\n\rOK\r\n", b"ES,1\n"),
+        ("QP", "1", b"1\n\rOK\r\n", b"QP,1\n"),
+        ("QU", "32", b"QU,32\r\nOK\r\n", b"QU,32\n"),
+        ("V", ebb.VERSION_TEXT, f"{ebb.VERSION_TEXT}\r\n".encode(), f"V,{ebb.VERSION_TEXT}\n".encode()),
+    ],
+)
 def test_reply_shapes_in_both_syntaxes(name, data, legacy, future):
     assert ebb.format_reply(name, data, future=False) == legacy
     assert ebb.format_reply(name, data, future=True) == future

@@ -39,13 +39,21 @@ GRAMMAR = [
     ("<Idle|MPos:0.000,0.000,0.000|FS:0,0>", Status("Idle", mpos=(0.0, 0.0, 0.0), feed=0.0, spindle=0.0)),
     (
         "<Run|MPos:10.500,-2.000,0.000|Bf:15,128|FS:3000,1000|WCO:1.000,2.000,0.000>",
-        Status("Run", mpos=(10.5, -2.0, 0.0), buffer=(15, 128), feed=3000.0, spindle=1000.0, wco=(1.0, 2.0, 0.0)),
+        Status(
+            "Run", mpos=(10.5, -2.0, 0.0), buffer=(15, 128), feed=3000.0, spindle=1000.0, wco=(1.0, 2.0, 0.0)
+        ),
     ),
     (
         "<Hold:0|WPos:1.000,2.000,3.000|Ln:12|F:500|Pn:XZ|Ov:100,100,100|A:S>",
         Status(
-            "Hold", 0, wpos=(1.0, 2.0, 3.0), line_number=12, feed=500.0, pins="XZ",
-            overrides=(100, 100, 100), accessories="S",
+            "Hold",
+            0,
+            wpos=(1.0, 2.0, 3.0),
+            line_number=12,
+            feed=500.0,
+            pins="XZ",
+            overrides=(100, 100, 100),
+            accessories="S",
         ),
     ),
     ("<Alarm|MPos:0.000,0.000,0.000|FS:0,0>", Status("Alarm", mpos=(0.0, 0.0, 0.0), feed=0.0, spindle=0.0)),
@@ -66,8 +74,21 @@ def test_format_prints_what_grbl_prints(line, message):
 
 @pytest.mark.parametrize(
     "line",
-    ["", "okay", "error:", "error:x", "ALARM:", "<>", "<Idle|MPos>", "<Idle|Bf:1>", "[no colon]",
-     "Grbl 1.1h", "$x=1", "\xfe\x13garbage", "<Idle|MPos:1,a,3>"],
+    [
+        "",
+        "okay",
+        "error:",
+        "error:x",
+        "ALARM:",
+        "<>",
+        "<Idle|MPos>",
+        "<Idle|Bf:1>",
+        "[no colon]",
+        "Grbl 1.1h",
+        "$x=1",
+        "\xfe\x13garbage",
+        "<Idle|MPos:1,a,3>",
+    ],
 )
 def test_not_grbl_is_unknown(line):
     assert isinstance(parse_line(line), Unknown)
@@ -98,8 +119,15 @@ def test_constants():
 
 @pytest.mark.parametrize(
     "line, length",
-    [("G1 X10 Y20", 8), ("g1x10", 5), ("G1 (pen down) X1", 4), ("G1 X1 ; comment", 4), ("(only)", 0),
-     ("/G1", 2), ("G1\tX1", 4)],
+    [
+        ("G1 X10 Y20", 8),
+        ("g1x10", 5),
+        ("G1 (pen down) X1", 4),
+        ("G1 X1 ; comment", 4),
+        ("(only)", 0),
+        ("/G1", 2),
+        ("G1\tX1", 4),
+    ],
 )
 def test_significant_length_drops_what_grbl_drops(line, length):
     assert significant_length(line) == length
@@ -140,6 +168,14 @@ coords = st.tuples(*[st.integers(-99999, 99999).map(lambda v: v / 1000)] * 3)
     overrides=st.none() | st.tuples(st.integers(10, 200), st.integers(25, 100), st.integers(10, 200)),
 )
 def test_status_round_trip(state, mpos, wco, buffer, line_number, feed, spindle, overrides):
-    status = Status(state, mpos=mpos, wco=wco, buffer=buffer, line_number=line_number, feed=feed,
-                    spindle=spindle, overrides=overrides)
+    status = Status(
+        state,
+        mpos=mpos,
+        wco=wco,
+        buffer=buffer,
+        line_number=line_number,
+        feed=feed,
+        spindle=spindle,
+        overrides=overrides,
+    )
     assert parse_line(format_message(status)) == status

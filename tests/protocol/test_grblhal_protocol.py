@@ -10,7 +10,8 @@ def test_both_banners_are_a_reset_and_the_rest_is_grbl_s_grammar():
     assert grblhal.parse_line("Grbl 1.1f ['$' for help]") == grbl.Welcome("1.1f")  # compatibility mode
     assert grbl.parse_line(grblhal.BANNER) == grbl.Unknown(grblhal.BANNER)  # not GRBL's banner
     assert grblhal.parse_line("<Idle|MPos:1.000,2.000,0.000|Bf:35,1024|FS:0,0>") == grbl.Status(
-        "Idle", mpos=(1.0, 2.0, 0.0), buffer=(35, 1024), feed=0.0, spindle=0.0)
+        "Idle", mpos=(1.0, 2.0, 0.0), buffer=(35, 1024), feed=0.0, spindle=0.0
+    )
     assert grblhal.parse_line("error:20") == grbl.Error(20)
 
 

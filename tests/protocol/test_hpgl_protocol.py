@@ -37,8 +37,13 @@ def test_instructions_round_trip_through_any_chunking(program, cuts):
 
 def test_instructions_without_terminators_and_with_spaces():
     found, _ = hpgl.split_instructions(b"IN;SP1PU 10 20PD30,40,+50,-60;PU", final=True)
-    assert found == [hpgl.Instruction("IN"), hpgl.Instruction("SP", (1.0,)), hpgl.Instruction("PU", (10.0, 20.0)),
-                     hpgl.Instruction("PD", (30.0, 40.0, 50.0, -60.0)), hpgl.Instruction("PU")]
+    assert found == [
+        hpgl.Instruction("IN"),
+        hpgl.Instruction("SP", (1.0,)),
+        hpgl.Instruction("PU", (10.0, 20.0)),
+        hpgl.Instruction("PD", (30.0, 40.0, 50.0, -60.0)),
+        hpgl.Instruction("PU"),
+    ]
 
 
 def test_a_label_runs_to_its_etx_and_garbage_is_refused():
@@ -51,7 +56,12 @@ def test_a_label_runs_to_its_etx_and_garbage_is_refused():
 
 
 @settings(max_examples=100, deadline=None)
-@given(st.lists(st.sampled_from([b"PU1,2;", b"\x1b.B", b"\x1b.E", b"\x1b.K", b"\x1b.I81;;17:", b"PD3,4;"]), max_size=15))
+@given(
+    st.lists(
+        st.sampled_from([b"PU1,2;", b"\x1b.B", b"\x1b.E", b"\x1b.K", b"\x1b.I81;;17:", b"PD3,4;"]),
+        max_size=15,
+    )
+)
 def test_device_control_is_taken_out_wherever_it_falls(parts):
     data = b"".join(parts)
     sequences, rest, left = hpgl.split_device_control(data)

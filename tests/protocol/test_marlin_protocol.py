@@ -31,9 +31,11 @@ from firmware_protocol.marlin import (
         ("rs N7", Resend(7)),
         ("echo:busy: processing", Busy("processing")),
         ("busy: paused for user", Busy("paused for user")),
-        ("echo:Unknown command: \"M999\"", Echo("Unknown command: \"M999\"")),
-        ("Error:Line Number is not Last Line Number+1, Last Line: 5",
-         Error("Line Number is not Last Line Number+1, Last Line: 5")),
+        ('echo:Unknown command: "M999"', Echo('Unknown command: "M999"')),
+        (
+            "Error:Line Number is not Last Line Number+1, Last Line: 5",
+            Error("Line Number is not Last Line Number+1, Last Line: 5"),
+        ),
         ("Error:checksum mismatch, Last Line: 5", Error("checksum mismatch, Last Line: 5")),
         ("start", Start()),
         ("okay", Unknown("okay")),
@@ -61,7 +63,10 @@ def test_frame_rejects(command):
 
 
 @settings(max_examples=200)
-@given(st.integers(0, 10**7), st.text(st.characters(min_codepoint=33, max_codepoint=126, blacklist_characters="*"), max_size=60))
+@given(
+    st.integers(0, 10**7),
+    st.text(st.characters(min_codepoint=33, max_codepoint=126, blacklist_characters="*"), max_size=60),
+)
 def test_frame_round_trip_and_corruption_detected(number, command):
     framed = frame_line(number, command).decode()
     assert unframe_line(framed) == (number, command)

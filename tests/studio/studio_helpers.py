@@ -13,8 +13,11 @@ from selenium.webdriver.support.ui import WebDriverWait
 
 #: Where the screenshots go: docs/images for the README with PENCILBOT_SCREENSHOTS=1, else a
 #: temporary folder (a test run leaves the tree as it was).
-SCREENSHOTS = (Path(__file__).resolve().parents[2] / "docs" / "images" if os.environ.get("PENCILBOT_SCREENSHOTS")
-               else Path(tempfile.gettempdir()) / "pencilbot-studio-screenshots")
+SCREENSHOTS = (
+    Path(__file__).resolve().parents[2] / "docs" / "images"
+    if os.environ.get("PENCILBOT_SCREENSHOTS")
+    else Path(tempfile.gettempdir()) / "pencilbot-studio-screenshots"
+)
 
 
 def screenshot(browser, name: str) -> None:
@@ -33,8 +36,13 @@ def same_plan(a, b) -> bool:
     """Two plans with the same page and the same layers, point for point (to the SVG's rounding)."""
     if (a.page.width, a.page.height) != (b.page.width, b.page.height) or len(a.layers) != len(b.layers):
         return False
-    return all(x.name == y.name and x.pen_width == y.pen_width and np.array_equal(x.paths.offsets, y.paths.offsets)
-               and np.allclose(x.paths.points, y.paths.points, atol=1e-6) for x, y in zip(a.layers, b.layers))
+    return all(
+        x.name == y.name
+        and x.pen_width == y.pen_width
+        and np.array_equal(x.paths.offsets, y.paths.offsets)
+        and np.allclose(x.paths.points, y.paths.points, atol=1e-6)
+        for x, y in zip(a.layers, b.layers)
+    )
 
 
 WAIT = 90  # s: a loaded machine plans slowly; these are waits for a state, not timing checks
@@ -52,7 +60,10 @@ def set_control(browser, element_id: str, value) -> None:
     """Move a slider or pick an option as a person does: the value, then the input event."""
     browser.execute_script(
         "const e = document.getElementById(arguments[0]); e.value = arguments[1];"
-        "e.dispatchEvent(new Event('input', {bubbles: true}));", element_id, str(value))
+        "e.dispatchEvent(new Event('input', {bubbles: true}));",
+        element_id,
+        str(value),
+    )
 
 
 def full_generation(browser) -> int:

@@ -20,8 +20,13 @@ def test_load_a_photo_move_a_control_see_preview_and_figures_change(server, brow
     screenshot(browser, "1-photo")
 
     set_control(browser, "pen_width", 1.2)
-    assert text(browser, "pen_width") == "" and browser.find_element(By.CSS_SELECTOR, "output[for=pen_width]").text == "1.2"
-    second = wait_for(browser, lambda: full_generation(browser) > first and full_generation(browser), "a new full preview")
+    assert (
+        text(browser, "pen_width") == ""
+        and browser.find_element(By.CSS_SELECTOR, "output[for=pen_width]").text == "1.2"
+    )
+    second = wait_for(
+        browser, lambda: full_generation(browser) > first and full_generation(browser), "a new full preview"
+    )
     assert browser.find_element(By.ID, "preview").get_attribute("src") != preview
     changed = {name: text(browser, f"fig-{name}") for name in figures}
     assert changed["pen-down"] != figures["pen-down"]  # a wider pen hatches fewer lines
@@ -29,7 +34,9 @@ def test_load_a_photo_move_a_control_see_preview_and_figures_change(server, brow
     screenshot(browser, "2-wider-pen")
 
 
-def test_the_downloaded_svg_is_pencilbot_plan_of_the_same_options(server, browser, photo, downloads, tmp_path):
+def test_the_downloaded_svg_is_pencilbot_plan_of_the_same_options(
+    server, browser, photo, downloads, tmp_path
+):
     from pencilbot.cli import main
     from pencilbot.export.svg_read import read_svg
 
@@ -43,7 +50,11 @@ def test_the_downloaded_svg_is_pencilbot_plan_of_the_same_options(server, browse
         old.unlink()
     browser.find_element(By.ID, "dl-svg").click()
     got = wait_for(browser, lambda: next(iter(downloads.glob("plan*.svg")), None), "the SVG download")
-    wait_for(browser, lambda: got.stat().st_size > 0 and not list(downloads.glob("*.crdownload")), "the download ends")
+    wait_for(
+        browser,
+        lambda: got.stat().st_size > 0 and not list(downloads.glob("*.crdownload")),
+        "the download ends",
+    )
 
     expected = tmp_path / "cli.svg"
     assert main(["plan", str(photo), "-o", str(expected), "--page", "A5", "--pen-width", "0.8", "-q"]) == 0
@@ -55,7 +66,11 @@ def test_the_downloaded_svg_is_pencilbot_plan_of_the_same_options(server, browse
 
 def plot_record(server) -> dict:
     plot = server.studio.plotters.sessions.get("sim://")
-    return {} if plot is None else {**plot.record, "status": plot.status, "active": plot.active, "prompt": plot.prompt}
+    return (
+        {}
+        if plot is None
+        else {**plot.record, "status": plot.status, "active": plot.active, "prompt": plot.prompt}
+    )
 
 
 def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, photo):
@@ -69,7 +84,8 @@ def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, p
     assert " acknowledged)" in line and text(browser, "plot-remaining") != "–"
     drawn = browser.execute_script(  # black ink on the canvas: what the machine has drawn
         "const c = document.getElementById('plot-canvas'); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
-        "let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i + 3] > 0 && d[i] < 60) n++; return n;")
+        "let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i + 3] > 0 && d[i] < 60) n++; return n;"
+    )
     assert drawn > 0
     screenshot(browser, "3-plotting")
 
@@ -81,10 +97,16 @@ def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, p
     assert plot_record(server).get("running") == held.get("running")  # the machine stands
     screenshot(browser, "4-paused")
     browser.find_element(By.ID, "pause").click()
-    wait_for(browser, lambda: (plot_record(server).get("running") or 0) > (held.get("running") or 0), "it draws on")
+    wait_for(
+        browser, lambda: (plot_record(server).get("running") or 0) > (held.get("running") or 0), "it draws on"
+    )
 
     browser.get(server.url)  # the tab closed and opened again: the plot goes on, and shows
-    wait_for(browser, lambda: text(browser, "plot-status").startswith("plotting"), "the reopened page shows the plot")
+    wait_for(
+        browser,
+        lambda: text(browser, "plot-status").startswith("plotting"),
+        "the reopened page shows the plot",
+    )
     assert plot_record(server)["active"]
 
     browser.find_element(By.ID, "stop").click()
@@ -112,14 +134,22 @@ def test_a_cmyk_job_asks_for_each_pen_in_a_dialog(server, browser, photo):
     screenshot(browser, "6-pen-change")
     paused_at = plot_record(server)["line"]
     browser.find_element(By.ID, "prompt-go").click()
-    wait_for(browser, lambda: plot_record(server)["line"] > paused_at + 10
-             or (plot_record(server)["prompt"] or {}).get("text", first) != first, "the plot goes on")
+    wait_for(
+        browser,
+        lambda: (
+            plot_record(server)["line"] > paused_at + 10
+            or (plot_record(server)["prompt"] or {}).get("text", first) != first
+        ),
+        "the plot goes on",
+    )
     if dialog.is_displayed():
         browser.find_element(By.ID, "prompt-stop").click()
     else:
         browser.find_element(By.ID, "stop").click()
     wait_for(browser, lambda: plot_record(server)["status"] == "stopped", "stopped")
-    assert "stopped by the stop" in text(browser, "plot-message") and "pen raised" in text(browser, "plot-message")
+    assert "stopped by the stop" in text(browser, "plot-message") and "pen raised" in text(
+        browser, "plot-message"
+    )
 
 
 def threading_wait(seconds: float) -> None:

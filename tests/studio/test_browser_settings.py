@@ -31,7 +31,9 @@ def test_the_outline_style_does_not_hatch_unless_asked(server, browser, photo):
     assert not browser.find_element(By.ID, "hatch").is_selected()
     assert server.studio.options.hatch is None and not server.studio.options.resolved_style().hatch
     paths = int(text(browser, "fig-paths").split()[0])
-    assert paths == sum(len(layer.paths) for layer in api.plan(photo, style="outline").layers)  # the CLI's plan
+    assert paths == sum(
+        len(layer.paths) for layer in api.plan(photo, style="outline").layers
+    )  # the CLI's plan
 
     outline = full_generation(browser)
     browser.find_element(By.ID, "hatch").click()  # asked for: it hatches, whatever the style
@@ -54,22 +56,32 @@ def test_a_second_tab_shows_the_same_settings_as_the_first(server, browser, phot
         before = full_generation(browser)
         Select(browser.find_element(By.ID, "style")).select_by_value("outline")
         set_control(browser, "pen_width", 0.9)
-        wait_for(browser, lambda: full_generation(browser) > before and server.studio.options.pen_width == 0.9,
-                 "the second tab's plan")
+        wait_for(
+            browser,
+            lambda: full_generation(browser) > before and server.studio.options.pen_width == 0.9,
+            "the second tab's plan",
+        )
         newest = server.studio.planner.generation
         browser.switch_to.window(first)
         wait_for(browser, lambda: full_generation(browser) == newest, "the first tab shows the newest plan")
-        assert Select(browser.find_element(By.ID, "style")).first_selected_option.get_attribute("value") == "outline"
+        assert (
+            Select(browser.find_element(By.ID, "style")).first_selected_option.get_attribute("value")
+            == "outline"
+        )
         assert browser.find_element(By.ID, "pen_width").get_attribute("value") == "0.9"
         assert browser.find_element(By.CSS_SELECTOR, "output[for=pen_width]").text == "0.9"
-        assert browser.find_element(By.ID, "hatch").is_selected() == server.studio.options.resolved_style().hatch
+        assert (
+            browser.find_element(By.ID, "hatch").is_selected() == server.studio.options.resolved_style().hatch
+        )
     finally:
         browser.switch_to.window(second)
         browser.close()
         browser.switch_to.window(first)
 
 
-def test_a_bad_file_over_a_photo_is_refused_in_plain_words_and_the_photo_stays(server, browser, photo, tmp_path):
+def test_a_bad_file_over_a_photo_is_refused_in_plain_words_and_the_photo_stays(
+    server, browser, photo, tmp_path
+):
     if not full_generation(browser):
         load_photo(server, browser, photo)
     generation = server.studio.planner.generation
@@ -100,7 +112,8 @@ def test_the_phone_page_is_no_wider_than_the_phone_with_a_long_port_name(server,
         Select(browser.find_element(By.ID, "port")).select_by_value(long_port)
         wide = browser.execute_script(
             "return [document.documentElement.scrollWidth, ...[...document.querySelectorAll('main *')]"
-            ".filter((e) => e.getBoundingClientRect().right > window.innerWidth + 0.5).map((e) => e.id || e.tagName)]")
+            ".filter((e) => e.getBoundingClientRect().right > window.innerWidth + 0.5).map((e) => e.id || e.tagName)]"
+        )
         assert wide[0] <= width and wide[1:] == [], wide
         screenshot(browser, "8-phone")
     finally:
@@ -122,12 +135,17 @@ def test_the_machine_controls_move_the_virtual_plotter(server, browser):
     wait_for(browser, lambda: text(browser, "connection") == "connected", "the page connects")
     Select(browser.find_element(By.ID, "port")).select_by_value("sim://")
     board = f"studio-{Select(browser.find_element(By.ID, 'profile')).first_selected_option.get_attribute('value')}"
-    protocol_sim.forget(board)  # a board another test in this worker left (motors off, a plot's state) is not this one
+    protocol_sim.forget(
+        board
+    )  # a board another test in this worker left (motors off, a plot's state) is not this one
 
     def press(button: str, expect: str) -> str:
         browser.find_element(By.ID, button).click()
-        return wait_for(browser, lambda: expect in text(browser, "plot-message") and text(browser, "plot-message"),
-                        f"the answer to {button}")
+        return wait_for(
+            browser,
+            lambda: expect in text(browser, "plot-message") and text(browser, "plot-message"),
+            f"the answer to {button}",
+        )
 
     press("pen-down", "the pen is down")
     assert protocol_sim.plotter(board).machine.pen_down

@@ -18,9 +18,13 @@ from PIL import Image
 
 
 def start(*args: str):
-    process = subprocess.Popen([sys.executable, "-m", "pencilbot.cli", "studio", "--no-browser", "--listen-port", "0",
-                                *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                               env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    process = subprocess.Popen(
+        [sys.executable, "-m", "pencilbot.cli", "studio", "--no-browser", "--listen-port", "0", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
     line = process.stdout.readline()
     found = re.search(r"(http://\S+)", line)
     if found is None:
@@ -73,8 +77,12 @@ def test_off_the_loopback_the_url_carries_a_token():
 
 
 def test_a_missing_photo_is_one_plain_error(tmp_path):
-    done = subprocess.run([sys.executable, "-m", "pencilbot.cli", "studio", str(tmp_path / "none.jpg"), "--no-browser"],
-                          capture_output=True, text=True, timeout=60)
+    done = subprocess.run(
+        [sys.executable, "-m", "pencilbot.cli", "studio", str(tmp_path / "none.jpg"), "--no-browser"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert done.returncode != 0
     assert done.stderr.strip().startswith("pencilbot: error:") and "no such file" in done.stderr
     assert "Traceback" not in done.stderr

@@ -57,7 +57,9 @@ def test_half_open_connections_are_dropped_after_the_header_timeout(running):
     kept_alive.sendall(b"GET /api/state HTTP/1.1\r\n")
     try:
         assert all(closed_by_server(sock) for sock in silent), "a silent connection is held"
-        assert all(closed_by_server(sock) for sock in partial), "a connection sending half a request head is held"
+        assert all(closed_by_server(sock) for sock in partial), (
+            "a connection sending half a request head is held"
+        )
         assert closed_by_server(kept_alive), "a kept-alive connection that began a second head is held"
     finally:
         for sock in [*silent, *partial, kept_alive]:

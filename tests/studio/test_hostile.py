@@ -25,19 +25,35 @@ def bomb(width: int, height: int, kind: str = "PNG") -> bytes:
 
 
 BODIES = {  # JSON routes and the bodies a stranger may send them
-    "not JSON": b"{nope", "not UTF-8": b"\xff\xfe{}", "a list": b"[1, 2]", "a number": b"7", "null": b"null",
-    "a string": b'"sim://"', "nested depth": b"[" * 100_000 + b"]" * 100_000,
-    "port a list": json.dumps({"port": ["sim://"]}).encode(), "port a dict": json.dumps({"port": {"a": 1}}).encode(),
+    "not JSON": b"{nope",
+    "not UTF-8": b"\xff\xfe{}",
+    "a list": b"[1, 2]",
+    "a number": b"7",
+    "null": b"null",
+    "a string": b'"sim://"',
+    "nested depth": b"[" * 100_000 + b"]" * 100_000,
+    "port a list": json.dumps({"port": ["sim://"]}).encode(),
+    "port a dict": json.dumps({"port": {"a": 1}}).encode(),
     "port unknown": json.dumps({"port": "sim://nowhere"}).encode(),
     "profile a list": json.dumps({"port": "sim://", "profile": ["x"]}).encode(),
     "profile a number": json.dumps({"port": "sim://", "profile": 3}).encode(),
     "dx a word": json.dumps({"port": "sim://", "dx": "left"}).encode(),
     "dx infinite": b'{"port": "sim://", "dx": Infinity}',
-    "style a list": json.dumps({"style": ["default"]}).encode(), "page a number": json.dumps({"page": 4}).encode(),
-    "hatch a word": json.dumps({"hatch": "maybe"}).encode(), "line_length huge": json.dumps({"line_length": 10**30}).encode(),
-    "margin negative": json.dumps({"margin": -5}).encode(), "orientation odd": json.dumps({"orientation": {"x": 1}}).encode(),
+    "style a list": json.dumps({"style": ["default"]}).encode(),
+    "page a number": json.dumps({"page": 4}).encode(),
+    "hatch a word": json.dumps({"hatch": "maybe"}).encode(),
+    "line_length huge": json.dumps({"line_length": 10**30}).encode(),
+    "margin negative": json.dumps({"margin": -5}).encode(),
+    "orientation odd": json.dumps({"orientation": {"x": 1}}).encode(),
 }
-ROUTES = ["/api/drawing", "/api/plot", "/api/plot/pause", "/api/plot/jog", "/api/plot/resume-job", "/api/machine/pen-up"]
+ROUTES = [
+    "/api/drawing",
+    "/api/plot",
+    "/api/plot/pause",
+    "/api/plot/jog",
+    "/api/plot/resume-job",
+    "/api/machine/pen-up",
+]
 
 
 @pytest.mark.parametrize("route", ROUTES)
@@ -51,8 +67,11 @@ def test_no_json_body_is_answered_500(client, studio, route, kind):
 
 @pytest.mark.parametrize("route", [*ROUTES, "/api/photo"])
 def test_a_huge_body_is_413_unread(client, route):
-    response = client.post(route, content=b"{" + b" " * (300 * 1024 * 1024) if route == "/api/photo" else b"[" * (2 << 20),
-                           headers=JSON)
+    response = client.post(
+        route,
+        content=b"{" + b" " * (300 * 1024 * 1024) if route == "/api/photo" else b"[" * (2 << 20),
+        headers=JSON,
+    )
     assert response.status_code == 413, response.text[:200]
 
 
@@ -67,18 +86,29 @@ def test_a_decompression_bomb_is_413_and_nothing_is_decoded(client, studio, kind
     assert decoded == [] and studio.photo is None and list(studio.folder.iterdir()) == []
 
 
-@pytest.mark.parametrize("request_kind", [
-    ("PUT", "/api/photo", b"--x\r\nContent-Disposition: form-data; name=\"f\"; filename=\"a.png\"\r\n\r\n\x89PNG\r\n--x--",
-     {"Content-Type": "multipart/form-data; boundary=x"}),
-    ("PUT", "/api/photo", b"\x89PNG\r\n\x1a\n" + b"\x00" * 64, {}),  # a PNG signature and nothing after
-    ("PUT", "/api/photo", b"GIF89a\xff\xff\xff\xff", {}),
-    ("PUT", "/api/photo", b"II*\x00" + b"\xff" * 60, {}),  # a broken TIFF header
-    ("PUT", "/api/photo", b"", {}),
-    ("GET", "/api/download/plan.svg", b"", {}), ("GET", "/api/download/plan.gcode?profile=%ff", b"", {}),
-    ("GET", "/api/download/sketch.png", b"", {}), ("GET", "/api/plot-paths?port=%00", b"", {}),
-    ("GET", "/api/picture/full-x.png", b"", {}), ("GET", "/api/picture/-.png", b"", {}),
-    ("POST", "/api/plot/%ff", b"{}", JSON), ("DELETE", "/api/photo", b"", {}),
-])
+@pytest.mark.parametrize(
+    "request_kind",
+    [
+        (
+            "PUT",
+            "/api/photo",
+            b'--x\r\nContent-Disposition: form-data; name="f"; filename="a.png"\r\n\r\n\x89PNG\r\n--x--',
+            {"Content-Type": "multipart/form-data; boundary=x"},
+        ),
+        ("PUT", "/api/photo", b"\x89PNG\r\n\x1a\n" + b"\x00" * 64, {}),  # a PNG signature and nothing after
+        ("PUT", "/api/photo", b"GIF89a\xff\xff\xff\xff", {}),
+        ("PUT", "/api/photo", b"II*\x00" + b"\xff" * 60, {}),  # a broken TIFF header
+        ("PUT", "/api/photo", b"", {}),
+        ("GET", "/api/download/plan.svg", b"", {}),
+        ("GET", "/api/download/plan.gcode?profile=%ff", b"", {}),
+        ("GET", "/api/download/sketch.png", b"", {}),
+        ("GET", "/api/plot-paths?port=%00", b"", {}),
+        ("GET", "/api/picture/full-x.png", b"", {}),
+        ("GET", "/api/picture/-.png", b"", {}),
+        ("POST", "/api/plot/%ff", b"{}", JSON),
+        ("DELETE", "/api/photo", b"", {}),
+    ],
+)
 def test_no_other_request_is_answered_500(client, request_kind):
     method, url, body, headers = request_kind
     response = client.request(method, url, content=body, headers={**OWN, **headers})

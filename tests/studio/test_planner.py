@@ -26,7 +26,8 @@ class Results:
     def wait(self, predicate, timeout=120.0):
         with self.cond:
             assert self.cond.wait_for(lambda: predicate(self.got), timeout=timeout), [
-                (r.generation, r.stage, r.error) for r in self.got]
+                (r.generation, r.stage, r.error) for r in self.got
+            ]
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +66,9 @@ def test_coarse_first_then_the_full_plan_of_the_library(planner, photo):
     assert coarse.plan is None and full.figures["lifts"] > 0 and 0 < full.figures["likeness"] <= 1
     expected = api.plan(photo, page="A5", pen_width=0.7)
     assert [layer.name for layer in full.plan.layers] == [layer.name for layer in expected.layers]
-    assert all(np.array_equal(a.paths.points, b.paths.points) for a, b in zip(full.plan.layers, expected.layers))
+    assert all(
+        np.array_equal(a.paths.points, b.paths.points) for a, b in zip(full.plan.layers, expected.layers)
+    )
 
 
 def test_a_newer_change_drops_the_older_one(planner, photo):

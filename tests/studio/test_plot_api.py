@@ -40,7 +40,9 @@ def studio(tmp_path):
 
 @pytest.fixture
 def client(studio):
-    return TestClient(create_app(studio, port=PORT, names=("testserver",)), base_url=f"http://testserver:{PORT}")
+    return TestClient(
+        create_app(studio, port=PORT, names=("testserver",)), base_url=f"http://testserver:{PORT}"
+    )
 
 
 def wait(condition, what, timeout=60.0):
@@ -52,10 +54,14 @@ def wait(condition, what, timeout=60.0):
     pytest.fail(f"waited for {what}")
 
 
-@pytest.mark.parametrize("profile", ["grbl-z-a3", "grbl-servo-a4", "grblhal-servo-a3", "axidraw-v3", "hp7475a"])
+@pytest.mark.parametrize(
+    "profile", ["grbl-z-a3", "grbl-servo-a4", "grblhal-servo-a3", "axidraw-v3", "hp7475a"]
+)
 def test_the_machine_controls_of_every_family_on_the_virtual_plotter(client, profile):
     def press(action, **extra):
-        response = client.post(f"/api/machine/{action}", json={"port": "sim://", "profile": profile, **extra}, headers=OWN)
+        response = client.post(
+            f"/api/machine/{action}", json={"port": "sim://", "profile": profile, **extra}, headers=OWN
+        )
         assert response.status_code == 200, response.text
         return response.json()["said"]
 
@@ -68,13 +74,19 @@ def test_the_machine_controls_of_every_family_on_the_virtual_plotter(client, pro
     assert walked.startswith("walked"), walked
     assert press("home").startswith("home"), profile
     if profile == "hp7475a":  # no motor command: said in plain words, not a 500
-        refused = client.post("/api/machine/motors-off", json={"port": "sim://", "profile": profile}, headers=OWN)
+        refused = client.post(
+            "/api/machine/motors-off", json={"port": "sim://", "profile": profile}, headers=OWN
+        )
         assert refused.status_code == 400 and "no command that switches its motors" in refused.json()["error"]
     else:
         assert "motors off" in press("motors-off")
-    refused = client.post("/api/machine/walk", json={"port": "sim://", "profile": profile, "dx": 500}, headers=OWN)
+    refused = client.post(
+        "/api/machine/walk", json={"port": "sim://", "profile": profile, "dx": 500}, headers=OWN
+    )
     assert refused.status_code == 400 and "smaller steps" in refused.json()["error"]
-    client.post("/api/machine/motors-on", json={"port": "sim://", "profile": profile}, headers=OWN)  # as found
+    client.post(
+        "/api/machine/motors-on", json={"port": "sim://", "profile": profile}, headers=OWN
+    )  # as found
 
 
 def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
@@ -98,7 +110,10 @@ def test_one_plot_per_plotter_its_buttons_and_a_resume(client, studio):
     stopped_at = session.record.get("running")
 
     assert client.post("/api/plot/resume-job", json={"port": "sim://"}, headers=OWN).status_code == 200
-    wait(lambda: (session.record.get("running") or 0) > (stopped_at or 0) or not session.active, "the resumed plot")
+    wait(
+        lambda: (session.record.get("running") or 0) > (stopped_at or 0) or not session.active,
+        "the resumed plot",
+    )
     assert session.status == "running" or session.status == "done"
     assert client.post("/api/plot/nonsense", json={"port": "sim://"}, headers=OWN).status_code == 404
 
@@ -125,11 +140,25 @@ def test_a_lost_position_asks_for_a_re_zero_that_the_page_answers(studio, tmp_pa
     gcode = tmp_path / "job.gcode"
     api.export_gcode(studio.results["full"].plan, "grbl-servo-a4", gcode)
     plotters = Plotters()
-    session = plotters.start("sim://", "sim://studio-rezero?profile=grbl-servo-a4&realtime=20&faults=abort@60", "grbl-servo-a4", gcode)
+    session = plotters.start(
+        "sim://",
+        "sim://studio-rezero?profile=grbl-servo-a4&realtime=20&faults=abort@60",
+        "grbl-servo-a4",
+        gcode,
+    )
     session.thread.join(timeout=60)
-    assert session.status == "stopped" and "(ALARM:3: the board was reset while moving, so it lost its position)" in session.message, session.message
+    assert (
+        session.status == "stopped"
+        and "(ALARM:3: the board was reset while moving, so it lost its position)" in session.message
+    ), session.message
     assert session.resumable and 'Press "Resume the stopped plot"' in session.message
-    for terminal_words in (str(tmp_path), "pencilbot draw", "--resume", ".gcode", "Machine position"):  # written for a terminal
+    for terminal_words in (
+        str(tmp_path),
+        "pencilbot draw",
+        "--resume",
+        ".gcode",
+        "Machine position",
+    ):  # written for a terminal
         assert terminal_words not in session.message, session.message
     plotters.resume("sim://")
     wait(lambda: session.prompt is not None or not session.active, "the re-zero dialog")
@@ -147,23 +176,37 @@ def test_a_double_click_on_a_pen_change_answers_only_that_pen_change(studio, cli
     from pencilbot.machine.pens import load_pens
 
     photo = tmp_path / "bars.png"
-    Image.fromarray(np.repeat(np.linspace(0, 255, 40, dtype=np.uint8)[None, :], 30, axis=0)).convert("RGB").save(photo)
+    Image.fromarray(np.repeat(np.linspace(0, 255, 40, dtype=np.uint8)[None, :], 30, axis=0)).convert(
+        "RGB"
+    ).save(photo)
     whole = tmp_path / "cmyk.gcode"
-    api.export_gcode(api.plan(photo, page="A5", pen_width=1.0, pens=load_pens("cmyk")), "grbl-servo-a4", whole)
+    api.export_gcode(
+        api.plan(photo, page="A5", pen_width=1.0, pens=load_pens("cmyk")), "grbl-servo-a4", whole
+    )
     lines = whole.read_text().splitlines()
     changes = [i for i, line in enumerate(lines) if line.startswith("M0 (pen change")]
     gcode = tmp_path / "two-pens.gcode"  # the start, the first two pen changes with a few moves each, the end
-    gcode.write_text("\n".join(lines[:changes[0] + 12] + lines[changes[1] - 2:changes[1] + 12] + lines[-6:]) + "\n")
-    session = studio.plotters.start("sim://", "sim://studio-pens?profile=grbl-servo-a4&realtime=20",
-                                    "grbl-servo-a4", gcode)
+    gcode.write_text(
+        "\n".join(lines[: changes[0] + 12] + lines[changes[1] - 2 : changes[1] + 12] + lines[-6:]) + "\n"
+    )
+    session = studio.plotters.start(
+        "sim://", "sim://studio-pens?profile=grbl-servo-a4&realtime=20", "grbl-servo-a4", gcode
+    )
     wait(lambda: session.prompt is not None or not session.active, "the first pen change")
     first = session.prompt
     assert first is not None and "insert yellow" in first["text"], session.message
     for _ in range(2):
-        response = client.post("/api/plot/go", json={"port": "sim://", "prompt": first.get("id")}, headers=OWN)
+        response = client.post(
+            "/api/plot/go", json={"port": "sim://", "prompt": first.get("id")}, headers=OWN
+        )
         assert response.status_code == 200
-    wait(lambda: (session.prompt or first).get("id") != first.get("id") or not session.active, "the second pen change")
-    assert session.active and session.prompt is not None and "insert cyan" in session.prompt["text"], session.message
+    wait(
+        lambda: (session.prompt or first).get("id") != first.get("id") or not session.active,
+        "the second pen change",
+    )
+    assert session.active and session.prompt is not None and "insert cyan" in session.prompt["text"], (
+        session.message
+    )
     client.post("/api/plot/go", json={"port": "sim://", "prompt": session.prompt.get("id")}, headers=OWN)
     session.thread.join(timeout=60)
     assert session.status == "done", session.message

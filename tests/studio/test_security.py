@@ -48,13 +48,20 @@ def test_another_host_is_refused(client, studio, host):
 
 def test_cross_origin_post_is_refused(client, studio):
     photo = png(64, 48)
-    for origin in ("http://evil.example", f"http://evil.example:{PORT}", "null", f"https://testserver:{PORT}"):
+    for origin in (
+        "http://evil.example",
+        f"http://evil.example:{PORT}",
+        "null",
+        f"https://testserver:{PORT}",
+    ):
         response = client.put("/api/photo", content=photo, headers={"Origin": origin, **OWN})
         assert response.status_code == 403 and "Origin refused" in response.text
         response = client.post("/api/plot", json={"port": "sim://"}, headers={"Origin": origin, **OWN})
         assert response.status_code == 403
     # A browser's cross-site request without Origin, and a plain form post (no X-Studio header):
-    response = client.post("/api/plot", json={"port": "sim://"}, headers={"Sec-Fetch-Site": "cross-site", **OWN})
+    response = client.post(
+        "/api/plot", json={"port": "sim://"}, headers={"Sec-Fetch-Site": "cross-site", **OWN}
+    )
     assert response.status_code == 403 and "cross-site" in response.text
     response = client.post("/api/drawing", data={"style": "default"})
     assert response.status_code == 403 and "X-Studio" in response.text
@@ -62,8 +69,9 @@ def test_cross_origin_post_is_refused(client, studio):
 
 
 def test_the_own_origin_is_let_through(client, studio):
-    response = client.post("/api/drawing", json={"pen_width": 0.7},
-                           headers={"Origin": f"http://testserver:{PORT}", **OWN})
+    response = client.post(
+        "/api/drawing", json={"pen_width": 0.7}, headers={"Origin": f"http://testserver:{PORT}", **OWN}
+    )
     assert response.status_code == 200
     assert studio.options.pen_width == 0.7
 
@@ -90,16 +98,26 @@ def test_not_an_image_is_refused(client, studio):
     assert studio.photo is None and list(studio.folder.iterdir()) == []
 
 
-@pytest.mark.parametrize("body", [
-    {"style": "/etc/passwd"}, {"style": "../../../../etc/passwd"}, {"pens": "/tmp/pens.toml"},
-    {"profile": "../configs/plotters/grbl-servo-a4.toml"}, {"style": "default", "texture": "/etc/passwd"},
-    {"margin": "1; rm -rf /"}, {"pen_width": float("nan")},
-])
+@pytest.mark.parametrize(
+    "body",
+    [
+        {"style": "/etc/passwd"},
+        {"style": "../../../../etc/passwd"},
+        {"pens": "/tmp/pens.toml"},
+        {"profile": "../configs/plotters/grbl-servo-a4.toml"},
+        {"style": "default", "texture": "/etc/passwd"},
+        {"margin": "1; rm -rf /"},
+        {"pen_width": float("nan")},
+    ],
+)
 def test_a_path_or_bad_value_in_a_parameter_is_refused(client, studio, body, tmp_path):
     if "pens" in body:
         (tmp_path / "pens.toml").write_text('[[pens]]\nname = "a"\ncolor = "#000000"\nwidth = 0.5\n')
-    response = client.post("/api/drawing", content=__import__("json").dumps(body, allow_nan=True),
-                           headers={"Content-Type": "application/json", **OWN})
+    response = client.post(
+        "/api/drawing",
+        content=__import__("json").dumps(body, allow_nan=True),
+        headers={"Content-Type": "application/json", **OWN},
+    )
     assert response.status_code == 400
     assert response.json()["error"]
     assert studio.options.style == ""  # unchanged
@@ -127,7 +145,7 @@ def test_off_loopback_a_token_is_needed(studio):
     page = client.get("/", params={"token": "s3cret-token"})
     assert page.status_code == 200
     assert client.get("/api/state").status_code == 200  # the cookie the page got
-    assert TestClient(app, base_url=f"http://localhost:{PORT}").get("/api/state").status_code == 403  # not its name
+    assert (
+        TestClient(app, base_url=f"http://localhost:{PORT}").get("/api/state").status_code == 403
+    )  # not its name
     nothing_ran(studio)
-
-

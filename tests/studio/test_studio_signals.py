@@ -17,7 +17,9 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "driver"))  # the signal cases, the drawings' yardstick
+sys.path.insert(
+    0, str(Path(__file__).resolve().parents[1] / "driver")
+)  # the signal cases, the drawings' yardstick
 import signal_cases
 
 from pencilbot.driver.stop_signals import STOP_SIGNALS
@@ -36,5 +38,9 @@ def guarded(monkeypatch):
 def test_a_signal_to_the_studio_mid_plot_stops_it_resumably(tmp_path, guarded, signame):
     fraction = 0.2 + 0.2 * list(signal_cases.SIGNALS).index(signame)  # a different moment for each
     outcome = signal_cases.studio_run(signame, fraction, tmp_path)
-    assert (outcome.stopped, outcome.pen_up, outcome.journal_stopped, outcome.exact) == (True, True, True, True), \
-        outcome.detail
+    assert (outcome.stopped, outcome.pen_up, outcome.journal_stopped, outcome.exact) == (
+        True,
+        True,
+        True,
+        True,
+    ), outcome.detail

@@ -14,17 +14,37 @@ from pencilbot.machine.profile import DEFAULT_PROFILE, Pen, load_profile
 _COMMANDS = {"spindle": "M3 S{}", "z": "G0 Z{}", "servo": "M280 P0 S{}"}
 
 
-def description(*, width=220.0, height=310.0, origin="bottom-left", invert_x=False, invert_y=False,
-                pen=PenModel(), max_rate=6000.0, acceleration=800.0, junction_deviation=0.01,
-                homing=False, soft_limits=False):
+def description(
+    *,
+    width=220.0,
+    height=310.0,
+    origin="bottom-left",
+    invert_x=False,
+    invert_y=False,
+    pen=PenModel(),
+    max_rate=6000.0,
+    acceleration=800.0,
+    junction_deviation=0.01,
+    homing=False,
+    soft_limits=False,
+):
     """A plotter profile with this bed (and switches), pen and motion (the axes' top rate is
     ``max_rate``)."""
     base = load_profile(DEFAULT_PROFILE)
     return dataclasses.replace(
         base,
         bed=Bed(width, height, origin, invert_x, invert_y, homing, soft_limits),
-        pen=Pen(pen.kind, pen.up, pen.down, _COMMANDS[pen.kind].format("{up}"),
-                _COMMANDS[pen.kind].format("{down}")),
-        motion=Motion(draw_feed=min(3000.0, max_rate), travel_feed=max_rate, acceleration=acceleration,
-                      junction_deviation=junction_deviation),
+        pen=Pen(
+            pen.kind,
+            pen.up,
+            pen.down,
+            _COMMANDS[pen.kind].format("{up}"),
+            _COMMANDS[pen.kind].format("{down}"),
+        ),
+        motion=Motion(
+            draw_feed=min(3000.0, max_rate),
+            travel_feed=max_rate,
+            acceleration=acceleration,
+            junction_deviation=junction_deviation,
+        ),
     )

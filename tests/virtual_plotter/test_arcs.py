@@ -27,8 +27,13 @@ def test_chord_count_follows_grbl_s_formula_and_tolerance():
 
 
 @settings(max_examples=80, deadline=None)
-@given(st.floats(0.5, 200), st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi), st.booleans(),
-       st.sampled_from([0.001, 0.002, 0.01, 0.1]))
+@given(
+    st.floats(0.5, 200),
+    st.floats(-math.pi, math.pi),
+    st.floats(-math.pi, math.pi),
+    st.booleans(),
+    st.sampled_from([0.001, 0.002, 0.01, 0.1]),
+)
 def test_chords_end_on_the_circle_and_stay_near_it(radius, a_start, a_end, clockwise, tolerance):
     start = (radius * math.cos(a_start), radius * math.sin(a_start), 0.0)
     target = (radius * math.cos(a_end), radius * math.sin(a_end), 3.0)
@@ -69,9 +74,11 @@ def test_radius_arcs_take_the_short_way_and_negative_r_the_long_way(r, sweep):
 
 @pytest.mark.parametrize(
     "plane, line, axes, center, linear",
-    [("G17", "G2 X20 Z5 I10", (0, 1), (10, 0, 0), 2),  # XY, helix along Z
-     ("G18", "G2 X20 Y5 I10", (2, 0), (10, 0, 0), 1),  # ZX, helix along Y
-     ("G19", "G2 Y20 X5 J10", (1, 2), (0, 10, 0), 0)],  # YZ, helix along X
+    [
+        ("G17", "G2 X20 Z5 I10", (0, 1), (10, 0, 0), 2),  # XY, helix along Z
+        ("G18", "G2 X20 Y5 I10", (2, 0), (10, 0, 0), 1),  # ZX, helix along Y
+        ("G19", "G2 Y20 X5 J10", (1, 2), (0, 10, 0), 0),
+    ],  # YZ, helix along X
 )
 def test_each_plane_arcs_in_its_axes_and_climbs_along_the_third(plane, line, axes, center, linear):
     m = Machine(description())
@@ -87,7 +94,9 @@ def test_each_plane_arcs_in_its_axes_and_climbs_along_the_third(plane, line, axe
 
 def test_arc_time_is_its_length_at_the_feed():
     m = run(Machine(description(acceleration=1e6)), "G2 X0 Y0 I50 F3000")  # full circle, r = 50
-    assert m.clock == pytest.approx(2 * math.pi * 50 / 50.0 + IDLE_LOCK, rel=2e-3)  # chords are a hair shorter
+    assert m.clock == pytest.approx(
+        2 * math.pi * 50 / 50.0 + IDLE_LOCK, rel=2e-3
+    )  # chords are a hair shorter
 
 
 def test_inverse_time_lines_take_one_over_f_minutes():

@@ -43,7 +43,7 @@ def _fast(text: bytes, block_lines: int, profile: str = PROFILE):
     plotter = _plotter(profile)
     assert bulk.fast_path_possible(plotter.machine)
     lines = text.splitlines(keepends=True)
-    blocks = [b"".join(lines[i:i + block_lines]) for i in range(0, len(lines), block_lines)]
+    blocks = [b"".join(lines[i : i + block_lines]) for i in range(0, len(lines), block_lines)]
     stop = bulk.run_blocks(plotter.machine, blocks)
     plotter.firmware.finish()
     return plotter.machine, stop
@@ -61,8 +61,10 @@ def _same_machine(fast, full) -> None:
 
 _coord = st.integers(0, 200_000).map(lambda v: v / 1000)  # 0 .. 200 mm in µm, inside the bed
 #: Pen lines by profile: what lifts and lowers it, and what does not (M3 for a Z pen, Z for a servo).
-_PENS = {1: ["M3 S30", "M3 S90", "M3 S90", "M5", "M3", "M4 S90", "S", "G0 Z4"],
-         -1: ["G0 Z0", "G0 Z4.0", "G1 Z1.9", "G1 Z2.1", "G0 Z0", "M3 S90", "M5"]}
+_PENS = {
+    1: ["M3 S30", "M3 S90", "M3 S90", "M5", "M3", "M4 S90", "S", "G0 Z4"],
+    -1: ["G0 Z0", "G0 Z4.0", "G1 Z1.9", "G1 Z2.1", "G0 Z0", "M3 S90", "M5"],
+}
 
 
 @st.composite
@@ -91,7 +93,9 @@ def plain_lines(draw, sign: int = 1) -> list[str]:
                 nx, ny = (x, y) if same else (draw(_coord), draw(_coord))
                 words = draw(st.sampled_from(["XY", "X", "Y", "XYZ"]))
                 z = draw(st.sampled_from([0.0, 4.0]))
-                text = g + " ".join(f"{a}{v:g}" for a, v in (("X", sign * nx), ("Y", sign * ny), ("Z", z)) if a in words)
+                text = g + " ".join(
+                    f"{a}{v:g}" for a, v in (("X", sign * nx), ("Y", sign * ny), ("Z", z)) if a in words
+                )
                 if words == "X":
                     ny = y
                 if words == "Y":
@@ -118,12 +122,18 @@ def test_fast_path_leaves_the_machine_as_the_full_interpreter(data, profile, blo
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(lines=plain_lines(), at=st.integers(0, 10_000), bad=st.sampled_from([
-    ("G1 X10 Y10", "error:22"),  # a feed move before any F
-    ("G0 X230 Y10", "ALARM:2"),  # past the bed's 220 mm: the soft limit
-    ("G1 X-5 F3000", "ALARM:2"),
-    ("G0 Y310.5", "ALARM:2"),
-]))
+@given(
+    lines=plain_lines(),
+    at=st.integers(0, 10_000),
+    bad=st.sampled_from(
+        [
+            ("G1 X10 Y10", "error:22"),  # a feed move before any F
+            ("G0 X230 Y10", "ALARM:2"),  # past the bed's 220 mm: the soft limit
+            ("G1 X-5 F3000", "ALARM:2"),
+            ("G0 Y310.5", "ALARM:2"),
+        ]
+    ),
+)
 def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
     at = at % (len(lines) + 1)
     line, answer = bad
@@ -139,19 +149,35 @@ def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
     assert stop == bulk.Stop(refused[0], answer)  # at the same line
 
 
-@pytest.mark.parametrize("other", ["G2 X10 Y0 I5 J0 F100", "G91", "M0", "$H", "G92 X0", "(note) G0 X1", "%",
-                                   "G1 X1.234567891 F100", "G1 X123456789 F100", "G0 X1 X2",
-                                   "G0 X1\rG0 X2"])
+@pytest.mark.parametrize(
+    "other",
+    [
+        "G2 X10 Y0 I5 J0 F100",
+        "G91",
+        "M0",
+        "$H",
+        "G92 X0",
+        "(note) G0 X1",
+        "%",
+        "G1 X1.234567891 F100",
+        "G1 X123456789 F100",
+        "G0 X1 X2",
+        "G0 X1\rG0 X2",
+    ],
+)
 def test_fast_path_stops_at_a_line_of_another_form(other):
     text = f"G21\nG0 X10 Y10\n{other}\nG0 X20 Y20\n".encode()
     _, stop = _fast(text, 2)
     assert stop == bulk.Stop(3, "unsupported")
 
 
-@pytest.mark.parametrize("text", [
-    b"G21\r\nM3 S90\r\nG1 X10 Y10 F3000\r\nG1 X20\r\nM3 S30\r\n",  # CRLF line ends
-    b"F3000\nM3 S90\nG1 X1.2345678 Y012.34567\nG1 X+7.9999999 Y.12345678\nM5\n",  # 8 digits: read exactly
-])
+@pytest.mark.parametrize(
+    "text",
+    [
+        b"G21\r\nM3 S90\r\nG1 X10 Y10 F3000\r\nG1 X20\r\nM3 S30\r\n",  # CRLF line ends
+        b"F3000\nM3 S90\nG1 X1.2345678 Y012.34567\nG1 X+7.9999999 Y.12345678\nM5\n",  # 8 digits: read exactly
+    ],
+)
 def test_fast_path_takes_what_the_board_reads_the_same(text):
     full, refused = _full(text)
     fast, stop = _fast(text, 2)
@@ -170,7 +196,12 @@ def _simulate(tmp_path, capsys, text: str, *options: str):
     out = tmp_path / "plot.png"
     code = main(["simulate", str(src), "-o", str(out), "--dpi", "60", *options])
     said = capsys.readouterr()
-    return code, (out.read_bytes() if out.exists() else None), said.out, [line for line in said.err.splitlines() if line.startswith("pencilbot:")]
+    return (
+        code,
+        (out.read_bytes() if out.exists() else None),
+        said.out,
+        [line for line in said.err.splitlines() if line.startswith("pencilbot:")],
+    )
 
 
 JOB = """G21
@@ -192,8 +223,9 @@ G0 X0 Y0
 """
 
 
-@pytest.mark.parametrize("job", [JOB, JOB.replace("G1 X120 Y140", "G1 X120 Y140\nG1 X300 Y10"),
-                                 JOB.replace("F3000", "")])
+@pytest.mark.parametrize(
+    "job", [JOB, JOB.replace("G1 X120 Y140", "G1 X120 Y140\nG1 X300 Y10"), JOB.replace("F3000", "")]
+)
 def test_simulate_says_and_draws_the_same_either_way(tmp_path, capsys, monkeypatch, job):
     """The fast path's PNG and words are the full way's; a job it stops in (a move off the bed, a
     move without a feed) gets the full way's message naming the line."""

@@ -16,7 +16,9 @@ def board():
 
 def _board(**options):
     moves = []
-    board = EbbBoard(load_profile("axidraw-v3"), lambda a, b, drawing: moves.append((a, b, drawing)), **options)
+    board = EbbBoard(
+        load_profile("axidraw-v3"), lambda a, b, drawing: moves.append((a, b, drawing)), **options
+    )
     board.moves = moves
     return board
 
@@ -30,8 +32,8 @@ def test_a_motion_command_is_answered_only_when_the_fifo_has_room():
     board = _board(instant=False)
     assert ask(board, "SM,100,10,10") == b"OK\r\n"  # runs
     assert ask(board, "SM,100,10,10") == b"OK\r\n"  # waits in the one-deep FIFO
-    assert ask(board, "SM,100,10,10") == b""        # parsed only once there is room
-    assert ask(board, "QS") == b""                  # and everything behind it waits too
+    assert ask(board, "SM,100,10,10") == b""  # parsed only once there is room
+    assert ask(board, "QS") == b""  # and everything behind it waits too
     board.poll(0.099)
     assert board.take_output() == b""
     board.poll(0.002)
@@ -76,9 +78,9 @@ def test_xm_mixes_the_axes(board):
 def test_a_move_started_before_the_pen_landed_is_not_drawn(board):
     ask(board, "SC,5,15000")
     ask(board, "SC,12,1000")  # 3000 units at 1000 per 24 ms: 72 ms of travel
-    ask(board, "SP,0,10")     # but only 10 ms of wait
+    ask(board, "SP,0,10")  # but only 10 ms of wait
     ask(board, "SM,100,800,800")
-    ask(board, "SP,0,100")    # long enough
+    ask(board, "SP,0,100")  # long enough
     ask(board, "SM,100,800,800")
     board.finish()
     assert [drawing for _, _, drawing in board.moves] == [False, True]

@@ -24,10 +24,19 @@ def ask(board, text):
     return board.take_output()
 
 
-@pytest.mark.parametrize("version, qc, ql, qn, qr", [
-    ("3.0.3", b"394,297\r\nOK\r\n", b"7\r\nOK\r\n", b"13\r\nOK\r\n", b"0\n\rOK\r\n"),  # ebb_print_int
-    ("2.8.1", b"0394,0297\r\nOK\r\n", b"007\r\nOK\r\n", b"0000000013\r\nOK\r\n", b"0\r\nOK\r\n"),  # printf %04i...
-])
+@pytest.mark.parametrize(
+    "version, qc, ql, qn, qr",
+    [
+        ("3.0.3", b"394,297\r\nOK\r\n", b"7\r\nOK\r\n", b"13\r\nOK\r\n", b"0\n\rOK\r\n"),  # ebb_print_int
+        (
+            "2.8.1",
+            b"0394,0297\r\nOK\r\n",
+            b"007\r\nOK\r\n",
+            b"0000000013\r\nOK\r\n",
+            b"0\r\nOK\r\n",
+        ),  # printf %04i...
+    ],
+)
 def test_queries_in_each_firmwares_format(version, qc, ql, qn, qr):
     board = _board(version=version)
     assert ask(board, "QC") == qc  # 9.1 V at the jack: (9.1 - 0.3) / 9.2 of 3.3 V in 1023 counts
@@ -47,8 +56,19 @@ def test_future_syntax_and_the_always_named_replies():
     assert ask(board, "SM,10,300") == b"SM,!0 Err: <axis1> step rate too high\n\n"
 
 
-@pytest.mark.parametrize("command", ["LM,0,0,0,0,0,0", "LM,100,0,5,100,0,5", "LM,0,100,0,0,200,0",
-                                     "LM,-100,-5,0,0,0,0", "T3,0,1,1,1,1,1,1", "QU,3,1", "PO,B,8,1", "PO,F,1,1"])
+@pytest.mark.parametrize(
+    "command",
+    [
+        "LM,0,0,0,0,0,0",
+        "LM,100,0,5,100,0,5",
+        "LM,0,100,0,0,200,0",
+        "LM,-100,-5,0,0,0,0",
+        "T3,0,1,1,1,1,1,1",
+        "QU,3,1",
+        "PO,B,8,1",
+        "PO,F,1,1",
+    ],
+)
 def test_what_the_firmware_refuses_is_refused_and_not_run(command):
     board = _board()
     assert ask(board, command).endswith(b"Err: Invalid parameter value\r\n") or b"!7" in ask(board, command)
@@ -102,7 +122,9 @@ def test_the_pen_moves_only_on_its_pin_and_channel():
     ask(board, "SP,0,50")  # RB1: the pen stays up
     ask(board, "SM,100,800,800")
     board.finish()
-    assert not any(drawing for *_, drawing in board.moves) and not board.pen_up  # the firmware thinks it is down
+    assert (
+        not any(drawing for *_, drawing in board.moves) and not board.pen_up
+    )  # the firmware thinks it is down
     ask(board, "SC,4,9720")
     ask(board, "SC,12,154")
     ask(board, "SP,1,10,2")
@@ -134,7 +156,9 @@ def test_without_power_the_motors_do_not_turn_but_the_counters_count():
     assert ask(board, "QC") == b"394,0\r\nOK\r\n"
     ask(board, "SM,100,800,800")
     board.finish()
-    assert ask(board, "QS") == b"800,800\n\rOK\r\n" and board.moves == [] and board.carriage.tolist() == [0, 0]
+    assert (
+        ask(board, "QS") == b"800,800\n\rOK\r\n" and board.moves == [] and board.carriage.tolist() == [0, 0]
+    )
     assert board._true_steps().tolist() == [0, 0]
 
 

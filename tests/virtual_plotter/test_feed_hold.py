@@ -60,7 +60,9 @@ def along(path, point):
 
 @settings(max_examples=60, deadline=None)
 @given(path=points, hold_at=st.floats(0.0, 2.0))
-def test_a_hold_anywhere_stands_within_the_stopping_distance_and_draws_what_an_uninterrupted_run_draws(path, hold_at):
+def test_a_hold_anywhere_stands_within_the_stopping_distance_and_draws_what_an_uninterrupted_run_draws(
+    path, hold_at
+):
     uninterrupted, _ = run(path)
     held, (began, speed, stood) = run(path, hold_at)
     drawn = [p for stroke in held.machine.strokes for p in stroke]
@@ -69,8 +71,10 @@ def test_a_hold_anywhere_stands_within_the_stopping_distance_and_draws_what_an_u
     # (the stand point splits a move), and no stretch is drawn twice.
     assert reference <= {tuple(np.round(p, 6)) for p in drawn}
     assert all(along(path, p) for p in drawn)
-    assert _length(held.machine.strokes) == np.float64(_length(uninterrupted.machine.strokes)).round(6) or \
-        abs(_length(held.machine.strokes) - _length(uninterrupted.machine.strokes)) < 1e-6
+    assert (
+        _length(held.machine.strokes) == np.float64(_length(uninterrupted.machine.strokes)).round(6)
+        or abs(_length(held.machine.strokes) - _length(uninterrupted.machine.strokes)) < 1e-6
+    )
     if speed == 0:
         assert stood == began  # nothing moving: it holds where it is
         return

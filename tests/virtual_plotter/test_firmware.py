@@ -29,8 +29,13 @@ def exchange(fw, data: bytes) -> str:
 
 @pytest.mark.parametrize("homing", [False, True])
 def test_settings_listing_is_grbl_formatted(homing):
-    fw = Firmware(Machine(description(width=220, height=310, max_rate=6000, acceleration=800, homing=homing,
-                                        soft_limits=homing)))
+    fw = Firmware(
+        Machine(
+            description(
+                width=220, height=310, max_rate=6000, acceleration=800, homing=homing, soft_limits=homing
+            )
+        )
+    )
     fw.take_output()
     lines = exchange(fw, b"$$\n").split("\r\n")
     assert lines[0] == "$0=10" and lines[-2] == "ok"
@@ -147,14 +152,23 @@ def test_log_indexes_every_complete_line():
     fw = board()
     exchange(fw, b"G0 X1\nBAD\nG0 X2\n")
     assert [(e.index, e.text, e.reply) for e in fw.log] == [
-        (1, "G0 X1", "ok"), (2, "BAD", "error:2"), (3, "G0 X2", "ok")]
+        (1, "G0 X1", "ok"),
+        (2, "BAD", "error:2"),
+        (3, "G0 X2", "ok"),
+    ]
     assert fw.accepted_lines() == ["G0 X1", "G0 X2"]
 
 
 @pytest.mark.parametrize(
     "raw, line",
-    [(b"g1 x1 (c) y2", "G1X1Y2"), (b"G1;X1", "G1"), (b"(open", ""), (b"/G1\tX1", "G1X1"),
-     (b"X" * 79, "X" * 79), (b"X" * 80, None)],
+    [
+        (b"g1 x1 (c) y2", "G1X1Y2"),
+        (b"G1;X1", "G1"),
+        (b"(open", ""),
+        (b"/G1\tX1", "G1X1"),
+        (b"X" * 79, "X" * 79),
+        (b"X" * 80, None),
+    ],
 )
 def test_filter_line(raw, line):
     assert filter_line(raw) == line
@@ -162,11 +176,44 @@ def test_filter_line(raw, line):
 
 gcode_like = st.lists(
     st.one_of(
-        st.sampled_from(["G0", "G1", "G4", "G20", "G21", "G28", "G90", "G91", "G92", "M3", "M5", "M280",
-                         "F1000", "S90", "S30", "P0.1", "X", "Y", "Z", "(c)", ";", " ", "$", "$X", "$C", "G2",
-                         "N5", "T1", "."]),
-        st.builds(lambda a, v: f"{a}{v}", st.sampled_from("XYZFSPNGM"),
-                  st.floats(-400, 400, allow_nan=False).map(lambda v: f"{v:.3f}")),
+        st.sampled_from(
+            [
+                "G0",
+                "G1",
+                "G4",
+                "G20",
+                "G21",
+                "G28",
+                "G90",
+                "G91",
+                "G92",
+                "M3",
+                "M5",
+                "M280",
+                "F1000",
+                "S90",
+                "S30",
+                "P0.1",
+                "X",
+                "Y",
+                "Z",
+                "(c)",
+                ";",
+                " ",
+                "$",
+                "$X",
+                "$C",
+                "G2",
+                "N5",
+                "T1",
+                ".",
+            ]
+        ),
+        st.builds(
+            lambda a, v: f"{a}{v}",
+            st.sampled_from("XYZFSPNGM"),
+            st.floats(-400, 400, allow_nan=False).map(lambda v: f"{v:.3f}"),
+        ),
     ),
     max_size=8,
 ).map(" ".join)
@@ -196,9 +243,14 @@ def test_arbitrary_bytes_never_crash_and_every_line_is_answered_or_alarmed(data,
     # every logged line was answered exactly once, unless an alarm or a reset swallowed it
     answered = [e for e in fw.log if e.reply == "ok" or e.reply.startswith("error:")]
     assert len(replies) == len(answered)
-    assert all(isinstance(grbl.parse_line(ln), (grbl.Ok, grbl.Error, grbl.Alarm, grbl.Status,
-                                                 grbl.Feedback, grbl.Welcome, grbl.Setting))
-               for ln in out.split("\r\n") if ln)
+    assert all(
+        isinstance(
+            grbl.parse_line(ln),
+            (grbl.Ok, grbl.Error, grbl.Alarm, grbl.Status, grbl.Feedback, grbl.Welcome, grbl.Setting),
+        )
+        for ln in out.split("\r\n")
+        if ln
+    )
 
 
 def test_m280_is_refused_as_real_grbl_does_unless_the_servo_extension_is_on():
@@ -220,7 +272,8 @@ def test_m0_pauses_and_answers_after_cycle_start():
     # (and everything after it) comes after ~.
     fw = board()
     assert exchange(fw, b"G0 X10\nM0\nG0 X20\n?") == (
-        "ok\r\n<Hold:0|MPos:10.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n")
+        "ok\r\n<Hold:0|MPos:10.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
+    )
     assert exchange(fw, b"~?") == "ok\r\nok\r\n<Idle|MPos:20.000,0.000,0.000|FS:0,0|Ov:100,100,100>\r\n"
 
 
@@ -353,10 +406,14 @@ def test_a_feed_hold_slows_through_the_corners_of_the_blocks_ahead():
     assert len(fw.machine.planner) == blocks  # slowing cuts blocks, it adds none
     fw.poll(1.0)
     stood = fw.machine.machine_position()[0]
-    assert stood - x0 == pytest.approx(speed ** 2 / (2 * 800.0), rel=1e-6)
+    assert stood - x0 == pytest.approx(speed**2 / (2 * 800.0), rel=1e-6)
     assert int(stood / 0.4) > int(x0 / 0.4) + 2  # it stands some blocks ahead of the one it ran
     rest = fw.machine.planner.queue[0]  # what is left of the block it stands in, from rest
-    assert rest.start[0] == stood and rest.end[0] == pytest.approx(0.4 * (int(stood / 0.4) + 1)) and rest.entry == 0
+    assert (
+        rest.start[0] == stood
+        and rest.end[0] == pytest.approx(0.4 * (int(stood / 0.4) + 1))
+        and rest.entry == 0
+    )
     planned_to = fw.machine.planner.queue[-1].end[0]
     assert len(fw.machine.planner) == round(planned_to / 0.4) - int(stood / 0.4)  # a slot a block, as before
 
@@ -397,12 +454,15 @@ def test_a_power_cycle_forgets_an_alarm_only_on_a_real_board():
 
 @pytest.mark.parametrize(
     "origin, invert, mpos, corner",
-    [("bottom-left", False, (0.0, 0.0), (0.0, 0.0)),  # homes to negative: HOMING_FORCE_SET_ORIGIN space
-     ("top-right", True, (-1.0, -1.0), (100.0, 50.0))],  # homes to positive: GRBL's negative space, -$27
+    [
+        ("bottom-left", False, (0.0, 0.0), (0.0, 0.0)),  # homes to negative: HOMING_FORCE_SET_ORIGIN space
+        ("top-right", True, (-1.0, -1.0), (100.0, 50.0)),
+    ],  # homes to positive: GRBL's negative space, -$27
 )
 def test_homing_finds_the_origin_corner_and_trusts_the_position_again(origin, invert, mpos, corner):
-    config = description(width=100, height=50, origin=origin, invert_x=invert, invert_y=invert,
-                           homing=True, soft_limits=True)
+    config = description(
+        width=100, height=50, origin=origin, invert_x=invert, invert_y=invert, homing=True, soft_limits=True
+    )
     fw = Firmware(Machine(config), power_zero=True)
     assert fw.take_output().decode() == BANNER + "[MSG:'$H'|'$X' to unlock]\r\n"  # HOMING_INIT_LOCK
     assert exchange(fw, b"G0 X1\n") == "error:9\r\n"
@@ -456,8 +516,16 @@ def test_dollar_dollar_is_answered_while_jogging_but_not_while_running():
     assert exchange(fw, b"$$\n") == "error:8\r\n"
 
 
-@given(st.lists(st.tuples(st.integers(1, 2**31), st.text(st.characters(max_codepoint=255), max_size=12),
-                          st.sampled_from(["ok", "error:20", "-", "error:1"])), max_size=30))
+@given(
+    st.lists(
+        st.tuples(
+            st.integers(1, 2**31),
+            st.text(st.characters(max_codepoint=255), max_size=12),
+            st.sampled_from(["ok", "error:20", "-", "error:1"]),
+        ),
+        max_size=30,
+    )
+)
 def test_the_line_log_gives_back_every_line_as_it_was_logged(entries):
     from sim.line_log import LineLog, LoggedLine
 

@@ -13,12 +13,65 @@ from sim.machine import Machine
 from sim.motion_control import MachineAlarm
 
 WORDS = st.one_of(
-    st.sampled_from(["G0", "G1", "G2", "G3", "G4", "G10", "G17", "G18", "G19", "G20", "G21", "G28", "G28.1",
-                     "G30", "G38.2", "G38.4", "G40", "G43.1", "G49", "G53", "G54", "G59", "G59.1", "G61",
-                     "G80", "G90", "G91", "G91.1", "G92", "G92.1", "G93", "G94", "M0", "M1", "M2", "M3",
-                     "M5", "M7", "M8", "M30", "M280", "L2", "L20", "P1", "P7", "R5", "R-5", "%", "#", "."]),
-    st.builds(lambda a, v: f"{a}{v}", st.sampled_from("XYZFSPNTIJKLRGMEQ"),
-              st.floats(-300, 300, allow_nan=False).map(lambda v: f"{v:.3f}")),
+    st.sampled_from(
+        [
+            "G0",
+            "G1",
+            "G2",
+            "G3",
+            "G4",
+            "G10",
+            "G17",
+            "G18",
+            "G19",
+            "G20",
+            "G21",
+            "G28",
+            "G28.1",
+            "G30",
+            "G38.2",
+            "G38.4",
+            "G40",
+            "G43.1",
+            "G49",
+            "G53",
+            "G54",
+            "G59",
+            "G59.1",
+            "G61",
+            "G80",
+            "G90",
+            "G91",
+            "G91.1",
+            "G92",
+            "G92.1",
+            "G93",
+            "G94",
+            "M0",
+            "M1",
+            "M2",
+            "M3",
+            "M5",
+            "M7",
+            "M8",
+            "M30",
+            "M280",
+            "L2",
+            "L20",
+            "P1",
+            "P7",
+            "R5",
+            "R-5",
+            "%",
+            "#",
+            ".",
+        ]
+    ),
+    st.builds(
+        lambda a, v: f"{a}{v}",
+        st.sampled_from("XYZFSPNTIJKLRGMEQ"),
+        st.floats(-300, 300, allow_nan=False).map(lambda v: f"{v:.3f}"),
+    ),
 )
 LINES = st.lists(WORDS, max_size=7).map("".join)
 
@@ -61,8 +114,15 @@ def test_a_rejected_line_leaves_the_parser_state_as_it_was(lines):
 
 @pytest.mark.parametrize(
     "text, value",
-    [("1.5", 1.5), ("-2", -2.0), ("+.5", 0.5), ("12345678", 12345678.0),
-     ("123456789", 123456780.0), ("1.123456789", 1.1234567), ("0.000000001", 0.0)],
+    [
+        ("1.5", 1.5),
+        ("-2", -2.0),
+        ("+.5", 0.5),
+        ("12345678", 12345678.0),
+        ("123456789", 123456780.0),
+        ("1.123456789", 1.1234567),
+        ("0.000000001", 0.0),
+    ],
 )
 def test_numbers_keep_eight_significant_digits_like_read_float(text, value):
     assert _grbl_float(text) == pytest.approx(value, abs=1e-12)

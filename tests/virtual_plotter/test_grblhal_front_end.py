@@ -23,7 +23,11 @@ def test_banner_build_info_and_help_are_grblhal_s():
     fw = board()
     report = exchange(fw, b"$I\n").split("\r\n")
     assert report[0] == f"[VER:{grblhal.VERSION}.{grblhal.BUILD_DATE}:]" and report[-2:] == ["ok", ""]
-    assert report[1].startswith("[OPT:VNMS") and report[1].endswith(",35,1024,3,0]") and "[FIRMWARE:grblHAL]" in report
+    assert (
+        report[1].startswith("[OPT:VNMS")
+        and report[1].endswith(",35,1024,3,0]")
+        and "[FIRMWARE:grblHAL]" in report
+    )
     assert "$B" in exchange(fw, b"$\n")
     assert fw.machine.planner.capacity == 35
     fw.receive(b"\x18")
@@ -33,7 +37,12 @@ def test_banner_build_info_and_help_are_grblhal_s():
 def test_lines_up_to_256_characters_run_and_longer_ones_overflow():
     fw = board()
     line = b"G1X10F1000" + b"Y10" * 80  # repeated word: error 25, but only after the buffer took it
-    assert exchange(fw, b"G1X10.1234567890123456789012345678901234567890123456789012345678901234567890123F1000\n") == "ok\r\n"
+    assert (
+        exchange(
+            fw, b"G1X10.1234567890123456789012345678901234567890123456789012345678901234567890123F1000\n"
+        )
+        == "ok\r\n"
+    )
     assert exchange(fw, line + b"\n") == "error:25\r\n"
     assert exchange(fw, b"G1X1" + b"0" * 260 + b"\n") == "error:11\r\n"
 

@@ -25,7 +25,7 @@ def test_one_instruction_longer_than_the_buffer_is_drawn_as_it_arrives():
     for _ in range(1000):  # a sender that writes what ESC.B says is free, as hpgl-buddy does
         board.receive(b"\x1b.B")
         free = int(answers(board)[0])
-        board.receive(job[sent: sent + free])
+        board.receive(job[sent : sent + free])
         sent += min(free, len(job) - sent)
         board.poll(0.5)
         if sent == len(job):
@@ -58,5 +58,7 @@ def test_circles_arcs_and_rectangles_are_chords_of_the_shape():
     assert len(circle) == 73  # 360 / 5° chords, closed
     assert np.allclose(np.hypot(*(circle - [2000, 2000]).T), 400, atol=0.75)
     assert rectangle.tolist() == [[2000, 2000], [2400, 2000], [2400, 2300], [2000, 2300], [2000, 2000]]
-    assert np.allclose(np.hypot(*(arc - [3000, 2400]).T), 400, atol=0.75) and np.allclose(arc[-1], [2600, 2400], atol=1)
+    assert np.allclose(np.hypot(*(arc - [3000, 2400]).T), 400, atol=0.75) and np.allclose(
+        arc[-1], [2600, 2400], atol=1
+    )
     assert not board.down  # CI and EA put the pen back as it was (up)

@@ -74,7 +74,9 @@ def test_os_says_initialised_once_after_power_up_in_and_a_reset():
     from sim.faults import Faults
 
     board = HpglBoard(PROFILE, faults=Faults.parse("reset@6"))
-    board.receive(b"OS;OS;IN;OS;PU10,10;OS;")  # the reset comes as the 6th instruction (OS) starts: it is lost
+    board.receive(
+        b"OS;OS;IN;OS;PU10,10;OS;"
+    )  # the reset comes as the 6th instruction (OS) starts: it is lost
     board.finish()
     assert answers(board) == ["24", "16", "24"]
     board.receive(b"OS;OS;OA;")

@@ -85,7 +85,9 @@ def test_junction_speed_formula():
     assert junction_speed((1, 0, 0), (-1, 0, 0), 800, 0.01) == 0.0
     # 90°: sin(θ/2) = √0.5 → v² = a·δ·s/(1−s)
     s = math.sqrt(0.5)
-    assert junction_speed((1, 0, 0), (0, 1, 0), 800, 0.01) == pytest.approx(math.sqrt(800 * 0.01 * s / (1 - s)))
+    assert junction_speed((1, 0, 0), (0, 1, 0), 800, 0.01) == pytest.approx(
+        math.sqrt(800 * 0.01 * s / (1 - s))
+    )
 
 
 def test_rapids_run_at_the_max_rate_and_feeds_are_capped_by_it():
@@ -154,7 +156,9 @@ def test_soft_limits_follow_the_bed_and_axis_direction():
     with pytest.raises(MachineAlarm) as alarm:
         m.apply(m.parse("G0X100.01"))
     assert alarm.value.code == 2
-    inverted = Machine(description(width=100, height=50, invert_x=True, invert_y=True, homing=True, soft_limits=True))
+    inverted = Machine(
+        description(width=100, height=50, invert_x=True, invert_y=True, homing=True, soft_limits=True)
+    )
     run(inverted, "G0 X-100 Y-50")
     with pytest.raises(MachineAlarm):
         inverted.apply(inverted.parse("G0X1"))
@@ -218,8 +222,13 @@ def test_realtime_advance_moves_part_way():
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(st.floats(0, 200), st.floats(0, 200), st.sampled_from([300, 1500, 6000])),
-                min_size=1, max_size=40))
+@given(
+    st.lists(
+        st.tuples(st.floats(0, 200), st.floats(0, 200), st.sampled_from([300, 1500, 6000])),
+        min_size=1,
+        max_size=40,
+    )
+)
 def test_planner_is_never_faster_than_allowed(moves):
     m = Machine(description(width=200, height=200))
     done = []

@@ -12,10 +12,30 @@ from sim import protocol_sim
 
 sim.register()
 
-JOB = ["G21", "G90", "M3 S30",
-       "M0", "G0 X10 Y10", "M3 S90", "G1 X20 F3000", "M3 S30",
-       "M0", "G0 X30 Y10", "M3 S90", "G1 X40", "M3 S30", "G0 X50 Y10", "M3 S90", "G1 X60", "M3 S30",
-       "M0", "G0 X70 Y10", "M3 S90", "G1 X80", "M3 S30"]
+JOB = [
+    "G21",
+    "G90",
+    "M3 S30",
+    "M0",
+    "G0 X10 Y10",
+    "M3 S90",
+    "G1 X20 F3000",
+    "M3 S30",
+    "M0",
+    "G0 X30 Y10",
+    "M3 S90",
+    "G1 X40",
+    "M3 S30",
+    "G0 X50 Y10",
+    "M3 S90",
+    "G1 X60",
+    "M3 S30",
+    "M0",
+    "G0 X70 Y10",
+    "M3 S90",
+    "G1 X80",
+    "M3 S30",
+]
 
 
 def replies(port, count: int, deadline: float = 3.0) -> list[str]:

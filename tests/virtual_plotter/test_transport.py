@@ -18,8 +18,19 @@ from sim.pty_server import PtyServer
 sim.register()
 DPI = 150
 
-SQUARE = ["G21", "G90", "M3 S30", "G0 X20 Y20", "M3 S90", "G1 X60 F3000", "G1 Y60", "G1 X20", "G1 Y20",
-          "M3 S30", "G0 X0 Y0"]
+SQUARE = [
+    "G21",
+    "G90",
+    "M3 S30",
+    "G0 X20 Y20",
+    "M3 S90",
+    "G1 X60 F3000",
+    "G1 Y60",
+    "G1 X20",
+    "G1 Y20",
+    "M3 S30",
+    "G0 X0 Y0",
+]
 
 
 def read_line(port, deadline=5.0):
@@ -51,16 +62,18 @@ def drawing(plotter_):
 def check_square(darkness):
     mm = DPI / 25.4  # px per mm
     rows, _cols = darkness.shape
+
     def px(x, y):
         return int(round(rows - y * mm)), int(round(x * mm))
+
     for x, y in [(40, 20), (60, 40), (40, 60), (20, 40)]:  # mid-points of the four sides
         r, c = px(x, y)
-        assert darkness[r - 1:r + 2, c - 1:c + 2].max() > 0.5
-    inside = darkness[px(0, 55)[0]:px(0, 25)[0], px(25, 0)[1]:px(55, 0)[1]]
+        assert darkness[r - 1 : r + 2, c - 1 : c + 2].max() > 0.5
+    inside = darkness[px(0, 55)[0] : px(0, 25)[0], px(25, 0)[1] : px(55, 0)[1]]
     assert inside.max() < 0.02
     ink = darkness > 0.05
     assert ink.sum() < 4 * 40 * mm * 4  # only the outline is inked
-    assert darkness[: px(0, 65)[0]].max() < 0.02 and darkness[:, px(65, 0)[1]:].max() < 0.02
+    assert darkness[: px(0, 65)[0]].max() < 0.02 and darkness[:, px(65, 0)[1] :].max() < 0.02
 
 
 def test_square_through_sim_url_and_through_a_pty_gives_the_same_image():
@@ -131,11 +144,17 @@ def test_realtime_mode_takes_wall_time_scaled():
 
 @pytest.mark.parametrize(
     "url, error",
-    [("sim://?colour=red", serial.SerialException), ("sim://?baud=fast", serial.SerialException),
-     ("sim://?faults=melt@3", serial.SerialException), ("sim://?realtime=-1", serial.SerialException),
-     ("sim://?realtime=nan", serial.SerialException), ("sim://?power=off", serial.SerialException),
-     ("sim://?abort=maybe", serial.SerialException), ("sim://?limits=none", serial.SerialException),
-     ("sim://?profile=no-such-plotter", ProfileError)],
+    [
+        ("sim://?colour=red", serial.SerialException),
+        ("sim://?baud=fast", serial.SerialException),
+        ("sim://?faults=melt@3", serial.SerialException),
+        ("sim://?realtime=-1", serial.SerialException),
+        ("sim://?realtime=nan", serial.SerialException),
+        ("sim://?power=off", serial.SerialException),
+        ("sim://?abort=maybe", serial.SerialException),
+        ("sim://?limits=none", serial.SerialException),
+        ("sim://?profile=no-such-plotter", ProfileError),
+    ],
 )
 def test_bad_urls_say_what_is_wrong(url, error):
     with pytest.raises(error):
