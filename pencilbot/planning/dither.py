@@ -24,9 +24,18 @@ import numpy as np
 from pencilbot.paths import Paths
 from pencilbot.planning.flow import Grid
 
-#: Distance between rows, in pen widths: a little over one leaves a hairline between rows of a
-#: solid black, and a sixth fewer rows (and pen lifts) for a face.
-PITCH = 1.2
+#: Distance between rows, in pen widths. One: the runs of a light or mid tone are shorter and
+#: closer, so at half a millimetre a face's skin reads as tone, not as dashes (face set, rho@0.5mm:
+#: 2008_002506's grimace 0.814 -> 0.852, 2008_007676's laughing woman 0.791 -> 0.854, family
+#: 2007_007763 #6 0.784 -> 0.839), for a minute or so more plotting on a photo of large faces.
+#: (1.2 left a hairline between rows of a solid black and a sixth fewer rows.)
+PITCH = 1.0
+#: Rows spread from PITCH to WIDE_PITCH as the faces cover from CLOSE_SHARE to CLOSER_SHARE of
+#: the drawing: a close portrait is mostly face, and its runs, a lift each few millimetres, are
+#: most of its plotting (Tom_Cruise_avp_2014_4's 123 mm face, a third of the sheet: 28.7 min at
+#: 1.2, 35.8 min at 1.0, where its face meets the bars at 1.2 already: 0.951 / 0.915).
+WIDE_PITCH = 1.2
+CLOSE_SHARE, CLOSER_SHARE = 0.15, 0.25
 #: How much more easily a run continues than starts (a shift of the threshold, in cells of ink):
 #: longer runs, fewer pen lifts, the same ink.
 RUN_BIAS = 0.4
@@ -38,6 +47,12 @@ REACH = 4
 #: Ink of a run's first cell, in cells, for a pen as wide as a cell: a stroke of k cells from
 #: centre to centre with round ends covers k − 1 cells and a disc.
 CAP = np.pi / 4
+
+
+def face_pitch(share: float) -> float:
+    """Distance between a face's rows (pen widths) when the faces cover ``share`` of the drawing."""
+    spread = np.clip((share - CLOSE_SHARE) / (CLOSER_SHARE - CLOSE_SHARE), 0.0, 1.0)
+    return float(PITCH + (WIDE_PITCH - PITCH) * spread)
 
 
 def error_diffuse(

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, run_strokes
+from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, face_pitch, run_strokes
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
     HATCH_ANGLES,
@@ -248,13 +248,18 @@ def face_runs(
     paper: np.ndarray,
 ) -> Paths:
     """The dithered runs (:mod:`pencilbot.planning.dither`) that draw ``darkness`` where
-    ``dithered`` is above ½, on rows ``PITCH`` pen widths apart, the edges' ink counted.
+    ``dithered`` is above ½, on rows ``PITCH`` pen widths apart (more for a close portrait:
+    :func:`~pencilbot.planning.dither.face_pitch`), the edges' ink counted.
 
     Darkness up to ``LIGHTEST`` is left bare and the rest stretched over the full range; where
     the photo (``paper``) is lighter than ``blank_below`` the paper stays blank, as elsewhere.
     """
     grid = Grid(layout.drawing_box, pen_width * PITCH)
     region = sample_image(dithered, layout, grid) > 0.5
+    pitch = face_pitch(float(region.mean()))
+    if pitch != PITCH:
+        grid = Grid(layout.drawing_box, pen_width * pitch)
+        region = sample_image(dithered, layout, grid) > 0.5
     if not region.any():
         return Paths.empty()
     rows, cols = np.nonzero(region)
@@ -262,7 +267,7 @@ def face_runs(
     target = np.clip((sample_image(darkness, layout, grid)[window] - LIGHTEST) / (1.0 - LIGHTEST), 0.0, 1.0)
     target[sample_image(paper, layout, grid)[window] < blank_below] = 0.0
     given = ink_on_grid(edges, grid, pen_width)[window]
-    on = error_diffuse(target, region[window], given, pen=1.0 / PITCH)
+    on = error_diffuse(target, region[window], given, pen=1.0 / pitch)
     return run_strokes(on, grid, (rows.min(), cols.min()))
 
 

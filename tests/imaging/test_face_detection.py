@@ -100,21 +100,51 @@ def test_the_mask_covers_the_face_and_fades_out():
 
 
 def test_a_portraits_tone_shades_the_skin_keeps_highlights_white_and_one_order():
-    from pencilbot.imaging.faces import PORTRAIT_HIGHLIGHT, face_squares, portrait_darkness
+    from pencilbot.imaging.faces import PORTRAIT_CORE, PORTRAIT_HIGHLIGHT, face_squares, portrait_darkness
 
     rng = np.random.default_rng(0)
     photo = rng.uniform(0.1, 0.9, (120, 160)).astype(np.float32)
     tone = np.where(photo < 0.5, 0.0, photo - 0.5).astype(np.float32)  # the pencil tone: light skin is paper
     faces = [Face(40, 20, 60, 1.0)]
     lifted = portrait_darkness(tone, photo, faces)
-    assert np.all(lifted >= tone)  # never lighter than the pencil tone
+    inside = face_squares(photo.shape, faces)
+    # Away from the face's square (past its soft edge) one curve: never lighter than the pencil
+    # tone, and the same photo darkness shaded alike (a wall as grey as the cheek is drawn as
+    # the cheek).
+    reach = int(4 * PORTRAIT_CORE * 60)
+    away = np.ones(photo.shape, bool)
+    away[20 - reach : 80 + reach, 40 - reach : 100 + reach] = False
+    assert np.all(lifted[away] >= tone[away])
+    order = np.argsort(photo[away])
+    assert np.all(np.diff(lifted[away][order]) >= -1e-6)
     skin = (photo > 0.3) & (photo < 0.5)
     assert lifted[skin].min() > 0.0  # light skin is shaded, not paper
-    inside = face_squares(photo.shape, faces)
     highlights = photo <= np.quantile(photo[inside], PORTRAIT_HIGHLIGHT)
-    assert np.all(lifted[highlights] == tone[highlights])  # the lightest stay as the tone had them
-    # One curve for the whole sheet: the same photo and tone darkness, inside a face or not,
-    # are shaded alike (a wall as grey as the cheek is drawn as the cheek).
-    order = np.argsort(photo, axis=None)
-    assert np.all(np.diff(lifted.ravel()[order]) >= -1e-6)
+    assert np.all(
+        lifted[highlights & away] == tone[highlights & away]
+    )  # the lightest stay as the tone had them
+    assert lifted[highlights & inside].max() < 0.05
+    # In the square: one order of tones too, and its mean where the pencil tone's curve had it.
+    core = inside.copy()
+    core[: 20 + reach] = core[80 - reach :] = False
+    core[:, : 40 + reach] = core[:, 100 - reach :] = False
+    order = np.argsort(photo[core])
+    assert np.all(np.diff(lifted[core][order]) >= -1e-6)
     assert np.array_equal(portrait_darkness(tone, photo, []), tone)
+
+
+def test_a_face_of_close_mid_tones_keeps_their_spread_where_the_pencil_tone_is_one_step():
+    # The pencil tone is a histogram specification: a step function of the photo, and a face
+    # whose skin falls on one step is one flat tone (2009_004587's bald head). The face's square
+    # is drawn to the curve alone, at the step's level: its tones stay apart.
+    from pencilbot.imaging.faces import portrait_darkness
+
+    photo = np.tile(np.linspace(0.35, 0.55, 160, dtype=np.float32), (120, 1))  # a cheek, shaded sideways
+    tone = np.full(photo.shape, 0.6, np.float32)  # one step of the pencil tone
+    faces = [Face(50, 30, 60, 1.0)]
+    drawn = portrait_darkness(tone, photo, faces)
+    cheek = drawn[50:70, 70:90]
+    across = cheek.mean(axis=0)
+    assert across[-1] - across[0] > 0.05  # the shading across the cheek is drawn
+    assert np.all(np.diff(across) > 0)
+    assert abs(float(drawn[30:90, 50:110].mean()) - 0.6) < 0.08  # at the face's level in the sheet

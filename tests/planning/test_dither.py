@@ -170,3 +170,27 @@ def test_shade_draws_a_dithered_face_as_runs_and_hatches_around_it():
     assert FACE_TONE not in [
         layer.name for layer in shade(grey, layout, Paths.empty(), pen_width=PEN, rounds=1)
     ]
+
+
+def _row_gaps(runs: Paths) -> np.ndarray:
+    """Distances (mm) between neighbouring rows the runs lie on."""
+    rows = np.unique(np.round(runs.points[:, 1], 6))
+    return np.diff(rows)
+
+
+def test_a_faces_rows_are_a_pen_apart_and_spread_only_in_a_close_portrait():
+    from pencilbot.planning.dither import CLOSER_SHARE, WIDE_PITCH, face_pitch
+
+    layout = _layout()  # a 60 mm drawing of 120 px
+    dark = np.full((120, 120), 0.9, np.float32)
+    small = np.zeros((120, 120), np.float32)
+    small[40:70, 40:70] = 1.0  # a sixteenth of the drawing
+    runs = face_runs(dark, small, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=dark)
+    # Rows one pen width apart: a light or mid tone's runs are short and close (at 1.2, scattered dashes).
+    assert np.allclose(_row_gaps(runs), PEN, atol=1e-6)
+    # A face over CLOSER_SHARE of the drawing (a close portrait) is drawn on rows WIDE_PITCH apart.
+    close = np.zeros((120, 120), np.float32)
+    close[10:110, 10:110] = 1.0
+    assert face_pitch(0.05) == 1.0 and face_pitch(CLOSER_SHARE + 0.1) == WIDE_PITCH
+    runs = face_runs(dark, close, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=dark)
+    assert np.allclose(_row_gaps(runs), WIDE_PITCH * PEN, atol=1e-6)
