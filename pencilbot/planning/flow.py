@@ -30,6 +30,8 @@ from scipy import fft, sparse
 from scipy import ndimage as ndi
 from scipy.sparse import csgraph
 
+from pencilbot.planning.backdrop import own_structure
+
 #: Coherence of the structure tensor below which texture follows the default direction, and
 #: above which the form is followed exactly (linear in between).
 COHERENCE_RANGE = (0.35, 0.7)
@@ -193,6 +195,7 @@ def direction_field(
     trace = jxx + jyy
     coherence = spread / np.maximum(trace, 1e-12)
     strength = np.clip(trace / calm**2, 0.0, 1.0) if np.isfinite(calm) and calm > 0 else np.zeros_like(trace)
+    strength *= own_structure(gx, gy, cell, calm)  # a flat backdrop is hatched flat
     follow = strength * np.clip(
         (coherence - COHERENCE_RANGE[0]) / (COHERENCE_RANGE[1] - COHERENCE_RANGE[0]), 0, 1
     )
