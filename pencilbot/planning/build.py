@@ -29,6 +29,7 @@ from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.shading import FACE_TONE, shade
+from pencilbot.planning.sketch_tone import sketch_darkness
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
 from pencilbot.render import render_paths
@@ -361,7 +362,7 @@ def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, di
     leaves it / what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order
     of tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
     """
-    tone = 1.0 - drawing.tone
+    tone = sketch_darkness(drawing)
     face_tone = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
     budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(
         strokes.drawn_lengths().sum()
