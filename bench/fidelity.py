@@ -36,6 +36,9 @@ box; per photo its false faces; and the issue's bands (faces of 25 mm and more: 
 ρ@0.5mm ≥ 0.85; 12–25 mm: 0.93 / 0.80). The 1 MP planning time is also measured with the
 cascade in place of MTCNN (the detector before issue 30), in the same run.
 
+``--photos`` also takes photo files (``--photos coffee,/path/to/bald_guys.jpg``): photos held out of
+the face set, measured with the detector's faces.
+
 Usage: ``python bench/fidelity.py [--photos coffee,astronaut] [--faceset] [--peers] [--montage DIR] [--no-faces]``.
 """
 
@@ -103,6 +106,8 @@ FLOW_IMAGER_RHO = {"coffee": 0.917, "astronaut": 0.898}
 
 def photo(name: str) -> LoadedImage | None:
     """The photo, or None when the package that ships it is not installed."""
+    if Path(name).suffix and Path(name).is_file():  # any photo file: one held out of the set
+        return load_image(Path(name))
     if name not in PHOTOS and name in faceset.PHOTOS:
         rgb = faceset.load(name)
         return None if rgb is None else image_from_array(rgb, source=f"face set: {name}")
@@ -382,7 +387,8 @@ def main() -> None:
         if image is None:
             missing[name] = PHOTOS[name][1] if name in PHOTOS else "python bench/faceset.py fetch"
             continue
-        results[name] = {"kind": PHOTOS[name][0] if name in PHOTOS else faceset.PHOTOS[name].about}
+        kind = PHOTOS[name][0] if name in PHOTOS else None
+        results[name] = {"kind": kind or (faceset.PHOTOS[name].about if name in faceset.PHOTOS else "file")}
         results[name].update(measure(image, args.montage, name, TIMING_RUNS if name in TIMED else 1))
         print(name, json.dumps(results[name]), file=sys.stderr, flush=True)
         if name in FLOW_IMAGER_RHO:
