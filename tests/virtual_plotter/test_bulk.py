@@ -9,6 +9,8 @@ line it does not take. ``pencilbot simulate`` through either way gives the same 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -16,7 +18,7 @@ from hypothesis import strategies as st
 
 from pencilbot.cli import main
 from pencilbot.commands import simulate as simulate_command
-from sim import bulk, protocol_sim
+from sim import bulk, bulk_timing, protocol_sim
 
 PROFILE = "grbl-servo-a4"  # a servo pen on the spindle: M3 S30 up, M3 S90 down; bed 220 x 310 mm
 #: The two pens the fast path plays; a Z pen (up 4 mm, down 0) on a bed whose origin is top-right
@@ -119,6 +121,51 @@ def test_fast_path_leaves_the_machine_as_the_full_interpreter(data, profile, blo
         _same_machine(fast, full)
     else:  # only a G1 before any feed is refused here: the fast path stops at that very line
         assert stop == bulk.Stop(refused[0], refused[1])
+
+
+@st.composite
+def dense_runs(draw, sign: int = 1) -> list[str]:
+    """Runs of many short moves (most shorter than the distance the machine needs to stop from
+    its top speed, so how far the planner looks ahead decides their speeds; a run longer than the
+    planner; straight on, curving or turning back), between pen changes and dwells."""
+    down, up = ("M3 S90", "M3 S30") if sign == 1 else ("G0 Z0", "G0 Z4")
+    lines = ["G21", "G90", f"F{draw(st.sampled_from(['600', '3000', '20000']))}"]
+    x, y, heading = 100.0, 150.0, 0.0
+    for _ in range(draw(st.integers(1, 4))):
+        lines += [down, *draw(st.sampled_from([[], ["G4 P0.2"]]))]
+        # Each run its own kind of line: straight, a gentle curve, or turning anywhere.
+        turns = draw(st.sampled_from([[0], [0, 1, 2], [0, 1, -1, 8, -30, 90, 179]]))
+        steps = draw(st.sampled_from([[0.1], [0.02, 0.3], [0.001, 0.02, 0.1, 0.7, 3.0]]))
+        for _ in range(draw(st.integers(1, 90))):
+            heading += draw(st.sampled_from(turns))
+            step = draw(st.sampled_from(steps))
+            x = min(max(x + step * math.cos(math.radians(heading)), 1.0), 200.0)
+            y = min(max(y + step * math.sin(math.radians(heading)), 1.0), 280.0)
+            g = draw(st.sampled_from(["G1 ", "G1 ", "", "G0 "]))
+            lines.append(f"{g}X{sign * x:.3f} Y{sign * y:.3f}" + draw(st.sampled_from(["", "", " F9000"])))
+        lines += [up, *draw(st.sampled_from([[], ["G4 P0.15"], ["M5"]]))]
+    return lines
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    data=st.data(),
+    profile=st.sampled_from(sorted(SIGNS)),
+    block_lines=st.integers(1, 80),
+    sweeps=st.sampled_from([bulk_timing.SWEEPS, 1]),
+)
+def test_fast_path_times_long_runs_of_short_moves_as_the_planner(data, profile, block_lines, sweeps):
+    """The look-ahead decides these moves' speeds: the fast path's clock is still the planner's
+    to the bit, whatever the block edges, and when its sweeps leave moves to do one by one."""
+    text = ("\n".join(data.draw(dense_runs(SIGNS[profile]))) + "\n").encode()
+    full, refused = _full(text, profile)
+    before, bulk_timing.SWEEPS = bulk_timing.SWEEPS, sweeps
+    try:
+        fast, stop = _fast(text, block_lines, profile)
+    finally:
+        bulk_timing.SWEEPS = before
+    assert refused is None and stop is None
+    _same_machine(fast, full)
 
 
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
