@@ -196,6 +196,61 @@ def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
     assert stop == bulk.Stop(refused[0], answer)  # at the same line
 
 
+_GOOD = ["10", "+20", "-0", "0", "7.5", ".5", "5.", "120.25", "1.2345678", "007"]
+_ODD = ["1.2.3", "", "-", "1-2", "5+", "123456789", "-3", "1e2", "0x1"]
+_CODES = ["G0", "G1", "g01", "G00", "G4", "G04", "G21", "G90", "G94", "G17", "G2", "G10", "G1.0", "G001",
+          "G91", "M3", "M03", "M4", "M5", "M05", "M0", "M30", "M2", "N5", "T1", "E5", "X", "Y", "Z", "F", "S", "P"]  # fmt: skip
+_TEMPLATES = ["G1 X# Y#", "G0 X#", "X# Y# Z# F@", "G1 Y# F@", "M3 S@", "M5", "M4", "G4 P@", "G21", "F@", "Z#"]
+
+
+@st.composite
+def word_soup(draw) -> list[str]:
+    """Plain lines and one near miss among them: a word a board reads otherwise or not at all, a
+    number of another form, words swapped or repeated; spaces, tabs, case and comments anywhere."""
+    lines = ["F3000", "M3 S90"]
+    odd = draw(st.integers(2, 13))
+    for index in range(2, draw(st.integers(odd, 14)) + 1):
+        words = draw(st.sampled_from(_TEMPLATES)).split()
+        # (a sign on F, S or P is a line of another form, whatever the board makes of it)
+        words = [
+            w.replace("#", draw(st.sampled_from(_GOOD))).replace("@", draw(st.sampled_from(_GOOD[4:])))
+            for w in words
+        ]
+        at = draw(st.integers(0, len(words) - 1))
+        change = draw(st.sampled_from(["word", "number", "swap", "repeat"])) if index == odd else ""
+        if change == "word":
+            code = draw(st.sampled_from(_CODES))
+            words.insert(at, code + (draw(st.sampled_from(_GOOD + _ODD)) if code[-1].isalpha() else ""))
+        elif change == "number" and len(words[at]) > 1 and words[at][0] not in "GM":
+            words[at] = words[at][0] + draw(st.sampled_from(_ODD))
+        elif change == "swap":
+            words[at], words[-1] = words[-1], words[at]
+        elif change == "repeat":
+            words.insert(at, words[at])
+        if draw(st.booleans()):
+            words = [w.lower() for w in words]
+        line = draw(st.sampled_from([" ", "", "\t"])).join(words)
+        lines.append(line + draw(st.sampled_from(["", "", " ; note", ";"])))
+    return lines
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(lines=word_soup(), block_lines=st.integers(1, 5))
+def test_what_the_fast_path_reads_the_board_reads_the_same(lines, block_lines):
+    """A line the fast path takes means what it means to the board; it stops at a refusal the
+    board makes there, and at a line of another form before any refusal."""
+    text = ("\n".join(lines) + "\n").encode()
+    full, refused = _full(text)
+    fast, stop = _fast(text, block_lines)
+    if stop is None:
+        assert refused is None
+        _same_machine(fast, full)
+    elif stop.reason == "unsupported":
+        assert refused is None or refused[0] >= stop.line
+    else:
+        assert refused == (stop.line, stop.reason)
+
+
 @pytest.mark.parametrize(
     "other",
     [
@@ -210,6 +265,19 @@ def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
         "G1 X123456789 F100",
         "G0 X1 X2",
         "G0 X1\rG0 X2",
+        "G2 X10 Y0",  # an arc needs its centre
+        "G1 F-3",  # no sign on F, S, P
+        "M3 S-5",
+        "G4 P+1",
+        "G4",  # a dwell needs its P
+        "G1 X1-2",  # a sign only first
+        "G1 X5+",
+        "G1 X.",
+        "G1 X1.2.3",
+        "G1 Y5 X3",  # words in another order than a plain line's
+        "X5 G1",
+        "M3 G1 X5",
+        "G21 G90",
     ],
 )
 def test_fast_path_stops_at_a_line_of_another_form(other):
