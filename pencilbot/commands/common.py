@@ -249,20 +249,32 @@ def _option(args: argparse.Namespace, flag: str):
     return getattr(args, flag.lstrip("-").replace("-", "_"), None)
 
 
-def reorder_drawing(plan: Plan, source: Path, args: argparse.Namespace, profile) -> tuple[Plan, str]:
+def reorder_drawing(
+    plan: Plan, source: Path, args: argparse.Namespace, profile, *, say: bool = True
+) -> tuple[Plan, str]:
     """Another tool's SVG reordered for ``profile``'s plotter (as ``pencilbot optimize``), unless
     ``--keep-order``; a photo's plan or one of ours is already ordered. Also the words saying what
-    changed ("" if nothing did)."""
+    changed ("" if nothing did, or when they are not to be ``say``-ed: the two estimates they
+    compare cost a second each at a million paths)."""
     if Path(source).suffix.lower() != ".svg" or getattr(args, "keep_order", False) or is_plan_svg(source):
         return plan, ""
-    reordered, before, after = reorder_on(plan, profile)
+    reordered, before, after = reorder_on(plan, profile, estimates=say)
+    if before is None or after is None:
+        return reordered.plan, ""
     return reordered.plan, "reordered: " + change_summary(before.total, after.total, reordered.specks)
 
 
-def reorder_on(plan: Plan, profile, rounds: int | None = None, time_budget: float | None = None):
+def reorder_on(
+    plan: Plan,
+    profile,
+    rounds: int | None = None,
+    time_budget: float | None = None,
+    *,
+    estimates: bool = True,
+):
     """``plan`` reordered from ``profile``'s home (a :class:`~pencilbot.planning.optimize.Reordering`),
-    with the estimate before and after; ``rounds`` of improvement per layer (default: the
-    reordering's own), within ``time_budget`` CPU seconds if given."""
+    with the estimate before and after (None, None without ``estimates``); ``rounds`` of
+    improvement per layer (default: the reordering's own), within ``time_budget`` CPU seconds if given."""
     from pencilbot.machine.bed import Placement
     from pencilbot.planning.optimize import REORDER_ROUNDS, reorder_plan
     from pencilbot.planning.stats import estimate
@@ -271,6 +283,8 @@ def reorder_on(plan: Plan, profile, rounds: int | None = None, time_budget: floa
     reordered = reorder_plan(
         plan, start=home, rounds=REORDER_ROUNDS if rounds is None else rounds, time_budget=time_budget
     )
+    if not estimates:
+        return reordered, None, None
     return reordered, estimate(plan, profile), estimate(reordered.plan, profile)
 
 

@@ -105,7 +105,7 @@ def export_svg_job(svg: Path, target: Path, profile, args: argparse.Namespace) -
     plan = plan_for_input(svg, args)
     if args.layer is not None:
         plan = replace(plan, layers=tuple(pick_layer(plan.layers, args.layer, svg)))
-    plan, _ = reorder_drawing(plan, svg, args, profile)
+    plan, _ = reorder_drawing(plan, svg, args, profile, say=False)
     target.parent.mkdir(parents=True, exist_ok=True)
     summary: GcodeSummary | HpglSummary
     if target.suffix.lower() in HPGL_SUFFIXES:

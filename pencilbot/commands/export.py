@@ -88,7 +88,9 @@ def _outputs(inputs: Inputs, output: str | None, suffixes: tuple[str, ...] = GCO
 
 def export_one(source: Path, target: Path, profile: Profile, args: argparse.Namespace) -> str:
     """Write the G-code of ``source`` (photo or SVG) to ``target``; return the line reporting it."""
-    plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
+    plan, reordered = reorder_drawing(
+        plan_for_input(source, args), source, args, profile, say=not args.quiet or bool(args.verbose)
+    )
     if target.suffix.lower() in HPGL_SUFFIXES:
         hpgl = write_hpgl(plan, profile, target)
         return (

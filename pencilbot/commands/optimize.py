@@ -69,7 +69,10 @@ def run(args: argparse.Namespace) -> int:
             )
     profile = load_profile(args.profile)  # a bad profile fails before the file is read
     plan = read_drawing(source, args)
-    reordered, before, after = reorder_on(plan, profile, rounds=args.rounds, time_budget=args.time_budget)
+    said = args.json or not args.quiet  # the estimates cost a second each at a million paths
+    reordered, before, after = reorder_on(
+        plan, profile, rounds=args.rounds, time_budget=args.time_budget, estimates=said
+    )
     result = reordered.plan
     if "source" not in result.meta:
         result = dataclasses.replace(result, meta={**result.meta, "source": str(source)})

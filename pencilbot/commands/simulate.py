@@ -275,7 +275,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
             return read_bounded(source, "HP-GL file", MAX_HPGL_FILE), args.pen_width or DEFAULT_PEN_WIDTH, []
         except OSError as exc:
             raise PencilbotError(f"cannot read HP-GL file {source} ({exc})") from None
-    plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
+    plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile, say=not args.quiet)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
     if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL

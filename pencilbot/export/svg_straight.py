@@ -131,6 +131,13 @@ def _shapes(root: ET.Element, tops: list[ET.Element], loose: list[ET.Element]):
                 else (1.0 if inherited is None else inherited)
             )
             if name == "g":
+                bare = _bare_paths(element) if stroke is not False else None
+                if bare is not None:  # the common case, a million paths in one group: at once
+                    keys += [key] * len(bare)
+                    kinds += [_PATH] * len(bare)
+                    texts += bare
+                    strokes += [stroke] * len(bare)
+                    continue
                 stack.extend(zip(reversed(element), itertools.repeat(stroke)))
                 continue
             if name not in _SHAPES or len(element) or stroke is False:
@@ -146,6 +153,21 @@ def _shapes(root: ET.Element, tops: list[ET.Element], loose: list[ET.Element]):
             texts.append(text)
             strokes.append(stroke)
     return keys, kinds, texts, strokes
+
+
+#: What makes a shape more than its data: its own style or stroke width, or what moves it.
+_DRESSED = _MOVING_SET | {"style", "stroke-width"}
+
+
+def _bare_paths(group: ET.Element) -> list[str] | None:
+    """The data of ``group``'s shapes when every one is a bare ``<path>`` (nothing inside, none of
+    :data:`_DRESSED`): each then draws with the group's stroke, in document order. Else None."""
+    children = list(group)
+    if not children or any(local_name(tag) != "path" for tag in {c.tag for c in children}):
+        return None
+    if any(len(c) or not _DRESSED.isdisjoint(c.attrib) for c in children):
+        return None
+    return [c.get("d", "") for c in children]
 
 
 def _point_lines(texts: list[str], kinds: np.ndarray):

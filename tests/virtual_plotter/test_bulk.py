@@ -9,6 +9,8 @@ line it does not take. ``pencilbot simulate`` through either way gives the same 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -16,7 +18,7 @@ from hypothesis import strategies as st
 
 from pencilbot.cli import main
 from pencilbot.commands import simulate as simulate_command
-from sim import bulk, protocol_sim
+from sim import bulk, bulk_timing, protocol_sim
 
 PROFILE = "grbl-servo-a4"  # a servo pen on the spindle: M3 S30 up, M3 S90 down; bed 220 x 310 mm
 #: The two pens the fast path plays; a Z pen (up 4 mm, down 0) on a bed whose origin is top-right
@@ -121,6 +123,51 @@ def test_fast_path_leaves_the_machine_as_the_full_interpreter(data, profile, blo
         assert stop == bulk.Stop(refused[0], refused[1])
 
 
+@st.composite
+def dense_runs(draw, sign: int = 1) -> list[str]:
+    """Runs of many short moves (most shorter than the distance the machine needs to stop from
+    its top speed, so how far the planner looks ahead decides their speeds; a run longer than the
+    planner; straight on, curving or turning back), between pen changes and dwells."""
+    down, up = ("M3 S90", "M3 S30") if sign == 1 else ("G0 Z0", "G0 Z4")
+    lines = ["G21", "G90", f"F{draw(st.sampled_from(['600', '3000', '20000']))}"]
+    x, y, heading = 100.0, 150.0, 0.0
+    for _ in range(draw(st.integers(1, 4))):
+        lines += [down, *draw(st.sampled_from([[], ["G4 P0.2"]]))]
+        # Each run its own kind of line: straight, a gentle curve, or turning anywhere.
+        turns = draw(st.sampled_from([[0], [0, 1, 2], [0, 1, -1, 8, -30, 90, 179]]))
+        steps = draw(st.sampled_from([[0.1], [0.02, 0.3], [0.001, 0.02, 0.1, 0.7, 3.0]]))
+        for _ in range(draw(st.integers(1, 90))):
+            heading += draw(st.sampled_from(turns))
+            step = draw(st.sampled_from(steps))
+            x = min(max(x + step * math.cos(math.radians(heading)), 1.0), 200.0)
+            y = min(max(y + step * math.sin(math.radians(heading)), 1.0), 280.0)
+            g = draw(st.sampled_from(["G1 ", "G1 ", "", "G0 "]))
+            lines.append(f"{g}X{sign * x:.3f} Y{sign * y:.3f}" + draw(st.sampled_from(["", "", " F9000"])))
+        lines += [up, *draw(st.sampled_from([[], ["G4 P0.15"], ["M5"]]))]
+    return lines
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    data=st.data(),
+    profile=st.sampled_from(sorted(SIGNS)),
+    block_lines=st.integers(1, 80),
+    sweeps=st.sampled_from([bulk_timing.SWEEPS, 1]),
+)
+def test_fast_path_times_long_runs_of_short_moves_as_the_planner(data, profile, block_lines, sweeps):
+    """The look-ahead decides these moves' speeds: the fast path's clock is still the planner's
+    to the bit, whatever the block edges, and when its sweeps leave moves to do one by one."""
+    text = ("\n".join(data.draw(dense_runs(SIGNS[profile]))) + "\n").encode()
+    full, refused = _full(text, profile)
+    before, bulk_timing.SWEEPS = bulk_timing.SWEEPS, sweeps
+    try:
+        fast, stop = _fast(text, block_lines, profile)
+    finally:
+        bulk_timing.SWEEPS = before
+    assert refused is None and stop is None
+    _same_machine(fast, full)
+
+
 @settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     lines=plain_lines(),
@@ -149,6 +196,61 @@ def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
     assert stop == bulk.Stop(refused[0], answer)  # at the same line
 
 
+_GOOD = ["10", "+20", "-0", "0", "7.5", ".5", "5.", "120.25", "1.2345678", "007"]
+_ODD = ["1.2.3", "", "-", "1-2", "5+", "123456789", "-3", "1e2", "0x1"]
+_CODES = ["G0", "G1", "g01", "G00", "G4", "G04", "G21", "G90", "G94", "G17", "G2", "G10", "G1.0", "G001",
+          "G91", "M3", "M03", "M4", "M5", "M05", "M0", "M30", "M2", "N5", "T1", "E5", "X", "Y", "Z", "F", "S", "P"]  # fmt: skip
+_TEMPLATES = ["G1 X# Y#", "G0 X#", "X# Y# Z# F@", "G1 Y# F@", "M3 S@", "M5", "M4", "G4 P@", "G21", "F@", "Z#"]
+
+
+@st.composite
+def word_soup(draw) -> list[str]:
+    """Plain lines and one near miss among them: a word a board reads otherwise or not at all, a
+    number of another form, words swapped or repeated; spaces, tabs, case and comments anywhere."""
+    lines = ["F3000", "M3 S90"]
+    odd = draw(st.integers(2, 13))
+    for index in range(2, draw(st.integers(odd, 14)) + 1):
+        words = draw(st.sampled_from(_TEMPLATES)).split()
+        # (a sign on F, S or P is a line of another form, whatever the board makes of it)
+        words = [
+            w.replace("#", draw(st.sampled_from(_GOOD))).replace("@", draw(st.sampled_from(_GOOD[4:])))
+            for w in words
+        ]
+        at = draw(st.integers(0, len(words) - 1))
+        change = draw(st.sampled_from(["word", "number", "swap", "repeat"])) if index == odd else ""
+        if change == "word":
+            code = draw(st.sampled_from(_CODES))
+            words.insert(at, code + (draw(st.sampled_from(_GOOD + _ODD)) if code[-1].isalpha() else ""))
+        elif change == "number" and len(words[at]) > 1 and words[at][0] not in "GM":
+            words[at] = words[at][0] + draw(st.sampled_from(_ODD))
+        elif change == "swap":
+            words[at], words[-1] = words[-1], words[at]
+        elif change == "repeat":
+            words.insert(at, words[at])
+        if draw(st.booleans()):
+            words = [w.lower() for w in words]
+        line = draw(st.sampled_from([" ", "", "\t"])).join(words)
+        lines.append(line + draw(st.sampled_from(["", "", " ; note", ";"])))
+    return lines
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(lines=word_soup(), block_lines=st.integers(1, 5))
+def test_what_the_fast_path_reads_the_board_reads_the_same(lines, block_lines):
+    """A line the fast path takes means what it means to the board; it stops at a refusal the
+    board makes there, and at a line of another form before any refusal."""
+    text = ("\n".join(lines) + "\n").encode()
+    full, refused = _full(text)
+    fast, stop = _fast(text, block_lines)
+    if stop is None:
+        assert refused is None
+        _same_machine(fast, full)
+    elif stop.reason == "unsupported":
+        assert refused is None or refused[0] >= stop.line
+    else:
+        assert refused == (stop.line, stop.reason)
+
+
 @pytest.mark.parametrize(
     "other",
     [
@@ -163,6 +265,19 @@ def test_fast_path_stops_where_the_board_refuses(lines, at, bad):
         "G1 X123456789 F100",
         "G0 X1 X2",
         "G0 X1\rG0 X2",
+        "G2 X10 Y0",  # an arc needs its centre
+        "G1 F-3",  # no sign on F, S, P
+        "M3 S-5",
+        "G4 P+1",
+        "G4",  # a dwell needs its P
+        "G1 X1-2",  # a sign only first
+        "G1 X5+",
+        "G1 X.",
+        "G1 X1.2.3",
+        "G1 Y5 X3",  # words in another order than a plain line's
+        "X5 G1",
+        "M3 G1 X5",
+        "G21 G90",
     ],
 )
 def test_fast_path_stops_at_a_line_of_another_form(other):
