@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     pens = carousel or pens_at_pauses(program)  # HP-GL: SP n is the n-th pen
-    if not pens and getattr(profile.firmware, "flow", "") != "polled" and not args.realtime:
+    if not pens and profile.firmware.program_language != "hpgl" and not args.realtime:
         # A drawing's own plain program: at once on the virtual machine too (a million paths in seconds)
         plotter = _fast_plot_blocks(program_blocks(program), len(program), source.name, args)
         if plotter is not None:
@@ -150,9 +150,7 @@ def _hpgl_profile(default: str) -> str:
     """``default`` if it is an HP-GL plotter's profile, else the first HP-GL profile there is."""
     from pencilbot.machine.profile import list_profiles, load_profile
 
-    names = [
-        n for n in [default, *list_profiles()] if getattr(load_profile(n).firmware, "flow", "") == "polled"
-    ]
+    names = [n for n in [default, *list_profiles()] if load_profile(n).firmware.program_language == "hpgl"]
     if not names:
         raise PencilbotError(
             "the file is HP-GL and no HP-GL plotter profile is known; give one with --profile"
@@ -278,7 +276,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
-    if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL
+    if profile.firmware.program_language == "hpgl":  # an HP-GL plotter draws HP-GL
         program = hpgl_program(plan, profile)
         if plan.pens:  # each pen of a colour plan in its carousel slot, in load order
             first: dict[str, Layer] = {}

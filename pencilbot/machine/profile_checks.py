@@ -57,7 +57,7 @@ def check_values(profile: Profile, where: str) -> None:
                 f"plotter profile {where}: [pen] {key} = {value!r} is invalid; expected a number "
                 f"from {low:g} to {high:g} ({unit})"
             )
-    if getattr(fw, "flow", "") == "polled" and profile.motion.draw_feed / 600 > MAX_HPGL_SPEED:
+    if fw.program_language == "hpgl" and profile.motion.draw_feed / 600 > MAX_HPGL_SPEED:
         raise ProfileError(
             f"plotter profile {where}: [motion] draw_feed = {profile.motion.draw_feed!r} is invalid; expected at most "
             f"{MAX_HPGL_SPEED * 600:g} mm/min (VS {MAX_HPGL_SPEED:g} cm/s, the fastest an HP-GL plotter takes)"

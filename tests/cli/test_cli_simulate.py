@@ -357,9 +357,9 @@ def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
 def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, capsys, monkeypatch):
     # The render's memory is one band's (~4 M pixels), whatever the bed: with 50 MB free even
     # that does not fit, and the command says so before streaming anything.
-    import pencilbot.commands.common as common
+    from pencilbot.app import photo as app_photo
 
-    monkeypatch.setattr(common, "available_memory", lambda: 50_000_000)
+    monkeypatch.setattr(app_photo, "available_memory", lambda: 50_000_000)
     src, out = tmp_path / "square.gcode", tmp_path / "plot.png"
     src.write_text(SQUARE)
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600"]) == 2
@@ -369,7 +369,7 @@ def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, ca
         in err
     )
     assert not out.exists()
-    monkeypatch.setattr(common, "available_memory", lambda: 400_000_000)  # a band fits: it runs
+    monkeypatch.setattr(app_photo, "available_memory", lambda: 400_000_000)  # a band fits: it runs
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600", "-q"]) == 0 and out.exists()
 
 
