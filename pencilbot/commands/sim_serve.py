@@ -11,6 +11,7 @@ from pencilbot.commands.options import (
     MAX_BAUD,
     MAX_DPI,
     MIN_DPI,
+    Deprecated,
     add_profile_option,
     add_realtime_option,
     add_verbosity,
@@ -40,11 +41,22 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     add_profile_option(parser, "GRBL, grblHAL, HP-GL or EBB (axidraw-v3, ...) plotter profile")
     add_realtime_option(parser)
+    # `draw --baud` is the serial line's speed; here the board only emulates a slow line, so the
+    # option has its own name (the old spelling works for a release, with a note).
+    parser.add_argument(
+        "--emulate-baud",
+        type=number("--emulate-baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"),
+        default=0,
+        metavar="B",
+        help="answer no faster than a serial line of B bit/s would carry the bytes (default %(default)s: "
+        "unlimited; the pty itself has no speed)",
+    )
     parser.add_argument(
         "--baud",
+        dest="emulate_baud",
         type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"),
-        default=0,
-        help="emulated bit/s (default %(default)s: unlimited)",
+        action=Deprecated,
+        new="--emulate-baud",
     )
     parser.add_argument(
         "--faults",
@@ -117,7 +129,7 @@ def run(args: argparse.Namespace) -> int:
     options = {
         "profile": args.profile,
         "realtime": str(args.realtime),
-        "baud": str(args.baud),
+        "baud": str(args.emulate_baud),
         "faults": args.faults,
         "power": args.power,
         "abort": args.abort,

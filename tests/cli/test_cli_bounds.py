@@ -43,7 +43,7 @@ def test_no_option_of_any_command_reads_a_bare_number():
         ("plan", "--margin"),
         ("draw", "--timeout"),
         ("draw", "--baud"),
-        ("sim-serve", "--baud"),
+        ("sim-serve", "--emulate-baud"),
         ("sketch", "--stroke-width"),
         ("export", "--svg-dpi"),
         ("optimize", "--rounds"),

@@ -338,7 +338,8 @@ def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
         (["--realtime", "nan"], "--realtime must be at least 0"),
         (["-o", "no/such/folder/x.png"], "folder does not exist"),
         (["--realtime", "-1"], "--realtime must be at least 0"),
-        (["--baud", "-9600"], "--baud must be at least 0"),
+        (["--emulate-baud", "-9600"], "--emulate-baud must be at least 0"),
+        (["--baud", "-9600"], "--baud must be at least 0"),  # the old spelling, read the same way
     ],
 )
 def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
