@@ -47,6 +47,10 @@ PEN_CHANGE_NOTE = "pen change {number} of {count}: {pen} {color} {width:g} mm"
 _PEN_CHANGE_NOTE = re.compile(
     rb"(?m)^; pen change \d+ of \d+: (?P<pen>[A-Za-z0-9][A-Za-z0-9 _.+-]*) (?P<color>#[0-9a-f]{6}) (?P<width>[0-9.]+) mm\r?$"
 )
+#: The header's pen of a one-pen plan (a colour plan's header names each pen with its width), as
+#: :func:`header_pen_width` reads it: what a simulator draws the file with.
+PEN_WIDTH_NOTE = "pen width: {width:g} mm"
+_PEN_WIDTH_NOTE = re.compile(rb"(?m)^; pen width: (?P<width>[0-9.]+) mm\r?$")
 _PAUSE_LINE = re.compile(
     rb"(?mi)^[ \t]*(?:N\d+[ \t]*)?M0*0(?![\d.])"
 )  # the bed check keeps |coordinate| ≤ MAX_BED mm
@@ -229,6 +233,13 @@ class PenInFile:
     width: float
 
 
+def header_pen_width(program: bytes) -> float | None:
+    """The pen width (mm) a one-pen program's header names (:data:`PEN_WIDTH_NOTE`); None when it
+    names none (another tool's file, a colour plan: see :func:`pens_at_pauses`)."""
+    found = _PEN_WIDTH_NOTE.search(program, 0, 8192)  # the header: the first lines
+    return float(found["width"]) if found else None
+
+
 def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
     """For each ``M0`` pause of a program, in order, the pen drawn after it: the pen its
     pen-change note names (see :data:`PEN_CHANGE_NOTE`), or the pen before it (None before any)
@@ -400,7 +411,7 @@ def _header_comments(
             f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
             f"{total.paths} paths, {total.lifts} lifts"
         ),
-        *pens,
+        *(pens or [_comment(PEN_WIDTH_NOTE.format(width=plan.pen_width))]),
     ]
 
 
