@@ -91,8 +91,9 @@ DEFAULT_PROFILE = "grbl-servo-a4"
 
 
 @dataclass(frozen=True)
-class Pen:
-    """How the pen moves: ``kind``, ``up``/``down`` values, command templates, delays in s."""
+class PenLift:
+    """How the pen is lifted and lowered (``Profile.pen``): ``kind``, ``up``/``down`` values, command
+    templates, delays in s. (A pen of a pen set, its ink and width, is :class:`pencilbot.machine.pens.Pen`.)"""
 
     kind: str
     up: float
@@ -145,7 +146,7 @@ class Profile:
     description: str
     bed: Bed
     motion: Motion
-    pen: Pen
+    pen: PenLift
     gcode: GcodeFormat
     pen_change: PenChange = PenChange()
     paper: Paper = Paper()
@@ -239,7 +240,7 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         },
     ),
     "pen": (
-        Pen,
+        PenLift,
         {
             "kind": schema.choice(PEN_KINDS),
             "up": _PEN_VALUE,

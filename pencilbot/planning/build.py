@@ -24,10 +24,10 @@ from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.color import color_hatching
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE, shade
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
@@ -88,7 +88,7 @@ def make_plan(
     pens : PenSet, str or Path, optional
         The pens (a :class:`~pencilbot.machine.pens.PenSet`, a shipped set's name or a file);
         default: the plotter's one pen, black. With several pens the plan is of the colour
-        sketch (:mod:`pencilbot.planning.color`).
+        sketch (:mod:`pencilbot.planning.separation`).
 
     Returns
     -------

@@ -1,6 +1,6 @@
 """Planning for the page: a worker process per change, the newest change wins.
 
-Each change of the controls is a new *generation*. :meth:`Planner.submit` ends the process still
+Each change of the controls is a new *generation*. :meth:`LivePlanner.submit` ends the process still
 planning an older one (terminated: its result can no longer arrive) and starts a new one, which
 sends a coarse stage first and then the full plan at the real pen width. The coarse stage is the
 drawing at half scale (page, margin and every length of the style halved) with a pen six times
@@ -140,7 +140,7 @@ def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], sm
     conn.close()
 
 
-class Planner:
+class LivePlanner:
     """Plans the newest change; ``on_result(StageResult)`` is called (in a reader thread) for each
     stage of the newest generation, never for an older one."""
 
