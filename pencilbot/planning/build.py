@@ -28,7 +28,7 @@ from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.separation import color_hatching
-from pencilbot.planning.shading import FACE_TONE, shade
+from pencilbot.planning.shading import FACE_TONE, Hatching
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
 from pencilbot.render import render_paths
@@ -267,14 +267,7 @@ def plan_from_sketch(
             strokes,
             form=1.0 - drawing.tone,
             paper=1.0 - drawing.gray,
-            angles=style.hatch_angles,
-            coverage=style.hatch_coverage,
-            form_scale=style.hatch_form,
-            min_run=style.min_hatch_run,
-            blank_below=style.hatch_blank_below,
-            wobble=style.hatch_jitter,
-            blur=style.hatch_blur,
-            seed=style.seed,
+            hatching=Hatching.of_style(style),
         )
     elif style.hatch:
         hatches = _shaded(drawing, layout, strokes, style, important, dithered, faces)
@@ -367,21 +360,13 @@ def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, di
         strokes.drawn_lengths().sum()
     )
     scale = 1.0
+    hatching = Hatching.of_style(style)
     for _ in range(2):
-        layers = shade(
+        layers = hatching.shade(
             scale * tone,
             layout,
             strokes,
             paper=1.0 - drawing.gray,
-            pen_width=style.pen_width,
-            angles=style.hatch_angles,
-            coverage=style.hatch_coverage,
-            form_scale=style.hatch_form,
-            min_run=style.min_hatch_run,
-            blank_below=style.hatch_blank_below,
-            wobble=style.hatch_jitter,
-            blur=style.hatch_blur,
-            seed=style.seed,
             important=important,
             dithered=dithered,
             face_darkness=face_tone,

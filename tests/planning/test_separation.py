@@ -20,6 +20,7 @@ from pencilbot.planning.build import ink_on_image_grid
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
 from pencilbot.planning.separation import MOST_INK, color_hatching, pen_angles, separate, separation_table
+from pencilbot.planning.shading import Hatching
 
 SETS = ["cmyk", "primaries", "fineliner6"]
 PATCH_PX = (150, 150)  # 50 x 50 mm at 1/3 mm a pixel
@@ -111,9 +112,7 @@ def patch_plan(rgb, pens):
         Paths.empty(),
         form=tone,
         paper=tone,
-        angles=(0.0, 90.0, 45.0, -45.0),
-        form_scale=0.0,
-        seed=3,
+        hatching=Hatching(angles=(0.0, 90.0, 45.0, -45.0), form_scale=0.0, seed=3),
     )
     inks = {}
     for pen in pens:
