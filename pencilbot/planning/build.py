@@ -31,8 +31,6 @@ from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE, Hatching
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
-from pencilbot.render import render_paths
-from pencilbot.units import MM_PER_INCH
 
 HOME = (0.0, 0.0)
 #: Darkness of the raster line drawing from which a face's features are drawn with the pen
@@ -430,38 +428,3 @@ def _path_means(strokes: Paths, layout: Layout, values: np.ndarray) -> np.ndarra
     px = np.rint(layout.mm_to_px(strokes.points)).astype(np.intp)
     cols, rows = np.clip(px[:, 0], 0, values.shape[1] - 1), np.clip(px[:, 1], 0, values.shape[0] - 1)
     return np.bincount(strokes.owners(), values[rows, cols], minlength=len(strokes)) / strokes.lengths
-
-
-def ink_on_image_grid(paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1) -> np.ndarray:
-    """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
-
-    Parameters
-    ----------
-    paths : Paths
-        Paths in page mm, Y up.
-    layout : Layout
-        The placement that produced them.
-    pen_width : float
-        Pen width, mm.
-    coarsen : int
-        Render on a grid this many times coarser, each cell a ``coarsen`` × ``coarsen`` block of
-        image pixels from the top-left: for callers that blur the result anyway (the canvas
-        conserves ink, so block values are the blocks' mean ink).
-
-    Returns
-    -------
-    (⌈H / coarsen⌉, ⌈W / coarsen⌉) float32 in [0, 1]
-        Ink per image pixel (or block), as the plotter's pen would lay it at plot scale.
-    """
-    height, width = layout.image_shape
-    # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
-    points = layout.mm_to_px(paths.points)
-    points[:, 1] = height - 0.5 - points[:, 1]
-    points[:, 0] += 0.5
-    return render_paths(
-        paths.with_points(points),
-        width,
-        height,
-        dpi=MM_PER_INCH / coarsen,
-        pen_width=pen_width / layout.mm_per_px,
-    )

@@ -16,8 +16,7 @@ from skimage.color import deltaE_ciede2000, rgb2lab
 from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.machine.pens import load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.build import ink_on_image_grid
-from pencilbot.planning.layout import Layout
+from pencilbot.planning.layout import Layout, ink_on_image_grid
 from pencilbot.planning.plan import Page
 from pencilbot.planning.separation import MOST_INK, color_hatching, pen_angles, separate, separation_table
 from pencilbot.planning.shading import Hatching
