@@ -139,8 +139,22 @@ def run(args: argparse.Namespace) -> int:
             f"{profile.firmware.title}'s (draw drawing.gcode with --port)"
         )
 
-    summary = {
-        "source": image.source,
+    summary = _summary(
+        image.source, out, stats, (simulated, simulated_up, agreement), faithful, alike, plan, delta_e
+    )
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    elif not args.quiet:
+        print(_summary_text(summary, duration_text))
+    return 0
+
+
+def _summary(source: str, out: Path, stats, simulated_run, faithful, alike, plan, delta_e) -> dict:
+    """The demo's figures (what --json prints): the drawing, the estimate, the simulation's
+    seconds, pen-up travel and agreement with the preview (None each without one), the likeness."""
+    simulated, simulated_up, agreement = simulated_run
+    return {
+        "source": source,
         "outputs": sorted(p.name for p in out.iterdir() if p.is_file()),
         "paths": stats.paths,
         "segments": stats.segments,
@@ -158,11 +172,6 @@ def run(args: argparse.Namespace) -> int:
         "pens": list(plan.pens),
         "colour_delta_e00_3mm": _figure(delta_e, 2),
     }
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    elif not args.quiet:
-        print(_summary_text(summary, duration_text))
-    return 0
 
 
 def _figure(value: float | None, digits: int) -> float | None:
