@@ -270,22 +270,37 @@ def plan_from_sketch(
     elif style.hatch:
         hatches = _shaded(drawing, layout, strokes, style, important, dithered, faces)
         layers += [layer for layer in hatches if layer.paths]
-    if pens is None:
-        layers.append(Layer("edges", strokes, pen_width=style.pen_width, role="edges"))
-    else:
-        dark = pens.darkest
-        layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
-        layers.append(
-            Layer(
-                f"{dark.name}-edges" if in_color else "edges",
-                strokes,
-                pen_width=dark.width,
-                role="edges",
-                pen=dark.name,
-                color=dark.color,
-            )
-        )
+    layers = _with_edges(layers, strokes, style, pens)
 
+    ordered = _ordered(layers, style)
+    meta = _meta(source, style, page, layout, line, threshold, faces, pens)
+    return Plan(page=page, layers=tuple(ordered), meta=meta)
+
+
+def _with_edges(layers: list[Layer], strokes: Paths, style: Style, pens: PenSet | None) -> list[Layer]:
+    """``layers`` and the edges after them, last; with pens, every layer not yet a pen's and
+    the edges in the darkest pen."""
+    if pens is None:
+        return [*layers, Layer("edges", strokes, pen_width=style.pen_width, role="edges")]
+    in_color = len(pens.pens) > 1
+    dark = pens.darkest
+    layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
+    layers.append(
+        Layer(
+            f"{dark.name}-edges" if in_color else "edges",
+            strokes,
+            pen_width=dark.width,
+            role="edges",
+            pen=dark.name,
+            color=dark.color,
+        )
+    )
+    return layers
+
+
+def _ordered(layers: list[Layer], style: Style) -> list[Layer]:
+    """Each layer's paths ordered for short pen-up travel, from where the layer before ended
+    (the first from the plotter's home)."""
     ordered, position = [], HOME
     for layer in layers:
         started = time.perf_counter()
@@ -315,7 +330,11 @@ def plan_from_sketch(
         log.debug(
             "layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started
         )
+    return ordered
 
+
+def _meta(source: str, style: Style, page: Page, layout: Layout, line, threshold: float, faces, pens) -> dict:
+    """The plan's provenance: where the picture came from and every drawing parameter."""
     meta = {
         "source": source,
         "style": style.name,
@@ -342,7 +361,7 @@ def plan_from_sketch(
         meta["pens"] = f"{pens.name}: " + ", ".join(
             f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order
         )
-    return Plan(page=page, layers=tuple(ordered), meta=meta)
+    return meta
 
 
 def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, dithered, faces: list) -> list:
