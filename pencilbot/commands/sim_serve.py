@@ -63,8 +63,8 @@ def _add_line_options(parser: argparse.ArgumentParser) -> None:
         type=number("--emulate-baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"),
         default=0,
         metavar="B",
-        help="answer no faster than a serial line of B bit/s would carry the bytes (default %(default)s: "
-        "unlimited; the pty itself has no speed)",
+        help="carry the bytes both ways no faster than a serial line of B bit/s (10 bits a byte; default "
+        "%(default)s: unlimited, as a pty is)",
     )
     parser.add_argument(
         "--baud",
