@@ -145,6 +145,8 @@ class Firmware:
     flow : str
         How a sender paces the board: ``"acknowledged"`` (an answer per line, a receive budget)
         or ``"polled"`` (no answers: the sender polls the free buffer, HP-GL's ``ESC.B``).
+    sim_board : str
+        Which board the virtual plotter plays for it besides GRBL's and the EBB (``"hpgl"``), or ``""``.
     """
 
     name: str
@@ -170,6 +172,7 @@ class Firmware:
     baud: int = DEFAULT_BAUD
     program_language: str = "gcode"
     flow: str = "acknowledged"
+    sim_board: str = ""
 
     def moves_in_flight(self) -> int:
         """Most moves of lines the board has answered that may not have run yet: the planned
