@@ -30,9 +30,9 @@ from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
-from pencilbot.planning.build import HOME, ink_on_image_grid, plan_from_sketch
+from pencilbot.planning.build import HOME, plan_from_sketch
 from pencilbot.planning.fidelity import fidelity
-from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.layout import Layout, ink_on_image_grid, page_size
 from pencilbot.planning.ordering import greedy_order, travel_length
 from pencilbot.planning.stats import estimate
 from pencilbot.planning.style import load_style

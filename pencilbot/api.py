@@ -23,6 +23,8 @@ from typing import overload
 
 import numpy as np
 
+from pencilbot.app.photo import ImageLike, PhotoRequest
+from pencilbot.app.photo import sketch_and_plan as app_sketch_and_plan
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
@@ -31,15 +33,10 @@ from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.imaging.pencil import sketch as _sketch
-from pencilbot.machine.pens import PenSet, load_pens
+from pencilbot.machine.pens import PenSet
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
-from pencilbot.planning.build import plot_shape, with_pens
-from pencilbot.planning.build import sketch_and_plan as _sketch_and_plan
-from pencilbot.planning.layout import page_size
 from pencilbot.planning.plan import Page, Plan
-from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style, with_overrides
-
-ImageLike = str | Path | np.ndarray | LoadedImage
+from pencilbot.planning.style import DEFAULT_STYLE, Style
 
 
 def as_image(image: ImageLike) -> LoadedImage:
@@ -112,33 +109,23 @@ def sketch_and_plan(
     max_pixels: int = DEFAULT_MAX_PIXELS,
 ) -> tuple[Sketch, Plan]:
     """:func:`plan`, also returning the pencil sketch the plan was made from (at the resolution
-    it was planned at); an image file larger than ``max_pixels`` is refused before decoding."""
-    chosen = style if isinstance(style, Style) else load_style(style or DEFAULT_STYLE)
-    if pen_width is not None:
-        chosen = with_overrides(chosen, {"pen_width": pen_width}, where="pen_width")
-    pen_set = pens if pens is None or isinstance(pens, PenSet) else load_pens(pens)
-    if pen_set is not None:
-        chosen = with_pens(chosen, pen_set)
+    it was planned at); an image file larger than ``max_pixels`` is refused before decoding.
 
-    def sheet(shape: tuple[int, int]) -> Page:
-        if isinstance(page, Page):
-            return page
-        return page_size(
-            page or chosen.page,
-            orientation or chosen.orientation,
-            shape,
-            chosen.margin if margin is None else margin,
-        )
-
-    if isinstance(image, (str, Path)):  # decoded at the size the plan needs, not full size
-        loaded = load_image(
-            image,
-            max_pixels=max_pixels,
-            shrink_to=lambda shape: plot_shape(shape, sheet(shape), chosen.pen_width),
-        )
-    else:
-        loaded = as_image(image)
-    return _sketch_and_plan(loaded, page=sheet(loaded.shape), style=chosen, pens=pen_set)
+    Planned through the application layer (:mod:`pencilbot.app.photo`), as the CLI, the studio and
+    the vpype plugin plan: the same guards (the style's rules for every value, a page too large for
+    memory refused before anything is allocated).
+    """
+    request = PhotoRequest(
+        style=style or DEFAULT_STYLE,
+        overrides={"page": page, "orientation": orientation, "margin": margin, "pen_width": pen_width}
+        if not isinstance(page, Page)
+        else {"pen_width": pen_width},
+        where="pencilbot.plan",
+        pens=pens,
+        page=page if isinstance(page, Page) else None,
+        max_pixels=max_pixels,
+    )
+    return app_sketch_and_plan(image, request)
 
 
 def _profile(profile: str | Path | Profile) -> Profile:

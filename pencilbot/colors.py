@@ -7,7 +7,7 @@ stack as independent filters::
 
     reflectance = paper × Π_k (1 − a_k (1 − c_k))
 
-The colour separation (:mod:`pencilbot.planning.color`), the colour previews and the simulated
+The colour separation (:mod:`pencilbot.planning.separation`), the colour previews and the simulated
 colour plot use this one function, :func:`inks_on_paper`, so what is planned is what is judged.
 It is a function of per-pen coverage arrays only, so it works on a whole sheet or on one band of
 it at a time.

@@ -16,7 +16,8 @@ so ``gwrite`` and plotting tools change pens between layers. vpype works in CSS 
 here. A dot (a one-point path) becomes a zero-length line, which vpype keeps and draws as a dot.
 The page size is set unless the pipeline has set one.
 
-This module is a front end, as the commands are: it may use everything below them.
+This module is a front end, as the commands are: it plans through the application layer
+(:mod:`pencilbot.app`), as they do, and imports none of theirs.
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ import numpy as np
 import vpype
 import vpype_cli
 
-from pencilbot.commands.common import photo_pens, photo_style, plan_photo
-from pencilbot.commands.options import add_photo_options
+from pencilbot.app.photo import plan_photo
+from pencilbot.app.photo_options import add_photo_options, photo_request
 from pencilbot.errors import PencilbotError
 from pencilbot.planning.plan import Plan
 from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
@@ -40,7 +41,7 @@ PX_PER_MM = CSS_PX_PER_INCH / MM_PER_INCH  # vpype's unit is the CSS pixel
 def _photo_options(command):
     """``command`` with `pencilbot plan`'s photo options as click options: the same flags, help,
     defaults and checks (each value goes through the argparse option's own ``type``), declared
-    once in :func:`pencilbot.commands.options.add_photo_options`."""
+    once in :func:`pencilbot.app.photo_options.add_photo_options`."""
     parser = argparse.ArgumentParser(add_help=False)
     add_photo_options(parser)
     for action in reversed([a for a in parser._actions if a.option_strings and a.dest != "help"]):
@@ -93,13 +94,7 @@ def pencilbot(document: vpype.Document, photo, **options) -> vpype.Document:
     """
     args = argparse.Namespace(**options)
     try:
-        plan = plan_photo(
-            photo,
-            photo_style(args),
-            max_pixels=args.max_pixels,
-            downscale=args.downscale,
-            pens=photo_pens(args),
-        )
+        plan = plan_photo(photo, photo_request(args))
     except PencilbotError as err:
         raise click.ClickException(str(err)) from None
     return add_plan(document, plan)

@@ -9,15 +9,13 @@ import argparse
 import math
 from pathlib import Path
 
+from pencilbot.app import photo as app_photo
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg_read import is_plan_svg, read_svg
-from pencilbot.fileio import available_memory as fileio_available_memory
 from pencilbot.fileio import refuse_overwriting_inputs, refuse_special_input
-from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, load_image
-from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.planning.layout import fit_plan
 from pencilbot.planning.plan import DEFAULT_MARGIN, Plan
-from pencilbot.planning.style import MAX_PEN_WIDTH, Style, default_style, load_style, with_overrides
+from pencilbot.planning.style import MAX_PEN_WIDTH, Style, with_overrides
 from pencilbot.render import BAND_PIXELS
 from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
 
@@ -29,24 +27,11 @@ MAX_RENDER_PEN_WIDTH = MAX_PEN_WIDTH
 # A bed is rendered a band of rows at a time (pencilbot.render.Bands): peak bytes per pixel of
 # a band in flight (the float64 ink sums, the per-path maxima, the uint8 rows and their PNG
 # filter), about three times more with the travel overlay's second render and RGB rows.
-_RENDER_BYTES_PER_PIXEL = 40
 _RENDER_BYTES_PER_PIXEL_TRAVEL = 120
-_MEMORY_SHARE = 0.75  # of the memory the system says is available
 #: The largest render (pixels): an A0 bed at 800 dpi. Memory stays a band's, but time and the PNG
 #: do not: an A0 bed at 600 dpi (0.56 gigapixels) takes about a minute and most image viewers
 #: refuse files past this.
 MAX_RENDER_PIXELS = 1 << 30
-
-# Style keys a command-line option may override, by option name.
-_STYLE_OPTIONS = {
-    "--page": "page",
-    "--orientation": "orientation",
-    "--margin": "margin",
-    "--pen-width": "pen_width",
-    "--hatch": "hatch",
-    "--faces": "faces",
-}
-
 
 #: Options naming the files a command reads, and the files it writes (any command's).
 _INPUT_OPTIONS = (
@@ -128,73 +113,28 @@ def plan_for_input(path: Path, args: argparse.Namespace) -> Plan:
     path = Path(path)
     if path.suffix.lower() == ".svg":
         return read_drawing(path, args)
-    return plan_photo(
-        path, photo_style(args), max_pixels=args.max_pixels, downscale=args.downscale, pens=photo_pens(args)
-    )
+    from pencilbot.app.photo import plan_photo  # not at the top: see photo_request
+
+    return plan_photo(path, photo_request(args))
 
 
-def plan_photo(
-    path: Path,
-    style: Style,
-    *,
-    max_pixels: int = DEFAULT_MAX_PIXELS,
-    downscale: bool = False,
-    pens: PenSet | None = None,
-) -> Plan:
-    """The plan of the photo ``path`` in ``style`` (with ``pens``), decoded at the size the plan needs."""
-    # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
-    # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
-    from pencilbot.planning.build import make_plan, plot_resolution, with_pens
-
-    check_plan(style)
-    sized = style if pens is None else with_pens(style, pens)
-    image = load_image(path, max_pixels=max_pixels, downscale=downscale, shrink_to=plot_resolution(sized))
-    return make_plan(image, style=style, pens=pens)
-
-
-def photo_pens(args: argparse.Namespace) -> PenSet | None:
-    """The pen set ``--pens`` names (None: the one black pen).
-
-    Raises
-    ------
-    ProfileError
-        No such set, or an invalid one.
-    """
-    name = getattr(args, "pens", None)
-    return None if name is None else load_pens(name)
-
-
-# Peak bytes of planning a photo per mm² of page and mm of pen width (the shading grids follow
-# the pen, ~1/width), measured with /usr/bin/time: camera at 256 px on 500x500 and 1000x1000 mm
-# pages with 0.5 and 1 mm pens (594 MB, 2.2 GB, 367 MB).
-_PLAN_BYTES_PER_MM2_MM = 1100
-
-
-def check_plan(style: Style, preview_dpi: float | None = None) -> None:
-    """Refuse planning on a page whose grids (and, with ``preview_dpi``, its preview picture)
-    would need more memory than is free, before anything is allocated (a 100 m sheet asked
-    for 584 GB).
+def photo_request(args: argparse.Namespace, preview_dpi: float | None = None):
+    """The :class:`~pencilbot.app.photo.PhotoRequest` of the photo options in ``args``, checked:
+    a bad style, pen set or option, or a page too large for memory, fails now, before any slow work.
 
     Raises
     ------
     PencilbotError
-        Saying how much the page would need and how much there is.
+        What :func:`pencilbot.app.photo.prepare` refuses.
     """
-    from pencilbot.planning.layout import page_size
+    # Imported here, not at the top: every command imports this module, and `pencilbot sketch`
+    # (or an SVG input) has no use for the planning stack (0.1 s of start-up, 0.5 s with OpenCV).
+    from pencilbot.app.photo import prepare
+    from pencilbot.app.photo_options import photo_request as request_of
 
-    page = page_size(style.page, None, margin=style.margin)
-    planning = _PLAN_BYTES_PER_MM2_MM / style.pen_width  # both grow with the page's area
-    picture = (preview_dpi / MM_PER_INCH) ** 2 * _RENDER_BYTES_PER_PIXEL if preview_dpi is not None else 0.0
-    per_mm2 = planning + picture
-    need = page.width * page.height * per_mm2
-    budget = _MEMORY_SHARE * available_memory()
-    if need > budget:
-        side = math.sqrt(budget / per_mm2)
-        raise PencilbotError(
-            f"a {page.width:g} x {page.height:g} mm page with a {style.pen_width:g} mm pen needs about "
-            f"{need / 1e9:.0f} GB to plan{' and preview' if preview_dpi else ''}, more than {memory_share(budget)}; use a page of at most about {side:.0f} x {side:.0f} mm"
-            + (" (or a wider pen)" if planning > picture else "")
-        )
+    request = request_of(args, preview_dpi=preview_dpi)
+    prepare(request)
+    return request
 
 
 def read_drawing(path: Path, args: argparse.Namespace) -> Plan:
@@ -300,23 +240,6 @@ def change_summary(before, after, specks: int) -> str:
     return words + (f" ({specks} covered speck{'s' * (specks != 1)} dropped)" if specks else "")
 
 
-def photo_style(args: argparse.Namespace) -> Style:
-    """The style named by ``--style`` with the page, orientation, margin and pen options applied.
-
-    Raises
-    ------
-    ProfileError
-        No such style, or an option value the style does not accept.
-    """
-    options = {_STYLE_OPTIONS[flag]: value for flag, value in _overrides(args).items() if value is not None}
-    return with_overrides(load_style(args.style or default_style()), options, where="command line")
-
-
-def _overrides(args: argparse.Namespace) -> dict[str, object]:
-    """Value of each style-overriding option by flag, in the order --help shows them."""
-    return {flag: getattr(args, key, None) for flag, key in _STYLE_OPTIONS.items()}
-
-
 def check_render(
     width_mm: float, height_mm: float, dpi: float, pen_width: float, *, travel: bool = False
 ) -> None:
@@ -347,30 +270,10 @@ def check_render(
         )
     # Memory is that of one band (at least a row), not of the bed.
     band = max(BAND_PIXELS, cols) if rows * cols > BAND_PIXELS else rows * cols
-    need = band * (_RENDER_BYTES_PER_PIXEL_TRAVEL if travel else _RENDER_BYTES_PER_PIXEL)
-    budget = _MEMORY_SHARE * available_memory()
+    need = band * (_RENDER_BYTES_PER_PIXEL_TRAVEL if travel else app_photo.RENDER_BYTES_PER_PIXEL)
+    budget = app_photo.MEMORY_SHARE * app_photo.available_memory()
     if need > budget:
         raise PencilbotError(
             f"--dpi {dpi:g} makes the {width_mm:g} x {height_mm:g} mm bed {cols} x {rows} pixels; rendering "
-            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than {memory_share(budget)}; free some memory or use a lower --dpi"
+            f"it a band of rows at a time needs about {need / 1e6:.0f} MB, more than {app_photo.memory_share(budget)}; free some memory or use a lower --dpi"
         )
-
-
-def available_memory() -> int:
-    """Bytes this process can allocate now: the machine's free memory, the container's and the
-    process's own limits considered (:func:`pencilbot.fileio.available_memory`)."""
-    return fileio_available_memory()[0]
-
-
-def memory_share(budget: float) -> str:
-    """Words for a memory ``budget`` (bytes, the share of :func:`available_memory` pencilbot
-    uses): ``"the 18.2 GB pencilbot may use (75 % of the 24.3 GB this machine has free)"``."""
-    return (
-        f"the {_size_text(budget)} pencilbot may use ({_MEMORY_SHARE:.0%} of the "
-        f"{_size_text(budget / _MEMORY_SHARE)} {fileio_available_memory()[1]})"
-    )
-
-
-def _size_text(size: float) -> str:
-    """``"18.2 GB"``, ``"38 MB"``."""
-    return f"{size / 1e9:.1f} GB" if size >= 1e9 else f"{size / 1e6:.0f} MB"

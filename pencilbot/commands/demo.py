@@ -14,12 +14,11 @@ import os
 import time
 import urllib.parse
 from dataclasses import dataclass
-from functools import partial
 from pathlib import Path
 
 import numpy as np
 
-from pencilbot.commands.common import check_plan, photo_pens, photo_style, refuse_overwriting
+from pencilbot.commands.common import photo_request, refuse_overwriting
 from pencilbot.commands.options import Deprecated, add_photo_options, add_profile_option, add_verbosity
 from pencilbot.commands.sketch import write_image
 from pencilbot.errors import PencilbotError
@@ -75,14 +74,13 @@ class _Step:
 
 def run(args: argparse.Namespace) -> int:
     # Heavy imports here, so `pencilbot --help` stays quick.
-    from pencilbot.export.gcode import write_gcode
+    from pencilbot.app.photo import load_photo, prepare, sketch_and_plan
+    from pencilbot.app.program import program_suffixes, speaks_hpgl, write_program
+    from pencilbot.export.hpgl import SheetPlacement
     from pencilbot.export.svg import write_svg
-    from pencilbot.imaging.io import image_from_array, load_image
     from pencilbot.machine.bed import Placement
     from pencilbot.machine.profile import load_profile
-    from pencilbot.planning.build import plot_resolution, sketch_and_plan, with_pens
     from pencilbot.planning.fidelity import color_difference, fidelity, photo_likeness
-    from pencilbot.planning.layout import page_size
     from pencilbot.planning.preview import preview as plan_preview
     from pencilbot.planning.preview import preview_image
     from pencilbot.planning.stats import duration_text
@@ -90,11 +88,9 @@ def run(args: argparse.Namespace) -> int:
 
     refuse_overwriting(args, [Path(args.output) / name for name in DEMO_FILES])
     profile = load_profile(args.profile)  # a bad profile, style or pen set fails before any slow work
-    style = photo_style(args)
-    check_plan(style, PREVIEW_DPI)  # before the photo is read: a page too large for memory fails now
-    pens = photo_pens(args)
-    sized = style if pens is None else with_pens(style, pens)
-    image = _photo(args, partial(load_image, shrink_to=plot_resolution(sized)), image_from_array)
+    prepared = prepare(photo_request(args, PREVIEW_DPI))  # a page too large for memory fails now
+    style = prepared.style
+    image = load_photo(_photo(args), prepared)
     out = Path(args.output)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -105,8 +101,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"pencilbot demo: {image.source} → {out}/")
 
     started = time.perf_counter()
-    page = page_size(style.page, style.orientation, image.shape, style.margin)
-    drawing, plan = sketch_and_plan(image, page=page, style=style, pens=pens)
+    drawing, plan = sketch_and_plan(image, prepared)
+    page = plan.page
     in_color = len(plan.pens) > 1
     write_image(drawing.result, out / "sketch.png")
     step.done(f"sketch.png: GMED pencil sketch{' in colour' if in_color else ''}", started)
@@ -121,17 +117,9 @@ def run(args: argparse.Namespace) -> int:
     step.done("plan.svg, preview.png: pen strokes on the page", started)
 
     started = time.perf_counter()
-    hpgl = getattr(profile.firmware, "flow", "") == "polled"  # an HP-GL plotter draws an HP-GL file
-    if hpgl:
-        from pencilbot.export.hpgl import SheetPlacement, write_hpgl
-
-        gcode_path = out / "drawing.hpgl"
-        stats = write_hpgl(plan, profile, gcode_path).stats.total
-    else:
-        gcode_path = out / "drawing.gcode"
-        stats = write_gcode(
-            plan, profile, gcode_path, source=image.source
-        ).stats.total  # what its header says
+    hpgl = speaks_hpgl(profile)  # an HP-GL plotter draws an HP-GL file
+    gcode_path = out / f"drawing{program_suffixes(profile)[0]}"
+    stats = write_program(plan, profile, gcode_path, source=image.source).stats.total  # what its header says
     step.done(f"{gcode_path.name}: {profile.name}", started)
 
     started = time.perf_counter()
@@ -151,8 +139,22 @@ def run(args: argparse.Namespace) -> int:
             f"{profile.firmware.title}'s (draw drawing.gcode with --port)"
         )
 
-    summary = {
-        "source": image.source,
+    summary = _summary(
+        image.source, out, stats, (simulated, simulated_up, agreement), faithful, alike, plan, delta_e
+    )
+    if args.json:
+        print(json.dumps(summary, indent=2))
+    elif not args.quiet:
+        print(_summary_text(summary, duration_text))
+    return 0
+
+
+def _summary(source: str, out: Path, stats, simulated_run, faithful, alike, plan, delta_e) -> dict:
+    """The demo's figures (what --json prints): the drawing, the estimate, the simulation's
+    seconds, pen-up travel and agreement with the preview (None each without one), the likeness."""
+    simulated, simulated_up, agreement = simulated_run
+    return {
+        "source": source,
         "outputs": sorted(p.name for p in out.iterdir() if p.is_file()),
         "paths": stats.paths,
         "segments": stats.segments,
@@ -170,11 +172,6 @@ def run(args: argparse.Namespace) -> int:
         "pens": list(plan.pens),
         "colour_delta_e00_3mm": _figure(delta_e, 2),
     }
-    if args.json:
-        print(json.dumps(summary, indent=2))
-    elif not args.quiet:
-        print(_summary_text(summary, duration_text))
-    return 0
 
 
 def _figure(value: float | None, digits: int) -> float | None:
@@ -182,11 +179,14 @@ def _figure(value: float | None, digits: int) -> float | None:
     return None if value is None or not np.isfinite(value) else round(value, digits)
 
 
-def _photo(args: argparse.Namespace, load_image, image_from_array):
+def _photo(args: argparse.Namespace):
+    """The photo file given, else scikit-image's photo."""
     photo = args.input if args.input is not None else args.old_input
     if photo is not None:
-        return load_image(photo, max_pixels=args.max_pixels, downscale=args.downscale)
+        return photo
     from skimage import data
+
+    from pencilbot.imaging.io import image_from_array
 
     return image_from_array(getattr(data, DEFAULT_PHOTO)(), source=f"skimage.data.{DEFAULT_PHOTO}")
 

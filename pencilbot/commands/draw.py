@@ -220,11 +220,7 @@ def _suffix_for(profile: str | None) -> str:
     from pencilbot.machine.profile import load_profile
 
     try:
-        return (
-            ".hpgl"
-            if profile and getattr(load_profile(profile).firmware, "flow", "") == "polled"
-            else ".gcode"
-        )
+        return ".hpgl" if profile and load_profile(profile).firmware.program_language == "hpgl" else ".gcode"
     except PencilbotError:
         return ".gcode"
 
@@ -237,12 +233,12 @@ def _check_file_kind(path: Path, profile: str | None) -> None:
     if profile is None:
         return
     try:
-        hpgl_profile = getattr(load_profile(profile).firmware, "flow", "") == "polled"
+        hpgl_profile = load_profile(profile).firmware.program_language == "hpgl"
     except PencilbotError:
         return  # the driver says what is wrong with it
     hpgl_file = path.suffix.lower() in HPGL_SUFFIXES
     if hpgl_file and not hpgl_profile:
-        names = [n for n in list_profiles() if getattr(load_profile(n).firmware, "flow", "") == "polled"]
+        names = [n for n in list_profiles() if load_profile(n).firmware.program_language == "hpgl"]
         raise RefusedError(
             f"{path} is HP-GL and profile {profile} is not an HP-GL plotter's; give its profile: "
             f"--profile {' or '.join(names) or 'NAME'}"

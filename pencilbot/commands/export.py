@@ -7,6 +7,7 @@ import re
 from dataclasses import replace
 from pathlib import Path
 
+from pencilbot.app.program import program_suffixes
 from pencilbot.commands.batch import (
     Inputs,
     add_jobs_option,
@@ -15,7 +16,7 @@ from pencilbot.commands.batch import (
     outputs_or_beside,
     run_batch,
 )
-from pencilbot.commands.common import photo_pens, photo_style, plan_for_input, reorder_drawing
+from pencilbot.commands.common import photo_request, plan_for_input, reorder_drawing
 from pencilbot.commands.options import add_photo_options, add_profile_option, add_svg_options, add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GCODE_SUFFIXES, write_gcode
@@ -66,8 +67,7 @@ def run(args: argparse.Namespace) -> int:
     profile = load_profile(args.profile)  # a bad profile or style fails before any slow planning
     inputs = collect_inputs(args.inputs)
     if any(p.suffix.lower() != ".svg" for p in inputs.paths):
-        photo_style(args)
-        photo_pens(args)
+        photo_request(args)
     outputs = _outputs(inputs, args.output, suffixes=file_suffixes(profile))
     jobs = [(source, target, profile, args) for source, target in zip(inputs.paths, outputs)]
     return run_batch(export_one, jobs, workers=args.jobs, quiet=args.quiet, verbose=args.verbose)
@@ -75,7 +75,7 @@ def run(args: argparse.Namespace) -> int:
 
 def file_suffixes(profile: Profile) -> tuple[str, ...]:
     """The names the plotter's files go by: HP-GL for an HP-GL plotter, else G-code."""
-    return HPGL_SUFFIXES if getattr(profile.firmware, "flow", "") == "polled" else GCODE_SUFFIXES
+    return program_suffixes(profile)
 
 
 def _outputs(inputs: Inputs, output: str | None, suffixes: tuple[str, ...] = GCODE_SUFFIXES) -> list[Path]:

@@ -13,7 +13,7 @@ from pencilbot.commands.batch import (
     outputs_or_beside,
     run_batch,
 )
-from pencilbot.commands.common import check_plan, photo_pens, photo_style, plan_for_input
+from pencilbot.commands.common import photo_request, plan_for_input
 from pencilbot.commands.options import add_photo_options, add_verbosity
 from pencilbot.errors import PencilbotError
 from pencilbot.export.svg import write_svg
@@ -53,8 +53,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    photo_style(args)  # a bad style, pen set or option fails once, before any slow planning
-    photo_pens(args)
+    photo_request(args, PREVIEW_DPI if args.preview else None)  # a bad style, pen set or option, or a
+    # page too large for memory (with its preview), fails once, before any slow planning
     inputs = collect_inputs(args.inputs)
     outputs = outputs_or_beside(inputs, args.output, what="plan", suffixes=(".svg",))
     previews = (
@@ -77,8 +77,6 @@ def plan_one(source: Path, output: Path, preview: Path | None, args: argparse.Na
             f"{source} is a drawing, not a photo: `pencilbot optimize {source} -o {output}` reorders it "
             f"for the plotter, `pencilbot export {source}` writes its G-code (reordered the same way)"
         )
-    if preview is not None:
-        check_plan(photo_style(args), PREVIEW_DPI)  # the preview's memory too, before any planning
     plan = plan_for_input(source, args)
     write_svg(plan, output)
     if preview is not None:

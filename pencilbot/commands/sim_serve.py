@@ -11,6 +11,7 @@ from pencilbot.commands.options import (
     MAX_BAUD,
     MAX_DPI,
     MIN_DPI,
+    Deprecated,
     add_profile_option,
     add_realtime_option,
     add_verbosity,
@@ -40,11 +41,37 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
     )
     add_profile_option(parser, "GRBL, grblHAL, HP-GL or EBB (axidraw-v3, ...) plotter profile")
     add_realtime_option(parser)
+    _add_line_options(parser)
+    _add_board_options(parser)
+    parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
+    parser.add_argument(
+        "--dpi",
+        type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"),
+        default=PLOT_DPI,
+        help="resolution of the saved drawing in dots per inch (default %(default)g)",
+    )
+    add_verbosity(parser)
+    parser.set_defaults(func=run)
+
+
+def _add_line_options(parser: argparse.ArgumentParser) -> None:
+    """What the line to the board does: its emulated speed and the faults injected on it."""
+    # `draw --baud` is the serial line's speed; here the board only emulates a slow line, so the
+    # option has its own name (the old spelling works for a release, with a note).
+    parser.add_argument(
+        "--emulate-baud",
+        type=number("--emulate-baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"),
+        default=0,
+        metavar="B",
+        help="carry the bytes both ways no faster than a serial line of B bit/s (10 bits a byte; default "
+        "%(default)s: unlimited, as a pty is)",
+    )
     parser.add_argument(
         "--baud",
+        dest="emulate_baud",
         type=number("--baud", low=0, high=MAX_BAUD, whole=True, unit="bit/s (0: unlimited)"),
-        default=0,
-        help="emulated bit/s (default %(default)s: unlimited)",
+        action=Deprecated,
+        new="--emulate-baud",
     )
     parser.add_argument(
         "--faults",
@@ -54,6 +81,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         f"{', '.join(FAULT_KINDS)}; error@K:N gives error N, interrupt@K:SIG a signal, and "
         "hold and interrupt also strike at a moment of the simulated clock (interrupt@1.45s)",
     )
+
+
+def _add_board_options(parser: argparse.ArgumentParser) -> None:
+    """How the board behaves at power-up, resets and limits, and which EBB board it plays."""
     # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
     parser.add_argument(
         "--power",
@@ -90,15 +121,6 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         default=None,
         help="EBB profiles: volts at the board's power jack (default 9.1; 0: the motors have no power)",
     )
-    parser.add_argument("-o", "--output", metavar="PLOT.png", help="on exit, save the drawing here")
-    parser.add_argument(
-        "--dpi",
-        type=number("--dpi", low=MIN_DPI, high=MAX_DPI, unit="dots per inch"),
-        default=PLOT_DPI,
-        help="resolution of the saved drawing in dots per inch (default %(default)g)",
-    )
-    add_verbosity(parser)
-    parser.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -117,7 +139,7 @@ def run(args: argparse.Namespace) -> int:
     options = {
         "profile": args.profile,
         "realtime": str(args.realtime),
-        "baud": str(args.baud),
+        "baud": str(args.emulate_baud),
         "faults": args.faults,
         "power": args.power,
         "abort": args.abort,

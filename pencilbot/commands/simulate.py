@@ -35,7 +35,7 @@ from pencilbot.driver import draw
 from pencilbot.driver.header import profile_for
 from pencilbot.driver.job import gcode_blocks, program_blocks, read_gcode
 from pencilbot.errors import PencilbotError, no_such_file
-from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, pens_at_pauses
+from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, header_pen_width, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, MAX_HPGL_FILE, hpgl_program
 from pencilbot.fileio import read_bounded
 from pencilbot.firmware.hpgl import looks_like_hpgl
@@ -99,22 +99,18 @@ def run(args: argparse.Namespace) -> int:
     profile = protocol_sim.simulated_profile(args.profile)  # fails before any slow planning
     # The render is checked first too: a --dpi the machine cannot hold fails now, not after the plot.
     check_render(
-        profile.bed.width,
-        profile.bed.height,
-        args.dpi,
-        args.pen_width or DEFAULT_PEN_WIDTH,
-        travel=args.travel,
+        profile.bed.width, profile.bed.height, args.dpi, _file_pen_width(source, args), travel=args.travel
     )
     plotter = _fast_plot(source, profile, args)
     if plotter is not None:  # a plain job run at once on the virtual machine, no pen changes
-        _save_plot(output, plotter, [], args, args.pen_width or DEFAULT_PEN_WIDTH)
+        _save_plot(output, plotter, [], args, _file_pen_width(source, args))
         _report(output, plotter, [], profile, args)
         return 0
     program, pen_width, carousel = _gcode(source, profile, args)
     check_render(profile.bed.width, profile.bed.height, args.dpi, pen_width, travel=args.travel)
 
     pens = carousel or pens_at_pauses(program)  # HP-GL: SP n is the n-th pen
-    if not pens and getattr(profile.firmware, "flow", "") != "polled" and not args.realtime:
+    if not pens and profile.firmware.program_language != "hpgl" and not args.realtime:
         # A drawing's own plain program: at once on the virtual machine too (a million paths in seconds)
         plotter = _fast_plot_blocks(program_blocks(program), len(program), source.name, args)
         if plotter is not None:
@@ -150,9 +146,7 @@ def _hpgl_profile(default: str) -> str:
     """``default`` if it is an HP-GL plotter's profile, else the first HP-GL profile there is."""
     from pencilbot.machine.profile import list_profiles, load_profile
 
-    names = [
-        n for n in [default, *list_profiles()] if getattr(load_profile(n).firmware, "flow", "") == "polled"
-    ]
+    names = [n for n in [default, *list_profiles()] if load_profile(n).firmware.program_language == "hpgl"]
     if not names:
         raise PencilbotError(
             "the file is HP-GL and no HP-GL plotter profile is known; give one with --profile"
@@ -258,6 +252,19 @@ def _recolored(pens: list, pen_set) -> list:
     ]
 
 
+def _file_pen_width(source: Path, args: argparse.Namespace) -> float:
+    """The pen a G-code file is drawn with: ``--pen-width``, else the one its header names (our
+    one-pen files), else the usual one."""
+    if args.pen_width or source.suffix.lower() not in GCODE_SUFFIXES:
+        return args.pen_width or DEFAULT_PEN_WIDTH
+    try:
+        with open(source, "rb") as handle:
+            head = handle.read(8192)
+    except OSError:
+        return DEFAULT_PEN_WIDTH  # what cannot be read is said where it is read
+    return header_pen_width(head) or DEFAULT_PEN_WIDTH
+
+
 def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, float, list]:
     """The program for ``source`` (G-code, or HP-GL for an HP-GL plotter), the pen width (mm) to
     render it with, and for an HP-GL colour plan its pens by carousel slot (else empty)."""
@@ -267,7 +274,8 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
         # Read as draw reads it (any text in comments; a command that is not ASCII is refused
         # by line; a line over a megabyte as it is read), but as a program: a simulation keeps
         # no job journal beside the file.
-        return read_gcode(source), args.pen_width or DEFAULT_PEN_WIDTH, []
+        program = read_gcode(source)  # drawn with the pen its header names, else the usual one
+        return program, args.pen_width or header_pen_width(program) or DEFAULT_PEN_WIDTH, []
     if source.suffix.lower() in HPGL_SUFFIXES or looks_like_hpgl(
         source
     ):  # HP-GL: one instruction after another
@@ -278,7 +286,7 @@ def _gcode(source: Path, profile, args: argparse.Namespace) -> tuple[bytes, floa
     plan, reordered = reorder_drawing(plan_for_input(source, args), source, args, profile, say=not args.quiet)
     if reordered and not args.quiet:
         print(f"{source}: {reordered}")
-    if getattr(profile.firmware, "flow", "") == "polled":  # an HP-GL plotter draws HP-GL
+    if profile.firmware.program_language == "hpgl":  # an HP-GL plotter draws HP-GL
         program = hpgl_program(plan, profile)
         if plan.pens:  # each pen of a colour plan in its carousel slot, in load order
             first: dict[str, Layer] = {}

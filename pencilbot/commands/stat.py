@@ -61,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
         )
     profile = load_profile(args.profile)
     if source.suffix.lower() in HPGL_SUFFIXES:  # HP-GL, ours or another tool's (vpype's)
-        if getattr(profile.firmware, "flow", "") != "polled":
+        if profile.firmware.program_language != "hpgl":
             raise PencilbotError(
                 f"{source} is HP-GL and profile {profile.name} is not an HP-GL plotter's; "
                 "give its profile (e.g. --profile hp7475a)"

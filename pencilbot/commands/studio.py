@@ -21,9 +21,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
         ),
     )
     parser.add_argument("photo", nargs="?", metavar="PHOTO", help="a photo to start with")
+    # `--port` is the plotter in draw, pen, walk and home; here the page only lists one more
+    # choice, so the option has its own name (the old spelling works for a release, with a note).
     parser.add_argument(
-        "--port", metavar="PORT", help="a plotter port to offer besides those found (and sim://)"
+        "--offer-port",
+        metavar="PORT",
+        help="a plotter port the page offers besides those found (and sim://); you choose the plotter on the page",
     )
+    parser.add_argument("--port", dest="offer_port", action=Deprecated, new="--offer-port")
     add_profile_option(parser)
     parser.add_argument(
         "--host",
@@ -69,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         serve(
             Path(args.photo) if args.photo else None,
-            port=args.port,
+            port=args.offer_port,
             profile=args.profile,
             host=args.host,
             listen_port=args.listen_port,

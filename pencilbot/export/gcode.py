@@ -25,15 +25,15 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from functools import cache
 from pathlib import Path
 from typing import cast
 
 import numpy as np
 
 from pencilbot.errors import OutOfBedError, PencilbotError
+from pencilbot.export.gcode_text import INT_DIGITS, ascii_lines, gather, number_rows, number_text, text_rows
 from pencilbot.fileio import write_atomic
-from pencilbot.machine.bed import MAX_BED, Placement
+from pencilbot.machine.bed import Placement
 from pencilbot.machine.profile import MAX_LINE, Profile
 from pencilbot.planning.plan import Page, Plan
 from pencilbot.planning.stats import PlanStats, duration_text, estimate
@@ -41,12 +41,15 @@ from pencilbot.planning.stats import PlanStats, duration_text, estimate
 #: File names G-code goes by (the first is the one export gives).
 GCODE_SUFFIXES = (".gcode", ".nc", ".gc", ".ngc", ".g")
 
-_INT_DIGITS = len(str(MAX_BED))
 #: The comment before each pen change of a colour plan (its pen, as :func:`pens_at_pauses` reads it).
 PEN_CHANGE_NOTE = "pen change {number} of {count}: {pen} {color} {width:g} mm"
 _PEN_CHANGE_NOTE = re.compile(
     rb"(?m)^; pen change \d+ of \d+: (?P<pen>[A-Za-z0-9][A-Za-z0-9 _.+-]*) (?P<color>#[0-9a-f]{6}) (?P<width>[0-9.]+) mm\r?$"
 )
+#: The header's pen of a one-pen plan (a colour plan's header names each pen with its width), as
+#: :func:`header_pen_width` reads it: what a simulator draws the file with.
+PEN_WIDTH_NOTE = "pen width: {width:g} mm"
+_PEN_WIDTH_NOTE = re.compile(rb"(?m)^; pen width: (?P<width>[0-9.]+) mm\r?$")
 _PAUSE_LINE = re.compile(
     rb"(?mi)^[ \t]*(?:N\d+[ \t]*)?M0*0(?![\d.])"
 )  # the bed check keeps |coordinate| ≤ MAX_BED mm
@@ -140,14 +143,14 @@ def _program(plan: Plan, profile: Profile, source: str) -> tuple[bytes, PlanStat
     head = _header_comments(plan, profile, placement, stats, source) + profile.render(profile.gcode.header)
     program = b"".join(
         [
-            _text(head),
+            ascii_lines(head),
             _body(
                 moves,
                 profile,
                 first_paths=(np.cumsum(layer_sizes) - layer_sizes)[layer_sizes > 0],
                 notes=notes,
             ),
-            _text(profile.render(profile.gcode.footer)),
+            ascii_lines(profile.render(profile.gcode.footer)),
         ]
     )
     if profile.gcode.line_numbers:
@@ -163,13 +166,13 @@ def _body(moves: _Moves, profile: Profile, *, first_paths: np.ndarray, notes: li
     down = _pen_lines(pen.down_lines, pen.down_delay, profile)
     # One table of lines: the pen-up block, the pen-down block, one row per move (last: home).
     width = max([moves.width(profile)] + [len(line) + 1 for line in up + down])
-    table = np.vstack([_text_rows(up + down, width), moves.rows(profile, width)])
+    table = np.vstack([text_rows(up + down, width), moves.rows(profile, width)])
     up_ids, down_ids = np.arange(len(up)), np.arange(len(up), len(up) + len(down))
     paths, path_offsets = moves.sequence(down_ids, up_ids, first_id=len(up) + len(down))
     already_home = len(moves.xy) > 1 and not moves.xy[-2].any()  # the last path ends at X0 Y0
     go_home = np.array([] if already_home else [len(table) - 1], dtype=np.int64)
     order = np.concatenate([up_ids, paths, go_home])
-    return _gather(table, order, cuts=len(up) + path_offsets[first_paths], inserts=notes)
+    return gather(table, order, cuts=len(up) + path_offsets[first_paths], inserts=notes)
 
 
 def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int, list[str]]:
@@ -193,12 +196,12 @@ def _pen_changes(plan: Plan, profile: Profile, placement: Placement) -> dict[int
             what=f"the pen-change park position {park[0]:g}, {park[1]:g}",
         )
         feed = (
-            f" F{_number_text(profile.motion.travel_feed, profile.gcode.decimals)}"
+            f" F{number_text(profile.motion.travel_feed, profile.gcode.decimals)}"
             if profile.firmware.rapids_take_feed
             else ""
         )
         park_lines = [
-            f"G0 X{_number_text(park[0], profile.gcode.decimals)} Y{_number_text(park[1], profile.gcode.decimals)}{feed}"
+            f"G0 X{number_text(park[0], profile.gcode.decimals)} Y{number_text(park[1], profile.gcode.decimals)}{feed}"
         ]
     changes: dict[int, list[str]] = {}
     start = 0
@@ -227,6 +230,13 @@ class PenInFile:
     name: str
     color: str
     width: float
+
+
+def header_pen_width(program: bytes) -> float | None:
+    """The pen width (mm) a one-pen program's header names (:data:`PEN_WIDTH_NOTE`); None when it
+    names none (another tool's file, a colour plan: see :func:`pens_at_pauses`)."""
+    found = _PEN_WIDTH_NOTE.search(program, 0, 8192)  # the header: the first lines
+    return float(found["width"]) if found else None
 
 
 def pens_at_pauses(program: bytes) -> list[PenInFile | None]:
@@ -319,20 +329,20 @@ class _Moves:
 
     def width(self, profile: Profile) -> int:
         """Bytes of the longest possible move row: G word, X and Y words, F word, newline."""
-        number = 1 + _INT_DIGITS + 1 + profile.gcode.decimals
+        number = 1 + INT_DIGITS + 1 + profile.gcode.decimals
         return 4 + number + 2 + number + max(map(len, self._feed_words(profile))) + 1
 
     def rows(self, profile: Profile, width: int) -> np.ndarray:
         """Every move row as ASCII G-code in a NUL-padded ``(R, width)`` byte matrix."""
         dec = profile.gcode.decimals
-        number = 1 + _INT_DIGITS + 1 + dec
+        number = 1 + INT_DIGITS + 1 + dec
         draw = self.draw.astype(np.int64)
         out = np.zeros((len(self.xy), width), dtype=np.uint8)
-        out[:, :4] = _text_rows(["G0 X", "G1 X"], 4, newline=False)[draw]
-        out[:, 4 : 4 + number] = _number_rows(self.xy[:, 0], dec)
+        out[:, :4] = text_rows(["G0 X", "G1 X"], 4, newline=False)[draw]
+        out[:, 4 : 4 + number] = number_rows(self.xy[:, 0], dec)
         out[:, 4 + number : 6 + number] = np.frombuffer(b" Y", np.uint8)
-        out[:, 6 + number : 6 + 2 * number] = _number_rows(self.xy[:, 1], dec)
-        feeds = _text_rows(self._feed_words(profile), width - 7 - 2 * number, newline=False)
+        out[:, 6 + number : 6 + 2 * number] = number_rows(self.xy[:, 1], dec)
+        feeds = text_rows(self._feed_words(profile), width - 7 - 2 * number, newline=False)
         out[:, 6 + 2 * number : -1] = np.where(self.feed[:, None], feeds[draw], 0)
         out[:, -1] = ord("\n")
         return out
@@ -341,7 +351,7 @@ class _Moves:
     def _feed_words(profile: Profile) -> list[str]:
         """``" F<travel>"`` and ``" F<draw>"``."""
         return [
-            f" F{_number_text(v, profile.gcode.decimals)}"
+            f" F{number_text(v, profile.gcode.decimals)}"
             for v in (profile.motion.travel_feed, profile.motion.draw_feed)
         ]
 
@@ -400,7 +410,7 @@ def _header_comments(
             f"pen down {total.pen_down_mm:.1f} mm, pen up {total.pen_up_mm:.1f} mm, "
             f"{total.paths} paths, {total.lifts} lifts"
         ),
-        *pens,
+        *(pens or [_comment(PEN_WIDTH_NOTE.format(width=plan.pen_width))]),
     ]
 
 
@@ -409,62 +419,3 @@ def _comment(text: str) -> str:
     clean = "".join(c if " " <= c <= "~" else "?" for c in text)
     line = f"; {clean}"
     return line if len(line) <= MAX_LINE else line[: MAX_LINE - 3] + "..."
-
-
-# --- vectorised number formatting --------------------------------------------------------------
-
-
-def _number_rows(values: np.ndarray, decimals: int) -> np.ndarray:
-    """``values`` (already rounded) as ASCII, up to ``decimals`` digits, trailing zeros dropped.
-
-    A NUL-padded ``(N, 1 + 5 + 1 + decimals)`` byte matrix: sign, integer digits, point and
-    fraction. Digits come from lookup tables, so formatting is two gathers, not N str() calls.
-    """
-    scale = 10**decimals
-    n = np.rint(np.abs(values) * scale).astype(np.int64)
-    whole, frac = np.divmod(n, scale)
-    sign = np.where((values < 0) & (n > 0), ord("-"), 0).astype(np.uint8)
-    return np.hstack([sign[:, None], _integer_table()[whole], _fraction_table(decimals)[frac]])
-
-
-@cache
-def _integer_table() -> np.ndarray:
-    """Row i: the digits of i (0 ≤ i ≤ MAX_BED) right-aligned, NUL-padded."""
-    texts = [f"{i:>{_INT_DIGITS}}".replace(" ", "\0") for i in range(MAX_BED + 1)]
-    return _text_rows(texts, _INT_DIGITS, newline=False)
-
-
-@cache
-def _fraction_table(decimals: int) -> np.ndarray:
-    """Row f: ``"." + f`` as ``decimals`` digits without trailing zeros (nothing for 0)."""
-    texts = [f".{f:0{decimals}d}".rstrip("0").rstrip(".") for f in range(10**decimals)]
-    return _text_rows(texts, decimals + 1, newline=False)
-
-
-def _number_text(value: float, decimals: int) -> str:
-    """One value the way :func:`_number_rows` writes it (feeds, dwells)."""
-    return f"{value:.{decimals}f}".rstrip("0").rstrip(".") if decimals else f"{value:.0f}"
-
-
-def _text_rows(texts: list[str], width: int, *, newline: bool = True) -> np.ndarray:
-    """Strings (plus newline) as a NUL-padded ``(len(texts), width)`` byte matrix."""
-    blob = "".join(t.ljust(width - newline, "\0") + "\n" * newline for t in texts).encode("ascii")
-    return np.frombuffer(blob, dtype=np.uint8).reshape(len(texts), width).copy()
-
-
-def _gather(table: np.ndarray, order: np.ndarray, *, cuts: np.ndarray, inserts: list[str]) -> bytes:
-    """The rows ``table[order]`` without their NUL padding, with line ``inserts[i]`` placed
-    before row ``cuts[i]`` of ``order``."""
-    picked = table[order]
-    blob = picked[picked != 0].tobytes()
-    lengths = np.count_nonzero(table, axis=1)[order]
-    offsets = np.concatenate([[0], np.cumsum(lengths)])[cuts].tolist()
-    pieces, start = [], 0
-    for offset, line in zip(offsets, inserts):
-        pieces += [blob[start:offset], line.encode("ascii") + b"\n"]
-        start = offset
-    return b"".join([*pieces, blob[start:]])
-
-
-def _text(lines: list[str]) -> bytes:
-    return "".join(f"{line}\n" for line in lines).encode("ascii")

@@ -89,7 +89,7 @@ def hpgl_program(plan: Plan, profile: Profile) -> bytes:
 
 
 def _program(plan: Plan, profile: Profile) -> tuple[bytes, Placement]:
-    if getattr(profile.firmware, "flow", "") != HPGL.flow:
+    if profile.firmware.program_language != HPGL.program_language:
         raise PencilbotError(
             f"profile {profile.name} is for {profile.firmware.title}, not an HP-GL plotter; "
             "give an HP-GL profile (e.g. --profile hp7475a) or write .gcode"

@@ -16,15 +16,15 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.svg import INKSCAPE_NS, PENCILBOT_NS, SVG_NS
-from pencilbot.export.svg_checks import MAX_DRAWING_MM, check_drawing, check_numbers, check_uses
+from pencilbot.export.svg_checks import check_drawing, check_numbers, check_uses
+from pencilbot.export.svg_size import NUMBER as _NUMBER
+from pencilbot.export.svg_size import px_per_inch, svg_size
 from pencilbot.export.svg_straight import read_straight
 from pencilbot.fileio import read_bounded
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import BLACK, ROLES, Layer, Page, Plan
 from pencilbot.planning.style import MAX_PEN_WIDTH
-from pencilbot.units import CSS_PX_PER_INCH, DEFAULT_PEN_WIDTH, MM_PER_INCH
-
-_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+from pencilbot.units import DEFAULT_PEN_WIDTH, MM_PER_INCH
 
 #: The longest SVG read (bytes): a million paths are about 100 MB; its tree takes ten times more.
 MAX_SVG_FILE = 1 << 30
@@ -149,10 +149,10 @@ def _read_own(data: bytes, path="the SVG") -> Plan | None:
     skeleton.append(data[at:])
     try:
         root = ET.fromstring(b"".join(skeleton))
-        width, height, scale = _svg_size(root, "", None)
+        width, height, scale = svg_size(root, "", None)
     except (ET.ParseError, PencilbotError, LookupError, ValueError):
         return None  # read as any SVG is: the same error, said once
-    assert height is not None  # without a dpi, _svg_size gives a size or raises
+    assert height is not None  # without a dpi, svg_size gives a size or raises
     g = f"{{{SVG_NS}}}g"
     tops = [child for child in root if child.tag == g]
     others = {child.tag for child in root} - {g, f"{{{SVG_NS}}}metadata"}
@@ -244,7 +244,7 @@ def _read_any(
     """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
     check_numbers(root, path, text)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
-    width, height, scale = _svg_size(root, path, dpi)
+    width, height, scale = svg_size(root, path, dpi)
     # vpype numbers layers by the digits of their labels (two "Layer 1"s would merge): give
     # every top-level element a label by its place, the layer attributes having been read.
     tops = [element for element in root if _local(element.tag) not in _NOT_DRAWN]
@@ -263,7 +263,7 @@ def _read_any(
         straight is not None and height is not None
     ):  # straight lines only: read in whole arrays, as vpype would read them
         if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
-            scale = MM_PER_INCH / _px_per_inch(root, dpi)
+            scale = MM_PER_INCH / px_per_inch(root, dpi)
         layers: list[Layer] = []
         for place, points, offsets, stroke in straight:
             check_drawing(points * scale, path)
@@ -287,7 +287,7 @@ def _read_any(
             f"{path} was not written by pencilbot; reading other tools' SVGs needs vpype: "
             'pip install "pencilbot[vpype]"'
         ) from None
-    px_to_mm = MM_PER_INCH / _px_per_inch(root, dpi)  # nominally
+    px_to_mm = MM_PER_INCH / px_per_inch(root, dpi)  # nominally
     # vpype cuts a curve of length L into ceil(L / q) - 1 equal chords, each shorter than 2 q.
     quantization = (pen_width or DEFAULT_PEN_WIDTH) / 4 / px_to_mm
     try:
@@ -376,79 +376,6 @@ def _declares_stroke(elements: list[ET.Element], *, deep: bool = True) -> bool:
 
 
 # --- what both readers share -------------------------------------------------------------------
-
-_UNITS_TO_MM = {
-    "mm": 1.0,
-    "cm": 10.0,
-    "q": 0.25,
-    "in": MM_PER_INCH,
-    "pt": MM_PER_INCH / 72,
-    "pc": MM_PER_INCH / 6,
-    "px": MM_PER_INCH / CSS_PX_PER_INCH,
-}
-
-
-def _size_unit(root: ET.Element) -> str | None:
-    """The physical unit both ``width`` and ``height`` are given in, or None."""
-    width, height = (
-        re.fullmatch(rf"\s*{_NUMBER.pattern}\s*([a-zA-Z]*)\s*", root.get(attr, ""))
-        for attr in ("width", "height")
-    )
-    if width and height and width[1].lower() in _UNITS_TO_MM and height[1].lower() in _UNITS_TO_MM:
-        return width[1].lower()
-    return None
-
-
-def _px_per_inch(root: ET.Element, dpi: float | None) -> float:
-    """User units per inch: CSS pixels where width and height are physical sizes, else ``dpi``
-    (given: without it, :func:`_svg_size` has refused the file)."""
-    if _size_unit(root):
-        return CSS_PX_PER_INCH
-    assert dpi is not None
-    return dpi
-
-
-def _svg_size(root: ET.Element, path, dpi: float | None) -> tuple[float, float | None, float]:
-    """Page width and height in mm (None if the file gives no size at all) and mm per user unit."""
-    box = [float(v) for v in _NUMBER.findall(root.get("viewBox", ""))]
-    view = box if len(box) == 4 and box[2] > 0 and box[3] > 0 else None
-    if (size_unit := _size_unit(root)) is not None:
-        sizes = []
-        for attr in ("width", "height"):
-            given_number = _NUMBER.search(root.get(attr, ""))
-            assert given_number is not None  # _size_unit found one
-            number = float(given_number[0]) * _UNITS_TO_MM[size_unit]
-            if not 0 < number <= MAX_DRAWING_MM:
-                raise PencilbotError(
-                    f"{path}: the SVG's {attr} {root.get(attr)!r} is not a size; give width and height in mm"
-                )
-            sizes.append(number)
-        return sizes[0], sizes[1], sizes[0] / view[2] if view else _UNITS_TO_MM[size_unit]
-    given = (
-        f"width {root.get('width')!r} and height {root.get('height')!r}"
-        if root.get("width")
-        else "no width or height"
-    )
-    if dpi is None:
-        raise PencilbotError(
-            f"{path} gives {given}, no size on paper (no mm, cm, in, pt or px), so how large to draw it is "
-            "unknown; add --svg-dpi 96 to read its units as CSS pixels (as Inkscape does), or --page A4 "
-            "to fit it onto a sheet"
-        )
-    unit = MM_PER_INCH / dpi
-    given_width, given_height = (
-        _NUMBER.fullmatch((root.get(attr) or "").strip()) for attr in ("width", "height")
-    )
-    if (
-        given_width
-        and given_height
-        and all(0 < float(n[0]) * unit <= MAX_DRAWING_MM for n in (given_width, given_height))
-    ):
-        width, height = (float(n[0]) * unit for n in (given_width, given_height))
-        return width, height, width / view[2] if view else unit
-    if view:
-        return view[2] * unit, view[3] * unit, unit
-    return 0.0, None, unit
 
 
 def _page(root: ET.Element, width: float, height: float) -> Page:

@@ -138,6 +138,15 @@ class Firmware:
         idle status report).
     baud : int
         Serial speed (bit/s) the board's firmware is built for, the default of ``draw --baud``.
+    program_language : str
+        What a program for this firmware is written in: ``"gcode"`` (GRBL, grblHAL, Marlin, and
+        EBB boards, whose G-code the host translates) or ``"hpgl"``. Exporters, ``stat``,
+        ``simulate`` and ``demo`` ask it; nothing compares firmware names.
+    flow : str
+        How a sender paces the board: ``"acknowledged"`` (an answer per line, a receive budget)
+        or ``"polled"`` (no answers: the sender polls the free buffer, HP-GL's ``ESC.B``).
+    sim_board : str
+        Which board the virtual plotter plays for it besides GRBL's and the EBB (``"hpgl"``), or ``""``.
     """
 
     name: str
@@ -161,6 +170,9 @@ class Firmware:
     check_command: str = ""
     drain_command: str = ""
     baud: int = DEFAULT_BAUD
+    program_language: str = "gcode"
+    flow: str = "acknowledged"
+    sim_board: str = ""
 
     def moves_in_flight(self) -> int:
         """Most moves of lines the board has answered that may not have run yet: the planned

@@ -188,6 +188,7 @@ class Hpgl(Firmware):
     wake_bytes = protocol.ABORT_DEVICE_CONTROL + protocol.EXTENDED_ERROR  # a clean parser, no stale I/O error
     #: How a sender streams to this firmware: poll the free buffer bytes, no acknowledgements.
     flow = "polled"
+    program_language = "hpgl"
     #: Which board the virtual plotter plays for profiles of this firmware.
     sim_board = "hpgl"
     identify_command = b"OI;"

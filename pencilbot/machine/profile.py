@@ -75,14 +75,9 @@ from pencilbot.firmware.ebb import EbbSetup
 from pencilbot.machine.bed import MAX_BED, ORIGINS, Bed
 from pencilbot.machine.motion import Motion
 from pencilbot.machine.pen import PEN_KINDS, PenModel
-from pencilbot.machine.pens import LONGEST_PEN_NAME
-from pencilbot.machine.profile_checks import check_sendable, check_values
-from pencilbot.machine.templates import TemplateError, check_template, fill_template
+from pencilbot.machine.profile_checks import MAX_LINE, PEN_CHANGE_FIELDS, TEMPLATE_FIELDS, check_consistency
+from pencilbot.machine.templates import fill_template
 
-MAX_LINE = 80  # the longest line the writer produces: GRBL's line buffer, so every firmware takes it
-TEMPLATE_FIELDS = ("up", "down", "draw_feed", "travel_feed", "bed_width", "bed_height")
-#: A pen change's template may also name the pen asked for and its place in the load order.
-PEN_CHANGE_FIELDS = (*TEMPLATE_FIELDS, "pen", "number")
 #: A pen change when the profile gives no template: one program pause whose comment names the
 #: pen (a sender reads it for its prompt and its journal; GRBL's M0 is a feed hold until ~).
 PEN_CHANGE = "M0 (pen change: insert {pen})"
@@ -91,8 +86,9 @@ DEFAULT_PROFILE = "grbl-servo-a4"
 
 
 @dataclass(frozen=True)
-class Pen:
-    """How the pen moves: ``kind``, ``up``/``down`` values, command templates, delays in s."""
+class PenLift:
+    """How the pen is lifted and lowered (``Profile.pen``): ``kind``, ``up``/``down`` values, command
+    templates, delays in s. (A pen of a pen set, its ink and width, is :class:`pencilbot.machine.pens.Pen`.)"""
 
     kind: str
     up: float
@@ -145,7 +141,7 @@ class Profile:
     description: str
     bed: Bed
     motion: Motion
-    pen: Pen
+    pen: PenLift
     gcode: GcodeFormat
     pen_change: PenChange = PenChange()
     paper: Paper = Paper()
@@ -239,7 +235,7 @@ _TABLES: dict[str, tuple[type, dict[str, schema.Rule]]] = {
         },
     ),
     "pen": (
-        Pen,
+        PenLift,
         {
             "kind": schema.choice(PEN_KINDS),
             "up": _PEN_VALUE,
@@ -378,7 +374,7 @@ def profile_from_mapping(table: dict, *, where: str = "<profile>", default_name:
         **sections,
         source=where,
     )
-    _check_consistency(profile, where)
+    check_consistency(profile, where)
     return profile
 
 
@@ -404,68 +400,3 @@ def _section(table: dict, name: str, cls: type, rules: dict[str, schema.Rule], c
             if key in found
         }
     )
-
-
-def _check_consistency(profile: Profile, where: str) -> None:
-    """Rules that involve more than one key: templates, line numbers, pen direction, limits."""
-    if profile.bed.soft_limits and not profile.bed.homing:
-        raise ProfileError(
-            f"plotter profile {where}: [bed] soft_limits = true is invalid without homing = true; "
-            "soft limits need a homed machine (GRBL refuses $20=1 while $22=0)"
-        )
-    if profile.gcode.line_numbers and not profile.firmware.capabilities.line_numbers:
-        raise ProfileError(
-            f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "
-            f'"{profile.dialect}"; expected false ({profile.firmware.title} reads no N…*checksum lines)'
-        )
-    check_values(profile, where)
-    if profile.pen.up == profile.pen.down:
-        raise ProfileError(
-            f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid; expected a value other than "
-            f"down = {profile.pen.down:g} (with both the same the pen never lifts)"
-        )
-    if profile.pen.kind == "z" and not profile.pen.up > profile.pen.down:
-        raise ProfileError(
-            f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid for a Z pen; "
-            f"expected a Z height above down = {profile.pen.down:g} mm"
-        )
-    for section, key, text in (
-        ("pen", "up_command", profile.pen.up_command),
-        ("pen", "down_command", profile.pen.down_command),
-        ("gcode", "header", profile.gcode.header),
-        ("gcode", "footer", profile.gcode.footer),
-        ("pen_change", "command", profile.pen_change.command),
-    ):
-        if not text.isascii():
-            raise ProfileError(
-                f"plotter profile {where}: {_label(section, key)} = {text!r} is invalid; expected "
-                "plain ASCII G-code (firmware reads bytes; write comments without accents)"
-            )
-        try:
-            if section == "pen_change":  # measured with the longest name a pen may have
-                check_template(text, PEN_CHANGE_FIELDS)
-                lines = profile.pen_change_lines("W" * LONGEST_PEN_NAME, 99)
-            else:
-                check_template(text, TEMPLATE_FIELDS)
-                lines = profile.render(text)
-        except TemplateError as exc:
-            raise ProfileError(
-                f"plotter profile {where}: {_label(section, key)} = {text!r} is invalid: {exc}"
-            ) from None
-        if section == "pen" and not lines:
-            raise ProfileError(
-                f"plotter profile {where}: {_label(section, key)} is empty; expected the G-code "
-                f'that moves the pen, e.g. "M3 S{{{key[:-8]}}}"'
-            )
-        check_sendable(profile, where, _label(section, key), lines)
-        limit = MAX_LINE - (profile.firmware.frame_room if profile.gcode.line_numbers else 0)
-        for line in lines:
-            if len(line) > limit:
-                raise ProfileError(
-                    f"plotter profile {where}: {_label(section, key)} gives a line of {len(line)} "
-                    f"characters; expected at most {limit} per line"
-                )
-
-
-def _label(section: str, key: str) -> str:
-    return f"[{section}] {key}" if section else key

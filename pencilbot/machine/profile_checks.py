@@ -21,10 +21,16 @@ import re
 from typing import TYPE_CHECKING
 
 from pencilbot.errors import ProfileError
+from pencilbot.machine.pens import LONGEST_PEN_NAME
+from pencilbot.machine.templates import TemplateError, check_template
 
 if TYPE_CHECKING:
     from pencilbot.machine.profile import Profile
 
+MAX_LINE = 80  # the longest line the writer produces: GRBL's line buffer, so every firmware takes it
+TEMPLATE_FIELDS = ("up", "down", "draw_feed", "travel_feed", "bed_width", "bed_height")
+#: A pen change's template may also name the pen asked for and its place in the load order.
+PEN_CHANGE_FIELDS = (*TEMPLATE_FIELDS, "pen", "number")
 #: The range of a pen's ``up`` and ``down`` by what reads them (unit in words).
 PEN_RANGES = {
     "ebb": (0.0, 100.0, "percent of the servo's range"),
@@ -57,7 +63,7 @@ def check_values(profile: Profile, where: str) -> None:
                 f"plotter profile {where}: [pen] {key} = {value!r} is invalid; expected a number "
                 f"from {low:g} to {high:g} ({unit})"
             )
-    if getattr(fw, "flow", "") == "polled" and profile.motion.draw_feed / 600 > MAX_HPGL_SPEED:
+    if fw.program_language == "hpgl" and profile.motion.draw_feed / 600 > MAX_HPGL_SPEED:
         raise ProfileError(
             f"plotter profile {where}: [motion] draw_feed = {profile.motion.draw_feed!r} is invalid; expected at most "
             f"{MAX_HPGL_SPEED * 600:g} mm/min (VS {MAX_HPGL_SPEED:g} cm/s, the fastest an HP-GL plotter takes)"
@@ -120,3 +126,68 @@ def check_sendable(profile: Profile, where: str, label: str, lines: list[str]) -
             f"plotter profile {where}: {label} leaves {mode} in force, and every move pencilbot writes after it is "
             f"absolute millimetres; end it with {back}"
         )
+
+
+def check_consistency(profile: Profile, where: str) -> None:
+    """Rules that involve more than one key: templates, line numbers, pen direction, limits."""
+    if profile.bed.soft_limits and not profile.bed.homing:
+        raise ProfileError(
+            f"plotter profile {where}: [bed] soft_limits = true is invalid without homing = true; "
+            "soft limits need a homed machine (GRBL refuses $20=1 while $22=0)"
+        )
+    if profile.gcode.line_numbers and not profile.firmware.capabilities.line_numbers:
+        raise ProfileError(
+            f"plotter profile {where}: [gcode] line_numbers = true is invalid for dialect "
+            f'"{profile.dialect}"; expected false ({profile.firmware.title} reads no N…*checksum lines)'
+        )
+    check_values(profile, where)
+    if profile.pen.up == profile.pen.down:
+        raise ProfileError(
+            f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid; expected a value other than "
+            f"down = {profile.pen.down:g} (with both the same the pen never lifts)"
+        )
+    if profile.pen.kind == "z" and not profile.pen.up > profile.pen.down:
+        raise ProfileError(
+            f"plotter profile {where}: [pen] up = {profile.pen.up:g} is invalid for a Z pen; "
+            f"expected a Z height above down = {profile.pen.down:g} mm"
+        )
+    for section, key, text in (
+        ("pen", "up_command", profile.pen.up_command),
+        ("pen", "down_command", profile.pen.down_command),
+        ("gcode", "header", profile.gcode.header),
+        ("gcode", "footer", profile.gcode.footer),
+        ("pen_change", "command", profile.pen_change.command),
+    ):
+        if not text.isascii():
+            raise ProfileError(
+                f"plotter profile {where}: {_label(section, key)} = {text!r} is invalid; expected "
+                "plain ASCII G-code (firmware reads bytes; write comments without accents)"
+            )
+        try:
+            if section == "pen_change":  # measured with the longest name a pen may have
+                check_template(text, PEN_CHANGE_FIELDS)
+                lines = profile.pen_change_lines("W" * LONGEST_PEN_NAME, 99)
+            else:
+                check_template(text, TEMPLATE_FIELDS)
+                lines = profile.render(text)
+        except TemplateError as exc:
+            raise ProfileError(
+                f"plotter profile {where}: {_label(section, key)} = {text!r} is invalid: {exc}"
+            ) from None
+        if section == "pen" and not lines:
+            raise ProfileError(
+                f"plotter profile {where}: {_label(section, key)} is empty; expected the G-code "
+                f'that moves the pen, e.g. "M3 S{{{key[:-8]}}}"'
+            )
+        check_sendable(profile, where, _label(section, key), lines)
+        limit = MAX_LINE - (profile.firmware.frame_room if profile.gcode.line_numbers else 0)
+        for line in lines:
+            if len(line) > limit:
+                raise ProfileError(
+                    f"plotter profile {where}: {_label(section, key)} gives a line of {len(line)} "
+                    f"characters; expected at most {limit} per line"
+                )
+
+
+def _label(section: str, key: str) -> str:
+    return f"[{section}] {key}" if section else key

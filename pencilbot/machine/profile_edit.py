@@ -11,7 +11,8 @@ import re
 from collections.abc import Mapping
 from dataclasses import replace
 
-from pencilbot.machine.profile import _TABLES, Profile, _check_consistency
+from pencilbot.machine.profile import _TABLES, Profile
+from pencilbot.machine.profile_checks import check_consistency
 
 
 def profile_with(
@@ -35,7 +36,7 @@ def profile_with(
     if not sections:
         return profile
     changed = replace(profile, **sections)
-    _check_consistency(changed, where)
+    check_consistency(changed, where)
     return changed
 
 

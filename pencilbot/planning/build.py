@@ -24,16 +24,14 @@ from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.color import color_hatching
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.shading import FACE_TONE, shade
+from pencilbot.planning.separation import color_hatching
+from pencilbot.planning.shading import FACE_TONE, Hatching
 from pencilbot.planning.sketch_tone import sketch_darkness
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import edge_strokes, edge_threshold
-from pencilbot.render import render_paths
-from pencilbot.units import MM_PER_INCH
 
 HOME = (0.0, 0.0)
 #: Darkness of the raster line drawing from which a face's features are drawn with the pen
@@ -89,7 +87,7 @@ def make_plan(
     pens : PenSet, str or Path, optional
         The pens (a :class:`~pencilbot.machine.pens.PenSet`, a shipped set's name or a file);
         default: the plotter's one pen, black. With several pens the plan is of the colour
-        sketch (:mod:`pencilbot.planning.color`).
+        sketch (:mod:`pencilbot.planning.separation`).
 
     Returns
     -------
@@ -268,34 +266,42 @@ def plan_from_sketch(
             strokes,
             form=1.0 - drawing.tone,
             paper=1.0 - drawing.gray,
-            angles=style.hatch_angles,
-            coverage=style.hatch_coverage,
-            form_scale=style.hatch_form,
-            min_run=style.min_hatch_run,
-            blank_below=style.hatch_blank_below,
-            wobble=style.hatch_jitter,
-            blur=style.hatch_blur,
-            seed=style.seed,
+            hatching=Hatching.of_style(style),
         )
     elif style.hatch:
         hatches = _shaded(drawing, layout, strokes, style, important, dithered, faces)
         layers += [layer for layer in hatches if layer.paths]
-    if pens is None:
-        layers.append(Layer("edges", strokes, pen_width=style.pen_width, role="edges"))
-    else:
-        dark = pens.darkest
-        layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
-        layers.append(
-            Layer(
-                f"{dark.name}-edges" if in_color else "edges",
-                strokes,
-                pen_width=dark.width,
-                role="edges",
-                pen=dark.name,
-                color=dark.color,
-            )
-        )
+    layers = _with_edges(layers, strokes, style, pens)
 
+    ordered = _ordered(layers, style)
+    meta = _meta(source, style, page, layout, line, threshold, faces, pens)
+    return Plan(page=page, layers=tuple(ordered), meta=meta)
+
+
+def _with_edges(layers: list[Layer], strokes: Paths, style: Style, pens: PenSet | None) -> list[Layer]:
+    """``layers`` and the edges after them, last; with pens, every layer not yet a pen's and
+    the edges in the darkest pen."""
+    if pens is None:
+        return [*layers, Layer("edges", strokes, pen_width=style.pen_width, role="edges")]
+    in_color = len(pens.pens) > 1
+    dark = pens.darkest
+    layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
+    layers.append(
+        Layer(
+            f"{dark.name}-edges" if in_color else "edges",
+            strokes,
+            pen_width=dark.width,
+            role="edges",
+            pen=dark.name,
+            color=dark.color,
+        )
+    )
+    return layers
+
+
+def _ordered(layers: list[Layer], style: Style) -> list[Layer]:
+    """Each layer's paths ordered for short pen-up travel, from where the layer before ended
+    (the first from the plotter's home)."""
     ordered, position = [], HOME
     for layer in layers:
         started = time.perf_counter()
@@ -325,7 +331,11 @@ def plan_from_sketch(
         log.debug(
             "layer %s: %d paths, ordered in %.2f s", layer.name, len(paths), time.perf_counter() - started
         )
+    return ordered
 
+
+def _meta(source: str, style: Style, page: Page, layout: Layout, line, threshold: float, faces, pens) -> dict:
+    """The plan's provenance: where the picture came from and every drawing parameter."""
     meta = {
         "source": source,
         "style": style.name,
@@ -352,7 +362,7 @@ def plan_from_sketch(
         meta["pens"] = f"{pens.name}: " + ", ".join(
             f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order
         )
-    return Plan(page=page, layers=tuple(ordered), meta=meta)
+    return meta
 
 
 def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, dithered, faces: list) -> list:
@@ -368,21 +378,13 @@ def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, di
         strokes.drawn_lengths().sum()
     )
     scale = 1.0
+    hatching = Hatching.of_style(style)
     for _ in range(2):
-        layers = shade(
+        layers = hatching.shade(
             scale * tone,
             layout,
             strokes,
             paper=1.0 - drawing.gray,
-            pen_width=style.pen_width,
-            angles=style.hatch_angles,
-            coverage=style.hatch_coverage,
-            form_scale=style.hatch_form,
-            min_run=style.min_hatch_run,
-            blank_below=style.hatch_blank_below,
-            wobble=style.hatch_jitter,
-            blur=style.hatch_blur,
-            seed=style.seed,
             important=important,
             dithered=dithered,
             face_darkness=face_tone,
@@ -446,38 +448,3 @@ def _path_means(strokes: Paths, layout: Layout, values: np.ndarray) -> np.ndarra
     px = np.rint(layout.mm_to_px(strokes.points)).astype(np.intp)
     cols, rows = np.clip(px[:, 0], 0, values.shape[1] - 1), np.clip(px[:, 1], 0, values.shape[0] - 1)
     return np.bincount(strokes.owners(), values[rows, cols], minlength=len(strokes)) / strokes.lengths
-
-
-def ink_on_image_grid(paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1) -> np.ndarray:
-    """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
-
-    Parameters
-    ----------
-    paths : Paths
-        Paths in page mm, Y up.
-    layout : Layout
-        The placement that produced them.
-    pen_width : float
-        Pen width, mm.
-    coarsen : int
-        Render on a grid this many times coarser, each cell a ``coarsen`` × ``coarsen`` block of
-        image pixels from the top-left: for callers that blur the result anyway (the canvas
-        conserves ink, so block values are the blocks' mean ink).
-
-    Returns
-    -------
-    (⌈H / coarsen⌉, ⌈W / coarsen⌉) float32 in [0, 1]
-        Ink per image pixel (or block), as the plotter's pen would lay it at plot scale.
-    """
-    height, width = layout.image_shape
-    # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
-    points = layout.mm_to_px(paths.points)
-    points[:, 1] = height - 0.5 - points[:, 1]
-    points[:, 0] += 0.5
-    return render_paths(
-        paths.with_points(points),
-        width,
-        height,
-        dpi=MM_PER_INCH / coarsen,
-        pen_width=pen_width / layout.mm_per_px,
-    )

@@ -31,8 +31,7 @@ from skimage.metrics import structural_similarity
 from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.paths import Paths
-from pencilbot.planning.build import ink_on_image_grid
-from pencilbot.planning.layout import Layout
+from pencilbot.planning.layout import Layout, ink_on_image_grid
 from pencilbot.planning.plan import Plan
 from pencilbot.render import render_paths
 from pencilbot.units import MM_PER_INCH

@@ -152,10 +152,10 @@ def family_lines(
         return _no_lines(coarse.shape)
     # A Newton step onto the nearest level φ = k·s (φ is nearly linear across a cell); its
     # gradient comes from the smooth coarse phase, in fine cells.
-    value = _bilinear(phi, rc)
+    value = bilinear(phi, rc)
     level = np.rint(value / spacing)
     at = coarse.to_rc(fine.to_mm(rc))
-    g = np.stack([_bilinear(grad_r, at), _bilinear(grad_c, at)], axis=1) * fine.cell
+    g = np.stack([bilinear(grad_r, at), bilinear(grad_c, at)], axis=1) * fine.cell
     rc = rc - ((value - level * spacing) / np.maximum((g**2).sum(axis=1), 1e-12))[:, None] * g
     rc = np.clip(rc, 0, [rows - 1, cols - 1])
     level = level.astype(np.int64)
@@ -217,6 +217,14 @@ def hatch_strokes(
     if fine is not None and not np.any(fine > 0):
         fine = None  # exactly the plain path: no rounding of cell counts differs
     scale = np.ones(len(lines.points)) if fine is None else 1.0 - (1.0 - FINE) * np.clip(fine, 0.0, 1.0)
+    on = _switched_on(
+        lines, request, pen_width=pen_width, min_run=min_run, offset=offset, fine=fine, scale=scale
+    )
+    return _strokes(lines, on, min_run, scale)
+
+
+def _switched_on(lines: HatchLines, request, *, pen_width: float, min_run: float, offset: float, fine, scale):
+    """(N,) bool: the samples drawn, by the ordered dither of lines and dash cells (see the module)."""
     # The share of lines needed, smoothed along each line over a shortest stroke: a line
     # switches on or off where the tone really changes, not at every ripple of the request.
     raw = np.asarray(request, np.float64) / np.maximum(lines.full, 1e-6)
@@ -240,6 +248,11 @@ def hatch_strokes(
     duty = np.bincount(key, weights=share / line_share) / np.bincount(key)
     dash_rank = np.mod(cell * GOLDEN + lines.level * 0.7548776662 + offset, 1.0)
     on = (level_rank < line_share) & (dash_rank < duty[key]) & (share > 0)
+    return on
+
+
+def _strokes(lines: HatchLines, on: np.ndarray, min_run: float, scale: np.ndarray) -> Paths:
+    """The runs of ``on`` samples as pen strokes: short gaps bridged, crumbs and hooks dropped."""
     # Runs of "on" samples within a line.
     starts, stops = _runs(on, lines.line)
     if starts.size == 0:
@@ -375,11 +388,6 @@ def trace_families(
         )
         for j, angle in enumerate(angles)
     ]
-
-
-def _bilinear(grid: np.ndarray, rc: np.ndarray) -> np.ndarray:
-    """Bilinear interpolation of ``grid`` at fractional (row, col), clamped to the grid."""
-    return bilinear(grid, rc)
 
 
 def _resample(

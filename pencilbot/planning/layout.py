@@ -14,7 +14,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from pencilbot.errors import PencilbotError
+from pencilbot.paths import Paths
 from pencilbot.planning.plan import DEFAULT_MARGIN, Page, Plan
+from pencilbot.units import MM_PER_INCH
 
 # Portrait sizes in mm (ISO 216 and US Letter).
 PAGE_SIZES: dict[str, tuple[float, float]] = {
@@ -213,3 +215,40 @@ def _alignment(align: str) -> tuple[float, float]:
                 "such as top-left"
             )
     return fx, fy
+
+
+def ink_on_image_grid(paths: Paths, layout: Layout, *, pen_width: float, coarsen: int = 1) -> np.ndarray:
+    """Darkness of pen paths (page mm) rendered on the image's pixel grid, whatever the rotation.
+
+    Parameters
+    ----------
+    paths : Paths
+        Paths in page mm, Y up.
+    layout : Layout
+        The placement that produced them.
+    pen_width : float
+        Pen width, mm.
+    coarsen : int
+        Render on a grid this many times coarser, each cell a ``coarsen`` × ``coarsen`` block of
+        image pixels from the top-left: for callers that blur the result anyway (the canvas
+        conserves ink, so block values are the blocks' mean ink).
+
+    Returns
+    -------
+    (⌈H / coarsen⌉, ⌈W / coarsen⌉) float32 in [0, 1]
+        Ink per image pixel (or block), as the plotter's pen would lay it at plot scale.
+    """
+    from pencilbot.render import render_paths  # not at the top: the layout is light to import
+
+    height, width = layout.image_shape
+    # A canvas whose "mm" are image pixels: pixel (col, row) is centred at (col + ½, H − row − ½).
+    points = layout.mm_to_px(paths.points)
+    points[:, 1] = height - 0.5 - points[:, 1]
+    points[:, 0] += 0.5
+    return render_paths(
+        paths.with_points(points),
+        width,
+        height,
+        dpi=MM_PER_INCH / coarsen,
+        pen_width=pen_width / layout.mm_per_px,
+    )

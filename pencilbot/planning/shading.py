@@ -15,6 +15,8 @@ reach full coverage, mid-tones get their share and the tone around contours is k
 
 from __future__ import annotations
 
+from dataclasses import dataclass, fields
+
 import cv2
 import numpy as np
 
@@ -71,46 +73,13 @@ FACE_CORRECTION_BLUR = 0.7
 FACE_TONE = "face-tone"
 
 
-def shade(
-    darkness: np.ndarray,
-    layout,
-    edges: Paths,
-    *,
-    paper: np.ndarray | None = None,
-    form: np.ndarray | None = None,
-    pen_width: float = DEFAULT_PEN_WIDTH,
-    angles: tuple[float, ...] = HATCH_ANGLES,
-    coverage: float = HATCH_COVERAGE,
-    overlap: float = HATCH_OVERLAP,
-    form_scale: float = FORM_SCALE,
-    min_run: float = MIN_HATCH_RUN,
-    blank_below: float = BLANK_BELOW,
-    wobble: float = 0.0,
-    blur: float = TONE_BLUR,
-    rounds: int = 2,
-    seed: int = 0,
-    important: np.ndarray | None = None,
-    dithered: np.ndarray | None = None,
-    face_darkness: np.ndarray | None = None,
-) -> list[Layer]:
-    """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
+@dataclass(frozen=True)
+class Hatching:
+    """How tone becomes hatching: every parameter of the tone loop, in one object that travels
+    down from the style (:meth:`of_style`) to the loop (:meth:`shade`, :class:`ToneLoop`).
 
-    Parameters
+    Attributes
     ----------
-    darkness : (H, W) float array in [0, 1]
-        Tone to reproduce on the layout's image grid (e.g. 1 − J).
-    layout : Layout
-        Placement of the image on the page.
-    edges : Paths
-        The edge strokes (page mm) that will be drawn over the hatching.
-    paper : (H, W) float array in [0, 1], optional
-        How dark the *photo* is on the image grid (1 − luma). Where it is below ``blank_below``
-        (after the blur) the paper stays blank whatever the tone asks. Judging paper by the
-        photo, not the tone, keeps a white sheet white and still shades a light face that the
-        pencil tone model maps close to paper. Default: ``darkness``.
-    form : (H, W) float array, optional
-        Tone whose forms the lines follow (the direction field's picture); default
-        ``darkness``. A colour plan gives every pen the picture's tone, so all pens follow one form.
     pen_width : float
         Pen width, mm.
     angles : tuple of float
@@ -125,7 +94,7 @@ def shade(
     min_run : float
         Shortest hatch stroke, mm.
     blank_below : float
-        Photo darkness (see ``paper``) below which the paper stays blank.
+        Photo darkness (see ``paper`` of :meth:`shade`) below which the paper stays blank.
     wobble : float
         Smooth random bend of the lines, fraction of the spacing.
     blur : float
@@ -133,108 +102,239 @@ def shade(
     rounds : int
         Hatch–render–correct rounds (1 = no correction).
     seed : int
-    important : (H, W) float array in [0, 1], optional
-        Where the picture matters most (faces, on the layout's image grid; e.g.
-        :func:`pencilbot.imaging.faces.face_mask`). There the tone is matched at the finer
-        ``FACE_BLUR`` and the hatching is finer (``fine`` of
-        :func:`~pencilbot.planning.hatching.hatch_strokes`); blended by the mask's value.
-    dithered : (H, W) float array in [0, 1], optional
-        Faces drawn at the pen's own scale instead (on the layout's image grid; where above ½):
-        ``darkness`` there is dithered into runs (:mod:`pencilbot.planning.dither`) and the
-        hatching leaves it bare, counting the runs' ink as it counts the edges'.
-    face_darkness : (H, W) float array in [0, 1], optional
-        The tone the dithered faces are drawn to; default ``darkness``.
-
-    Returns
-    -------
-    list of Layer
-        One per family, lightest first, from the last round; then ``FACE_TONE``, the dithered
-        faces' runs, if any.
     """
-    box = layout.drawing_box
-    # Neighbouring lines must not share a cell: ink of separate paths in one cell stacks as
-    # 1 − Π(1 − c), which undercounts lines that lie side by side, and the loop would overshoot.
-    cell = min(TONE_CELL, pen_width / coverage / 2)
-    grid = Grid(box, cell)
-    sigma = blur / cell
-    raw = np.clip(sample_image(darkness, layout, grid), 0.0, 1.0)
-    tone = _blur(raw, sigma)
-    photo = tone if paper is None else _blur(sample_image(paper, layout, grid), sigma)
-    photo_darkness = darkness if paper is None else paper
-    tone[photo < blank_below] = 0.0
-    fine = None
-    if important is not None and np.any(important > 0):
-        fine = np.clip(sample_image(important, layout, grid), 0.0, 1.0)
-        fine_goal = _blur(raw, FACE_BLUR / cell)
-        fine_goal[photo < blank_below] = 0.0
-    field_grid = Grid(box, FIELD_CELL)
-    field = direction_field(
-        sample_image(darkness if form is None else form, layout, field_grid),
-        field_grid,
-        scale=form_scale,
-        calm=0.008 if form_scale > 0 else np.inf,
-    )
-    families = _Families(
-        field, grid, angles, pen_width=pen_width, coverage=coverage, wobble=wobble, seed=seed
-    )
-    edge_ink = ink_on_grid(edges, grid, pen_width)
-    goal = tone
-    # Where the tone itself changes over a millimetre or two, the loop corrects at that scale.
-    detail = np.abs(_blur(goal, SHARP_CORRECTION_BLUR / cell) - _blur(goal, CORRECTION_BLUR / cell))
-    detail = np.clip(detail / SHARP_ERROR, 0.0, 1.0)
-    paper = tone == 0.0
-    runs = Paths.empty()
-    if dithered is not None and np.any(dithered > 0.5):
-        runs = face_runs(
-            darkness if face_darkness is None else face_darkness,
-            dithered,
-            layout,
-            edges,
-            pen_width=pen_width,
-            blank_below=blank_below,
-            paper=photo_darkness,
+
+    pen_width: float = DEFAULT_PEN_WIDTH
+    angles: tuple[float, ...] = HATCH_ANGLES
+    coverage: float = HATCH_COVERAGE
+    overlap: float = HATCH_OVERLAP
+    form_scale: float = FORM_SCALE
+    min_run: float = MIN_HATCH_RUN
+    blank_below: float = BLANK_BELOW
+    wobble: float = 0.0
+    blur: float = TONE_BLUR
+    rounds: int = 2
+    seed: int = 0
+
+    @classmethod
+    def of_style(cls, style) -> Hatching:
+        """The hatching a :class:`~pencilbot.planning.style.Style` asks for."""
+        return cls(
+            pen_width=style.pen_width,
+            angles=style.hatch_angles,
+            coverage=style.hatch_coverage,
+            form_scale=style.hatch_form,
+            min_run=style.min_hatch_run,
+            blank_below=style.hatch_blank_below,
+            wobble=style.hatch_jitter,
+            blur=style.hatch_blur,
+            seed=style.seed,
         )
-        edge_ink = 1.0 - (1.0 - edge_ink) * (1.0 - ink_on_grid(runs, grid, pen_width))
-        paper |= sample_image(dithered, layout, grid) > 0.5
-    # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
-    # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
-    # would spread a contour's share into a pale band beside it.
-    local_edges = _blur(edge_ink, 0.5 / cell)
-    request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
-    request[paper] = 0.0
-    for round_ in range(max(1, rounds)):
-        families.trace_for(request)
-        layers = hatch_layers(
+
+    def shade(
+        self,
+        darkness: np.ndarray,
+        layout,
+        edges: Paths,
+        *,
+        paper: np.ndarray | None = None,
+        form: np.ndarray | None = None,
+        important: np.ndarray | None = None,
+        dithered: np.ndarray | None = None,
+        face_darkness: np.ndarray | None = None,
+    ) -> list[Layer]:
+        """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
+
+        Parameters
+        ----------
+        darkness : (H, W) float array in [0, 1]
+            Tone to reproduce on the layout's image grid (e.g. 1 − J).
+        layout : Layout
+            Placement of the image on the page.
+        edges : Paths
+            The edge strokes (page mm) that will be drawn over the hatching.
+        paper : (H, W) float array in [0, 1], optional
+            How dark the *photo* is on the image grid (1 − luma). Where it is below ``blank_below``
+            (after the blur) the paper stays blank whatever the tone asks. Judging paper by the
+            photo, not the tone, keeps a white sheet white and still shades a light face that the
+            pencil tone model maps close to paper. Default: ``darkness``.
+        form : (H, W) float array, optional
+            Tone whose forms the lines follow (the direction field's picture); default
+            ``darkness``. A colour plan gives every pen the picture's tone, so all pens follow one form.
+        important : (H, W) float array in [0, 1], optional
+            Where the picture matters most (faces, on the layout's image grid; e.g.
+            :func:`pencilbot.imaging.faces.face_mask`). There the tone is matched at the finer
+            ``FACE_BLUR`` and the hatching is finer (``fine`` of
+            :func:`~pencilbot.planning.hatching.hatch_strokes`); blended by the mask's value.
+        dithered : (H, W) float array in [0, 1], optional
+            Faces drawn at the pen's own scale instead (on the layout's image grid; where above ½):
+            ``darkness`` there is dithered into runs (:mod:`pencilbot.planning.dither`) and the
+            hatching leaves it bare, counting the runs' ink as it counts the edges'.
+        face_darkness : (H, W) float array in [0, 1], optional
+            The tone the dithered faces are drawn to; default ``darkness``.
+
+        Returns
+        -------
+        list of Layer
+            One per family, lightest first, from the last round; then ``FACE_TONE``, the dithered
+            faces' runs, if any.
+        """
+        loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
+        runs = Paths.empty()
+        if dithered is not None and np.any(dithered > 0.5):
+            runs = face_runs(
+                darkness if face_darkness is None else face_darkness,
+                dithered,
+                layout,
+                edges,
+                pen_width=self.pen_width,
+                blank_below=self.blank_below,
+                paper=loop.photo_darkness,
+            )
+        layers = loop.run(edges, runs, dithered)
+        if len(runs):
+            layers = [*layers, Layer(FACE_TONE, runs, pen_width=self.pen_width, role="hatch")]
+        return layers
+
+
+def shade(darkness: np.ndarray, layout, edges: Paths, **options) -> list[Layer]:
+    """:meth:`Hatching.shade` with the :class:`Hatching` of ``options`` (its fields; the rest,
+    ``paper``, ``form``, ``important``, ``dithered``, ``face_darkness``, go to the loop)."""
+    names = {f.name for f in fields(Hatching)}
+    hatching = Hatching(**{key: value for key, value in options.items() if key in names})
+    return hatching.shade(darkness, layout, edges, **{k: v for k, v in options.items() if k not in names})
+
+
+class ToneLoop:
+    """The hatching engine of one picture: its :class:`Hatching`, the grid the tone is compared
+    on, the direction field the lines follow and the families traced so far. :meth:`run` hatches,
+    renders, corrects and hatches again.
+
+    Tracing a family is the costly part of hatching; the darkest families serve only the
+    darkest tones (with the default onset the third starts near 0.86), which many pictures
+    never reach. A family is traced once some of the request exceeds what the ones before it
+    can lay down together.
+    """
+
+    def __init__(
+        self, hatching: Hatching, darkness, layout, *, paper=None, form=None, important=None
+    ) -> None:
+        self.hatching = h = hatching
+        box = layout.drawing_box
+        # Neighbouring lines must not share a cell: ink of separate paths in one cell stacks as
+        # 1 − Π(1 − c), which undercounts lines that lie side by side, and the loop would overshoot.
+        self.cell = cell = min(TONE_CELL, h.pen_width / h.coverage / 2)
+        self.grid = grid = Grid(box, cell)
+        self.layout = layout
+        self.sigma = h.blur / cell
+        raw = np.clip(sample_image(darkness, layout, grid), 0.0, 1.0)
+        tone = _blur(raw, self.sigma)
+        photo = tone if paper is None else _blur(sample_image(paper, layout, grid), self.sigma)
+        self.photo_darkness = darkness if paper is None else paper
+        tone[photo < h.blank_below] = 0.0
+        self.tone = tone
+        self.fine = self.fine_goal = None
+        if important is not None and np.any(important > 0):
+            self.fine = np.clip(sample_image(important, layout, grid), 0.0, 1.0)
+            self.fine_goal = _blur(raw, FACE_BLUR / cell)
+            self.fine_goal[photo < h.blank_below] = 0.0
+        field_grid = Grid(box, FIELD_CELL)
+        self.field = direction_field(
+            sample_image(darkness if form is None else form, layout, field_grid),
+            field_grid,
+            scale=h.form_scale,
+            calm=0.008 if h.form_scale > 0 else np.inf,
+        )
+        self.angles = tuple(h.angles)
+        self.lines: list = []
+        self.capacity = np.zeros((len(self.angles), *grid.shape))
+
+    def run(self, edges: Paths, runs: Paths, dithered) -> list[Layer]:
+        """The hatch layers of the last round (the faces' ``runs`` counted as the edges' ink,
+        the ``dithered`` faces left bare)."""
+        h, grid, cell, tone = self.hatching, self.grid, self.cell, self.tone
+        edge_ink = self.ink(edges)
+        # Where the tone itself changes over a millimetre or two, the loop corrects at that scale.
+        detail = np.abs(_blur(tone, SHARP_CORRECTION_BLUR / cell) - _blur(tone, CORRECTION_BLUR / cell))
+        detail = np.clip(detail / SHARP_ERROR, 0.0, 1.0)
+        paper = tone == 0.0
+        if len(runs):
+            edge_ink = 1.0 - (1.0 - edge_ink) * (1.0 - self.ink(runs))
+            paper |= sample_image(dithered, self.layout, grid) > 0.5
+        # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
+        # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
+        # would spread a contour's share into a pale band beside it.
+        local_edges = _blur(edge_ink, 0.5 / cell)
+        request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
+        request[paper] = 0.0
+        for round_ in range(max(1, h.rounds)):
+            layers = self.hatch(request)
+            if round_ == h.rounds - 1:
+                break
+            hatch_ink = self.ink(Paths.concat(layer.paths for layer in layers))
+            request = np.clip(
+                request + GAIN * self.error(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), detail), 0.0, 1.0
+            )
+            request[paper] = 0.0
+        return layers
+
+    def hatch(self, request: np.ndarray) -> list[Layer]:
+        """One round's hatch layers for ``request``, tracing the families it needs first."""
+        h = self.hatching
+        self._trace_for(request)
+        return hatch_layers(
             request,
-            grid,
-            field,
-            pen_width=pen_width,
-            angles=angles,
-            coverage=coverage,
-            overlap=overlap,
-            min_run=min_run,
-            lines=families.lines,
-            capacity=families.capacity,
-            fine=fine,
+            self.grid,
+            self.field,
+            pen_width=h.pen_width,
+            angles=h.angles,
+            coverage=h.coverage,
+            overlap=h.overlap,
+            min_run=h.min_run,
+            lines=self.lines,
+            capacity=self.capacity,
+            fine=self.fine,
         )
-        if round_ == rounds - 1:
-            break
-        hatch_ink = ink_on_grid(Paths.concat(layer.paths for layer in layers), grid, pen_width)
-        ink = 1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink)
+
+    def error(self, ink: np.ndarray, detail: np.ndarray) -> np.ndarray:
+        """The tone ``ink`` misses, spread for correcting the request."""
+        cell = self.cell
         # Correct at the scale of the hatch pattern itself (light tones are dashes millimetres
         # apart): a correction finer than that only moves dashes about, unless the tone has
         # detail at that scale (SHARP_ERROR).
-        difference = goal - _blur(ink, sigma)
+        difference = self.tone - _blur(ink, self.sigma)
         error = _blur(difference, CORRECTION_BLUR / cell)
         error = (1.0 - detail) * error + detail * _blur(difference, SHARP_CORRECTION_BLUR / cell)
-        if fine is not None:  # in faces the hatching is finer, and so is the correction
-            fine_error = _blur(fine_goal - _blur(ink, FACE_BLUR / cell), FACE_CORRECTION_BLUR / cell)
-            error = (1.0 - fine) * error + fine * fine_error
-        request = np.clip(request + GAIN * error, 0.0, 1.0)
-        request[paper] = 0.0
-    if len(runs):
-        layers = [*layers, Layer(FACE_TONE, runs, pen_width=pen_width, role="hatch")]
-    return layers
+        if self.fine is not None:  # in faces the hatching is finer, and so is the correction
+            fine_error = _blur(self.fine_goal - _blur(ink, FACE_BLUR / cell), FACE_CORRECTION_BLUR / cell)
+            error = (1.0 - self.fine) * error + self.fine * fine_error
+        return error
+
+    def ink(self, paths: Paths) -> np.ndarray:
+        """Darkness of ``paths`` on the loop's grid."""
+        return ink_on_grid(paths, self.grid, self.hatching.pen_width)
+
+    def _trace_for(self, request: np.ndarray) -> None:
+        h = self.hatching
+        while len(self.lines) < len(self.angles) and self._short(request):
+            j = len(self.lines)
+            family = family_lines(
+                self.field.rotated(self.angles[j]),
+                seed=h.seed + j,
+                pen_width=h.pen_width,
+                coverage=h.coverage,
+                wobble=h.wobble,
+            )
+            self.lines.append(family)
+            self.capacity[j] = family_capacity([family], self.field, self.grid)[0]
+
+    def _short(self, request: np.ndarray) -> bool:
+        if not self.lines:
+            return bool(np.any(request > 0))
+        reach = 1.0 - np.prod(1.0 - self.capacity[: len(self.lines)], axis=0)
+        wanting = request > 0
+        short = wanting & (request > reach - SHORTFALL)
+        return short.sum() > SHORT_SHARE * max(wanting.sum(), 1)
 
 
 def face_runs(
@@ -269,40 +369,6 @@ def face_runs(
     given = ink_on_grid(edges, grid, pen_width)[window]
     on = error_diffuse(target, region[window], given, pen=1.0 / pitch)
     return run_strokes(on, grid, (rows.min(), cols.min()))
-
-
-class _Families:
-    """The hatch families, traced only as far as the tone needs them.
-
-    Tracing a family is the costly part of hatching; the darkest families serve only the
-    darkest tones (with the default onset the third starts near 0.86), which many pictures
-    never reach. A family is traced once some of the request exceeds what the ones before it
-    can lay down together.
-    """
-
-    def __init__(self, field, grid: Grid, angles, **options) -> None:
-        self.field, self.grid, self.angles, self.options = field, grid, tuple(angles), options
-        self.lines: list = []
-        self.capacity = np.zeros((len(self.angles), *grid.shape))
-
-    def trace_for(self, request: np.ndarray) -> None:
-        while len(self.lines) < len(self.angles) and self._short(request):
-            j = len(self.lines)
-            family = family_lines(
-                self.field.rotated(self.angles[j]),
-                seed=self.options["seed"] + j,
-                **{k: v for k, v in self.options.items() if k != "seed"},
-            )
-            self.lines.append(family)
-            self.capacity[j] = family_capacity([family], self.field, self.grid)[0]
-
-    def _short(self, request: np.ndarray) -> bool:
-        if not self.lines:
-            return bool(np.any(request > 0))
-        reach = 1.0 - np.prod(1.0 - self.capacity[: len(self.lines)], axis=0)
-        wanting = request > 0
-        short = wanting & (request > reach - SHORTFALL)
-        return short.sum() > SHORT_SHARE * max(wanting.sum(), 1)
 
 
 def ink_on_grid(paths: Paths, grid: Grid, pen_width: float) -> np.ndarray:

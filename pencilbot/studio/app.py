@@ -81,18 +81,19 @@ def profile_of(body: dict):
     return parse_options({"profile": body.get("profile", "")}).plotter()
 
 
-def create_app(
-    studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None, names=()
-) -> Guard:
-    """The studio as an ASGI app, behind its :class:`~pencilbot.studio.guard.Guard`."""
+class _Pages:
+    """The studio's HTTP endpoints, one method a route, over one :class:`Studio`."""
 
-    async def index(request: Request):
+    def __init__(self, studio: Studio, token: str | None) -> None:
+        self.studio, self.token = studio, token
+
+    async def index(self, request: Request):
         response = FileResponse(STATIC / "index.html")
-        if token is not None and request.query_params.get("token"):
-            response.set_cookie(COOKIE, token, httponly=True, samesite="strict")
+        if self.token is not None and request.query_params.get("token"):
+            response.set_cookie(COOKIE, self.token, httponly=True, samesite="strict")
         return response
 
-    async def choices(request: Request):
+    async def choices(self, request: Request):
         from pencilbot.configs_io import config_names
         from pencilbot.machine.pens import list_pen_sets
         from pencilbot.machine.profile import default_profile
@@ -117,18 +118,18 @@ def create_app(
                 "style": default_style(),
                 "pens": list_pen_sets(),
                 "profiles": list(config_names("plotters")),
-                "profile": studio.profile or default_profile(),
+                "profile": self.studio.profile or default_profile(),
                 "orientations": list(ORIENTATIONS),
                 "pages": ["A5", "A4", "A3", "Letter"],
                 "style_defaults": {name: defaults(name) for name in list_styles()},
-                "ports": await run_in_threadpool(plotter_ports, studio.ports),
+                "ports": await run_in_threadpool(plotter_ports, self.studio.ports),
             }
         )
 
-    async def state(request: Request):
-        return JSONResponse(studio.summary())
+    async def state(self, request: Request):
+        return JSONResponse(self.studio.summary())
 
-    async def upload(request: Request):
+    async def upload(self, request: Request):
         size = request.headers.get("content-length")
         if size is None or not size.isdigit():
             return error(411, "send the photo with its length (Content-Length)")
@@ -144,25 +145,25 @@ def create_app(
                 return error(413, "the photo is larger than it said")
             chunks.append(chunk)
         info = await run_in_threadpool(
-            studio.set_photo, b"".join(chunks), request.headers.get("x-filename", "")
+            self.studio.set_photo, b"".join(chunks), request.headers.get("x-filename", "")
         )
         return JSONResponse(info)
 
-    async def drawing(request: Request):
+    async def drawing(self, request: Request):
         options = parse_options(await json_body(request))
-        if studio.photo is None:
-            studio.options = options
-            studio.changed()  # every tab shows the same settings
+        if self.studio.photo is None:
+            self.studio.options = options
+            self.studio.changed()  # every tab shows the same settings
             return JSONResponse({"generation": 0})
-        return JSONResponse({"generation": await run_in_threadpool(studio.set_options, options)})
+        return JSONResponse({"generation": await run_in_threadpool(self.studio.set_options, options)})
 
-    async def picture(request: Request):
+    async def picture(self, request: Request):
         name = request.path_params["name"]
         if name == "photo":
-            data = studio.thumbnail
+            data = self.studio.thumbnail
         else:
             stage, _, kind = name.partition("-")
-            result = studio.results.get(stage)
+            result = self.studio.results.get(stage)
             data = (
                 getattr(result, f"{kind}_png", b"")
                 if result is not None and kind in ("preview", "sketch")
@@ -172,14 +173,14 @@ def create_app(
             return error(404, "no such picture yet")
         return Response(data, media_type="image/png", headers={"Cache-Control": "no-store"})
 
-    async def download(request: Request):
+    async def download(self, request: Request):
         what = request.path_params["what"]
         if what == "sketch.png":
-            result = studio.results.get("full")
+            result = self.studio.results.get("full")
             if result is None or not result.sketch_png:
                 return error(404, "the drawing is not planned yet")
             return Response(result.sketch_png, media_type="image/png", headers=_attachment("sketch.png"))
-        plan = studio.full_plan()
+        plan = self.studio.full_plan()
         if what == "plan.svg":
             from pencilbot.export.svg import svg_text
 
@@ -192,31 +193,33 @@ def create_app(
             return Response(program, media_type="text/plain", headers=_attachment("plan.gcode"))
         return error(404, f"no download called {what}")
 
-    async def events(request: Request):
+    async def events(self, request: Request):
         async def stream():
             seen = -1
-            while not studio.closing and not await request.is_disconnected():
-                version = await run_in_threadpool(studio.wait_change, seen, 0.5)
+            while not self.studio.closing and not await request.is_disconnected():
+                version = await run_in_threadpool(self.studio.wait_change, seen, 0.5)
                 if version != seen:
                     seen = version
-                    yield f"data: {json.dumps(studio.summary())}\n\n"
+                    yield f"data: {json.dumps(self.studio.summary())}\n\n"
 
         return StreamingResponse(
             stream(), media_type="text/event-stream", headers={"Cache-Control": "no-store"}
         )
 
-    def chosen_port(body: dict) -> str:
+    def chosen_port(self, body: dict) -> str:
         port = body.get("port")
-        if not isinstance(port, str) or port not in {entry["port"] for entry in plotter_ports(studio.ports)}:
+        if not isinstance(port, str) or port not in {
+            entry["port"] for entry in plotter_ports(self.studio.ports)
+        }:
             raise PencilbotError(f"port {port!r} is not one of the plotters found; pick one from the list")
         return port
 
-    async def plot(request: Request):
+    async def plot(self, request: Request):
         body = await json_body(request)
-        port = chosen_port(body)
+        port = self.chosen_port(body)
         profile = profile_of(body)
-        plan = studio.full_plan()
-        gcode = studio.folder / f"plot-{len(studio.plotters.sessions) + 1}-{id(plan):x}.gcode"
+        plan = self.studio.full_plan()
+        gcode = self.studio.folder / f"plot-{len(self.studio.plotters.sessions) + 1}-{id(plan):x}.gcode"
 
         def write():
             from pencilbot import api
@@ -224,63 +227,74 @@ def create_app(
             api.export_gcode(plan, profile, gcode)
 
         await run_in_threadpool(write)
-        await run_in_threadpool(studio.controls.release)  # the plot takes the port over
-        session = studio.plotters.start(
-            port, port_url(port, profile.name, studio.sim_speed), profile.name, gcode
+        await run_in_threadpool(self.studio.controls.release)  # the plot takes the port over
+        session = self.studio.plotters.start(
+            port, port_url(port, profile.name, self.studio.sim_speed), profile.name, gcode
         )
         return JSONResponse(session.summary())
 
-    async def plot_button(request: Request):
+    async def plot_button(self, request: Request):
         body = await json_body(request)
-        port, button = chosen_port(body), request.path_params["button"]
+        port, button = self.chosen_port(body), request.path_params["button"]
         dx, dy = number(body, "dx"), number(body, "dy")
         if button == "resume-job":
-            await run_in_threadpool(studio.controls.release)
-            return JSONResponse(studio.plotters.resume(port).summary())
+            await run_in_threadpool(self.studio.controls.release)
+            return JSONResponse(self.studio.plotters.resume(port).summary())
         if button not in ("pause", "stop", "go", "give up", "jog"):
             return error(404, f"no plot button called {button}")
         try:
-            session = studio.plotters.get(port)
+            session = self.studio.plotters.get(port)
         except KeyError:
             return error(409, f"{port} is not plotting")
         session.press(button, dx, dy, prompt=body.get("prompt"))
         return JSONResponse(session.summary())
 
-    async def machine(request: Request):
+    async def machine(self, request: Request):
         body = await json_body(request)
-        port, action = chosen_port(body), request.path_params["action"]
+        port, action = self.chosen_port(body), request.path_params["action"]
         profile = profile_of(body).name
         dx, dy = number(body, "dx"), number(body, "dy")
-        session = studio.plotters.sessions.get(port)
+        session = self.studio.plotters.sessions.get(port)
         if session is not None and session.active:
             raise PlotBusy(f"{port} is plotting; its controls wait until the plot is done or stopped")
         said = await run_in_threadpool(
-            studio.controls.press, port_url(port, profile, studio.sim_speed), profile, action, dx, dy
+            self.studio.controls.press,
+            port_url(port, profile, self.studio.sim_speed),
+            profile,
+            action,
+            dx,
+            dy,
         )
         return JSONResponse({"said": said})
 
-    async def plot_paths(request: Request):
+    async def plot_paths(self, request: Request):
         from pencilbot.studio.drawn_json import job_drawing
 
         port = request.query_params.get("port", "")
-        session = studio.plotters.sessions.get(port)
+        session = self.studio.plotters.sessions.get(port)
         if session is None:
             return error(404, f"{port} has no plot")
         return JSONResponse(await run_in_threadpool(job_drawing, session.gcode, session.profile))
 
+
+def create_app(
+    studio: Studio, *, host: str = "127.0.0.1", port: int = 8765, token: str | None = None, names=()
+) -> Guard:
+    """The studio as an ASGI app, behind its :class:`~pencilbot.studio.guard.Guard`."""
+    pages = _Pages(studio, token)
     routes = [
-        Route("/", index),
-        Route("/api/choices", _refusals(choices)),
-        Route("/api/state", state),
-        Route("/api/photo", _refusals(upload), methods=["PUT", "POST"]),
-        Route("/api/drawing", _refusals(drawing), methods=["POST"]),
-        Route("/api/picture/{name}.png", picture),
-        Route("/api/download/{what}", _refusals(download)),
-        Route("/api/events", events),
-        Route("/api/plot", _refusals(plot), methods=["POST"]),
-        Route("/api/plot/{button}", _refusals(plot_button), methods=["POST"]),
-        Route("/api/machine/{action}", _refusals(machine), methods=["POST"]),
-        Route("/api/plot-paths", _refusals(plot_paths)),
+        Route("/", pages.index),
+        Route("/api/choices", _refusals(pages.choices)),
+        Route("/api/state", pages.state),
+        Route("/api/photo", _refusals(pages.upload), methods=["PUT", "POST"]),
+        Route("/api/drawing", _refusals(pages.drawing), methods=["POST"]),
+        Route("/api/picture/{name}.png", pages.picture),
+        Route("/api/download/{what}", _refusals(pages.download)),
+        Route("/api/events", pages.events),
+        Route("/api/plot", _refusals(pages.plot), methods=["POST"]),
+        Route("/api/plot/{button}", _refusals(pages.plot_button), methods=["POST"]),
+        Route("/api/machine/{action}", _refusals(pages.machine), methods=["POST"]),
+        Route("/api/plot-paths", _refusals(pages.plot_paths)),
         Mount("/static", StaticFiles(directory=STATIC)),
     ]
     app = Starlette(routes=routes)

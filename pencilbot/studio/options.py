@@ -1,8 +1,9 @@
 """What the page's controls may say, checked before anything runs.
 
 Every name the page sends (style, pen set, profile) must be one the library lists: a name is
-never taken as a file path. Numbers and the page go through the style's own schema
-(:func:`~pencilbot.planning.style.with_overrides`), as a style file's would.
+never taken as a file path. The controls become a :class:`~pencilbot.app.photo.PhotoRequest`
+with the studio's :data:`~pencilbot.app.photo.INTERACTIVE` limits, checked by the application
+layer as every front door's is (the style's schema, the sheet and pen caps, memory).
 """
 
 from __future__ import annotations
@@ -10,18 +11,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 
+from pencilbot.app.photo import INTERACTIVE, PhotoRequest, Prepared, prepare
 from pencilbot.configs_io import config_names
 from pencilbot.errors import PencilbotError
-from pencilbot.machine.pens import PenSet, list_pen_sets, load_pens
+from pencilbot.machine.pens import list_pen_sets
 from pencilbot.machine.profile import Profile, default_profile, load_profile
-from pencilbot.planning.layout import page_size
-from pencilbot.planning.style import Style, default_style, list_styles, load_style, with_overrides
+from pencilbot.planning.style import Style, default_style, list_styles
 
-#: The largest sheet side the page may ask for (mm): planning memory grows with the page's area
-#: over the pen width, and the studio plans on every change.
-MAX_SHEET_MM = 1200.0
-#: The thinnest pen the page may ask for (mm), for the same reason.
-MIN_STUDIO_PEN = 0.1
+#: Dots per inch of the page's previews: the full one shows the real pen width (0.3 mm ~ 1 px).
+PREVIEW_DPI = 100.0
 
 
 @dataclass(frozen=True)
@@ -56,27 +54,27 @@ class DrawingOptions:
     hatch_coverage: float | None = None
     hatch: bool | None = None
 
-    def resolved_style(self) -> Style:
-        """The style with the page's values applied (checked by the style schema)."""
+    def request(self) -> PhotoRequest:
+        """The request these controls make, with the studio's limits and its preview's memory."""
         overrides = {
-            f.name: getattr(self, f.name)
-            for f in fields(self)
-            if f.name not in ("style", "pens", "profile") and getattr(self, f.name) is not None
+            f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("style", "pens", "profile")
         }
-        style = with_overrides(load_style(self.style or default_style()), overrides, where="the studio page")
-        sheet = page_size(style.page, None, margin=style.margin)
-        if max(sheet.width, sheet.height) > MAX_SHEET_MM:
-            raise PencilbotError(
-                f"page {style.page} is larger than the studio plans ({MAX_SHEET_MM:g} mm a side)"
-            )
-        if style.pen_width < MIN_STUDIO_PEN:
-            raise PencilbotError(
-                f"pen width {style.pen_width:g} mm is below the studio's {MIN_STUDIO_PEN:g} mm"
-            )
-        return style
+        return PhotoRequest(
+            style=self.style or default_style(),
+            overrides=overrides,
+            where="the studio page",
+            pens=self.pens or None,
+            preview_dpi=PREVIEW_DPI,
+            limits=INTERACTIVE,
+        )
 
-    def pen_set(self) -> PenSet | None:
-        return load_pens(self.pens) if self.pens else None
+    def prepared(self) -> Prepared:
+        """The request resolved and checked (:func:`pencilbot.app.photo.prepare`)."""
+        return prepare(self.request())
+
+    def resolved_style(self) -> Style:
+        """The style with the page's values applied, every guard passed."""
+        return self.prepared().style
 
     def plotter(self) -> Profile:
         return load_profile(self.profile or default_profile())
@@ -113,6 +111,5 @@ def parse_options(values: dict) -> DrawingOptions:
         ):
             raise PencilbotError(f"{key} must be a number, not {value!r}")
     options = DrawingOptions(**given)
-    options.resolved_style()  # every value checked now, before a worker starts
-    options.pen_set()
+    options.prepared()  # every value checked now, before a worker starts
     return options

@@ -1,6 +1,6 @@
 """Planning for the page: a worker process per change, the newest change wins.
 
-Each change of the controls is a new *generation*. :meth:`Planner.submit` ends the process still
+Each change of the controls is a new *generation*. :meth:`LivePlanner.submit` ends the process still
 planning an older one (terminated: its result can no longer arrive) and starts a new one, which
 sends a coarse stage first and then the full plan at the real pen width. The coarse stage is the
 drawing at half scale (page, margin and every length of the style halved) with a pen six times
@@ -25,15 +25,13 @@ from pathlib import Path
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.studio.options import DrawingOptions
+from pencilbot.studio.options import PREVIEW_DPI, DrawingOptions
 
 STAGES = ("coarse", "full")
 #: The coarse stage's pen, as drawn at full scale: this many times the real one.
 COARSE_PEN_FACTOR = 6.0
 #: The coarse stage plans on a sheet this many times smaller (every length of the style too).
 COARSE_SCALE = 2.0
-#: Pixels per mm of paper in the previews: the full one shows the real pen width (0.3 mm ~ 1 px).
-PREVIEW_DPI = 100.0
 _STYLE_LENGTHS = ("margin", "hatch_form", "hatch_blur", "min_hatch_run", "hatch_join")  # mm
 _PRELOAD = ["pencilbot.studio.warm"]
 
@@ -66,18 +64,19 @@ def png_bytes(image: np.ndarray) -> bytes:
 def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
     """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`) with
     ``options`` for one stage; what a :class:`StageResult` carries."""
-    from pencilbot import api
+    from pencilbot.app.photo import PhotoRequest, sketch_and_plan
     from pencilbot.planning.fidelity import photo_likeness
     from pencilbot.planning.preview import preview_image
     from pencilbot.planning.stats import estimate
 
-    style = options.resolved_style()
-    pens = options.pen_set()
+    request = options.request()
     dpi = PREVIEW_DPI
     if stage == "coarse":
-        style, pens = coarse(style, pens)
+        prepared = options.prepared()
+        style, pens = coarse(prepared.style, prepared.pens)
         dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
-    drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
+        request = PhotoRequest(style=style, pens=pens, preview_dpi=dpi)  # guarded at full scale above
+    drawing, plan = sketch_and_plan(photo, request)
     result: dict[str, object] = {
         "preview_png": png_bytes(preview_image(plan, dpi)),
         "sketch_png": png_bytes(drawing.result),
@@ -141,7 +140,7 @@ def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], sm
     conn.close()
 
 
-class Planner:
+class LivePlanner:
     """Plans the newest change; ``on_result(StageResult)`` is called (in a reader thread) for each
     stage of the newest generation, never for an older one."""
 

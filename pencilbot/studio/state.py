@@ -18,7 +18,7 @@ from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import DEFAULT_MAX_PIXELS, LoadedImage
 from pencilbot.studio.machine import Controls
 from pencilbot.studio.options import DrawingOptions
-from pencilbot.studio.planner import Planner, StageResult, png_bytes
+from pencilbot.studio.planner import LivePlanner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
 
 #: Upright pixels of the photo thumbnail the page shows.
@@ -42,7 +42,7 @@ class Studio:
         self.thumbnail = b""
         self.options = DrawingOptions(profile=profile)
         self.results: dict[str, StageResult] = {}
-        self.planner = Planner(self._on_result, **({"stages": stages} if stages else {}))
+        self.planner = LivePlanner(self._on_result, **({"stages": stages} if stages else {}))
         self.plotters = Plotters(on_change=self.changed)
         self.controls = Controls()  # the machine controls' open port
         self._uploads = 0

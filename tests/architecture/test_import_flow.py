@@ -53,12 +53,25 @@ ALLOWED: dict[str, set[str]] = {
     }
     | BASE,
 }
+# The application layer: photo → plan → program for every front door, with the guards; it uses
+# planning and export and what they stand on, never the driver, the simulator or a front end.
+ALLOWED["pencilbot.app"] = {
+    "pencilbot.planning",
+    "pencilbot.export",
+    "pencilbot.imaging",
+    "pencilbot.render",
+    "pencilbot.machine",
+    "pencilbot.firmware",
+    "pencilbot.configs_io",
+    "pencilbot.schema",
+    "pencilbot.fileio",
+} | BASE
 # The front ends may use everything below them; nothing below may use them.
 _BELOW = set(ALLOWED)
 ALLOWED["pencilbot.api"] = _BELOW
 ALLOWED["pencilbot.studio"] = _BELOW | {"pencilbot.api", "pencilbot"}  # the web page: the library API, no CLI
 ALLOWED["pencilbot.commands"] = _BELOW | {"pencilbot.api", "pencilbot", "pencilbot.studio"}
-ALLOWED["pencilbot.vpype_plugin"] = ALLOWED["pencilbot.commands"] | {"pencilbot.commands"}  # a front end too
+ALLOWED["pencilbot.vpype_plugin"] = _BELOW  # a front end too: through the application layer, no CLI
 ALLOWED["pencilbot.cli"] = {"pencilbot.commands", "pencilbot"} | BASE
 ALLOWED["pencilbot"] = {"pencilbot.api"}  # the package itself: the lazy library API
 
@@ -158,12 +171,27 @@ def test_every_component_of_the_project_is_in_the_table():
             "pencilbot.machine imports pencilbot.planning.plan",
         ),
         ("sim/bad.py", "from pencilbot import driver\n", "sim imports pencilbot.driver"),
+        (
+            "pencilbot/vpype_plugin.py",
+            "from pencilbot.commands.common import plan_for_input\n",
+            "pencilbot.vpype_plugin imports pencilbot.commands",
+        ),
+        (
+            "pencilbot/app/bad.py",
+            "from pencilbot.driver import draw\n",
+            "pencilbot.app imports pencilbot.driver",
+        ),
+        (
+            "pencilbot/planning/bad.py",
+            "from pencilbot.app.photo import prepare\n",
+            "pencilbot.planning imports pencilbot.app",
+        ),
     ],
 )
 def test_the_checker_catches_an_import_against_the_flow(tmp_path, module, source, complaint):
     for package in PACKAGES:
         for sub in (
-            ("", "/planning", "/export", "/driver", "/machine", "/errors")
+            ("", "/planning", "/export", "/driver", "/machine", "/errors", "/app", "/commands")
             if package == "pencilbot"
             else ("",)
         ):
@@ -171,6 +199,8 @@ def test_the_checker_catches_an_import_against_the_flow(tmp_path, module, source
             (tmp_path / f"{package}{sub}" / "__init__.py").write_text("")
     (tmp_path / "pencilbot/planning/plan.py").write_text("")
     (tmp_path / "pencilbot/export/gcode.py").write_text("")
+    (tmp_path / "pencilbot/app/photo.py").write_text("")
+    (tmp_path / "pencilbot/commands/common.py").write_text("")
     assert violations(tmp_path) == []
     (tmp_path / module).write_text(source)
     found = violations(tmp_path)

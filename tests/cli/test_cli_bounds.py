@@ -43,7 +43,7 @@ def test_no_option_of_any_command_reads_a_bare_number():
         ("plan", "--margin"),
         ("draw", "--timeout"),
         ("draw", "--baud"),
-        ("sim-serve", "--baud"),
+        ("sim-serve", "--emulate-baud"),
         ("sketch", "--stroke-width"),
         ("export", "--svg-dpi"),
         ("optimize", "--rounds"),
@@ -114,9 +114,9 @@ def test_the_reported_cases_are_one_message(tmp_path, capsys, argv, words):
 
 
 def test_a_render_bigger_than_memory_is_refused_before_it_is_allocated(tmp_path, capsys, monkeypatch):
-    from pencilbot.commands import common
+    from pencilbot.app import photo as app_photo
 
-    monkeypatch.setattr(common, "available_memory", lambda: 2 << 30)  # a small machine: 2 GB free
+    monkeypatch.setattr(app_photo, "available_memory", lambda: 2 << 30)  # a small machine: 2 GB free
     src = tmp_path / "a.gcode"
     src.write_text("G21\nG90\nG0 X10 Y10\n")
     assert main(["simulate", str(src), "-o", str(tmp_path / "a.png"), "--dpi", "5000"]) == 2
@@ -147,10 +147,10 @@ def test_a_page_whose_preview_would_not_fit_is_refused_before_planning(tmp_path,
     import numpy as np
     from PIL import Image
 
-    from pencilbot.commands import common
+    from pencilbot.app import photo as app_photo
 
     # 2 GB free: planning 3 x 3 m with a 50 mm pen takes 0.2 GB, its 100-150 dpi preview 3.3-7.5 GB.
-    monkeypatch.setattr(common, "available_memory", lambda: 2 << 30)
+    monkeypatch.setattr(app_photo, "available_memory", lambda: 2 << 30)
     photo = tmp_path / "p.png"
     Image.fromarray(np.full((40, 60), 128, np.uint8)).save(photo)
     code = main([a.format(photo=photo, out=tmp_path / "p.svg", tmp=tmp_path) for a in argv])

@@ -207,6 +207,32 @@ def test_simulate_a_plan_svg_draws_its_paths(tmp_path):
     assert 0.7 * 200 * 0.5 < inked_mm2 < 1.3 * 200 * 0.5
 
 
+def test_a_one_pen_g_code_file_is_simulated_with_the_pen_its_header_names(tmp_path):
+    """The header records a one-pen plan's pen width, so `simulate` draws the exported file with
+    it (it used to draw every such file at 0.5 mm)."""
+    from pencilbot.export.gcode import header_pen_width, write_gcode
+    from pencilbot.machine.profile import load_profile
+    from pencilbot.planning.plan import Layer, Page, Plan
+
+    plan = Plan(
+        Page(210.0, 297.0, margin=15.0, name="A4"),
+        [Layer("edges", [np.array([[50.0, 50.0], [150.0, 50.0], [150.0, 150.0]])], pen_width=1.2)],
+    )
+    gcode = tmp_path / "plan.gcode"
+    write_gcode(plan, load_profile("grbl-servo-a4"), gcode)
+    assert "; pen width: 1.2 mm\n" in gcode.read_text() and header_pen_width(gcode.read_bytes()) == 1.2
+    plots = {}
+    for name, extra in (("header", []), ("given", ["--pen-width", "1.2"]), ("thin", ["--pen-width", "0.5"])):
+        plots[name] = tmp_path / f"{name}.png"
+        assert main(["simulate", str(gcode), "-o", str(plots[name]), "--dpi", str(DPI), "-q", *extra]) == 0
+    assert np.array_equal(ink(plots["header"]), ink(plots["given"]))
+    inked_mm2 = ink(plots["header"]).sum() / (DPI / 25.4) ** 2
+    assert (
+        0.7 * 200 * 1.2 < inked_mm2 < 1.3 * 200 * 1.2
+        and inked_mm2 > 1.8 * ink(plots["thin"]).sum() / (DPI / 25.4) ** 2
+    )
+
+
 def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     out = tmp_path / "served.png"
     proc = subprocess.Popen(
@@ -338,7 +364,8 @@ def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
         (["--realtime", "nan"], "--realtime must be at least 0"),
         (["-o", "no/such/folder/x.png"], "folder does not exist"),
         (["--realtime", "-1"], "--realtime must be at least 0"),
-        (["--baud", "-9600"], "--baud must be at least 0"),
+        (["--emulate-baud", "-9600"], "--emulate-baud must be at least 0"),
+        (["--baud", "-9600"], "--baud must be at least 0"),  # the old spelling, read the same way
     ],
 )
 def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
@@ -357,9 +384,9 @@ def test_sim_serve_refuses_bad_options_before_serving(tmp_path, argv, message):
 def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, capsys, monkeypatch):
     # The render's memory is one band's (~4 M pixels), whatever the bed: with 50 MB free even
     # that does not fit, and the command says so before streaming anything.
-    import pencilbot.commands.common as common
+    from pencilbot.app import photo as app_photo
 
-    monkeypatch.setattr(common, "available_memory", lambda: 50_000_000)
+    monkeypatch.setattr(app_photo, "available_memory", lambda: 50_000_000)
     src, out = tmp_path / "square.gcode", tmp_path / "plot.png"
     src.write_text(SQUARE)
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600"]) == 2
@@ -369,7 +396,7 @@ def test_simulate_on_a_machine_short_of_memory_for_one_band_says_so(tmp_path, ca
         in err
     )
     assert not out.exists()
-    monkeypatch.setattr(common, "available_memory", lambda: 400_000_000)  # a band fits: it runs
+    monkeypatch.setattr(app_photo, "available_memory", lambda: 400_000_000)  # a band fits: it runs
     assert main(["simulate", str(src), "-o", str(out), "--dpi", "600", "-q"]) == 0 and out.exists()
 
 

@@ -19,7 +19,6 @@ from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
 from pencilbot.planning.build import (
     at_plot_resolution,
-    ink_on_image_grid,
     make_plan,
     plan_from_sketch,
     plot_resolution,
@@ -28,7 +27,7 @@ from pencilbot.planning.build import (
 )
 from pencilbot.planning.fidelity import plotted_darkness
 from pencilbot.planning.hatching import POINT_SPACING
-from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.layout import Layout, ink_on_image_grid, page_size
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes
 

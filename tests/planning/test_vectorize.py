@@ -10,8 +10,7 @@ from skimage.draw import disk, polygon
 from pencilbot.imaging.gmed import edge_map
 from pencilbot.imaging.strokes import LineDrawing, line_drawing
 from pencilbot.paths import Paths
-from pencilbot.planning.build import ink_on_image_grid
-from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.layout import Layout, ink_on_image_grid, page_size
 from pencilbot.planning.plan import Page
 from pencilbot.planning.vectorize import PEN_DARKNESS, edge_strokes, edge_threshold
 

@@ -11,7 +11,7 @@ from PIL import Image
 
 from pencilbot import api
 from pencilbot.studio.options import DrawingOptions
-from pencilbot.studio.planner import Planner
+from pencilbot.studio.planner import LivePlanner
 
 
 class Results:
@@ -42,7 +42,7 @@ def photo(tmp_path_factory):
 @pytest.fixture(scope="module")
 def planner():
     results = Results()
-    made = Planner(lambda result: made.sink(result))
+    made = LivePlanner(lambda result: made.sink(result))
     made.sink = results
     made.warm_up()
     yield made

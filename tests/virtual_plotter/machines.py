@@ -9,7 +9,7 @@ import dataclasses
 from pencilbot.machine.bed import Bed
 from pencilbot.machine.motion import Motion
 from pencilbot.machine.pen import PenModel
-from pencilbot.machine.profile import DEFAULT_PROFILE, Pen, load_profile
+from pencilbot.machine.profile import DEFAULT_PROFILE, PenLift, load_profile
 
 _COMMANDS = {"spindle": "M3 S{}", "z": "G0 Z{}", "servo": "M280 P0 S{}"}
 
@@ -34,7 +34,7 @@ def description(
     return dataclasses.replace(
         base,
         bed=Bed(width, height, origin, invert_x, invert_y, homing, soft_limits),
-        pen=Pen(
+        pen=PenLift(
             pen.kind,
             pen.up,
             pen.down,

@@ -16,10 +16,10 @@ from skimage.color import deltaE_ciede2000, rgb2lab
 from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.machine.pens import load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.build import ink_on_image_grid
-from pencilbot.planning.color import MOST_INK, color_hatching, pen_angles, separate, separation_table
-from pencilbot.planning.layout import Layout
+from pencilbot.planning.layout import Layout, ink_on_image_grid
 from pencilbot.planning.plan import Page
+from pencilbot.planning.separation import MOST_INK, color_hatching, pen_angles, separate, separation_table
+from pencilbot.planning.shading import Hatching
 
 SETS = ["cmyk", "primaries", "fineliner6"]
 PATCH_PX = (150, 150)  # 50 x 50 mm at 1/3 mm a pixel
@@ -111,9 +111,7 @@ def patch_plan(rgb, pens):
         Paths.empty(),
         form=tone,
         paper=tone,
-        angles=(0.0, 90.0, 45.0, -45.0),
-        form_scale=0.0,
-        seed=3,
+        hatching=Hatching(angles=(0.0, 90.0, 45.0, -45.0), form_scale=0.0, seed=3),
     )
     inks = {}
     for pen in pens:
@@ -163,7 +161,7 @@ def picture_with_spot(base, spot, share: float, size: int = 100) -> np.ndarray:
 
 
 def test_a_pen_the_picture_hardly_needs_is_left_out_but_a_small_vivid_spot_keeps_its_pen():
-    from pencilbot.planning.color import separate_cells, unneeded_pens
+    from pencilbot.planning.separation import separate_cells, unneeded_pens
 
     pens = load_pens("cmyk").load_order  # yellow, cyan, magenta, black
     magenta = mixed(pens[2], 0.5)
@@ -178,7 +176,7 @@ def test_a_pen_the_picture_hardly_needs_is_left_out_but_a_small_vivid_spot_keeps
 
 
 def test_pens_that_stand_in_for_each_other_are_not_all_left_out():
-    from pencilbot.planning.color import separate_cells, unneeded_pens
+    from pencilbot.planning.separation import separate_cells, unneeded_pens
 
     pens = load_pens("fineliner6").load_order  # yellow, orange, green, red, blue, black
     blue = mixed(pens[4], 0.6)

@@ -28,6 +28,7 @@ of its tone.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from functools import lru_cache
 
 import cv2
@@ -39,7 +40,7 @@ from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
 from pencilbot.machine.pens import Pen
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import Layer
-from pencilbot.planning.shading import TONE_BLUR, shade
+from pencilbot.planning.shading import Hatching
 
 #: Cell (mm) of the grid the separation is solved on: finer than the hatching's 1 mm tone scale.
 SEPARATION_CELL = 0.5
@@ -210,8 +211,7 @@ def color_hatching(
     *,
     form: np.ndarray,
     paper: np.ndarray,
-    angles: Sequence[float],
-    **shading,
+    hatching: Hatching,
 ) -> list[Layer]:
     """Hatch layers of every pen whose stacked inks follow a colour picture.
 
@@ -228,11 +228,10 @@ def color_hatching(
         Tone whose forms every pen's hatching follows (the black plan's darkness).
     paper : (H, W) float array
         The photo's darkness (see :func:`~pencilbot.planning.shading.shade`).
-    angles : sequence of float
-        The style's hatch angles; each pen turns them by :func:`pen_angles`.
-    **shading
-        Passed on to :func:`~pencilbot.planning.shading.shade` (coverage, blur, seed, …); each pen
-        matches its tone at :data:`PEN_TONE_BLUR` of ``blur``.
+    hatching : Hatching
+        The style's hatching; each pen draws it with its own width, turns its angles by
+        :func:`pen_angles`, its seed by 101 a pen, and matches its tone at :data:`PEN_TONE_BLUR`
+        of its ``blur``.
 
     Returns
     -------
@@ -242,23 +241,18 @@ def color_hatching(
     """
     amounts = separation(target, layout, pens)
     layers = []
-    seed = shading.pop("seed", 0)
-    shading["blur"] = PEN_TONE_BLUR * shading.get("blur", TONE_BLUR)
     for index, (pen, amount) in enumerate(zip(pens, amounts)):
         if not np.any(amount > 0.0):
             continue
         last = index == len(pens) - 1
-        hatches = shade(
-            amount,
-            layout,
-            edges if last else Paths.empty(),
-            paper=paper,
-            form=form,
+        pen_hatching = replace(
+            hatching,
             pen_width=pen.width,
-            angles=pen_angles(angles, index, len(pens)),
-            seed=seed + 101 * index,
-            **shading,
+            angles=pen_angles(hatching.angles, index, len(pens)),
+            seed=hatching.seed + 101 * index,
+            blur=PEN_TONE_BLUR * hatching.blur,
         )
+        hatches = pen_hatching.shade(amount, layout, edges if last else Paths.empty(), paper=paper, form=form)
         layers += [
             Layer(
                 f"{pen.name}-{layer.name}",
