@@ -29,9 +29,9 @@ import numpy as np
 
 from firmware_protocol import grbl
 from pencilbot.machine.motion import axis_limited, block_duration
-from sim.gcode_parser import UNDEFINED_FEED
-from sim.motion_control import SOFT_LIMIT_ALARM
-from sim.planner import Block, Planner
+from sim.gcode.motion_control import SOFT_LIMIT_ALARM
+from sim.gcode.parser import UNDEFINED_FEED
+from sim.gcode.planner import Block, Planner
 
 #: A number the fast path reads (no sign on F, S, P: a negative one is error 4); with at most 8
 #: digits (:func:`_too_long`), GRBL's read_float gives what float() gives.

@@ -1,8 +1,8 @@
 """A plot job from start to end: :func:`draw` reads the options, the profile and the journal,
 checks the job, and hands it to the driver its firmware needs: a board that acknowledges lines
-to :class:`~pencilbot.driver.runner.Runner`, one that takes step commands to
-:mod:`~pencilbot.driver.ebb_plot`, one that answers nothing per line to
-:mod:`~pencilbot.driver.polled`.
+to :class:`~pencilbot.driver.gcode.runner.Runner`, one that takes step commands to
+:mod:`~pencilbot.driver.ebb.plot`, one that answers nothing per line to
+:mod:`~pencilbot.driver.hpgl.plot`.
 """
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.bed_check import check_on_bed, check_resumable
-from pencilbot.driver.job import Job, load_job
+from pencilbot.driver.gcode.bed_check import check_on_bed, check_resumable
+from pencilbot.driver.gcode.job import Job, check_journal, load_job
+from pencilbot.driver.gcode.runner import Runner
+from pencilbot.driver.gcode.stream import Stream
 from pencilbot.driver.messages import check_unchanged
-from pencilbot.driver.port import LineReader, open_port, sim_url
-from pencilbot.driver.runner import DrawResult, Runner
-from pencilbot.driver.session import DEFAULT_TIMEOUT
-from pencilbot.driver.stream import Stream
+from pencilbot.driver.port import DEFAULT_TIMEOUT, LineReader, open_port, sim_url
+from pencilbot.driver.result import DrawResult
 from pencilbot.errors import RefusedError
 from pencilbot.fileio import read_bounded
 from pencilbot.firmware.hpgl import MAX_HPGL_FILE
@@ -104,7 +104,7 @@ def draw(
         stopped job's.
     allow_system : frozenset of str
         System commands (``$`` lines: ``$H``, ``$C``, ``$100``…) the file may send; any other is
-        refused by line before the port is opened (:mod:`pencilbot.driver.system_lines`).
+        refused by line before the port is opened (:mod:`pencilbot.driver.gcode.system_lines`).
 
     Raises
     ------
@@ -152,7 +152,7 @@ def draw(
     job = load_job(gcode, plotter, source, allow=allow_system)
     check_on_bed(job)  # before the port is opened: nothing is sent
     if journal is not None:
-        journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point
+        check_journal(journal, job)  # a journal is input too: its lines and stop point
 
     start = 0
     if journal is not None:
@@ -185,7 +185,7 @@ def draw(
         }
 
     if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
-        from pencilbot.driver.ebb_plot import draw_ebb
+        from pencilbot.driver.ebb.plot import draw_ebb
 
         return draw_ebb(
             job,
@@ -232,7 +232,7 @@ def _draw_polled(
     keys=None,
 ):
     """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
-    from pencilbot.driver.polled import draw_polled
+    from pencilbot.driver.hpgl.plot import draw_polled
 
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     if path is not None:

@@ -152,8 +152,8 @@ def moments(family: str, n: int = 20) -> list[str]:
 def inside_a_move(family: str, n: int) -> list[int]:
     """EBB commands (1-based, as the board counts them) that are the first of a pen-down move
     made of several commands (accelerate, cruise, decelerate), ``n`` of them spread over the job."""
-    from pencilbot.driver import ebb_plot
-    from pencilbot.driver.job import load_job
+    from pencilbot.driver.ebb import plot as ebb_plot
+    from pencilbot.driver.gcode.job import load_job
     from pencilbot.machine.profile import load_profile
 
     profile = load_profile("axidraw-v3")

@@ -146,7 +146,7 @@ def test_a_trial_height_the_profile_rules_refuse_is_one_line(name):
 
 
 def test_the_ebb_nickname_is_read_with_qt(name):
-    from pencilbot.driver.port_names import find_named, nickname
+    from pencilbot.driver.ebb.names import find_named, nickname
 
     with open_control(f"sim://{name}", "axidraw-v3"):
         board = protocol_sim.plotter(name).firmware
