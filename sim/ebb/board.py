@@ -25,7 +25,6 @@ import numpy as np
 
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
-from pencilbot.firmware.ebb import MICROSTEPS
 from sim.ebb import moves as ebb_moves
 from sim.ebb.queries import Queries
 from sim.ebb.run import Run as _Run
@@ -168,7 +167,7 @@ class EbbBoard(Queries, PenSide):
             self.gaps.append(self.clock - self._idle_since)
         self._moved = self._moved or command.name in ("LM", "SM", "XM", "HM")
         self._idle_since = None
-        self.running = self._execute(command)
+        self.running = ebb_moves.start_run(self, command)
         if self.running is None or self.running.ticks == 0:
             if self.running is not None:
                 self._complete(self.running, 0)
@@ -343,8 +342,16 @@ class EbbBoard(Queries, PenSide):
             self.origin = self._true_steps()
             self.counters[:] = 0
             self.carry = [0, 0]
-        elif name == "SC":
-            key, value = args
+        elif name in ("SC", "CU"):
+            switched = self._configure(name, args, future)
+            if switched is not None:
+                return switched
+        return protocol.format_reply(name, data, future=future, old=self.old)
+
+    def _configure(self, name: str, args, future: bool) -> bytes | None:
+        """``SC`` (servo settings) and ``CU`` (firmware settings); the reply of a syntax switch."""
+        key, value = args
+        if name == "SC":
             if key == 4:
                 self.servo_up = value
             elif key == 5:
@@ -359,23 +366,17 @@ class EbbBoard(Queries, PenSide):
                 self.servos.slots = min(value, len(self.servos.channels))
             elif key == 9:
                 self.servos.slot_ms = min(value, 6)
-        elif name == "SR":
-            pass
-        elif name == "R":
-            pass
-        elif name == "CU":
-            key, value = args
-            if self._version < protocol.CU_SINCE.get(key, ()):
-                pass  # an older firmware takes it and does nothing
-            elif key == 10:
-                self.future = bool(value)
-                return protocol.syntax_switch_reply(bool(value), future=future)
-            elif key == 4:
-                self.finish()
-                self.fifo_size = max(1, min(value, protocol.FIFO_MAX))
-            elif key == 60:
-                self.threshold = value
-        return protocol.format_reply(name, data, future=future, old=self.old)
+        elif self._version < protocol.CU_SINCE.get(key, ()):
+            pass  # CU: an older firmware takes it and does nothing
+        elif key == 10:
+            self.future = bool(value)
+            return protocol.syntax_switch_reply(bool(value), future=future)
+        elif key == 4:
+            self.finish()
+            self.fifo_size = max(1, min(value, protocol.FIFO_MAX))
+        elif key == 60:
+            self.threshold = value
+        return None
 
     def _status(self) -> int:
         qm = self._qm()
@@ -391,89 +392,3 @@ class EbbBoard(Queries, PenSide):
         run = self.running
         moving = run.steps != 0 if run is not None else np.zeros(2, bool)
         return int(run is not None), int(bool(moving[0])), int(bool(moving[1])), int(bool(self.fifo))
-
-    def _execute(self, command: protocol.Command) -> _Run | None:
-        """Start a queued command: its steps and how long it lasts."""
-        name, args = command.name, command.args
-        zero = np.zeros(2, dtype=np.int64)
-        if name == "EM":
-            if args[0]:
-                self.microsteps = MICROSTEPS[args[0]]
-            second = args[1] if len(args) > 1 else (1 if self.enabled[1] else 0)
-            self.enabled = (self.microsteps if args[0] else 0, self.microsteps if second else 0)
-            self.origin = self._true_steps()
-            self.counters = zero.copy()
-            self.carry = [0, 0]
-            return None
-        if name in ("LM", "SM", "XM", "HM"):  # motion enables both motors (CU,50 default)
-            self.enabled = (self.microsteps, self.microsteps)
-        if name in ("SP", "TP", "S2"):
-            if name == "S2":  # S2,Position,RPn,Rate,Delay
-                a = (*args, 0, 0, 0, 0)
-                self.servos.move(a[1], a[0], a[2], self.clock)
-                ms = a[3]
-            else:
-                up = (not self.pen_up) if name == "TP" else min(args[0], 3) != 0
-                self._move_servo(up)
-                ms = (
-                    args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
-                )
-            ticks = int(round(ms / 1000 / protocol.TICK))
-            return _Run(
-                command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock
-            )
-        if name in ("T3", "TD"):
-            return ebb_moves.timed_run(command, self.counters, self.clock)
-        if name == "LM":
-            steps, rates, accels = [], [], []
-            for i in range(2):
-                rate, n, accel = args[3 * i : 3 * i + 3]
-                if rate < 0:  # deprecated: the rate's sign gives the direction
-                    rate, n = -rate, -abs(n)
-                steps.append(n)
-                rates.append(rate)  # (the firmware starts at Rate − Accel/2: its sum is the closed form)
-                accels.append(accel)
-            clear = args[6] if len(args) > 6 else 0
-            carry = tuple(0 if clear & (1 << i) else self.carry[i] for i in range(2))
-        else:  # SM, XM, HM: constant rate
-            if name == "HM":
-                rate = args[0]
-                target = np.array(args[1:3] if len(args) == 3 else (0, 0), dtype=np.int64)
-                n = target - self.counters
-                seconds = max(abs(int(n[0])), abs(int(n[1]))) / rate if n.any() else 0.0
-            else:
-                seconds = args[0] / 1000.0
-                a = args[1]
-                b = args[2] if len(args) > 2 else 0
-                if name == "SM" and not (a or b):
-                    seconds = min(seconds, protocol.MAX_DELAY_MS / 1000.0)
-                n = np.array((a + b, a - b) if name == "XM" else (a, b), dtype=np.int64)
-            ticks = max(int(round(seconds / protocol.TICK)), 1)
-            steps = [int(v) for v in n]
-            rates = [
-                min(int(abs(v) * protocol.ACCUMULATOR // ticks) + 1, protocol.ACCUMULATOR) if v else 0
-                for v in steps
-            ]  # (over 25 kHz was refused: ebb_moves.check)
-            accels = [0, 0]
-            carry = (0, 0)
-            if not any(steps):  # a delay
-                return _Run(
-                    command, self.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, self.clock
-                )
-        axis_ticks = tuple(
-            protocol.lm_ticks(abs(steps[i]), rates[i], accels[i], carry[i]) if steps[i] else 0
-            for i in range(2)
-        )
-        if min(axis_ticks) < 0:  # an axis that never arrives: the board would hang; refuse to pretend
-            axis_ticks = tuple(t if t >= 0 else 0 for t in axis_ticks)
-        return _Run(
-            command,
-            self.counters.copy(),
-            np.array(steps, dtype=np.int64),
-            tuple(rates),
-            tuple(accels),
-            carry,
-            axis_ticks,
-            max(axis_ticks),
-            self.clock,
-        )

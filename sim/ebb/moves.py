@@ -24,6 +24,7 @@ import numpy as np
 
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
+from pencilbot.firmware.ebb import MICROSTEPS
 from sim.ebb.run import Run
 
 _SM_SCALE = 85_899_345.92  # the firmware's rate = steps × this / ms
@@ -132,3 +133,107 @@ def _planned_steps(command: protocol.Command) -> tuple[int, int]:
         b = a[2] if len(a) > 2 else 0
         return (a[1] + b, a[1] - b) if command.name == "XM" else (a[1], b)
     return 0, 0
+
+
+def start_run(board, command: protocol.Command) -> Run | None:
+    """Start a queued command on ``board``: its steps and how long it lasts (None: done at once)."""
+    name, args = command.name, command.args
+    if name == "EM":
+        _enable_motors(board, args)
+        return None
+    if name in ("LM", "SM", "XM", "HM"):  # motion enables both motors (CU,50 default)
+        board.enabled = (board.microsteps, board.microsteps)
+    if name in ("SP", "TP", "S2"):
+        return _servo_run(board, command)
+    if name in ("T3", "TD"):
+        return timed_run(command, board.counters, board.clock)
+    if name == "LM":
+        steps, rates, accels, carry = _lm_plan(board, args)
+    else:  # SM, XM, HM: constant rate
+        ticks, steps = _constant_rate_plan(board, name, args)
+        rates = [
+            min(int(abs(v) * protocol.ACCUMULATOR // ticks) + 1, protocol.ACCUMULATOR) if v else 0
+            for v in steps
+        ]  # (over 25 kHz was refused: check)
+        accels, carry = [0, 0], (0, 0)
+        if not any(steps):  # a delay
+            return _idle_run(board, command, ticks)
+    axis_ticks = tuple(
+        protocol.lm_ticks(abs(steps[i]), rates[i], accels[i], carry[i]) if steps[i] else 0 for i in range(2)
+    )
+    if min(axis_ticks) < 0:  # an axis that never arrives: the board would hang; refuse to pretend
+        axis_ticks = tuple(t if t >= 0 else 0 for t in axis_ticks)
+    return Run(
+        command,
+        board.counters.copy(),
+        np.array(steps, dtype=np.int64),
+        tuple(rates),
+        tuple(accels),
+        carry,
+        axis_ticks,
+        max(axis_ticks),
+        board.clock,
+    )
+
+
+def _idle_run(board, command: protocol.Command, ticks: int) -> Run:
+    """A command that moves no motor for ``ticks`` (a servo move's delay, an ``SM`` delay)."""
+    zero = np.zeros(2, dtype=np.int64)
+    return Run(command, board.counters.copy(), zero, (0, 0), (0, 0), (0, 0), (0, 0), ticks, board.clock)
+
+
+def _enable_motors(board, args) -> None:
+    """``EM``: microstepping and the motors on or off; the step counters from zero here."""
+    if args[0]:
+        board.microsteps = MICROSTEPS[args[0]]
+    second = args[1] if len(args) > 1 else (1 if board.enabled[1] else 0)
+    board.enabled = (board.microsteps if args[0] else 0, board.microsteps if second else 0)
+    board.origin = board._true_steps()
+    board.counters = np.zeros(2, dtype=np.int64)
+    board.carry = [0, 0]
+
+
+def _servo_run(board, command: protocol.Command) -> Run:
+    """``SP``, ``TP``, ``S2``: the servo set moving; the command lasts its delay."""
+    name, args = command.name, command.args
+    if name == "S2":  # S2,Position,RPn,Rate,Delay
+        a = (*args, 0, 0, 0, 0)
+        board.servos.move(a[1], a[0], a[2], board.clock)
+        ms = a[3]
+    else:
+        up = (not board.pen_up) if name == "TP" else min(args[0], 3) != 0
+        board._move_servo(up)
+        ms = args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
+    return _idle_run(board, command, int(round(ms / 1000 / protocol.TICK)))
+
+
+def _lm_plan(board, args) -> tuple[list[int], list[int], list[int], tuple[int, int]]:
+    """``LM``: steps, rates and accelerations per axis, and the accumulators it starts from."""
+    steps, rates, accels = [], [], []
+    for i in range(2):
+        rate, n, accel = args[3 * i : 3 * i + 3]
+        if rate < 0:  # deprecated: the rate's sign gives the direction
+            rate, n = -rate, -abs(n)
+        steps.append(n)
+        rates.append(rate)  # (the firmware starts at Rate − Accel/2: its sum is the closed form)
+        accels.append(accel)
+    clear = args[6] if len(args) > 6 else 0
+    carry = (0 if clear & 1 else board.carry[0], 0 if clear & 2 else board.carry[1])
+    return steps, rates, accels, carry
+
+
+def _constant_rate_plan(board, name: str, args) -> tuple[int, list[int]]:
+    """``SM``, ``XM``, ``HM``: the ticks the move lasts and its steps per axis."""
+    if name == "HM":
+        rate = args[0]
+        target = np.array(args[1:3] if len(args) == 3 else (0, 0), dtype=np.int64)
+        n = target - board.counters
+        seconds = max(abs(int(n[0])), abs(int(n[1]))) / rate if n.any() else 0.0
+    else:
+        seconds = args[0] / 1000.0
+        a = args[1]
+        b = args[2] if len(args) > 2 else 0
+        if name == "SM" and not (a or b):
+            seconds = min(seconds, protocol.MAX_DELAY_MS / 1000.0)
+        n = np.array((a + b, a - b) if name == "XM" else (a, b), dtype=np.int64)
+    return max(int(round(seconds / protocol.TICK)), 1), [int(v) for v in n]

@@ -47,11 +47,11 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 
 from firmware_protocol import grbl
 from sim.faults import GARBAGE, Faults
 from sim.gcode.line_log import LineLog
+from sim.gcode.lines import Task, filter_line
 from sim.gcode.machine import Machine
 from sim.gcode.motion_control import PAUSE, MachineAlarm
 from sim.gcode.status_report import StatusReport
@@ -61,26 +61,6 @@ _EOL = b"\n\r"
 _LINE_END = re.compile(rb"[\n\r]")
 _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # need byte-wise handling
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
-
-
-@dataclass
-class _Task:
-    """A line GRBL's main loop is inside of: its steps run until done, then ``finish`` answers.
-    ``line`` is its (log index, text), or ``None`` for a startup line."""
-
-    steps: Iterator
-    finish: Callable[[], None]
-    line: tuple[int, str] | None
-
-
-def filter_line(raw: bytes, line_buffer: int = grbl.LINE_BUFFER_SIZE) -> str | None:
-    """GRBL's protocol-loop filter: the significant characters, or ``None`` on overflow."""
-    if b"(" in raw or b";" in raw:
-        raw = re.sub(rb"\([^)]*\)?|;.*", b"", raw)
-    text = raw.translate(None, grbl.DROPPED_BYTES).upper()
-    if len(text) >= line_buffer:
-        return None
-    return text.decode("latin-1")
 
 
 class Firmware(SystemCommands, StatusReport):
@@ -129,7 +109,7 @@ class Firmware(SystemCommands, StatusReport):
         self._rebooting = False
         self._ring = bytearray()
         self._line = bytearray()
-        self._task: _Task | None = None
+        self._task: Task | None = None
         self._held_line: bytes | None = None  # a line the hold button stopped before it ran
         self._held_index = 0
         self._critical = False  # soft/hard limit: nothing is read or reported until reset
@@ -410,7 +390,7 @@ class Firmware(SystemCommands, StatusReport):
 
     def _start(self, steps: Iterator, finish: Callable[[], None], line: tuple[int, str] | None) -> None:
         """Run a line's steps now; if they block, the line stays in progress (see :meth:`_step`)."""
-        self._task = _Task(steps, finish, line)
+        self._task = Task(steps, finish, line)
         self._step()
 
     def _step(self) -> bool:

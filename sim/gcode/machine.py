@@ -1,7 +1,7 @@
 """The virtual plotter's G-code interpreter: modal state, offsets, pen, planner, clock.
 
 :class:`Machine` takes one *filtered* line at a time (what GRBL's protocol loop stores: no
-whitespace, no comments, upper case — see :func:`sim.gcode.firmware.filter_line`). :meth:`Machine.parse`
+whitespace, no comments, upper case — see :func:`sim.gcode.lines.filter_line`). :meth:`Machine.parse`
 checks it as GRBL 1.1h's parser does (:mod:`sim.gcode.parser`: the status code of the first
 failing check, or a :class:`~sim.gcode.parser.Block`); :meth:`Machine.execute` carries a block
 out in GRBL's order of execution (feed, spindle, coolant, dwell, plane, units, tool length,

@@ -206,7 +206,7 @@ def test_noise_is_ignored_and_a_lost_answer_stops_exactly(coffee, clean, name, t
 
 
 def test_plan_moves_never_shorter_than_the_boards_minimum(coffee):
-    from pencilbot.driver.ebb.plot import _rows
+    from pencilbot.driver.ebb.moves import rows as _rows
     from pencilbot.driver.gcode.job import load_job
     from pencilbot.machine.ebb_motion import plan_ebb
 

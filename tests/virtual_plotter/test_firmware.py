@@ -9,7 +9,8 @@ from machines import description
 from firmware_protocol import grbl
 from pencilbot.machine.pen import PenModel
 from sim.faults import GARBAGE, Faults
-from sim.gcode.firmware import Firmware, filter_line
+from sim.gcode.firmware import Firmware
+from sim.gcode.lines import filter_line
 from sim.gcode.machine import Machine
 
 BANNER = "\r\nGrbl 1.1h ['$' for help]\r\n"

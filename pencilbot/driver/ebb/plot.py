@@ -18,26 +18,24 @@ its ``QG`` reply).
 
 from __future__ import annotations
 
-import re
 import shlex
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from pencilbot.driver import stop_signals
 from pencilbot.driver.ebb.link import LOW_SUPPLY, EbbFault, EbbLink, check_supply, greet, version_at_least
+from pencilbot.driver.ebb.moves import job_dwells, plan_from, rows
 from pencilbot.driver.faults import Interrupted
-from pencilbot.driver.gcode.bed_check import arc_geometry
 from pencilbot.driver.port import DEFAULT_TIMEOUT, LineReader, PortLost, open_port
 from pencilbot.driver.progress import Progress
 from pencilbot.driver.result import DrawResult
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
 from pencilbot.firmware.ebb import MICROSTEPS
-from pencilbot.machine.ebb_motion import EbbMove, pen_commands, plan_ebb
-from pencilbot.units import MM_PER_INCH
+from pencilbot.machine.ebb_motion import EbbMove, pen_commands
 
 POWER_THRESHOLD = LOW_SUPPLY  # CU,60 units of 29.5 mV: QG bit 6 once the supply drops below 7.4 V
 #: Commands the motion FIFO holds on firmware 3.x (CU,4): 16 moves of the 4 ms minimum keep the
@@ -80,9 +78,8 @@ def draw_ebb(
     PlotError
         Any fault, with where the job stopped and how to resume it.
     """
-
     t0 = time.monotonic()
-    xy, down, rows_line = _rows(job)
+    xy, down, rows_line = rows(job)
     reader = LineReader(open_port(port, baudrate=baud))
     link = EbbLink(reader, timeout)
     try:
@@ -95,57 +92,24 @@ def draw_ebb(
         start = start if found is None else found
         if announce is not None:
             announce(f"banner '{link.version}'", job)
-        dwells = _dwells(job)
-        work = _plan_from(job, xy, down, rows_line, profile, start, here, pen_down, dwells)
+        dwells = job_dwells(job)
+        work = plan_from(job, xy, down, rows_line, profile, start, here, pen_down, dwells)
         total = sum(item.seconds for item in work if isinstance(item, EbbMove))
         bar = Progress(progress, len(job) - start, total)
         if journal is not None:
             journal.status, journal.message = "running", ""
             journal.save()
-        sent: list[EbbMove] = []
-        acked = -1
-        done_seconds = 0.0
-        checked = 0.0  # motion seconds sent at the last QG: by the plan, not the clock (the same every run)
+        run = _Sending(work)
+
+        def replan(index: int, steps) -> deque:
+            return plan_from(job, xy, down, rows_line, profile, index, steps, None, dwells)
+
         with stop_signals.caught(stop_signals.RaiseOnce()):  # caught through the stop: it is not cut short
             try:
-                while work:
-                    item = work[0]  # taken off once sent (or paused at): a stop knows what was next
-                    if not isinstance(item, EbbMove):  # a program pause (pen change) before job line item
-                        if sent:
-                            link.wait_idle(timeout + 60)
-                            _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
-                        work.popleft()
-                        continue
-                    if link.watch_power and done_seconds > checked + POWER_CHECK:
-                        checked = done_seconds
-                        link.status()
-                        if link.power_lost:
-                            raise EbbFault(
-                                "the board's supply dropped (QG power-lost bit): the motors may have slipped"
-                            )
-                    if keys is not None and _keys_say_pause(keys):
-                        stop = _hold(
-                            link, sent, acked, profile, operator, keys, bar, _next_line(work, len(job))
-                        )
-                        work = _plan_from(
-                            job, xy, down, rows_line, profile, stop.index, stop.steps, None, dwells
-                        )
-                        continue
-                    work.popleft()
-                    sent.append(item)
-                    link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent, link))
-                    acked = len(sent) - 1
-                    done_seconds += item.seconds
-                    bar.update(item.line + 1 - start, done_seconds, "Run")
-                link.wait_idle(timeout + 2 * _in_flight_seconds(sent, link) + 5)
-                if link.power_lost:  # seen while waiting for the last moves
-                    raise EbbFault(
-                        "the board's supply dropped (QG power-lost bit): the motors may have slipped"
-                    )
+                _send_all(link, run, job, profile, replan, bar, start, operator, keys, timeout)
             except (Interrupted, EbbFault, PortLost) as exc:
-                message = _stop(
-                    link, exc, sent, acked, job, profile, journal, port, _next_line(work, len(job))
-                )
+                unsent = _next_line(run.work, len(job))
+                message = _stop(link, exc, run.sent, run.acked, job, profile, journal, port, unsent)
                 bar.close("stopped", message)
                 raise PlotError(message) from None
         bar.update(len(job) - start, total, "Idle")
@@ -160,6 +124,54 @@ def draw_ebb(
             pass
 
 
+@dataclass
+class _Sending:
+    """How far a run got: the work still to send (its head next), the moves sent, the last one
+    the board took, the motion seconds sent and those at the last power check."""
+
+    work: deque
+    sent: list[EbbMove] = field(default_factory=list)
+    acked: int = -1
+    done_seconds: float = 0.0
+    checked: float = (
+        0.0  # motion seconds sent at the last QG: by the plan, not the clock (the same every run)
+    )
+
+
+def _send_all(
+    link: EbbLink, run: _Sending, job, profile, replan, bar, start, operator, keys, timeout
+) -> None:
+    """Send every move one at a time (the board answers once it is in its FIFO), pausing at the
+    program's pauses and the pause key, the supply checked now and then; until the board is idle."""
+    sent = run.sent
+    while run.work:
+        item = run.work[0]  # taken off once sent (or paused at): a stop knows what was next
+        if not isinstance(item, EbbMove):  # a program pause (pen change) before job line item
+            if sent:
+                link.wait_idle(timeout + 60)
+                _pause(link, operator, bar, job.pauses[item] or "program pause (M0)")
+            run.work.popleft()
+            continue
+        if link.watch_power and run.done_seconds > run.checked + POWER_CHECK:
+            run.checked = run.done_seconds
+            link.status()
+            if link.power_lost:
+                raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+        if keys is not None and _keys_say_pause(keys):
+            stop = _hold(link, sent, run.acked, profile, operator, keys, bar, _next_line(run.work, len(job)))
+            run.work = replan(stop.index, stop.steps)
+            continue
+        run.work.popleft()
+        sent.append(item)
+        link.command(item.command, wait=timeout + 2 * _in_flight_seconds(sent, link))
+        run.acked = len(sent) - 1
+        run.done_seconds += item.seconds
+        bar.update(item.line + 1 - start, run.done_seconds, "Run")
+    link.wait_idle(timeout + 2 * _in_flight_seconds(sent, link) + 5)
+    if link.power_lost:  # seen while waiting for the last moves
+        raise EbbFault("the board's supply dropped (QG power-lost bit): the motors may have slipped")
+
+
 def _oldest_in_flight(acked: int, link: EbbLink) -> int:
     """The oldest command that may not have finished: the board answers a motion command once
     it is in the FIFO, so when ``acked`` was answered the FIFO's ``fifo_depth`` commands before
@@ -171,64 +183,6 @@ def _in_flight_seconds(sent: list[EbbMove], link: EbbLink) -> float:
     """How long the commands that may still be queued keep the board busy, s: the one running,
     the FIFO's and the one being parsed."""
     return sum(m.seconds for m in sent[-(link.fifo_depth + 2) :])
-
-
-ARC_TOLERANCE = 0.002  # mm a chord of an arc may stray from it (GRBL's $12 default)
-
-
-def _rows(job) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Machine mm and pen state after every job line, and each row's job line: arcs (G2/G3)
-    become chords within :data:`ARC_TOLERANCE`, one row per chord end (as
-    :mod:`pencilbot.driver.gcode.drawn` reads the pen)."""
-    if not len(job):
-        return np.zeros((0, 2)), np.zeros(0, bool), np.zeros(0, np.int64)
-    c = job.states(0, len(job)).columns
-    xy = np.column_stack([c["x_mm"], c["y_mm"]])
-    down = c["pen_down"].astype(bool)
-    down &= np.cumsum(down != down[0]) > 0  # before the first pen command: up
-    lines = np.arange(len(job))
-    rows, centre, radius, a0, sweep, ccw = arc_geometry(
-        np.vstack([np.zeros(2), xy[:-1]]), xy, c, np.where(c["inches"], MM_PER_INCH, 1.0)
-    )
-    if not len(rows):
-        return xy, down, lines
-    with np.errstate(invalid="ignore"):
-        step = 2 * np.arccos(np.clip(1 - ARC_TOLERANCE / np.maximum(radius, ARC_TOLERANCE), -1, 1))
-    count = np.maximum(np.ceil(sweep / np.maximum(step, 1e-6)).astype(np.int64), 1)
-    extra = np.zeros(len(job), np.int64)
-    extra[rows] = count - 1  # points inside each arc, before its end
-    at = np.repeat(np.arange(len(job)), extra + 1)
-    out_xy = xy[at].copy()
-    first = np.cumsum(extra + 1) - (extra + 1)  # where each line's rows begin
-    for k, row in enumerate(rows.tolist()):
-        n = int(count[k])
-        turn = np.where(ccw[k], 1.0, -1.0) * sweep[k] * np.arange(1, n) / n
-        angle = a0[k] + turn
-        out_xy[first[row] : first[row] + n - 1] = centre[k] + radius[k] * np.column_stack(
-            [np.cos(angle), np.sin(angle)]
-        )
-    return out_xy, down[at], lines[at]
-
-
-def _plan_from(job, xy, down, rows_line, profile, first: int, here, pen_down, dwells=None) -> deque:
-    """The commands from job line ``first`` on, from motor position ``here``: the stretches
-    between program pauses and dwells planned one after the other (each from rest to rest),
-    each pause (its job line) and each dwell (``SM,ms,0,0``: the board waits) in between."""
-    work: deque = deque()
-    dwells = dwells or {}
-    for a, b in _chunks(job, first, len(job), dwells):
-        if a in job.pauses:
-            work.append(a)
-        for ms in _dwell_pieces(dwells.get(a, 0.0)):
-            work.append(EbbMove(f"SM,{ms},0,0", a, tuple(here), tuple(here), ms / 1000.0, bool(pen_down)))
-        ra, rb = np.searchsorted(rows_line, [a, b])  # the rows of job lines a..b-1
-        moves = plan_ebb(
-            xy[ra:rb], down[ra:rb], rows_line[ra:rb], profile, start_steps=here, pen_down=pen_down
-        )
-        work.extend(moves)
-        if moves:
-            here, pen_down = moves[-1].end, moves[-1].down
-    return work
 
 
 def _keys_say_pause(keys) -> bool:
@@ -255,33 +209,6 @@ def _hold(link: EbbLink, sent: list[EbbMove], acked: int, profile, operator, key
         while not _keys_say_pause(keys):
             time.sleep(0.05)
     return stop
-
-
-_G4 = re.compile(rb"G0*4(?![0-9.])")  # a dwell word in a cleaned job line (not G40..G49, not G4.1)
-MAX_DELAY_MS = 100_000  # SM as a delay is capped at 100 s (EBB reference, SM)
-
-
-def _dwells(job) -> dict[int, float]:
-    """The job lines that dwell (``G4``) and for how long, s (read only when the job has any)."""
-    at = [m.start() for m in _G4.finditer(job.frames)]
-    if not at:
-        return {}
-    seconds = job.states(0, len(job)).seconds
-    lines = np.unique(np.searchsorted(job.offsets, at, side="right") - 1)
-    return {int(i): float(seconds[i]) for i in lines if seconds[i] > 0}
-
-
-def _dwell_pieces(seconds: float) -> list[int]:
-    """A dwell as ``SM`` delays, ms (none for a dwell under half a millisecond)."""
-    ms = int(round(seconds * 1000))
-    return [min(MAX_DELAY_MS, ms - k) for k in range(0, ms, MAX_DELAY_MS)]
-
-
-def _chunks(job, start: int, stop: int, dwells=None) -> list[tuple[int, int]]:
-    """Job line ranges between program pauses (a pen change waits for the motion to end) and dwells."""
-    cuts = sorted(i for i in (*job.pauses, *(dwells or ())) if start < i < stop)
-    edges = [start, *cuts, stop]
-    return [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b > a]
 
 
 def _wake(

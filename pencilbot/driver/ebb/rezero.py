@@ -61,14 +61,8 @@ def rezero(link, profile, job, resumed, operator, why: str) -> tuple[tuple[int, 
             "the position is lost and the stop recorded no move in flight to find it on; nothing was "
             f"drawn. Restart from a line: pencilbot draw {job.source} --start-line {resumed.next_line}"
         )
-    setup, mode = profile.ebb, profile.ebb.microstep_mode
-    link.command(f"EM,{mode},{mode}")  # the motors hold where the carriage stands: counters 0 there
-    link.origin = (0, 0)
-    link.power_lost = False
-    for text in pen_commands(profile):
-        link.command(text)
-    link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
-    link.wait_idle(5)
+    setup = profile.ebb
+    _hold_here(link, profile)
     certain = job.index_of(int(moves[0, 4]))
     to_mm = MM_PER_INCH if job.state_after(max(certain - 1, 0)).inches else 1.0
     mark = mark_before(job, certain, to_mm)
@@ -104,19 +98,35 @@ def rezero(link, profile, job, resumed, operator, why: str) -> tuple[tuple[int, 
         )
     here, line = found
     link.origin = here  # the counters were 0 at the stop point
-    now = link.steps()
+    _back_to(link, profile, here)
+    return here, job.index_of(line)
+
+
+def _hold_here(link, profile) -> None:
+    """The motors on where the carriage stands (the counters 0 there), the pen set up and raised."""
+    mode = profile.ebb.microstep_mode
+    link.command(f"EM,{mode},{mode}")
+    link.origin = (0, 0)
+    link.power_lost = False
+    for text in pen_commands(profile):
+        link.command(text)
+    link.command(profile.ebb.pen_command(True, max(int(profile.pen.up_delay * 1000), 1)))
+    link.wait_idle(5)
+
+
+def _back_to(link, profile, here: tuple[int, int]) -> None:
+    """The raised pen back to the stop point ``here`` (motor steps)."""
     back = plan_ebb(
-        setup.to_machine(np.array([here], dtype=np.float64)),
+        profile.ebb.to_machine(np.array([here], dtype=np.float64)),
         np.array([False]),
         np.array([0]),
         profile,
-        start_steps=now,
+        start_steps=link.steps(),
         pen_down=False,
-    )  # the raised pen back to the stop point
+    )
     for move in back:
         link.command(move.command, wait=link.timeout + 2 * move.seconds)
     link.wait_idle(60)
-    return here, job.index_of(line)
 
 
 def _on_moves(

@@ -148,18 +148,23 @@ def machine_positions(
         frame[e] = len(frames) - 1
         previous = e
     frame = np.maximum.accumulate(np.where(np.isin(index[:, 0], events), frame, 0))
-    # Between events, ordinary lines: absolute words are work coordinates in the frame in force.
+    on_machine = _between_events(words, summed, absolute, ~ordinary, after, frames, frame, start_machine)
+    return on_machine, frame, frames, via
+
+
+def _between_events(words, summed, absolute, is_event, after, frames, frame, start_machine) -> np.ndarray:
+    """Machine X, Y, Z after every line: an event line's own, and between events the ordinary
+    lines', whose absolute words are work coordinates in the frame in force."""
+    index = np.arange(len(words))[:, None]
     offsets = np.array([f.offset() for f in frames])[frame]
-    is_event = ~ordinary
     assign = absolute | is_event[:, None]
     value = np.where(is_event[:, None], after, words + offsets)
     at = np.maximum.accumulate(np.where(assign, index, -1), axis=0)
     pick = np.maximum(at, 0)
     cols = np.arange(3)[None, :]
-    on_machine = np.where(
+    return np.where(
         at >= 0, value[pick, cols] + (summed - summed[pick, cols]), start_machine[None, :] + summed
     )
-    return on_machine, frame, frames, via
 
 
 def _run_to(

@@ -22,8 +22,9 @@ import numpy as np
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver.gcode.bed_check import BedWatch
 from pencilbot.driver.gcode.markers import without_markers
-from pencilbot.driver.gcode.modal import MAX_DIGITS, ModalState, Track, track
+from pencilbot.driver.gcode.modal import ModalState, Track, track
 from pencilbot.driver.gcode.system_lines import SystemLines, check_system_lines
+from pencilbot.driver.gcode.words import MAX_DIGITS
 from pencilbot.errors import PencilbotError, RefusedError, no_such_file
 from pencilbot.fileio import refuse_special_input
 from pencilbot.machine.profile import Profile

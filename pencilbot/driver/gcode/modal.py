@@ -27,14 +27,11 @@ import numpy as np
 
 from pencilbot.driver.gcode import coords
 from pencilbot.driver.gcode.coords import Frames
+from pencilbot.driver.gcode.words import codes, coordinate_codes, first_value, read_words
 from pencilbot.machine.pen import PenModel
 from pencilbot.units import MM_PER_INCH
 
 _COMMENT = re.compile(r"\([^)]*\)|;.*")
-_LETTER = {letter: ord(letter) - ord("A") for letter in "FGIJLMPRSXYZ"}
-MAX_DIGITS = 24  # longer numbers are not G-code: the word is ignored
-_JOG_CODES = (20, 21, 53, 90, 91)  # the G codes a GRBL jog takes
-_POW10 = 10.0 ** np.arange(-MAX_DIGITS, MAX_DIGITS + 1)  # digit weights by exponent
 
 
 def _bits(codes: dict[int, int]) -> np.ndarray:
@@ -187,13 +184,13 @@ def track(
     """
     if not isinstance(block, (bytes, bytearray)):
         block = "".join(f"{line}\n" for line in block).encode("ascii", errors="replace")
-    words = _words(block)
+    words = read_words(block)
     lines = words.lines
     jog = words.jog
-    g_jog = _codes(words, "G", lines, _G_BITS)
+    g_jog = codes(words, "G", lines, _G_BITS)
     g = np.where(jog, 0, g_jog)  # a jog's G20/G21/G90/G91 last for its line only
-    m = _codes(words, "M", lines, _M_BITS)
-    word = {letter: _first_value(words, letter, lines) for letter in "FIJLPRSXYZ"}
+    m = codes(words, "M", lines, _M_BITS)
+    word = {letter: first_value(words, letter, lines) for letter in "FIJLPRSXYZ"}
     columns = {}
     columns["inches"] = _carry((g & (G20 | G21)) != 0, (g & G20) != 0, start.inches)
     relative = columns["relative"] = _carry((g & (G90 | G91)) != 0, (g & G91) != 0, start.relative)
@@ -215,6 +212,23 @@ def track(
     unit = np.where(columns["inches"], MM_PER_INCH, 1.0)  # mm per unit of the job's words
     scale = np.where(inches_here, MM_PER_INCH, 1.0)  # and of each line's own (a jog's may differ)
     as_written = {a: np.where(jog, word[a] * scale / unit, word[a]) for a in "XYZ"}  # in the job's units
+    on_machine, frames = _positions(columns, words, word, moves, relative, scale, unit, as_written, start)
+    columns["pen_down"] = _pen_down(columns, pen)
+    for letter in "IJR":  # an arc's centre, per line (not modal)
+        columns[letter.lower()] = word[letter]
+
+    start_machine = start.position_mm() + start.frames.offset()
+    seconds = _durations(
+        columns, word, on_machine, start_machine, g, jog, has_s, scale, unit, travel_feed, dwell_units
+    )
+    return Track(first, columns, seconds, frames)
+
+
+def _positions(columns, words, word, moves, relative, scale, unit, as_written, start: ModalState):
+    """``x``/``y``/``z`` as the words are written, in mm (``x_mm``…), on the machine (``mx``,
+    ``my``, through the coordinate systems) and a ``G28``/``G30``'s via point, into ``columns``;
+    the machine positions and the coordinate states."""
+    lines = words.lines
     for axis in "xyz":
         columns[axis] = _position(as_written[axis.upper()], moves, relative, getattr(start, axis))
     # Also in mm, as the board keeps them: a G20/G21 in the middle of a file changes how later
@@ -228,7 +242,7 @@ def track(
     # Where the carriage goes: work coordinates plus the work offset, which lines that set up
     # coordinate systems (G10, G53, G54-G59, G92, G28/G30; rare) change, followed one by one.
     start_machine = start_mm + start.frames.offset()
-    code, select = _coordinate_codes(words, lines)
+    code, select = coordinate_codes(words, lines)
     if (code > 0).any() or (select >= 0).any():
         word_mm = np.column_stack([word[a.upper()] * scale for a in "xyz"])
         on_machine, frame, frames, via = coords.machine_positions(
@@ -250,10 +264,13 @@ def track(
     columns["mx"], columns["my"] = on_machine[:, 0], on_machine[:, 1]
     columns["vx"], columns["vy"] = via[:, 0], via[:, 1]
     columns["frame"] = frame
-    columns["pen_down"] = _pen_down(columns, pen)
-    for letter in "IJR":  # an arc's centre, per line (not modal)
-        columns[letter.lower()] = word[letter]
+    return on_machine, frames
 
+
+def _durations(
+    columns, word, on_machine, start_machine, g, jog, has_s, scale, unit, travel_feed, dwell_units
+):
+    """Each line's duration (s): distance over feed for moves, a jog at its own F, the dwell for ``G4``."""
     step = np.nan_to_num(np.diff(on_machine, axis=0, prepend=start_machine[None, :]))
     distance = np.sqrt(step[:, 0] ** 2 + step[:, 1] ** 2 + step[:, 2] ** 2)  # mm
     feed = columns["feed"]
@@ -265,124 +282,10 @@ def track(
     seconds = np.where(distance > 0, distance / np.where(rate > 0, rate, 1.0) * 60.0, 0.0)
     dwell = np.where(has_s, word["S"], np.nan_to_num(word["P"]) / dwell_units)
     seconds = np.where((g & G4) != 0, dwell, seconds)
-    return Track(first, columns, seconds, frames)
+    return seconds
 
 
 # --- the numpy parts ---------------------------------------------------------------------------
-
-
-@dataclass
-class _Words:
-    """Every well-formed word of a block: its line, letter (0 = A) and value, in order; ``jog``:
-    the lines that are jogs or homing cycles (their modal words last for the line only)."""
-
-    lines: int
-    line: np.ndarray
-    letter: np.ndarray
-    value: np.ndarray
-    jog: np.ndarray
-
-
-def _words(block: bytes | bytearray) -> _Words:
-    a = np.frombuffer(block, dtype=np.uint8)
-    newline = a == 10
-    breaks = np.flatnonzero(newline)
-    n_lines = len(breaks)
-    if n_lines == 0:
-        return _Words(0, np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, bool))
-    line_of = np.cumsum(newline) - newline  # the line each byte belongs to (its newline too)
-    # A '$' line is a system command for the board, not G-code: none of its words count, but for
-    # a jog's (``$J=``: its G20/G21/G90/G91/G53 X Y Z F) and a homing cycle's (``$H``: to machine
-    # X0 Y0, as G53 G0 X0 Y0 would go). Neither changes the modal state (see ``jog``).
-    line_start = np.concatenate([[0], breaks[:-1] + 1])
-    system = a[line_start] == ord("$")
-    after = np.append(a, [10, 10])  # a line's next two bytes, past the end too
-    jogging = system & (after[line_start + 1] == ord("J")) & (after[line_start + 2] == ord("="))
-    homing = system & (after[line_start + 1] == ord("H")) & (after[line_start + 2] == 10)
-    letter = (a >= 65) & (a <= 90)
-    letter[line_start[jogging] + 1] = False  # the J of $J=
-    starts = np.flatnonzero(letter & ~(system & ~jogging)[line_of])
-    bounds = np.flatnonzero(letter | newline)
-    ends = bounds[np.searchsorted(bounds, starts, side="right")]
-    # The bytes of each word's number: starts + 1 .. ends - 1, at index ``pos`` within it.
-    length = ends - starts - 1
-    word = np.repeat(np.arange(len(starts)), length)
-    pos = np.arange(int(length.sum())) - np.repeat(np.cumsum(length) - length, length)
-    byte = a[np.repeat(starts + 1, length) + pos]
-    digit = (byte >= 48) & (byte <= 57)
-    dot = byte == 46
-    sign = ((byte == 43) | (byte == 45)) & (pos == 0)
-    count = len(starts)
-    n_dots = np.bincount(word, weights=dot, minlength=count)
-    n_digits = np.bincount(word, weights=digit, minlength=count)
-    n_bad = np.bincount(word, weights=~(digit | dot | sign), minlength=count)
-    ok = (n_digits > 0) & (n_dots <= 1) & (n_bad == 0) & (length <= MAX_DIGITS)
-    # A digit is worth 10^(places before the point − 1), or 10^−(places after it).
-    point = np.where(n_dots > 0, np.bincount(word, weights=np.where(dot, pos, 0), minlength=count), length)
-    point = point.astype(np.int64)[word]
-    exponent = np.clip(np.where(pos < point, point - pos - 1, point - pos), -MAX_DIGITS, MAX_DIGITS)
-    value = np.bincount(
-        word, weights=_POW10[exponent + MAX_DIGITS] * np.where(digit, byte - 48, 0), minlength=count
-    )
-    negative = np.zeros(count, dtype=bool)
-    negative[word[(byte == 45) & (pos == 0)]] = True
-    value = np.where(negative, -value, value)
-    line, letter, value = line_of[starts][ok], a[starts][ok].astype(np.int64) - 65, value[ok]
-    if jogging.any() or homing.any():
-        line, letter, value = _jog_words(line, letter, value, jogging, np.flatnonzero(homing))
-    return _Words(n_lines, line, letter, value, jogging | homing)
-
-
-def _jog_words(line, letter, value, jogging, homing):
-    """The words of a block with jogs and homing cycles: a jog keeps only what GRBL takes in one
-    (G20 G21 G90 G91 G53, X Y Z F: anything else the board refuses), a homing line gets
-    ``G53 X0 Y0``. The words stay in line order."""
-    on_jog = jogging[line]
-    takes = np.isin(letter, [_LETTER[c] for c in "GXYZF"]) & ~(
-        (letter == _LETTER["G"]) & ~np.isin(value, _JOG_CODES)
-    )
-    keep = ~on_jog | takes
-    line = np.concatenate([line[keep], np.repeat(homing, 3)])
-    letter = np.concatenate([letter[keep], np.tile([_LETTER["G"], _LETTER["X"], _LETTER["Y"]], len(homing))])
-    value = np.concatenate([value[keep], np.tile([53.0, 0.0, 0.0], len(homing))])
-    order = np.argsort(line, kind="stable")
-    return line[order], letter[order], value[order]
-
-
-def _first_value(words: _Words, letter: str, lines: int) -> np.ndarray:
-    """Per line, the value of the first ``letter`` word (NaN where there is none)."""
-    pick = words.letter == _LETTER[letter]
-    line, value = words.line[pick], words.value[pick]
-    first = np.flatnonzero(np.concatenate([[True], line[1:] != line[:-1]])) if len(line) else line
-    out = np.full(lines, np.nan)
-    out[line[first]] = value[first]
-    return out
-
-
-def _codes(words: _Words, letter: str, lines: int, bits: np.ndarray) -> np.ndarray:
-    """Per line, a mask of the ``<letter><code>`` words it holds: ``bits[code]`` (−1: not read)."""
-    code = np.trunc(words.value).astype(np.int64)
-    pick = (words.letter == _LETTER[letter]) & (code >= 0) & (code < len(bits))
-    bit = bits[code[pick]]
-    known = bit >= 0
-    mask = np.zeros(lines, dtype=np.int64)
-    np.bitwise_or.at(mask, words.line[pick][known], np.left_shift(1, bit[known]))
-    return mask
-
-
-def _coordinate_codes(words: _Words, lines: int) -> tuple[np.ndarray, np.ndarray]:
-    """Per line, its non-modal coordinate code in tenths (:data:`coords.CODES`, 0 for none) and
-    the coordinate system it selects (0 = G54 … 5 = G59, −1 for none)."""
-    pick = words.letter == _LETTER["G"]
-    tenths = np.round(words.value[pick] * 10).astype(np.int64)
-    line = words.line[pick]
-    code = np.zeros(lines, np.int64)
-    known = np.isin(tenths, coords.CODES)
-    code[line[known]] = tenths[known]
-    select = np.full(lines, -1, np.int64)
-    chosen = (tenths >= 540) & (tenths <= 590) & (tenths % 10 == 0)
-    select[line[chosen]] = tenths[chosen] // 10 - 54
-    return code, select
 
 
 def _carry(is_set: np.ndarray, value: np.ndarray, initial) -> np.ndarray:

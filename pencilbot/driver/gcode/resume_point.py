@@ -91,6 +91,12 @@ class ResumePointFinder:
             )
             if located is not None:
                 return located
+        return self._from_the_hand(stream, journal, sent, alarm)
+
+    def _from_the_hand(self, stream: Stream, journal, sent: int, alarm: bool):
+        """A stop whose position was not proven: re-zeroed by hand, the stop found on the lines in
+        flight (by the board's count where the hand agrees with it, else by the hand)."""
+        job = self.job
         why = (
             f"the job stopped where the plotter could not prove its position ({journal.message or 'unknown'})"
         )

@@ -71,31 +71,7 @@ class Runner:
         """Stream from job line ``start``; ``resumed``: the journal of a stopped job to continue."""
         t0 = time.monotonic()
         job = self.job
-        try:
-            self._prepare(stream, check, wake_wait, resuming=resumed is not None)
-            if resumed is not None:
-                # Where the machine stands now, checked against what the stop proved, tells
-                # whether its position can be trusted and what the stopped job really drew.
-                start, stop_xy = ResumePointFinder(
-                    self.job, self.profile, self.port, self.operator, self.locator, self._setup_command
-                ).find(stream, resumed)
-                resumed.message = ""
-                if resumed.pen and self.operator is not None:
-                    self.operator.pause(
-                        f"pen change: insert {resumed.pen} (the pen the job was drawing with)"
-                    )
-            if start > 0:
-                state = job.state_after(start - 1)
-                decimals = max(self.profile.gcode.decimals, 4)  # a stop point is known to 1 µm
-                for line in resume_preamble(
-                    state, self.pen, stop_xy=stop_xy, decimals=decimals, dwell=self.firmware.dwell
-                ):
-                    self._setup_command(stream, line, "restoring the job's state")
-        except StreamFault as fault:
-            raise PlotError(
-                f"{fault} before the job started; nothing was drawn. Check the plotter and retry."
-            ) from None
-
+        start, stop_xy = self._begin(stream, start, stop_xy, check, wake_wait, resumed)
         self.acked = start - 1
         done0 = job.seconds_after(start - 1)
         total = job.seconds_after(len(job) - 1) - done0
@@ -152,6 +128,35 @@ class Runner:
             rejected=[job.number(i) for i in rejected],
             seconds=time.monotonic() - t0,
         )
+
+    def _begin(self, stream: Stream, start, stop_xy, check, wake_wait, resumed):
+        """Wake and check the board; a resume's point found and the job's state restored before
+        it. ``(start, stop_xy)`` as the resume found them."""
+        try:
+            self._prepare(stream, check, wake_wait, resuming=resumed is not None)
+            if resumed is not None:
+                # Where the machine stands now, checked against what the stop proved, tells
+                # whether its position can be trusted and what the stopped job really drew.
+                start, stop_xy = ResumePointFinder(
+                    self.job, self.profile, self.port, self.operator, self.locator, self._setup_command
+                ).find(stream, resumed)
+                resumed.message = ""
+                if resumed.pen and self.operator is not None:
+                    self.operator.pause(
+                        f"pen change: insert {resumed.pen} (the pen the job was drawing with)"
+                    )
+            if start > 0:
+                state = self.job.state_after(start - 1)
+                decimals = max(self.profile.gcode.decimals, 4)  # a stop point is known to 1 µm
+                for line in resume_preamble(
+                    state, self.pen, stop_xy=stop_xy, decimals=decimals, dwell=self.firmware.dwell
+                ):
+                    self._setup_command(stream, line, "restoring the job's state")
+        except StreamFault as fault:
+            raise PlotError(
+                f"{fault} before the job started; nothing was drawn. Check the plotter and retry."
+            ) from None
+        return start, stop_xy
 
     def _stop_signals(self):
         """The stop signals (:mod:`~pencilbot.driver.stop_signals`) stop the stream safely; during

@@ -93,12 +93,7 @@ class Stream(BoardSession):
             or ``interrupt``; ``index`` is the line concerned.
         """
         fw = self.firmware
-        self.state = STREAMING
-        self._on_ack, self._on_error, self._rejected = on_ack, on_error, []
-        # A numbered firmware starts at one line and widens to what the board reports free.
-        self._lines_budget = 1 if send_and_wait or fw.capabilities.line_numbers else None
-        self._send_and_wait = send_and_wait
-        self._answered_at = self.reports
+        self._begin_streaming(on_ack, on_error, send_and_wait)
         drain = None
         last_asked = False
         nxt = start
@@ -126,6 +121,14 @@ class Stream(BoardSession):
                     self.state = DONE
         self.machine_state = self.status.state if self.status is not None else "Idle"
         return self._rejected
+
+    def _begin_streaming(self, on_ack, on_error: str, send_and_wait: bool) -> None:
+        self.state = STREAMING
+        self._on_ack, self._on_error, self._rejected = on_ack, on_error, []
+        # A numbered firmware starts at one line and widens to what the board reports free.
+        self._lines_budget = 1 if send_and_wait or self.firmware.capabilities.line_numbers else None
+        self._send_and_wait = send_and_wait
+        self._answered_at = self.reports
 
     def _serve_pause(self, job: Job, on_pause, on_hold=None) -> None:
         """A board in Hold: say why once (the M0 line's comment, the machine's button, our own
