@@ -20,13 +20,8 @@ settings in :mod:`sim.gcode.settings`, the state word and ``?`` report in :mod:`
   filtering: whitespace and comments dropped, upper-cased, 79 significant characters at most,
   ``\\r`` and ``\\n`` both end a line; a ``%`` is not special and fails as error 1), except
   when it raises an alarm; ``M0`` answers after the cycle start that ends its pause;
-* ``$`` system commands with GRBL's state rules (``$$`` refused in Run and Hold, settings,
-  ``$#``, ``$I``, ``$N``, ``$H`` only when Idle or in Alarm, ``$J=`` only Idle or jogging):
-  ``$ $$ $# $G $I $I= $N $Nx= $C $X $H $J= $SLP $RST=$ $RST=# $RST=* $x=val``;
-* states Idle, Run, Hold:1, Hold:0, Jog, Home, Alarm, Check, Sleep. A feed hold slows the
-  machine along its path at its acceleration (``Hold:1``; a reset now is a reset in motion, a
-  ``~`` is dropped) until it stands (``Hold:0``); nothing is read until ``~``, and the rest of
-  the move then starts from rest;
+* ``$`` system commands with GRBL's state rules (:mod:`sim.gcode.system_commands`);
+* GRBL's states (:mod:`sim.gcode.status_report`); nothing is read in a feed hold until ``~``;
 * a soft- or hard-limit alarm prints ``ALARM:N`` + ``[MSG:Reset to continue]`` and the board
   then answers nothing, not even ``?``, until a reset;
 * a soft reset keeps the machine position when idle or held; in motion it raises ``ALARM:3``
@@ -54,7 +49,7 @@ from sim.gcode.line_log import LineLog
 from sim.gcode.lines import Task, filter_line
 from sim.gcode.machine import Machine
 from sim.gcode.motion_control import PAUSE, MachineAlarm
-from sim.gcode.status_report import StatusReport
+from sim.gcode.status_report import Flags, StatusReport
 from sim.gcode.system_commands import SystemCommands
 
 _EOL = b"\n\r"
@@ -63,7 +58,7 @@ _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # nee
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
 
 
-class Firmware(SystemCommands, StatusReport):
+class Firmware(SystemCommands):
     """GRBL 1.1h protocol front end of a virtual plotter.
 
     Parameters
@@ -118,8 +113,7 @@ class Firmware(SystemCommands, StatusReport):
         self._homing = False
         self._sleep = False
         self._report_due = False  # a ? that arrived while GRBL could not answer
-        self._wco_counter = 0
-        self._ovr_counter = 0
+        self.status = StatusReport(machine)
         self._locked = bool(machine.settings[22]) and init_lock  # Alarm: G-code refused until $X / $H
         self._restart()
 
@@ -265,13 +259,13 @@ class Firmware(SystemCommands, StatusReport):
             # GRBL takes a cycle start only once the hold is complete (Hold:0): one that comes
             # while the machine is still slowing (Hold:1) is dropped.
             self._hold = False
-            self.machine.release()
+            self.machine.motion.release()
             self._resume()
 
     def _begin_hold(self) -> None:
         if not self._hold:
             self._hold = True
-            self.machine.hold()
+            self.machine.motion.hold()
 
     def _status_query(self) -> None:
         self.queries += 1
@@ -319,7 +313,7 @@ class Firmware(SystemCommands, StatusReport):
         self._task = self._held_line = None
         self._critical = self._hold = self._jog = self._homing = self._sleep = False
         self._report_due = False
-        self._wco_counter = self._ovr_counter = 0
+        self.status.restart()
         self._emit("\r\n" + self.protocol.BANNER)
         if self._locked:
             self._emit("[MSG:'$H'|'$X' to unlock]")
@@ -440,7 +434,17 @@ class Firmware(SystemCommands, StatusReport):
         if emit:
             self._emit(reply)
 
+    def state(self) -> str:
+        """GRBL's state word (:class:`~sim.gcode.status_report.StatusReport`)."""
+        return self.status.state(self._flags())
+
+    def status_report(self) -> str:
+        """The ``<…>`` line GRBL prints for ``?``."""
+        return self.status.report(self._flags(), self._ring_size - len(self._ring))
+
+    def _flags(self) -> Flags:
+        return Flags(self._sleep, self._locked, self._homing, self._hold, lambda: self._jogging)
+
     def accepted_lines(self) -> list[str]:
-        """Texts of the non-blank lines answered ``ok``, in order (the exactly-once record;
-        blank lines, such as a sender's wake-up line ends, carry nothing to deliver)."""
+        """Texts of the non-blank lines answered ``ok``, in order (the exactly-once record)."""
         return self.log.texts_answered("ok")

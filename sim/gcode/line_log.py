@@ -61,7 +61,8 @@ class LineLog:
         return (self[i] for i in range(len(self)))
 
     def texts_answered(self, reply: str) -> list[str]:
-        """Texts of the non-blank lines answered ``reply``, in order."""
+        """Texts of the non-blank lines answered ``reply``, in order (blank lines, such as a
+        sender's wake-up line ends, carry nothing to deliver)."""
         code = self._reply_code.get(reply)
         if code is None:
             return []

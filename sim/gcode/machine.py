@@ -41,7 +41,7 @@ from firmware_protocol import grbl
 from pencilbot.machine.profile import Profile
 from sim.gcode import parser as gp
 from sim.gcode.arcs import arc_chords
-from sim.gcode.motion_control import PAUSE, WAIT, MotionControl
+from sim.gcode.motion_control import PAUSE, SOFT_LIMIT_ALARM, WAIT, MachineAlarm, MotionControl
 from sim.gcode.planner import Block, Planner
 from sim.gcode.settings import grbl_settings
 from sim.recorder import StrokeRecorder
@@ -50,7 +50,7 @@ PROBE_INITIAL_ALARM, PROBE_CONTACT_ALARM = 4, 5
 TRAVEL_EXCEEDED = 15
 
 
-class Machine(MotionControl, StrokeRecorder):
+class Machine(StrokeRecorder):
     """A GRBL 1.1h interpreter driving a planner and a virtual clock.
 
     Parameters
@@ -74,12 +74,12 @@ class Machine(MotionControl, StrokeRecorder):
         self.settings = grbl_settings(profile)
         self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
+        self.motion = MotionControl(self.planner, profile.bed, instant=instant, complete=self._complete)
         self.settings_changed()
         self.pauses = 0  # M0 pauses the program has reached (a colour job: its pen changes)
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
         self.offsets_changed = False  # a WCO change the next status report must show
-        self.dwell_until = 0.0
         self.slip = (0.0, 0.0, 0.0)  # where the carriage is minus where GRBL counts it (mm)
         #: Pen-down ink a coasting carriage laid past the end of its move (start, end X, Y in mm):
         #: off the job's path, where no sender can take it back.
@@ -147,17 +147,6 @@ class Machine(MotionControl, StrokeRecorder):
             return 0.0 if s == 0 else low
         return s
 
-    def gcode_state(self, inches: bool = False) -> str:
-        """The ``$G`` text: ``G0 G54 G17 G21 G90 G94 M5 M9 T0 F0 S0``."""
-        m, s = self.state.modal, self.state
-        motion = f"{m.motion:.1f}" if m.motion in gp.PROBES else f"{m.motion:.0f}"
-        feed = f"{s.feed / gp.MM_PER_INCH:.1f}" if inches else f"{s.feed:.0f}"
-        return (
-            f"G{motion} G{54 + m.coord_select} G{17 + m.plane} G{21 if m.units_mm else 20} "
-            f"G{90 if m.absolute else 91} G{93 if m.inverse_time else 94} M{m.spindle} M{m.coolant} "
-            f"T{s.tool} F{feed} S{s.spindle_speed:.0f}"
-        )
-
     def work_offset(self) -> tuple[float, float, float]:
         """WCO (mm): the active coordinate system + G92 + tool length offset."""
         return self.state.work_offset()
@@ -198,6 +187,92 @@ class Machine(MotionControl, StrokeRecorder):
         """Speed along the executing move (mm/s), 0 at rest."""
         p = self.planner
         return p.executing.speed_at(p.elapsed) if p.executing is not None else 0.0
+
+    # --- motion (GRBL's motion_control.c, on :attr:`motion`) ---------------------------------
+
+    def _soft_limit_exceeded(self, target) -> bool:
+        return self.motion.soft_limit_exceeded(target, self.settings)
+
+    def _queue_line(self, target, *, rapid: bool, feed: float | None = None, checked: bool = False):
+        """GRBL's mc_line: soft limits, check mode, wait for a planner slot, plan the move."""
+        if not checked and self._soft_limit_exceeded(target):
+            self.stop()
+            raise MachineAlarm(SOFT_LIMIT_ALARM)
+        if self.check_mode:
+            self.position = target
+            return
+        yield from self.motion.room()
+        start, pen_before = self.position, self.pen_down
+        self.position = target
+        length = math.dist(start, target)
+        if length >= 1e-9:
+            nominal = None if rapid else (self.state.feed if feed is None else feed) / 60.0
+            pen = pen_before and (self.pen.kind != "z" or self.pen_down)
+            self.motion.plan(start, target, length, nominal=nominal, pen_down=pen, settings=self.settings)
+
+    def _dwell(self, seconds: float):
+        if not self.check_mode:
+            yield from self.motion.dwell(seconds)
+
+    def _synchronize(self):
+        yield from self.motion.synchronize()
+
+    def advance(self, seconds: float) -> None:
+        """Real-time mode: let ``seconds`` of machine time pass."""
+        self.motion.advance(seconds)
+
+    def finish(self) -> None:
+        """Complete all queued motion (instant mode)."""
+        if not self.check_mode:
+            self.motion.finish()
+
+    def home(self):
+        """``$H``: seek the switches at ``$25``, locate at ``$24``, pull off ``$27`` (a generator).
+
+        The carriage ends at the origin corner (X and Y; a pen plotter homes no Z) and GRBL's
+        count agrees with it again. Non-inverted axes read 0 there (a positive work space needs
+        HOMING_FORCE_SET_ORIGIN), inverted ones −``$27`` (GRBL's negative space).
+        """
+        pulloff, seek, feed = self.settings[27], self.settings[25], self.settings[24]
+        start = self.carriage_position()
+        bed = self.profile.bed
+        home = (-pulloff if bed.invert_x else 0.0, -pulloff if bed.invert_y else 0.0, start[2])
+        distance = math.dist(start[:2], home[:2])
+        seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
+        yield from self._dwell(seconds)
+        self._record(start, home, self.pen_down)
+        self._close_stroke()
+        self.slip = (0.0, 0.0, self.slip[2])
+        self.position = (home[0], home[1], start[2] - self.slip[2])
+
+    def stop(self, *, lose: bool = False) -> bool:
+        """Halt at once (reset, alarm): drop planned moves. True if the machine was moving.
+
+        ``lose``: the motors stop dead but the carriage coasts on for its stopping distance
+        (v²/2a along the move), so GRBL's count no longer says where it is.
+        """
+        p = self.planner
+        moving = p.busy
+        first = p.executing or (p.queue[0] if p.queue else None)
+        # In instant mode the machine stands at the start of the first queued move, at the speed
+        # the planner entered it with (never more than it can stop from by the move's end).
+        speed = self.current_speed() if p.executing is not None else (first.entry if first else 0.0)
+        here = self.machine_position()  # moves not yet started are dropped, not reached
+        self.motion.discard()
+        self.position = here
+        if lose and first is not None and speed > 0:
+            coast = speed * speed / (2.0 * first.accel)
+            start = self.carriage_position()
+            self.slip = tuple(s + u * coast for s, u in zip(self.slip, first.unit))
+            self._record(start, self.carriage_position(), first.pen_down)
+            left = math.dist(here, first.end)  # of the move, before it runs past its end
+            if first.pen_down and coast > left:
+                end = self.carriage_position()
+                self.overruns.append(
+                    (tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2])
+                )
+        self._close_stroke()
+        return moving
 
     # --- parsing and execution --------------------------------------------------------------
 

@@ -1,17 +1,20 @@
-"""GRBL's motion control (``motion_control.c``) on the virtual machine: a move checked against
-the soft limits and queued when the planner has room, a dwell, a buffer synchronise, the homing
-cycle, and a stop that drops planned motion (where the carriage may coast on).
+"""GRBL's motion control (``motion_control.c``) for the virtual machine: the planner and the clock
+it runs on, a move checked against the soft limits and planned when the planner has room, a dwell,
+a buffer synchronise, a feed hold, and the planned motion dropped at a stop.
 
-Each of these is a generator that yields :data:`WAIT` wherever GRBL's main loop would block, or
-in instant mode jumps the clock ahead at once.
+The waits are generators that yield :data:`WAIT` wherever GRBL's main loop would block, or in
+instant mode jump the clock ahead at once. The machine (:class:`sim.gcode.machine.Machine`) holds
+one :class:`MotionControl`, passes it the settings and the check mode where they count, and is told
+each block the planner finished (``complete``: its recorder).
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Callable, Iterator, Mapping
 
+from pencilbot.machine.bed import Bed
 from pencilbot.machine.motion import axis_limited
-from sim.gcode.planner import Block
+from sim.gcode.planner import Block, Planner
 
 SOFT_LIMIT_ALARM = 2
 WAIT, PAUSE = "wait", "pause"  # what an execution yields: blocked on the machine, or M0
@@ -26,85 +29,54 @@ class MachineAlarm(Exception):
 
 
 class MotionControl:
-    """The motion part of :class:`sim.gcode.machine.Machine`, kept apart: mixed into it, these
-    methods use its ``planner``, ``settings``, ``profile``, ``state`` (the parser's position),
-    clock mode (``instant``) and recorder (:class:`sim.recorder.StrokeRecorder`).
-    """
+    """The planner of a machine and its clock: instant (``instant``: a wait jumps the clock) or
+    advanced by the caller, with ``complete(blocks)`` told of every block that has run."""
 
-    def home(self):
-        """``$H``: seek the switches at ``$25``, locate at ``$24``, pull off ``$27`` (a generator).
+    def __init__(self, planner: Planner, bed: Bed, *, instant: bool, complete: Callable[[list[Block]], None]):
+        self.planner, self.bed, self.instant, self.complete = planner, bed, instant, complete
+        self.dwell_until = 0.0  # real-time mode: when the G4 (or homing cycle) counting down ends
 
-        The carriage ends at the origin corner (X and Y; a pen plotter homes no Z) and GRBL's
-        count agrees with it again. Non-inverted axes read 0 there (a positive work space needs
-        HOMING_FORCE_SET_ORIGIN), inverted ones −``$27`` (GRBL's negative space).
-        """
-        pulloff, seek, feed = self.settings[27], self.settings[25], self.settings[24]
-        start = self.carriage_position()
-        bed = self.profile.bed
-        home = (-pulloff if bed.invert_x else 0.0, -pulloff if bed.invert_y else 0.0, start[2])
-        distance = math.dist(start[:2], home[:2])
-        seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
-        yield from self._dwell(seconds)
-        self._record(start, home, self.pen_down)
-        self._close_stroke()
-        self.slip = (0.0, 0.0, self.slip[2])
-        self.position = (home[0], home[1], start[2] - self.slip[2])
-
-    def _soft_limit_exceeded(self, target) -> bool:
-        if not self.settings[20]:
+    def soft_limit_exceeded(self, target, settings: Mapping[int, float]) -> bool:
+        """A target outside the travel (``$130``, ``$131``) when soft limits (``$20``) are on."""
+        if not settings[20]:
             return False
         eps = 1e-6
         for value, travel, inverted in (
-            (target[0], self.settings[130], self.profile.bed.invert_x),
-            (target[1], self.settings[131], self.profile.bed.invert_y),
+            (target[0], settings[130], self.bed.invert_x),
+            (target[1], settings[131], self.bed.invert_y),
         ):
             lo, hi = (-travel, 0.0) if inverted else (0.0, travel)
             if not lo - eps <= value <= hi + eps:
                 return True
         return False
 
-    def _queue_line(self, target, *, rapid: bool, feed: float | None = None, checked: bool = False):
-        """GRBL's mc_line: soft limits, check mode, wait for a planner slot, plan the move."""
-        if not checked and self._soft_limit_exceeded(target):
-            self.stop()
-            raise MachineAlarm(SOFT_LIMIT_ALARM)
-        if self.check_mode:
-            self.position = target
-            return
+    def room(self) -> Iterator[str]:
+        """Until the planner has a free block (GRBL's mc_line waiting for a slot)."""
         while self.planner.free_blocks == 0:
             if self.instant:
-                self._complete([self.planner.finish_one()])
+                self.complete([self.planner.finish_one()])
             else:
                 yield WAIT
-        self._line(target, rapid=rapid, feed=feed)
 
-    def _line(self, target: tuple[float, float, float], *, rapid: bool, feed: float | None = None) -> None:
-        start = self.position
-        delta = (target[0] - start[0], target[1] - start[1], target[2] - start[2])
-        length = math.hypot(*delta)
-        pen_before = self.pen_down
-        self.position = target
-        if length < 1e-9:
-            return
-        unit = (delta[0] / length, delta[1] / length, delta[2] / length)
-        settings = self.settings
+    def plan(self, start, target, length: float, *, nominal: float | None, pen_down: bool, settings) -> None:
+        """Plan the move from ``start`` to ``target`` (``length`` mm) at the axes' limits, at most
+        ``nominal`` mm/s (None: a rapid)."""
+        unit = tuple((t - s) / length for s, t in zip(start, target))
         rate, accel = axis_limited(
             unit, (settings[110], settings[111], settings[112]), (settings[120], settings[121], settings[122])
         )
         rate /= 60.0
-        nominal = rate if rapid else min((self.state.feed if feed is None else feed) / 60.0, rate)
-        pen = pen_before and (self.pen.kind != "z" or self.pen_down)
-        self.planner.add(Block(start, target, length, unit, nominal, accel, pen), settings[11])
+        speed = rate if nominal is None else min(nominal, rate)
+        self.planner.add(Block(start, target, length, unit, speed, accel, pen_down), settings[11])
 
     @property
     def dwelling(self) -> bool:
         """Real-time mode: a G4 (or a homing cycle) is still counting down."""
         return self.planner.clock < self.dwell_until
 
-    def _dwell(self, seconds: float):
-        if self.check_mode:
-            return
-        yield from self._synchronize()
+    def dwell(self, seconds: float) -> Iterator[str]:
+        """``G4``: every queued move run, then ``seconds`` pass."""
+        yield from self.synchronize()
         if self.instant:
             self.planner.clock += seconds
             return
@@ -112,17 +84,17 @@ class MotionControl:
         while self.dwelling:
             yield WAIT
 
-    def _synchronize(self):
+    def synchronize(self) -> Iterator[str]:
         """GRBL's protocol_buffer_synchronize: wait until every queued move has run and the
         steppers' idle lock has passed."""
         if self.instant:
-            self._complete(self.planner.finish_all())
+            self.complete(self.planner.finish_all())
         while self.planner.busy or self.planner.settling:
             yield WAIT
 
     def advance(self, seconds: float) -> None:
         """Real-time mode: let ``seconds`` of machine time pass."""
-        self._complete(self.planner.advance(seconds))
+        self.complete(self.planner.advance(seconds))
         if not self.planner.busy and self.planner.clock < self.dwell_until:
             self.planner.clock = min(self.dwell_until, self.planner.clock + seconds)
 
@@ -132,45 +104,20 @@ class MotionControl:
         if not self.instant:
             ran = self.planner.hold()
             if ran is not None:
-                self._complete([ran])
+                self.complete([ran])
 
     def release(self) -> None:
         """Cycle start after a hold: the rest of the queue runs on from rest."""
         self.planner.release()
 
-    def stop(self, *, lose: bool = False) -> bool:
-        """Halt at once (reset, alarm): drop planned moves. True if the machine was moving.
-
-        ``lose``: the motors stop dead but the carriage coasts on for its stopping distance
-        (v²/2a along the move), so GRBL's count no longer says where it is.
-        """
-        p = self.planner
-        moving = p.busy
-        first = p.executing or (p.queue[0] if p.queue else None)
-        # In instant mode the machine stands at the start of the first queued move, at the speed
-        # the planner entered it with (never more than it can stop from by the move's end).
-        speed = self.current_speed() if p.executing is not None else (first.entry if first else 0.0)
-        here = self.machine_position()  # moves not yet started are dropped, not reached
-        cut = p.discard()
+    def discard(self) -> None:
+        """A stop: planned moves dropped (the part of the one running that ran, recorded), no dwell."""
+        cut = self.planner.discard()
         if cut is not None:
-            self._complete([cut])
-        self.position = here
-        self.dwell_until = p.clock
-        if lose and first is not None and speed > 0:
-            coast = speed * speed / (2.0 * first.accel)
-            start = self.carriage_position()
-            self.slip = tuple(s + u * coast for s, u in zip(self.slip, first.unit))
-            self._record(start, self.carriage_position(), first.pen_down)
-            left = math.dist(here, first.end)  # of the move, before it runs past its end
-            if first.pen_down and coast > left:
-                end = self.carriage_position()
-                self.overruns.append(
-                    (tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2])
-                )
-        self._close_stroke()
-        return moving
+            self.complete([cut])
+        self.dwell_until = self.planner.clock
 
     def finish(self) -> None:
         """Complete all queued motion (instant mode)."""
-        if self.instant and not self.check_mode:
-            self._complete(self.planner.finish_all())
+        if self.instant:
+            self.complete(self.planner.finish_all())

@@ -11,6 +11,7 @@ from __future__ import annotations
 from firmware_protocol import grbl
 from sim.gcode import parser as gp
 from sim.gcode.settings import DEFAULT_SETTINGS, NUMBER, store_setting
+from sim.gcode.status_report import gcode_modes
 
 
 class SystemCommands:
@@ -70,7 +71,7 @@ class SystemCommands:
             for number, value in m.settings.items():
                 self._emit(grbl.format_message(grbl.Setting(number, value)))
         elif kind == "G":
-            self._emit(f"[GC:{m.gcode_state(inches=bool(m.settings[13]))}]")
+            self._emit(f"[GC:{gcode_modes(m, inches=bool(m.settings[13]))}]")
         elif kind == "C":
             if m.check_mode:
                 self._emit("[MSG:Disabled]")

@@ -83,7 +83,7 @@ def test_radius_arcs_take_the_short_way_and_negative_r_the_long_way(r, sweep):
 def test_each_plane_arcs_in_its_axes_and_climbs_along_the_third(plane, line, axes, center, linear):
     m = Machine(description())
     done = []
-    m._complete = done.extend  # noqa: SLF001 -- observe the executed blocks in 3-D
+    m.motion.complete = done.extend  # observe the executed blocks in 3-D
     run(m, plane, line + " F1000")
     ends = np.array([b.end for b in done])
     a0, a1 = axes

@@ -232,7 +232,7 @@ def test_realtime_advance_moves_part_way():
 def test_planner_is_never_faster_than_allowed(moves):
     m = Machine(description(width=200, height=200))
     done = []
-    m._complete = done.extend  # noqa: SLF001 -- observe the executed blocks
+    m.motion.complete = done.extend  # observe the executed blocks
     for x, y, f in moves:
         m.apply(m.parse(f"G1X{x:.3f}Y{y:.3f}F{f}"))
     m.finish()
