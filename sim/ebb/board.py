@@ -26,7 +26,7 @@ import numpy as np
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
 from sim.ebb import moves as ebb_moves
-from sim.ebb.queries import Queries
+from sim.ebb.queries import Queries, Readings
 from sim.ebb.run import Run as _Run
 from sim.ebb.run import typed as _typed
 from sim.ebb.servo import PenSide, Servos
@@ -35,7 +35,7 @@ BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
 _GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 
-class EbbBoard(Queries, PenSide):
+class EbbBoard(PenSide):
     """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
     every stretch the carriage moves.
@@ -70,7 +70,7 @@ class EbbBoard(Queries, PenSide):
         self.faults = faults.at if faults is not None else {}
         self.operator = operator
         self.supply_volts = supply  # V at the power jack (0: only USB: the motors have no power)
-        self.nickname = ""  # ST / QT: kept in flash through reboots
+        self.queries = Queries()  # SL/QL, nodes, ports, the name in flash (kept through reboots)
         self.link_dropped = False
         self.clock = 0.0
         self.busy_time = 0.0  # seconds something ran (for gap measurements)
@@ -100,7 +100,7 @@ class EbbBoard(Queries, PenSide):
         self.rate_up = self.rate_down = 0
         self.servos = Servos(getattr(self.profile.ebb, "servo_pin", 1), self._resting_servo())
         self.pen_up = True
-        self.reset_io()
+        self.queries.reset()
         self.enabled = (0, 0)  # QE: motors off at boot, so the carriage is free to move
         self.microsteps = 16
         self.power_lost = False
@@ -307,7 +307,7 @@ class EbbBoard(Queries, PenSide):
         if name in ("QG", "QS", "QB", "QP", "QM") and self.instant:
             self._advance(self._remaining() + 1e-9 if (self.running or self.fifo) else 0.0)  # see "Time"
         data = None
-        handled, data = self.answer_query(name, args)
+        handled, data = self.queries.answer(name, args, self._readings())
         if handled:
             return protocol.format_reply(name, data, future=future, old=self.old)
         if name == "RB":  # a reboot: USB drops, the board starts again
@@ -377,6 +377,17 @@ class EbbBoard(Queries, PenSide):
         elif key == 60:
             self.threshold = value
         return None
+
+    @property
+    def old(self) -> bool:
+        """Firmware before 3.0 (2.8.1): its own number formats."""
+        return self._version < (3, 0)
+
+    def _readings(self) -> Readings:
+        return Readings(
+            self.old, self.supply_volts, self.microsteps, self.enabled, self.fifo_size, len(self.fifo),
+            self.threshold, self.servos,
+        )  # fmt: skip
 
     def _status(self) -> int:
         qm = self._qm()

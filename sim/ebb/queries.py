@@ -12,8 +12,11 @@ kept through a reboot); ``QU`` (1, 2, 3, 4, 5, 6, 60, 61, 200; any other number 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 from firmware_protocol import ebb as protocol
 from firmware_protocol.ebb import CommandError
+from sim.ebb.servo import Servos
 
 RA0_COUNTS = 394  # the motor-current pot's voltage (the reference's example: 0.72 A)
 PORTS = "ABCDE"
@@ -27,30 +30,42 @@ def supply_counts(volts: float) -> int:
     return max(0, min(1023, int(round(max(volts - 0.3, 0.0) / 9.2 / 3.3 * 1023))))
 
 
-class Queries:
-    """Mixin of :class:`sim.ebb.board.EbbBoard`: the state these commands keep and their answers."""
+@dataclass(frozen=True)
+class Readings:
+    """What the board's other parts say that these commands report: the firmware's number style
+    (``old``: 2.8.1), the supply, the motors, the FIFO and the power threshold."""
 
+    old: bool
     supply_volts: float
-    _version: tuple[int, ...]
-    nickname: str
+    microsteps: int
+    enabled: tuple[int, int]
+    fifo_size: int
+    fifo_len: int
+    threshold: int
+    servos: Servos  # (``SR`` switches its power)
 
-    def reset_io(self) -> None:
+
+class Queries:
+    """The board's commands beyond motion and the state they keep: RAM (``SL``/``QL``), the node
+    counter, the port latches, the name in flash (kept through a reboot) and the servo's power
+    timeout; the board holds one and asks it with its :class:`Readings`."""
+
+    def __init__(self) -> None:
+        self.nickname = ""  # ST / QT: kept in flash through reboots
+        self.reset()
+
+    def reset(self) -> None:
         """What a reboot clears (the name in flash stays)."""
         self.sl = [0] * SL_SIZE
         self.nodes = 0
         self.latches = dict.fromkeys(PORTS, 0)
         self.servo_timeout_ms = 60_000
 
-    @property
-    def old(self) -> bool:
-        """Firmware before 3.0 (2.8.1): its own number formats."""
-        return self._version < (3, 0)
-
-    def answer_query(self, name: str, args: tuple) -> tuple[bool, str | None]:
+    def answer(self, name: str, args: tuple, board: Readings) -> tuple[bool, str | None]:
         """``(handled, data)`` for the commands of this module; raises CommandError as the board refuses."""
-        old = self.old
+        old = board.old
         if name == "QC":
-            a, b = RA0_COUNTS, supply_counts(self.supply_volts)
+            a, b = RA0_COUNTS, supply_counts(board.supply_volts)
             return True, f"{a:04d},{b:04d}" if old else f"{a},{b}"
         if name == "SL":
             if old and len(args) > 1:
@@ -74,13 +89,13 @@ class Queries:
         if name == "QN":
             return True, f"{self.nodes:010d}" if old else str(self.nodes)
         if name in ("PI", "PO", "PD"):
-            return True, self._pins(name, args)
+            return True, self._pins(name, args, board)
         if name == "QR":
-            return True, "1" if self.servos.powered else "0"
+            return True, "1" if board.servos.powered else "0"
         if name == "SR":
             self.servo_timeout_ms = args[0]
             if len(args) > 1:
-                self.servos.powered = bool(args[1])
+                board.servos.powered = bool(args[1])
             return True, None
         if name == "ST":
             self.nickname = args[0] if args else ""
@@ -89,45 +104,46 @@ class Queries:
             shown = self.nickname if self.nickname and 32 < ord(self.nickname[0]) < 128 else ""
             return True, shown
         if name == "QU":
-            return True, self._qu(args[0])
+            return True, self._qu(args[0], board)
         return False, None
 
-    def _pins(self, name: str, args: tuple) -> str | None:
+    def _pins(self, name: str, args: tuple, board: Readings) -> str | None:
         port, pin = args[0], args[1]
         if pin > 7 or port not in PORTS or (name == "PO" and args[2] > 1):
             raise CommandError(name, 6, "Invalid parameter value")
         if name == "PI":
-            driven = self._driver_pins()
+            driven = _driver_pins(board)
             return str(driven[(port, pin)] if (port, pin) in driven else (self.latches[port] >> pin) & 1)
         if name == "PO":
             bit = 1 << pin
             self.latches[port] = (self.latches[port] | bit) if args[2] else (self.latches[port] & ~bit)
         return None
 
-    def _driver_pins(self) -> dict[tuple[str, int], int]:
-        """The pins the firmware drives for the stepper drivers (EBB v1.3+): the enables, low
-        when a motor is on (RE0, RC1), and the microstep selects MS1..3 (RE2, RE1, RA6)."""
-        ms = _MICROSTEP_PINS.get(self.microsteps, (1, 1, 1))
-        return {
-            ("E", 0): int(not self.enabled[0]),
-            ("C", 1): int(not self.enabled[1]),
-            ("E", 2): ms[0],
-            ("E", 1): ms[1],
-            ("A", 6): ms[2],
-        }
-
-    def _qu(self, number: int) -> str:
+    def _qu(self, number: int, board: Readings) -> str:
         values = {
             1: "00",
             2: str(protocol.FIFO_MAX),
-            3: str(self.fifo_size),
+            3: str(board.fifo_size),
             4: "000",
             5: "000",
-            6: str(len(self.fifo)),
-            60: str(self.threshold),
+            6: str(board.fifo_len),
+            60: str(board.threshold),
             61: "0",
             200: "0,0",
         }
         if number not in values:
             raise CommandError("QU", 6, "Invalid parameter value")
         return values[number]
+
+
+def _driver_pins(board: Readings) -> dict[tuple[str, int], int]:
+    """The pins the firmware drives for the stepper drivers (EBB v1.3+): the enables, low
+    when a motor is on (RE0, RC1), and the microstep selects MS1..3 (RE2, RE1, RA6)."""
+    ms = _MICROSTEP_PINS.get(board.microsteps, (1, 1, 1))
+    return {
+        ("E", 0): int(not board.enabled[0]),
+        ("C", 1): int(not board.enabled[1]),
+        ("E", 2): ms[0],
+        ("E", 1): ms[1],
+        ("A", 6): ms[2],
+    }
