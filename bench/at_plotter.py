@@ -66,8 +66,8 @@ def _carriage(plotter) -> list[float]:
 
 def run_profile(profile: str, config: Path) -> dict:
     from pencilbot.machine.profile import load_profile
-    from sim.protocol_sim import check_simulated
     from sim.pty_server import PtyServer
+    from sim.wires import check_simulated
 
     try:
         check_simulated(load_profile(profile))

@@ -30,7 +30,7 @@ the non-equivalent mutants run.
 Usage::
 
     python bench/mutants.py --sample 30 --seed 1 --jobs 2            # every module, 30 mutants each
-    python bench/mutants.py --module pencilbot/driver/stream.py --list # the mutants of one module
+    python bench/mutants.py --module pencilbot/driver/gcode/stream.py --list # the mutants of one module
     python bench/mutants.py --module pencilbot/planning/hatching.py --sample 0   # all of them
 
 Prints JSON: per module killed / total / equivalent / score and every survivor
@@ -71,11 +71,11 @@ _DRIVER_STREAM = [
 ]
 #: Module → the fast tests that cover it (run with -x; the first failure kills).
 TESTS: dict[str, list[str]] = {
-    "pencilbot/driver/stream.py": _DRIVER_STREAM,
-    "pencilbot/driver/session.py": _DRIVER_STREAM,
+    "pencilbot/driver/gcode/stream.py": _DRIVER_STREAM,
+    "pencilbot/driver/gcode/session.py": _DRIVER_STREAM,
     "pencilbot/driver/plot.py": _DRIVER_STREAM
     + ["tests/driver/test_draw_checks.py", "tests/driver/test_pen_change_draw.py"],
-    "pencilbot/driver/runner.py": _DRIVER_STREAM
+    "pencilbot/driver/gcode/runner.py": _DRIVER_STREAM
     + [
         "tests/driver/test_draw_checks.py",
         "tests/driver/test_pen_change_draw.py",
@@ -87,36 +87,36 @@ TESTS: dict[str, list[str]] = {
         "tests/driver/test_stream_sim.py",
         "tests/driver/test_draw_checks.py",
     ],
-    "pencilbot/driver/resume_point.py": [
+    "pencilbot/driver/gcode/resume_point.py": [
         "tests/driver/test_stop_near_a_corner.py",
         "tests/driver/test_work_position_board.py",
         "tests/driver/test_stream_sim.py",
     ],
-    "pencilbot/driver/resume.py": [
+    "pencilbot/driver/gcode/resume.py": [
         "tests/driver/test_stop_near_a_corner.py",
         "tests/driver/test_modal_resume.py",
         "tests/driver/test_stream_sim.py",
         "tests/driver/test_work_position_board.py",
         "tests/driver/test_stop_on_a_return_pass.py",
     ],
-    "pencilbot/driver/modal.py": [
+    "pencilbot/driver/gcode/modal.py": [
         "tests/driver/test_modal_codes.py",
         "tests/driver/test_modal_resume.py",
         "tests/driver/test_job.py",
     ],
-    "pencilbot/driver/job.py": [
+    "pencilbot/driver/gcode/job.py": [
         "tests/driver/test_job.py",
         "tests/driver/test_modal_resume.py",
         "tests/driver/test_draw_checks.py",
         "tests/driver/test_pen_change_draw.py",
     ],
-    "pencilbot/driver/bed_check.py": [
+    "pencilbot/driver/gcode/bed_check.py": [
         "tests/driver/test_draw_checks.py",
         "tests/driver/test_job.py",
         "tests/driver/test_coordinate_systems.py",
     ],
-    "pencilbot/driver/header.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
-    "pencilbot/driver/drawn.py": ["tests/cli/test_cli_stat.py", "tests/driver/test_job.py"],
+    "pencilbot/driver/gcode/header.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
+    "pencilbot/driver/gcode/drawn.py": ["tests/cli/test_cli_stat.py", "tests/driver/test_job.py"],
     "pencilbot/driver/journal.py": [
         "tests/driver/test_journal_input.py",
         "tests/driver/test_journal_progress.py",
@@ -125,7 +125,7 @@ TESTS: dict[str, list[str]] = {
     ],
     "pencilbot/driver/progress.py": ["tests/driver/test_journal_progress.py"],
     "pencilbot/driver/keys.py": ["tests/driver/test_keys.py"],
-    "pencilbot/driver/markers.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
+    "pencilbot/driver/gcode/markers.py": ["tests/driver/test_draw_checks.py", "tests/driver/test_job.py"],
     "pencilbot/driver/port.py": ["tests/driver/test_port_in_use.py", "tests/driver/test_stream_sim.py"],
     "pencilbot/driver/position.py": [
         "tests/driver/test_modal_resume.py",

@@ -50,12 +50,12 @@ import tempfile
 from pathlib import Path
 
 from pencilbot.commands.stat import gcode_plan
-from pencilbot.driver.job import gcode_blocks
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.job import gcode_blocks
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.planning.stats import estimate
 from sim import bulk, protocol_sim
-from sim.settings import grbl_settings
+from sim.gcode.settings import grbl_settings
 
 #: The settings sent before the job (homing and soft limits stay off: the job starts at 0, 0).
 SENT = (1, 10, 11, 12, 30, 31, 32, 100, 101, 102, 110, 111, 112, 120, 121, 122, 130, 131, 132)
@@ -71,7 +71,7 @@ def settings_lines(profile) -> list[str]:
 
 
 def job_lines(path: Path) -> list[str]:
-    """The file's commands as the driver sends them (:func:`~pencilbot.driver.modal.clean_line`),
+    """The file's commands as the driver sends them (:func:`~pencilbot.driver.gcode.modal.clean_line`),
     without blank lines."""
     return [line for line in map(clean_line, path.read_text().splitlines()) if line]
 

@@ -514,7 +514,8 @@ def draw_traced_child(job: str) -> dict:
     for stat in snapshot.statistics("filename"):
         name = stat.traceback[0].filename
         part = next(
-            (p for p in ("sim/firmware.py", "sim/", "pencilbot/driver/", "pencilbot/") if p in name), "other"
+            (p for p in ("sim/gcode/firmware.py", "sim/", "pencilbot/driver/", "pencilbot/") if p in name),
+            "other",
         )
         parts[part] = parts.get(part, 0) + stat.size
     return {"lines": lines, **{part: round(size / lines, 1) for part, size in sorted(parts.items())}}

@@ -25,8 +25,8 @@ from firmware_protocol import grbl
 from pencilbot.driver import draw
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from pencilbot.render import Canvas
-from sim.firmware import Firmware
-from sim.machine import Machine
+from sim.gcode.firmware import Firmware
+from sim.gcode.machine import Machine
 
 
 def program(n: int, seed: int = 0) -> list[str]:

@@ -30,8 +30,8 @@ import numpy as np
 
 from sim.bulk_lines import DWELL_LINE, MOVE, SPINDLE_LINE, Lines, read_lines
 from sim.bulk_timing import Moves, axis_limited, max_entries, time_moves
-from sim.gcode_parser import UNDEFINED_FEED
-from sim.motion_control import SOFT_LIMIT_ALARM
+from sim.gcode.motion_control import SOFT_LIMIT_ALARM
+from sim.gcode.parser import UNDEFINED_FEED
 
 #: Shortest move the machine plans (mm; as MotionControl._line).
 _MIN_LENGTH = 1e-9

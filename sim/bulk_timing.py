@@ -1,6 +1,6 @@
 """The fast path's motion (:mod:`sim.bulk`): the look-ahead planner's timing of many moves at once.
 
-In instant mode :class:`sim.planner.Planner` holds ``capacity`` blocks; a block starts (and its
+In instant mode :class:`sim.gcode.planner.Planner` holds ``capacity`` blocks; a block starts (and its
 exit speed is fixed) when the planner needs its slot, so block *j*'s exit is the entry speed the
 planner had given block *j + 1* once blocks *j* .. *j + capacity − 1* were queued (or fewer at a
 synchronisation, which runs the queue out, the last block to rest). That entry is what the

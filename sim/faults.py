@@ -1,7 +1,7 @@
 """Failures a virtual GRBL board can be made to show, keyed by the line they strike.
 
 :class:`Faults` is parsed from the ``faults=`` option of a ``sim://`` URL (``KIND@LINE[:CODE]``);
-:class:`sim.firmware.Firmware` delivers each as the line with that index arrives.
+:class:`sim.gcode.firmware.Firmware` delivers each as the line with that index arrives.
 """
 
 from __future__ import annotations

@@ -1,4 +1,5 @@
-"""pyserial URL handler ``sim://``: a serial port wired to an in-process virtual GRBL plotter.
+"""pyserial URL handler ``sim://``: a serial port wired to an in-process virtual plotter, the board
+the profile's firmware names (GRBL, EBB or HP-GL; this adapter only picks it and holds it by name).
 
 Register the package once (:func:`sim.register`: whoever wants ``sim://`` ports does it; the
 driver knows nothing of the simulator) and open ::
@@ -56,7 +57,7 @@ URL parts (all optional):
 ``xonxoff``
     ``1``: an HP-GL plotter sends XOFF / XON as its buffer fills and empties (default ``0``).
     A profile whose firmware names a ``sim_board`` (HP-GL) gets that board
-    (:mod:`sim.hpgl_plotter`) instead of the GRBL one.
+    (:mod:`sim.hpgl.plotter`) instead of the GRBL one.
 ``firmware``
     An EBB board's firmware version (default 3.0.3; ``2.8.1``: no ``QU``, ``CU,4`` does nothing,
     the FIFO stays one deep).
@@ -65,27 +66,26 @@ URL parts (all optional):
     ``auto``: a virtual person at the plotter presses cycle start as soon as the machine stops at
     an ``M0`` (the pen change of a colour job done at once), for previews such as ``simulate``.
 
-``port.plotter`` is the :class:`VirtualPlotter` behind an open port.
+``port.plotter`` is the board behind an open port (a :class:`~sim.wires.WiredBoard`: GRBL's
+:class:`~sim.gcode.plotter.VirtualPlotter`, :class:`~sim.ebb.plotter.VirtualEbb` or
+:class:`~sim.hpgl.plotter.HpglPlotter`).
 """
 
 from __future__ import annotations
 
-import dataclasses
 import errno
 import math
-import signal
 import time
 import urllib.parse
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, Timeout
 
-from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
-from pencilbot.render import DEFAULT_DPI, Canvas, save_drawing_png
-from pencilbot.units import DEFAULT_PEN_WIDTH
+from sim.ebb.plotter import VirtualEbb
 from sim.faults import Faults
-from sim.firmware import Firmware
-from sim.machine import Machine
+from sim.gcode.plotter import DEFAULT_BOARD, VirtualPlotter
+from sim.hpgl.plotter import HpglPlotter
+from sim.wires import WiredBoard, check_simulated
 
 _OPTIONS = (
     "profile",
@@ -101,38 +101,11 @@ _OPTIONS = (
     "xonxoff",
     "firmware",
 )
-_IDLE_QUERY = 0.2  # simulated s a status query lets pass on the line clock when no line came
 _OPERATORS = ("none", "auto")
-_CYCLE_START = b"~"  # what the operator's button sends, as GRBL's cycle-start pin does
-#: Option values a real GRBL board has: the default, so tests meet what a sender meets.
-REAL_BOARD = {"power": "zero", "abort": "lose", "limits": "profile"}
-DEFAULT_BOARD = dict(REAL_BOARD)
 _CHOICES = {"power": ("zero", "keep"), "abort": ("lose", "keep"), "limits": ("profile", "bed")}
-_PLOTTERS: dict[str, VirtualPlotter] = {}
+_PLOTTERS: dict[str, WiredBoard] = {}
 _OPEN: set[str] = set()  # names with a port open now: a second open is refused, as a busy device's
 _SLICE = 0.001  # s between polls while a read waits
-
-
-class _Wire:
-    """Bytes in flight over a serial line at ``baud`` bit/s (10 bits per byte); 0 = instant."""
-
-    def __init__(self, baud: int):
-        self.rate = baud / 10.0
-        self.buf = bytearray()
-        self.t = 0.0  # when the head byte started its way
-
-    def put(self, data: bytes, now: float) -> None:
-        if not self.buf:
-            self.t = now
-        self.buf += data
-
-    def take(self, now: float) -> bytes:
-        n = len(self.buf) if not self.rate else min(int((now - self.t) * self.rate), len(self.buf))
-        chunk = bytes(self.buf[:n])
-        del self.buf[:n]
-        if self.rate:
-            self.t += n / self.rate
-        return chunk
 
 
 def simulated_profile(name_or_path: str) -> Profile:
@@ -148,160 +121,7 @@ def simulated_profile(name_or_path: str) -> Profile:
     return profile
 
 
-def check_simulated(profile: Profile) -> None:
-    """Raise :class:`ProfileError` unless the virtual plotter can play ``profile``'s firmware."""
-    if not (
-        profile.firmware.capabilities.realtime_protocol
-        or profile.firmware.capabilities.host_motion
-        or getattr(profile.firmware, "sim_board", None)
-    ):
-        raise ProfileError(
-            f"profile {profile.name} is for {profile.firmware.title}; the virtual plotter speaks "
-            "GRBL's protocol (GRBL 1.1, grblHAL) and the EBB's: use such a profile (e.g. grbl-servo-a4)"
-        )
-
-
-class VirtualPlotter:
-    """A virtual GRBL plotter: firmware, machine, clock and wires, driven by :meth:`pump`.
-
-    Parameters
-    ----------
-    profile : Profile
-        The machine (see :func:`simulated_profile`).
-    baud : int
-        Emulated bit/s, 0 for unlimited.
-    realtime : float
-        0 for instant motion, else the speed-up over real time.
-    tick : float
-        > 0: the line clock (seconds a line takes; see the ``tick`` option), instead of either.
-    faults : Faults
-        Failures to inject.
-    power, abort, limits : str
-        How real the board is: see the ``sim://`` options of the same names (module docstring).
-    operator : str
-        ``"auto"``: cycle start is pressed at every ``M0`` pause (see the ``operator`` option).
-    """
-
-    def __init__(
-        self,
-        profile: Profile,
-        *,
-        baud: int = 0,
-        realtime: float = 0.0,
-        faults: Faults | None = None,
-        power: str = DEFAULT_BOARD["power"],
-        abort: str = DEFAULT_BOARD["abort"],
-        limits: str = DEFAULT_BOARD["limits"],
-        operator: str = "none",
-        tick: float = 0.0,
-    ):
-        check_simulated(profile)
-        self.operator = operator
-        self._pauses_answered = 0
-        self.profile = profile
-        if limits == "bed":
-            profile = dataclasses.replace(
-                profile, bed=dataclasses.replace(profile.bed, homing=True, soft_limits=True)
-            )
-        self.machine = Machine(profile, instant=realtime == 0 and tick == 0)
-        self.tick = tick
-        self._answered = self._queries = 0  # lines and queries the line clock has counted
-        self._answered_at_query = -1  # lines answered when the last query came
-        self.firmware = Firmware(
-            self.machine,
-            faults,
-            power_zero=power == "zero",
-            abort_loses=abort == "lose",
-            init_lock=limits != "bed",
-        )
-        self.realtime = realtime
-        self._connect(baud)
-
-    def _connect(self, baud: int) -> None:
-        """The two wires between host and board, at ``baud`` bit/s (0: instant), and the clock."""
-        self._to_board, self._to_host = _Wire(baud), _Wire(baud)
-        self._last = time.monotonic()
-
-    def write(self, data: bytes) -> None:
-        """Bytes from the host onto the wire."""
-        self._to_board.put(data, time.monotonic())
-        self.pump()
-
-    def pump(self) -> None:
-        """Deliver what has arrived at the board, run the clock, put its replies on the wire."""
-        now = time.monotonic()
-        elapsed, self._last = now - self._last, now
-        self.firmware.receive(self._to_board.take(now))
-        if self.tick:
-            self._line_clock()
-        else:
-            self.firmware.poll(elapsed * self.realtime)
-        if self.operator == "auto" and self.machine.pauses > self._pauses_answered:
-            self._pauses_answered = self.machine.pauses
-            self.firmware.receive(_CYCLE_START)
-        self._to_host.put(self.firmware.take_output(), now)
-        if self.firmware.signal_due is not None:
-            # An interrupt@ fault: the sender's terminal sends the signal once the bytes are in.
-            signum, self.firmware.signal_due = self.firmware.signal_due, None
-            signal.raise_signal(signum)
-
-    def _line_clock(self) -> None:
-        """Let the simulated time of the lines and idle queries received pass (``tick``)."""
-        fw = self.firmware
-        for _ in range(1_000_000):
-            lines, queries = len(fw.log) - self._answered, fw.queries - self._queries
-            self._answered, self._queries = len(fw.log), fw.queries
-            # A query is idle when no line came since the one before it: the sender has none
-            # to send (a streaming sender always has, whatever its speed).
-            idle = queries and len(fw.log) == self._answered_at_query
-            if queries:
-                self._answered_at_query = len(fw.log)
-            seconds = lines * self.tick + (_IDLE_QUERY if idle else 0.0)
-            if (not seconds and not fw.waiting_on_motion) or fw.signal_due is not None:
-                return  # (a timed interrupt: the sender reacts before the clock runs on)
-            fw.poll(seconds or self.tick)
-
-    def read(self) -> bytes:
-        """What has reached the host so far."""
-        self.pump()
-        return self._to_host.take(time.monotonic())
-
-    def canvas(
-        self, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False
-    ) -> Canvas:
-        """The bed as drawn so far (queued motion finished first in instant mode)."""
-        self.firmware.finish()
-        bed = self.profile.bed
-        canvas = Canvas(bed.width, bed.height, dpi=dpi, pen_width=pen_width)
-        canvas.draw_paths(self.machine.bed_strokes())
-        if travel:
-            canvas.draw_travel(self.machine.bed_travel())
-        return canvas
-
-    def save_png(
-        self, path, *, dpi: float = DEFAULT_DPI, pen_width: float = DEFAULT_PEN_WIDTH, travel: bool = False
-    ) -> None:
-        """Write the bed as drawn so far to a PNG, a band of rows at a time: the picture
-        :meth:`canvas` would give, with memory bounded by a band instead of the bed."""
-        self.firmware.finish()
-        bed = self.profile.bed
-        save_drawing_png(
-            path,
-            self.machine.bed_strokes(),
-            bed.width,
-            bed.height,
-            dpi=dpi,
-            pen_width=pen_width,
-            travel=self.machine.bed_travel() if travel else None,
-        )
-
-    @property
-    def seconds(self) -> float:
-        """Simulated seconds of motion and dwell so far."""
-        return self.machine.clock
-
-
-def plotter(name: str) -> VirtualPlotter:
+def plotter(name: str) -> WiredBoard:
     """The plotter a ``sim://NAME`` port reaches (``KeyError`` if none was opened)."""
     return _PLOTTERS[name]
 
@@ -324,7 +144,7 @@ def parse_url(url: str) -> tuple[str, dict[str, str]]:
     return parts.netloc + parts.path.strip("/"), options
 
 
-def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
+def plotter_from_options(options: dict[str, str]) -> WiredBoard:
     """Build a plotter from URL / command-line options (strings)."""
     try:
         baud = int(options.get("baud", 0))
@@ -344,15 +164,11 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
     if operator not in _OPERATORS:
         raise SerialException(f"sim:// option operator={operator!r}: use {' or '.join(_OPERATORS)}")
     profile = simulated_profile(options.get("profile", DEFAULT_PROFILE))
-    if faults.timed and (
-        profile.firmware.capabilities.host_motion or getattr(profile.firmware, "sim_board", None) == "hpgl"
-    ):
+    if faults.timed and (profile.firmware.capabilities.host_motion or profile.firmware.sim_board == "hpgl"):
         raise SerialException(
             "sim:// faults at a moment (KIND@SECONDSs) are for GRBL-protocol boards; use KIND@LINE"
         )
     if profile.firmware.capabilities.host_motion:  # an EBB board: the firmware is chosen by the profile
-        from sim.ebb_plotter import VirtualEbb
-
         version = options.get("firmware")
         if version is not None:
             from firmware_protocol.ebb import version_tuple
@@ -378,9 +194,7 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
             version=version,
             supply=supply,
         )
-    if getattr(profile.firmware, "sim_board", None) == "hpgl":  # an HP-GL plotter (sim.hpgl_plotter)
-        from sim.hpgl_plotter import HpglPlotter
-
+    if profile.firmware.sim_board == "hpgl":  # an HP-GL plotter (sim.hpgl.plotter)
         return HpglPlotter(
             profile,
             baud=baud,
@@ -397,7 +211,7 @@ def plotter_from_options(options: dict[str, str]) -> VirtualPlotter:
 class Serial(SerialBase):
     """The pyserial port class pyserial finds for ``sim://`` URLs."""
 
-    plotter: VirtualPlotter | None = None
+    plotter: WiredBoard | None = None
 
     def open(self) -> None:
         if self.is_open:
@@ -427,7 +241,7 @@ class Serial(SerialBase):
     def _reconfigure_port(self) -> None:
         """Line settings mean nothing to a virtual wire."""
 
-    def _check(self) -> VirtualPlotter:
+    def _check(self) -> WiredBoard:
         if not self.is_open:
             raise PortNotOpenError()
         if self.plotter.firmware.link_dropped:

@@ -23,7 +23,7 @@ import threading
 import tty
 from collections.abc import Callable
 
-from sim.protocol_sim import VirtualPlotter  # or sim.hpgl_plotter.HpglPlotter: the same surface
+from sim.wires import WiredBoard  # any family's plotter: the same surface
 
 POLL = 0.002  # s: how often the machine clock advances while nobody talks
 _IN_OPEN, _IN_CLOSE = 0x20, 0x08 | 0x10  # IN_CLOSE_WRITE | IN_CLOSE_NOWRITE
@@ -77,14 +77,14 @@ class _OpenWatch:
 
 
 class PtyServer:
-    """A :class:`VirtualPlotter` on a new pseudo-terminal; :attr:`path` is its device path.
+    """A virtual plotter (:class:`~sim.wires.WiredBoard`) on a new pseudo-terminal; :attr:`path` is its device path.
 
     Use :meth:`serve_forever` (blocking, until :meth:`stop` or Ctrl-C) or as a context manager
     that serves in a background thread.
 
     Parameters
     ----------
-    plotter : VirtualPlotter
+    plotter : WiredBoard
         The board behind the pty.
     reset_on_open : bool
         Power-cycle the board whenever a sender opens the device (an Arduino's auto-reset).
@@ -94,7 +94,7 @@ class PtyServer:
 
     def __init__(
         self,
-        plotter: VirtualPlotter,
+        plotter: WiredBoard,
         *,
         reset_on_open: bool = True,
         on_new_path: Callable[[str], None] | None = None,

@@ -9,14 +9,13 @@ from array import array
 import numpy as np
 
 from pencilbot.paths import Paths
-from sim.planner import Block
 
 
 class StrokeRecorder:
-    """The recorder part of :class:`sim.machine.Machine`, kept apart: mixed into it, these
+    """The recorder part of :class:`sim.gcode.machine.Machine`, kept apart: mixed into it, these
     methods read its ``pauses`` (``M0`` pauses reached), ``slip`` (carriage minus count) and
     ``profile`` (the bed's view), and record each stretch the carriage moved. The virtual EBB
-    records its drawing with it too (:class:`sim.ebb_plotter.EbbDrawing`).
+    records its drawing with it too (:class:`sim.ebb.plotter.EbbDrawing`).
     """
 
     def __init__(self) -> None:
@@ -25,13 +24,6 @@ class StrokeRecorder:
         self._stroke_pauses: list[int] = []  # for each stroke, the pauses reached before it began
         self._stroke: list[tuple[float, float]] = []
         self._stroke_pause = 0
-
-    def _complete(self, blocks: list[Block]) -> None:
-        slip = self.slip
-        for b in blocks:
-            start = (b.start[0] + slip[0], b.start[1] + slip[1])
-            end = (b.end[0] + slip[0], b.end[1] + slip[1])
-            self._record(start, end, b.pen_down)
 
     def _record(self, start, end, pen_down: bool) -> None:
         """A stretch the carriage really moved (mm, machine frame of a homed machine)."""

@@ -59,7 +59,7 @@ def resolve_port(text: str, *, quiet: bool = False, devices: list[str] | None = 
     named = user_ports()
     if text in named:
         return named[text]
-    from pencilbot.driver.port_names import find_named
+    from pencilbot.driver.ebb.names import find_named
 
     found = find_named(text, devices)
     if found is None:

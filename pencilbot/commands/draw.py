@@ -26,9 +26,9 @@ from pencilbot.commands.options import (
     number,
 )
 from pencilbot.driver import draw
-from pencilbot.driver.header import estimated_seconds, profile_for
+from pencilbot.driver.gcode.header import estimated_seconds, profile_for
 from pencilbot.driver.journal import journal_path, load_journal
-from pencilbot.driver.session import DEFAULT_TIMEOUT
+from pencilbot.driver.port import DEFAULT_TIMEOUT
 from pencilbot.errors import PencilbotError, PlotError, RefusedError
 from pencilbot.machine.profile import default_profile, load_profile
 

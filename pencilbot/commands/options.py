@@ -55,7 +55,7 @@ def realtime_option(option: str = "--realtime"):
 def add_system_commands_option(parser: argparse.ArgumentParser) -> None:
     """``--allow-system-commands '$H,$C'``: the GRBL system commands (``$`` lines other than a
     ``$J=`` jog) a G-code file may send; without it any is refused by line."""
-    from pencilbot.driver.system_lines import allowed_names
+    from pencilbot.driver.gcode.system_lines import allowed_names
 
     def parse(text: str) -> frozenset:
         names = allowed_names(text)

@@ -85,7 +85,7 @@ def _add_line_options(parser: argparse.ArgumentParser) -> None:
 
 def _add_board_options(parser: argparse.ArgumentParser) -> None:
     """How the board behaves at power-up, resets and limits, and which EBB board it plays."""
-    # Defaults: a real board (sim.protocol_sim.REAL_BOARD).
+    # Defaults: a real board (sim.gcode.plotter.REAL_BOARD).
     parser.add_argument(
         "--power",
         choices=("zero", "keep"),

@@ -32,8 +32,8 @@ from pencilbot.commands.options import (
     number,
 )
 from pencilbot.driver import draw
-from pencilbot.driver.header import profile_for
-from pencilbot.driver.job import gcode_blocks, program_blocks, read_gcode
+from pencilbot.driver.gcode.header import profile_for
+from pencilbot.driver.gcode.job import gcode_blocks, program_blocks, read_gcode
 from pencilbot.errors import PencilbotError, no_such_file
 from pencilbot.export.gcode import GCODE_SUFFIXES, PenInFile, gcode_program, header_pen_width, pens_at_pauses
 from pencilbot.export.hpgl import HPGL_SUFFIXES, MAX_HPGL_FILE, hpgl_program

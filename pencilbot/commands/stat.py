@@ -54,7 +54,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     source = Path(args.plan)
     if source.suffix.lower() in GCODE_SUFFIXES:  # as draw: the profile the file was exported for
-        from pencilbot.driver.header import profile_for
+        from pencilbot.driver.gcode.header import profile_for
 
         args.profile = profile_for(
             source, args.profile if getattr(args, "profile_given", False) else None, args.profile
@@ -90,9 +90,9 @@ def gcode_plan(path: Path, profile: Profile, allow: frozenset[str] = frozenset()
         The file cannot be read or streamed to the profile's firmware, or its pen never goes
         down as the profile's pen model says.
     """
-    from pencilbot.driver.bed_check import check_on_bed
-    from pencilbot.driver.drawn import drawn_paths
-    from pencilbot.driver.job import load_job
+    from pencilbot.driver.gcode.bed_check import check_on_bed
+    from pencilbot.driver.gcode.drawn import drawn_paths
+    from pencilbot.driver.gcode.job import load_job
 
     job = load_job(path, profile, allow=allow)
     drawn = drawn_paths(job)

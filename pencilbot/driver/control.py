@@ -4,10 +4,10 @@ manual commands do.
 
 :func:`open_control` opens the port and gives the :class:`Control` the profile's firmware needs:
 a board that acknowledges lines (GRBL, grblHAL, Marlin) is told G-code through a
-:class:`~pencilbot.driver.session.BoardSession`, an EBB board step and servo commands through an
-:class:`~pencilbot.driver.ebb_link.EbbLink` (:mod:`pencilbot.driver.control_ebb`), an HP-GL
+:class:`~pencilbot.driver.gcode.session.BoardSession`, an EBB board step and servo commands through an
+:class:`~pencilbot.driver.ebb.link.EbbLink` (:mod:`pencilbot.driver.ebb.control`), an HP-GL
 plotter instructions with ``OA;`` as the answer of where its pen is
-(:mod:`pencilbot.driver.control_hpgl`). What a firmware cannot do is one :class:`PlotError`
+(:mod:`pencilbot.driver.hpgl.control`). What a firmware cannot do is one :class:`PlotError`
 that says so and what to do instead.
 
 Example
@@ -19,108 +19,14 @@ Example
 
 from __future__ import annotations
 
-import time
-
-from pencilbot.driver.faults import StreamFault
-from pencilbot.driver.port import LineReader, PortLost, open_port
-from pencilbot.driver.session import DEFAULT_TIMEOUT, BoardSession
-from pencilbot.errors import PlotError
-from pencilbot.firmware.base import ERROR, OK
+from pencilbot.driver.control_base import PEN_ACTIONS, Control
+from pencilbot.driver.ebb.control import EbbControl
+from pencilbot.driver.gcode.control import GcodeControl
+from pencilbot.driver.hpgl.control import HpglControl
+from pencilbot.driver.port import DEFAULT_TIMEOUT
 from pencilbot.machine.profile import Profile, load_profile
-from pencilbot.machine.profile_edit import profile_with
 
-#: What ``pen`` does: raise, lower, the other of the two, or lower then raise.
-PEN_ACTIONS = ("up", "down", "toggle", "cycle")
-#: mm of GRBL's there-and-back nudge that lets its idle delay release the motors at once.
-NUDGE = 0.05
-
-
-class Control:
-    """A plotter at hand; :func:`open_control` gives the one its firmware needs.
-
-    Methods raise :class:`PlotError` with one line when the plotter refuses or cannot.
-    """
-
-    family = ""
-    pen_heights = True  # the pen's up and down are heights one can try (not a solenoid's)
-
-    def __init__(self, profile: Profile):
-        self.profile = profile
-        self.firmware = profile.firmware
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
-
-    def _serial(self):
-        """The serial port this control holds (None before it has one)."""
-        return None
-
-    def close(self) -> None:
-        """Let go of the port (the plotter stays as it is)."""
-        port = self._serial()
-        if port is not None:
-            try:
-                port.close()
-            except Exception:  # noqa: BLE001 - a vanished port may fail to close
-                pass
-
-    # --- the pen ---------------------------------------------------------------------------
-
-    def pen(self, action: str) -> bool | None:
-        """``up``, ``down``, ``toggle`` or ``cycle`` (down, then up); the pen as the plotter
-        reports it afterwards (True: down; None: this firmware does not say)."""
-        if action not in PEN_ACTIONS:
-            raise PlotError(f"pen {action}: say up, down, toggle or cycle")
-        if action == "toggle":
-            now = self.pen_state()
-            if now is None:
-                raise PlotError(
-                    f"{self.family} does not report where its pen is, so it cannot be toggled; "
-                    "say pen up or pen down"
-                )
-            action = "up" if now else "down"
-        if action == "cycle":
-            self._set_pen(True)
-            self._set_pen(False)
-        else:
-            self._set_pen(action == "down")
-        return self.pen_state()
-
-    def pen_state(self) -> bool | None:
-        """Whether the plotter reports its pen down (None: it does not say)."""
-        return None
-
-    def try_height(self, which: str, value: float) -> bool | None:
-        """Put the pen ``which`` (``up`` / ``down``) at ``value`` (the profile's unit: percent,
-        S value, Z mm or degrees) for this session; the pen as reported afterwards."""
-        self.profile = profile_with(self.profile, {"pen": {which: value}}, where=f"pen {which} height")
-        self._pen_setup()
-        self._set_pen(which == "down")
-        return self.pen_state()
-
-    def _pen_setup(self) -> None:
-        """Tell the board the profile's pen (its heights), where it keeps them."""
-
-    def _set_pen(self, down: bool) -> None:
-        raise NotImplementedError
-
-    # --- the carriage ------------------------------------------------------------------------
-
-    def motors(self, on: bool) -> str:
-        """Switch the motors off (the carriage free, to place the paper) or on; what was done."""
-        raise NotImplementedError
-
-    def walk(self, dx: float, dy: float) -> tuple[float, float] | None:
-        """Move the carriage by ``dx``, ``dy`` mm at the travel speed; where it then stands (mm,
-        None when the firmware does not say)."""
-        raise NotImplementedError
-
-    def home(self) -> tuple[float, float] | None:
-        """Raise the pen and take the carriage home (its switches, or where it started)."""
-        raise NotImplementedError
+__all__ = ["PEN_ACTIONS", "Control", "open_control"]
 
 
 def open_control(
@@ -140,148 +46,7 @@ def open_control(
     fw = plotter.firmware
     baud = baud or fw.baud
     if fw.capabilities.host_motion:
-        from pencilbot.driver.control_ebb import EbbControl
-
         return EbbControl(plotter, port, name, baud, timeout)
-    if getattr(fw, "flow", "") == "polled":
-        from pencilbot.driver.control_hpgl import HpglControl
-
+    if fw.flow == "polled":
         return HpglControl(plotter, port, name, baud, timeout)
     return GcodeControl(plotter, port, name, baud, timeout)
-
-
-class GcodeControl(Control):
-    """GRBL, grblHAL and Marlin: the profile's pen lines, jogs, homing, the motors by setting."""
-
-    def __init__(self, profile: Profile, port: str, name: str, baud: int, timeout: float):
-        super().__init__(profile)
-        self.family = self.firmware.title
-        self.link = LineReader(open_port(port, baudrate=baud, profile=name))
-        self.session = BoardSession(
-            self.link, self.firmware, receive_buffer=profile.receive_buffer, timeout=timeout
-        )
-        try:
-            self.session.wake()
-        except BaseException:
-            self.close()
-            raise
-
-    def _serial(self):
-        return getattr(getattr(self, "link", None), "port", None)
-
-    def _do(self, line: str) -> None:
-        """Send one line and wait for its ``ok``; a refusal or an alarm is one line."""
-        try:
-            reply = self.session.command(line)
-        except StreamFault as fault:
-            raise PlotError(f"{self.family} stopped at {line}: {fault}") from None
-        if reply.kind != OK:
-            raise PlotError(f"{self.family} refused {line}: {reply.detail or reply.text}")
-
-    def _settle(self) -> None:
-        """Until what was sent has run (the pen has moved, the carriage stands)."""
-        if self.firmware.drain_command:
-            self._do(self.firmware.drain_command)
-        else:
-            try:
-                self.session.wait_until_still()
-            except StreamFault as fault:
-                raise PlotError(f"{self.family}: {fault}") from None
-
-    def _ask(self, line: str) -> list[str]:
-        """The lines a query answers before its ``ok`` (``$G``, ``$$``)."""
-        self.link.write(self.firmware.frame(line, 0))
-        got: list[str] = []
-        deadline = time.monotonic() + self.session.timeout
-        try:
-            while time.monotonic() < deadline:
-                for text in self.link.read_lines():
-                    kind = self.firmware.parse(text).kind
-                    if kind == OK:
-                        return got
-                    if kind == ERROR:
-                        raise PlotError(f"{self.family} refused {line}: {text}")
-                    got.append(text)
-        except PortLost as exc:
-            raise PlotError(f"the port was lost ({exc})") from None
-        raise PlotError(f"{self.family} did not answer {line} within {self.session.timeout:g} s")
-
-    def _set_pen(self, down: bool) -> None:
-        pen = self.profile.pen_model
-        for line in pen.down_lines if down else pen.up_lines:
-            self._do(line)
-        dwell = self.firmware.dwell(pen.down_delay if down else pen.up_delay)
-        if dwell:
-            self._do(dwell)
-        self._settle()
-
-    def pen_state(self) -> bool | None:
-        """A Z pen from the reported Z; a spindle pen from ``$G`` (``M3``/``M5`` and ``S``)."""
-        pen = self.profile.pen_model
-        if not self.firmware.capabilities.status_reports or pen.kind == "servo":
-            return None  # Marlin reports no pen; GRBL knows no servo (M280) it could report
-        if pen.kind == "z":
-            status = self.session.query_status()
-            z = status.wpos[2] if status.wpos is not None else status.mpos[2] - self.session.wco[2]
-            return pen.is_down(z)
-        words = next((w for w in self._ask("$G") if w.startswith("[GC:")), "").strip("[]").split()
-        spindle_on = any(w in ("M3", "M4") for w in words)
-        speed = next((float(w[1:]) for w in words if w.startswith("S")), 0.0)
-        return spindle_on and pen.is_down(speed)
-
-    def motors(self, on: bool) -> str:
-        fw = self.firmware
-        line = fw.motors_on_command if on else fw.motors_off_command
-        if line:
-            self._do(line)
-            return f"motors {'on' if on else 'off'} ({line})" + ("" if on else ": the carriage moves freely")
-        if fw.idle_hold_setting is None:
-            raise PlotError(f"{fw.title} has no command that switches its motors {'on' if on else 'off'}")
-        key = f"${fw.idle_hold_setting}"
-        current = next((w.split("=", 1)[1] for w in self._ask("$$") if w.startswith(f"{key}=")), None)
-        held = current is not None and float(current) == 255
-        if on:
-            if not held:
-                self._do(f"{key}=255")
-            return (
-                f"motors on: {fw.title} holds them at rest ({key}=255"
-                + ("" if held else f", was {current}")
-                + ")"
-            )
-        if held:
-            self._do(f"{key}=25")  # the firmware's default idle delay
-            self._move(NUDGE, 0)  # a move ending now lets the idle delay release them
-            self._move(-NUDGE, 0)
-            return (
-                f"motors off: {fw.title} releases them 25 ms after each move ({key}=25, was 255); "
-                "the carriage moves freely (pencilbot align --on holds them again)"
-            )
-        return f"motors off: {fw.title} releases them {current} ms after each move ({key}={current}); the carriage moves freely"
-
-    def _move(self, dx: float, dy: float) -> None:
-        fw, feed = self.firmware, self.profile.motion.travel_feed
-        line = fw.jog(dx, dy, feed)
-        lines = [line] if line else ["G91", f"G0X{dx:.4f}Y{dy:.4f}F{feed:g}", "G90"]  # Marlin: no jog
-        for text in lines:
-            self._do(text)
-        self._settle()
-
-    def walk(self, dx: float, dy: float) -> tuple[float, float] | None:
-        self._move(dx, dy)
-        return self._where()
-
-    def _where(self) -> tuple[float, float] | None:
-        if not self.firmware.capabilities.status_reports:
-            return None
-        self.session.query_status()
-        return self.session.work_position()
-
-    def home(self) -> tuple[float, float] | None:
-        self._set_pen(False)
-        fw = self.firmware
-        line = fw.home_command if self.profile.bed.homing else fw.origin_move(self.profile.motion.travel_feed)
-        if not line:
-            raise PlotError(f"{fw.title} has no way to go home")
-        self._do(line)
-        self._settle()
-        return self._where()

@@ -1,7 +1,7 @@
 """What stops a stream: one :class:`StreamFault` naming the job line, and :class:`Interrupted`,
 a request to stop safely (Ctrl-C, a signal, the stop key).
 
-The caller (:mod:`pencilbot.driver.runner`) turns a fault into one message with the way to resume.
+The caller (:mod:`pencilbot.driver.gcode.runner`) turns a fault into one message with the way to resume.
 """
 
 from __future__ import annotations

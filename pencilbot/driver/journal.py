@@ -16,14 +16,9 @@ import re
 import shlex
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from pencilbot.errors import PencilbotError, PlotError, RefusedError
 from pencilbot.fileio import read_bounded, write_atomic
-from pencilbot.units import MM_PER_INCH
-
-if TYPE_CHECKING:
-    from pencilbot.driver.job import Job
 
 SUFFIX = ".job.json"
 FORMAT = 1
@@ -290,32 +285,3 @@ def _int_rows(value, width: int) -> bool:
     return isinstance(value, list) and all(
         isinstance(row, list) and len(row) == width and all(map(_is_int, row)) for row in value
     )
-
-
-def check_against(journal: Journal, job: Job) -> None:
-    """Refuse a journal whose lines or stop point do not fit ``job`` (its G-code, read again)
-    and the bed of ``job.profile``.
-
-    Raises
-    ------
-    PlotError
-        Saying what is wrong and how to go on (:func:`damaged`).
-    """
-    if journal.total_lines != job.total_lines:
-        raise damaged(
-            journal, f"total_lines is {journal.total_lines}, and {job.source} has {job.total_lines} lines"
-        )
-    bed = job.profile.bed
-    (x0, x1), (y0, y1) = bed.machine_range()
-    where = f"off the bed of plotter profile {job.profile.name} (X {x0:g} .. {x1:g}, Y {y0:g} .. {y1:g} mm)"
-    # (stop_mpos is the board's own count, which a restart-at-zero resume may have shifted: only
-    # finite. The others are the file's coordinates, which the bed check kept on the bed.)
-    points = {"stop_work": journal.stop_work}
-    if journal.stop_xy is not None:  # job units, work coordinates at the line it stopped in
-        state = job.state_after(job.index_of(journal.next_line) - 1)
-        scale = MM_PER_INCH if state.inches else 1.0
-        offset = state.frames.offset()[:2]
-        points["stop_xy"] = [journal.stop_xy[0] * scale + offset[0], journal.stop_xy[1] * scale + offset[1]]
-    for name, xy in points.items():
-        if xy is not None and bed.outside([xy], STOP_SLACK)[0]:
-            raise damaged(journal, f"{name} {getattr(journal, name)} is {where}")

@@ -1,6 +1,6 @@
 """What a plot says when it stops or cannot go on: one plain message with the way to resume.
 
-A :class:`~pencilbot.driver.stream.StreamFault` becomes one message here: what happened, at
+A :class:`~pencilbot.driver.gcode.stream.StreamFault` becomes one message here: what happened, at
 which line of the file, what the pen is doing now, and the command (or the line) that resumes
 the job.
 """

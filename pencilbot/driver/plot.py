@@ -1,8 +1,8 @@
 """A plot job from start to end: :func:`draw` reads the options, the profile and the journal,
 checks the job, and hands it to the driver its firmware needs: a board that acknowledges lines
-to :class:`~pencilbot.driver.runner.Runner`, one that takes step commands to
-:mod:`~pencilbot.driver.ebb_plot`, one that answers nothing per line to
-:mod:`~pencilbot.driver.polled`.
+to :class:`~pencilbot.driver.gcode.runner.Runner`, one that takes step commands to
+:mod:`~pencilbot.driver.ebb.plot`, one that answers nothing per line to
+:mod:`~pencilbot.driver.hpgl.plot`.
 """
 
 from __future__ import annotations
@@ -11,13 +11,13 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from pencilbot.driver import journal as journal_mod
-from pencilbot.driver.bed_check import check_on_bed, check_resumable
-from pencilbot.driver.job import Job, load_job
+from pencilbot.driver.gcode.bed_check import check_on_bed, check_resumable
+from pencilbot.driver.gcode.job import Job, check_journal, load_job
+from pencilbot.driver.gcode.runner import Runner
+from pencilbot.driver.gcode.stream import Stream
 from pencilbot.driver.messages import check_unchanged
-from pencilbot.driver.port import LineReader, open_port, sim_url
-from pencilbot.driver.runner import DrawResult, Runner
-from pencilbot.driver.session import DEFAULT_TIMEOUT
-from pencilbot.driver.stream import Stream
+from pencilbot.driver.port import DEFAULT_TIMEOUT, LineReader, open_port, sim_url
+from pencilbot.driver.result import DrawResult
 from pencilbot.errors import RefusedError
 from pencilbot.fileio import read_bounded
 from pencilbot.firmware.hpgl import MAX_HPGL_FILE
@@ -104,19 +104,72 @@ def draw(
         stopped job's.
     allow_system : frozenset of str
         System commands (``$`` lines: ``$H``, ``$C``, ``$100``…) the file may send; any other is
-        refused by line before the port is opened (:mod:`pencilbot.driver.system_lines`).
+        refused by line before the port is opened (:mod:`pencilbot.driver.gcode.system_lines`).
 
     Raises
     ------
     PlotError
         Any fault; the message says what happened, where, and how to resume.
     """
-    stop_xy = None
-    journal = None
-    if resume is not None:
-        journal = journal_mod.load_journal(resume)
+    journal = journal_mod.load_journal(resume) if resume is not None else None
+    if journal is not None:
         gcode = Path(journal.gcode)
         check_unchanged(journal, gcode)
+    profile, plotter, overrides = _plotter(profile, journal, overrides)
+    fw = plotter.firmware
+    baud = baud or fw.baud
+    if fw.flow == "polled":  # no acknowledgements (HP-GL): driver.hpgl
+        return _draw_polled(
+            gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
+            operator, keys,
+        )  # fmt: skip
+    if check and not fw.capabilities.check_mode:
+        raise RefusedError(
+            f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
+            f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
+        )
+    job = load_job(gcode, plotter, source, allow=allow_system)
+    check_on_bed(job)  # before the port is opened: nothing is sent
+    if journal is not None:
+        check_journal(journal, job)  # a journal is input too: its lines and stop point
+    start, stop_xy = _start(job, journal, start_line)
+    check_resumable(job, start)  # a resume restores no work offset the file set up
+    resumed = journal if resume is not None else None
+    path = Path(gcode) if isinstance(gcode, (str, Path)) else None
+    journal = _running_journal(journal, path, job, port, profile)
+    if journal is not None:
+        journal.options = {
+            **(journal.options or {}),  # (an EBB stop keeps its step counters here)
+            "baud": baud,
+            "timeout": timeout,
+            "send_and_wait": send_and_wait,
+            "on_error": on_error,
+            **({"overrides": overrides} if overrides else {}),
+        }
+    if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
+        from pencilbot.driver.ebb.plot import draw_ebb
+
+        return draw_ebb(
+            job, plotter, sim_url(port, profile), journal, start=start, resumed=resumed, baud=baud,
+            progress=progress, timeout=timeout, operator=operator, keys=keys, announce=announce,
+        )  # fmt: skip
+    runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
+    runner.announce = announce
+    runner.on_progress = on_progress
+    link = LineReader(open_port(port, baudrate=baud, profile=profile))
+    try:
+        stream = Stream(link, fw, receive_buffer=plotter.receive_buffer, timeout=timeout)
+        return runner.run(stream, start, stop_xy, check, wake_wait, resumed)
+    finally:
+        try:
+            link.port.close()
+        except Exception:  # noqa: BLE001 - a vanished port may fail to close; nothing to do
+            pass
+
+
+def _plotter(profile: str | None, journal, overrides):
+    """The profile's name or resolved path, the profile with this run's overrides, the overrides:
+    by default the resumed job's profile and overrides."""
     profile = profile or (journal.profile if journal else DEFAULT_PROFILE)
     if Path(profile).suffix.lower() == ".toml":
         profile = str(Path(profile).resolve())  # the journal's resume works from any folder
@@ -125,45 +178,22 @@ def draw(
         overrides = (journal.options or {}).get("overrides")
     if overrides:  # this run's speeds, pen heights, delays (checked as a profile file's are)
         plotter = profile_with(plotter, overrides, where="draw options")
-    fw = plotter.firmware
-    baud = baud or fw.baud
-    if getattr(fw, "flow", "") == "polled":  # no acknowledgements (HP-GL): driver.polled
-        return _draw_polled(
-            gcode,
-            port,
-            plotter,
-            profile,
-            baud,
-            start_line,
-            journal,
-            timeout,
-            progress,
-            announce,
-            source,
-            operator,
-            keys,
-        )
-    if check and not fw.capabilities.check_mode:
-        raise RefusedError(
-            f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
-            f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
-        )
-    path = Path(gcode) if isinstance(gcode, (str, Path)) else None
-    job = load_job(gcode, plotter, source, allow=allow_system)
-    check_on_bed(job)  # before the port is opened: nothing is sent
-    if journal is not None:
-        journal_mod.check_against(journal, job)  # a journal is input too: its lines and stop point
+    return profile, plotter, overrides
 
-    start = 0
+
+def _start(job: Job, journal, start_line: int | None) -> tuple[int, list[float] | None]:
+    """The job index to start from, and the stop point a resume knows."""
     if journal is not None:
-        start, stop_xy = job.index_of(journal.next_line), journal.stop_xy
-    elif start_line is not None:
-        if not 1 <= start_line <= job.total_lines:
-            raise RefusedError(
-                f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})"
-            )
-        start = job.index_of(start_line)
-    check_resumable(job, start)  # a resume restores no work offset the file set up
+        return job.index_of(journal.next_line), journal.stop_xy
+    if start_line is None:
+        return 0, None
+    if not 1 <= start_line <= job.total_lines:
+        raise RefusedError(f"--start-line {start_line} is outside {job.source} (lines 1..{job.total_lines})")
+    return job.index_of(start_line), None
+
+
+def _running_journal(journal, path: Path | None, job: Job, port: str, profile: str):
+    """The journal of this run (a file's new one, or the resumed one), marked running."""
     if path is not None and journal is None:
         journal = journal_mod.Journal(
             gcode=str(path.resolve()),
@@ -175,45 +205,7 @@ def draw(
         )
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
-        journal.options = {
-            **(journal.options or {}),  # (an EBB stop keeps its step counters here)
-            "baud": baud,
-            "timeout": timeout,
-            "send_and_wait": send_and_wait,
-            "on_error": on_error,
-            **({"overrides": overrides} if overrides else {}),
-        }
-
-    if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
-        from pencilbot.driver.ebb_plot import draw_ebb
-
-        return draw_ebb(
-            job,
-            plotter,
-            sim_url(port, profile),
-            journal,
-            start=start,
-            resumed=journal if resume is not None else None,
-            baud=baud,
-            progress=progress,
-            timeout=timeout,
-            operator=operator,
-            keys=keys,
-            announce=announce,
-        )
-    runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
-    runner.announce = announce
-    runner.on_progress = on_progress
-    link = LineReader(open_port(port, baudrate=baud, profile=profile))
-    try:
-        stream = Stream(link, fw, receive_buffer=plotter.receive_buffer, timeout=timeout)
-        resumed = journal if resume is not None else None
-        return runner.run(stream, start, stop_xy, check, wake_wait, resumed)
-    finally:
-        try:
-            link.port.close()
-        except Exception:  # noqa: BLE001 - a vanished port may fail to close; nothing to do
-            pass
+    return journal
 
 
 def _draw_polled(
@@ -232,7 +224,7 @@ def _draw_polled(
     keys=None,
 ):
     """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
-    from pencilbot.driver.polled import draw_polled
+    from pencilbot.driver.hpgl.plot import draw_polled
 
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
     if path is not None:

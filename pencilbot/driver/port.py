@@ -24,6 +24,7 @@ except ImportError:  # Windows opens a COM port exclusively by itself
 from pencilbot.errors import PlotError
 from pencilbot.firmware.base import DEFAULT_BAUD
 
+DEFAULT_TIMEOUT = 10.0  # s of silence from the board before a job counts as stuck
 #: How long one read waits for the first byte (s): short, so status polls keep their pace.
 READ_SLICE = 0.02
 # What an open of a port someone else holds fails with: a lock taken (EAGAIN/EWOULDBLOCK from

@@ -246,7 +246,7 @@ class Firmware:
         """The first line of ``job`` this firmware cannot take, and why; None if all are fine.
 
         ``job`` has ``len()``, ``line(i)``, ``frames`` and ``offsets`` (a
-        :class:`pencilbot.driver.job.Job`). Firmware modules check the whole buffer with numpy and
+        :class:`pencilbot.driver.gcode.job.Job`). Firmware modules check the whole buffer with numpy and
         frame only the suspects; this fallback frames every line.
         """
         return self._first_refused(job, range(len(job)))

@@ -1,5 +1,5 @@
 """GRBL's system commands (``$`` lines other than a ``$J=`` jog), as a G-code file may hold them:
-their names and what each does to a plot (:mod:`pencilbot.driver.system_lines` refuses them
+their names and what each does to a plot (:mod:`pencilbot.driver.gcode.system_lines` refuses them
 unless the user names them, then says what they do)."""
 
 from __future__ import annotations

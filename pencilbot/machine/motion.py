@@ -1,7 +1,7 @@
 """The motion model: how fast a GRBL-style planner moves the pen, written once.
 
 Both the plot-time estimate (:mod:`pencilbot.planning.stats`, vectorised over a whole plan) and the
-virtual plotter's look-ahead planner (:mod:`sim.planner`, one block at a time) use these rules,
+virtual plotter's look-ahead planner (:mod:`sim.gcode.planner`, one block at a time) use these rules,
 each in the form it needs (arrays, or plain floats on the simulator's per-line path); the tests
 hold the two forms to the same numbers.
 

@@ -15,8 +15,8 @@ import numpy as np
 
 def job_drawing(gcode: Path, profile: str) -> dict:
     """``{"bed": [w, h], "points": [x0, y0, x1, ...], "offsets": [...], "lines": [...]}`` (mm)."""
-    from pencilbot.driver.drawn import drawn_with_lines
-    from pencilbot.driver.job import load_job
+    from pencilbot.driver.gcode.drawn import drawn_with_lines
+    from pencilbot.driver.gcode.job import load_job
     from pencilbot.machine.profile import load_profile
 
     plotter = load_profile(profile)

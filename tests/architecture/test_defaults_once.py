@@ -39,7 +39,7 @@ HOMES = {
     "MM_PER_INCH": "pencilbot/units.py",
     "CSS_PX_PER_INCH": "pencilbot/units.py",
     "DEFAULT_DPI": "pencilbot/render/canvas.py",
-    "DEFAULT_TIMEOUT": "pencilbot/driver/session.py",
+    "DEFAULT_TIMEOUT": "pencilbot/driver/port.py",
     "HATCH_ANGLES": "pencilbot/planning/hatching.py",
     "HATCH_COVERAGE": "pencilbot/planning/hatching.py",
     "HATCH_OVERLAP": "pencilbot/planning/hatching.py",

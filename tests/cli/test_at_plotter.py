@@ -55,7 +55,7 @@ def _one_error_line(err: str) -> str:
 
 def test_pen_toggle_on_an_ebb_sim_serve_pty_reads_the_pen_back(tmp_path):
     """The real CLI in its own process, the board on a pseudo-terminal."""
-    from sim.ebb_plotter import VirtualEbb
+    from sim.ebb.plotter import VirtualEbb
     from sim.pty_server import PtyServer
 
     plotter = VirtualEbb(load_profile("axidraw-v3"))

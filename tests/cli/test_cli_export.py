@@ -45,8 +45,8 @@ def commands(path) -> list:
 
 
 def test_console_script_exports_a_photo_that_the_virtual_grbl_draws(photo, tmp_path):
-    from sim.firmware import Firmware
-    from sim.machine import Machine
+    from sim.gcode.firmware import Firmware
+    from sim.gcode.machine import Machine
 
     out = tmp_path / "camera.gcode"
     proc = subprocess.run(

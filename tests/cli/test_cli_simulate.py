@@ -293,7 +293,7 @@ def stream(path, lines):
 
 def test_sim_serve_plays_a_real_board_unless_told_otherwise():
     from pencilbot.cli import build_parser
-    from sim.protocol_sim import REAL_BOARD
+    from sim.gcode.plotter import REAL_BOARD
 
     args = build_parser().parse_args(["sim-serve"])
     assert {key: getattr(args, key) for key in REAL_BOARD} == REAL_BOARD and not args.no_reset

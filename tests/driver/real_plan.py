@@ -33,7 +33,7 @@ def plan_lines(profile: str = "grbl-servo-a4") -> tuple[str, ...]:
 def pen_down_moves(lines, pen_down_text: str = "M3S90") -> np.ndarray:
     """0-based indices of the drawing moves (``G1``) among ``lines``, as the driver indexes them
     (comment-only and blank lines left out)."""
-    from pencilbot.driver.modal import clean_line
+    from pencilbot.driver.gcode.modal import clean_line
 
     cleaned = [c for c in (clean_line(line) for line in lines) if c]
     return np.array([i for i, c in enumerate(cleaned) if c.startswith("G1")])

@@ -152,16 +152,16 @@ def moments(family: str, n: int = 20) -> list[str]:
 def inside_a_move(family: str, n: int) -> list[int]:
     """EBB commands (1-based, as the board counts them) that are the first of a pen-down move
     made of several commands (accelerate, cruise, decelerate), ``n`` of them spread over the job."""
-    from pencilbot.driver import ebb_plot
-    from pencilbot.driver.job import load_job
+    from pencilbot.driver.ebb import moves as ebb_moves
+    from pencilbot.driver.gcode.job import load_job
     from pencilbot.machine.profile import load_profile
 
     profile = load_profile("axidraw-v3")
     job = load_job(list(plan_lines(profile.name)), profile)
-    xy, down, rows = ebb_plot._rows(job)
+    xy, down, rows = ebb_moves.rows(job)
     work = [
         w
-        for w in ebb_plot._plan_from(job, xy, down, rows, profile, 0, (0, 0), None, ebb_plot._dwells(job))
+        for w in ebb_moves.plan_from(job, xy, down, rows, profile, 0, (0, 0), None, ebb_moves.job_dwells(job))
         if not isinstance(w, int)
     ]
     log = _uninterrupted(family)[1]

@@ -146,12 +146,12 @@ def test_a_trial_height_the_profile_rules_refuse_is_one_line(name):
 
 
 def test_the_ebb_nickname_is_read_with_qt(name):
-    from pencilbot.driver.port_names import find_named, nickname
+    from pencilbot.driver.ebb.names import find_named, nickname
 
     with open_control(f"sim://{name}", "axidraw-v3"):
         board = protocol_sim.plotter(name).firmware
     assert nickname(f"sim://{name}") == ""
-    board.nickname = "East EBB"
+    board.queries.nickname = "East EBB"
     assert nickname(f"sim://{name}") == "East EBB"
     assert find_named("East EBB", [f"sim://{name}"]) == f"sim://{name}"
     assert find_named("West EBB", [f"sim://{name}"]) is None

@@ -10,12 +10,12 @@ from hypothesis import strategies as st
 from test_stream_sim import PROFILE, accepted, drawn, fresh
 
 from pencilbot.cli import main
-from pencilbot.driver.drawn import drawn_paths
-from pencilbot.driver.job import load_job
-from pencilbot.driver.modal import ModalState, advance, clean_line, track
+from pencilbot.driver.gcode.drawn import drawn_paths
+from pencilbot.driver.gcode.job import load_job
+from pencilbot.driver.gcode.modal import ModalState, advance, clean_line, track
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
-from sim.machine import Machine
+from sim.gcode.machine import Machine
 
 GRBL = load_profile(PROFILE)  # bed X 0 .. 220, Y 0 .. 310 mm
 

@@ -17,8 +17,8 @@ from test_stream_sim import PROFILE, fresh
 from pencilbot.cli import main
 from pencilbot.configs_io import config_folder
 from pencilbot.driver import draw
-from pencilbot.driver.bed_check import check_on_bed
-from pencilbot.driver.job import load_job
+from pencilbot.driver.gcode.bed_check import check_on_bed
+from pencilbot.driver.gcode.job import load_job
 from pencilbot.errors import OutOfBedError
 from pencilbot.export.gcode import write_gcode
 from pencilbot.machine.profile import load_profile

@@ -206,8 +206,8 @@ def test_noise_is_ignored_and_a_lost_answer_stops_exactly(coffee, clean, name, t
 
 
 def test_plan_moves_never_shorter_than_the_boards_minimum(coffee):
-    from pencilbot.driver.ebb_plot import _rows
-    from pencilbot.driver.job import load_job
+    from pencilbot.driver.ebb.moves import rows as _rows
+    from pencilbot.driver.gcode.job import load_job
     from pencilbot.machine.ebb_motion import plan_ebb
 
     _, profile, path, _ = coffee
@@ -279,7 +279,7 @@ def test_sigterm_mid_plot_over_a_pty_stops_and_resumes_exactly_once(tmp_path):
     import time
 
     from pencilbot.planning.plan import Layer, Page, Plan
-    from sim.ebb_plotter import VirtualEbb
+    from sim.ebb.plotter import VirtualEbb
     from sim.pty_server import PtyServer
 
     profile = load_profile(PROFILE)

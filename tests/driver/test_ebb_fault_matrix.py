@@ -24,7 +24,7 @@ from segments import drawing_differences
 
 import sim
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 from sim import protocol_sim
 

@@ -6,7 +6,7 @@ import pytest
 
 import sim
 from pencilbot.driver import draw
-from pencilbot.driver.ebb_plot import FIFO_DEPTH
+from pencilbot.driver.ebb.plot import FIFO_DEPTH
 from sim import protocol_sim
 
 PROFILE = "axidraw-v3"

@@ -13,7 +13,7 @@ from test_stream_sim import PROFILE, drawing
 
 from pencilbot.cli import main
 from pencilbot.machine.profile import load_profile
-from sim.protocol_sim import VirtualPlotter
+from sim.gcode.plotter import VirtualPlotter
 from sim.pty_server import PtyServer
 
 FOREIGN = b"G0X200Y300\n"

@@ -18,7 +18,9 @@ from real_plan import plan_lines
 from segments import drawing_differences
 
 import sim
-from pencilbot.driver import draw, ebb_link, port, session
+from pencilbot.driver import draw, port
+from pencilbot.driver.ebb import link as ebb_link
+from pencilbot.driver.gcode import session
 from pencilbot.errors import PlotError
 from sim import protocol_sim
 

@@ -71,7 +71,7 @@ def test_coffee_round_trip_every_stroke_once_to_a_plotter_unit(coffee, tmp_path)
 @contextmanager
 def _ctrl_c_at(count: int, monkeypatch, signum=signal.SIGINT):
     """Ctrl-C (or ``signum``) comes as the virtual plotter starts its ``count``-th instruction."""
-    from sim.hpgl_plotter import HpglBoard
+    from sim.hpgl.board import HpglBoard
 
     run = HpglBoard._run
 

@@ -6,9 +6,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from pencilbot.driver import job as job_module
-from pencilbot.driver.job import load_job
-from pencilbot.driver.modal import ModalState, advance, clean_line, track
+from pencilbot.driver.gcode import job as job_module
+from pencilbot.driver.gcode.job import load_job
+from pencilbot.driver.gcode.modal import ModalState, advance, clean_line, track
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 

@@ -16,7 +16,7 @@ from pty_board import PtyBoard
 
 from firmware_protocol import marlin
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 
 PROFILE = "marlin-servo-a4"

@@ -4,7 +4,7 @@ distance mode of the lines after them; an empty block tracks to nothing."""
 
 import pytest
 
-from pencilbot.driver.modal import ModalState, clean_line, track
+from pencilbot.driver.gcode.modal import ModalState, clean_line, track
 from pencilbot.machine.profile import load_profile
 
 PEN = load_profile("grbl-servo-a4").pen_model
@@ -32,7 +32,7 @@ def test_the_words_of_a_system_command_after_other_lines_count_for_nothing():
 
 @pytest.mark.parametrize("block", [b"", b"G1X1Y2"])
 def test_a_block_without_a_whole_line_has_no_words(block):
-    from pencilbot.driver.modal import _words
+    from pencilbot.driver.gcode.words import read_words as _words
 
     words = _words(block)
     assert words.lines == 0 and len(words.line) == len(words.letter) == len(words.value) == 0

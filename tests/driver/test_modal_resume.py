@@ -4,8 +4,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from pencilbot.driver.modal import ModalState, advance, clean_line, state_before, track
-from pencilbot.driver.resume import locate_stop, resume_preamble
+from pencilbot.driver.gcode.modal import ModalState, advance, clean_line, state_before, track
+from pencilbot.driver.gcode.resume import locate_stop, resume_preamble
 from pencilbot.machine.pen import PenModel
 
 SPINDLE = PenModel("spindle", up=0, down=1000, up_lines=("M5",), down_lines=("M3S1000",))
@@ -209,7 +209,7 @@ def test_locate_stop_takes_the_move_drawn_with_the_pen_as_the_board_said(pen_dow
 
 
 def test_a_stop_point_before_the_kept_window_is_not_found_and_nothing_is_read_outside_it():
-    from pencilbot.driver.modal import track
+    from pencilbot.driver.gcode.modal import track
 
     lines = [clean_line(line) for line in JOB]
     whole = track(lines, SPINDLE)
@@ -221,8 +221,8 @@ def test_a_stop_point_before_the_kept_window_is_not_found_and_nothing_is_read_ou
 
 
 def test_the_window_follows_the_receive_buffer_and_the_planner_depth():
-    from pencilbot.driver.job import load_job
-    from pencilbot.driver.resume import flight_start
+    from pencilbot.driver.gcode.job import load_job
+    from pencilbot.driver.gcode.resume import flight_start
     from pencilbot.machine.profile import load_profile
 
     moves = [f"G1X{i % 50}.5Y{i // 50}.25F3000" for i in range(400)]

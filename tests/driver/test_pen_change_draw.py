@@ -12,7 +12,7 @@ from pencilbot.export.gcode import write_gcode
 from pencilbot.machine.pens import load_pens
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.plan import Layer, Page, Plan
-from sim.protocol_sim import VirtualPlotter
+from sim.gcode.plotter import VirtualPlotter
 from sim.pty_server import PtyServer
 
 PROFILE = "grbl-servo-a4"

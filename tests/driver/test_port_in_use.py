@@ -11,11 +11,11 @@ from test_stream_sim import PROFILE, drawing, fresh
 
 from pencilbot.cli import main
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
-from sim.protocol_sim import VirtualPlotter
+from sim.gcode.plotter import VirtualPlotter
 from sim.pty_server import PtyServer
 
 BUSY = "is in use by another program (another pencilbot draw?) — wait for it or close it"

@@ -9,10 +9,10 @@ import numpy as np
 import pytest
 
 from pencilbot import api
-from pencilbot.driver.drawn import drawn_paths, drawn_with_lines
-from pencilbot.driver.job import load_job
+from pencilbot.driver.gcode.drawn import drawn_paths, drawn_with_lines
+from pencilbot.driver.gcode.job import load_job
+from pencilbot.driver.gcode.resume import StopLocator
 from pencilbot.driver.progress import Progress
-from pencilbot.driver.resume import StopLocator
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths

@@ -23,12 +23,12 @@ from segments import assert_same_drawing
 from test_stream_sim import drawn
 
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
 from sim.faults import Faults
-from sim.protocol_sim import VirtualPlotter
+from sim.gcode.plotter import VirtualPlotter
 from sim.pty_server import PtyServer
 
 PROFILE = "grbl-servo-a4"

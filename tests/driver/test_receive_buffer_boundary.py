@@ -9,9 +9,9 @@ exactly, and not one more when the next line would need 129.
 import pytest
 
 import sim
-from pencilbot.driver.job import load_job
+from pencilbot.driver.gcode.job import load_job
+from pencilbot.driver.gcode.stream import Stream
 from pencilbot.driver.port import LineReader, open_port
-from pencilbot.driver.stream import Stream
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
 

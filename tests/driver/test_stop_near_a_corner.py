@@ -14,9 +14,9 @@ from segments import assert_same_drawing
 from test_stream_sim import HandOnTheMachine, drawn
 
 from pencilbot.driver import draw
-from pencilbot.driver.job import load_job
-from pencilbot.driver.modal import clean_line
-from pencilbot.driver.resume import REPORT_ROUNDING, StopLocator, locate_stop
+from pencilbot.driver.gcode.job import load_job
+from pencilbot.driver.gcode.modal import clean_line
+from pencilbot.driver.gcode.resume import REPORT_ROUNDING, StopLocator, locate_stop
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim
@@ -30,7 +30,7 @@ SPINDLE = load_profile("grbl-servo-a4").pen_model
 
 
 def states_of(lines):
-    from pencilbot.driver.modal import track
+    from pencilbot.driver.gcode.modal import track
 
     return track([clean_line(line) for line in lines], SPINDLE)
 

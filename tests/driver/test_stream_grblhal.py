@@ -5,8 +5,8 @@ import pytest
 from test_stream_sim import accepted, assert_same_drawing, drawing, drawn, fresh, resume
 
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
-from pencilbot.driver.stream import Stream
+from pencilbot.driver.gcode.modal import clean_line
+from pencilbot.driver.gcode.stream import Stream
 from pencilbot.errors import PlotError
 from sim import protocol_sim
 

@@ -10,7 +10,7 @@ from pencilbot.driver import draw
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim.faults import Faults
-from sim.protocol_sim import VirtualPlotter
+from sim.gcode.plotter import VirtualPlotter
 from sim.pty_server import PtyServer
 
 

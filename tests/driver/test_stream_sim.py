@@ -19,7 +19,7 @@ from segments import assert_same_drawing
 import sim
 from pencilbot.configs_io import config_folder
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 from pencilbot.machine.profile import load_profile
 from sim import protocol_sim

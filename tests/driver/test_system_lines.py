@@ -12,9 +12,9 @@ from hypothesis import strategies as st
 from test_stream_sim import PROFILE, fresh
 
 from pencilbot.cli import main
-from pencilbot.driver.bed_check import check_on_bed
-from pencilbot.driver.job import load_job
-from pencilbot.driver.system_lines import allowed_names
+from pencilbot.driver.gcode.bed_check import check_on_bed
+from pencilbot.driver.gcode.job import load_job
+from pencilbot.driver.gcode.system_lines import allowed_names
 from pencilbot.errors import OutOfBedError, PencilbotError
 from pencilbot.firmware.grbl_system import command_name
 from pencilbot.machine.profile import load_profile

@@ -12,7 +12,7 @@ import serial
 from test_stream_sim import FAULT_AT, HandOnTheMachine, accepted, assert_same_drawing, drawing, drawn, fresh
 
 from pencilbot.driver import draw
-from pencilbot.driver.modal import clean_line
+from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 from sim import protocol_sim
 

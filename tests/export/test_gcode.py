@@ -378,8 +378,8 @@ def test_a_path_ending_at_home_needs_no_return_move():
 
 @pytest.mark.parametrize("name", ["grbl-servo-a4", "grbl-z-a3", "grblhal-servo-a3"])
 def test_virtual_grbl_accepts_every_line_and_draws_the_plan(name):
-    from sim.firmware import Firmware
-    from sim.machine import Machine
+    from sim.gcode.firmware import Firmware
+    from sim.gcode.machine import Machine
 
     profile = load_profile(name)
     rng = np.random.default_rng(7)

@@ -12,7 +12,7 @@ from pencilbot.export.hpgl import hpgl_program, write_hpgl
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import Layer, Page, Plan
-from sim.hpgl_plotter import HpglBoard
+from sim.hpgl.board import HpglBoard
 
 PROFILE = load_profile("hp7475a")
 A4 = Page(297, 210, margin=0.0, name="A4")

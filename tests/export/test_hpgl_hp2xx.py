@@ -18,7 +18,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning.fidelity import pearson
 from pencilbot.planning.plan import Layer, Page, Plan
-from sim.hpgl_plotter import HpglBoard
+from sim.hpgl.board import HpglBoard
 
 pytestmark = pytest.mark.skipif(
     shutil.which("hp2xx") is None, reason="hp2xx is not installed (apt-get install hp2xx)"

@@ -9,8 +9,8 @@ from hypothesis import strategies as st
 from machines import description
 from test_machine import IDLE_LOCK, run
 
-from sim.arcs import arc_chords
-from sim.machine import Machine
+from sim.gcode.arcs import arc_chords
+from sim.gcode.machine import Machine
 
 
 def drawn(*lines, **config):
@@ -83,7 +83,7 @@ def test_radius_arcs_take_the_short_way_and_negative_r_the_long_way(r, sweep):
 def test_each_plane_arcs_in_its_axes_and_climbs_along_the_third(plane, line, axes, center, linear):
     m = Machine(description())
     done = []
-    m._complete = done.extend  # noqa: SLF001 -- observe the executed blocks in 3-D
+    m.motion.complete = done.extend  # observe the executed blocks in 3-D
     run(m, plane, line + " F1000")
     ends = np.array([b.end for b in done])
     a0, a1 = axes
@@ -120,7 +120,7 @@ def test_an_arc_is_one_stroke_with_the_pen_down_and_travel_with_it_up():
 
 
 def test_arc_chords_queue_as_the_planner_frees_room_in_real_time():
-    from sim.firmware import Firmware
+    from sim.gcode.firmware import Firmware
 
     fw = Firmware(Machine(description(), instant=False))
     fw.take_output()

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from machines import description
 
-from sim.firmware import Firmware
-from sim.machine import Machine
+from sim.gcode.firmware import Firmware
+from sim.gcode.machine import Machine
 
 TABLE = Path(__file__).with_name("grbl_conformance.tsv")
 _DIRECTIVE = re.compile(r"\{(poll [0-9.]+|power)\}")

@@ -5,7 +5,7 @@ import math
 import pytest
 
 from pencilbot.machine.profile import load_profile
-from sim.ebb_board import EbbBoard
+from sim.ebb.board import EbbBoard
 from sim.faults import Faults
 
 

@@ -9,7 +9,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pencilbot.machine.profile import load_profile
-from sim.ebb_board import EbbBoard
+from sim.ebb.board import EbbBoard
 
 
 def _board(profile="axidraw-v3", **options):

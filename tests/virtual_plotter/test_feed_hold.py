@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 from machines import description
 
 from sim.faults import Faults
-from sim.firmware import Firmware
-from sim.machine import Machine
+from sim.gcode.firmware import Firmware
+from sim.gcode.machine import Machine
 
 ACCEL = 800.0  # mm/s², the description's on every axis (the least along any direction)
 

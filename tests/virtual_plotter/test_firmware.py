@@ -9,8 +9,9 @@ from machines import description
 from firmware_protocol import grbl
 from pencilbot.machine.pen import PenModel
 from sim.faults import GARBAGE, Faults
-from sim.firmware import Firmware, filter_line
-from sim.machine import Machine
+from sim.gcode.firmware import Firmware
+from sim.gcode.lines import filter_line
+from sim.gcode.machine import Machine
 
 BANNER = "\r\nGrbl 1.1h ['$' for help]\r\n"
 IDLE0 = "<Idle|MPos:0.000,0.000,0.000|FS:0,0|WCO:0.000,0.000,0.000>\r\n"
@@ -527,7 +528,7 @@ def test_dollar_dollar_is_answered_while_jogging_but_not_while_running():
     )
 )
 def test_the_line_log_gives_back_every_line_as_it_was_logged(entries):
-    from sim.line_log import LineLog, LoggedLine
+    from sim.gcode.line_log import LineLog, LoggedLine
 
     log = LineLog()
     for entry in entries:

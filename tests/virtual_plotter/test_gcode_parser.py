@@ -8,9 +8,9 @@ from hypothesis import strategies as st
 from machines import description
 
 from firmware_protocol import grbl
-from sim.gcode_parser import Block, ParserState, _grbl_float, parse_block
-from sim.machine import Machine
-from sim.motion_control import MachineAlarm
+from sim.gcode.machine import Machine
+from sim.gcode.motion_control import MachineAlarm
+from sim.gcode.parser import Block, ParserState, _grbl_float, parse_block
 
 WORDS = st.one_of(
     st.sampled_from(

@@ -2,8 +2,8 @@
 
 from firmware_protocol import grblhal
 from pencilbot.machine.profile import load_profile
-from sim.firmware import Firmware
-from sim.machine import Machine
+from sim.gcode.firmware import Firmware
+from sim.gcode.machine import Machine
 
 GRBLHAL = load_profile("grblhal-servo-a3")
 

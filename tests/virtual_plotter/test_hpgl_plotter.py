@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from pencilbot.machine.profile import load_profile
-from sim.hpgl_plotter import HpglBoard
+from sim.hpgl.board import HpglBoard
 
 PROFILE = load_profile("hp7475a")
 

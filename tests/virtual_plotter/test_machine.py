@@ -9,10 +9,10 @@ from hypothesis import strategies as st
 from machines import description
 
 from pencilbot.machine.pen import PenModel
-from sim.machine import Machine
-from sim.motion_control import MachineAlarm
-from sim.planner import block_duration, junction_speed
-from sim.settings import DEFAULT_SETTINGS
+from sim.gcode.machine import Machine
+from sim.gcode.motion_control import MachineAlarm
+from sim.gcode.planner import block_duration, junction_speed
+from sim.gcode.settings import DEFAULT_SETTINGS
 
 #: GRBL's stepper idle lock ($1 = 25 ms): the board stands still that long whenever the motion
 #: comes to rest with nothing queued.
@@ -49,7 +49,7 @@ def test_a_pen_change_waits_for_the_idle_lock_and_a_reversal_does_not():
 @pytest.mark.parametrize("setting, lock", [("$1=100", 0.1), ("$1=255", 0.0), ("$1=0", 0.0)])
 def test_the_idle_lock_is_the_board_s_own_setting(setting, lock):
     # $1 ms; 255 keeps the motors on and st_go_idle waits nothing. $RST=$ brings back 25 ms.
-    from sim.firmware import Firmware
+    from sim.gcode.firmware import Firmware
 
     fw = Firmware(Machine(description()))
     fw.receive(setting.encode() + b"\nG1 X10 F3000\nM3 S30\n")
@@ -232,7 +232,7 @@ def test_realtime_advance_moves_part_way():
 def test_planner_is_never_faster_than_allowed(moves):
     m = Machine(description(width=200, height=200))
     done = []
-    m._complete = done.extend  # noqa: SLF001 -- observe the executed blocks
+    m.motion.complete = done.extend  # observe the executed blocks
     for x, y, f in moves:
         m.apply(m.parse(f"G1X{x:.3f}Y{y:.3f}F{f}"))
     m.finish()

@@ -12,7 +12,8 @@ from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
 from sim import protocol_sim
 from sim.faults import Faults
-from sim.protocol_sim import VirtualPlotter, plotter
+from sim.gcode.plotter import VirtualPlotter
+from sim.protocol_sim import plotter
 from sim.pty_server import PtyServer
 
 sim.register()
