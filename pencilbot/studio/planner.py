@@ -63,44 +63,72 @@ def png_bytes(image: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
-def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
-    """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`) with
-    ``options`` for one stage; what a :class:`StageResult` carries."""
-    from pencilbot import api
-    from pencilbot.planning.fidelity import photo_likeness
-    from pencilbot.planning.preview import preview_image
-    from pencilbot.planning.stats import estimate
+#: What the page says a stage is doing, in order (its progress: step ``i`` of these).
+STEPS = ("sketching and planning the paths", "drawing the preview", "estimating the plot time")
 
-    style = options.resolved_style()
-    pens = options.pen_set()
+
+def plan_stage(photo, options: DrawingOptions, stage: str, say=lambda step: None) -> dict:
+    """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`; an
+    ``.svg`` file is read as a finished drawing) with ``options`` for one stage; what a
+    :class:`StageResult` carries. ``say(i)`` is called as step ``i`` of :data:`STEPS` begins."""
+    from pencilbot.planning.preview import preview_image
+
+    say(0)
+    drawing, plan = _drawing(photo, options, stage)
+    say(1)
     dpi = PREVIEW_DPI
-    if stage == "coarse":
-        style, pens = coarse(style, pens)
-        dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
-    drawing, plan = api.sketch_and_plan(photo, style=style, pens=pens)
+    if stage == "coarse":  # half the full preview's pixels a side (a photo's coarse plan is half size)
+        dpi = PREVIEW_DPI * (COARSE_SCALE / 2 if drawing is not None else 0.5)
     result: dict[str, object] = {
         "preview_png": png_bytes(preview_image(plan, dpi)),
-        "sketch_png": png_bytes(drawing.result),
+        "sketch_png": png_bytes(drawing.result) if drawing is not None else b"",
     }
     if stage == "full":
-        figures = {
-            "paths": sum(len(layer.paths) for layer in plan.layers),
-            "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
-            "pens": list(plan.pens),
-        }
-        try:
-            total = estimate(plan, options.plotter()).total
-            figures.update(
-                pen_down_m=round(total.pen_down_mm / 1000, 2),
-                pen_up_m=round(total.pen_up_mm / 1000, 2),
-                lifts=total.lifts,
-                seconds=round(total.seconds, 1),
-            )
-        except PencilbotError as err:
-            figures["estimate_error"] = str(err)
-        figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
-        result.update(figures=figures, plan=plan)
+        say(2)
+        result.update(figures=_figures(plan, drawing, options), plan=plan)
     return result
+
+
+def _drawing(source, options: DrawingOptions, stage: str):
+    """(the sketch or None, the plan): a photo sketched and planned, an SVG read, fitted onto
+    the sheet and (full stage) reordered by the library's optimizer."""
+    from pencilbot import api
+
+    style = options.resolved_style()
+    if isinstance(source, Path) and source.suffix == ".svg":
+        from pencilbot.planning.layout import fit_plan
+        from pencilbot.planning.optimize import reorder_plan
+
+        plan = fit_plan(api.read_svg(source, dpi=96.0), style.page, style.orientation, style.margin)
+        return None, reorder_plan(plan).plan if stage == "full" else plan
+    pens = options.pen_set()
+    if stage == "coarse":
+        style, pens = coarse(style, pens)
+    return api.sketch_and_plan(source, style=style, pens=pens)
+
+
+def _figures(plan, drawing, options: DrawingOptions) -> dict:
+    from pencilbot.planning.fidelity import photo_likeness
+    from pencilbot.planning.stats import estimate
+
+    figures: dict[str, object] = {
+        "paths": sum(len(layer.paths) for layer in plan.layers),
+        "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
+        "pens": list(plan.pens),
+    }
+    try:
+        total = estimate(plan, options.plotter()).total
+        figures.update(
+            pen_down_m=round(total.pen_down_mm / 1000, 2),
+            pen_up_m=round(total.pen_up_mm / 1000, 2),
+            lifts=total.lifts,
+            seconds=round(total.seconds, 1),
+        )
+    except PencilbotError as err:
+        figures["estimate_error"] = str(err)
+    if drawing is not None:
+        figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
+    return figures
 
 
 def coarse(style, pens):
@@ -131,7 +159,13 @@ def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], sm
     for stage in stages:
         try:
             source = small if stage == "coarse" and small is not None else Path(photo)
-            conn.send((stage, plan_stage(source, options, stage)))
+
+            def say(step: int, stage: str = stage) -> None:
+                conn.send(
+                    ("progress", {"stage": stage, "step": step, "of": len(STEPS), "words": STEPS[step]})
+                )
+
+            conn.send((stage, plan_stage(source, options, stage, say)))
         except PencilbotError as err:
             conn.send((stage, {"error": str(err)}))
             return
@@ -145,8 +179,13 @@ class Planner:
     """Plans the newest change; ``on_result(StageResult)`` is called (in a reader thread) for each
     stage of the newest generation, never for an older one."""
 
-    def __init__(self, on_result: Callable[[StageResult], None], stages: tuple[str, ...] = STAGES):
-        self.on_result = on_result
+    def __init__(
+        self,
+        on_result: Callable[[StageResult], None],
+        stages: tuple[str, ...] = STAGES,
+        on_progress: Callable[[int, dict], None] = lambda generation, step: None,
+    ):
+        self.on_result, self.on_progress = on_result, on_progress
         self.stages = stages
         self.generation = 0
         self._lock = threading.Lock()
@@ -205,6 +244,9 @@ class Planner:
                 with self._lock:
                     if generation != self.generation:
                         break  # a newer change: this result is dropped
+                if stage == "progress":
+                    self.on_progress(generation, {**payload, "seconds": round(time.monotonic() - started, 2)})
+                    continue
                 self.on_result(StageResult(generation, stage, seconds=time.monotonic() - started, **payload))
         finally:
             receive.close()
