@@ -122,7 +122,7 @@ function drawJob(ctx, plot, page) {  // what the machine has drawn in its pens' 
   ctx.lineCap = ctx.lineJoin = "round";
   ctx.strokeStyle = "#c9d3dd"; ctx.lineWidth = 1;
   strokePaths(ctx, job.points, off, map, done);
-  const width = Math.max(1, (sheet.plan ? sheet.plan.layers[0].width : 0.3) * sheet.view.s);
+  const width = Math.max(1.5, (sheet.plan ? sheet.plan.layers[0].width : 0.3) * sheet.view.s);
   for (let k = 0; k < done;) {  // runs of one colour
     let end = k;
     while (end < done && job.colors[end] === job.colors[k]) end++;
