@@ -62,7 +62,7 @@ function keyEvents() {
 keyEvents();
 start().then(() => {
   applyPlacement(state.placement);
-  history.current = snapshot();
+  undoState.current = snapshot();
   fitView();
   listPresets().catch(() => {});
   showHeights();

@@ -2,8 +2,8 @@
 // presets kept in the user's config folder, reset, undo and redo, and the pen heights.
 "use strict";
 
-const history = { undo: [], redo: [], current: null };
-let placeTimer = null;
+const undoState = { undo: [], redo: [], current: null };
+let placeTimer = null, placing = 0;  // a placement on its way: the server's older one is not shown
 
 function showPlacement() {
   $("place-scale").value = Math.round(placement.scale * 100);
@@ -17,14 +17,16 @@ function setPlacement(change, record) {  // the person moved the drawing: shown 
   clearTimeout(placeTimer);
   placeTimer = setTimeout(async () => {
     placeTimer = null;
-    try { $("plan-error").textContent = ""; await call("POST", "/api/placement", placement); }
+    placing++;
+    try { $("plan-error").textContent = ""; await call("POST", "/api/placement", { ...placement }); }
     catch (err) { $("plan-error").textContent = err.message; }
+    finally { placing--; }
   }, 60);
   if (record) settingsChanged();
 }
 
 function applyPlacement(server) {  // the server's placement (another tab's, a preset's)
-  if (placeTimer || !server) return;
+  if (placeTimer || placing || !server) return;
   if (JSON.stringify(server) === JSON.stringify(placement)) return;
   placement = { ...server };
   showPlacement(); showLayers(); drawSheet();
@@ -34,38 +36,41 @@ function snapshot() { return JSON.stringify({ options: options(), placement }); 
 
 function settingsChanged() {  // one step of undo: the settings before this change
   const now = snapshot();
-  if (history.current !== null && now !== history.current) { history.undo.push(history.current); history.redo = []; }
-  history.current = now;
+  if (undoState.current !== null && now !== undoState.current) { undoState.undo.push(undoState.current); undoState.redo = []; }
+  undoState.current = now;
   showHistory();
 }
 
 function showHistory() {
-  $("undo").disabled = !history.undo.length;
-  $("redo").disabled = !history.redo.length;
+  $("undo").disabled = !undoState.undo.length;
+  $("redo").disabled = !undoState.redo.length;
 }
 
 async function applySettings(saved) {  // options and placement as one: sent, and shown
   const options = saved.options || {}, place = saved.placement || {};
   applyOptions({ style: null, pens: null, profile: null, ...options });
-  placement = { scale: 1, dx: 0, dy: 0, skip: [], ...place };
+  const wanted = { scale: 1, dx: 0, dy: 0, skip: [], ...place };
+  placement = { ...wanted };
   showPlacement(); showLayers(); drawSheet();
+  placing++; sending++;  // the server's older settings are not shown meanwhile
   try {
     $("plan-error").textContent = "";
+    await call("POST", "/api/placement", wanted);
     await call("POST", "/api/drawing", options);
-    await call("POST", "/api/placement", placement);
   } catch (err) { $("plan-error").textContent = err.message; }
+  finally { placing--; sending--; }
 }
 
 async function undoRedo(from, to) {
   if (!from.length) return;
-  to.push(history.current);
-  history.current = from.pop();
+  to.push(undoState.current);
+  undoState.current = from.pop();
   showHistory();
-  await applySettings(JSON.parse(history.current));
+  await applySettings(JSON.parse(undoState.current));
 }
 
-const undo = () => undoRedo(history.undo, history.redo);
-const redo = () => undoRedo(history.redo, history.undo);
+const undo = () => undoRedo(undoState.undo, undoState.redo);
+const redo = () => undoRedo(undoState.redo, undoState.undo);
 
 async function listPresets(chosen) {
   const { presets } = await call("GET", "/api/presets"), list = $("preset-list");
@@ -79,6 +84,9 @@ async function presetAction(what) {
   const say = (text) => { $("preset-message").textContent = text; };
   const name = what === "save" ? $("preset-name").value.trim() : $("preset-list").value;
   if (!name) { say(what === "save" ? "give the preset a name first" : "pick a preset first"); return; }
+  if (!/^[A-Za-z0-9][A-Za-z0-9 _-]{0,39}$/.test(name)) {
+    say("a preset name is up to 40 letters, digits, spaces, - or _, starting with a letter or digit"); return;
+  }
   try {
     const url = `/api/presets/${encodeURIComponent(name)}`;
     if (what === "save") {

@@ -158,6 +158,7 @@ function showDrawing() {
   showProgress(full, coarse);
   sheetDrawing(full && !full.error ? full.generation : 0, best && !error ? shown.preview : "");
   document.querySelector(".downloads").hidden = !f;
+  $("dl-sketch").hidden = !!(state.photo && state.photo.svg);  // a drawing has no sketch
   $("plot-start").disabled = !f || !!(plotOf($("port").value) || {}).active;
   $("dl-gcode").href = `/api/download/plan.gcode?profile=${encodeURIComponent($("profile").value)}`;
 }
