@@ -13,7 +13,6 @@ from __future__ import annotations
 import hmac
 import ipaddress
 import secrets
-
 from html import escape
 
 from starlette.responses import HTMLResponse, PlainTextResponse
@@ -78,7 +77,9 @@ class Guard:
         refusal = self.refusal(scope, headers)
         if refusal is not None:
             if "text/html" in headers.get("accept", "") and scope["method"] in SAFE_METHODS:
-                page = REFUSED_PAGE.replace("{why}", escape(refusal[1]))  # a person followed a link: tell them
+                page = REFUSED_PAGE.replace(
+                    "{why}", escape(refusal[1])
+                )  # a person followed a link: tell them
                 return await HTMLResponse(page, status_code=refusal[0])(scope, receive, send)
             return await PlainTextResponse(refusal[1], status_code=refusal[0])(scope, receive, send)
         return await self.app(scope, receive, send)

@@ -92,7 +92,9 @@ def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, p
     line = text(browser, "plot-line")
     assert " acknowledged)" in line and text(browser, "plot-remaining") != "–"
     drawn = wait_for(  # black ink on the sheet: what the machine has drawn, in its pen's colour
-        browser, lambda: sheet_pixels(browser, "a > 0 && r < 60 && g < 60 && b < 60"), "the sheet shows the drawn lines"
+        browser,
+        lambda: sheet_pixels(browser, "a > 0 && r < 60 && g < 60 && b < 60"),
+        "the sheet shows the drawn lines",
     )
     assert drawn > 0
     screenshot(browser, "3-plotting")

@@ -25,7 +25,9 @@ def background(browser, selector: str = "html") -> list[int]:
 
 
 def test_dark_colours_follow_the_system_and_the_toggle(server, browser):
-    browser.execute_cdp_cmd("Emulation.setEmulatedMedia", {"features": [{"name": "prefers-color-scheme", "value": "dark"}]})
+    browser.execute_cdp_cmd(
+        "Emulation.setEmulatedMedia", {"features": [{"name": "prefers-color-scheme", "value": "dark"}]}
+    )
     try:
         open_page(server, browser)
         browser.execute_script("localStorage.removeItem('pencilbot-theme')")
@@ -62,7 +64,6 @@ def test_the_photo_picker_is_reached_by_the_keyboard(server, browser):
         "window.picked = 0; document.getElementById('photo-input').addEventListener('click',"
         " (e) => { window.picked++; e.preventDefault(); });"
     )
-    body = browser.find_element(By.TAG_NAME, "body")
     browser.execute_script("document.activeElement.blur()")  # from the top of the page
     for _ in range(8):  # Tab from the top of the page reaches the drop zone
         ActionChains(browser).send_keys(Keys.TAB).perform()

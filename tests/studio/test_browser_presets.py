@@ -41,7 +41,9 @@ def test_a_preset_is_saved_in_the_config_folder_loaded_and_deleted(server, brows
     browser.find_element(By.ID, "reset").click()  # the defaults: the default style, centred, full size
     wait_for(browser, lambda: server.studio.options.style in ("", None), "reset reaches the server")
     wait_for(browser, lambda: server.studio.placement.scale == 1, "the placement reset")
-    assert Select(browser.find_element(By.ID, "style")).first_selected_option.get_attribute("value") != "outline"
+    assert (
+        Select(browser.find_element(By.ID, "style")).first_selected_option.get_attribute("value") != "outline"
+    )
 
     open_page(server, browser)  # a page opened later lists it
     wait_for(browser, lambda: len(Select(browser.find_element(By.ID, "preset-list")).options) > 1, "the list")
@@ -80,11 +82,13 @@ def test_undo_and_redo_by_buttons_and_keys(server, browser):
     wait_for(browser, lambda: server.studio.options.pens in ("", None), "Ctrl-Z")
     ActionChains(browser).key_down(Keys.CONTROL).send_keys("z").key_up(Keys.CONTROL).perform()
     wait_for(browser, lambda: server.studio.options.style != "outline", "Ctrl-Z again")
-    ActionChains(browser).key_down(Keys.CONTROL).key_down(Keys.SHIFT).send_keys("z").key_up(Keys.SHIFT).key_up(
-        Keys.CONTROL
-    ).perform()
+    ActionChains(browser).key_down(Keys.CONTROL).key_down(Keys.SHIFT).send_keys("z").key_up(
+        Keys.SHIFT
+    ).key_up(Keys.CONTROL).perform()
     wait_for(browser, lambda: server.studio.options.style == "outline", "Ctrl-Shift-Z")
-    assert Select(browser.find_element(By.ID, "style")).first_selected_option.get_attribute("value") == "outline"
+    assert (
+        Select(browser.find_element(By.ID, "style")).first_selected_option.get_attribute("value") == "outline"
+    )
 
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")

@@ -75,12 +75,16 @@ def test_zoom_by_buttons_wheel_keys_and_pinch_down_to_the_pen(server, browser, p
     assert browser.execute_script("return sheet.view.ox") == pytest.approx(before["ox"] + 40)
 
     at = scale(browser)
-    box = browser.execute_script("const r = document.getElementById('sheet').getBoundingClientRect(); return [r.left, r.top, r.width, r.height]")
+    box = browser.execute_script(
+        "const r = document.getElementById('sheet').getBoundingClientRect(); return [r.left, r.top, r.width, r.height]"
+    )
     cx, cy = box[0] + box[2] / 2, box[1] + box[3] / 2
 
     def touch(kind: str, spread: float) -> None:
         points = [{"x": cx - spread, "y": cy, "id": 1}, {"x": cx + spread, "y": cy, "id": 2}]
-        browser.execute_cdp_cmd("Input.dispatchTouchEvent", {"type": kind, "touchPoints": [] if kind == "touchEnd" else points})
+        browser.execute_cdp_cmd(
+            "Input.dispatchTouchEvent", {"type": kind, "touchPoints": [] if kind == "touchEnd" else points}
+        )
 
     touch("touchStart", 20)
     for spread in (30, 45, 60):
@@ -94,12 +98,14 @@ def test_dragging_the_drawing_places_it_where_it_is_plotted(server, browser, pho
         load_photo(server, browser, photo)
     wait_for(browser, lambda: plan_ready(browser), "the plan on the sheet")
     browser.find_element(By.ID, "place-reset").click()
-    wait_for(browser, lambda: server.studio.placement.dx == 0 and server.studio.placement.scale == 1, "centred")
+    wait_for(
+        browser, lambda: server.studio.placement.dx == 0 and server.studio.placement.scale == 1, "centred"
+    )
     browser.find_element(By.ID, "zoom-fit").click()
     s = scale(browser)
-    ActionChains(browser).move_to_element(browser.find_element(By.ID, "sheet")).click_and_hold().move_by_offset(
-        60, 30
-    ).release().perform()
+    ActionChains(browser).move_to_element(
+        browser.find_element(By.ID, "sheet")
+    ).click_and_hold().move_by_offset(60, 30).release().perform()
     wait_for(browser, lambda: server.studio.placement.dx != 0, "the placement reaches the server")
     where = server.studio.placement
     assert where.dx == pytest.approx(60 / s, abs=0.3) and where.dy == pytest.approx(-30 / s, abs=0.3)
@@ -114,7 +120,9 @@ def test_dragging_the_drawing_places_it_where_it_is_plotted(server, browser, pho
     raw = server.studio.raw_plan().paths().points
     assert np.ptp(placed, axis=0) == pytest.approx(np.ptp(raw, axis=0) / 2, rel=1e-6)
     browser.find_element(By.ID, "place-reset").click()
-    wait_for(browser, lambda: server.studio.placement.scale == 1 and server.studio.placement.dx == 0, "centred")
+    wait_for(
+        browser, lambda: server.studio.placement.scale == 1 and server.studio.placement.dx == 0, "centred"
+    )
 
 
 def test_a_custom_paper_size_is_planned_and_drawn_to_scale(server, browser, photo):
