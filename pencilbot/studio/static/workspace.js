@@ -4,7 +4,7 @@
 "use strict";
 
 const sheet = { plan: null, planGeneration: 0, loadingPlan: 0, image: new Image(), imageTag: "", job: null,
-  jobKey: "", loadingJob: "", view: null, fitted: false, hidden: new Set(), box: null };
+  jobKey: "", jobGeneration: 0, loadingJob: "", view: null, fitted: false, hidden: new Set(), box: null };
 let placement = { scale: 1, dx: 0, dy: 0, skip: [] };
 const MAX_ZOOM = 400;  // px per mm: a 0.3 mm pen is then 120 px wide
 
@@ -14,7 +14,7 @@ function pageOf() {  // the sheet's size and margin: the plan's, else the contro
   const form = $("controls"), name = form.page.value;
   let [w, h] = name === "custom" ? [Number(form.page_w.value) || 210, Number(form.page_h.value) || 297] : sizes[name] || sizes.A4;
   const photo = state && state.photo, orientation = form.orientation.value;
-  const wide = orientation === "landscape" || (orientation === "auto" && photo && photo.width > photo.height);
+  const wide = orientation === "landscape" || (orientation === "auto" && !!photo && photo.width > photo.height);
   if (wide !== w > h) [w, h] = [h, w];
   return { width: w, height: h, margin: Number(form.margin.value) || 0 };
 }
@@ -65,7 +65,12 @@ function drawSheet() {
   const canvas = $("sheet"), [w, h, ratio] = canvasSize(), ctx = canvas.getContext("2d");
   ctx.setTransform(ratio, 0, 0, ratio, 0, 0);
   ctx.clearRect(0, 0, w, h);
-  const page = pageOf(), v = sheet.view, { X, Y } = toScreen(page);
+  const plot = state && plotOf($("port").value);
+  // A plot's progress while it runs, and after it until the drawing is changed.
+  const showJob = plot && sheet.job && sheet.jobKey === `${plot.port} ${plot.started}`
+    && (plot.active || sheet.jobGeneration === state.generation);
+  const page = showJob ? { ...pageOf(), width: sheet.job.page[0], height: sheet.job.page[1] } : pageOf();
+  const v = sheet.view, { X, Y } = toScreen(page);
   ctx.fillStyle = "rgba(0,0,0,.25)"; ctx.fillRect(X(0) + 3, Y(page.height) + 3, page.width * v.s, page.height * v.s);
   ctx.fillStyle = "#fff"; ctx.fillRect(X(0), Y(page.height), page.width * v.s, page.height * v.s);
   ctx.strokeStyle = "#888"; ctx.lineWidth = 1; ctx.strokeRect(X(0), Y(page.height), page.width * v.s, page.height * v.s);
@@ -73,8 +78,7 @@ function drawSheet() {
   const m = page.margin;
   ctx.strokeRect(X(m), Y(page.height - m), (page.width - 2 * m) * v.s, (page.height - 2 * m) * v.s);
   ctx.setLineDash([]);
-  const plot = state && plotOf($("port").value);
-  if (plot && sheet.job && sheet.jobKey === `${plot.port} ${plot.started}`) drawJob(ctx, plot, page);
+  if (showJob) drawJob(ctx, plot, page);
   else if (sheet.plan) drawPlan(ctx, page);
   else if (sheet.imageTag && sheet.image.complete && sheet.image.naturalWidth) drawPicture(ctx, page);
   $("zoom-level").textContent = `1 mm = ${v.s < 10 ? v.s.toFixed(1) : Math.round(v.s)} px`;
@@ -193,7 +197,7 @@ async function sheetPlot(plot) {  // a plot's drawn paths, once per plot; then i
     sheet.loadingJob = key;
     try {
       const job = await call("GET", `/api/plot-sheet?port=${encodeURIComponent(plot.port)}`);
-      sheet.job = job; sheet.jobKey = key;
+      sheet.job = job; sheet.jobKey = key; sheet.jobGeneration = state.generation;
     } catch (err) { $("plot-message").textContent = err.message; }
     finally { if (sheet.loadingJob === key) sheet.loadingJob = ""; }
   }
