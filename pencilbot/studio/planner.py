@@ -32,6 +32,9 @@ STAGES = ("coarse", "full")
 COARSE_PEN_FACTOR = 6.0
 #: The coarse stage plans on a sheet this many times smaller (every length of the style too).
 COARSE_SCALE = 2.0
+#: With several pens (a colour separation per cell, a layer per pen and hatch family) the coarse
+#: stage's sheet and pen are coarser still: its preview stays under half a second at 1 MP.
+COARSE_SCALE_PENS, COARSE_PEN_FACTOR_PENS = 3.0, 9.0
 #: Pixels per mm of paper in the previews: the full one shows the real pen width (0.3 mm ~ 1 px).
 PREVIEW_DPI = 100.0
 _STYLE_LENGTHS = ("margin", "hatch_form", "hatch_blur", "min_hatch_run", "hatch_join")  # mm
@@ -77,8 +80,8 @@ def plan_stage(photo, options: DrawingOptions, stage: str, say=lambda step: None
     drawing, plan = _drawing(photo, options, stage)
     say(1)
     dpi = PREVIEW_DPI
-    if stage == "coarse":  # half the full preview's pixels a side (a photo's coarse plan is half size)
-        dpi = PREVIEW_DPI * (COARSE_SCALE / 2 if drawing is not None else 0.5)
+    if stage == "coarse":  # half the full preview's pixels a side (a photo's coarse plan is smaller)
+        dpi = PREVIEW_DPI * (coarse_scale(options.pen_set())[0] / 2 if drawing is not None else 0.5)
     result: dict[str, object] = {
         "preview_png": png_bytes(preview_image(plan, dpi)),
         "sketch_png": png_bytes(drawing.result) if drawing is not None else b"",
@@ -131,17 +134,26 @@ def _figures(plan, drawing, options: DrawingOptions) -> dict:
     return figures
 
 
+def coarse_scale(pens) -> tuple[float, float]:
+    """How many times smaller the coarse stage's sheet is, and how many times wider its pen
+    is at full scale: :data:`COARSE_SCALE`, or :data:`COARSE_SCALE_PENS` with several pens."""
+    if pens is not None and len(pens.pens) > 1:
+        return COARSE_SCALE_PENS, COARSE_PEN_FACTOR_PENS
+    return COARSE_SCALE, COARSE_PEN_FACTOR
+
+
 def coarse(style, pens):
-    """The coarse stage's style and pens: the drawing at 1 / ``COARSE_SCALE`` scale with a pen
-    ``COARSE_PEN_FACTOR`` times wider at full scale."""
+    """The coarse stage's style and pens: the drawing at 1 / scale with a pen factor times wider
+    at full scale (:func:`coarse_scale`)."""
     from pencilbot.planning.layout import page_size
 
     sheet = page_size(style.page, None, margin=style.margin)
-    widen = COARSE_PEN_FACTOR / COARSE_SCALE
-    lengths = {key: getattr(style, key) / COARSE_SCALE for key in _STYLE_LENGTHS}
+    scale, factor = coarse_scale(pens)
+    widen = factor / scale
+    lengths = {key: getattr(style, key) / scale for key in _STYLE_LENGTHS}
     style = dataclasses.replace(
         style,
-        page=f"{sheet.width / COARSE_SCALE:g}x{sheet.height / COARSE_SCALE:g}",
+        page=f"{sheet.width / scale:g}x{sheet.height / scale:g}",
         pen_width=style.pen_width * widen,
         order_rounds=0,
         **lengths,

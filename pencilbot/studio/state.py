@@ -141,7 +141,8 @@ class Studio:
             drawing = read_svg(path, dpi=96.0)
         except PencilbotError as err:
             path.unlink(missing_ok=True)
-            raise PencilbotError(f"that SVG cannot be drawn: {err}") from None
+            said = str(err).replace(str(path), name[:200] or "the SVG")  # never the server's folder
+            raise PencilbotError(f"that SVG cannot be drawn: {said}") from None
         if not any(len(layer.paths) for layer in drawing.layers):
             path.unlink(missing_ok=True)
             raise PencilbotError("that SVG has no lines to draw")
