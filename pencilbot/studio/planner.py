@@ -26,6 +26,7 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.studio.options import DrawingOptions
+from pencilbot.units import CSS_PX_PER_INCH
 
 STAGES = ("coarse", "full")
 #: The coarse stage's pen, as drawn at full scale: this many times the real one.
@@ -102,7 +103,9 @@ def _drawing(source, options: DrawingOptions, stage: str):
         from pencilbot.planning.layout import fit_plan
         from pencilbot.planning.optimize import reorder_plan
 
-        plan = fit_plan(api.read_svg(source, dpi=96.0), style.page, style.orientation, style.margin)
+        plan = fit_plan(
+            api.read_svg(source, dpi=CSS_PX_PER_INCH), style.page, style.orientation, style.margin
+        )
         return None, reorder_plan(plan).plan if stage == "full" else plan
     pens = options.pen_set()
     if stage == "coarse":

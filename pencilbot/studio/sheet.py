@@ -124,7 +124,7 @@ def plot_json(gcode: Path, profile: str) -> dict:
     points = OnBed.on_bed(page, plotter.bed).to_page(paths.points) if len(paths.points) else np.zeros((0, 2))
     lines = job.numbers[indices] if len(indices) else np.zeros(0, dtype=np.int64)
     notes = list(_PEN_NOTE.finditer(head))
-    colours = ["#000000", *(m[1].decode() for m in notes)]
+    colors = ["#000000", *(m[1].decode() for m in notes)]
     note_lines = np.array([head.count(b"\n", 0, m.start()) + 1 for m in notes], dtype=np.int64)
     firsts = lines[paths.offsets[:-1]] if len(paths) else np.zeros(0, dtype=np.int64)
     pen_of = np.searchsorted(note_lines, firsts, side="right")
@@ -133,5 +133,5 @@ def plot_json(gcode: Path, profile: str) -> dict:
         "points": np.round(points, 2).ravel().tolist(),
         "offsets": paths.offsets.tolist(),
         "lines": lines.tolist(),
-        "colors": [colours[i] for i in pen_of.tolist()],
+        "colors": [colors[i] for i in pen_of.tolist()],
     }

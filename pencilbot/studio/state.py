@@ -21,6 +21,7 @@ from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import Planner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
 from pencilbot.studio.sheet import Placement, placed
+from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
 
 #: Upright pixels of the photo thumbnail the page shows.
 THUMBNAIL_PIXELS = 160_000
@@ -138,7 +139,7 @@ class Studio:
         path = self.folder / f"photo-{self._uploads}.svg"
         path.write_bytes(data)
         try:
-            drawing = read_svg(path, dpi=96.0)
+            drawing = read_svg(path, dpi=CSS_PX_PER_INCH)
         except PencilbotError as err:
             path.unlink(missing_ok=True)
             said = str(err).replace(str(path), name[:200] or "the SVG")  # never the server's folder
@@ -147,7 +148,7 @@ class Studio:
             path.unlink(missing_ok=True)
             raise PencilbotError("that SVG has no lines to draw")
         page = drawing.page
-        dpi = 25.4 * (THUMBNAIL_PIXELS / max(page.width * page.height, 1.0)) ** 0.5
+        dpi = MM_PER_INCH * (THUMBNAIL_PIXELS / max(page.width * page.height, 1.0)) ** 0.5
         size = {"svg": True, "width": round(page.width, 1), "height": round(page.height, 1)}
         return self._take(path, name, png_bytes(preview_image(drawing, dpi)), None, size)
 

@@ -37,9 +37,10 @@ def library_plan(path: Path):
     from pencilbot.planning.layout import fit_plan
     from pencilbot.planning.optimize import reorder_plan
     from pencilbot.planning.style import default_style, load_style
+    from pencilbot.units import CSS_PX_PER_INCH
 
     style = load_style(default_style())
-    fitted = fit_plan(api.read_svg(path, dpi=96.0), style.page, style.orientation, style.margin)
+    fitted = fit_plan(api.read_svg(path, dpi=CSS_PX_PER_INCH), style.page, style.orientation, style.margin)
     return reorder_plan(fitted).plan
 
 
