@@ -64,6 +64,11 @@ def test_screenshots_of_each_state_at_desktop_and_phone_size(server, browser, ph
     browser.find_element(By.ID, "zoom-pen").click()
     shot(browser, "3-zoomed", zoom=True)
     browser.find_element(By.ID, "zoom-fit").click()
+    browser.execute_script("setTheme('dark')")
+    try:
+        shot(browser, "6-dark")
+    finally:
+        browser.execute_script("setTheme('auto')")
 
     Select(browser.find_element(By.ID, "port")).select_by_value("sim://")
     browser.find_element(By.ID, "plot-start").click()
@@ -82,11 +87,6 @@ def test_screenshots_of_each_state_at_desktop_and_phone_size(server, browser, ph
     shot(browser, "5-pen-change")
     stop_plot(server, browser)
 
-    browser.execute_script("setTheme('dark')")
-    try:
-        shot(browser, "6-dark")
-    finally:
-        browser.execute_script("setTheme('auto')")
     assert full_generation(browser)
 
 
