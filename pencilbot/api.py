@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import functools
 import warnings
+from collections.abc import Mapping
 from pathlib import Path
 from typing import overload
 
@@ -27,6 +28,7 @@ from pencilbot.app.photo import ImageLike, PhotoRequest
 from pencilbot.app.photo import sketch_and_plan as app_sketch_and_plan
 from pencilbot.driver import DrawResult
 from pencilbot.driver import draw as _draw
+from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode
 from pencilbot.export.svg import write_svg  # noqa: F401 (the library API)
 from pencilbot.export.svg_read import read_svg  # noqa: F401 (the library API)
@@ -188,3 +190,33 @@ def open_control(port: str, profile: str | Path | Profile = DEFAULT_PROFILE, **k
 
     sim.register()
     return _open_control(port, profile if isinstance(profile, Profile) else str(profile), **kwargs)
+
+
+def save_to_user_profile(profile: Profile, changes: Mapping[str, Mapping[str, object]]) -> Path:
+    """Keep ``changes`` in the user's copy of ``profile`` and return its path.
+
+    A profile read from a file the user gave, or from the user's folder, is changed in place; a
+    shipped one is copied into the user's ``plotters/`` folder first (a name is looked up there
+    first, so every later run gets the change). Only the changed keys' lines are rewritten: the
+    comments and everything else stay as they were.
+    """
+    from pencilbot.configs_io import config_folder, user_folder
+    from pencilbot.fileio import write_atomic
+    from pencilbot.machine.profile_edit import profile_with, toml_with_key
+
+    profile_with(profile, changes, where=f"plotter profile {profile.source}")  # refused before any write
+    if profile.source == f"plotters/{profile.name}.toml":  # shipped: the user's copy starts as it
+        own = user_folder() / "plotters" / f"{profile.name}.toml"
+        text = (config_folder("plotters") / f"{profile.name}.toml").read_text(encoding="utf-8")
+    else:
+        own = Path(profile.source)
+        text = own.read_text(encoding="utf-8")
+    for table, values in changes.items():
+        for key, value in values.items():
+            text = toml_with_key(text, table, key, value)
+    try:
+        own.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(own, text.encode("utf-8"))
+    except OSError as exc:
+        raise PencilbotError(f"cannot save the profile to {own} ({exc.strerror or exc})") from None
+    return own

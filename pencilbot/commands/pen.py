@@ -4,16 +4,14 @@ plotter; ``trial`` tries pen heights and keeps the ones the person accepts in th
 from __future__ import annotations
 
 import argparse
-from collections.abc import Mapping
-from pathlib import Path
 
+from pencilbot.api import save_to_user_profile
 from pencilbot.commands.at_plotter import add_plotter_options, open_plotter, pen_words
 from pencilbot.commands.options import number
-from pencilbot.configs_io import config_folder, user_folder
 from pencilbot.driver.control import PEN_ACTIONS
-from pencilbot.errors import PencilbotError, PlotError, ProfileError
-from pencilbot.fileio import write_atomic
-from pencilbot.machine.profile_edit import profile_with, toml_with_key
+from pencilbot.errors import PlotError, ProfileError
+from pencilbot.machine.profile_edit import pen_unit as unit_of
+from pencilbot.machine.profile_edit import profile_with
 
 
 def add_parser(subparsers) -> None:
@@ -42,13 +40,6 @@ def run(args: argparse.Namespace) -> int:
     if not args.quiet:
         print(f"pen {args.action}: {pen_words(down)}")
     return 0
-
-
-def unit_of(profile) -> str:
-    """The unit a profile's pen heights are in."""
-    if profile.firmware.capabilities.host_motion:
-        return "% of the servo's range"
-    return {"spindle": "S values", "z": "mm of Z", "servo": "degrees"}[profile.pen.kind]
 
 
 def _trial(plotter, args: argparse.Namespace) -> int:
@@ -91,29 +82,3 @@ def _ask(prompt: str) -> str:
         return input(prompt).strip()
     except EOFError:
         raise PlotError("the pen trial needs answers: run it in a terminal (nothing saved)") from None
-
-
-def save_to_user_profile(profile, changes: Mapping[str, Mapping[str, object]]) -> Path:
-    """Keep ``changes`` in the user's copy of ``profile`` and return its path.
-
-    A profile read from a file the user gave, or from the user's folder, is changed in place; a
-    shipped one is copied into the user's ``plotters/`` folder first (a name is looked up there
-    first, so every later run gets the change). Only the changed keys' lines are rewritten: the
-    comments and everything else stay as they were.
-    """
-    profile_with(profile, changes, where=f"plotter profile {profile.source}")  # refused before any write
-    if profile.source == f"plotters/{profile.name}.toml":  # shipped: the user's copy starts as it
-        own = user_folder() / "plotters" / f"{profile.name}.toml"
-        text = (config_folder("plotters") / f"{profile.name}.toml").read_text(encoding="utf-8")
-    else:
-        own = Path(profile.source)
-        text = own.read_text(encoding="utf-8")
-    for table, values in changes.items():
-        for key, value in values.items():
-            text = toml_with_key(text, table, key, value)
-    try:
-        own.parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(own, text.encode("utf-8"))
-    except OSError as exc:
-        raise PencilbotError(f"cannot save the profile to {own} ({exc.strerror or exc})") from None
-    return own

@@ -56,3 +56,10 @@ def toml_with_key(text: str, table: str, key: str, value: object) -> str:
             return "".join(lines)
     lines.insert(start + 1, f"{key} = {literal}\n")
     return "".join(lines)
+
+
+def pen_unit(profile: Profile) -> str:
+    """The unit a profile's pen heights are in."""
+    if profile.firmware.capabilities.host_motion:
+        return "% of the servo's range"
+    return {"spindle": "S values", "z": "mm of Z", "servo": "degrees"}[profile.pen.kind]

@@ -22,6 +22,7 @@ from pencilbot.studio.guard import COOKIE, MAX_UPLOAD_BYTES, Guard
 from pencilbot.studio.options import parse_options
 from pencilbot.studio.plotting import PlotBusy
 from pencilbot.studio.ports import plotter_ports, port_url
+from pencilbot.studio.routes_work import work_routes
 from pencilbot.studio.state import Studio, TooLarge
 
 STATIC = Path(__file__).parent / "static"
@@ -295,6 +296,7 @@ def create_app(
         Route("/api/plot/{button}", _refusals(pages.plot_button), methods=["POST"]),
         Route("/api/machine/{action}", _refusals(pages.machine), methods=["POST"]),
         Route("/api/plot-paths", _refusals(pages.plot_paths)),
+        *work_routes(studio, _refusals, json_body, pages.chosen_port, profile_of, number),
         Mount("/static", StaticFiles(directory=STATIC)),
     ]
     app = Starlette(routes=routes)

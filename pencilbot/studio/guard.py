@@ -13,13 +13,27 @@ from __future__ import annotations
 import hmac
 import ipaddress
 import secrets
+from html import escape
 
-from starlette.responses import PlainTextResponse
+from starlette.responses import HTMLResponse, PlainTextResponse
 
 #: Bytes an uploaded photo may have (a 40 MP JPEG is ~20 MB; a 16-bit TIFF of the pixel limit more).
 MAX_UPLOAD_BYTES = 256 * 1024 * 1024
 COOKIE = "pencilbot_studio"
 SAFE_METHODS = {"GET", "HEAD"}
+
+
+#: What a person who followed a link from another page sees: the studio still refuses it.
+REFUSED_PAGE = """<!doctype html><html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1"><title>pencilbot studio: not from here</title>
+<style>body{font:16px/1.5 system-ui,sans-serif;max-width:34em;margin:4em auto;padding:0 1em;color:#222;background:#f6f5f1}
+h1{font-size:1.3em}p.why{color:#666;font-size:.9em}@media (prefers-color-scheme: dark){body{background:#1c1d20;color:#e8e6e1}p.why{color:#aaa}}</style>
+</head><body><h1>This page can only be opened from pencilbot studio itself</h1>
+<p>pencilbot studio drives a plotter, so it answers only its own page: a link or a form on another
+web page (even one on this computer) may not reach it.</p>
+<p>To use the studio, open the address that <code>pencilbot studio</code> printed when it started,
+by typing it or from the terminal.</p><p class="why">Refused: {why}</p></body></html>
+"""
 
 
 def is_loopback(host: str) -> bool:
@@ -62,6 +76,11 @@ class Guard:
         headers = {key.decode("latin-1").lower(): value.decode("latin-1") for key, value in scope["headers"]}
         refusal = self.refusal(scope, headers)
         if refusal is not None:
+            if "text/html" in headers.get("accept", "") and scope["method"] in SAFE_METHODS:
+                page = REFUSED_PAGE.replace(
+                    "{why}", escape(refusal[1])
+                )  # a person followed a link: tell them
+                return await HTMLResponse(page, status_code=refusal[0])(scope, receive, send)
             return await PlainTextResponse(refusal[1], status_code=refusal[0])(scope, receive, send)
         return await self.app(scope, receive, send)
 

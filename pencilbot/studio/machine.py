@@ -50,6 +50,23 @@ class Controls:
                 self._let_go()  # a refusal may leave the link in doubt: the next press opens it again
                 raise
 
+    def try_height(self, url: str, profile: str, which: str, value: float) -> str:
+        """Put the pen ``which`` (up / down) at ``value`` (the profile's unit) on the plotter at
+        ``url``, for this session (the library's trial); what it did, in plain words."""
+        with self._lock:
+            plotter = self._plotter(url, profile)
+            if not plotter.pen_heights:
+                raise PencilbotError(
+                    f"{plotter.family or 'this plotter'}'s pen has no heights to try: it is only up or down"
+                )
+            try:
+                down = plotter.try_height(which, value)
+            except PencilbotError:
+                self._let_go()
+                raise
+        where = "" if down is None else " (the plotter reports it " + ("down)" if down else "up)")
+        return f"pen {which} at {value:g}{where}"
+
     def release(self) -> None:
         """Let go of the port (a plot takes it over; the server stops)."""
         with self._lock:

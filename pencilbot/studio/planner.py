@@ -26,12 +26,16 @@ import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.studio.options import PREVIEW_DPI, DrawingOptions
+from pencilbot.units import CSS_PX_PER_INCH
 
 STAGES = ("coarse", "full")
 #: The coarse stage's pen, as drawn at full scale: this many times the real one.
 COARSE_PEN_FACTOR = 6.0
 #: The coarse stage plans on a sheet this many times smaller (every length of the style too).
 COARSE_SCALE = 2.0
+#: With several pens (a colour separation per cell, a layer per pen and hatch family) the coarse
+#: stage's sheet and pen are coarser still: its preview stays under half a second at 1 MP.
+COARSE_SCALE_PENS, COARSE_PEN_FACTOR_PENS = 3.0, 9.0
 _STYLE_LENGTHS = ("margin", "hatch_form", "hatch_blur", "min_hatch_run", "hatch_join")  # mm
 _PRELOAD = ["pencilbot.studio.warm"]
 
@@ -61,58 +65,100 @@ def png_bytes(image: np.ndarray) -> bytes:
     return buffer.getvalue()
 
 
-def plan_stage(photo, options: DrawingOptions, stage: str) -> dict:
-    """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`) with
-    ``options`` for one stage; what a :class:`StageResult` carries."""
-    from pencilbot.app.photo import PhotoRequest, sketch_and_plan
-    from pencilbot.planning.fidelity import photo_likeness
-    from pencilbot.planning.preview import preview_image
-    from pencilbot.planning.stats import estimate
+#: What the page says a stage is doing, in order (its progress: step ``i`` of these).
+STEPS = ("sketching and planning the paths", "drawing the preview", "estimating the plot time")
 
-    request = options.request()
+
+def plan_stage(photo, options: DrawingOptions, stage: str, say=lambda step: None) -> dict:
+    """Plan ``photo`` (a file, a picture or a :class:`~pencilbot.imaging.io.LoadedImage`; an
+    ``.svg`` file is read as a finished drawing) with ``options`` for one stage; what a
+    :class:`StageResult` carries. ``say(i)`` is called as step ``i`` of :data:`STEPS` begins."""
+    from pencilbot.planning.preview import preview_image
+
+    say(0)
+    drawing, plan = _drawing(photo, options, stage)
+    say(1)
     dpi = PREVIEW_DPI
-    if stage == "coarse":
-        prepared = options.prepared()
-        style, pens = coarse(prepared.style, prepared.pens)
-        dpi = PREVIEW_DPI * COARSE_SCALE / 2  # half the full preview's pixels a side
-        request = PhotoRequest(style=style, pens=pens, preview_dpi=dpi)  # guarded at full scale above
-    drawing, plan = sketch_and_plan(photo, request)
+    if stage == "coarse":  # half the full preview's pixels a side (a photo's coarse plan is smaller)
+        dpi = PREVIEW_DPI * (coarse_scale(options.prepared().pens)[0] / 2 if drawing is not None else 0.5)
     result: dict[str, object] = {
         "preview_png": png_bytes(preview_image(plan, dpi)),
-        "sketch_png": png_bytes(drawing.result),
+        "sketch_png": png_bytes(drawing.result) if drawing is not None else b"",
     }
     if stage == "full":
-        figures = {
-            "paths": sum(len(layer.paths) for layer in plan.layers),
-            "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
-            "pens": list(plan.pens),
-        }
-        try:
-            total = estimate(plan, options.plotter()).total
-            figures.update(
-                pen_down_m=round(total.pen_down_mm / 1000, 2),
-                pen_up_m=round(total.pen_up_mm / 1000, 2),
-                lifts=total.lifts,
-                seconds=round(total.seconds, 1),
-            )
-        except PencilbotError as err:
-            figures["estimate_error"] = str(err)
-        figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
-        result.update(figures=figures, plan=plan)
+        say(2)
+        result.update(figures=_figures(plan, drawing, options), plan=plan)
     return result
 
 
+def _drawing(source, options: DrawingOptions, stage: str):
+    """(the sketch or None, the plan): a photo sketched and planned through the application
+    layer (every guard at full scale), an SVG read, fitted onto the sheet and (full stage)
+    reordered by the library's optimizer."""
+    from pencilbot.app.photo import PhotoRequest, sketch_and_plan
+
+    prepared = options.prepared()
+    if isinstance(source, Path) and source.suffix == ".svg":
+        from pencilbot import api
+        from pencilbot.planning.layout import fit_plan
+        from pencilbot.planning.optimize import reorder_plan
+
+        style = prepared.style
+        plan = fit_plan(
+            api.read_svg(source, dpi=CSS_PX_PER_INCH), style.page, style.orientation, style.margin
+        )
+        return None, reorder_plan(plan).plan if stage == "full" else plan
+    if stage == "coarse":
+        style, pens = coarse(prepared.style, prepared.pens)
+        dpi = PREVIEW_DPI * coarse_scale(prepared.pens)[0] / 2
+        return sketch_and_plan(source, PhotoRequest(style=style, pens=pens, preview_dpi=dpi))
+    return sketch_and_plan(source, prepared)
+
+
+def _figures(plan, drawing, options: DrawingOptions) -> dict:
+    from pencilbot.planning.fidelity import photo_likeness
+    from pencilbot.planning.stats import estimate
+
+    figures: dict[str, object] = {
+        "paths": sum(len(layer.paths) for layer in plan.layers),
+        "page": f"{plan.page.width:g} × {plan.page.height:g} mm",
+        "pens": list(plan.pens),
+    }
+    try:
+        total = estimate(plan, options.plotter()).total
+        figures.update(
+            pen_down_m=round(total.pen_down_mm / 1000, 2),
+            pen_up_m=round(total.pen_up_mm / 1000, 2),
+            lifts=total.lifts,
+            seconds=round(total.seconds, 1),
+        )
+    except PencilbotError as err:
+        figures["estimate_error"] = str(err)
+    if drawing is not None:
+        figures["likeness"] = round(photo_likeness(plan, drawing).rho, 3)
+    return figures
+
+
+def coarse_scale(pens) -> tuple[float, float]:
+    """How many times smaller the coarse stage's sheet is, and how many times wider its pen
+    is at full scale: :data:`COARSE_SCALE`, or :data:`COARSE_SCALE_PENS` with several pens."""
+    if pens is not None and len(pens.pens) > 1:
+        return COARSE_SCALE_PENS, COARSE_PEN_FACTOR_PENS
+    return COARSE_SCALE, COARSE_PEN_FACTOR
+
+
 def coarse(style, pens):
-    """The coarse stage's style and pens: the drawing at 1 / ``COARSE_SCALE`` scale with a pen
-    ``COARSE_PEN_FACTOR`` times wider at full scale."""
+    """The coarse stage's style and pens: the drawing at 1 / scale with a pen factor times wider
+    at full scale (:func:`coarse_scale`)."""
     from pencilbot.planning.layout import page_size
 
     sheet = page_size(style.page, None, margin=style.margin)
-    widen = COARSE_PEN_FACTOR / COARSE_SCALE
-    lengths = {key: getattr(style, key) / COARSE_SCALE for key in _STYLE_LENGTHS}
+    scale, factor = coarse_scale(pens)
+    widen = factor / scale
+    lengths = {key: getattr(style, key) / scale for key in _STYLE_LENGTHS}
     style = dataclasses.replace(
         style,
-        page=f"{sheet.width / COARSE_SCALE:g}x{sheet.height / COARSE_SCALE:g}",
+        page=f"{sheet.width / scale:g}x{sheet.height / scale:g}",
         pen_width=style.pen_width * widen,
         order_rounds=0,
         **lengths,
@@ -130,7 +176,13 @@ def _work(conn, photo: str, options: DrawingOptions, stages: tuple[str, ...], sm
     for stage in stages:
         try:
             source = small if stage == "coarse" and small is not None else Path(photo)
-            conn.send((stage, plan_stage(source, options, stage)))
+
+            def say(step: int, stage: str = stage) -> None:
+                conn.send(
+                    ("progress", {"stage": stage, "step": step, "of": len(STEPS), "words": STEPS[step]})
+                )
+
+            conn.send((stage, plan_stage(source, options, stage, say)))
         except PencilbotError as err:
             conn.send((stage, {"error": str(err)}))
             return
@@ -144,8 +196,13 @@ class LivePlanner:
     """Plans the newest change; ``on_result(StageResult)`` is called (in a reader thread) for each
     stage of the newest generation, never for an older one."""
 
-    def __init__(self, on_result: Callable[[StageResult], None], stages: tuple[str, ...] = STAGES):
-        self.on_result = on_result
+    def __init__(
+        self,
+        on_result: Callable[[StageResult], None],
+        stages: tuple[str, ...] = STAGES,
+        on_progress: Callable[[int, dict], None] = lambda generation, step: None,
+    ):
+        self.on_result, self.on_progress = on_result, on_progress
         self.stages = stages
         self.generation = 0
         self._lock = threading.Lock()
@@ -204,6 +261,9 @@ class LivePlanner:
                 with self._lock:
                     if generation != self.generation:
                         break  # a newer change: this result is dropped
+                if stage == "progress":
+                    self.on_progress(generation, {**payload, "seconds": round(time.monotonic() - started, 2)})
+                    continue
                 self.on_result(StageResult(generation, stage, seconds=time.monotonic() - started, **payload))
         finally:
             receive.close()

@@ -20,6 +20,8 @@ from pencilbot.studio.machine import Controls
 from pencilbot.studio.options import DrawingOptions
 from pencilbot.studio.planner import LivePlanner, StageResult, png_bytes
 from pencilbot.studio.plotting import Plotters
+from pencilbot.studio.sheet import Placement, placed
+from pencilbot.units import CSS_PX_PER_INCH, MM_PER_INCH
 
 #: Upright pixels of the photo thumbnail the page shows.
 THUMBNAIL_PIXELS = 160_000
@@ -42,7 +44,11 @@ class Studio:
         self.thumbnail = b""
         self.options = DrawingOptions(profile=profile)
         self.results: dict[str, StageResult] = {}
-        self.planner = LivePlanner(self._on_result, **({"stages": stages} if stages else {}))
+        self.planner = LivePlanner(
+            self._on_result, on_progress=self._on_progress, **({"stages": stages} if stages else {})
+        )
+        self.placement = Placement()  # where the person put the drawing on the sheet
+        self.progress: dict = {}  # the newest generation's planning step
         self.plotters = Plotters(on_change=self.changed)
         self.controls = Controls()  # the machine controls' open port
         self._uploads = 0
@@ -94,6 +100,8 @@ class Studio:
         from pencilbot.imaging.io import load_image
 
         self._uploads += 1
+        if is_svg(data, name):
+            return self._set_svg(data, name)
         path = self.folder / f"photo-{self._uploads}"
         path.write_bytes(data)
         try:
@@ -120,18 +128,37 @@ class Studio:
         small = load_image(
             path, shrink_to=lambda shape: (max(1, round(shape[0] * scale)), max(1, round(shape[1] * scale)))
         )
+        # the coarse stage plans ``small``, not the file: no decoding per change
+        return self._take(path, name, png_bytes(small.rgb), small, {"width": width, "height": height})
+
+    def _set_svg(self, data: bytes, name: str) -> dict:
+        """Keep an uploaded SVG drawing (checked: the library's reader reads it) and plan it."""
+        from pencilbot.export.svg_read import read_svg
+        from pencilbot.planning.preview import preview_image
+
+        path = self.folder / f"photo-{self._uploads}.svg"
+        path.write_bytes(data)
+        try:
+            drawing = read_svg(path, dpi=CSS_PX_PER_INCH)
+        except PencilbotError as err:
+            path.unlink(missing_ok=True)
+            said = str(err).replace(str(path), name[:200] or "the SVG")  # never the server's folder
+            raise PencilbotError(f"that SVG cannot be drawn: {said}") from None
+        if not any(len(layer.paths) for layer in drawing.layers):
+            path.unlink(missing_ok=True)
+            raise PencilbotError("that SVG has no lines to draw")
+        page = drawing.page
+        dpi = MM_PER_INCH * (THUMBNAIL_PIXELS / max(page.width * page.height, 1.0)) ** 0.5
+        size = {"svg": True, "width": round(page.width, 1), "height": round(page.height, 1)}
+        return self._take(path, name, png_bytes(preview_image(drawing, dpi)), None, size)
+
+    def _take(self, path: Path, name: str, thumbnail: bytes, small, size: dict) -> dict:
         if self.photo is not None:
             self.photo.unlink(missing_ok=True)  # the folder keeps one photo
-        self.thumbnail = png_bytes(small.rgb)
-        self.small = small  # the coarse stage plans this, not the file: no decoding per change
+        self.thumbnail, self.small = thumbnail, small
         self.photo, self.photo_name = path, name[:200]
         self.photo_number += 1
-        self.photo_info = {
-            "name": self.photo_name,
-            "width": width,
-            "height": height,
-            "number": self.photo_number,
-        }
+        self.photo_info = {"name": self.photo_name, **size, "number": self.photo_number}
         self.plan()
         return self.photo_info
 
@@ -152,11 +179,20 @@ class Studio:
         self.results[result.stage] = result
         self.changed()
 
-    def full_plan(self):
+    def _on_progress(self, generation: int, step: dict) -> None:
+        self.progress = {"generation": generation, **step}
+        self.changed()
+
+    def raw_plan(self):
+        """The newest full plan as planned (before the person's placement)."""
         result = self.results.get("full")
         if result is None or result.plan is None or result.generation != self.planner.generation:
             raise PencilbotError("the drawing is not planned yet; wait until the full preview shows")
         return result.plan
+
+    def full_plan(self):
+        """The newest full plan as it goes to the plotter: placed, skipped layers left out."""
+        return placed(self.raw_plan(), self.placement)
 
     def summary(self) -> dict:
         stages = {
@@ -174,8 +210,16 @@ class Studio:
             "options": asdict(self.options),
             "photo": self.photo_info,
             "stages": stages,
+            "progress": self.progress,
+            "placement": self.placement.summary(),
             "plots": self.plotters.summary(),
         }
+
+
+def is_svg(data: bytes, name: str) -> bool:
+    """Whether an upload is an SVG drawing (by its start, or its name and an XML start)."""
+    head = data[:4096].lstrip(b"\xef\xbb\xbf \t\r\n")
+    return b"<svg" in head or (name.lower().endswith(".svg") and head.startswith(b"<"))
 
 
 class TooLarge(PencilbotError):

@@ -89,3 +89,19 @@ def serving(running) -> threading.Thread:
             break
         threading.Event().wait(0.05)
     return thread
+
+
+def sheet_pixels(browser, condition: str) -> int:
+    """Pixels of the sheet's canvas for which ``condition`` (JS over r, g, b, a) holds."""
+    return browser.execute_script(
+        "const c = document.getElementById('sheet'); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
+        f"let n = 0; for (let i = 0; i < d.length; i += 4) {{ const r = d[i], g = d[i + 1], b = d[i + 2], a = d[i + 3]; if ({condition}) n++; }} return n;"
+    )
+
+
+def viewport(browser, width: int, height: int) -> None:
+    """The page's viewport at exactly ``width`` × ``height`` CSS px (a phone's with touch)."""
+    browser.execute_cdp_cmd(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": width, "height": height, "deviceScaleFactor": 1, "mobile": width < 500},
+    )

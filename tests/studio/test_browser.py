@@ -7,7 +7,16 @@ from __future__ import annotations
 import pytest
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
-from studio_helpers import full_generation, load_photo, same_plan, screenshot, set_control, text, wait_for
+from studio_helpers import (
+    full_generation,
+    load_photo,
+    same_plan,
+    screenshot,
+    set_control,
+    sheet_pixels,
+    text,
+    wait_for,
+)
 
 
 def test_load_a_photo_move_a_control_see_preview_and_figures_change(server, browser, photo):
@@ -82,9 +91,10 @@ def test_plot_on_the_virtual_plotter_pause_resume_reopen_stop(server, browser, p
     wait_for(browser, lambda: text(browser, "plot-status").startswith("plotting"), "the page says so")
     line = text(browser, "plot-line")
     assert " acknowledged)" in line and text(browser, "plot-remaining") != "–"
-    drawn = browser.execute_script(  # black ink on the canvas: what the machine has drawn
-        "const c = document.getElementById('plot-canvas'); const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data;"
-        "let n = 0; for (let i = 0; i < d.length; i += 4) if (d[i + 3] > 0 && d[i] < 60) n++; return n;"
+    drawn = wait_for(  # black ink on the sheet: what the machine has drawn, in its pen's colour
+        browser,
+        lambda: sheet_pixels(browser, "a > 0 && r < 60 && g < 60 && b < 60"),
+        "the sheet shows the drawn lines",
     )
     assert drawn > 0
     screenshot(browser, "3-plotting")
@@ -142,6 +152,13 @@ def test_a_cmyk_job_asks_for_each_pen_in_a_dialog(server, browser, photo):
         ),
         "the plot goes on",
     )
+    # the first pen's lines on the sheet, in its colour (not grey, not the red carriage dot)
+    wait_for(
+        browser,
+        lambda: sheet_pixels(browser, INKED) > 100 or dialog.is_displayed(),
+        "coloured lines on the sheet",
+    )
+    assert sheet_pixels(browser, INKED) > 100
     if dialog.is_displayed():
         browser.find_element(By.ID, "prompt-stop").click()
     else:
@@ -150,6 +167,9 @@ def test_a_cmyk_job_asks_for_each_pen_in_a_dialog(server, browser, photo):
     assert "stopped by the stop" in text(browser, "plot-message") and "pen raised" in text(
         browser, "plot-message"
     )
+
+
+INKED = "a > 0 && Math.max(r, g, b) - Math.min(r, g, b) > 50 && !(r > 200 && g < 90 && b < 90)"
 
 
 def threading_wait(seconds: float) -> None:

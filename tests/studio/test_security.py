@@ -93,8 +93,18 @@ def test_upload_over_the_pixel_limit_is_refused(client, studio):
 
 
 def test_not_an_image_is_refused(client, studio):
-    response = client.put("/api/photo", content=b"<svg></svg>", headers=OWN)
+    response = client.put("/api/photo", content=b"plain words, no picture", headers=OWN)
     assert response.status_code == 400 and "not an image" in response.json()["error"]
+    assert studio.photo is None and list(studio.folder.iterdir()) == []
+
+
+@pytest.mark.parametrize(
+    "body", [b"<svg></svg>", b"<svg xmlns='http://www.w3.org/2000/svg'><g>", b"<?xml version='1.0'?><svg"]
+)
+def test_an_svg_with_nothing_to_draw_is_refused_in_plain_words(client, studio, body):
+    response = client.put("/api/photo", content=body, headers={**OWN, "X-Filename": "x.svg"})
+    said = response.json()["error"]
+    assert response.status_code == 400 and said.startswith("that SVG") and str(studio.folder) not in said
     assert studio.photo is None and list(studio.folder.iterdir()) == []
 
 

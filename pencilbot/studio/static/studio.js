@@ -7,7 +7,7 @@ const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage"];
 // The controls a style sets: each shows the chosen style's value until the person moves it (then
 // it is "touched" and sent); an untouched one is sent as null, so the style's own value applies.
 const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch"];
-let state = null, choices = null, job = null, loading = null, shown = {}, sendTimer = null, sending = 0;
+let state = null, choices = null, shown = {}, sendTimer = null, sending = 0;
 let touched = new Set(), applied = "";
 
 async function call(method, url, body, headers = {}) {
@@ -39,13 +39,19 @@ function options() {
     else values[name] = NUMBERS.includes(name) ? Number(form[name].value) : form[name].value;
   }
   if (values.line_length !== null && values.line_length < 2) values.line_length = null;  // 0: from the image size
+  if (values.page === "custom") values.page = `${Number(form.page_w.value) || 210}x${Number(form.page_h.value) || 297}`;
   return values;
 }
 
 function setControl(name, value) {
   const form = $("controls");
   if (name === "hatch") form.hatch.checked = !!value;
-  else form[name].value = name === "line_length" ? value || 0 : value;
+  else if (name === "page") {
+    const custom = /^([\d.]+)x([\d.]+)$/.exec(value || "");
+    form.page.value = custom ? "custom" : value;
+    if (custom) { form.page_w.value = custom[1]; form.page_h.value = custom[2]; }
+    $("custom-size").hidden = !custom;
+  } else form[name].value = name === "line_length" ? value || 0 : value;
 }
 
 function showStyleDefaults() {  // the untouched controls show the chosen style's values
@@ -73,8 +79,11 @@ function showOutputs() {
 }
 
 function controlsChanged(event) {
-  const name = event && event.target && event.target.name;
+  let name = event && event.target && event.target.name;
+  if (name === "page_w" || name === "page_h") name = "page";
   if (STYLED.includes(name)) touched.add(name);
+  if (name === "page") $("custom-size").hidden = $("page").value !== "custom";
+  if (event && event.type === "change" && typeof settingsChanged === "function") settingsChanged();
   if (name === "style") showStyleDefaults();
   showOutputs();
   clearTimeout(sendTimer);
@@ -102,13 +111,14 @@ async function upload(file) {
 
 function showPhoto(force = false) {  // the photo in use, as the server says
   const photo = state && state.photo;
-  $("photo-name").textContent = photo ? `${photo.name || "photo"}: ${photo.width} × ${photo.height} px` : "";
+  $("photo-name").textContent = !photo ? "" : photo.svg ? `${photo.name || "drawing"}: an SVG drawing of ${photo.width} × ${photo.height} mm`
+    : `${photo.name || "photo"}: ${photo.width} × ${photo.height} px`;
   $("photo-name").classList.toggle("kept", !!(photo && $("photo-error").textContent));
   if (photo && (force || shown.photo !== photo.number)) {
     shown.photo = photo.number;
     $("photo").src = `/api/picture/photo.png?n=${photo.number}`;
   }
-  $("photo").closest("figure").hidden = !photo;
+  $("photo").closest("figure").hidden = !photo || !!photo.svg;
 }
 
 function duration(seconds) {
@@ -141,62 +151,19 @@ function showDrawing() {
   $("fig-pen-up").textContent = f && f.pen_up_m !== undefined ? `${f.pen_up_m} m` : "…";
   $("fig-lifts").textContent = f && f.lifts !== undefined ? f.lifts : "…";
   $("fig-time").textContent = f ? (f.seconds !== undefined ? duration(f.seconds) : f.estimate_error) : "…";
-  $("fig-likeness").textContent = f ? `ρ ${f.likeness}` : "…";
+  $("fig-likeness").textContent = f ? (f.likeness === undefined ? "– (a drawing)" : `ρ ${f.likeness}`) : "…";
   $("fig-paths").textContent = f ? `${f.paths} on ${f.page}` : "…";
   // Nothing to show or download yet: no empty picture boxes, no links that give nothing.
-  $("preview").hidden = $("sketch").closest("figure").hidden = !shown.preview;
+  $("sketch").closest("details").hidden = !shown.preview || !!(state.photo && state.photo.svg);
+  showProgress(full, coarse);
+  sheetDrawing(full && !full.error ? full.generation : 0, best && !error ? shown.preview : "");
   document.querySelector(".downloads").hidden = !f;
+  $("dl-sketch").hidden = !!(state.photo && state.photo.svg);  // a drawing has no sketch
   $("plot-start").disabled = !f || !!(plotOf($("port").value) || {}).active;
   $("dl-gcode").href = `/api/download/plan.gcode?profile=${encodeURIComponent($("profile").value)}`;
 }
 
 function plotOf(port) { return state && state.plots.find((p) => p.port === port); }
-
-async function loadJob(plot) {  // the pen-down paths of this plot's G-code, once per plot
-  const key = `${plot.port} ${plot.started}`;
-  if (loading === key || (job && job.key === key)) return;
-  loading = key;
-  try {
-    const drawing = await call("GET", `/api/plot-paths?port=${encodeURIComponent(plot.port)}`);
-    const now = plotOf(plot.port);
-    if (now && `${now.port} ${now.started}` === key) { drawing.key = key; job = drawing; }
-  } finally { if (loading === key) loading = null; }
-}
-
-function drawJob(plot) {
-  const canvas = $("plot-canvas"), ctx = canvas.getContext("2d");
-  ctx.clearRect(0, 0, canvas.width, canvas.height);
-  if (!job || job.key !== `${plot.port} ${plot.started}`) return;
-  const [w, h] = job.bed, scale = Math.min(canvas.width / w, canvas.height / h);
-  canvas.height = Math.round(h * scale);
-  const X = (x) => x * scale, Y = (y) => canvas.height - y * scale;
-  const running = plot.record.running ?? (plot.status === "done" ? Infinity : 0);
-  const p = job.points, lines = job.lines, off = job.offsets;
-  ctx.lineCap = "round"; ctx.lineJoin = "round";
-  for (const pass of ["todo", "done"]) {
-    ctx.beginPath();
-    ctx.strokeStyle = pass === "done" ? "#111" : "#c9d3dd";
-    ctx.lineWidth = pass === "done" ? 1.2 : 0.8;
-    for (let k = 0; k + 1 < off.length; k++) {
-      let started = false;
-      for (let i = off[k]; i < off[k + 1]; i++) {
-        const done = lines[i] < running;
-        if (pass === "done" && !done) {
-          if (started && lines[i] === running && plot.record.view) ctx.lineTo(X(plot.record.view[0]), Y(plot.record.view[1]));
-          break;
-        }
-        if (pass === "todo" && done && !(i + 1 < off[k + 1] && lines[i + 1] >= running)) continue;
-        if (!started) { ctx.moveTo(X(p[2 * i]), Y(p[2 * i + 1])); started = true; }
-        else ctx.lineTo(X(p[2 * i]), Y(p[2 * i + 1]));
-      }
-    }
-    ctx.stroke();
-  }
-  if (plot.record.view && plot.active) {
-    ctx.fillStyle = "#d22"; ctx.beginPath();
-    ctx.arc(X(plot.record.view[0]), Y(plot.record.view[1]), 4, 0, 2 * Math.PI); ctx.fill();
-  }
-}
 
 async function showPlot() {
   const plot = plotOf($("port").value);
@@ -221,14 +188,18 @@ async function showPlot() {
     $("jog").hidden = $("prompt-giveup").hidden = plot.prompt.kind !== "rezero";
     if (!dialog.open) dialog.showModal();
   } else if (dialog.open) dialog.close();
-  if (plot) {
-    drawJob(plot);
-    if (!job || job.key !== `${plot.port} ${plot.started}`) {
-      try { await loadJob(plot); drawJob(plotOf(plot.port) || plot); } catch (err) { $("plot-message").textContent = err.message; }
-    }
-  } else {
-    const canvas = $("plot-canvas"); canvas.getContext("2d").clearRect(0, 0, canvas.width, canvas.height);
-  }
+  sheetPlot(plot);
+}
+
+function showProgress(full, coarse) {  // the planning steps of the newest change, as the server says
+  const p = state.progress || {}, planning = state.photo && !full && !(coarse && coarse.error);
+  $("plan-progress-row").hidden = !planning;
+  if (!planning) return;
+  const now = p.generation === state.generation ? p : null;
+  const stage = now ? now.stage : "coarse", step = now ? now.step : 0, of = now ? now.of : 3;
+  const done = (stage === "full" ? 0.5 : 0) + 0.5 * (step / of);
+  $("plan-progress").value = done;
+  $("plan-step").textContent = `${stage === "full" ? "full" : "coarse"} preview: ${now ? now.words : "starting"} (step ${step + 1} of ${of})`;
 }
 
 function plotting(machine) {  // the machine's own state word, only when it says more than "plotting"
@@ -252,6 +223,7 @@ function listen() {
     state = JSON.parse(event.data);
     // Another tab's change: show it here too (not while this tab's own change is on its way).
     if (!sendTimer && !sending && JSON.stringify(state.options) !== applied) applyOptions(state.options);
+    applyPlacement(state.placement);
     render();
   };
 }
@@ -259,7 +231,7 @@ function listen() {
 async function start() {
   choices = await call("GET", "/api/choices");
   fill($("style"), choices.styles, choices.style);
-  fill($("page"), choices.pages);
+  fill($("page"), [...choices.pages, "custom"]);
   fill($("orientation"), choices.orientations);
   fill($("pens"), choices.pens);
   fill($("profile"), choices.profiles, choices.profile);
@@ -305,4 +277,4 @@ async function start() {
 
 setInterval(() => { const plot = state && plotOf($("port").value); if (plot && plot.active) showPlot(); }, 1000);
 
-start().catch((err) => { $("connection").textContent = `error: ${err.message}`; });
+// keys.js, the last script, starts the page.
