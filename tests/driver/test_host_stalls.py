@@ -18,7 +18,7 @@ from real_plan import plan_lines
 from segments import drawing_differences
 
 import sim
-from pencilbot.driver import draw, ebb_link, port, session
+from pencilbot.driver import draw, ebb_link, polled_link, port, session
 from pencilbot.errors import PlotError
 from sim import protocol_sim
 
@@ -42,16 +42,21 @@ class StalledClock:
 @pytest.fixture
 def stalls(monkeypatch):
     clock = StalledClock()
-    for module in (port, session, ebb_link):  # the modules that read the clock
+    for module in (port, session, ebb_link, polled_link):  # the modules that read the clock
         monkeypatch.setattr(module, "time", clock)
-    read_lines = port.LineReader.read_lines
+    read_lines, pump = port.LineReader.read_lines, polled_link.Answers.pump
 
     def read_then_stall(self):
         lines = read_lines(self)
         clock.away += STALL
         return lines
 
+    def pump_then_stall(self):  # the HP-GL driver's reads
+        pump(self)
+        clock.away += STALL
+
     monkeypatch.setattr(port.LineReader, "read_lines", read_then_stall)
+    monkeypatch.setattr(polled_link.Answers, "pump", pump_then_stall)
     sim.register()
     return clock
 
@@ -59,14 +64,49 @@ def stalls(monkeypatch):
 def _drawn(name: str, ebb: bool):
     plotter = protocol_sim.plotter(name)
     plotter.firmware.finish()
-    strokes = list(plotter.drawn()) if ebb else list(plotter.machine.strokes)
+    strokes = (
+        list(plotter.drawn()) if ebb or not hasattr(plotter, "machine") else list(plotter.machine.strokes)
+    )
     protocol_sim.forget(name)
     return strokes
 
 
-@pytest.mark.parametrize("profile, options", [("grbl-servo-a4", "tick=0.01"), ("axidraw-v3", "")])
-def test_a_stalled_host_finishes_the_plot(stalls, profile, options):
-    lines = list(plan_lines(profile))[:400]
+BOARDS = [("grbl-servo-a4", "tick=0.01"), ("axidraw-v3", ""), ("hp7475a", "tick=0.1")]
+
+
+def _job(profile: str, tmp_path) -> list[str] | str:
+    """The first 400 lines of the real plan's G-code, or for the HP-GL plotter 150 small
+    squares' outlines (more than its 1024-byte buffer holds)."""
+    if profile != "hp7475a":
+        return list(plan_lines(profile))[:400]
+    program = ["IN;", "SP1;"]
+    for k in range(150):
+        x, y = 1000 + (k % 15) * 400, 1000 + (k // 15) * 400
+        program.append(f"PU{x},{y};PD{x + 300},{y},{x + 300},{y + 300},{x},{y + 300},{x},{y};")
+    path = tmp_path / "squares.hpgl"
+    path.write_text("\n".join([*program, "PU0,0;", "SP0;"]) + "\n")
+    return str(path)
+
+
+def _silent_after(name: str, options: str, instructions: int) -> None:
+    """An HP-GL plotter (``sim://NAME``) that answers nothing once it has run ``instructions``
+    (its ``silent`` fault loses one answer only)."""
+    import serial
+
+    serial.serial_for_url(f"sim://{name}?profile=hp7475a&{options}").close()
+    board = protocol_sim.plotter(name).board
+    answer = board._answer  # noqa: SLF001 - the plotter's one way out
+
+    def answer_until(text):
+        if board.executed < instructions:
+            answer(text)
+
+    board._answer = answer_until  # noqa: SLF001
+
+
+@pytest.mark.parametrize("profile, options", BOARDS)
+def test_a_stalled_host_finishes_the_plot(stalls, profile, options, tmp_path):
+    lines = _job(profile, tmp_path)
     ebb = profile == "axidraw-v3"
     reference = f"stall-ref{next(_names)}"
     draw(lines, f"sim://{reference}?profile={profile}&{options}", profile=profile)
@@ -77,13 +117,17 @@ def test_a_stalled_host_finishes_the_plot(stalls, profile, options):
     assert drawing_differences(_drawn(name, ebb), _drawn(reference, ebb), 0.001) == []
 
 
-@pytest.mark.parametrize("profile, options", [("grbl-servo-a4", "tick=0.01"), ("axidraw-v3", "")])
-def test_a_silent_board_is_still_caught(stalls, profile, options):
+@pytest.mark.parametrize("profile, options", BOARDS)
+def test_a_silent_board_is_still_caught(stalls, profile, options, tmp_path):
     name = f"stall{next(_names)}"
+    faults = "&faults=silent@60"
+    if profile == "hp7475a":
+        _silent_after(name, options, 60)
+        faults = ""
     with pytest.raises(PlotError, match="stopped answering|did not answer"):
         draw(
-            list(plan_lines(profile))[:400],
-            f"sim://{name}?profile={profile}&{options}&faults=silent@60",
+            _job(profile, tmp_path),
+            f"sim://{name}?profile={profile}&{options}{faults}",
             profile=profile,
             timeout=1.0,
         )
