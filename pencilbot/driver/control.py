@@ -19,8 +19,6 @@ Example
 
 from __future__ import annotations
 
-import time
-
 from pencilbot.driver.faults import StreamFault
 from pencilbot.driver.port import LineReader, PortLost, open_port
 from pencilbot.driver.session import DEFAULT_TIMEOUT, BoardSession
@@ -192,9 +190,9 @@ class GcodeControl(Control):
         """The lines a query answers before its ``ok`` (``$G``, ``$$``)."""
         self.link.write(self.firmware.frame(line, 0))
         got: list[str] = []
-        deadline = time.monotonic() + self.session.timeout
+        self.link.restart_silence()  # the timeout is time spent listening: a host's stall is not silence
         try:
-            while time.monotonic() < deadline:
+            while self.link.silent_for() <= self.session.timeout and len(got) < 2000:  # (or a talker)
                 for text in self.link.read_lines():
                     kind = self.firmware.parse(text).kind
                     if kind == OK:

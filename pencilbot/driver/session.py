@@ -31,6 +31,7 @@ POLL_INTERVAL = 0.2  # s: status queries at 5 Hz, GRBL's recommended ceiling
 _SLOWING_AT_MOST = 60.0  # s a feed hold may take to bring the machine to rest (0.1 m/s at 2 mm/s²)
 DEFAULT_TIMEOUT = 10.0  # s of silence from the board before a job counts as stuck
 _QUIET = 0.15  # s of silence after a banner before the board counts as awake
+_TALK = 2000  # reads that brought bytes, not the answer: a board that talks on is given up on
 
 #: A command line coming back from the board: an echo (a loopback, a port echoing what it got),
 #: never a reply of any firmware's.
@@ -67,10 +68,8 @@ class BoardSession:
     def __init__(
         self, link: LineReader, firmware: Firmware, *, receive_buffer: int, timeout: float = DEFAULT_TIMEOUT
     ):
-        self.link = link
-        self.firmware = firmware
-        self.receive_buffer = receive_buffer
-        self.timeout = timeout
+        self.link, self.firmware = link, firmware
+        self.receive_buffer, self.timeout = receive_buffer, timeout
         self.state = WAKING
         self.status: Any = None  # the last status report
         self.machine_state = ""  # what the board is doing, in its words ("Run", "Idle", …)
@@ -79,9 +78,8 @@ class BoardSession:
         self.sent = -1  # the last job line written to the board
         self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
         self.answered = -1  # the last job line answered
-        self.seen: tuple[tuple[float, float] | None, Any, int] | None = (
-            None  # (work X, Y in mm, status, last line answered) of the last report while streaming
-        )
+        #: (work X, Y in mm, status, last line answered) of the last report while streaming
+        self.seen: tuple[tuple[float, float] | None, Any, int] | None = None
         self.paused: str | None = None  # why the board is holding, while it is
         self._pause_key: int | str | None = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
@@ -154,15 +152,16 @@ class BoardSession:
 
     def _await_banner(self, wait: float) -> str | None:
         """What a start-up banner seen within ``wait`` s says, once the board has been quiet
-        for a moment; anything else received is dropped."""
-        deadline = time.monotonic() + wait
-        banner = None
-        while time.monotonic() < deadline:
+        for a moment (both: time spent listening); anything else received is dropped."""
+        banner, talk = None, 0
+        self.link.restart_silence()
+        while talk < _TALK:
             for reply in self._replies():
                 if reply.kind == RESET:
                     banner = reply.detail
-            if banner is not None and time.monotonic() - self.link.last_rx >= _QUIET:
+            if self.link.silent_for() >= (_QUIET if banner is not None else wait):
                 break
+            talk += self.link.silent_for() == 0
         self.link.discard_input()
         self._unread.clear()
         return banner
@@ -172,15 +171,16 @@ class BoardSession:
         are dropped."""
         if not self.firmware.capabilities.status_reports:
             return None
-        self.status = None
+        self.status, talk = None, 0
         with self._guard(-1):
             self._poll(force=True)
-            deadline = time.monotonic() + (wait or self.timeout)
+            self.link.restart_silence()
             while self.status is None:
-                if time.monotonic() > deadline:
+                if self.link.silent_for() > (wait or self.timeout) or talk > _TALK:
                     raise StreamFault("timeout", -1, "no answer to a status query")
                 for _ in self._replies():
                     pass
+                talk += self.link.silent_for() == 0
         return self.status
 
     def wait_until_still(self):

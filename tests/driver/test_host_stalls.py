@@ -132,3 +132,13 @@ def test_a_silent_board_is_still_caught(stalls, profile, options, tmp_path):
             timeout=1.0,
         )
     protocol_sim.forget(name)
+
+
+def test_a_stalled_host_wakes_a_board_whose_banner_takes_several_reads(stalls):
+    # At 9600 baud the board's start-up banner and its answers take some reads to come: a wait
+    # for them that counted the host's stalls would give up ("no answer from a GRBL board").
+    name = f"stall{next(_names)}"
+    lines = ["G21", "G90", "G0X5Y5", "G0X0Y0"]
+    draw(lines, f"sim://{name}?baud=9600&tick=0.01", profile="grbl-servo-a4", timeout=2.0)
+    assert [line for line in protocol_sim.plotter(name).firmware.accepted_lines() if line] == lines
+    protocol_sim.forget(name)
