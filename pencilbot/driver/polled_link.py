@@ -8,6 +8,8 @@ import time
 
 import serial
 
+from pencilbot.driver.port import listened
+
 POLL_PAUSE = 0.02  # s between polls while the buffer is full, or a sync point's answer is awaited
 
 
@@ -46,7 +48,7 @@ class Answers:
         except (serial.SerialException, OSError) as exc:
             raise Lost(str(exc)) from None
         if not data:
-            self.listened += time.monotonic() - asked
+            self.listened += listened(self.port, asked)
             return
         if b"\x13" in data or b"\x11" in data:
             self.xoff = data.rfind(b"\x13") > data.rfind(b"\x11")

@@ -111,6 +111,13 @@ def _hold_exclusively(port: serial.SerialBase) -> None:
     port.close = close_and_release
 
 
+def listened(port, asked: float) -> float:
+    """Seconds a read begun at ``asked`` that found nothing spent listening: at most the port's
+    read timeout, however long it took (more is the host's stall, not the board's silence)."""
+    took = time.monotonic() - asked
+    return min(took, port.timeout) if port.timeout else took
+
+
 class LineReader:
     """Split what a port sends into text lines, with transport failures turned into :class:`PortLost`.
 
@@ -134,7 +141,7 @@ class LineReader:
         except (serial.SerialException, OSError) as exc:
             raise PortLost(str(exc)) from None
         if not data:
-            self._listened += time.monotonic() - asked
+            self._listened += listened(self.port, asked)
             return []
         self.restart_silence()
         *lines, self._partial = (self._partial + data).split(b"\n")

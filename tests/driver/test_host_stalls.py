@@ -1,19 +1,21 @@
 """A host that stalls (a loaded machine, a suspended process) is not a silent board: the driver
-counts as silence only the time it spent listening, so a stall between reads, however long,
-never stops a plot with "the plotter stopped answering" — and a board that really is silent is
-still caught.
+counts as silence only the time it spent listening, so a stall between reads or inside one
+(a read counts at most its own timeout), however long, never stops a plot with "the plotter
+stopped answering" — and a board that really is silent is still caught.
 
 The stalls are made on the driver's own clock (no test waits on the wall clock for them): after
-every read, the clock the driver reads jumps STALL seconds, as if the process had been
-descheduled that long before it went on.
+every read (or while one waits), the clock the driver reads jumps STALL seconds, as if the
+process had been descheduled that long.
 """
 
 from __future__ import annotations
 
 import itertools
+import os
 import time
 
 import pytest
+import serial
 from real_plan import plan_lines
 from segments import drawing_differences
 
@@ -142,3 +144,28 @@ def test_a_stalled_host_wakes_a_board_whose_banner_takes_several_reads(stalls):
     draw(lines, f"sim://{name}?baud=9600&tick=0.01", profile="grbl-servo-a4", timeout=2.0)
     assert [line for line in protocol_sim.plotter(name).firmware.accepted_lines() if line] == lines
     protocol_sim.forget(name)
+
+
+def test_a_read_that_finds_nothing_counts_at_most_its_own_timeout_as_silence(monkeypatch):
+    # A pty nobody writes to: each read waits its 20 ms timeout, and the host is away for STALL
+    # seconds inside it (descheduled between the select and the clock's reading).
+    clock = StalledClock()
+    for module in (port, polled_link):
+        monkeypatch.setattr(module, "time", clock)
+    master, slave = os.openpty()
+    with serial.Serial(os.ttyname(slave), timeout=0.02) as device:
+        read = device.read
+
+        def read_in_a_stall(size=1):
+            data = read(size)
+            clock.away += STALL
+            return data
+
+        device.read = read_in_a_stall
+        reader, answers = port.LineReader(device), polled_link.Answers(device)
+        for _ in range(3):
+            assert reader.read_lines() == []
+            answers.pump()
+        assert 0 < reader.silent_for() <= 3 * 0.02 and 0 < answers.listened <= 3 * 0.02
+    os.close(master)
+    os.close(slave)
