@@ -3,27 +3,15 @@
 No test waits on the wall clock for a result: keys are typed and then read back through the
 reader, and during a plot the virtual board itself types them at the moments it reaches (a
 line, its hold, the status queries it answered while held), waiting until the reader has the key
-before it goes on. SAFETY only bounds a broken run.
+before it goes on.
 """
 
 import os
 import termios
-import threading
-import time
+
+from waiting import until
 
 from pencilbot.driver.keys import KeyReader, TerminalOperator
-
-SAFETY = 10.0  # s: a bound for a broken run only; no result depends on it
-POLL = 0.01  # s between looks at something another thread makes
-
-
-def _until(predicate, what: str):
-    """``predicate()`` once it is true (another thread makes it so)."""
-    end = time.monotonic() + SAFETY
-    while not (value := predicate()):
-        assert time.monotonic() < end, f"never: {what}"
-        threading.Event().wait(POLL)
-    return value
 
 
 def test_keys_pause_and_stop_and_the_terminal_mode_comes_back():
@@ -34,7 +22,7 @@ def test_keys_pause_and_stop_and_the_terminal_mode_comes_back():
         assert not termios.tcgetattr(slave)[3] & termios.ICANON  # no Enter needed
         os.write(master, b"px s")
         got = []
-        _until(lambda: got.extend(keys.poll()) or len(got) >= 3, "three requests")
+        until(lambda: got.extend(keys.poll()) or len(got) >= 3, "three requests")
         assert got == ["pause", "pause", "stop"]  # x is no key of ours
         keys.close()
         assert termios.tcgetattr(slave) == before
@@ -82,7 +70,7 @@ class BoardThatTypes:
 
     def _type(self, key: bytes) -> None:
         os.write(self.master, key)
-        _until(lambda: self.keys._keys.qsize(), f"the reader has {key!r}")  # noqa: SLF001
+        until(lambda: self.keys._keys.qsize(), f"the reader has {key!r}")  # noqa: SLF001
         self.step += 1
 
     def pump(self) -> None:
