@@ -132,6 +132,7 @@ class LineReader:
         self._partial = b""
         self.last_rx = time.monotonic()
         self._listened = 0.0  # s spent in reads that found nothing, since the last byte
+        self.listening = 0.0  # s spent in reads that found nothing, in all (a clock of the board's silence)
 
     def read_lines(self) -> list[str]:
         """Complete lines received so far (without line endings); waits at most one read slice."""
@@ -141,7 +142,9 @@ class LineReader:
         except (serial.SerialException, OSError) as exc:
             raise PortLost(str(exc)) from None
         if not data:
-            self._listened += listened(self.port, asked)
+            heard_nothing = listened(self.port, asked)
+            self._listened += heard_nothing
+            self.listening += heard_nothing
             return []
         self.restart_silence()
         *lines, self._partial = (self._partial + data).split(b"\n")

@@ -383,14 +383,13 @@ class BoardSession:
             # at or past that point (a stroke that runs back over itself passes a point twice).
             self.link.write(fw.status_query + fw.feed_hold)
             self._query_unanswered, self._last_poll = True, time.monotonic()
-            start = time.monotonic()
-            deadline, reports = start + wait, self.reports
-            self.status = None
-            while time.monotonic() < deadline and not at_rest:
+            start = since = self.link.listening  # (waits of listening: a host's stall is no board's)
+            reports, self.status = self.reports, None
+            while (heard := self.link.listening) - since < wait and heard - start < _SLOWING_AT_MOST:
                 self._poll()
                 if self.reports > reports and self.status is not None and fw.is_moving(self.status):
                     # Still slowing (a slow acceleration takes seconds): wait on while it says so.
-                    reports, deadline = self.reports, min(time.monotonic() + wait, start + _SLOWING_AT_MOST)
+                    reports, since = self.reports, self.link.listening
                 for reply in self._replies():
                     # The board keeps parsing what it had received: those lines reach the
                     # planner (and may run before the reset), so an ok counts as acknowledged.
@@ -399,7 +398,8 @@ class BoardSession:
                         self._in_flight -= entry.size
                         if reply.kind == OK and entry.index is not None:
                             self._on_ack(entry.index, self.machine_state)
-                at_rest = self.status is not None and fw.is_at_rest(self.status)
+                if at_rest := self.status is not None and fw.is_at_rest(self.status):
+                    break
         self.rest_status = self.status if at_rest else None
         self.reset(wait)
         return at_rest

@@ -169,3 +169,21 @@ def test_a_read_that_finds_nothing_counts_at_most_its_own_timeout_as_silence(mon
         assert 0 < reader.silent_for() <= 3 * 0.02 and 0 < answers.listened <= 3 * 0.02
     os.close(master)
     os.close(slave)
+
+
+def test_a_stalled_host_stops_on_a_signal_with_the_pen_s_place_proven(stalls, tmp_path):
+    # The stop's feed hold waits for the machine to come to rest; that wait counts time spent
+    # listening, so the stalls do not cut it short (a stop not known to be at rest cannot prove
+    # where the pen stopped, and the resume would ask for a re-zero).
+    lines = list(plan_lines("grbl-servo-a4"))[:400]
+    reference = f"stall-ref{next(_names)}"
+    draw(lines, f"sim://{reference}?tick=0.01", profile="grbl-servo-a4")
+    path = tmp_path / "plot.gcode"
+    path.write_text("\n".join(lines) + "\n")
+    name = f"stall{next(_names)}"
+    with pytest.raises(PlotError, match="stopped by Ctrl-C") as stop:
+        draw(path, f"sim://{name}?tick=0.01&faults=interrupt@200", profile="grbl-servo-a4", timeout=2.0)
+    assert "cannot prove" not in str(stop.value)
+    protocol_sim.plotter(name).firmware.faults.at.clear()
+    draw(path, f"sim://{name}", resume=f"{path}.job.json", timeout=2.0)  # nobody asked to re-zero
+    assert drawing_differences(_drawn(name, False), _drawn(reference, False), 0.001) == []
