@@ -187,3 +187,21 @@ def test_a_stalled_host_stops_on_a_signal_with_the_pen_s_place_proven(stalls, tm
     protocol_sim.plotter(name).firmware.faults.at.clear()
     draw(path, f"sim://{name}", resume=f"{path}.job.json", timeout=2.0)  # nobody asked to re-zero
     assert drawing_differences(_drawn(name, False), _drawn(reference, False), 0.001) == []
+
+
+def test_a_stalled_host_still_finds_what_a_port_is(stalls, monkeypatch):
+    # `pencilbot ports` listens for a banner and for the answers to its questions; a board at 9600
+    # baud takes some reads to say it, and the stalls between them are not the board's silence.
+    from pencilbot.driver import ports
+
+    monkeypatch.setattr(ports, "time", stalls)
+    read = ports._Lines._read  # noqa: SLF001
+
+    def read_then_stall(self):
+        came = read(self)
+        stalls.away += STALL
+        return came
+
+    monkeypatch.setattr(ports._Lines, "_read", read_then_stall)  # noqa: SLF001
+    found = ports.probe("sim://?baud=9600")
+    assert (found.plotter, found.version) == ("GRBL", "1.1h"), found
