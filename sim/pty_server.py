@@ -121,13 +121,15 @@ class PtyServer:
                 if self.plotter.firmware.link_dropped:
                     self._replug()
                     out = b""  # what was on its way to the old cable is gone
+                readable, _, _ = select.select([self._master], [], [], POLL)
+                # After the select, before the read: a sender that opened the device and wrote
+                # at once has its bytes reach the board after the open's reset, never before.
                 if (
                     self._watch.opened()
                     and self.reset_on_open
                     and getattr(self.plotter.firmware, "resets_on_open", True)
                 ):
                     self.plotter.firmware.power_cycle()
-                readable, _, _ = select.select([self._master], [], [], POLL)
                 if readable:
                     try:
                         self.plotter.write(os.read(self._master, 4096))

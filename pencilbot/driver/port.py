@@ -112,6 +112,13 @@ def _hold_exclusively(port: serial.SerialBase) -> None:
     port.close = close_and_release
 
 
+def listened(port, asked: float) -> float:
+    """Seconds a read begun at ``asked`` that found nothing spent listening: at most the port's
+    read timeout, however long it took (more is the host's stall, not the board's silence)."""
+    took = time.monotonic() - asked
+    return min(took, port.timeout) if port.timeout else took
+
+
 class LineReader:
     """Split what a port sends into text lines, with transport failures turned into :class:`PortLost`.
 
@@ -126,6 +133,7 @@ class LineReader:
         self._partial = b""
         self.last_rx = time.monotonic()
         self._listened = 0.0  # s spent in reads that found nothing, since the last byte
+        self.listening = 0.0  # s spent in reads that found nothing, in all (a clock of the board's silence)
 
     def read_lines(self) -> list[str]:
         """Complete lines received so far (without line endings); waits at most one read slice."""
@@ -135,7 +143,9 @@ class LineReader:
         except (serial.SerialException, OSError) as exc:
             raise PortLost(str(exc)) from None
         if not data:
-            self._listened += time.monotonic() - asked
+            heard_nothing = listened(self.port, asked)
+            self._listened += heard_nothing
+            self.listening += heard_nothing
             return []
         self.restart_silence()
         *lines, self._partial = (self._partial + data).split(b"\n")

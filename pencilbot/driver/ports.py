@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import serial
 
+from pencilbot.driver.port import listened
 from pencilbot.errors import PencilbotError
 from pencilbot.firmware.base import DEFAULT_BAUD
 from pencilbot.firmware.hpgl import HPGL
@@ -74,7 +75,6 @@ def probe(
     device: str, *, description: str = "", banner_wait: float = BANNER_WAIT, answer_wait: float = ANSWER_WAIT
 ) -> PortInfo:
     """Ask the board on ``device`` what it is (see the module docstring); nothing moves."""
-    opened_at = 0.0  # when the port was (re)opened at the probe's baud
     handle = None
     try:
         for family, baud, question, pattern in PROBES:
@@ -84,16 +84,13 @@ def probe(
                 handle = serial.serial_for_url(
                     device, baudrate=baud, timeout=0.02, write_timeout=2, exclusive=True
                 )
-                opened_at = time.monotonic()
                 lines = _Lines(handle)
             if question:
                 lines.drop()
                 handle.write(question)
                 found = lines.find(pattern, answer_wait)
-            else:  # the greeting of a board that reset as the port opened
-                found = lines.find(
-                    pattern, max(banner_wait - (time.monotonic() - opened_at), 0.05), keep=True
-                )
+            else:  # the greeting of a board that reset as the port opened (listened for since)
+                found = lines.find(pattern, max(banner_wait - lines.listening, 0.05), keep=True)
             if found is not None:
                 text, version = found
                 return PortInfo(device, description, family, version, text)
@@ -134,28 +131,35 @@ class _Lines:
         self.handle = handle
         self.partial = b""
         self.lines: list[str] = []
+        self.listening = 0.0  # s spent in reads that found nothing (a loaded host's stalls are not)
 
     def drop(self) -> None:
         self._read()
         self.lines.clear()
         self.partial = b""
 
-    def _read(self) -> None:
+    def _read(self) -> bool:
+        """Whether bytes came (time spent listening counted when none did)."""
+        asked = time.monotonic()
         data = self.handle.read(max(self.handle.in_waiting, 1))
+        self.listening += 0.0 if data else listened(self.handle, asked)
         if data:
             *done, self.partial = (self.partial + data).replace(b"\r", b"\n").split(b"\n")
             self.lines += [d.decode("ascii", errors="replace").strip() for d in done if d.strip()]
+        return bool(data)
 
     def find(self, pattern: re.Pattern, wait: float, keep: bool = False) -> tuple[str, str] | None:
-        end = time.monotonic() + wait
+        """The first line ``pattern`` matches, once it came; None after ``wait`` s of listening
+        (or 2000 reads of talk without it: a device that talks on)."""
+        since, talk = self.listening, 0
         while True:
             for line in self.lines:
                 m = pattern.search(line)
                 if m:
                     return line, next((g for g in m.groups() if g), "")
-            if time.monotonic() >= end:
+            if self.listening - since >= wait or talk > 2000:
                 return None
-            self._read()
+            talk += self._read()
 
 
 #: Families whose boards take the same jobs (grblHAL speaks GRBL's protocol).

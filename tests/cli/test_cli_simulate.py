@@ -244,16 +244,11 @@ def test_sim_serve_on_a_pty_until_ctrl_c(tmp_path):
     try:
         path = proc.stdout.readline().strip()
         assert path.startswith("/dev/")
-        with serial.Serial(path, 115200, timeout=0.1) as port:
-            time.sleep(0.2)  # opening resets the board like an Arduino's DTR: let it boot, drop its banner
-            port.reset_input_buffer()
-            port.write(grbl.SOFT_RESET)
-            seen = b""
-            end = time.monotonic() + 10
-            while b"Grbl 1.1h ['$' for help]\r\n" not in seen and time.monotonic() < end:  # the whole line
-                seen += port.read(64)
-            assert b"Grbl 1.1h" in seen
-            port.timeout = ANSWER_WAIT
+        with serial.Serial(path, 115200, timeout=ANSWER_WAIT) as port:
+            # Opening resets the board like an Arduino's DTR; a soft reset too: the status report
+            # asked for after it ends both banners, whenever they come.
+            port.write(grbl.SOFT_RESET + grbl.STATUS_QUERY)
+            assert b"Grbl 1.1h ['$' for help]\r\n" in until_report(port)
             for line in SQUARE.splitlines():
                 port.write(grbl.encode_line(line))
                 assert port.readline() == b"ok\r\n"
@@ -281,11 +276,20 @@ def serve(tmp_path, *argv):
 ANSWER_WAIT = 10.0
 
 
+def until_report(port) -> bytes:
+    """What the board sends up to and with the next status report (the end of any banners)."""
+    seen = b""
+    while not seen.endswith(b">\r\n"):
+        line = port.readline()
+        assert line, f"no status report, got {seen!r}"
+        seen += line
+    return seen
+
+
 def stream(path, lines):
-    with serial.Serial(path, 115200, timeout=0.1) as port:
-        time.sleep(0.1)  # the open resets the board, like an Arduino
-        port.reset_input_buffer()
-        port.timeout = ANSWER_WAIT
+    with serial.Serial(path, 115200, timeout=ANSWER_WAIT) as port:
+        port.write(grbl.STATUS_QUERY)  # the open resets the board, like an Arduino: its banner
+        until_report(port)  # comes first, whenever it comes
         for line in lines:
             port.write(grbl.encode_line(line))
             assert port.readline() == b"ok\r\n"
@@ -338,12 +342,13 @@ def test_sim_serve_keeps_serving_after_a_dropped_link(tmp_path):
     out = tmp_path / "served.png"
     proc, path = serve(tmp_path, "--faults", "drop@3", "-o", str(out))
     try:
-        with serial.Serial(path, 115200, timeout=0.1) as port:
-            time.sleep(0.1)
+        with serial.Serial(
+            path, 115200, timeout=0.1
+        ) as port:  # (its bytes reach the board after the open's reset)
             for line in SQUARE.splitlines()[:3]:
                 port.write(grbl.encode_line(line))
             with pytest.raises(serial.SerialException):  # line 3 pulls the cable
-                end = time.monotonic() + 5
+                end = time.monotonic() + ANSWER_WAIT  # a bound for a broken run only
                 while time.monotonic() < end:
                     port.read(100)
         again = proc.stdout.readline().strip()  # the board is plugged back in elsewhere

@@ -20,6 +20,7 @@ from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
 
 PROFILE = "marlin-servo-a4"
+BUSY_EVERY = 0.1  # s between a busy board's keep-alives (Marlin's default is 2 s)
 
 
 class MarlinBoard(PtyBoard):
@@ -75,11 +76,11 @@ class MarlinBoard(PtyBoard):
     def _run(self, number, command):
         """Execute one good frame and answer it."""
         self.commands.append(command)
-        if command.startswith(self.slow) and self.busy_seconds:
-            end = time.monotonic() + self.busy_seconds
-            while time.monotonic() < end:
-                self._say("echo:busy: processing")
-                time.sleep(0.1)
+        # Busy for busy_seconds of the board's own pacing: a keep-alive every BUSY_EVERY s, as
+        # Marlin's (counted, not read off the wall clock: a loaded host only stretches it).
+        for _ in range(round(self.busy_seconds / BUSY_EVERY) if command.startswith(self.slow) else 0):
+            self._say("echo:busy: processing")
+            self._stop.wait(BUSY_EVERY)
         self.answered += 1
         self._say("ok")
 
@@ -109,6 +110,8 @@ def test_corrupted_line_is_resent_and_nothing_else_twice(tmp_path):
 
 
 def test_busy_keepalives_hold_off_the_timeout(tmp_path):
+    # Busy for 15 keep-alives, 0.1 s apart: 1.5 s, well past the sender's timeout, never a
+    # gap near it. The sender counts as silence only the time it spent listening.
     lines = ["G21", "G4 P1500", "G1 X5 Y5 F3000"]
     with MarlinBoard(busy_seconds=1.5) as board:
         draw(lines, board.path, profile=PROFILE, wake_wait=0.5, timeout=0.6)

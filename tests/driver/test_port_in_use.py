@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 from test_stream_sim import PROFILE, drawing, fresh
 
-from pencilbot.cli import main
 from pencilbot.driver import draw
 from pencilbot.driver.gcode.modal import clean_line
 from pencilbot.errors import PlotError
@@ -18,16 +17,39 @@ from sim import protocol_sim
 from sim.gcode.plotter import VirtualPlotter
 from sim.pty_server import PtyServer
 
+SAFETY = 60.0  # s: a bound for a broken run only; no result depends on it
 BUSY = "is in use by another program (another pencilbot draw?) — wait for it or close it"
+
+
+PEN_CHANGE = "M0 (pen change: insert red)"
 
 
 @pytest.fixture
 def long_job(tmp_path):
-    """A plot of about 27 s of machine time: long enough to try a second sender."""
+    """A plot with a pen change halfway (after a pen-up line: it changes no stroke), written to a
+    file, and its lines as the board takes them."""
     lines = drawing(strokes=30, per_stroke=8)
+    half = next(i for i in range(len(lines) // 2, len(lines)) if lines[i] == "M3 S30") + 1
+    lines = [*lines[:half], PEN_CHANGE, *lines[half:]]
     path = tmp_path / "plot.gcode"
     path.write_text("\n".join(lines) + "\n")
     return path, [clean_line(line) for line in lines]
+
+
+class HeldAtThePenChange:
+    """Someone at the plotter who changes the pen when the test says so: until then the first
+    job holds the port, paused at its pen change (no wall clock decides when the second sender
+    tries)."""
+
+    def __init__(self):
+        self.paused, self.go_on = threading.Event(), threading.Event()
+
+    def pause(self, prompt):
+        self.paused.set()
+        assert self.go_on.wait(SAFETY), "the test never let the first job go on"
+
+    def jog_to_mark(self, prompt, mark, jog):
+        raise AssertionError(prompt)
 
 
 def segments(plotter: VirtualPlotter) -> list[tuple]:
@@ -38,53 +60,42 @@ def segments(plotter: VirtualPlotter) -> list[tuple]:
 
 
 def alone(lines: list[str]) -> list[tuple]:
+    """What the job draws with nobody else at the port (without its pen change)."""
     url, name = fresh()
-    draw(lines, url, profile=PROFILE, wake_wait=0.2)
+    draw([line for line in lines if line != clean_line(PEN_CHANGE)], url, profile=PROFILE, wake_wait=0.2)
     return segments(protocol_sim.plotter(name))
-
-
-def started(plotter: VirtualPlotter, worker: threading.Thread) -> None:
-    """Wait until the first job is streaming (some lines accepted), while it runs."""
-    while worker.is_alive() and len(plotter.firmware.accepted_lines()) < 20:
-        worker.join(0.01)
-    assert worker.is_alive(), "the first job ended before the second sender tried"
 
 
 def test_second_draw_on_a_sim_port_in_use_is_refused_and_the_first_is_exact(long_job):
     path, lines = long_job
-    url, name = fresh("realtime=20")
-    errors = []
-    first = threading.Thread(target=lambda: _catch(errors, draw, path, url, profile=PROFILE, wake_wait=0.2))
+    url, name = fresh()
+    errors, hand = [], HeldAtThePenChange()
+    first = threading.Thread(
+        target=lambda: _catch(errors, draw, path, url, profile=PROFILE, wake_wait=0.2, operator=hand)
+    )
     first.start()
-    plotter = None
-    while plotter is None and first.is_alive():
-        plotter = protocol_sim._PLOTTERS.get(name)
-        first.join(0.01)
-    started(plotter, first)
+    assert hand.paused.wait(SAFETY)  # the first job holds the port, paused
     with pytest.raises(PlotError) as info:
         draw(path, f"sim://{name}", profile=PROFILE, wake_wait=0.2)
     assert str(info.value) == f"sim://{name} {BUSY}"
-    assert first.is_alive()  # refused at once, while the first job still holds the port
-    first.join(60)
+    hand.go_on.set()
+    first.join(SAFETY)
     assert len(errors) == 1 and not isinstance(errors[0], Exception), errors
+    plotter = protocol_sim.plotter(name)
     assert [line for line in plotter.firmware.accepted_lines() if line] == lines
     assert segments(plotter) == alone(lines)
 
 
 def test_second_draw_on_a_pty_in_use_is_one_message_and_the_first_is_exact(long_job):
     path, lines = long_job
-    # 5x real time: about 5 s of plotting, so the second process (Python's start-up included)
-    # tries the port while the first job holds it, even on a busy machine.
-    plotter = VirtualPlotter(load_profile(PROFILE), baud=115200, realtime=5)
-    errors = []
+    plotter = VirtualPlotter(load_profile(PROFILE), baud=115200)
+    errors, hand = [], HeldAtThePenChange()
     with PtyServer(plotter) as server:
         first = threading.Thread(
-            target=lambda: _catch(
-                errors, main, ["draw", str(path), "--port", server.path, "--profile", PROFILE, "-q"]
-            )
+            target=lambda: _catch(errors, draw, path, server.path, profile=PROFILE, operator=hand)
         )
         first.start()
-        started(plotter, first)
+        assert hand.paused.wait(SAFETY)  # the first job holds the port, paused
         other = path.with_name("another.gcode")  # another job (the same file's own journal would refuse it)
         other.write_bytes(path.read_bytes())
         second = subprocess.run(
@@ -103,11 +114,11 @@ def test_second_draw_on_a_pty_in_use_is_one_message_and_the_first_is_exact(long_
             text=True,
             timeout=60,
         )
-        assert first.is_alive()  # the second gave up at once, not after waiting on the board
-        first.join(60)
+        hand.go_on.set()
+        first.join(SAFETY)
     assert second.returncode != 0 and second.stdout == ""
     assert second.stderr == f"pencilbot: error: {server.path} {BUSY}\n"
-    assert errors == [0]
+    assert len(errors) == 1 and not isinstance(errors[0], Exception), errors
     # Nothing of the second sender reached the board, and its open did not reset it mid-job.
     assert [line for line in plotter.firmware.accepted_lines() if line] == lines
     assert segments(plotter) == alone(lines)
@@ -115,6 +126,7 @@ def test_second_draw_on_a_pty_in_use_is_one_message_and_the_first_is_exact(long_
 
 def test_a_port_is_free_again_once_its_job_ends(long_job):
     _path, lines = long_job
+    lines = [line for line in lines if line != clean_line(PEN_CHANGE)]
     url, name = fresh()
     draw(lines, url, profile=PROFILE, wake_wait=0.2)
     draw(lines, f"sim://{name}", profile=PROFILE, wake_wait=0.2)  # no "in use": the first closed it

@@ -3,8 +3,6 @@ the display mode, with the line the machine is running located from its reported
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 import pytest
 
@@ -95,15 +93,24 @@ def test_the_stop_key_stops_a_plot_whose_machine_trails(tmp_path):
     gcode = tmp_path / "zigzag.gcode"
     api.export_gcode(zigzag_plan(200), PROFILE, gcode)
 
-    class StopSoon:
-        started = time.monotonic()
+    from sim import protocol_sim
+
+    protocol_sim.forget("listener-stop")
+
+    class StopOnceStreaming:
+        """The stop key, pressed once the board has taken 60 lines (not after a wall-clock
+        while, in which a loaded host may have sent the whole job or none of it)."""
 
         def poll(self):
-            return ["stop"] if time.monotonic() - self.started > 1.0 else []
+            board = protocol_sim._PLOTTERS.get("listener-stop")  # noqa: SLF001 - the board, once open
+            return ["stop"] if board is not None and len(board.firmware.log) > 60 else []
 
     with pytest.raises(PlotError, match="stopped by the stop key.*pen raised"):
         api.draw(
-            gcode, f"sim://listener-stop?profile={PROFILE}&realtime=20", profile=PROFILE, keys=StopSoon()
+            gcode,
+            f"sim://listener-stop?profile={PROFILE}&realtime=20",
+            profile=PROFILE,
+            keys=StopOnceStreaming(),
         )
 
 

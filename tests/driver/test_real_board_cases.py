@@ -111,7 +111,7 @@ def test_over_a_pty_a_lost_position_is_refused_then_re_zeroed_by_keys_and_drawn_
     )
     with PtyServer(plotter, reset_on_open=False) as server:
         with pytest.raises(PlotError, match="Resume with"):
-            draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=0.5)
+            draw(path, server.path, profile=PROFILE, wake_wait=0.2, timeout=5.0)  # (a bound: no silence here)
         # An unplugged cable: the server plugs the board back in on a new pty, in its own thread;
         # the resume goes to that one (its path is set before the dropped link is cleared).
         replugged = threading.Event()

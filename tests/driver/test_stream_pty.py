@@ -61,16 +61,21 @@ def test_pty_vanishing_mid_job_then_resume_on_a_new_pty(job):
 def test_a_hold_from_the_machine_shows_paused_and_waits_past_the_timeout_for_its_cycle_start(job, capsys):
     import os
     import threading
-    import time
+
+    from waiting import until
+
+    from pencilbot.driver.gcode.session import POLL_INTERVAL
 
     path, lines = job
     plotter = VirtualPlotter(load_profile(PROFILE), realtime=50, faults=Faults.parse("hold@30"))
     with PtyServer(plotter, reset_on_open=False) as server:
 
         def press_cycle_start_on_the_machine():
-            while plotter.firmware.state() != "Hold:0":
-                time.sleep(0.01)
-            time.sleep(1.5)  # three times the timeout
+            firmware = plotter.firmware
+            until(lambda: firmware.state() == "Hold:0", "the hold")
+            # Held until the sender's status polls (one each POLL_INTERVAL) span three timeouts.
+            held_at = firmware.queries
+            until(lambda: firmware.queries >= held_at + int(3 * 0.5 / POLL_INTERVAL) + 1, "the polls")
             fd = os.open(server.path, os.O_WRONLY | os.O_NOCTTY)  # another hand on the board
             os.write(fd, b"~")
             os.close(fd)

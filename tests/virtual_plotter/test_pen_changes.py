@@ -38,8 +38,9 @@ JOB = [
 ]
 
 
-def replies(port, count: int, deadline: float = 3.0) -> list[str]:
-    """The next ``count`` non-empty reply lines (fewer if none come within ``deadline`` s)."""
+def replies(port, count: int, deadline: float = 10.0) -> list[str]:
+    """The next ``count`` non-empty reply lines (fewer if none come within ``deadline`` s: a bound
+    for a broken board only; the in-process board answers as a line arrives)."""
     end, lines, buf = time.monotonic() + deadline, [], b""
     while len(lines) < count and time.monotonic() < end:
         buf += port.read(1)
@@ -52,8 +53,7 @@ def replies(port, count: int, deadline: float = 3.0) -> list[str]:
 
 def open_board(url: str):
     port = serial.serial_for_url(url, timeout=0.02)
-    time.sleep(0.02)
-    port.reset_input_buffer()
+    port.reset_input_buffer()  # (the in-process board has said all it says on open)
     port.write(grbl.SOFT_RESET)
     assert replies(port, 1)[0].startswith("Grbl")
     return port

@@ -3,8 +3,6 @@ homing, the motors by command or by GRBL's idle-delay setting. See :mod:`pencilb
 
 from __future__ import annotations
 
-import time
-
 from pencilbot.driver.control_base import Control
 from pencilbot.driver.faults import StreamFault
 from pencilbot.driver.gcode.session import BoardSession
@@ -59,9 +57,9 @@ class GcodeControl(Control):
         """The lines a query answers before its ``ok`` (``$G``, ``$$``)."""
         self.link.write(self.firmware.frame(line, 0))
         got: list[str] = []
-        deadline = time.monotonic() + self.session.timeout
+        self.link.restart_silence()  # the timeout is time spent listening: a host's stall is not silence
         try:
-            while time.monotonic() < deadline:
+            while self.link.silent_for() <= self.session.timeout and len(got) < 2000:  # (or a talker)
                 for text in self.link.read_lines():
                     kind = self.firmware.parse(text).kind
                     if kind == OK:

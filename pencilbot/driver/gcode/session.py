@@ -30,6 +30,7 @@ WAKING, STREAMING, DRAINING, HALTING, DONE = "waking", "streaming", "draining", 
 POLL_INTERVAL = 0.2  # s: status queries at 5 Hz, GRBL's recommended ceiling
 _SLOWING_AT_MOST = 60.0  # s a feed hold may take to bring the machine to rest (0.1 m/s at 2 mm/s²)
 _QUIET = 0.15  # s of silence after a banner before the board counts as awake
+_TALK = 2000  # reads that brought bytes, not the answer: a board that talks on is given up on
 
 #: A command line coming back from the board: an echo (a loopback, a port echoing what it got),
 #: never a reply of any firmware's.
@@ -66,10 +67,8 @@ class BoardSession:
     def __init__(
         self, link: LineReader, firmware: Firmware, *, receive_buffer: int, timeout: float = DEFAULT_TIMEOUT
     ):
-        self.link = link
-        self.firmware = firmware
-        self.receive_buffer = receive_buffer
-        self.timeout = timeout
+        self.link, self.firmware = link, firmware
+        self.receive_buffer, self.timeout = receive_buffer, timeout
         self.state = WAKING
         self.status: Any = None  # the last status report
         self.machine_state = ""  # what the board is doing, in its words ("Run", "Idle", …)
@@ -78,9 +77,8 @@ class BoardSession:
         self.sent = -1  # the last job line written to the board
         self.rest_status = None  # the report that found the machine at rest in a halt (before the reset)
         self.answered = -1  # the last job line answered
-        self.seen: tuple[tuple[float, float] | None, Any, int] | None = (
-            None  # (work X, Y in mm, status, last line answered) of the last report while streaming
-        )
+        #: (work X, Y in mm, status, last line answered) of the last report while streaming
+        self.seen: tuple[tuple[float, float] | None, Any, int] | None = None
         self.paused: str | None = None  # why the board is holding, while it is
         self._pause_key: int | str | None = None  # which pause was shown (an M0 line, or the hold button)
         self._held_by_us = False  # our pause key holds the board
@@ -153,15 +151,16 @@ class BoardSession:
 
     def _await_banner(self, wait: float) -> str | None:
         """What a start-up banner seen within ``wait`` s says, once the board has been quiet
-        for a moment; anything else received is dropped."""
-        deadline = time.monotonic() + wait
-        banner = None
-        while time.monotonic() < deadline:
+        for a moment (both: time spent listening); anything else received is dropped."""
+        banner, talk = None, 0
+        self.link.restart_silence()
+        while talk < _TALK:
             for reply in self._replies():
                 if reply.kind == RESET:
                     banner = reply.detail
-            if banner is not None and time.monotonic() - self.link.last_rx >= _QUIET:
+            if self.link.silent_for() >= (_QUIET if banner is not None else wait):
                 break
+            talk += self.link.silent_for() == 0
         self.link.discard_input()
         self._unread.clear()
         return banner
@@ -171,15 +170,16 @@ class BoardSession:
         are dropped."""
         if not self.firmware.capabilities.status_reports:
             return None
-        self.status = None
+        self.status, talk = None, 0
         with self._guard(-1):
             self._poll(force=True)
-            deadline = time.monotonic() + (wait or self.timeout)
+            self.link.restart_silence()
             while self.status is None:
-                if time.monotonic() > deadline:
+                if self.link.silent_for() > (wait or self.timeout) or talk > _TALK:
                     raise StreamFault("timeout", -1, "no answer to a status query")
                 for _ in self._replies():
                     pass
+                talk += self.link.silent_for() == 0
         return self.status
 
     def wait_until_still(self):
@@ -382,14 +382,13 @@ class BoardSession:
             # at or past that point (a stroke that runs back over itself passes a point twice).
             self.link.write(fw.status_query + fw.feed_hold)
             self._query_unanswered, self._last_poll = True, time.monotonic()
-            start = time.monotonic()
-            deadline, reports = start + wait, self.reports
-            self.status = None
-            while time.monotonic() < deadline and not at_rest:
+            start = since = self.link.listening  # (waits of listening: a host's stall is no board's)
+            reports, self.status = self.reports, None
+            while (heard := self.link.listening) - since < wait and heard - start < _SLOWING_AT_MOST:
                 self._poll()
                 if self.reports > reports and self.status is not None and fw.is_moving(self.status):
                     # Still slowing (a slow acceleration takes seconds): wait on while it says so.
-                    reports, deadline = self.reports, min(time.monotonic() + wait, start + _SLOWING_AT_MOST)
+                    reports, since = self.reports, self.link.listening
                 for reply in self._replies():
                     # The board keeps parsing what it had received: those lines reach the
                     # planner (and may run before the reset), so an ok counts as acknowledged.
@@ -398,7 +397,8 @@ class BoardSession:
                         self._in_flight -= entry.size
                         if reply.kind == OK and entry.index is not None:
                             self._on_ack(entry.index, self.machine_state)
-                at_rest = self.status is not None and fw.is_at_rest(self.status)
+                if at_rest := self.status is not None and fw.is_at_rest(self.status):
+                    break
         self.rest_status = self.status if at_rest else None
         self.reset(wait)
         return at_rest

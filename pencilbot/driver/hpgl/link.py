@@ -8,6 +8,8 @@ import time
 
 import serial
 
+from pencilbot.driver.port import listened
+
 POLL_PAUSE = 0.02  # s between polls while the buffer is full, or a sync point's answer is awaited
 
 
@@ -29,6 +31,9 @@ class Answers:
         self.positions: list = []
         self.parse_position = parse_position
         self.xoff = False
+        #: Seconds spent in reads that found nothing: the plotter's silence as this host heard
+        #: it (time the host spent elsewhere, a loaded machine's, is not the plotter's).
+        self.listened = 0.0
 
     def write(self, data: bytes) -> None:
         try:
@@ -37,11 +42,13 @@ class Answers:
             raise Lost(str(exc)) from None
 
     def pump(self) -> None:
+        asked = time.monotonic()
         try:
             data = self.port.read(max(self.port.in_waiting, 1))
         except (serial.SerialException, OSError) as exc:
             raise Lost(str(exc)) from None
         if not data:
+            self.listened += listened(self.port, asked)
             return
         if b"\x13" in data or b"\x11" in data:
             self.xoff = data.rfind(b"\x13") > data.rfind(b"\x11")
@@ -58,27 +65,30 @@ class Answers:
         """The next sync point's answer ``(x, y, pen down)``, or None after ``timeout`` s. The
         free bytes are polled meanwhile: a plotter that stops answering is caught sooner, and a
         plotter on a poll clock (the virtual one in tests) goes on as the sender waits. ``stop``
-        (an event) set meanwhile raises :class:`Stopped`."""
-        end = time.monotonic() + timeout
+        (an event) set meanwhile raises :class:`Stopped`. The time counted is the host's
+        waiting (its reads that found nothing and its pauses), never its stalls."""
+        waited = -self.listened
         while not self.positions:
             if stop is not None and stop.is_set():
                 raise Stopped()
-            if time.monotonic() > end:
+            if waited + self.listened > timeout:
                 return None
             poll_free(self, fw, timeout)
             if not self.positions:
                 time.sleep(POLL_PAUSE)
+                waited += POLL_PAUSE
         return self.positions.pop(0)
 
     def wait(self, accept, timeout: float):
-        """The first answer ``accept`` turns into something not None (others are dropped)."""
-        end = time.monotonic() + timeout
+        """The first answer ``accept`` turns into something not None (others are dropped), or
+        None once the host has listened ``timeout`` s for it in vain."""
+        start = self.listened
         while True:
             while self.lines:
                 value = accept(self.lines.pop(0))
                 if value is not None:
                     return value
-            if time.monotonic() > end:
+            if self.listened - start > timeout:
                 return None
             self.pump()
 
