@@ -46,19 +46,24 @@ function showHistory() {
   $("redo").disabled = !undoState.redo.length;
 }
 
-async function applySettings(saved) {  // options and placement as one: sent, and shown
+let settingsSent = Promise.resolve();  // each change's requests after the one before: the last one wins
+
+function applySettings(saved) {  // options and placement as one: shown now, sent in order
   const options = saved.options || {}, place = saved.placement || {};
   applyOptions({ style: null, pens: null, profile: null, ...options });
   const wanted = { scale: 1, dx: 0, dy: 0, skip: [], ...place };
   placement = { ...wanted };
   showPlacement(); showLayers(); drawSheet();
   placing++; sending++;  // the server's older settings are not shown meanwhile
-  try {
-    $("plan-error").textContent = "";
-    await call("POST", "/api/placement", wanted);
-    await call("POST", "/api/drawing", options);
-  } catch (err) { $("plan-error").textContent = err.message; }
-  finally { placing--; sending--; }
+  settingsSent = settingsSent.then(async () => {
+    try {
+      $("plan-error").textContent = "";
+      await call("POST", "/api/placement", wanted);
+      await call("POST", "/api/drawing", options);
+    } catch (err) { $("plan-error").textContent = err.message; }
+    finally { placing--; sending--; }
+  });
+  return settingsSent;
 }
 
 async function undoRedo(from, to) {
