@@ -22,6 +22,7 @@ import numpy as np
 
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, face_pitch, run_strokes
+from pencilbot.planning.face_budget import within_budget
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
     HATCH_ANGLES,
@@ -182,14 +183,18 @@ class Hatching:
         loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
         runs = Paths.empty()
         if dithered is not None and np.any(dithered > 0.5):
-            runs = face_runs(
-                darkness if face_darkness is None else face_darkness,
-                dithered,
-                layout,
-                edges,
-                pen_width=self.pen_width,
-                blank_below=self.blank_below,
-                paper=loop.photo_darkness,
+            faces = darkness if face_darkness is None else face_darkness
+            runs = within_budget(  # the faces' plotting within FACE_BUDGET (planning/face_budget.py)
+                lambda scale: face_runs(
+                    scale * faces,
+                    dithered,
+                    layout,
+                    edges,
+                    pen_width=self.pen_width,
+                    blank_below=self.blank_below,
+                    paper=loop.photo_darkness,
+                ),
+                layout.page.width * layout.page.height / 100,
             )
         layers = loop.run(edges, runs, dithered)
         if len(runs):
