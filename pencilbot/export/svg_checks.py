@@ -48,6 +48,9 @@ _GEOMETRY = (
 # Any of these in a coordinate is more than MAX_DRAWING_MM in any unit.
 _WORDS = re.compile(r"(?<![a-z-])(?:nan|inf(?:inity)?)(?![a-z-])", re.I)
 _EXPONENT = re.compile(r"[\d.][eE]\+?0*[1-9]\d")
+# The same, found from its letter: a scan for two letters is three times faster than one for a
+# digit or a dot (0.2 s instead of 0.7 s over 40 MB).
+_EXPONENT_AT_E = re.compile(r"[eE](?<=[\d.][eE])\+?0*[1-9]\d")
 _LONG = re.compile(r"(?<![\d.])\d{10,}")
 _DIGITS = bytes(48 if 48 <= c <= 57 else 32 for c in range(256))
 
@@ -58,8 +61,8 @@ def _insane(text: str) -> re.Match | None:
     lower = text.lower()
     if ("nan" in lower or "inf" in lower) and (found := _WORDS.search(text)):
         return found
-    if "e" in lower and (found := _EXPONENT.search(text)):
-        return found
+    if "e" in lower and (found := _EXPONENT_AT_E.search(text)):
+        return _EXPONENT.search(text, found.start() - 1)  # the match as the pattern names it
     if b"0" * 10 not in text.encode("ascii", "replace").translate(_DIGITS):
         return None
     return _LONG.search(text)

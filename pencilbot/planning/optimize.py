@@ -24,6 +24,7 @@ from scipy.spatial import cKDTree
 from pencilbot.paths import Paths, ramps
 from pencilbot.planning.ordering import ROUND_WORK, order_paths
 from pencilbot.planning.plan import Plan
+from pencilbot.planning.tour_ends import morton_order
 
 _NEAREST = 16  # pieces of ink looked at around each point of a speck
 #: Improvement rounds per layer. Ten end the search at (or within 0.5 % of) its local optimum on
@@ -140,19 +141,42 @@ def specks(paths: Paths, pen_width: float) -> np.ndarray:
     index = ramps(cuts)
     a = starts[segment] + vectors[segment] * (index / cuts[segment])[:, None]
     b = starts[segment] + vectors[segment] * ((index + 1) / cuts[segment])[:, None]
-    tree = cKDTree((a + b) / 2)
+    tree = cKDTree((a + b) / 2, balanced_tree=False, compact_nodes=False)
     candidate_points = short[owner]
-    query = paths.points[candidate_points]
-    k = min(_NEAREST, len(a))
-    distance, nearest = tree.query(query, k=k, distance_upper_bound=pen_width)
-    distance, nearest = distance.reshape(len(query), k), nearest.reshape(len(query), k)
-    found = np.isfinite(distance)
-    pieces = np.where(found, nearest, 0)
-    gap = _point_segment_distance(query[:, None, :], a[pieces], b[pieces])
-    covered_point = np.any(found & (gap <= pen_width / 2), axis=1)
+    covered_point = _covered(tree, a, b, paths.points[candidate_points], pen_width)
     # A speck is dropped when all its points are covered.
     uncovered = np.bincount(owner[candidate_points], weights=~covered_point, minlength=len(paths))
     return short & (uncovered == 0)
+
+
+def _covered(tree: cKDTree, a: np.ndarray, b: np.ndarray, query: np.ndarray, pen_width: float) -> np.ndarray:
+    """Whether each point of ``query`` lies within half a pen width of one of the pieces a–b
+    whose midpoints (in ``tree``) are among its ``_NEAREST`` nearest within a pen width. ``(Q,)``.
+
+    The nearest piece alone covers most points (nine in ten of a million stipples); only the
+    others are asked for their ``_NEAREST``, and distances are measured to the pieces found, not
+    to a full row of them. The points are asked in Z order, so that each query walks the tree
+    where the one before did (three times faster than in file order).
+    """
+    covered = np.zeros(len(query), bool)
+    if not len(query):
+        return covered
+    query = query[order := morton_order(query)]
+    distance, nearest = tree.query(query, k=1, distance_upper_bound=pen_width)
+    found = np.flatnonzero(np.isfinite(distance))
+    gap = _point_segment_distance(query[found], a[nearest[found]], b[nearest[found]])
+    covered[found[gap <= pen_width / 2]] = True
+    rest = np.flatnonzero(~covered)
+    k = min(_NEAREST, len(a))
+    if len(rest) and k > 1:
+        distance, nearest = tree.query(query[rest], k=k, distance_upper_bound=pen_width)
+        row, column = np.nonzero(np.isfinite(distance.reshape(len(rest), k)))
+        piece = nearest.reshape(len(rest), k)[row, column]
+        gap = _point_segment_distance(query[rest[row]], a[piece], b[piece])
+        covered[rest[row[gap <= pen_width / 2]]] = True
+    unsorted = np.empty_like(covered)
+    unsorted[order] = covered
+    return unsorted
 
 
 def _point_segment_distance(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -89,3 +89,36 @@ def test_a_path_the_arrays_do_not_take_sends_the_file_to_vpype(tmp_path, d):
     finally:
         svg_read.read_straight = original
     assert taken == [None]
+
+
+_DECIMAL = st.one_of(
+    st.floats(-1e6, 1e6).map(lambda v: f"{v:.{abs(hash(v)) % 9}f}"),
+    st.integers(-(10**15), 10**15).map(str),
+    st.from_regex(r"[+-]?\.?[0-9]{1,15}", fullmatch=True),
+    st.from_regex(r"[0-9eE.+-]{1,6}", fullmatch=True),  # exponents, signs and dots anywhere
+    st.sampled_from([w.decode() for w in svg_straight._WORDS]),
+)
+
+
+@given(st.lists(_DECIMAL, min_size=1, max_size=12), st.sampled_from([" ", ",", "\n", "  "]))
+def test_numbers_are_strtods_bit_for_bit(words, separator):
+    """The column-wise decimal reading gives what numpy's fromstring (strtod) gives, or refuses
+    the text just as it does."""
+    text = separator.join(words).encode()
+    import warnings
+
+    spaced = text.translate(svg_straight._TRANSLATE)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            expected = np.fromstring(spaced, dtype=np.float64, sep=" ")
+        except ValueError:
+            expected = None
+    tokens = len(spaced.split())
+    if expected is not None and len(expected) != tokens:
+        expected = None
+    got = svg_straight._numbers(text)
+    if expected is None:
+        assert got is None
+    else:
+        assert got is not None and got.tobytes() == expected.tobytes()  # -0.0 too
