@@ -14,8 +14,9 @@ from starlette.routing import Route
 
 from pencilbot.errors import PencilbotError
 from pencilbot.studio import presets
+from pencilbot.studio.options import parse_options
 from pencilbot.studio.ports import port_url
-from pencilbot.studio.sheet import parse_placement, plan_json, plot_json
+from pencilbot.studio.sheet import Placement, parse_placement, plan_json, plot_json
 from pencilbot.studio.state import Studio
 
 
@@ -54,6 +55,8 @@ def work_routes(studio: Studio, refusals, json_body, chosen_port, profile_of, nu
                 raise PencilbotError(
                     "a preset is the drawing options and the placement, as the page sends them"
                 )
+            await run_in_threadpool(parse_options, settings["options"])  # checked as the page's own
+            parse_placement(settings["placement"], Placement())
             await run_in_threadpool(presets.save, name, settings)
         return JSONResponse({"presets": await run_in_threadpool(presets.names)})
 
@@ -65,6 +68,9 @@ def work_routes(studio: Studio, refusals, json_body, chosen_port, profile_of, nu
         """Try a height (``which``: up or down, ``value``) on the plotter, or keep both (``save``)."""
         body = await json_body(request)
         plotter = profile_of(body)
+        needed = ("up", "down") if request.path_params["what"] == "save" else ("which", "value")
+        if missing := [key for key in needed if key not in body]:
+            raise PencilbotError(f"say the pen's {' and '.join(missing)}")
         if request.path_params["what"] == "save":
             from pencilbot.api import save_to_user_profile
 

@@ -65,6 +65,50 @@ def test_no_json_body_is_answered_500(client, studio, route, kind):
     assert studio.plotters.sessions == {}
 
 
+MALFORMED = ("not JSON", "not UTF-8", "a list", "a number", "null", "a string", "nested depth")
+WORKSPACE = {  # the workspace's routes and the bodies of theirs a stranger may send
+    "/api/placement": {
+        "scale a word": {"scale": "big"},
+        "scale zero": {"scale": 0},
+        "dy huge": {"dy": 1e300},
+        "skip a string": {"skip": "all"},
+        "skip of numbers": {"skip": [1, 2]},
+    },
+    "/api/presets/mine": {
+        "options a list": {"options": [1]},
+        "placement a string": {"placement": "x"},
+        "a style that is a list": {"options": {"style": ["default"]}},
+        "a negative margin": {"options": {"margin": -5}},
+        "an unknown pen set": {"options": {"pens": "../../etc/passwd"}},
+        "a zero scale": {"placement": {"scale": 0}},
+    },
+    "/api/pen-height/try-up": {
+        "which a number": {"port": "sim://", "which": 3, "value": 30},
+        "value a word": {"port": "sim://", "which": "up", "value": "high"},
+        "port unknown": {"port": "sim://nowhere", "which": "up", "value": 30},
+        "profile unknown": {"port": "sim://", "profile": "../x", "which": "up", "value": 30},
+    },
+    "/api/pen-height/save": {"up a word": {"up": "high", "down": 30}, "down missing": {"up": 30}},
+}
+
+
+@pytest.mark.parametrize(
+    "route,kind,body",
+    [
+        (route, kind, json.dumps(body).encode())
+        for route, bodies in WORKSPACE.items()
+        for kind, body in bodies.items()
+    ]
+    + [(route, kind, BODIES[kind]) for route in WORKSPACE for kind in MALFORMED],
+)
+def test_the_workspace_refuses_what_the_page_never_sends(client, route, kind, body, monkeypatch, tmp_path):
+    monkeypatch.setenv("PENCILBOT_CONFIG_DIR", str(tmp_path))  # nothing refused is written
+    response = client.post(route, content=body, headers=JSON)
+    assert 400 <= response.status_code < 500, (route, kind, response.status_code, response.text[:200])
+    assert response.json()["error"]
+    assert not [p for p in tmp_path.rglob("*") if p.is_file()]
+
+
 @pytest.mark.parametrize("route", [*ROUTES, "/api/photo"])
 def test_a_huge_body_is_413_unread(client, route):
     response = client.post(
@@ -107,6 +151,18 @@ def test_a_decompression_bomb_is_413_and_nothing_is_decoded(client, studio, kind
         ("GET", "/api/picture/-.png", b"", {}),
         ("POST", "/api/plot/%ff", b"{}", JSON),
         ("DELETE", "/api/photo", b"", {}),
+        ("GET", "/api/presets/..%2F..%2Fetc%2Fpasswd", b"", {}),
+        ("GET", "/api/presets/%00", b"", {}),
+        ("GET", "/api/presets/" + "x" * 5000, b"", {}),
+        ("GET", "/api/presets/nobody", b"", {}),
+        ("DELETE", "/api/presets/..", b"", {}),
+        ("GET", "/api/pen-heights?profile=%00", b"", {}),
+        ("GET", "/api/pen-heights?profile=../../x", b"", {}),
+        ("POST", "/api/pen-height/%ff", b"{}", JSON),
+        ("GET", "/api/plot-sheet?port=%00", b"", {}),
+        ("PUT", "/api/photo", b'<svg xmlns="http://www.w3.org/2000/svg"><path d="M 0 0 L nan 1"/></svg>', {}),
+        ("PUT", "/api/photo", b'<?xml version="1.0" encoding="klingon"?><svg/>', {}),
+        ("PUT", "/api/photo", b'<!DOCTYPE s [<!ENTITY a "aaaa"><!ENTITY b "&a;&a;&a;">]><svg>&b;</svg>', {}),
     ],
 )
 def test_no_other_request_is_answered_500(client, request_kind):
