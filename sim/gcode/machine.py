@@ -241,7 +241,7 @@ class Machine(StrokeRecorder):
         seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
         yield from self._dwell(seconds)
         self._record(start, home, self.pen_down)
-        self._close_stroke()
+        self.close_stroke()
         self.slip = (0.0, 0.0, self.slip[2])
         self.position = (home[0], home[1], start[2] - self.slip[2])
 
@@ -271,7 +271,7 @@ class Machine(StrokeRecorder):
                 self.overruns.append(
                     (tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2])
                 )
-        self._close_stroke()
+        self.close_stroke()
         return moving
 
     # --- parsing and execution --------------------------------------------------------------
@@ -332,7 +332,7 @@ class Machine(StrokeRecorder):
         if m.motion != gp.NO_MOTION and block.axis_command == gp.MOTION_AXES:
             yield from self._motion(block)
         if was_down and not self.pen_down and not self.planner.busy:
-            self._close_stroke()  # lifted in place: a later pen-down starts a new stroke
+            self.close_stroke()  # lifted in place: a later pen-down starts a new stroke
         if m.program_flow:
             yield from self._synchronize()
             if m.program_flow == gp.PAUSE:
