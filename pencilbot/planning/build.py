@@ -47,7 +47,7 @@ FACE_PEN_DARKNESS = 0.35
 #: rho@1mm >= 0.95 and @0.5mm >= 0.85, plot vs own sketch r down to 0.825 and group photos at
 #: 33-51 min; see docs/faces.md.)
 #: Pen-down length a one-pen plan aims to stay within, mm per cm² of the sheet (39 m on A4): past
-#: it the hatching's tone is drawn lighter by one factor (:func:`_shaded`). On the face set
+#: it the hatching's tone is drawn lighter by one factor (:meth:`~pencilbot.planning.shading.Hatching.shade_within`). On the face set
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
 #: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min. (Per cm² of the drawing
 #: box instead, a square portrait's smaller box was held to 27 m: astronaut 22 -> 16 min, whole

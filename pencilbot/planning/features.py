@@ -1,4 +1,4 @@
-"""A face's contours: only its dark features are drawn with the pen (build.features_only), and
+"""A face's contours: only its dark features are drawn with the pen (:func:`features_only`), and
 which strokes lie mostly in a mask (a face, its dithered runs)."""
 
 from __future__ import annotations
