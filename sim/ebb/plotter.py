@@ -102,4 +102,4 @@ class VirtualEbb(WiredBoard):
 
     def position(self) -> np.ndarray:
         """The carriage's true position, machine mm."""
-        return self.profile.ebb.to_machine(self.firmware._true_steps()[None].astype(float))[0]
+        return self.profile.ebb.to_machine(self.firmware.true_steps()[None].astype(float))[0]
