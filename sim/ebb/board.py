@@ -223,8 +223,8 @@ class EbbBoard:
             try:
                 command = protocol.parse_command(text)
                 if self._version < protocol.SINCE.get(command.name, ()):  # not in this firmware
-                    code = "".join(f"{ord(c):02X}" for c in command.name[:2])
-                    raise CommandError(command.name, 8, f"Unknown command '{command.name[:2]}:{code}'")
+                    hexes = "".join(f"{ord(c):02X}" for c in command.name[:2])
+                    raise CommandError(command.name, 8, f"Unknown command '{command.name[:2]}:{hexes}'")
                 printed = ebb_moves.check(command, self._version)
             except CommandError as exc:
                 del self._rx[: cut + 1]

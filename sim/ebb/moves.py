@@ -77,7 +77,9 @@ class TimedRun(Run):
     table: np.ndarray | None = None  # (ticks + 1, 2) int64
 
     def steps_at(self, t: int) -> np.ndarray:
-        return self.table[min(max(t, 0), len(self.table) - 1)].copy()
+        table = self.table
+        assert table is not None  # (a run's table is set when it starts)
+        return table[min(max(t, 0), len(table) - 1)].copy()
 
 
 def _axis(ticks: int, rate: int, accel: int, jerk: int) -> np.ndarray:

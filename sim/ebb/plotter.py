@@ -30,7 +30,7 @@ class EbbDrawing(StrokeRecorder):
         self.profile, self._pauses = profile, pauses
 
     @property
-    def pauses(self) -> int:
+    def pauses(self) -> int:  # type: ignore[override]  # read live from the board, not stored
         return self._pauses()
 
     def record(self, start, end, drawing: bool) -> None:

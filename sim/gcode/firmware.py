@@ -389,6 +389,7 @@ class Firmware:
     def _step(self) -> bool:
         """Advance the line in progress; True when it has finished (or failed)."""
         task = self._task
+        assert task is not None  # (called with a line in progress)
         try:
             for signal in task.steps:
                 self.machine_output()
@@ -400,7 +401,7 @@ class Firmware:
             self.machine_output()
             self._raise_alarm(alarm.code)
             if task.line is not None:
-                self.reply(*task.line, f"ALARM:{alarm.code}", emit=False)
+                self.reply(task.line[0], task.line[1], f"ALARM:{alarm.code}", emit=False)
             return True
         self._task = None
         self.machine_output()

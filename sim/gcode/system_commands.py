@@ -61,7 +61,9 @@ class SystemCommands:
         if line[2:3] != "=":
             return self.fw.answer_code(index, text, 3)
         block = m.parse(line[3:], jog=True)
-        code = block if isinstance(block, int) else m.jog_target_allowed(block)
+        if isinstance(block, int):
+            return self.fw.answer_code(index, text, block)
+        code = m.jog_target_allowed(block)
         if code:
             return self.fw.answer_code(index, text, code)
         self.fw.jog_planned = True
