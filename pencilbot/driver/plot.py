@@ -7,8 +7,9 @@ to :class:`~pencilbot.driver.gcode.runner.Runner`, one that takes step commands 
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -152,6 +153,20 @@ class _Run:
     profile: str
     baud: int
     journal: Any
+
+
+# draw's own signature names every option (DrawOptions's fields, said once there), for help(),
+# inspect and editors: draw(path, port, on_error="continue") reads as a typed keyword.
+_PLAIN = list(inspect.signature(draw).parameters.values())[:3]
+draw.__signature__ = inspect.signature(draw).replace(  # type: ignore[attr-defined]
+    parameters=[
+        *_PLAIN,
+        *(
+            inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type)
+            for f in fields(DrawOptions)
+        ),
+    ]
+)
 
 
 def _draw_acknowledged(gcode, run: _Run, o: DrawOptions) -> DrawResult:
