@@ -1,7 +1,7 @@
 """pencilbot: photo → GMED pencil drawing → pen-plotter strokes → G-code → plotter.
 
 The library API (see :mod:`pencilbot.api`): ``sketch``, ``plan``, ``export_gcode``, ``gcode``, ``write_svg``,
-``read_svg``, ``draw``, ``open_control``, ``load_image``. They are imported on first use, so the CLI starts without
+``read_svg``, ``draw`` (``DrawOptions``), ``open_control``, ``load_image``. They are imported on first use, so the CLI starts without
 loading them.
 """
 
@@ -15,6 +15,7 @@ _API = (
     "write_svg",
     "read_svg",
     "draw",
+    "DrawOptions",
     "load_image",
     "as_image",
     "open_control",

@@ -5,6 +5,8 @@
 >>> plan = pencilbot.plan("photo.jpg", page="A4")        # pen strokes on a page (Plan)
 >>> pencilbot.export_gcode(plan, "grbl-servo-a4", "drawing.gcode")  # G-code for a plotter
 >>> pencilbot.draw("drawing.gcode", "/dev/ttyUSB0")      # stream it (or port="sim://")
+>>> options = pencilbot.DrawOptions(profile="axidraw-v3", progress="bar")   # the same for many jobs
+>>> pencilbot.draw("drawing.gcode", "/dev/ttyACM0", options)
 >>> with pencilbot.open_control("/dev/ttyACM0", "axidraw-v3") as plotter:   # at the plotter
 ...     plotter.pen("toggle"); plotter.motors(False); plotter.walk(10, 0); plotter.home()
 >>> lines = pencilbot.gcode(plan, "grbl-servo-a4")       # the G-code as lines
@@ -26,7 +28,7 @@ import numpy as np
 
 from pencilbot.app.photo import ImageLike, PhotoRequest
 from pencilbot.app.photo import sketch_and_plan as app_sketch_and_plan
-from pencilbot.driver import DrawResult
+from pencilbot.driver import DrawOptions, DrawResult  # noqa: F401 (the library API: draw's options)
 from pencilbot.driver import draw as _draw
 from pencilbot.errors import PencilbotError
 from pencilbot.export.gcode import GcodeSummary, gcode_lines, write_gcode

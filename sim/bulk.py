@@ -152,9 +152,9 @@ class _Run:
         pen = state.pen_before[moved] & (state.pen[moved] if self.z_pen else True)
         if len(moved):
             ends = np.concatenate([start[planned, :2], end[planned, :2], pen[:, None]], axis=1)
-            _record_moves(self.m, ends, np.diff(closes[moved], prepend=0) > 0)
+            self.m.record_moves(ends, np.diff(closes[moved], prepend=0) > 0)
         if closes[-1:].sum() > (closes[moved[-1]] if len(moved) else 0):
-            self.m._close_stroke()
+            self.m.close_stroke()
         unit = delta[planned] / length[planned, None]
         self._time(lines, state, moved, unit, length[planned], syncs, queued)
         self._carry(lines, state)
@@ -311,46 +311,3 @@ def _ffill(given: np.ndarray, values: np.ndarray, initial) -> np.ndarray:
 def _before(values: np.ndarray, initial) -> np.ndarray:
     """Each line's value as the line before left it (``initial`` before the first)."""
     return np.concatenate([[initial], values])[: len(values)]
-
-
-def _record_moves(machine, moves: np.ndarray, closed_before: np.ndarray) -> None:
-    """Completed moves ``(start x, y, end x, y, pen down)`` into ``machine``'s recorder, as
-    :meth:`~sim.recorder.StrokeRecorder._record` takes them one by one (no slip on this path)."""
-    start, end, pen = moves[:, 0:2], moves[:, 2:4], moves[:, 4] != 0
-    up = ~pen
-    # A pen-down move goes on with the stroke being drawn when the move before it was pen-down,
-    # no lift came between and it starts where that one ended; else it starts a new stroke.
-    follows = np.zeros(len(moves), bool)
-    follows[1:] = pen[:-1] & (start[1:] == end[:-1]).all(axis=1)
-    head = machine._stroke
-    follows[0] = bool(head) and head[-1] == (float(start[0, 0]), float(start[0, 1]))
-    follows &= pen & ~closed_before
-    if up.any():
-        machine._travel.extend(
-            np.stack([start[up], end[up]], axis=1).reshape(-1, 2), np.arange(2, 2 * up.sum() + 1, 2)
-        )
-    down = np.flatnonzero(pen)
-    if not len(down):
-        if up.any() or closed_before.any():
-            machine._close_stroke()
-        return
-    if not follows[down[0]]:
-        machine._close_stroke()
-        head = []
-    new = ~follows[down]
-    # Points: a new stroke's start, then every move's end.
-    slots = np.cumsum(1 + new) - 1
-    points = np.empty((len(head) + slots[-1] + 1, 2))
-    if head:
-        points[: len(head)] = head
-    points[len(head) + slots] = end[down]
-    firsts = len(head) + slots[new] - 1
-    points[firsts] = start[down[new]]
-    bounds = np.append(firsts if not len(head) else np.concatenate([[0], firsts]), len(points))
-    tail_closed = up[down[-1] + 1 :].any() or closed_before[down[-1] + 1 :].any()
-    done = len(bounds) - 1 if tail_closed else len(bounds) - 2  # strokes finished
-    if done:
-        machine._strokes.extend(points[: bounds[done]], bounds[1 : done + 1])
-        machine._stroke_pauses.extend([machine.pauses] * done)
-    machine._stroke = [] if tail_closed else list(map(tuple, points[bounds[-2] :].tolist()))
-    machine._stroke_pause = machine.pauses

@@ -151,6 +151,6 @@ def _forward(bound: np.ndarray, reach: np.ndarray, first: float) -> np.ndarray:
     # What the sweeps left: every move before the first still to do is final; the rest in order.
     out, bounds, reaches = exits.tolist(), bound.tolist(), reach.tolist()
     for k in range(int(todo[0]), n):
-        before = out[k - 1] if k else first
-        out[k] = min(bounds[k], math.sqrt(before * before + reaches[k]))
+        entry = out[k - 1] if k else first
+        out[k] = min(bounds[k], math.sqrt(entry * entry + reaches[k]))
     return np.array(out)

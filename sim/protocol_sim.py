@@ -212,6 +212,7 @@ class Serial(SerialBase):
     """The pyserial port class pyserial finds for ``sim://`` URLs."""
 
     plotter: WiredBoard | None = None
+    is_open: bool  # (SerialBase's own, declared for the type checker)
 
     def open(self) -> None:
         if self.is_open:
@@ -242,11 +243,12 @@ class Serial(SerialBase):
         """Line settings mean nothing to a virtual wire."""
 
     def _check(self) -> WiredBoard:
-        if not self.is_open:
+        plotter = self.plotter
+        if not self.is_open or plotter is None:
             raise PortNotOpenError()
-        if self.plotter.firmware.link_dropped:
+        if plotter.firmware.link_dropped:
             raise SerialException("device reports readiness to read but returned no data (link dropped)")
-        return self.plotter
+        return plotter
 
     def _pump(self) -> None:
         self._rx += self._check().read()

@@ -170,4 +170,5 @@ class PtyServer:
 
     def __exit__(self, *exc) -> None:
         self.stop()
-        self._thread.join(timeout=5)
+        if self._thread is not None:
+            self._thread.join(timeout=5)

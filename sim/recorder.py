@@ -5,18 +5,27 @@ really went (machine mm), kept as one growing point array each.
 from __future__ import annotations
 
 from array import array
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from pencilbot.paths import Paths
 
+if TYPE_CHECKING:
+    from pencilbot.machine.profile import Profile
+
 
 class StrokeRecorder:
     """The recorder part of :class:`sim.gcode.machine.Machine`, kept apart: mixed into it, these
-    methods read its ``pauses`` (``M0`` pauses reached), ``slip`` (carriage minus count) and
-    ``profile`` (the bed's view), and record each stretch the carriage moved. The virtual EBB
-    records its drawing with it too (:class:`sim.ebb.plotter.EbbDrawing`).
+    methods read its ``pauses`` (``M0`` pauses reached) and ``profile`` (the bed's view), and
+    record each stretch the carriage moved (:meth:`_record`), or many at once in whole arrays
+    (:meth:`record_moves`: :mod:`sim.bulk`'s path). The virtual EBB records its drawing with it
+    too (:class:`sim.ebb.plotter.EbbDrawing`).
     """
+
+    #: The host's: ``M0`` pauses reached so far, and its profile (the bed's view).
+    pauses: int
+    profile: Profile
 
     def __init__(self) -> None:
         self._strokes = Polylines()  # finished pen-down polylines, machine mm
@@ -30,20 +39,63 @@ class StrokeRecorder:
         start, end = (start[0], start[1]), (end[0], end[1])
         if pen_down:
             if not self._stroke or self._stroke[-1] != start:
-                self._close_stroke()
+                self.close_stroke()
                 self._stroke.append(start)
                 self._stroke_pause = self.pauses
             self._stroke.append(end)
         else:
-            self._close_stroke()
+            self.close_stroke()
             self._travel.add((start, end))
 
-    def _close_stroke(self) -> None:
+    def close_stroke(self) -> None:
         """The pen has left the paper: the polyline being drawn is finished."""
         if len(self._stroke) >= 2:
             self._strokes.add(self._stroke)
             self._stroke_pauses.append(self._stroke_pause)
         self._stroke = []
+
+    def record_moves(self, moves: np.ndarray, closed_before: np.ndarray) -> None:
+        """Many completed moves at once, ``(start x, y, end x, y, pen down)`` rows, as :meth:`_record`
+        takes them one by one (``closed_before``: a lift in place came before the move; the
+        simulator's whole-array path, :mod:`sim.bulk`, with no slip)."""
+        start, end, pen = moves[:, 0:2], moves[:, 2:4], moves[:, 4] != 0
+        up = ~pen
+        # A pen-down move goes on with the stroke being drawn when the move before it was pen-down,
+        # no lift came between and it starts where that one ended; else it starts a new stroke.
+        follows = np.zeros(len(moves), bool)
+        follows[1:] = pen[:-1] & (start[1:] == end[:-1]).all(axis=1)
+        head = self._stroke
+        follows[0] = bool(head) and head[-1] == (float(start[0, 0]), float(start[0, 1]))
+        follows &= pen & ~closed_before
+        if up.any():
+            self._travel.extend(
+                np.stack([start[up], end[up]], axis=1).reshape(-1, 2), np.arange(2, 2 * up.sum() + 1, 2)
+            )
+        down = np.flatnonzero(pen)
+        if not len(down):
+            if up.any() or closed_before.any():
+                self.close_stroke()
+            return
+        if not follows[down[0]]:
+            self.close_stroke()
+            head = []
+        new = ~follows[down]
+        # Points: a new stroke's start, then every move's end.
+        slots = np.cumsum(1 + new) - 1
+        points = np.empty((len(head) + slots[-1] + 1, 2))
+        if head:
+            points[: len(head)] = head
+        points[len(head) + slots] = end[down]
+        firsts = len(head) + slots[new] - 1
+        points[firsts] = start[down[new]]
+        bounds = np.append(firsts if not len(head) else np.concatenate([[0], firsts]), len(points))
+        tail_closed = up[down[-1] + 1 :].any() or closed_before[down[-1] + 1 :].any()
+        done = len(bounds) - 1 if tail_closed else len(bounds) - 2  # strokes finished
+        if done:
+            self._strokes.extend(points[: bounds[done]], bounds[1 : done + 1])
+            self._stroke_pauses.extend([self.pauses] * done)
+        self._stroke = [] if tail_closed else list(map(tuple, points[bounds[-2] :].tolist()))
+        self._stroke_pause = self.pauses
 
     @property
     def strokes(self) -> list[np.ndarray]:

@@ -1,6 +1,7 @@
 """Stream G-code to a pen plotter over serial and survive what real hardware does.
 
-``draw(gcode, port, ...)`` is the one entry point for scripts; ``pencilbot draw`` is its CLI.
+``draw(gcode, port, ...)`` is the one entry point for scripts (its options as keywords or one
+:class:`~pencilbot.driver.plot.DrawOptions`); ``pencilbot draw`` is its CLI.
 The pieces: :mod:`~pencilbot.driver.gcode.job` (a file ready to stream), :mod:`~pencilbot.driver.gcode.stream`
 (the one streaming core, over any firmware of the registry), :mod:`~pencilbot.driver.plot` (a job
 from start to end), :mod:`~pencilbot.driver.gcode.runner` (its run on the board, faults turned into
@@ -9,7 +10,7 @@ messages by :mod:`~pencilbot.driver.messages`), :mod:`~pencilbot.driver.gcode.re
 job).
 """
 
-from pencilbot.driver.plot import draw
+from pencilbot.driver.plot import DrawOptions, draw
 from pencilbot.driver.result import DrawResult
 
-__all__ = ["DrawResult", "draw"]
+__all__ = ["DrawOptions", "DrawResult", "draw"]

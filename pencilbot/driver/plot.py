@@ -7,8 +7,11 @@ to :class:`~pencilbot.driver.gcode.runner.Runner`, one that takes step commands 
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
+from typing import Any
 
 from pencilbot.driver import journal as journal_mod
 from pencilbot.driver.gcode.bed_check import check_on_bed, check_resumable
@@ -21,42 +24,20 @@ from pencilbot.driver.result import DrawResult
 from pencilbot.errors import RefusedError
 from pencilbot.fileio import read_bounded
 from pencilbot.firmware.hpgl import MAX_HPGL_FILE
-from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
+from pencilbot.machine.profile import DEFAULT_PROFILE, Profile, load_profile
 from pencilbot.machine.profile_edit import profile_with
 
 
-def draw(
-    gcode: str | Path | bytes | Sequence[str],
-    port: str,
-    *,
-    profile: str | None = None,
-    baud: int | None = None,
-    unlock: bool = False,
-    check: bool = False,
-    send_and_wait: bool = False,
-    on_error: str = "stop",
-    start_line: int | None = None,
-    resume: str | Path | None = None,
-    progress: str = "quiet",
-    timeout: float = DEFAULT_TIMEOUT,
-    wake_wait: float = 2.5,
-    source: str | None = None,
-    announce: Callable[[str, Job], None] | None = None,
-    operator=None,
-    keys=None,
-    on_progress: Callable[[dict], None] | None = None,
-    overrides: dict[str, dict[str, float]] | None = None,
-    allow_system: frozenset[str] = frozenset(),
-) -> DrawResult:
-    """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
+@dataclass(frozen=True)
+class DrawOptions:
+    """How a job is drawn: everything :func:`draw` takes besides the program and the port.
 
-    Parameters
+    One value a script builds once and hands to every job (``draw(path, port, options)``), reads
+    back, or varies with :func:`dataclasses.replace`; ``draw(path, port, profile=…, …)`` takes the
+    same fields as keywords.
+
+    Attributes
     ----------
-    gcode : path, bytes or sequence of str
-        A G-code file, a whole program, or its lines. Only a file gets a job journal (and
-        ``--resume``).
-    port : str
-        Device or pyserial URL (``/dev/ttyUSB0``, ``COM3``, ``socket://…``, ``sim://…``).
     profile : str, optional
         Plotter profile name or TOML path (firmware, receive buffer, pen commands); by default the
         resumed job's, else :data:`~pencilbot.machine.profile.DEFAULT_PROFILE`.
@@ -82,8 +63,8 @@ def draw(
     wake_wait : float
         Seconds to wait for the start-up banner.
     source : str, optional
-        What fault messages call ``gcode`` when it is not a file (e.g. the file it was read from);
-        a file is named by its path.
+        What fault messages call the program when it is not a file (e.g. the file it was read
+        from); a file is named by its path.
     announce : callable, optional
         Called with the board's start-up banner and the job once the board answered, before
         anything is streamed (``draw -v`` prints them).
@@ -105,61 +86,133 @@ def draw(
     allow_system : frozenset of str
         System commands (``$`` lines: ``$H``, ``$C``, ``$100``…) the file may send; any other is
         refused by line before the port is opened (:mod:`pencilbot.driver.gcode.system_lines`).
+    """
+
+    profile: str | None = None
+    baud: int | None = None
+    unlock: bool = False
+    check: bool = False
+    send_and_wait: bool = False
+    on_error: str = "stop"
+    start_line: int | None = None
+    resume: str | Path | None = None
+    progress: str = "quiet"
+    timeout: float = DEFAULT_TIMEOUT
+    wake_wait: float = 2.5
+    source: str | None = None
+    announce: Callable[[str, Job], None] | None = None
+    operator: Any = None
+    keys: Any = None
+    on_progress: Callable[[dict], None] | None = None
+    overrides: dict[str, dict[str, float]] | None = None
+    allow_system: frozenset[str] = frozenset()
+
+
+def draw(
+    gcode: str | Path | bytes | Sequence[str], port: str, options: DrawOptions | None = None, **fields: Any
+) -> DrawResult:
+    """Stream a G-code file (or program, or lines) to a plotter and wait until it has drawn everything.
+
+    Parameters
+    ----------
+    gcode : path, bytes or sequence of str
+        A G-code file, a whole program, or its lines. Only a file gets a job journal (and
+        ``--resume``).
+    port : str
+        Device or pyserial URL (``/dev/ttyUSB0``, ``COM3``, ``socket://…``, ``sim://…``).
+    options : DrawOptions, optional
+        How to draw it; default :class:`DrawOptions`'s defaults.
+    **fields
+        Any of :class:`DrawOptions`'s fields, over ``options`` (``draw(path, port, profile="x")``).
 
     Raises
     ------
     PlotError
         Any fault; the message says what happened, where, and how to resume.
     """
-    journal = journal_mod.load_journal(resume) if resume is not None else None
+    o = replace(options or DrawOptions(), **fields)
+    journal = journal_mod.load_journal(o.resume) if o.resume is not None else None
     if journal is not None:
         gcode = Path(journal.gcode)
         check_unchanged(journal, gcode)
-    profile, plotter, overrides = _plotter(profile, journal, overrides)
+    profile, plotter, overrides = _plotter(o.profile, journal, o.overrides)
+    o = replace(o, overrides=overrides)
+    run = _Run(port, plotter, profile, o.baud or plotter.firmware.baud, journal)
+    if plotter.firmware.flow == "polled":  # no acknowledgements (HP-GL): driver.hpgl
+        return _draw_polled(gcode, run, o)
+    return _draw_acknowledged(gcode, run, o)
+
+
+@dataclass(frozen=True)
+class _Run:
+    """What :func:`draw` resolved: the port, the profile (with this run's overrides), its name
+    or resolved path, the line speed, the resumed job's journal."""
+
+    port: str
+    plotter: Profile
+    profile: str
+    baud: int
+    journal: Any
+
+
+# draw's own signature names every option (DrawOptions's fields, said once there), for help(),
+# inspect and editors: draw(path, port, on_error="continue") reads as a typed keyword.
+_PLAIN = list(inspect.signature(draw).parameters.values())[:3]
+draw.__signature__ = inspect.signature(draw).replace(  # type: ignore[attr-defined]
+    parameters=[
+        *_PLAIN,
+        *(
+            inspect.Parameter(f.name, inspect.Parameter.KEYWORD_ONLY, default=f.default, annotation=f.type)
+            for f in fields(DrawOptions)
+        ),
+    ]
+)
+
+
+def _draw_acknowledged(gcode, run: _Run, o: DrawOptions) -> DrawResult:
+    """A job for a board that acknowledges each line (G-code) or takes step commands (EBB):
+    checked whole before the port is opened, journalled, run by the family's driver."""
+    port, plotter, journal = run.port, run.plotter, run.journal
     fw = plotter.firmware
-    baud = baud or fw.baud
-    if fw.flow == "polled":  # no acknowledgements (HP-GL): driver.hpgl
-        return _draw_polled(
-            gcode, port, plotter, profile, baud, start_line, journal, timeout, progress, announce, source,
-            operator, keys,
-        )  # fmt: skip
-    if check and not fw.capabilities.check_mode:
+    if o.check and not fw.capabilities.check_mode:
         raise RefusedError(
             f"--check runs the file through the board's parse-only mode (GRBL's $C check mode), and "
             f"profile {plotter.name} is for {fw.title}, which has none; draw without --check"
         )
-    job = load_job(gcode, plotter, source, allow=allow_system)
+    job = load_job(gcode, plotter, o.source, allow=o.allow_system)
     check_on_bed(job)  # before the port is opened: nothing is sent
     if journal is not None:
         check_journal(journal, job)  # a journal is input too: its lines and stop point
-    start, stop_xy = _start(job, journal, start_line)
+    start, stop_xy = _start(job, journal, o.start_line)
     check_resumable(job, start)  # a resume restores no work offset the file set up
-    resumed = journal if resume is not None else None
+    resumed = journal if o.resume is not None else None
     path = Path(gcode) if isinstance(gcode, (str, Path)) else None
-    journal = _running_journal(journal, path, job, port, profile)
+    journal = _running_journal(journal, path, job, port, run.profile)
     if journal is not None:
         journal.options = {
             **(journal.options or {}),  # (an EBB stop keeps its step counters here)
-            "baud": baud,
-            "timeout": timeout,
-            "send_and_wait": send_and_wait,
-            "on_error": on_error,
-            **({"overrides": overrides} if overrides else {}),
+            "baud": run.baud,
+            "timeout": o.timeout,
+            "send_and_wait": o.send_and_wait,
+            "on_error": o.on_error,
+            **({"overrides": o.overrides} if o.overrides else {}),
         }
     if fw.capabilities.host_motion:  # the board takes step commands: the host plans the motion
         from pencilbot.driver.ebb.plot import draw_ebb
 
         return draw_ebb(
-            job, plotter, sim_url(port, profile), journal, start=start, resumed=resumed, baud=baud,
-            progress=progress, timeout=timeout, operator=operator, keys=keys, announce=announce,
+            job, plotter, sim_url(port, run.profile), journal, start=start, resumed=resumed, baud=run.baud,
+            progress=o.progress, timeout=o.timeout, operator=o.operator, keys=o.keys, announce=o.announce,
         )  # fmt: skip
-    runner = Runner(job, plotter, port, journal, progress, send_and_wait, on_error, unlock, operator, keys)
-    runner.announce = announce
-    runner.on_progress = on_progress
-    link = LineReader(open_port(port, baudrate=baud, profile=profile))
+    runner = Runner(
+        job, plotter, port, journal, o.progress, o.send_and_wait, o.on_error, o.unlock, o.operator, o.keys
+    )
+    runner.announce = o.announce
+    runner.on_progress = o.on_progress
+    link = LineReader(open_port(port, baudrate=run.baud, profile=run.profile))
     try:
-        stream = Stream(link, fw, receive_buffer=plotter.receive_buffer, timeout=timeout)
-        return runner.run(stream, start, stop_xy, check, wake_wait, resumed)
+        stream = Stream(link, fw, receive_buffer=plotter.receive_buffer, timeout=o.timeout)
+        return runner.run(stream, start, stop_xy, o.check, o.wake_wait, resumed)
     finally:
         try:
             link.port.close()
@@ -208,21 +261,7 @@ def _running_journal(journal, path: Path | None, job: Job, port: str, profile: s
     return journal
 
 
-def _draw_polled(
-    gcode,
-    port,
-    plotter,
-    profile,
-    baud,
-    start_line,
-    journal,
-    timeout,
-    progress,
-    announce,
-    source,
-    operator=None,
-    keys=None,
-):
+def _draw_polled(gcode, run: _Run, o: DrawOptions) -> DrawResult:
     """A job for a firmware that answers nothing per line: read it whole, stream it polled."""
     from pencilbot.driver.hpgl.plot import draw_polled
 
@@ -234,20 +273,21 @@ def _draw_polled(
             raise RefusedError(f"cannot read {path} ({exc.strerror or exc})") from None
     else:
         data = gcode if isinstance(gcode, bytes) else "\n".join(gcode).encode("ascii", errors="replace")
-    start = journal.next_line - 1 if journal is not None else (start_line - 1 if start_line else 0)
+    journal = run.journal
+    start = journal.next_line - 1 if journal is not None else (o.start_line - 1 if o.start_line else 0)
     return draw_polled(
         data,
-        port,
-        plotter,
+        run.port,
+        run.plotter,
         path=path,
-        profile_arg=profile,
-        baud=baud,
+        profile_arg=run.profile,
+        baud=run.baud,
         start=start,
         journal=journal,
-        timeout=timeout,
-        progress=progress,
-        announce=announce,
-        source=source,
-        operator=operator,
-        keys=keys,
+        timeout=o.timeout,
+        progress=o.progress,
+        announce=o.announce,
+        source=o.source,
+        operator=o.operator,
+        keys=o.keys,
     )

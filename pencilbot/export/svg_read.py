@@ -241,7 +241,7 @@ def _read_any(
     size: int = 0,
     text: str | None = None,
 ) -> Plan:
-    """Any SVG through vpype: each top-level group a layer, shapes and curves flattened."""
+    """Any SVG: checked at the door, straight lines read in whole arrays, the rest through vpype."""
     check_numbers(root, path, text)  # NaN, infinities, 1e308: one message naming the element
     check_uses(root, path, size)
     width, height, scale = svg_size(root, path, dpi)
@@ -254,32 +254,40 @@ def _read_any(
         if _local(element.tag) == "g":
             groups[place] = (_layer_attributes(element, len(groups) + 1, scale), _declares_stroke([element]))
         element.set(_LABEL, f"pencilbot-{place}")
-
-    def loose_layer() -> tuple[dict, bool]:
-        return {"name": "default", "role": "other"}, _declares_stroke(loose)
-
     straight = read_straight(root, tops, loose) if height is not None else None
-    if (
-        straight is not None and height is not None
-    ):  # straight lines only: read in whole arrays, as vpype would read them
-        if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
-            scale = MM_PER_INCH / px_per_inch(root, dpi)
-        layers: list[Layer] = []
-        for place, points, offsets, stroke in straight:
-            check_drawing(points * scale, path)
-            layers.append(
-                Layer(
-                    paths=Paths(_to_page(points, scale, height), offsets),
-                    **_pen_of(
-                        *(groups.get(place) or loose_layer()),
-                        stroke * scale if stroke else None,
-                        pen_width,
-                        root,
-                        path=path,
-                    ),
-                )
+    if straight is None or height is None:
+        return _read_vpype(root, path, dpi, pen_width, (groups, loose), width, height)
+    # straight lines only: read in whole arrays, as vpype would read them
+    if root.get("viewBox") is None:  # user units are CSS pixels (or --svg-dpi's), as vpype reads them
+        scale = MM_PER_INCH / px_per_inch(root, dpi)
+    layers: list[Layer] = []
+    for place, points, offsets, stroke in straight:
+        check_drawing(points * scale, path)
+        layers.append(
+            Layer(
+                paths=Paths(_to_page(points, scale, height), offsets),
+                **_pen_of(
+                    *_layer_of(place, groups, loose),
+                    stroke * scale if stroke else None,
+                    pen_width,
+                    root,
+                    path=path,
+                ),
             )
-        return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
+        )
+    return Plan(page=_page(root, width, height), layers=tuple(layers), meta=_meta(root))
+
+
+def _layer_of(place: int, groups: dict[int, tuple[dict, bool]], loose: list[ET.Element]) -> tuple[dict, bool]:
+    """The layer attributes of the top-level group at ``place`` (and whether it declares a
+    stroke), or of the loose shapes' layer."""
+    return groups.get(place) or ({"name": "default", "role": "other"}, _declares_stroke(loose))
+
+
+def _read_vpype(root: ET.Element, path, dpi, pen_width, tops, width: float, height: float | None) -> Plan:
+    """Any SVG through vpype: each top-level group a layer (``tops``: the groups' attributes by
+    place, the loose shapes), shapes and curves flattened."""
+    groups, loose = tops
     try:
         import vpype
     except ImportError:
@@ -308,7 +316,7 @@ def _read_any(
             continue
         vpype_pen = document.layers[lid].property("vp_pen_width")
         attributes = _pen_of(
-            *(groups.get(lid) or loose_layer()),
+            *_layer_of(lid, groups, loose),
             float(vpype_pen) * px_to_mm if vpype_pen else None,
             pen_width,
             root,

@@ -15,6 +15,7 @@ shift hue and darken the drawing's tone, so instead the chroma is scaled down ju
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 import os
@@ -135,6 +136,27 @@ def sketch(
     """
     _check_range("stroke_gamma", stroke_gamma, GAMMA_RANGE)
     _check_range("stroke_width", stroke_width, WIDTH_RANGE)
+    factor = _enlargement(image)
+    drawn = functools.partial(
+        _drawn,
+        line_length=line_length,
+        stroke_gamma=stroke_gamma,
+        stroke_width=stroke_width,
+        texture=texture,
+        texture_seed=texture_seed,
+        lines_only=lines_only,
+    )
+    if factor > 1:
+        enlarged = image_from_array(
+            np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source
+        )
+        return _reduced(drawn(enlarged, color=False), image, color)
+    return drawn(image, color=color)
+
+
+def _enlargement(image: LoadedImage) -> int:
+    """By how much a thin image is enlarged to be sketched (its short side to ``MIN_SIDE``);
+    refused when that would pass ``MAX_ENLARGED_PIXELS``."""
     factor = math.ceil(MIN_SIDE / min(image.shape))
     if factor > 1 and image.shape[0] * image.shape[1] * factor**2 > MAX_ENLARGED_PIXELS:
         h, w = image.shape
@@ -144,20 +166,21 @@ def sketch(
             f"{MAX_ENLARGED_PIXELS / 1e6:.1f} megapixels). Crop it to a wider strip, or scale it to at least "
             f"{MIN_SIDE} px on its short side"
         )
-    if factor > 1:
-        enlarged = image_from_array(
-            np.repeat(np.repeat(image.rgb, factor, 0), factor, 1), source=image.source
-        )
-        drawn = sketch(
-            enlarged,
-            line_length=line_length,
-            stroke_gamma=stroke_gamma,
-            stroke_width=stroke_width,
-            texture=texture,
-            texture_seed=texture_seed,
-            lines_only=lines_only,
-        )
-        return _reduced(drawn, image, color)
+    return factor
+
+
+def _drawn(
+    image: LoadedImage,
+    *,
+    color: bool,
+    line_length: int | None,
+    stroke_gamma: float,
+    stroke_width: float,
+    texture,
+    texture_seed: int,
+    lines_only: bool,
+) -> Sketch:
+    """:func:`sketch` of an image large enough to sketch as it is: the stages, each timed."""
     timings: dict[str, float] = {}
     clock = time.perf_counter()
 

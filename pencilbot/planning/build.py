@@ -12,18 +12,19 @@ from __future__ import annotations
 import logging
 import math
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.faces import face_mask, face_squares, find_faces, portrait_darkness
+from pencilbot.imaging.faces import face_mask, find_faces, portrait_darkness
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
+from pencilbot.planning.features import features_only, mostly_in
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -31,25 +32,13 @@ from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE, Hatching
 from pencilbot.planning.sketch_tone import sketch_darkness
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
-from pencilbot.planning.vectorize import edge_strokes, edge_threshold
+from pencilbot.planning.vectorize import EdgeOptions, edge_strokes, edge_threshold
 
 HOME = (0.0, 0.0)
 #: Darkness of the raster line drawing from which a face's features are drawn with the pen
 #: (elsewhere :data:`~pencilbot.planning.vectorize.PEN_DARKNESS`): an eyelid, a brow, the
 #: corner of a mouth are faint edges that carry a likeness.
 FACE_PEN_DARKNESS = 0.35
-#: In a face, a contour is drawn with the pen only where it is a dark feature: along a line darker
-#: than its surroundings (the photo's darkness at a FEATURE_BLUR mm blur at least FEATURE_VALLEY
-#: above its FEATURE_SURROUND mm blur: eyes, brows, nostrils, the mouth's line, wrinkles, glasses'
-#: frames), or darker than FEATURE_SHARE of the face's pixels (hair, a shadow). A contour on light
-#: skin (a cheek against a pale wall) would lay a dark rim where the face is light; its form is
-#: the hatching's. Measured (bench/fidelity.py, face rho@1mm / @0.5mm, every contour -> features
-#: only): astronaut 0.931 / 0.838 -> 0.939 / 0.845, grace_hopper 0.948 / 0.868 -> 0.958 / 0.878
-#: (and 1.2 min less plotting); messi5's 17 mm face 0.841 / 0.665 -> 0.828 / 0.661 (its dither).
-FEATURE_SHARE = 0.7
-FEATURE_BLUR = 0.5
-FEATURE_SURROUND = 2.0
-FEATURE_VALLEY = 0.02
 #: Every face is drawn at the pen's own scale, as dithered runs (:mod:`pencilbot.planning.dither`)
 #: to its photo's tone (:func:`~pencilbot.imaging.faces.portrait_darkness`), without its
 #: contours: the runs draw its features too. The rest of the sheet is hatched to the pencil
@@ -58,7 +47,7 @@ FEATURE_VALLEY = 0.02
 #: rho@1mm >= 0.95 and @0.5mm >= 0.85, plot vs own sketch r down to 0.825 and group photos at
 #: 33-51 min; see docs/faces.md.)
 #: Pen-down length a one-pen plan aims to stay within, mm per cm² of the sheet (39 m on A4): past
-#: it the hatching's tone is drawn lighter by one factor (:func:`_shaded`). On the face set
+#: it the hatching's tone is drawn lighter by one factor (:meth:`~pencilbot.planning.shading.Hatching.shade_within`). On the face set
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
 #: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min. (Per cm² of the drawing
 #: box instead, a square portrait's smaller box was held to 27 m: astronaut 22 -> 16 min, whole
@@ -218,7 +207,8 @@ def plan_from_sketch(
         (``result`` RGB) when there are several ``pens``.
     page : Page
     style : Style
-        (Its pen width is the contours' pen's: see :func:`with_pens`.)
+        (Its pen width is the contours' pen's: see :func:`with_pens`.) Resolved once, at the
+        top, into what each stage takes (:func:`stages_of`).
     source : str
         Where the picture came from, for the plan's metadata.
     pens : PenSet, optional
@@ -230,12 +220,83 @@ def plan_from_sketch(
     """
     line = drawing.line
     layout = Layout.fit(line.edges.shape, page)
-    threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
-    faces = find_faces(drawing.gray if drawing.rgb is None else drawing.rgb) if style.faces else []
+    stages = stages_of(style, line)
+    faces = find_faces(drawing.gray if drawing.rgb is None else drawing.rgb) if stages.faces else []
+    meta = _meta(source, style, stages, page, layout, line, faces, pens)
     important = face_mask(line.edges.shape, faces) if faces else None
-    strokes = edge_strokes(
-        line,
-        layout,
+    strokes = edge_strokes(line, layout, stages.edges, important=important)
+    in_color = pens is not None and len(pens.pens) > 1
+    hatching = stages.hatching
+    dithered = face_mask(line.edges.shape, faces) if faces and hatching and not in_color else None
+    if faces and important is not None:  # (important: the faces' mask)
+        strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
+    if dithered is not None:
+        strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
+    layers = []
+    if hatching is not None and in_color:
+        assert (
+            pens is not None and drawing.tone is not None
+        )  # in colour: pens; hatching: a sketch with its tone
+        if drawing.result.ndim != 3:
+            raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
+        paper = 1.0 - drawing.gray
+        layers += color_hatching(
+            drawing.result,
+            layout,
+            pens.load_order,
+            strokes,
+            form=1.0 - drawing.tone,
+            paper=paper,
+            hatching=hatching,
+        )
+    elif hatching is not None:
+        # A one-pen plan's hatching (and faces' runs) within PEN_DOWN_BUDGET, the faces at their own tone.
+        tone = sketch_darkness(drawing)
+        area = layout.page.width * layout.page.height / 100
+        budget = PEN_DOWN_BUDGET * area - float(strokes.drawn_lengths().sum())
+        hatches = hatching.shade_within(
+            budget,
+            tone,
+            layout,
+            strokes,
+            paper=1.0 - drawing.gray,
+            important=important,
+            dithered=dithered,
+            face_darkness=portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None,
+        )
+        layers += [layer for layer in hatches if layer.paths]
+    layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
+    ordered = _ordered(layers, stages.order)
+    return Plan(page=page, layers=tuple(ordered), meta=meta)
+
+
+@dataclass(frozen=True)
+class Ordering:
+    """How each layer's paths are ordered (:func:`_ordered`): joins within ``pen_width`` for
+    contours and faces' runs, within ``hatch_join`` for hatch runs from ``1.5 * min_hatch_run``
+    long (mm), ``rounds`` of improvement."""
+
+    pen_width: float
+    hatch_join: float
+    min_hatch_run: float
+    rounds: int
+
+
+@dataclass(frozen=True)
+class Stages:
+    """A style resolved, once, into what each stage of a plan takes: the contours' options,
+    the hatching (None: the style draws contours only), the ordering, whether faces are sought."""
+
+    edges: EdgeOptions
+    hatching: Hatching | None
+    order: Ordering
+    faces: bool
+
+
+def stages_of(style: Style, line) -> Stages:
+    """What ``style`` asks of each stage, for the line drawing ``line`` (its edge threshold)."""
+    threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
+    edges = EdgeOptions(
         pen_width=style.pen_width,
         threshold=threshold,
         min_pixels=style.min_edge_pixels,
@@ -243,46 +304,28 @@ def plan_from_sketch(
         clutter=style.edge_clutter,
         max_lines=style.edge_lines,
         budget=style.edge_budget / 100 if style.edge_budget > 0 else None,
-        important=important,
         fine_threshold=min(threshold, edge_threshold(line, FACE_PEN_DARKNESS)),
     )
-    in_color = pens is not None and len(pens.pens) > 1
-    dithered = face_mask(line.edges.shape, faces) if faces and style.hatch and not in_color else None
-    if faces and important is not None:  # (important: the faces' mask)
-        strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
-    if dithered is not None:
-        strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
-    layers = []
-    if style.hatch and in_color:
-        assert (
-            pens is not None and drawing.tone is not None
-        )  # in colour: pens; hatching: a sketch with its tone
-        if drawing.result.ndim != 3:
-            raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
-        layers += color_hatching(
-            drawing.result,
-            layout,
-            pens.load_order,
-            strokes,
-            form=1.0 - drawing.tone,
-            paper=1.0 - drawing.gray,
-            hatching=Hatching.of_style(style),
-        )
-    elif style.hatch:
-        hatches = _shaded(drawing, layout, strokes, style, important, dithered, faces)
-        layers += [layer for layer in hatches if layer.paths]
-    layers = _with_edges(layers, strokes, style, pens)
-
-    ordered = _ordered(layers, style)
-    meta = _meta(source, style, page, layout, line, threshold, faces, pens)
-    return Plan(page=page, layers=tuple(ordered), meta=meta)
+    hatching = Hatching(
+        pen_width=style.pen_width,
+        angles=style.hatch_angles,
+        coverage=style.hatch_coverage,
+        form_scale=style.hatch_form,
+        min_run=style.min_hatch_run,
+        blank_below=style.hatch_blank_below,
+        wobble=style.hatch_jitter,
+        blur=style.hatch_blur,
+        seed=style.seed,
+    )
+    order = Ordering(style.pen_width, style.hatch_join, style.min_hatch_run, style.order_rounds)
+    return Stages(edges, hatching if style.hatch else None, order, style.faces)
 
 
-def _with_edges(layers: list[Layer], strokes: Paths, style: Style, pens: PenSet | None) -> list[Layer]:
+def _with_edges(layers: list[Layer], strokes: Paths, pen_width: float, pens: PenSet | None) -> list[Layer]:
     """``layers`` and the edges after them, last; with pens, every layer not yet a pen's and
     the edges in the darkest pen."""
     if pens is None:
-        return [*layers, Layer("edges", strokes, pen_width=style.pen_width, role="edges")]
+        return [*layers, Layer("edges", strokes, pen_width=pen_width, role="edges")]
     in_color = len(pens.pens) > 1
     dark = pens.darkest
     layers = [layer if layer.pen else replace(layer, pen=dark.name, color=dark.color) for layer in layers]
@@ -299,7 +342,7 @@ def _with_edges(layers: list[Layer], strokes: Paths, style: Style, pens: PenSet 
     return layers
 
 
-def _ordered(layers: list[Layer], style: Style) -> list[Layer]:
+def _ordered(layers: list[Layer], order: Ordering) -> list[Layer]:
     """Each layer's paths ordered for short pen-up travel, from where the layer before ended
     (the first from the plotter's home)."""
     ordered, position = [], HOME
@@ -310,20 +353,16 @@ def _ordered(layers: list[Layer], style: Style) -> list[Layer]:
         # joining more than touching ends would draw chords between unrelated strokes.
         # A face's dithered runs come joined where they touch (pencilbot.planning.dither).
         exact = layer.role == "edges" or layer.name == FACE_TONE
-        join = style.pen_width if exact else style.hatch_join
+        join = order.pen_width if exact else order.hatch_join
         # Only hatch runs of a few shortest strokes are zig-zagged: joined dashes of a light
         # tone would read as a staircase. 1.5 (was 2.5, 3 before): with GRBL's stepper idle lock
         # counted (25 ms at every stop, as the real firmware waits), messi5 came to 30.9 min;
         # joining runs from 1.5 shortest strokes on takes 10-15 % of the lifts off every photo
         # (messi5 1295 -> 1144 paths, 29.8 min) for whole-box rho at most 0.001 lower
         # (bench/fidelity.py), the joins within the pen's own width.
-        zigzag = 0.0 if exact else 1.5 * style.min_hatch_run
+        zigzag = 0.0 if exact else 1.5 * order.min_hatch_run
         paths = order_paths(
-            layer.paths,
-            start=position,
-            join_tolerance=join,
-            join_min_length=zigzag,
-            rounds=style.order_rounds,
+            layer.paths, start=position, join_tolerance=join, join_min_length=zigzag, rounds=order.rounds
         )
         ordered.append(replace(layer, paths=paths))
         if len(paths):
@@ -334,117 +373,34 @@ def _ordered(layers: list[Layer], style: Style) -> list[Layer]:
     return ordered
 
 
-def _meta(source: str, style: Style, page: Page, layout: Layout, line, threshold: float, faces, pens) -> dict:
-    """The plan's provenance: where the picture came from and every drawing parameter."""
+def _meta(source: str, style: Style, stages: Stages, page: Page, layout: Layout, line, faces, pens) -> dict:
+    """The plan's provenance: where the picture came from, the sketch's parameters and every
+    stage's, as resolved."""
+    edges, hatching = stages.edges, stages.hatching
     meta = {
         "source": source,
         "style": style.name,
         "page": f"{page.name} {page.width:g}x{page.height:g} mm, margin {page.margin:g} mm",
         "image_px": f"{line.edges.shape[1]}x{line.edges.shape[0]}",  # as planned
         "mm_per_px": f"{layout.mm_per_px:.6g}",
-        "pen_width_mm": f"{style.pen_width:g}",
+        "pen_width_mm": f"{edges.pen_width:g}",
         "line_length_px": str(line.length),
         "stroke_gamma": f"{style.stroke_gamma:g}",
         "stroke_width_px": f"{style.stroke_width:g}",
-        "edge_threshold": f"{threshold:.4g}",
-        "hatch_angles_deg": " ".join(f"{a:g}" for a in style.hatch_angles) if style.hatch else "",
+        "edge_threshold": f"{edges.threshold:.4g}",
+        "hatch_angles_deg": " ".join(f"{a:g}" for a in hatching.angles) if hatching else "",
         "hatch_coverage": f"{style.hatch_coverage:g}",
         "texture": style.texture or "synthesised",
         "texture_seed": str(style.seed),
-        "edge_lines": str(style.edge_lines),
+        "edge_lines": str(edges.max_lines),
         "edge_budget_mm_per_cm2": f"{style.edge_budget:g}",
         # Faces treated with care, "x,y,size" in px of the image as planned (image_px).
         "faces": "; ".join(face.describe() for face in faces)
         if faces
-        else ("none" if style.faces else "off"),
+        else ("none" if stages.faces else "off"),
     }
     if pens is not None:
         meta["pens"] = f"{pens.name}: " + ", ".join(
             f"{p.name} {p.color} {p.width:g} mm" for p in pens.load_order
         )
     return meta
-
-
-def _shaded(drawing, layout: Layout, strokes: Paths, style: Style, important, dithered, faces: list) -> list:
-    """The hatch layers (and the faces' runs) of a one-pen plan, within ``PEN_DOWN_BUDGET``.
-
-    Past the budget the tone is shaded once more, the hatching's tone scaled by (what the budget
-    leaves it / what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order
-    of tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
-    """
-    tone = sketch_darkness(drawing)
-    face_tone = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
-    budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(
-        strokes.drawn_lengths().sum()
-    )
-    scale = 1.0
-    hatching = Hatching.of_style(style)
-    for _ in range(2):
-        layers = hatching.shade(
-            scale * tone,
-            layout,
-            strokes,
-            paper=1.0 - drawing.gray,
-            important=important,
-            dithered=dithered,
-            face_darkness=face_tone,
-        )
-        drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
-        if drawn <= budget or scale < 1.0:
-            return layers
-        runs = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers if layer.name == FACE_TONE)
-        # ¾: the hatching's ink falls faster than its tone (fewer families reach a lighter one);
-        # linear, the dark bar photo came to 24.8 min but its whole-box rho 0.944 -> 0.929.
-        scale = (max(budget - runs, 0.0) / max(drawn - runs, 1e-9)) ** 0.75
-        log.debug(
-            "pen-down %.1f m over the budget %.1f m: tone scaled by %.2f", drawn / 1e3, budget / 1e3, scale
-        )
-    return layers
-
-
-def features_only(
-    strokes: Paths, layout: Layout, photo: np.ndarray, important: np.ndarray, faces: list
-) -> Paths:
-    """The edge strokes less those in a face that are no dark feature (see FEATURE_SHARE).
-
-    Parameters
-    ----------
-    strokes : Paths
-        Edge paths, page mm.
-    layout : Layout
-    photo : (H, W) float array
-        Photo darkness 1 − luma on the layout's image grid.
-    important : (H, W) float array in [0, 1]
-        The faces' mask (:func:`~pencilbot.imaging.faces.face_mask`); a path is in a face when
-        its points' mean mask value is over one half.
-    faces : list of Face
-
-    Returns
-    -------
-    Paths
-        ``strokes`` without those, in order.
-    """
-    if not len(strokes):
-        return strokes
-    photo = np.asarray(photo, np.float32)
-    in_face = mostly_in(strokes, layout, important)
-    dark = cv2.GaussianBlur(photo, (0, 0), FEATURE_BLUR / layout.mm_per_px)
-    valley = dark - cv2.GaussianBlur(photo, (0, 0), FEATURE_SURROUND / layout.mm_per_px)
-    level = float(np.quantile(dark[face_squares(dark.shape, faces)], FEATURE_SHARE))
-    light = _path_means(strokes, layout, dark) < level
-    flat = _path_means(strokes, layout, valley) < FEATURE_VALLEY
-    return strokes.take(np.flatnonzero(~(in_face & light & flat)))
-
-
-def mostly_in(strokes: Paths, layout: Layout, mask: np.ndarray) -> np.ndarray:
-    """(P,) bool: the strokes whose points' mean of ``mask`` (on the image grid) is above ½."""
-    return _path_means(strokes, layout, mask) > 0.5
-
-
-def _path_means(strokes: Paths, layout: Layout, values: np.ndarray) -> np.ndarray:
-    """Mean of ``values`` (on the image grid) at each path's points, nearest pixel."""
-    if not len(strokes):
-        return np.zeros(0)
-    px = np.rint(layout.mm_to_px(strokes.points)).astype(np.intp)
-    cols, rows = np.clip(px[:, 0], 0, values.shape[1] - 1), np.clip(px[:, 1], 0, values.shape[0] - 1)
-    return np.bincount(strokes.owners(), values[rows, cols], minlength=len(strokes)) / strokes.lengths

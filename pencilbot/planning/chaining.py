@@ -47,6 +47,25 @@ class Strokes:
     def n(self) -> int:
         return len(self.unit)
 
+    def take(self, which: np.ndarray, shift_px: float = 0.0) -> Strokes:
+        """The ``which`` components (boolean mask), moved ``shift_px`` across their direction."""
+        keep = np.flatnonzero(which)
+        sizes = np.diff(self.offsets)[keep]
+        index = np.repeat(self.offsets[keep], sizes) + ramps(sizes)
+        across = np.column_stack([-self.unit[:, 1], self.unit[:, 0]])  # (sin θ, cos θ): +v
+        points = self.points[index] + shift_px * np.repeat(across[keep], sizes, axis=0)
+        offsets = np.append(0, np.cumsum(sizes))
+        core = self.core[keep] + shift_px * across[keep][:, None, :]
+        return Strokes(
+            points,
+            offsets,
+            core,
+            self.outward[keep],
+            self.unit[keep],
+            self.extent[keep],
+            self.overshoot[keep],
+        )
+
 
 def chain_ids(n: int, links: np.ndarray) -> np.ndarray:
     """Index of the chain (connected component of the link graph) of each of ``n`` components."""

@@ -15,6 +15,7 @@ reach full coverage, mid-tones get their share and the tone around contours is k
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass, fields
 
 import cv2
@@ -72,12 +73,13 @@ FACE_BLUR = 0.5
 FACE_CORRECTION_BLUR = 0.7
 #: Name of the layer of a small face's dithered runs (:mod:`pencilbot.planning.dither`).
 FACE_TONE = "face-tone"
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
 class Hatching:
     """How tone becomes hatching: every parameter of the tone loop, in one object that travels
-    down from the style (:meth:`of_style`) to the loop (:meth:`shade`, :class:`ToneLoop`).
+    down from the style (:func:`~pencilbot.planning.build.stages_of`) to the loop (:meth:`shade`, :class:`ToneLoop`).
 
     Attributes
     ----------
@@ -116,21 +118,6 @@ class Hatching:
     blur: float = TONE_BLUR
     rounds: int = 2
     seed: int = 0
-
-    @classmethod
-    def of_style(cls, style) -> Hatching:
-        """The hatching a :class:`~pencilbot.planning.style.Style` asks for."""
-        return cls(
-            pen_width=style.pen_width,
-            angles=style.hatch_angles,
-            coverage=style.hatch_coverage,
-            form_scale=style.hatch_form,
-            min_run=style.min_hatch_run,
-            blank_below=style.hatch_blank_below,
-            wobble=style.hatch_jitter,
-            blur=style.hatch_blur,
-            seed=style.seed,
-        )
 
     def shade(
         self,
@@ -180,7 +167,6 @@ class Hatching:
             One per family, lightest first, from the last round; then ``FACE_TONE``, the dithered
             faces' runs, if any.
         """
-        loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
         runs = Paths.empty()
         if dithered is not None and np.any(dithered > 0.5):
             faces = darkness if face_darkness is None else face_darkness
@@ -192,13 +178,61 @@ class Hatching:
                     edges,
                     pen_width=self.pen_width,
                     blank_below=self.blank_below,
-                    paper=loop.photo_darkness,
+                    paper=darkness if paper is None else paper,  # (the loop's photo_darkness)
                 ),
                 layout.page.width * layout.page.height / 100,
             )
+        loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
         layers = loop.run(edges, runs, dithered)
         if len(runs):
             layers = [*layers, Layer(FACE_TONE, runs, pen_width=self.pen_width, role="hatch")]
+        return layers
+
+    def shade_within(
+        self,
+        budget: float,
+        darkness: np.ndarray,
+        layout,
+        edges: Paths,
+        *,
+        paper: np.ndarray | None = None,
+        important: np.ndarray | None = None,
+        dithered: np.ndarray | None = None,
+        face_darkness: np.ndarray | None = None,
+    ) -> list[Layer]:
+        """:meth:`shade`, its pen-down length (mm) within ``budget`` (the faces' runs in it).
+
+        Past the budget the tone is shaded once more, scaled by (what the budget leaves it /
+        what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order of
+        tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
+        The keywords are :meth:`shade`'s.
+        """
+        scale = 1.0
+        for _ in range(2):
+            layers = self.shade(
+                scale * darkness,
+                layout,
+                edges,
+                paper=paper,
+                important=important,
+                dithered=dithered,
+                face_darkness=face_darkness,
+            )
+            drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
+            if drawn <= budget or scale < 1.0:
+                return layers
+            runs = sum(
+                float(layer.paths.drawn_lengths().sum()) for layer in layers if layer.name == FACE_TONE
+            )
+            # ¾: the hatching's ink falls faster than its tone (fewer families reach a lighter one);
+            # linear, the dark bar photo came to 24.8 min but its whole-box rho 0.944 -> 0.929.
+            scale = (max(budget - runs, 0.0) / max(drawn - runs, 1e-9)) ** 0.75
+            log.debug(
+                "pen-down %.1f m over the budget %.1f m: tone scaled by %.2f",
+                drawn / 1e3,
+                budget / 1e3,
+                scale,
+            )
         return layers
 
 

@@ -40,6 +40,7 @@ a KD-tree, a depth-first order); no loop per pixel or per stroke.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -94,32 +95,15 @@ def edge_threshold(line: LineDrawing, darkness: float = PEN_DARKNESS) -> float:
     return line.edge_strength(darkness)
 
 
-def edge_strokes(
-    line: LineDrawing,
-    layout,
-    *,
-    pen_width: float = DEFAULT_PEN_WIDTH,
-    threshold: float | None = None,
-    min_pixels: int = MIN_EDGE_PIXELS,
-    piece_length: float = 2.0,
-    join: float = EDGE_JOIN,
-    clutter: float = CLUTTER,
-    max_lines: int = MAX_LINES,
-    budget: float | None = None,
-    important: np.ndarray | None = None,
-    fine_threshold: float | None = None,
-) -> Paths:
-    """Pen paths that redraw the GMED line drawing, one chain of strokes per contour.
+@dataclass(frozen=True)
+class EdgeOptions:
+    """How :func:`edge_strokes` draws the contours (a style's edge keys, resolved for one sketch).
 
-    Parameters
+    Attributes
     ----------
-    line : LineDrawing
-        Edge map, direction labels and stroke length ℓ (px) from :mod:`pencilbot.imaging.strokes`.
-    layout : pencilbot.planning.layout.Layout
-        Maps image pixels to page millimetres (``mm_per_px``, ``px_to_mm``).
     pen_width : float
         Pen line width, mm; a contour whose raster stroke is n pen widths wide is drawn with n
-        touching lines (at most ``MAX_LINES``).
+        touching lines (at most ``max_lines``).
     threshold : float or None
         Edge strength in [0, 1] below which pixels draw nothing; None uses :func:`edge_threshold`.
     min_pixels : int
@@ -137,13 +121,44 @@ def edge_strokes(
     budget : float, optional
         Most contour length, mm per mm² of the image on the page; past it the most cluttered
         chains are dropped first (see the module docstring). None: no budget.
+    fine_threshold : float, optional
+        The edge threshold where :func:`edge_strokes`' ``important`` is 1 (default: ``threshold``).
+    """
+
+    pen_width: float = DEFAULT_PEN_WIDTH
+    threshold: float | None = None
+    min_pixels: int = MIN_EDGE_PIXELS
+    piece_length: float = 2.0
+    join: float = EDGE_JOIN
+    clutter: float = CLUTTER
+    max_lines: int = MAX_LINES
+    budget: float | None = None
+    fine_threshold: float | None = None
+
+
+def edge_strokes(
+    line: LineDrawing,
+    layout,
+    options: EdgeOptions | None = None,
+    *,
+    important: np.ndarray | None = None,
+    **fields: Any,
+) -> Paths:
+    """Pen paths that redraw the GMED line drawing, one chain of strokes per contour.
+
+    Parameters
+    ----------
+    line : LineDrawing
+        Edge map, direction labels and stroke length ℓ (px) from :mod:`pencilbot.imaging.strokes`.
+    layout : pencilbot.planning.layout.Layout
+        Maps image pixels to page millimetres (``mm_per_px``, ``px_to_mm``).
+    options : EdgeOptions, optional
+        How to draw them; ``**fields``: any of its fields, over it (``pen_width=0.5``).
     important : (H, W) float array in [0, 1], optional
         Where the picture matters most (faces: :func:`pencilbot.imaging.faces.face_mask`).
         There the threshold falls towards ``fine_threshold`` (the edge map is raised by their
         ratio, so hysteresis and skeleton stay one pass: an eyelid, a brow, the corner of a
         mouth are faint edges), and no chain there is dropped for the budget.
-    fine_threshold : float, optional
-        The edge threshold where ``important`` is 1 (default: ``threshold``).
 
     Returns
     -------
@@ -151,11 +166,12 @@ def edge_strokes(
         Pen-down paths in mm on the page (Y up), in no particular order; a lone stroke is a
         path of two points.
     """
+    o = replace(options or EdgeOptions(), **fields)
     edges = np.asarray(line.edges, dtype=np.float32)
     ell = float(line.length)
-    thr = edge_threshold(line) if threshold is None else float(threshold)
-    if important is not None and fine_threshold is not None and 0 < fine_threshold < thr:
-        edges = edges * (1.0 + (thr / fine_threshold - 1.0) * np.asarray(important, np.float32))
+    thr = edge_threshold(line) if o.threshold is None else float(o.threshold)
+    if important is not None and o.fine_threshold is not None and 0 < o.fine_threshold < thr:
+        edges = edges * (1.0 + (thr / o.fine_threshold - 1.0) * np.asarray(important, np.float32))
     # Hysteresis, as Canny: a contour goes on through stretches down to half the threshold
     # (a rim where the light grazes it), while weak texture on its own draws nothing.
     mask = apply_hysteresis_threshold(edges, _weaker(line, thr), thr)
@@ -166,33 +182,38 @@ def edge_strokes(
     if found is None:
         return Paths.empty()
     comp, direction, u, v, rows, cols = found
-    pen_px = pen_width / layout.mm_per_px
+    pen_px = o.pen_width / layout.mm_per_px
     width = _raster_width(line.drawing, skeleton, comp, rows, cols, ell)
-    lines = np.clip(np.rint(width / pen_px), 1, max(1, max_lines)).astype(np.intp)
+    lines = np.clip(np.rint(width / pen_px), 1, max(1, o.max_lines)).astype(np.intp)
     v = v - ((lines - 1) * pen_px / 2)[comp]  # the first of n touching lines; the rest follow
-    strokes = _strokes(comp, direction, u, v, ell, piece_length)
-    reach = max(2.0, join * ell)
-    links = link_strokes(strokes, reach) if join >= 0 else NO_LINKS
+    strokes = _strokes(comp, direction, u, v, ell, o.piece_length)
+    links = link_strokes(strokes, max(2.0, o.join * ell)) if o.join >= 0 else NO_LINKS
     pixels = np.bincount(comp)
     texture = np.bincount(comp, weights=_clutter(skeleton, direction, rows, cols, ell)) / pixels
-    keep = _contours(strokes, links, pixels, texture, ell, min_pixels, clutter)
-    if budget is not None:
-        allowed = budget * edges.size * layout.mm_per_px  # mm per mm² × mm² / (mm per px): px
+    keep = _contours(strokes, links, pixels, texture, ell, o.min_pixels, o.clutter)
+    if o.budget is not None:
+        allowed = o.budget * edges.size * layout.mm_per_px  # mm per mm² × mm² / (mm per px): px
         protected = (
             None
             if important is None
             else np.bincount(comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
         )
         keep &= _within_budget(strokes, links, texture, keep, allowed, protected)
-    strokes, links, lines = _select(strokes, keep), relinked(links, keep), lines[keep]
-    paths_px = [chain_polylines(strokes, links, edges.shape)]
-    for k in range(1, max(1, max_lines)):  # the further lines of bold contours, chained alike
-        extra = _select(strokes, lines > k, shift_px=k * pen_px)
-        paths_px.append(
-            chain_polylines(extra, link_strokes(extra, reach) if join >= 0 else NO_LINKS, edges.shape)
-        )
-    paths = Paths.concat(paths_px)
+    paths = _chained(strokes.take(keep), relinked(links, keep), lines[keep], o, pen_px, edges.shape, ell)
     return paths.with_points(layout.px_to_mm(paths.points)) if len(paths) else paths
+
+
+def _chained(strokes: Strokes, links, lines, o: EdgeOptions, pen_px: float, shape, ell: float) -> Paths:
+    """The kept strokes chained along their contours (px), and the further lines of bold
+    contours (``lines`` per stroke) beside them, chained alike."""
+    reach = max(2.0, o.join * ell)
+    paths_px = [chain_polylines(strokes, links, shape)]
+    for k in range(1, max(1, o.max_lines)):
+        extra = strokes.take(lines > k, shift_px=k * pen_px)
+        paths_px.append(
+            chain_polylines(extra, link_strokes(extra, reach) if o.join >= 0 else NO_LINKS, shape)
+        )
+    return Paths.concat(paths_px)
 
 
 def _without_pinholes(mask: np.ndarray, largest: float) -> np.ndarray:
@@ -355,26 +376,6 @@ def _unit_or(vectors: np.ndarray, fallback: np.ndarray) -> np.ndarray:
     """``vectors`` scaled to length 1; ``fallback`` where they are shorter than half a pixel."""
     length = np.hypot(vectors[:, 0], vectors[:, 1])
     return np.where((length >= 0.5)[:, None], vectors / np.maximum(length, 1e-12)[:, None], fallback)
-
-
-def _select(strokes: Strokes, which: np.ndarray, shift_px: float = 0.0) -> Strokes:
-    """The ``which`` components (boolean mask), moved ``shift_px`` across their direction."""
-    keep = np.flatnonzero(which)
-    sizes = np.diff(strokes.offsets)[keep]
-    index = np.repeat(strokes.offsets[keep], sizes) + ramps(sizes)
-    across = np.column_stack([-strokes.unit[:, 1], strokes.unit[:, 0]])  # (sin θ, cos θ): +v
-    points = strokes.points[index] + shift_px * np.repeat(across[keep], sizes, axis=0)
-    offsets = np.append(0, np.cumsum(sizes))
-    core = strokes.core[keep] + shift_px * across[keep][:, None, :]
-    return Strokes(
-        points,
-        offsets,
-        core,
-        strokes.outward[keep],
-        strokes.unit[keep],
-        strokes.extent[keep],
-        strokes.overshoot[keep],
-    )
 
 
 def _contours(strokes, links, pixels, texture, ell, min_pixels, clutter) -> np.ndarray:

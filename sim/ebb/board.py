@@ -35,7 +35,7 @@ BOOT_SERVO = (12000, 16000)  # SC,4 / SC,5 at boot
 _GARBAGE = b"\xfe\x13#~garb\xa7ge\r\n"
 
 
-class EbbBoard(PenSide):
+class EbbBoard:
     """The board behind the wire: call :meth:`receive` with bytes, :meth:`poll` with time,
     :meth:`take_output` for its replies. ``record(start_mm, end_mm, drawing)`` is called for
     every stretch the carriage moves.
@@ -66,6 +66,7 @@ class EbbBoard(PenSide):
         supply: float = 9.1,
     ):
         self.profile, self.record, self.instant = profile, record, instant
+        self.pen_side = PenSide(self)  # where the pen is, what the carriage draws with it
         self.version, self._version = version, protocol.version_tuple(version)
         self.faults = faults.at if faults is not None else {}
         self.operator = operator
@@ -98,7 +99,7 @@ class EbbBoard(PenSide):
         self.carry = [0, 0]
         self.servo_up, self.servo_down = BOOT_SERVO
         self.rate_up = self.rate_down = 0
-        self.servos = Servos(getattr(self.profile.ebb, "servo_pin", 1), self._resting_servo())
+        self.servos = Servos(getattr(self.profile.ebb, "servo_pin", 1), self.pen_side.resting_servo())
         self.pen_up = True
         self.queries.reset()
         self.enabled = (0, 0)  # QE: motors off at boot, so the carriage is free to move
@@ -183,7 +184,7 @@ class EbbBoard(PenSide):
         if run.steps.any() and self.supply_volts < self.MOTOR_VOLTS:  # counted, but the motors had no power
             self.origin = self.origin - (self.counters - run.start)
         elif run.steps.any():
-            self._record_move(before, run, t)
+            self.pen_side.record_move(before, run, t)
         for i in range(2):  # the accumulators keep their remainders for the next command
             if run.steps[i] and run.command.name == "LM" and t >= run.axis_ticks[i]:
                 self.carry[i] = (
@@ -196,7 +197,7 @@ class EbbBoard(PenSide):
 
     # --- the pen and the drawing ---------------------------------------------------------------
 
-    def _true_steps(self) -> np.ndarray:
+    def true_steps(self) -> np.ndarray:
         return self.origin + self.counters
 
     # --- commands ------------------------------------------------------------------------------
@@ -222,8 +223,8 @@ class EbbBoard(PenSide):
             try:
                 command = protocol.parse_command(text)
                 if self._version < protocol.SINCE.get(command.name, ()):  # not in this firmware
-                    code = "".join(f"{ord(c):02X}" for c in command.name[:2])
-                    raise CommandError(command.name, 8, f"Unknown command '{command.name[:2]}:{code}'")
+                    hexes = "".join(f"{ord(c):02X}" for c in command.name[:2])
+                    raise CommandError(command.name, 8, f"Unknown command '{command.name[:2]}:{hexes}'")
                 printed = ebb_moves.check(command, self._version)
             except CommandError as exc:
                 del self._rx[: cut + 1]
@@ -254,7 +255,7 @@ class EbbBoard(PenSide):
             if fault in ("reset", "unplug"):
                 if self.running is not None:  # the motors stop where they are: drawn so far
                     self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
-                self.carriage = self._true_steps().astype(float)
+                self.carriage = self.true_steps().astype(float)
                 self.power_cycle()
                 self.link_dropped = fault == "unplug"
                 return
@@ -298,7 +299,7 @@ class EbbBoard(PenSide):
         if name == "SP":  # its pin is taken at once (absent or over 7: RB1), whatever waits in the queue
             self.servos.set_sp_pin(args[2] if len(args) > 2 else 1)
             if not command.queued:  # SP,2 / SP,3: up at once, past the queue
-                self._move_servo(True)
+                self.pen_side.move_servo(True)
         if command.queued:
             self.fifo.append(command)
             if self.running is None:
@@ -313,7 +314,7 @@ class EbbBoard(PenSide):
         if name == "RB":  # a reboot: USB drops, the board starts again
             if self.running is not None:
                 self._complete(self.running, int((self.clock - self.running.t0) / protocol.TICK))
-            self.carriage = self._true_steps().astype(float)
+            self.carriage = self.true_steps().astype(float)
             self.power_cycle()
             self.link_dropped = True
             return None
@@ -339,7 +340,7 @@ class EbbBoard(PenSide):
         elif name == "ES":
             data = ebb_moves.stop(self)
         elif name == "CS":
-            self.origin = self._true_steps()
+            self.origin = self.true_steps()
             self.counters[:] = 0
             self.carry = [0, 0]
         elif name in ("SC", "CU"):

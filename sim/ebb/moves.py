@@ -77,7 +77,9 @@ class TimedRun(Run):
     table: np.ndarray | None = None  # (ticks + 1, 2) int64
 
     def steps_at(self, t: int) -> np.ndarray:
-        return self.table[min(max(t, 0), len(self.table) - 1)].copy()
+        table = self.table
+        assert table is not None  # (a run's table is set when it starts)
+        return table[min(max(t, 0), len(table) - 1)].copy()
 
 
 def _axis(ticks: int, rate: int, accel: int, jerk: int) -> np.ndarray:
@@ -188,7 +190,7 @@ def _enable_motors(board, args) -> None:
         board.microsteps = MICROSTEPS[args[0]]
     second = args[1] if len(args) > 1 else (1 if board.enabled[1] else 0)
     board.enabled = (board.microsteps if args[0] else 0, board.microsteps if second else 0)
-    board.origin = board._true_steps()
+    board.origin = board.true_steps()
     board.counters = np.zeros(2, dtype=np.int64)
     board.carry = [0, 0]
 
@@ -202,7 +204,7 @@ def _servo_run(board, command: protocol.Command) -> Run:
         ms = a[3]
     else:
         up = (not board.pen_up) if name == "TP" else min(args[0], 3) != 0
-        board._move_servo(up)
+        board.pen_side.move_servo(up)
         ms = args[1] if (name == "SP" and len(args) > 1) else (args[0] if name == "TP" and args else 0)
     return _idle_run(board, command, int(round(ms / 1000 / protocol.TICK)))
 

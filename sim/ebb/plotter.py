@@ -30,7 +30,7 @@ class EbbDrawing(StrokeRecorder):
         self.profile, self._pauses = profile, pauses
 
     @property
-    def pauses(self) -> int:
+    def pauses(self) -> int:  # type: ignore[override]  # read live from the board, not stored
         return self._pauses()
 
     def record(self, start, end, drawing: bool) -> None:
@@ -102,4 +102,4 @@ class VirtualEbb(WiredBoard):
 
     def position(self) -> np.ndarray:
         """The carriage's true position, machine mm."""
-        return self.profile.ebb.to_machine(self.firmware._true_steps()[None].astype(float))[0]
+        return self.profile.ebb.to_machine(self.firmware.true_steps()[None].astype(float))[0]

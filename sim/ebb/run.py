@@ -18,10 +18,10 @@ class Run:
     command: protocol.Command
     start: np.ndarray  # counters when it started (int64)
     steps: np.ndarray  # signed per axis
-    rates: tuple[int, int]
-    accels: tuple[int, int]
+    rates: tuple[int, ...]
+    accels: tuple[int, ...]
     carry: tuple[int, int]
-    axis_ticks: tuple[int, int]
+    axis_ticks: tuple[int, ...]
     ticks: int
     t0: float  # board clock when it started
 
@@ -44,7 +44,7 @@ class Run:
 _CONTROL = bytes(range(32))
 
 
-def typed(raw: bytes) -> str:
+def typed(raw: bytes | bytearray) -> str:
     """A command's characters as the firmware keeps them: control bytes dropped, a backspace
     taking back the character before it."""
     if b"\x08" not in raw:

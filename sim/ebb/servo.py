@@ -15,11 +15,15 @@ pin run (they take their time in the queue) but do not move the pen.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 MAX_CHANNELS = 8
 DEFAULT_PIN = 1  # DEFAULT_EBB_SERVO_PORTB_PIN
+
+if TYPE_CHECKING:
+    from sim.ebb.board import EbbBoard
 
 
 def rpn(port_b_pin: int) -> int:
@@ -101,14 +105,18 @@ def travel_seconds(start: float, end: float, rate: int, period: float) -> float:
 
 
 class PenSide:
-    """Mixin of :class:`sim.ebb.board.EbbBoard`: where the pen is and what the carriage draws."""
+    """The pen side of an :class:`sim.ebb.board.EbbBoard`, held by it: where the pen is (its
+    servo's moves, whether it touches the paper) and what the carriage draws with it."""
 
-    def _record_move(self, before: np.ndarray, run, t: int) -> None:
-        after = self._true_steps()
+    def __init__(self, board: EbbBoard) -> None:
+        self.board = board
+
+    def record_move(self, before: np.ndarray, run, t: int) -> None:
+        after = self.board.true_steps()
         points = [before]
         ticks = [k for k in run.axis_ticks if 0 < k < t]
         if len(ticks) == 1 or (len(ticks) == 2 and ticks[0] != ticks[1]):  # one axis finished first
-            bend = self.origin + run.start + run.steps_at(min(ticks))
+            bend = self.board.origin + run.start + run.steps_at(min(ticks))
             chord = after - before
             off = abs(float(chord[0] * (bend - before)[1] - chord[1] * (bend - before)[0])) / max(
                 float(np.hypot(*chord)), 1e-9
@@ -116,33 +124,35 @@ class PenSide:
             if off > 1.5:  # a bend a sender should have avoided (within a step it is the step grid)
                 points.append(bend)
         points.append(after)
-        setup = self.profile.ebb
+        setup = self.board.profile.ebb
         mm = setup.to_machine(np.array(points, dtype=np.float64))
-        drawing = self._pen_landed(run.t0)
+        drawing = self.pen_landed(run.t0)
         for a, b in zip(mm[:-1], mm[1:]):
-            self.record(a, b, drawing)
+            self.board.record(a, b, drawing)
 
-    def _resting_servo(self) -> float:
+    def resting_servo(self) -> float:
         """Where the pen's servo stands at a boot: where it was (no pulses move it), at first the pen up."""
         if hasattr(self, "servos"):
-            return self.servos.at(self.clock)
-        return float(self.profile.ebb.servo_position(self.profile.pen.up))
+            return self.board.servos.at(self.board.clock)
+        return float(self.board.profile.ebb.servo_position(self.board.profile.pen.up))
 
-    def _touching(self, position: float) -> bool:
+    def touching(self, position: float) -> bool:
         """Whether the pen's servo at ``position`` holds the pen on the paper: at the profile's
         pen-down height or within a quarter of its up-down travel above it."""
-        setup, pen = self.profile.ebb, self.profile.pen
+        setup, pen = self.board.profile.ebb, self.board.profile.pen
         down, up = setup.servo_position(pen.down), setup.servo_position(pen.up)
         return (position - down) * (1 if up >= down else -1) <= abs(up - down) / 4
 
-    def _pen_landed(self, when: float) -> bool:
+    def pen_landed(self, when: float) -> bool:
         """The pen touches the paper at ``when``: its servo has come to rest at a touching position."""
-        servos = self.servos
-        return self._touching(servos.target) and when >= servos.t1 - 1e-9
+        servos = self.board.servos
+        return self.touching(servos.target) and when >= servos.t1 - 1e-9
 
-    def _move_servo(self, up: bool) -> None:
+    def move_servo(self, up: bool) -> None:
         """SP's move (queued): the pen state flips whatever pin the servo is on."""
-        target, rate = (self.servo_up, self.rate_up) if up else (self.servo_down, self.rate_down)
-        self.servos.powered = True
-        self.servos.move(self.servos.sp_rpn, target, rate, self.clock)
-        self.pen_up = up
+        target, rate = (
+            (self.board.servo_up, self.board.rate_up) if up else (self.board.servo_down, self.board.rate_down)
+        )
+        self.board.servos.powered = True
+        self.board.servos.move(self.board.servos.sp_rpn, target, rate, self.board.clock)
+        self.board.pen_up = up

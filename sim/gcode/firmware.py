@@ -58,7 +58,7 @@ _SPECIAL = bytes(sorted(grbl.REALTIME_BYTES)) + bytes(range(0x80, 0x100))  # nee
 HARD_LIMIT_ALARM, ABORT_ALARM, HOMING_RESET_ALARM = 1, 3, 6
 
 
-class Firmware(SystemCommands):
+class Firmware:
     """GRBL 1.1h protocol front end of a virtual plotter.
 
     Parameters
@@ -99,8 +99,7 @@ class Firmware(SystemCommands):
         self.silent = False
         self.signal_due: int | None = None  # an interrupt@ fault's signal, for the host side
         self.queries = 0  # status queries received (the line clock counts idle ones)
-        self.startup_lines = ["", ""]  # $N0, $N1 (EEPROM)
-        self.build_info = ""  # $I= (EEPROM)
+        self.system = SystemCommands(self)  # the $ lines; the EEPROM's startup lines and build info
         self._rebooting = False
         self._ring = bytearray()
         self._line = bytearray()
@@ -108,13 +107,13 @@ class Firmware(SystemCommands):
         self._held_line: bytes | None = None  # a line the hold button stopped before it ran
         self._held_index = 0
         self._critical = False  # soft/hard limit: nothing is read or reported until reset
-        self._hold = False
-        self._jog = False  # the planner holds a $J= move
-        self._homing = False
-        self._sleep = False
-        self._report_due = False  # a ? that arrived while GRBL could not answer
+        self.held = False
+        self.jog_planned = False  # the planner holds a $J= move
+        self.homing = False
+        self.sleeping = False
+        self.report_due = False  # a ? that arrived while GRBL could not answer
         self.status = StatusReport(machine)
-        self._locked = bool(machine.settings[22]) and init_lock  # Alarm: G-code refused until $X / $H
+        self.locked = bool(machine.settings[22]) and init_lock  # Alarm: G-code refused until $X / $H
         self._restart()
 
     # --- bytes in / out ---------------------------------------------------------------------
@@ -177,8 +176,8 @@ class Firmware(SystemCommands):
             return
         if (
             seconds > 0
-            and not (self._critical or self._sleep)
-            and (self.machine.planner.braking or not self._hold)
+            and not (self._critical or self.sleeping)
+            and (self.machine.planner.braking or not self.held)
         ):
             now = self.machine.clock
             due = self.faults.next_due(now, now + seconds)
@@ -195,14 +194,14 @@ class Firmware(SystemCommands):
 
     def finish(self) -> None:
         """Instant mode: run all queued motion now (as if the host waited for it)."""
-        if not (self._hold or self._critical) and self._task is None:
+        if not (self.held or self._critical) and self._task is None:
             self.machine.finish()
 
     @property
     def waiting_on_motion(self) -> bool:
         """A line is being executed and waits for the machine (planner room, a dwell), not for
         a person (a hold, an ``M0``) or a reset (a critical alarm)."""
-        return self._task is not None and not (self._hold or self._critical or self._sleep or self.silent)
+        return self._task is not None and not (self.held or self._critical or self.sleeping or self.silent)
 
     @property
     def _deaf(self) -> bool:
@@ -213,8 +212,8 @@ class Firmware(SystemCommands):
     @property
     def _jogging(self) -> bool:
         """A ``$J=`` move is what the planner holds (jogging ends when the planner empties)."""
-        self._jog = self._jog and self.machine.planner.busy
-        return self._jog
+        self.jog_planned = self.jog_planned and self.machine.planner.busy
+        return self.jog_planned
 
     @property
     def _blocked(self) -> bool:
@@ -222,15 +221,15 @@ class Firmware(SystemCommands):
             self._task is not None
             or self._held_line is not None
             or self._critical
-            or self._hold
-            or self._sleep
+            or self.held
+            or self.sleeping
         )
 
-    def _emit(self, text: str) -> None:
+    def emit(self, text: str) -> None:
         self.out += text.encode("ascii") + b"\r\n"
 
     def _resume(self) -> None:
-        if self._critical or self._hold or self._sleep:
+        if self._critical or self.held or self.sleeping:
             return
         if self._task is not None and not self._step():
             return
@@ -253,46 +252,46 @@ class Firmware(SystemCommands):
             # never in Alarm, check mode or sleep; a hold while jogging cancels the jog.
             if self._jogging:
                 self._cancel_jog()
-            elif not (self._locked or self._sleep or self._homing or self.machine.check_mode):
+            elif not (self.locked or self.sleeping or self.homing or self.machine.check_mode):
                 self._begin_hold()
-        elif byte == ord("~") and self._hold and not self.machine.planner.braking:
+        elif byte == ord("~") and self.held and not self.machine.planner.braking:
             # GRBL takes a cycle start only once the hold is complete (Hold:0): one that comes
             # while the machine is still slowing (Hold:1) is dropped.
-            self._hold = False
+            self.held = False
             self.machine.motion.release()
             self._resume()
 
     def _begin_hold(self) -> None:
-        if not self._hold:
-            self._hold = True
+        if not self.held:
+            self.held = True
             self.machine.motion.hold()
 
     def _status_query(self) -> None:
         self.queries += 1
         if self._critical:
             return  # GRBL's critical-alarm loop services nothing but reset
-        if self._homing:
-            self._report_due = True  # the homing cycle does not stop to report
+        if self.homing:
+            self.report_due = True  # the homing cycle does not stop to report
             return
         if self.machine.instant and not self._blocked:
             self.machine.finish()
-        self._emit(self.status_report())
+        self.emit(self.status_report())
 
     def _cancel_jog(self) -> None:
         self.machine.stop()
         # A $J= still waiting for planner room goes on to plan its move, as in GRBL.
-        self._jog = self._task is not None
+        self.jog_planned = self._task is not None
 
     def reset(self) -> None:
         """Ctrl-X soft reset: GRBL's mc_reset, then its re-initialisation."""
         m = self.machine
-        moving = self._homing or (m.planner.busy and (m.planner.braking or not self._hold))
+        moving = self.homing or (m.planner.busy and (m.planner.braking or not self.held))
         m.stop(lose=moving and self.abort_loses)
         if moving:
-            code = HOMING_RESET_ALARM if self._homing else ABORT_ALARM
-            self._emit(f"ALARM:{code}")
-            self._locked = True
-        self._locked = self._locked or self._sleep  # position not guaranteed after sleep
+            code = HOMING_RESET_ALARM if self.homing else ABORT_ALARM
+            self.emit(f"ALARM:{code}")
+            self.locked = True
+        self.locked = self.locked or self.sleeping  # position not guaranteed after sleep
         self._restart()
 
     def power_cycle(self) -> None:
@@ -303,7 +302,7 @@ class Firmware(SystemCommands):
         self.silent = False
         self._rebooting = True
         init_locked = bool(self.machine.settings[22]) and self.init_lock
-        self._locked = init_locked or (self._locked and not self.power_zero)
+        self.locked = init_locked or (self.locked and not self.power_zero)
         self._restart()
 
     def _restart(self) -> None:
@@ -311,14 +310,14 @@ class Firmware(SystemCommands):
         self._ring.clear()
         self._line.clear()
         self._task = self._held_line = None
-        self._critical = self._hold = self._jog = self._homing = self._sleep = False
-        self._report_due = False
+        self._critical = self.held = self.jog_planned = self.homing = self.sleeping = False
+        self.report_due = False
         self.status.restart()
-        self._emit("\r\n" + self.protocol.BANNER)
-        if self._locked:
-            self._emit("[MSG:'$H'|'$X' to unlock]")
-        elif any(self.startup_lines):
-            self._start(self._startup_steps(), lambda: None, None)
+        self.emit("\r\n" + self.protocol.BANNER)
+        if self.locked:
+            self.emit("[MSG:'$H'|'$X' to unlock]")
+        elif any(self.system.startup_lines):
+            self.start(self.system.startup_steps(), lambda: None, None)
 
     # --- lines ------------------------------------------------------------------------------
 
@@ -331,28 +330,28 @@ class Firmware(SystemCommands):
         if kind == "garbage":
             self.out += GARBAGE
         elif kind == "error":
-            return self._reply(index, text, f"error:{code}")
+            return self.reply(index, text, f"error:{code}")
         elif kind == "alarm":
             self.machine.stop(lose=self.abort_loses)
             self._raise_alarm(HARD_LIMIT_ALARM)
-            return self._reply(index, text, f"ALARM:{HARD_LIMIT_ALARM}", emit=False)
+            return self.reply(index, text, f"ALARM:{HARD_LIMIT_ALARM}", emit=False)
         elif kind == "silent":
             self.silent = True
-            return self._reply(index, text, "-", emit=False)
+            return self.reply(index, text, "-", emit=False)
         elif kind == "drop":
             self.link_dropped = True
-            return self._reply(index, text, "-", emit=False)
+            return self.reply(index, text, "-", emit=False)
         elif kind == "reset":
-            self._reply(index, text, "-", emit=False)
+            self.reply(index, text, "-", emit=False)
             return self.power_cycle()
         elif kind == "unplug":
-            self._reply(index, text, "-", emit=False)
+            self.reply(index, text, "-", emit=False)
             self.power_cycle()
             self.out.clear()  # the banner of the restart: no cable to carry it
             self.link_dropped = True
             return
         elif kind == "abort":
-            self._reply(index, text, "-", emit=False)
+            self.reply(index, text, "-", emit=False)
             self.reset()
             self._rebooting = True  # what was in the receive buffer with it is flushed
             return
@@ -364,25 +363,25 @@ class Firmware(SystemCommands):
             return
         line = filter_line(raw, self.protocol.LINE_BUFFER_SIZE)
         if line is None:
-            self._reply(index, text, "error:11")
+            self.reply(index, text, "error:11")
         elif not line:
-            self._reply(index, text, "ok")
+            self.reply(index, text, "ok")
         elif line[0] == "$":
-            self._system(index, text, line)
-        elif self._locked or self._jogging:
-            self._reply(index, text, "error:9")  # G-code is locked out in alarm and jog
+            self.system.line(index, text, line)
+        elif self.locked or self._jogging:
+            self.reply(index, text, "error:9")  # G-code is locked out in alarm and jog
         else:
             block = self.machine.parse(line)
             if isinstance(block, int):
-                self._reply(index, text, f"error:{block}")
+                self.reply(index, text, f"error:{block}")
             else:
-                self._start(self.machine.execute(block), self._answer(index, text), (index, text))
+                self.start(self.machine.execute(block), self.answer(index, text), (index, text))
 
-    def _answer(self, index: int, text: str) -> Callable[[], None]:
+    def answer(self, index: int, text: str) -> Callable[[], None]:
         """The ``ok`` a line gets once its steps are done."""
-        return lambda: self._reply(index, text, "ok")
+        return lambda: self.reply(index, text, "ok")
 
-    def _start(self, steps: Iterator, finish: Callable[[], None], line: tuple[int, str] | None) -> None:
+    def start(self, steps: Iterator, finish: Callable[[], None], line: tuple[int, str] | None) -> None:
         """Run a line's steps now; if they block, the line stays in progress (see :meth:`_step`)."""
         self._task = Task(steps, finish, line)
         self._step()
@@ -390,49 +389,50 @@ class Firmware(SystemCommands):
     def _step(self) -> bool:
         """Advance the line in progress; True when it has finished (or failed)."""
         task = self._task
+        assert task is not None  # (called with a line in progress)
         try:
             for signal in task.steps:
-                self._machine_output()
+                self.machine_output()
                 if signal == PAUSE:
                     self._begin_hold()  # M0: a feed hold; the line answers after ~
                 return False
         except MachineAlarm as alarm:
             self._task = None
-            self._machine_output()
+            self.machine_output()
             self._raise_alarm(alarm.code)
             if task.line is not None:
-                self._reply(*task.line, f"ALARM:{alarm.code}", emit=False)
+                self.reply(task.line[0], task.line[1], f"ALARM:{alarm.code}", emit=False)
             return True
         self._task = None
-        self._machine_output()
+        self.machine_output()
         task.finish()
         return True
 
-    def _machine_output(self) -> None:
+    def machine_output(self) -> None:
         m = self.machine
         for message in m.messages:
-            self._emit(message)
+            self.emit(message)
         m.messages.clear()
         if m.alarm:  # a probe alarm: G-code locked, the line itself still answers
             m.alarm = 0
-            self._locked = True
+            self.locked = True
 
     def _raise_alarm(self, code: int) -> None:
         """A critical alarm (hard or soft limit): nothing more until reset."""
-        self._locked = self._critical = True
-        self._hold = False
+        self.locked = self._critical = True
+        self.held = False
         self.machine.check_mode = False
-        self._emit(f"ALARM:{code}")
-        self._emit("[MSG:Reset to continue]")
+        self.emit(f"ALARM:{code}")
+        self.emit("[MSG:Reset to continue]")
 
-    def _status(self, index: int, text: str, code: int) -> None:
+    def answer_code(self, index: int, text: str, code: int) -> None:
         """Answer a line with ``ok`` (0) or ``error:code``."""
-        self._reply(index, text, "ok" if code == 0 else f"error:{code}")
+        self.reply(index, text, "ok" if code == 0 else f"error:{code}")
 
-    def _reply(self, index: int, text: str, reply: str, *, emit: bool = True) -> None:
+    def reply(self, index: int, text: str, reply: str, *, emit: bool = True) -> None:
         self.log.append(index, text, reply)
         if emit:
-            self._emit(reply)
+            self.emit(reply)
 
     def state(self) -> str:
         """GRBL's state word (:class:`~sim.gcode.status_report.StatusReport`)."""
@@ -443,7 +443,7 @@ class Firmware(SystemCommands):
         return self.status.report(self._flags(), self._ring_size - len(self._ring))
 
     def _flags(self) -> Flags:
-        return Flags(self._sleep, self._locked, self._homing, self._hold, lambda: self._jogging)
+        return Flags(self.sleeping, self.locked, self.homing, self.held, lambda: self._jogging)
 
     def accepted_lines(self) -> list[str]:
         """Texts of the non-blank lines answered ``ok``, in order (the exactly-once record)."""

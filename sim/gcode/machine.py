@@ -44,6 +44,7 @@ from sim.gcode.arcs import arc_chords
 from sim.gcode.motion_control import PAUSE, SOFT_LIMIT_ALARM, WAIT, MachineAlarm, MotionControl
 from sim.gcode.planner import Block, Planner
 from sim.gcode.settings import grbl_settings
+from sim.gcode.state import given
 from sim.recorder import StrokeRecorder
 
 PROBE_INITIAL_ALARM, PROBE_CONTACT_ALARM = 4, 5
@@ -72,7 +73,7 @@ class Machine(StrokeRecorder):
         self.instant = instant
         self.servo = servo
         self.settings = grbl_settings(profile)
-        self.coord_data: list[tuple[float, float, float]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
+        self.coord_data: list[tuple[float, ...]] = [(0.0, 0.0, 0.0)] * 8  # G54..G59, G28, G30
         self.planner = Planner(profile.firmware.protocol.BLOCK_BUFFER_SIZE - 1)
         self.motion = MotionControl(self.planner, profile.bed, instant=instant, complete=self._complete)
         self.settings_changed()
@@ -80,11 +81,11 @@ class Machine(StrokeRecorder):
         self.messages: list[str] = []  # lines for the firmware to print, in order
         self.alarm = 0  # a non-critical alarm (probe) raised while executing, for the firmware
         self.offsets_changed = False  # a WCO change the next status report must show
-        self.slip = (0.0, 0.0, 0.0)  # where the carriage is minus where GRBL counts it (mm)
+        self.slip: tuple[float, ...] = (0.0,) * 3  # where the carriage is minus where GRBL counts it (mm)
         #: Pen-down ink a coasting carriage laid past the end of its move (start, end X, Y in mm):
         #: off the job's path, where no sender can take it back.
-        self.overruns: list[tuple[tuple[float, float], tuple[float, float]]] = []
-        self.probe_position = (0.0, 0.0, 0.0)
+        self.overruns: list[tuple[tuple[float, ...], tuple[float, ...]]] = []
+        self.probe_position: tuple[float, ...] = (0.0, 0.0, 0.0)
         self.probe_succeeded = False
         self.servo_angle = self.pen.up
         self.check_mode = False
@@ -120,7 +121,7 @@ class Machine(StrokeRecorder):
         self.reset_modes()
 
     @property
-    def position(self) -> tuple[float, float, float]:
+    def position(self) -> tuple[float, ...]:
         """Where the parser believes the tool is (machine mm)."""
         return self.state.position
 
@@ -147,15 +148,15 @@ class Machine(StrokeRecorder):
             return 0.0 if s == 0 else low
         return s
 
-    def work_offset(self) -> tuple[float, float, float]:
+    def work_offset(self) -> tuple[float, ...]:
         """WCO (mm): the active coordinate system + G92 + tool length offset."""
         return self.state.work_offset()
 
-    def work_position(self) -> tuple[float, float, float]:
+    def work_position(self) -> tuple[float, ...]:
         """Machine position minus the work offset (mm)."""
         return tuple(m - o for m, o in zip(self.machine_position(), self.work_offset()))
 
-    def machine_position(self) -> tuple[float, float, float]:
+    def machine_position(self) -> tuple[float, ...]:
         """Where GRBL counts the tool now (mid-move in real-time mode)."""
         p = self.planner
         if p.executing is not None:
@@ -164,7 +165,7 @@ class Machine(StrokeRecorder):
             return p.queue[0].start
         return self.position
 
-    def carriage_position(self) -> tuple[float, float, float]:
+    def carriage_position(self) -> tuple[float, ...]:
         """Where the carriage really is: the machine position plus :attr:`slip`."""
         return tuple(m + s for m, s in zip(self.machine_position(), self.slip))
 
@@ -241,7 +242,7 @@ class Machine(StrokeRecorder):
         seconds = (distance + pulloff) / (seek / 60.0) + 2 * pulloff / (feed / 60.0)
         yield from self._dwell(seconds)
         self._record(start, home, self.pen_down)
-        self._close_stroke()
+        self.close_stroke()
         self.slip = (0.0, 0.0, self.slip[2])
         self.position = (home[0], home[1], start[2] - self.slip[2])
 
@@ -271,7 +272,7 @@ class Machine(StrokeRecorder):
                 self.overruns.append(
                     (tuple(e - u * (coast - left) for e, u in zip(end, first.unit))[:2], end[:2])
                 )
-        self._close_stroke()
+        self.close_stroke()
         return moving
 
     # --- parsing and execution --------------------------------------------------------------
@@ -321,7 +322,7 @@ class Machine(StrokeRecorder):
         if block.axis_command == gp.TOOL_LENGTH_AXES:
             s.modal.tool_length = m.tool_length
             if block.tool_length_offset != s.tool_length_offset:
-                s.tool_length_offset = block.tool_length_offset
+                s.tool_length_offset = given(block.tool_length_offset)
                 yield from self._offsets_changed()
         if m.coord_select != s.modal.coord_select:
             s.modal.coord_select, s.coord_system = m.coord_select, block.coord_system
@@ -332,7 +333,7 @@ class Machine(StrokeRecorder):
         if m.motion != gp.NO_MOTION and block.axis_command == gp.MOTION_AXES:
             yield from self._motion(block)
         if was_down and not self.pen_down and not self.planner.busy:
-            self._close_stroke()  # lifted in place: a later pen-down starts a new stroke
+            self.close_stroke()  # lifted in place: a later pen-down starts a new stroke
         if m.program_flow:
             yield from self._synchronize()
             if m.program_flow == gp.PAUSE:
@@ -352,7 +353,7 @@ class Machine(StrokeRecorder):
     def _non_modal(self, block: gp.Block):
         s, code = self.state, block.non_modal
         if code == 10:
-            index, offset = block.coord_write
+            index, offset = given(block.coord_write)
             yield from self._synchronize()  # an EEPROM write
             self.coord_data[index] = offset
             if s.modal.coord_select == index:
@@ -366,7 +367,7 @@ class Machine(StrokeRecorder):
             yield from self._synchronize()
             self.coord_data[gp.G28_INDEX if code == 28.1 else gp.G30_INDEX] = s.position
         elif code == 92:
-            s.coord_offset = block.coord_offset
+            s.coord_offset = given(block.coord_offset)
             yield from self._offsets_changed()
         elif code == 92.1:
             s.coord_offset = (0.0, 0.0, 0.0)
@@ -377,10 +378,10 @@ class Machine(StrokeRecorder):
         if motion in (gp.SEEK, gp.LINEAR):
             feed = block.feed
             if block.modal.inverse_time and motion == gp.LINEAR:
-                feed *= math.dist(self.position, target)  # F is 1/minutes for the whole move
+                feed *= math.dist(self.position, given(target))  # F is 1/minutes for the whole move
             yield from self._queue_line(target, rapid=motion == gp.SEEK, feed=feed)
         elif motion in (gp.CW_ARC, gp.CCW_ARC):
-            offset, radius, clockwise = block.arc
+            offset, radius, clockwise = given(block.arc)
             chords, count = arc_chords(
                 self.position, target, offset, radius, block.axes, clockwise, self.settings[12]
             )
@@ -388,7 +389,7 @@ class Machine(StrokeRecorder):
             if block.modal.inverse_time:
                 # As GRBL's mc_arc: F times the chord count, then taken as mm/min for each chord
                 # (an arc too small for a chord stays one inverse-time move).
-                feed *= count if count else math.dist(self.position, target)
+                feed *= count if count else math.dist(self.position, given(target))
             for point in chords:
                 yield from self._queue_line(tuple(point), rapid=False, feed=feed)
         else:

@@ -31,10 +31,10 @@ PLANNER_CAPACITY = 15
 class Block:
     """One straight move in machine coordinates (mm)."""
 
-    start: tuple[float, float, float]
-    end: tuple[float, float, float]
+    start: tuple[float, ...]
+    end: tuple[float, ...]
     length: float  # mm
-    unit: tuple[float, float, float]
+    unit: tuple[float, ...]
     nominal: float  # mm/s
     accel: float  # mm/s² along the move
     pen_down: bool
@@ -73,7 +73,7 @@ class Block:
         td = min(t - t_acc - t_cruise, t_dec)
         return min(d_acc + peak * t_cruise + peak * td - 0.5 * a * td * td, self.length)
 
-    def point_at(self, t: float) -> tuple[float, float, float]:
+    def point_at(self, t: float) -> tuple[float, ...]:
         """Machine position ``t`` seconds into the block."""
         d = self.distance_at(t)
         return tuple(s + u * d for s, u in zip(self.start, self.unit))
@@ -147,6 +147,7 @@ class Planner:
                 return None
             self.start_next()  # at a junction, already moving into the next block
         b, t = self.executing, self.elapsed
+        assert b is not None  # (started above)
         ran = _cut(b, t) if t > 0 else None
         speed, here, left = b.speed_at(t), b.point_at(t), b.length - b.distance_at(t)
         stretches = []
@@ -226,6 +227,7 @@ class Planner:
             if self.executing is None:
                 self.start_next()
             b = self.executing
+            assert b is not None
             step = min(dt, b.duration - self.elapsed)
             self.elapsed += step
             self.clock += step
@@ -242,6 +244,7 @@ class Planner:
             self._settle()
             self.start_next()
         b = self.executing
+        assert b is not None
         self.clock += b.duration - self.elapsed
         self.executing = None
         self._at_rest()

@@ -7,6 +7,9 @@ The parser that fills them is :mod:`sim.gcode.parser`; :mod:`sim.gcode.machine` 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TypeVar
+
+T = TypeVar("T")
 
 # GRBL 1.1 status codes (texts in firmware_protocol.grbl.ERRORS).
 OK = 0
@@ -62,18 +65,18 @@ class ParserState:
     machine mm; it is shared, not copied, so it survives resets.
     """
 
-    coord_data: list[tuple[float, float, float]]
+    coord_data: list[tuple[float, ...]]
     modal: Modal = field(default_factory=Modal)
     feed: float = 0.0  # mm/min (G94) or the last inverse-time F (G93)
     spindle_speed: float = 0.0
     tool: int = 0
     line_number: int = 0
-    position: tuple[float, float, float] = (0.0, 0.0, 0.0)  # machine mm
-    coord_system: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the active G54–G59 offset
-    coord_offset: tuple[float, float, float] = (0.0, 0.0, 0.0)  # G92
+    position: tuple[float, ...] = (0.0, 0.0, 0.0)  # machine mm
+    coord_system: tuple[float, ...] = (0.0, 0.0, 0.0)  # the active G54–G59 offset
+    coord_offset: tuple[float, ...] = (0.0, 0.0, 0.0)  # G92
     tool_length_offset: float = 0.0  # G43.1, on Z
 
-    def work_offset(self) -> tuple[float, float, float]:
+    def work_offset(self) -> tuple[float, ...]:
         """WCO: machine minus work position (coordinate system + G92 + tool length on Z)."""
         wco = [c + o for c, o in zip(self.coord_system, self.coord_offset)]
         wco[2] += self.tool_length_offset
@@ -92,13 +95,13 @@ class Block:
     tool: int = 0
     line_number: int = 0
     dwell: float = 0.0  # s, for G4
-    target: tuple[float, float, float] | None = None  # motion target, G28/G30 via point
-    home: tuple[float, float, float] | None = None  # G28/G30 stored position to go to
-    coord_system: tuple[float, float, float] = (0.0, 0.0, 0.0)  # offset in force for this block
-    coord_write: tuple[int, tuple[float, float, float]] | None = None  # G10: (index, offset)
-    coord_offset: tuple[float, float, float] | None = None  # new G92 offset
+    target: tuple[float, ...] | None = None  # motion target, G28/G30 via point
+    home: tuple[float, ...] | None = None  # G28/G30 stored position to go to
+    coord_system: tuple[float, ...] = (0.0, 0.0, 0.0)  # offset in force for this block
+    coord_write: tuple[int, tuple[float, ...]] | None = None  # G10: (index, offset)
+    coord_offset: tuple[float, ...] | None = None  # new G92 offset
     tool_length_offset: float | None = None  # new G43.1 / G49 offset
-    arc: tuple[tuple[float, float, float], float, bool] | None = None  # (centre offset, radius, cw)
+    arc: tuple[tuple[float, ...], float, bool] | None = None  # (centre offset, radius, cw)
     words: dict[str, float] = field(default_factory=dict)
     servo_angle: float | None = None  # M280 (only with the servo extension)
 
@@ -106,3 +109,10 @@ class Block:
     def axes(self) -> tuple[int, int, int]:
         """(axis 0, axis 1, linear axis) of the block's plane."""
         return PLANE_AXES[self.modal.plane]
+
+
+def given(value: T | None) -> T:
+    """``value``, which the block's own command guarantees is set (a G10's ``coord_write``, a
+    G92's ``coord_offset``, an arc's ``arc``): said once for the type checker."""
+    assert value is not None
+    return value

@@ -181,16 +181,17 @@ def draw_shape(board, m: str, p: tuple[float, ...]) -> None:
     if drawn is None:
         board.error = 2
         return
-    points, lowered = drawn
+    chords, lowered = drawn
+    points: list[tuple[float, float] | None] = list(chords)  # None: the pen lifts there
     was = board.down
     x0, y0, x1, y1 = board.limits
-    if not all(x0 <= round(x) <= x1 and y0 <= round(y) <= y1 for x, y in points):
+    if not all(x0 <= round(x) <= x1 and y0 <= round(y) <= y1 for x, y in chords):
         board.error = 3  # beyond the hard-clip limits: not drawn
         return
     if m == "CI":  # out to the edge pen up, round it pen down, back to the centre pen up
         board._pen(False)
-        board._vector(round(points[0][0]), round(points[0][1]))
-        points = points[1:-1] + [None, points[-1]]
+        board._vector(round(chords[0][0]), round(chords[0][1]))
+        points = [*chords[1:-1], None, chords[-1]]
     if lowered:
         board._pen(True)
     for point in points:

@@ -50,7 +50,7 @@ def test_ci_runs_the_readme_steps_after_the_install_in_order():
     readme = after_install(steps(readme_test_command()))
     assert readme == after_install(ci_lines)
     assert readme[-1] == "pytest -q"
-    assert {"ruff check .", "mypy pencilbot firmware_protocol"} <= set(
+    assert {"ruff check .", "mypy pencilbot firmware_protocol sim"} <= set(
         readme[:-1]
     )  # the static checks, before the tests
 

@@ -99,7 +99,7 @@ class DoubleTap:
         if not self.tapped and len(firmware.log) >= self.at:
             self.tapped, self.queries = True, firmware.queries
             return ["pause", "pause"]
-        if self.tapped and firmware._hold and firmware.queries - self.queries >= 4:  # noqa: SLF001 - the board's own hold state
+        if self.tapped and firmware.held and firmware.queries - self.queries >= 4:  # noqa: SLF001 - the board's own hold state
             self.stopped = True
             return ["stop"]
         return []

@@ -11,7 +11,8 @@ from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
-from pencilbot.planning.build import at_plot_resolution, mostly_in, plan_from_sketch
+from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.features import mostly_in
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.style import Style
@@ -98,7 +99,7 @@ def test_without_faces_the_plan_is_the_plan_of_a_faceless_picture(astronaut):
 
 def test_in_a_face_only_dark_features_keep_their_contours():
     from pencilbot.imaging.faces import Face, face_mask
-    from pencilbot.planning.build import features_only
+    from pencilbot.planning.features import features_only
 
     page = page_size("A5", "portrait", (200, 200), 10.0)
     layout = Layout.fit((200, 200), page)

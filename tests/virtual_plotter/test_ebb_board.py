@@ -111,11 +111,11 @@ def test_a_power_cycle_zeroes_the_counters_where_the_carriage_stands(board):
     ask(board, "EM,1,1")
     ask(board, "SM,100,800,0")
     board.finish()
-    board.carriage = board._true_steps().astype(float)
+    board.carriage = board.true_steps().astype(float)
     board.power_cycle()
     assert ask(board, "QS") == b"0,0\n\rOK\r\n"
     assert ask(board, "QE") == b"0,0\n\rOK\r\n"  # motors off: the carriage is free
-    assert list(board._true_steps()) == [800, 0]
+    assert list(board.true_steps()) == [800, 0]
 
 
 def test_lf_ends_a_command_too_and_probes_of_other_firmware_get_the_boards_errors(board):

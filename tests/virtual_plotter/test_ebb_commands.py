@@ -159,7 +159,7 @@ def test_without_power_the_motors_do_not_turn_but_the_counters_count():
     assert (
         ask(board, "QS") == b"800,800\n\rOK\r\n" and board.moves == [] and board.carriage.tolist() == [0, 0]
     )
-    assert board._true_steps().tolist() == [0, 0]
+    assert board.true_steps().tolist() == [0, 0]
 
 
 def test_pi_reads_the_drivers_enable_and_microstep_pins():

@@ -10,6 +10,8 @@ machine stopped, located on the job's lines (:func:`locate_stop`, :class:`StopLo
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -193,41 +195,86 @@ def locate_stop(
         return None
     kept = getattr(states, "first", 0)
     lowest = max(last - window + 1, kept + 1 if kept > 0 else 0, 0)
-    p = complex(*position)
     snap = REPORT_ROUNDING if tolerance <= REPORT_RESOLUTION else tolerance
-    lines = range(last, lowest - 1, -1) if floor is None else range(max(floor, lowest), last + 1)
-    ran_past = None  # a move the point is beyond the end of: only if it is on no move
-    for i in lines:
+    search = _Search(states, complex(*position), tolerance, snap, pen_down, floor, after, coast, lowest, last)
+    return search.run()
+
+
+@dataclass(frozen=True)
+class _Search:
+    """One stop point searched for on the moves sent, lines ``lowest``..``last`` (see
+    :func:`locate_stop`; ``snap``: how near a vertex counts as at it)."""
+
+    states: Any
+    p: complex
+    tolerance: float
+    snap: float
+    pen_down: bool | None
+    floor: int | None
+    after: tuple[float, float] | None
+    coast: float
+    lowest: int
+    last: int
+
+    def run(self) -> tuple[int, tuple[float, float] | None] | None:
+        """The latest move through the point (from ``floor`` on: the earliest), as locate_stop's."""
+        if self.floor is None:
+            lines = range(self.last, self.lowest - 1, -1)
+        else:
+            lines = range(max(self.floor, self.lowest), self.last + 1)
+        ran_past = None  # a move the point is beyond the end of: only if it is on no move
+        for i in lines:
+            kind, on = self.meets(i)
+            if kind == "end":
+                return i + 1, None
+            if kind == "start":
+                return i, None
+            if kind == "inside":
+                return self.nearer(i, on)
+            if kind == "past" and ran_past is None:
+                ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
+        return ran_past
+
+    def meets(self, i: int) -> tuple[str | None, complex]:
+        """How the point meets move ``i``: ``"end"`` at its end, ``"start"`` at its start,
+        ``"inside"`` on it (with its nearest point; drawn with the pen as the board said, and
+        not behind ``after`` on ``floor``'s move), ``"past"`` beyond its end within ``coast``."""
+        p, snap, states = self.p, self.snap, self.states
         end = complex(states[i].x, states[i].y)
         start = complex(states[i - 1].x, states[i - 1].y) if i > 0 else 0j
         if abs(p - end) <= snap:
-            return i + 1, None
+            return "end", end
         seg = end - start
         if seg == 0:
-            continue
+            return None, end
         t = ((p - start) / seg).real
         on = start + t * seg
-        if abs(on - p) > tolerance:
-            continue
-        if i == floor and after is not None and t < ((complex(*after) - start) / seg).real - snap / abs(seg):
-            continue  # behind where the machine already was on this move
+        if abs(on - p) > self.tolerance:
+            return None, on
+        after = self.after if i == self.floor else None
+        if after is not None and t < ((complex(*after) - start) / seg).real - snap / abs(seg):
+            return None, on  # behind where the machine already was on this move
         if 0.0 <= t < 1.0 and abs(on - start) > snap:
-            if pen_down is not None and states[i].pen_down != pen_down:
-                continue
-            # Near a corner a rounded point lies within the tolerance of both moves that meet
-            # there: the one it lies nearer to is where it is (the next move in the search's
-            # order, which shares a vertex with this one; collinear moves are a tie: this one).
-            k = i + 1 if floor is not None else i - 1
-            if lowest <= k <= last:
-                other = _inside(states, k, p, tolerance, snap, pen_down)
-                if other is not None and other[0] < abs(on - p) - 1e-12:
-                    return k, other[1]
-            return i, (on.real, on.imag)
+            drawn_so = self.pen_down is None or states[i].pen_down == self.pen_down
+            return ("inside" if drawn_so else None), on
         if abs(on - start) <= snap:
-            return i, None
-        if t >= 1.0 and abs(on - end) <= coast and ran_past is None:
-            ran_past = i + 1, None  # ran on past the move's end (straight on: the next may be collinear)
-    return ran_past
+            return "start", on
+        if t >= 1.0 and abs(on - end) <= self.coast:
+            return "past", on
+        return None, on
+
+    def nearer(self, i: int, on: complex) -> tuple[int, tuple[float, float] | None]:
+        """Move ``i`` at ``on``, or the next move in the search's order if the point is nearer it.
+
+        Near a corner a rounded point lies within the tolerance of both moves that meet there:
+        the one it lies nearer to is where it is (the next move, which shares a vertex with this
+        one; collinear moves are a tie: this one)."""
+        k = i + 1 if self.floor is not None else i - 1
+        if self.lowest <= k <= self.last:
+            other = _inside(self.states, k, self.p, self.tolerance, self.snap, self.pen_down)
+            if other is not None and other[0] < abs(on - self.p) - 1e-12:
+                return k, other[1]
+        return i, (on.real, on.imag)
 
 
 def _inside(states, i: int, p: complex, tolerance: float, snap: float, pen_down: bool | None):
