@@ -66,6 +66,24 @@ def user_folder() -> Path:
     return Path(os.environ.get("XDG_CONFIG_HOME") or Path.home() / ".config") / "pencilbot"
 
 
+def cache_folder() -> Path:
+    """The user's folder for what pencilbot can always work out again (it need not exist).
+
+    ``$PENCILBOT_CACHE_DIR`` if set; on Windows ``%LOCALAPPDATA%\\pencilbot\\cache``; on macOS
+    ``~/Library/Caches/pencilbot``; elsewhere ``$XDG_CACHE_HOME/pencilbot``, by default
+    ``~/.cache/pencilbot``.
+    """
+    if os.environ.get("PENCILBOT_CACHE_DIR"):
+        return Path(os.environ["PENCILBOT_CACHE_DIR"]).expanduser().absolute()
+    if sys.platform == "win32":
+        return (
+            Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local") / "pencilbot" / "cache"
+        )
+    if sys.platform == "darwin":
+        return Path.home() / "Library" / "Caches" / "pencilbot"
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pencilbot"
+
+
 def user_names(folder: str) -> list[str]:
     """Names of the user's own files in ``<user folder>/<folder>``, sorted."""
     return sorted(p.stem for p in (user_folder() / folder).glob("*.toml"))

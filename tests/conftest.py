@@ -34,9 +34,16 @@ def own_log_levels():
         logging.getLogger(name).setLevel(level)
 
 
+@pytest.fixture(scope="session")
+def own_cache_folder(tmp_path_factory):
+    """The session's cache folder (a separation table solved once, not once per test)."""
+    return tmp_path_factory.mktemp("cache")
+
+
 @pytest.fixture(autouse=True)
-def own_config_folder(tmp_path_factory, monkeypatch):
+def own_config_folder(tmp_path_factory, monkeypatch, own_cache_folder):
     monkeypatch.setenv("PENCILBOT_CONFIG_DIR", str(tmp_path_factory.mktemp("config")))
+    monkeypatch.setenv("PENCILBOT_CACHE_DIR", str(own_cache_folder))
     monkeypatch.delenv("PENCILBOT_PROFILE", raising=False)
 
 

@@ -83,6 +83,10 @@ class PhotoRequest:
         A preview the door renders after planning, whose memory is checked with the planning's.
     limits : Limits
         The door's own caps.
+    draft : bool
+        A plan only to be looked at, never plotted (the studio's first preview): its paths left
+        unordered and unjoined, its colour separation unpolished
+        (:func:`pencilbot.planning.build.plan_from_sketch`).
     """
 
     style: str | Path | Style = DEFAULT_STYLE
@@ -94,6 +98,7 @@ class PhotoRequest:
     downscale: bool = False
     preview_dpi: float | None = None
     limits: Limits = Limits()
+    draft: bool = False
 
 
 @dataclass(frozen=True)
@@ -225,7 +230,11 @@ def sketch_and_plan(photo: ImageLike, request: PhotoRequest | Prepared):
     prepared = request if isinstance(request, Prepared) else prepare(request)
     image = load_photo(photo, prepared)
     return build_sketch_and_plan(
-        image, page=prepared.sheet(image.shape), style=prepared.style, pens=prepared.pens
+        image,
+        page=prepared.sheet(image.shape),
+        style=prepared.style,
+        pens=prepared.pens,
+        draft=prepared.request.draft,
     )
 
 

@@ -95,9 +95,10 @@ def sketch_and_plan(
     page: Page | None = None,
     style: Style | str | Path | None = None,
     pens: PenSet | str | Path | None = None,
+    draft: bool = False,
 ) -> tuple[Sketch, Plan]:
     """:func:`make_plan`, also returning the pencil sketch it was planned from (in colour when
-    there are several pens).
+    there are several pens); ``draft``: see :func:`plan_from_sketch`.
 
     The sketch is of the image at plot resolution (see :func:`at_plot_resolution`), the grid
     the plan was laid out on.
@@ -120,7 +121,7 @@ def sketch_and_plan(
         texture_seed=style.seed,
         lines_only=not style.hatch,
     )
-    return drawing, plan_from_sketch(drawing, page, style, source=image.source, pens=pens)
+    return drawing, plan_from_sketch(drawing, page, style, source=image.source, pens=pens, draft=draft)
 
 
 def _check_drawable(image: LoadedImage, page: Page, pen_width: float) -> None:
@@ -196,7 +197,13 @@ def plot_resolution(style: Style, page: Page | None = None):
 
 
 def plan_from_sketch(
-    drawing: Sketch, page: Page, style: Style, *, source: str = "", pens: PenSet | None = None
+    drawing: Sketch,
+    page: Page,
+    style: Style,
+    *,
+    source: str = "",
+    pens: PenSet | None = None,
+    draft: bool = False,
 ) -> Plan:
     """Plan the pen strokes of an already computed pencil sketch (see :func:`make_plan`).
 
@@ -213,6 +220,9 @@ def plan_from_sketch(
         Where the picture came from, for the plan's metadata.
     pens : PenSet, optional
         The pens; default the plotter's one pen.
+    draft : bool
+        Only to be looked at (a first preview): paths unordered, unjoined (``meta["draft"]``), the
+        colour separation unpolished.
 
     Returns
     -------
@@ -234,20 +244,18 @@ def plan_from_sketch(
         strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
     layers = []
     if hatching is not None and in_color:
-        assert (
-            pens is not None and drawing.tone is not None
-        )  # in colour: pens; hatching: a sketch with its tone
+        assert pens is not None and drawing.tone is not None  # (in colour: a sketch with its tone)
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
-        paper = 1.0 - drawing.gray
         layers += color_hatching(
             drawing.result,
             layout,
             pens.load_order,
             strokes,
             form=1.0 - drawing.tone,
-            paper=paper,
+            paper=1.0 - drawing.gray,
             hatching=hatching,
+            draft=draft,
         )
     elif hatching is not None:
         # A one-pen plan's hatching (and faces' runs) within PEN_DOWN_BUDGET, the faces at their own tone.
@@ -266,8 +274,8 @@ def plan_from_sketch(
         )
         layers += [layer for layer in hatches if layer.paths]
     layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
-    ordered = _ordered(layers, stages.order)
-    return Plan(page=page, layers=tuple(ordered), meta=meta)
+    ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
+    return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
 
 
 @dataclass(frozen=True)

@@ -27,6 +27,8 @@ of its tone.
 
 from __future__ import annotations
 
+import hashlib
+import io
 from collections.abc import Sequence
 from dataclasses import replace
 from functools import lru_cache
@@ -37,6 +39,9 @@ from scipy import ndimage as ndi
 from skimage.color import deltaE_ciede2000, rgb2lab
 
 from pencilbot.colors import inks_on_paper, linear_to_srgb, srgb_to_linear
+from pencilbot.configs_io import cache_folder
+from pencilbot.errors import PencilbotError
+from pencilbot.fileio import write_atomic
 from pencilbot.machine.pens import Pen
 from pencilbot.paths import Paths
 from pencilbot.planning.plan import Layer
@@ -73,6 +78,9 @@ DAMPING = 1e-4
 ROUNDS = 30
 #: Samples per sRGB axis of the table :func:`separation_table` solves once per pen set.
 TABLE_SIZE = 33
+#: Changed whenever :func:`separate` changes in a way its constants do not show: the tables kept
+#: in the cache folder (:func:`separation_table`) are then solved again.
+TABLE_VERSION = 1
 #: Gauss–Newton rounds that take the table's interpolated amounts to each cell's own optimum
 #: (interpolation blends neighbouring solutions: a pure cyan would get a trace of other pens).
 POLISH_ROUNDS = 5
@@ -166,7 +174,48 @@ def separate(
 def separation_table(colors: tuple[str, ...]) -> np.ndarray:
     """(K, S, S, S): :func:`separate` solved on a grid of S = :data:`TABLE_SIZE` sRGB values per
     axis, for pens of ``colors``; a picture is separated by trilinear interpolation in it (solving
-    every cell of an A4 sheet would take seconds, the table a second once per pen set)."""
+    every cell of an A4 sheet would take seconds, the table a few once per pen set).
+
+    Once solved it is kept in the user's cache folder (:func:`~pencilbot.configs_io.cache_folder`):
+    every process (each of the studio's previews, each ``pencilbot plan``) took 2-8 s solving it
+    again. A file that is not such a table is solved again; a folder that cannot be written is
+    only not used."""
+    path = cache_folder() / "separation" / f"{_table_key(colors)}.npy"
+    shape = (len(colors), TABLE_SIZE, TABLE_SIZE, TABLE_SIZE)
+    try:
+        table = np.load(path, allow_pickle=False)
+        if table.shape == shape and table.dtype == np.float32 and np.all((table >= 0) & (table <= MOST_INK)):
+            return table
+    except (OSError, ValueError, EOFError):
+        pass
+    table = _solve_table(colors)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        saved = io.BytesIO()
+        np.save(saved, table, allow_pickle=False)
+        write_atomic(path, saved.getvalue())
+    except (OSError, PencilbotError):
+        pass
+    return table
+
+
+def _table_key(colors: tuple[str, ...]) -> str:
+    """The cached table's name: its pens' colours and everything its solution depends on."""
+    solver = (
+        TABLE_VERSION,
+        TABLE_SIZE,
+        MOST_INK,
+        INK_COST,
+        DAMPING,
+        ROUNDS,
+        _FLOOR,
+        _XYZ.tolist(),
+        _LAB.tolist(),
+    )
+    return hashlib.sha256(repr((tuple(colors), solver)).encode()).hexdigest()[:32]
+
+
+def _solve_table(colors: tuple[str, ...]) -> np.ndarray:
     axis = np.linspace(0.0, 1.0, TABLE_SIZE)
     cube = np.stack(np.meshgrid(axis, axis, axis, indexing="ij"), axis=-1).reshape(-1, 1, 3)
     pens = [Pen(f"pen{k}", color, 0.5) for k, color in enumerate(colors)]
@@ -212,6 +261,7 @@ def color_hatching(
     form: np.ndarray,
     paper: np.ndarray,
     hatching: Hatching,
+    draft: bool = False,
 ) -> list[Layer]:
     """Hatch layers of every pen whose stacked inks follow a colour picture.
 
@@ -232,6 +282,9 @@ def color_hatching(
         The style's hatching; each pen draws it with its own width, turns its angles by
         :func:`pen_angles`, its seed by 101 a pen, and matches its tone at :data:`PEN_TONE_BLUR`
         of its ``blur``.
+    draft : bool
+        For a quick preview: the separation read from :func:`separation_table` alone, not
+        polished per cell (see :func:`separation`).
 
     Returns
     -------
@@ -239,7 +292,7 @@ def color_hatching(
         Each pen's hatch layers (lightest family first), pens in the given order; every layer
         carries its pen's name, colour and width.
     """
-    amounts = separation(target, layout, pens)
+    amounts = separation(target, layout, pens, polish=0 if draft else POLISH_ROUNDS)
     layers = []
     for index, (pen, amount) in enumerate(zip(pens, amounts)):
         if not np.any(amount > 0.0):
@@ -268,9 +321,11 @@ def color_hatching(
     return layers
 
 
-def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
+def separation(target: np.ndarray, layout, pens: Sequence[Pen], *, polish: int = POLISH_ROUNDS) -> np.ndarray:
     """(K, H, W): the separation of ``target`` blurred by :data:`SEPARATION_BLUR` on cells of
-    :data:`SEPARATION_CELL` mm (:func:`separate_cells`), brought back to the layout's image grid.
+    :data:`SEPARATION_CELL` mm (:func:`separate_cells`, its table's amounts polished by ``polish``
+    rounds: 0 for a quick preview, whose amounts are then a blend of the table's neighbouring
+    solutions), brought back to the layout's image grid.
 
     A pen the picture can do without (:func:`unneeded_pens`) gets no ink at all: its pen change
     would cost the person at the plotter more than its ink gives the picture.
@@ -291,29 +346,34 @@ def separation(target: np.ndarray, layout, pens: Sequence[Pen]) -> np.ndarray:
             interpolation=cv2.INTER_AREA,
         )
     )
-    amounts = separate_cells(small, pens)
-    dropped = unneeded_pens(small, pens, amounts)
+    amounts = separate_cells(small, pens, polish)
+    dropped = unneeded_pens(small, pens, amounts, polish)
     if dropped:
         kept = [k for k in range(len(pens)) if k not in dropped]
         amounts = np.zeros_like(amounts)
-        amounts[kept] = separate_cells(small, [pens[k] for k in kept])
+        amounts[kept] = separate_cells(small, [pens[k] for k in kept], polish)
     return np.stack([cv2.resize(a, (width, height), interpolation=cv2.INTER_LINEAR) for a in amounts])
 
 
-def separate_cells(colors: np.ndarray, pens: Sequence[Pen]) -> np.ndarray:
+def separate_cells(colors: np.ndarray, pens: Sequence[Pen], polish: int = POLISH_ROUNDS) -> np.ndarray:
     """(K, h, w): :func:`separate` of an sRGB picture by interpolation in :func:`separation_table`,
-    polished by :data:`POLISH_ROUNDS`; coverage under :data:`LEAST_INK` left out."""
+    polished by ``polish`` rounds (none: the interpolation as it is); coverage under
+    :data:`LEAST_INK` left out."""
     table = separation_table(tuple(pen.color for pen in pens))
     at = colors.reshape(-1, 3).T * (TABLE_SIZE - 1)
     guess = np.stack(
         [ndi.map_coordinates(t, at, order=1, mode="nearest").reshape(colors.shape[:2]) for t in table]
     )
-    amounts = separate(colors, pens, rounds=POLISH_ROUNDS, start=guess)
+    amounts = (
+        separate(colors, pens, rounds=polish, start=guess) if polish > 0 else np.clip(guess, 0.0, MOST_INK)
+    )
     amounts[amounts < LEAST_INK] = 0.0
     return amounts
 
 
-def unneeded_pens(colors: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray) -> list[int]:
+def unneeded_pens(
+    colors: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray, polish: int = POLISH_ROUNDS
+) -> list[int]:
     """Pens (indices; never the last, which draws the contours) whose ink the picture can do without.
 
     A pen is a candidate when it lays under :data:`SPARE_SHARE` of all the ink; it is dropped when
@@ -333,7 +393,7 @@ def unneeded_pens(colors: np.ndarray, pens: Sequence[Pen], amounts: np.ndarray) 
     # could stand in for each other (yellow and orange) are not all dropped at once.
     for k in sorted(candidates, key=lambda k: amounts[k].sum()):
         others = [pens[j] for j in range(len(pens)) if j != k and j not in dropped]
-        without = deltaE_ciede2000(goal, rgb2lab(_stacked(separate_cells(colors, others), others)))
+        without = deltaE_ciede2000(goal, rgb2lab(_stacked(separate_cells(colors, others, polish), others)))
         if np.mean(without - before >= SPARE_DELTA_E) <= SPARE_CELLS:
             dropped.append(k)
     return dropped

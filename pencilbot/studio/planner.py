@@ -3,10 +3,11 @@
 Each change of the controls is a new *generation*. :meth:`LivePlanner.submit` ends the process still
 planning an older one (terminated: its result can no longer arrive) and starts a new one, which
 sends a coarse stage first and then the full plan at the real pen width. The coarse stage is the
-drawing at half scale (page, margin and every length of the style halved) with a pen six times
-wider at full scale, in plain nearest-neighbour order: a fraction of the work (the tone loop's
-grid has a fixed cell, so a smaller sheet is what makes it cheap), shown at the same size. A result is kept only
-if its generation is still the newest. Processes come from a fork server that has the planning
+drawing at half scale (page, margin and every length of the style halved; a third with several
+pens) with a pen six times wider at full scale (nine), planned as a draft (paths unordered and
+unjoined, the colour separation unpolished): a fraction of the work (the tone loop's grid has a
+fixed cell, so a smaller sheet is what makes it cheap), shown at the same size. A result is kept
+only if its generation is still the newest. Processes come from a fork server that has the planning
 stack imported already, so a new one starts in milliseconds.
 """
 
@@ -111,7 +112,7 @@ def _drawing(source, options: DrawingOptions, stage: str):
     if stage == "coarse":
         style, pens = coarse(prepared.style, prepared.pens)
         dpi = PREVIEW_DPI * coarse_scale(prepared.pens)[0] / 2
-        return sketch_and_plan(source, PhotoRequest(style=style, pens=pens, preview_dpi=dpi))
+        return sketch_and_plan(source, PhotoRequest(style=style, pens=pens, preview_dpi=dpi, draft=True))
     return sketch_and_plan(source, prepared)
 
 
@@ -160,7 +161,6 @@ def coarse(style, pens):
         style,
         page=f"{sheet.width / scale:g}x{sheet.height / scale:g}",
         pen_width=style.pen_width * widen,
-        order_rounds=0,
         **lengths,
     )
     if pens is not None:  # the pens' widths set the plan's: widen them as well

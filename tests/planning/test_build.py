@@ -113,6 +113,28 @@ def _segments(paths):
     return out
 
 
+def test_a_draft_is_the_plan_unordered_and_unjoined(camera, monkeypatch):
+    # A draft (the studio's first preview) is only looked at: the same strokes as the plan of
+    # the same sketch, in the order they were made, no path ordered or joined.
+    from pencilbot.planning import build
+
+    drawing = sketch(camera)
+    page = page_size("A5", "portrait")
+    ordered = []
+    real = build.order_paths
+    monkeypatch.setattr(build, "order_paths", lambda *a, **k: ordered.append(1) or real(*a, **k))
+    draft = plan_from_sketch(drawing, page, FAST, draft=True)
+    assert ordered == [] and draft.meta["draft"]
+    plan = plan_from_sketch(drawing, page, FAST)
+    assert ordered and "draft" not in plan.meta  # (the spy sees the plan's ordering)
+    assert [layer.name for layer in draft.layers] == [layer.name for layer in plan.layers]
+    for rough, done in zip(draft.layers, plan.layers, strict=True):
+        assert len(rough.paths) >= len(done.paths)  # none joined
+        assert _segments(rough.paths) <= _segments(done.paths)  # every stroke the plan draws
+        bridges = (len(rough.paths) - len(done.paths)) * max(FAST.pen_width, FAST.hatch_join)
+        assert _length(rough.paths) <= _length(done.paths) <= _length(rough.paths) + bridges + 1e-6
+
+
 def test_a_plan_is_reproducible(camera):
     # default style: path ordering improves for a fixed number of rounds, never by the clock
     a, b = make_plan(camera), make_plan(camera)

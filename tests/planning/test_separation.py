@@ -229,3 +229,50 @@ def test_a_flat_colour_hatched_in_cmyk_mixes_back_to_it_at_one_millimetre(name):
     assert deltaE_ciede2000(asked, rgb2lab(linear_to_srgb(seen))).mean() < 4.5
     whole = linear_to_srgb(linear.reshape(-1, 3).mean(axis=0)).reshape(1, 1, 3)
     assert float(deltaE_ciede2000(asked, rgb2lab(whole))[0, 0]) < 2.0
+
+
+def test_a_drafts_separation_is_the_tables_own_close_to_the_polished_one(monkeypatch):
+    # A draft (the studio's first preview) reads each cell's amounts from the table and solves
+    # nothing per cell; they stay close to the polished ones, so the preview shows the plan's colours.
+    from pencilbot.planning import separation as module
+
+    pens = load_pens("cmyk").load_order
+    rng = np.random.default_rng(7)
+    made = rng.uniform(0.0, 0.9, (4, 60, 60)) * (rng.uniform(size=(4, 60, 60)) < 0.7)
+    target = inks_on_paper(list(made), [p.color for p in pens]).astype(np.float64)
+    layout = Layout.fit((60, 60), PAGE)
+    polished = module.separation(target, layout, pens)
+    solved = []
+    real = module.separate
+    monkeypatch.setattr(module, "separate", lambda *a, **k: solved.append(1) or real(*a, **k))
+    drafted = module.separation(target, layout, pens, polish=0)
+    assert solved == []
+    assert drafted.shape == polished.shape and not np.array_equal(drafted, polished)
+    assert np.abs(drafted - polished).mean() < 0.015
+    ink = [p.color for p in pens]
+    error = deltaE_ciede2000(
+        rgb2lab(inks_on_paper(list(polished), ink)), rgb2lab(inks_on_paper(list(drafted), ink))
+    )
+    assert np.percentile(error, 90) < 2.0
+
+
+def test_a_solved_table_is_read_back_by_the_next_process_and_a_bad_file_solved_again(monkeypatch, tmp_path):
+    # Each studio preview is a new process: solving the table there took 2-8 s of every preview.
+    from pencilbot.planning import separation as module
+
+    monkeypatch.setenv("PENCILBOT_CACHE_DIR", str(tmp_path))
+    colors = ("#e5007d", "#1a1a1a")
+    module.separation_table.cache_clear()
+    solved = module.separation_table(colors)
+    (kept,) = (tmp_path / "separation").glob("*.npy")
+    solves = []
+    real = module.separate
+    monkeypatch.setattr(module, "separate", lambda *a, **k: solves.append(1) or real(*a, **k))
+    module.separation_table.cache_clear()  # as a new process
+    assert np.array_equal(module.separation_table(colors), solved) and solves == []
+    kept.write_bytes(kept.read_bytes()[:200])  # cut short
+    module.separation_table.cache_clear()
+    assert np.array_equal(module.separation_table(colors), solved) and solves == [1]
+    module.separation_table.cache_clear()
+    assert np.array_equal(module.separation_table(colors), solved) and solves == [1]  # written again
+    module.separation_table.cache_clear()

@@ -98,3 +98,30 @@ def test_a_refused_value_is_one_message(planner, photo):
     planner.submit(photo, DrawingOptions(page="3000x3000"))
     results.wait(lambda got: bool(got))
     assert "larger than the studio plans" in results.got[0].error
+
+
+def test_the_coarse_stage_is_a_draft_nothing_ordered_or_polished(monkeypatch):
+    # The first preview is only looked at: with several pens its plan orders and joins no path
+    # and solves no cell's separation (the table's amounts as they are); the full stage does both.
+    from pencilbot.machine.pens import load_pens
+    from pencilbot.planning import build, separation
+    from pencilbot.studio.planner import plan_stage
+
+    y, x = np.mgrid[0:90, 0:120]
+    picture = np.stack([0.5 + 0.4 * np.sin(x / 7.0), 0.5 + 0.4 * np.cos(y / 9.0), 0.6 + 0 * x], -1)
+    calls: dict[str, int] = {"order_paths": 0, "separate": 0}
+    for module, name in ((build, "order_paths"), (separation, "separate")):
+        real = getattr(module, name)
+
+        def counted(*args, _real=real, _name=name, **kwargs):
+            calls[_name] += 1
+            return _real(*args, **kwargs)
+
+        monkeypatch.setattr(module, name, counted)
+    separation.separation_table(tuple(pen.color for pen in load_pens("cmyk").load_order))  # (solved once)
+    calls["separate"] = 0
+    options = DrawingOptions(page="A5", pens="cmyk")
+    coarse = plan_stage(picture, options, "coarse")
+    assert coarse["preview_png"].startswith(b"\x89PNG") and calls == {"order_paths": 0, "separate": 0}
+    full = plan_stage(picture, options, "full")
+    assert full["plan"].layers and calls["order_paths"] > 0 and calls["separate"] > 0
