@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 from pencilbot.driver import stop_signals
 from pencilbot.errors import PencilbotError
+from pencilbot.studio import tables
 from pencilbot.studio.guard import is_loopback, new_token
 
 if TYPE_CHECKING:
@@ -32,9 +33,11 @@ class Running:
         """Serve until :meth:`stop` or a stop signal (in the main thread: Ctrl-C, SIGTERM, SIGHUP,
         SIGQUIT); every plot then stops with the pen up. Returns what to tell the person: each
         stopped plot kept, and how to resume it (see :meth:`Studio.close`)."""
+        solver = tables.start()
         try:
             self.server.run(sockets=[self.sock])
         finally:
+            tables.stop(solver)
             said = self.studio.close()
             self.sock.close()
         return said
