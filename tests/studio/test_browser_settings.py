@@ -6,6 +6,7 @@ while the photo in use stays (and says so)."""
 from __future__ import annotations
 
 import pytest
+from selenium.common.exceptions import TimeoutException
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 from studio_helpers import full_generation, load_photo, screenshot, set_control, text, wait_for
@@ -141,11 +142,17 @@ def test_the_machine_controls_move_the_virtual_plotter(server, browser):
 
     def press(button: str, expect: str) -> str:
         browser.find_element(By.ID, button).click()
-        return wait_for(
-            browser,
-            lambda: expect in text(browser, "plot-message") and text(browser, "plot-message"),
-            f"the answer to {button}",
-        )
+        try:
+            return wait_for(
+                browser,
+                lambda: expect in text(browser, "plot-message") and text(browser, "plot-message"),
+                f"the answer to {button}",
+            )
+        except TimeoutException:  # say what the page said instead
+            raise AssertionError(
+                f"{button}: the page said {text(browser, 'plot-message')!r}, "
+                f"{text(browser, 'plan-error')!r}; expected {expect!r}"
+            ) from None
 
     press("pen-down", "the pen is down")
     assert protocol_sim.plotter(board).machine.pen_down

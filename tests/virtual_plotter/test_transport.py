@@ -11,7 +11,7 @@ import sim
 from firmware_protocol import grbl
 from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import DEFAULT_PROFILE, load_profile
-from sim import protocol_sim
+from sim import protocol_sim, wires
 from sim.faults import Faults
 from sim.gcode.plotter import VirtualPlotter
 from sim.protocol_sim import plotter
@@ -136,13 +136,13 @@ def test_drop_fault_raises_like_an_unplugged_port_and_reconnect_works():
 
 def test_baud_emulation_limits_bytes_per_second():
     # The wire on its own clock: 9600 baud is 960 bytes a second (10 bits a byte).
-    wire = protocol_sim._Wire(9600)  # noqa: SLF001 - the emulated line itself
+    wire = wires.Wire(9600)  # the emulated line itself
     wire.put(b"x" * 100, now=10.0)
     assert wire.take(now=10.0) == b""
     assert wire.take(now=10.05) == b"x" * 48  # 50 ms: 48 bytes
     assert wire.take(now=10.05) == b""
     assert len(wire.take(now=11.0)) == 52  # the rest, never more than was sent
-    instant = protocol_sim._Wire(0)  # noqa: SLF001
+    instant = wires.Wire(0)
     instant.put(b"abc", now=0.0)
     assert instant.take(now=0.0) == b"abc"
     # and through a port: what the sim:// port delivers at 9600 baud is all of the banner, in order
