@@ -419,3 +419,17 @@ def test_the_house_checks_catch_a_broken_house(tmp_path, files, complaint):
     for name, text in files.items():
         (tmp_path / name).write_text(text)
     assert [kind for kind, check in checks.items() if check()] == ([complaint] if complaint else [])
+
+
+def test_every_package_is_in_the_wheel():
+    """pyproject lists the packages by hand: one left out installs without it (an editable
+    install hides that; CI's `pip install .` does not)."""
+    import tomllib
+
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    found = {
+        ".".join(init.parent.relative_to(ROOT).parts)
+        for top in ("pencilbot", "sim", "firmware_protocol")
+        for init in (ROOT / top).rglob("__init__.py")
+    }
+    assert sorted(found - listed) == [], "add them to [tool.setuptools] packages"
