@@ -39,6 +39,9 @@ PROBES: tuple[tuple[str, int, bytes, re.Pattern], ...] = (
     ),
     ("HP-GL", HPGL.baud, b"\x1b.J;OI;", re.compile(r"^(\d{4}[A-Z]?|DXY-?\S+)$")),
 )
+#: The end of a GRBL board's $I answer: its ok, or before it grblHAL's own firmware line (a
+#: grblHAL whose banner was missed is still told apart from GRBL).
+_HAL_OR_OK = re.compile(r"^(ok|\[FIRMWARE:grblHAL\])$")
 BANNER_WAIT = 1.5  # s: an Arduino's bootloader, then GRBL's or Marlin's greeting
 ANSWER_WAIT = 0.6  # s for one question's answer
 
@@ -93,6 +96,9 @@ def probe(
                 found = lines.find(pattern, max(banner_wait - lines.listening, 0.05), keep=True)
             if found is not None:
                 text, version = found
+                if family == "GRBL" and question:  # $I: grblHAL names itself before the ok
+                    end = lines.find(_HAL_OR_OK, answer_wait)
+                    family = "grblHAL" if end is not None and end[1] != "ok" else family
                 return PortInfo(device, description, family, version, text)
         return PortInfo(device, description)
     except (serial.SerialException, OSError, ValueError, PencilbotError) as exc:

@@ -43,3 +43,11 @@ def test_draw_port_auto_without_a_plotter_says_what_to_do(tmp_path, capsys, monk
     job.write_bytes(b"IN;SP1;PU0,0;PD40,0;PU;SP0;\n")
     assert main(["draw", str(job), "--profile", "hp7475a", "--port", "auto"]) != 0
     assert "no plotter answered" in capsys.readouterr().err
+
+
+def test_a_grblhal_board_whose_greeting_was_missed_is_still_grblhal():
+    # No reset as the port opens, so no banner: only the answer to $I tells it from GRBL.
+    for name, family in (("grblhal-servo-a3", "grblHAL"), ("grbl-servo-a4", "GRBL")):
+        with PtyServer(plotter_from_options({"profile": name}), reset_on_open=False) as server:
+            (info,) = probe_all([PortInfo(server.path)])
+        assert (info.plotter, info.version) == (family, "1.1f" if family == "grblHAL" else "1.1h"), info

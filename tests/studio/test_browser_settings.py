@@ -156,6 +156,8 @@ def test_the_machine_controls_move_the_virtual_plotter(server, browser):
 
     press("pen-down", "the pen is down")
     assert protocol_sim.plotter(board).machine.pen_down
+    browser.execute_script("showPlot()")  # a state update (as every event brings) keeps the answer
+    assert "the pen is down" in text(browser, "plot-message")
     press("pen-toggle", "the pen is up")
     assert not protocol_sim.plotter(board).machine.pen_down
     Select(browser.find_element(By.ID, "walk-step")).select_by_value("10")

@@ -8,6 +8,7 @@ const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage"];
 // it is "touched" and sent); an untouched one is sent as null, so the style's own value applies.
 const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch"];
 let state = null, choices = null, shown = {}, sendTimer = null, sending = 0;
+let shownPlotMessage = null;  // the plot's message last shown (see showPlot)
 let touched = new Set(), applied = "";
 
 async function call(method, url, body, headers = {}) {
@@ -176,7 +177,9 @@ async function showPlot() {
   $("plot-percent").textContent = record.percent !== undefined ? `${record.percent.toFixed(1)} % of plot time` : "–";
   $("plot-elapsed").textContent = duration(plot && plot.active ? Date.now() / 1000 - plot.started : record.elapsed_s);
   $("plot-remaining").textContent = plot && plot.status === "done" ? "0:00:00" : duration(record.eta_s);
-  $("plot-message").textContent = plot ? plot.message : "";
+  const message = plot ? plot.message : "";
+  if (message !== shownPlotMessage) $("plot-message").textContent = shownPlotMessage = message;  // (a machine
+  // control's answer stays until the plot has something new to say: every state update wiped it)
   $("pause").disabled = $("stop").disabled = !(plot && plot.active);
   $("pause").textContent = paused && !plot.prompt ? "Resume" : "Pause";
   $("resume-job").hidden = !(plot && plot.resumable && !plot.active);
