@@ -97,7 +97,7 @@ def probe(
             if found is not None:
                 text, version = found
                 if family == "GRBL" and question:  # $I: grblHAL names itself before the ok
-                    end = lines.find(_HAL_OR_OK, answer_wait)
+                    end = lines.find(_HAL_OR_OK, answer_wait, start=lines.lines.index(text) + 1)
                     family = "grblHAL" if end is not None and end[1] != "ok" else family
                 return PortInfo(device, description, family, version, text)
         return PortInfo(device, description)
@@ -154,12 +154,14 @@ class _Lines:
             self.lines += [d.decode("ascii", errors="replace").strip() for d in done if d.strip()]
         return bool(data)
 
-    def find(self, pattern: re.Pattern, wait: float, keep: bool = False) -> tuple[str, str] | None:
-        """The first line ``pattern`` matches, once it came; None after ``wait`` s of listening
-        (or 2000 reads of talk without it: a device that talks on)."""
+    def find(
+        self, pattern: re.Pattern, wait: float, keep: bool = False, start: int = 0
+    ) -> tuple[str, str] | None:
+        """The first line from ``start`` on that ``pattern`` matches, once it came; None after
+        ``wait`` s of listening (or 2000 reads of talk without it: a device that talks on)."""
         since, talk = self.listening, 0
         while True:
-            for line in self.lines:
+            for line in self.lines[start:]:
                 m = pattern.search(line)
                 if m:
                     return line, next((g for g in m.groups() if g), "")

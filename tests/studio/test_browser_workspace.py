@@ -152,7 +152,7 @@ def test_a_skipped_layer_is_shown_faint_and_not_plotted_a_hidden_one_not_shown(s
 
     ink = sheet_pixels(browser, "a > 0 && r < 80")
     toggle("show")
-    assert sheet_pixels(browser, "a > 0 && r < 80") < ink
+    wait_for(browser, lambda: sheet_pixels(browser, "a > 0 && r < 80") < ink, "the hidden layer's ink gone")
     toggle("plot")
     wait_for(browser, lambda: name in server.studio.placement.skip, "the skip reaches the server")
     assert name not in [layer.name for layer in server.studio.full_plan().layers]
