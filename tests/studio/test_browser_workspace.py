@@ -150,6 +150,7 @@ def test_a_skipped_layer_is_shown_faint_and_not_plotted_a_hidden_one_not_shown(s
     def toggle(which: str) -> None:  # the list is drawn anew on each change: found each time
         browser.find_element(By.CSS_SELECTOR, f'#layers .layer[data-layer="{name}"] .layer-{which}').click()
 
+    browser.find_element(By.ID, "zoom-fit").click()  # the whole sheet: an earlier test may have zoomed in
     ink = sheet_pixels(browser, "a > 0 && r < 80")
     toggle("show")
     wait_for(browser, lambda: sheet_pixels(browser, "a > 0 && r < 80") < ink, "the hidden layer's ink gone")
