@@ -52,7 +52,8 @@ FACE_PEN_DARKNESS = 0.35
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
 #: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min. (Per cm² of the drawing
 #: box instead, a square portrait's smaller box was held to 27 m: astronaut 22 -> 16 min, whole
-#: box rho 0.968 -> 0.957.)
+#: box rho 0.968 -> 0.957.) Lifts, corners and pen-up travel are bounded once the plan is ordered
+#: (:mod:`pencilbot.planning.plot_budget`).
 PEN_DOWN_BUDGET = 63.0
 log = logging.getLogger(__name__)
 
