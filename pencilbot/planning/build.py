@@ -28,6 +28,7 @@ from pencilbot.planning.features import features_only, mostly_in
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
+from pencilbot.planning.plot_budget import within_plot_budget
 from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE, Hatching
 from pencilbot.planning.sketch_tone import sketch_darkness
@@ -51,7 +52,8 @@ FACE_PEN_DARKNESS = 0.35
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
 #: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min. (Per cm² of the drawing
 #: box instead, a square portrait's smaller box was held to 27 m: astronaut 22 -> 16 min, whole
-#: box rho 0.968 -> 0.957.)
+#: box rho 0.968 -> 0.957.) Lifts, corners and pen-up travel are bounded once the plan is ordered
+#: (:mod:`pencilbot.planning.plot_budget`).
 PEN_DOWN_BUDGET = 63.0
 log = logging.getLogger(__name__)
 
@@ -259,10 +261,36 @@ def plan_from_sketch(
         )
     elif hatching is not None:
         # A one-pen plan's hatching (and faces' runs) within PEN_DOWN_BUDGET, the faces at their own tone.
-        tone = sketch_darkness(drawing)
-        area = layout.page.width * layout.page.height / 100
-        budget = PEN_DOWN_BUDGET * area - float(strokes.drawn_lengths().sum())
-        hatches = hatching.shade_within(
+        shade = _one_pen_shading(drawing, layout, hatching, strokes, important, dithered, faces)
+        hatches, scale = shade(1.0)
+        layers += hatches
+    layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
+    ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
+    if hatching is not None and not in_color and not draft:  # and its plotting within PLOT_BUDGET
+        ordered = within_plot_budget(
+            ordered,
+            lambda factor: _ordered(
+                _with_edges(shade(scale * factor)[0], strokes, stages.edges.pen_width, pens), stages.order
+            ),
+            layout.page.width * layout.page.height / 100,
+        )
+    return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
+
+
+def _one_pen_shading(
+    drawing: Sketch, layout: Layout, hatching: Hatching, strokes: Paths, important, dithered, faces
+):
+    """The one-pen hatching of ``drawing`` (and its faces' runs) within ``PEN_DOWN_BUDGET``, as a
+    function of the tone's scale: its non-empty layers and the scale it was drawn at (see
+    :meth:`~pencilbot.planning.shading.Hatching.shade_within`)."""
+    tone = sketch_darkness(drawing)
+    budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(
+        strokes.drawn_lengths().sum()
+    )
+    face_darkness = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
+
+    def shade(scale: float) -> tuple[list[Layer], float]:
+        hatches, used = hatching.shade_within(
             budget,
             tone,
             layout,
@@ -270,12 +298,12 @@ def plan_from_sketch(
             paper=1.0 - drawing.gray,
             important=important,
             dithered=dithered,
-            face_darkness=portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None,
+            face_darkness=face_darkness,
+            scale=scale,
         )
-        layers += [layer for layer in hatches if layer.paths]
-    layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
-    ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
-    return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
+        return [layer for layer in hatches if layer.paths], used
+
+    return shade
 
 
 @dataclass(frozen=True)

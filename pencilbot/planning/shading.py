@@ -199,15 +199,18 @@ class Hatching:
         important: np.ndarray | None = None,
         dithered: np.ndarray | None = None,
         face_darkness: np.ndarray | None = None,
-    ) -> list[Layer]:
-        """:meth:`shade`, its pen-down length (mm) within ``budget`` (the faces' runs in it).
+        scale: float = 1.0,
+    ) -> tuple[list[Layer], float]:
+        """:meth:`shade`, its pen-down length (mm) within ``budget`` (the faces' runs in it), and
+        the factor its tone was scaled by.
 
         Past the budget the tone is shaded once more, scaled by (what the budget leaves it /
         what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order of
         tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
-        The keywords are :meth:`shade`'s.
+        A ``scale`` under 1 draws the tone that much lighter, once, whatever its pen-down (the
+        plot's budget, :mod:`pencilbot.planning.plot_budget`). The other keywords are :meth:`shade`'s.
         """
-        scale = 1.0
+        start = scale
         for _ in range(2):
             layers = self.shade(
                 scale * darkness,
@@ -219,21 +222,21 @@ class Hatching:
                 face_darkness=face_darkness,
             )
             drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
-            if drawn <= budget or scale < 1.0:
-                return layers
+            if drawn <= budget or scale < start or start < 1.0:
+                return layers, scale
             runs = sum(
                 float(layer.paths.drawn_lengths().sum()) for layer in layers if layer.name == FACE_TONE
             )
             # ¾: the hatching's ink falls faster than its tone (fewer families reach a lighter one);
             # linear, the dark bar photo came to 24.8 min but its whole-box rho 0.944 -> 0.929.
-            scale = (max(budget - runs, 0.0) / max(drawn - runs, 1e-9)) ** 0.75
+            scale *= (max(budget - runs, 0.0) / max(drawn - runs, 1e-9)) ** 0.75
             log.debug(
                 "pen-down %.1f m over the budget %.1f m: tone scaled by %.2f",
                 drawn / 1e3,
                 budget / 1e3,
                 scale,
             )
-        return layers
+        return layers, scale
 
 
 def shade(darkness: np.ndarray, layout, edges: Paths, **options) -> list[Layer]:

@@ -17,6 +17,7 @@ from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
+from pencilbot.planning import plot_budget
 from pencilbot.planning.build import (
     at_plot_resolution,
     make_plan,
@@ -276,7 +277,11 @@ def test_overrides_are_checked_like_file_values():
         with_overrides(Style(), {"colour": "red"})
 
 
-def test_neighbouring_hatch_runs_are_joined_pen_down():
+def test_neighbouring_hatch_runs_are_joined_pen_down(monkeypatch):
+    # Unjoined, the disc's runs are past the plot's budget (their lifts), which would draw that
+    # plan's hatching lighter: the two plans compared here hatch the same tone.
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", float("inf"))
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
     # A dark disc: hatched line after line, so serpentine hops between neighbours are short.
     gray = np.full((120, 120), 0.92, np.float32)
     gray[disk((60, 60), 40)] = 0.02

@@ -1,0 +1,175 @@
+"""What a one-pen photo plan may cost in plotting: its lifts, corners and pen-up travel counted, after ordering.
+
+The hatching's pen-down budget (:data:`pencilbot.planning.build.PEN_DOWN_BUDGET`) and the faces'
+(:mod:`pencilbot.planning.face_budget`) bound the ink; the plot's time also goes on lifting the
+pen, on corners and on travel, which are only known once the paths are ordered (ordering joins
+more than half of the hatch strokes into zig-zags). A busy or dark photo within both budgets
+still plotted past half an hour and 8 m of pen-up (bench/fidelity.py, grbl-servo-a4: the held-out
+group of bald men 28.5 min and 7.98 m; with its contrast raised 35.7 min and 8.29 m).
+
+A plan has no plotter at planning time, so its cost is counted in millimetres of pen-down of the
+same plotting time (:func:`plot_cost`): the pen-down length, ``CORNER_MM`` for each turn sharper
+than ``CORNER_TURN`` (the motion all but stops there), ``LIFT_MM`` for each path (the lift, the
+drop and the stops around them) and ``TRAVEL_WEIGHT`` of the pen-up travel (the travel is faster
+than drawing). On 36 photos (the face set, held-out and stress photos) that count times 0.02124 s
+per mm is grbl-servo-a4's estimate (:func:`pencilbot.planning.stats.estimate`) within 0.2 min
+under and 0.33 min over (rms 0.1 min).
+
+Past ``PLOT_BUDGET`` or ``TRAVEL_BUDGET`` the hatching is shaded again, its tone lighter by one
+factor predicted from the excess (:func:`lighter_by`), and ordered again (at most ``REDOS``
+times): every tone lighter by one factor keeps the order of tones, as the pen-down budget does.
+The faces' runs and the contours stay: their cost is what the hatching has to make room for. A
+plan within both budgets is returned as it is: it pays one sum, not a second ordering.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from pencilbot.paths import Paths
+from pencilbot.planning.plan import Layer
+from pencilbot.planning.shading import FACE_TONE
+
+#: A turn of a drawn path sharper than this many degrees (the motion nearly stops), and what it
+#: costs in mm of pen-down: fitted with LIFT_MM and TRAVEL_WEIGHT to grbl-servo-a4's estimate
+#: (0.5 mm pen, 3000 / 6000 mm/min, 800 mm/s², a servo's 0.15 + 0.2 s, 25 ms idle lock).
+CORNER_TURN = 60.0
+CORNER_MM = 2.2
+#: A path's lift, drop and the stops around them, mm of pen-down (0.51 s at 0.02124 s per mm).
+LIFT_MM = 24.0
+#: A mm of pen-up travel in mm of pen-down (the travel runs at twice the drawing feed).
+TRAVEL_WEIGHT = 0.55
+#: What a plan may cost, mm per cm² of the sheet (80.5 m on A4: 28.5 min on grbl-servo-a4).
+PLOT_BUDGET = 129.0
+#: Pen-up travel a plan may take, mm per cm² of the sheet (7.36 m on A4; grbl-servo-a4's estimate
+#: is up to 0.15 m more, its home being a landscape sheet's top-left corner, not the plan's origin).
+TRAVEL_BUDGET = 11.8
+#: A plan past a budget is aimed this far inside it at the first redo and at the second.
+AIMS = (0.97, 0.95)
+#: The hatching's cost and its travel are taken to fall as (tone factor)^(1 / DAMPING) at the
+#: first redo: lighter tones drop dashes faster than their tone falls. Measured on three photos
+#: past the budget, scaled by 0.9, 0.8 and 0.7: the cost's exponent 1.05-2.7, the travel's
+#: 0.55-1.65. 0.5 (as if 2) errs toward too small a cut (too deep a one costs the photo its
+#: tone) and the second redo, with the exponent measured, catches the rest: on seven photos past
+#: the budget (bench/fidelity.py) 0.67 landed them 0.5-2.5 min under it, 0.5 within 1.2 min.
+DAMPING = 0.5
+#: After a redo the damping is measured (:func:`within_plot_budget`), within these: a hatching
+#: whose travel hardly falls (dashes spread out as they thin) is not scaled to nothing for it.
+DAMPINGS = (0.33, 2.0)
+#: The lightest factor of one redo.
+LIGHTEST = 0.4
+#: Most redos of the hatching (each one a shading and an ordering).
+REDOS = 2
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class PlotCost:
+    """What a plan's paths cost in plotting, mm of pen-down (see the module): ``total`` all of
+    it, ``travel`` the pen-up travel alone (mm, unweighted); ``hatch_total`` and ``hatch_travel``
+    their share in the hatch layers (the faces' runs not counted as hatching)."""
+
+    total: float
+    travel: float
+    hatch_total: float
+    hatch_travel: float
+
+
+def corners(paths: Paths) -> int:
+    """How many turns of ``paths``' drawn segments are sharper than ``CORNER_TURN`` degrees."""
+    if len(paths.points) < 3:
+        return 0
+    owner = paths.owners()
+    step = np.diff(paths.points, axis=0)
+    step = step[owner[1:] == owner[:-1]]  # each path's own segments, paths one after another
+    owner = owner[1:][owner[1:] == owner[:-1]]
+    length = np.hypot(*step.T)
+    keep = length > 0
+    step, owner, length = step[keep], owner[keep], length[keep]
+    inside = owner[1:] == owner[:-1]
+    cosine = (step[1:] * step[:-1]).sum(axis=1) / (length[1:] * length[:-1])
+    return int(np.count_nonzero(inside & (cosine < np.cos(np.radians(CORNER_TURN)))))
+
+
+def plot_cost(layers: Sequence[Layer], start: tuple[float, float] = (0.0, 0.0)) -> PlotCost:
+    """The plotting cost of ordered ``layers`` drawn one after another from ``start`` and back
+    (the plotter's home), the travel into a path counted with its layer."""
+    total = travel = hatch_total = hatch_travel = 0.0
+    position = np.asarray(start, np.float64)
+    for layer in layers:
+        paths = layer.paths
+        if not len(paths):
+            continue
+        tails = np.vstack([position, paths.lasts[:-1]])
+        moved = float(np.hypot(*(paths.firsts - tails).T).sum())
+        cost = (
+            float(paths.drawn_lengths().sum())
+            + CORNER_MM * corners(paths)
+            + LIFT_MM * len(paths)
+            + TRAVEL_WEIGHT * moved
+        )
+        total, travel = total + cost, travel + moved
+        if layer.role == "hatch" and layer.name != FACE_TONE:
+            hatch_total, hatch_travel = hatch_total + cost, hatch_travel + moved
+        position = paths.lasts[-1]
+    home = float(np.hypot(*(position - np.asarray(start, np.float64))))
+    return PlotCost(total + TRAVEL_WEIGHT * home, travel + home, hatch_total, hatch_travel)
+
+
+def lighter_by(
+    cost: PlotCost, sheet_cm2: float, damping: tuple[float, float] = (DAMPING, DAMPING), aim: float = AIMS[0]
+) -> float:
+    """The factor the hatching's tone is drawn lighter by for ``cost`` to come within both
+    budgets over a sheet of ``sheet_cm2`` (1: it is within them), aimed ``aim`` inside them; the
+    hatching's cost and travel taken to fall as the factor^(1 / ``damping``), each."""
+    factor = 1.0
+    for spent, hatched, budget, power in (
+        (cost.total, cost.hatch_total, PLOT_BUDGET * sheet_cm2, damping[0]),
+        (cost.travel, cost.hatch_travel, TRAVEL_BUDGET * sheet_cm2, damping[1]),
+    ):
+        if spent > budget and hatched > 0:
+            room = max(aim * budget - (spent - hatched), 0.0)  # what the rest leaves the hatching
+            factor = min(factor, max((room / hatched) ** power, LIGHTEST))
+    return factor
+
+
+def within_plot_budget(
+    layers: list[Layer], redraw: Callable[[float], list[Layer]], sheet_cm2: float
+) -> list[Layer]:
+    """``layers`` (ordered), or, while they cost more than a budget over a sheet of ``sheet_cm2``
+    (at most ``REDOS`` times), ``redraw(scale)``: the plan again, ordered, its hatching's tone
+    scaled by a further :func:`lighter_by` each time; after the first redo with the damping that
+    redo measured (how fast this picture's hatching fell with its tone), aimed further inside
+    (``AIMS``: the fall is not smooth, a few dashes more or less)."""
+    first = cost = plot_cost(layers)
+    scale, damping = 1.0, (DAMPING, DAMPING)
+    for redo in range(REDOS):
+        factor = lighter_by(cost, sheet_cm2, damping, AIMS[redo])
+        if factor >= 1.0:
+            break
+        scale *= factor
+        log.debug(
+            "plot cost %.1f m (pen-up %.2f m) over the budget: hatching's tone scaled by %.2f",
+            cost.total / 1e3,
+            cost.travel / 1e3,
+            scale,
+        )
+        layers = redraw(scale)
+        cost = plot_cost(layers)
+        damping = (
+            _measured(first.hatch_total, cost.hatch_total, scale),
+            _measured(first.hatch_travel, cost.hatch_travel, scale),
+        )
+    return layers
+
+
+def _measured(before: float, after: float, scale: float) -> float:
+    """The damping with which ``before`` fell to ``after`` at the tone's ``scale`` (within
+    ``DAMPINGS``; the largest when nothing fell or there was nothing)."""
+    if before <= 0 or after <= 0 or after >= before or scale >= 1.0:
+        return DAMPINGS[1]
+    return float(np.clip(np.log(scale) / np.log(after / before), *DAMPINGS))

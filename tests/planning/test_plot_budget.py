@@ -1,0 +1,130 @@
+"""A one-pen plan's plotting (lifts, corners, pen-up travel) within its budget (planning/plot_budget.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pencilbot.imaging.io import image_from_array
+from pencilbot.imaging.pencil import sketch
+from pencilbot.machine.profile import load_profile
+from pencilbot.paths import Paths
+from pencilbot.planning import build, plot_budget
+from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.plan import Layer
+from pencilbot.planning.plot_budget import CORNER_MM, LIFT_MM, TRAVEL_WEIGHT, corners, lighter_by, plot_cost
+from pencilbot.planning.stats import estimate
+from pencilbot.planning.style import Style
+
+FAST = Style(order_rounds=2, faces=False)
+SHEET_CM2 = 100.0  # the 100 x 100 mm page
+
+
+@pytest.fixture(scope="module")
+def busy_bands():
+    """Four bands, darkest at the bottom, under a coarse noise texture: many short hatch strokes
+    that ordering cannot join, the kind of picture that plots slowly for its ink."""
+    rng = np.random.default_rng(3)
+    rows = np.repeat(np.array([0.75, 0.6, 0.45, 0.3]), 60)[:, None]
+    blobs = np.kron(rng.normal(0, 0.12, (60, 60)), np.ones((4, 4)))
+    gray = np.clip(rows + blobs, 0, 1).astype(np.float32)
+    image = image_from_array(gray, source="busy bands")
+    page = page_size("100x100", "portrait", image.shape, 5.0)
+    return sketch(at_plot_resolution(image, page, FAST.pen_width)), page
+
+
+@pytest.fixture
+def no_budgets(monkeypatch):
+    monkeypatch.setattr(build, "PEN_DOWN_BUDGET", float("inf"))  # only the plot's budget acts
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", float("inf"))
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
+
+
+def _band_ink(plan, drawing, page) -> np.ndarray:
+    """Pen-down length of the hatching in each band, top (lightest) first."""
+    layout = Layout.fit(drawing.gray.shape, page)
+    hatch = plan.paths("hatch")
+    owner = hatch.owners()
+    step = np.diff(hatch.points, axis=0)[owner[1:] == owner[:-1]]
+    middle = (hatch.points[1:] + hatch.points[:-1])[owner[1:] == owner[:-1]] / 2
+    rows = layout.mm_to_px(middle)[:, 1] / drawing.gray.shape[0]
+    return np.bincount(np.clip((rows * 4).astype(int), 0, 3), weights=np.hypot(*step.T), minlength=4)
+
+
+def test_corners_count_the_sharp_turns_of_each_path_only():
+    zigzag = np.array([[0, 0], [10, 0], [10, 1], [0, 1], [0, 2]], float)  # four 90° turns less one end
+    gentle = np.array([[0, 0], [10, 0], [20, 3]], float)  # a 17° bend
+    assert corners(Paths.of([zigzag])) == 3
+    assert corners(Paths.of([gentle])) == 0
+    # Two paths end to end: the joint between them is a lift, not a corner.
+    assert corners(Paths.of([zigzag[:2], zigzag[2:4][::-1]])) == 0
+
+
+def test_the_cost_counts_pen_down_corners_lifts_and_weighted_travel():
+    first = np.array([[10.0, 0.0], [20.0, 0.0], [20.0, 5.0]])  # 15 mm, one corner
+    second = np.array([[20.0, 10.0], [30.0, 10.0]])  # 10 mm
+    cost = plot_cost([Layer("hatch0", [first], role="hatch"), Layer("edges", [second], role="edges")])
+    travel = 10.0 + 5.0 + np.hypot(30.0, 10.0)  # home to the first, between them, back home
+    assert cost.travel == pytest.approx(travel)
+    assert cost.total == pytest.approx(25.0 + CORNER_MM + 2 * LIFT_MM + TRAVEL_WEIGHT * travel)
+    assert cost.hatch_total == pytest.approx(15.0 + CORNER_MM + LIFT_MM + TRAVEL_WEIGHT * 10.0)
+    assert cost.hatch_travel == pytest.approx(10.0)
+
+
+def test_the_factor_is_one_within_the_budgets_and_falls_with_the_excess():
+    def cost(total: float, travel: float = 0.0):
+        return plot_budget.PlotCost(total, travel, 0.8 * total, 0.8 * travel)
+
+    budget = plot_budget.PLOT_BUDGET * SHEET_CM2
+    assert lighter_by(cost(0.99 * budget), SHEET_CM2) == 1.0
+    factors = [lighter_by(cost(excess * budget), SHEET_CM2) for excess in (1.01, 1.2, 1.5)]
+    assert 1.0 > factors[0] > factors[1] > factors[2] > 0.0
+    travel = plot_budget.TRAVEL_BUDGET * SHEET_CM2
+    assert lighter_by(cost(0.5 * budget, 1.3 * travel), SHEET_CM2) < 1.0  # the pen-up alone
+
+
+def test_the_cost_follows_the_plot_time_on_the_servo_plotter(busy_bands, no_budgets):
+    drawing, page = busy_bands
+    plan = plan_from_sketch(drawing, page, FAST)
+    seconds = estimate(plan, load_profile("grbl-servo-a4")).total.seconds
+    # 0.02124 s per mm of cost: the fit over 36 photos (docs/faces.md).
+    assert plot_cost(plan.layers).total * 0.02124 == pytest.approx(seconds, rel=0.1)
+
+
+# Pen-up travel falls more slowly than the cost as the dashes thin out (they spread over the same
+# area): a smaller cut of it.
+@pytest.mark.parametrize(("budget", "cut"), [("PLOT_BUDGET", 0.75), ("TRAVEL_BUDGET", 0.85)])
+def test_over_the_budget_the_hatching_is_lighter_in_the_same_order(
+    busy_bands, no_budgets, monkeypatch, budget, cut
+):
+    drawing, page = busy_bands
+    free = plan_from_sketch(drawing, page, FAST)
+    spent = plot_cost(free.layers)
+    allowed = cut * (spent.total if budget == "PLOT_BUDGET" else spent.travel)
+    monkeypatch.setattr(plot_budget, budget, allowed / SHEET_CM2)
+    held = plan_from_sketch(drawing, page, FAST)
+    cost = plot_cost(held.layers)
+    assert (cost.total if budget == "PLOT_BUDGET" else cost.travel) <= allowed
+    assert cost.hatch_total >= 0.3 * spent.hatch_total  # lighter, not blank
+    # The contours stay (ordered from where the lighter hatching ends).
+    edges, before = held.layer("edges").paths, free.layer("edges").paths
+    assert sorted(edges.drawn_lengths().round(6)) == sorted(before.drawn_lengths().round(6))
+    ink = _band_ink(held, drawing, page)
+    assert np.all(np.diff(ink) > 0)  # darker bands keep more ink than lighter ones
+
+
+def test_under_the_budget_the_plan_is_the_same_and_ordered_once(busy_bands, no_budgets, monkeypatch):
+    drawing, page = busy_bands
+    free = plan_from_sketch(drawing, page, FAST)
+    spent = plot_cost(free.layers)
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.001 * spent.total / SHEET_CM2)
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", 1.001 * spent.travel / SHEET_CM2)
+    orderings = []
+    ordered = build._ordered
+    monkeypatch.setattr(
+        build, "_ordered", lambda layers, order: orderings.append(1) or ordered(layers, order)
+    )
+    again = plan_from_sketch(drawing, page, FAST)
+    assert [layer.paths for layer in again.layers] == [layer.paths for layer in free.layers]
+    assert len(orderings) == 1
