@@ -22,8 +22,8 @@ import cv2
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import LIGHTEST, PITCH, error_diffuse, face_pitch, run_strokes
-from pencilbot.planning.face_budget import within_budget
+from pencilbot.planning.dither import RUN_BIAS, face_runs, ink_on_grid
+from pencilbot.planning.face_budget import thriftier, within_budget
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
     HATCH_ANGLES,
@@ -35,8 +35,7 @@ from pencilbot.planning.hatching import (
     hatch_layers,
 )
 from pencilbot.planning.plan import Layer
-from pencilbot.render import render_paths
-from pencilbot.units import DEFAULT_PEN_WIDTH, MM_PER_INCH
+from pencilbot.units import DEFAULT_PEN_WIDTH
 
 #: Default scale (mm) of the forms the hatching follows, photo darkness under which the paper
 #: stays blank, and the blur (mm) at which the plot's tone is matched: the style starts here.
@@ -130,6 +129,7 @@ class Hatching:
         important: np.ndarray | None = None,
         dithered: np.ndarray | None = None,
         face_darkness: np.ndarray | None = None,
+        run_bias: float = RUN_BIAS,
     ) -> list[Layer]:
         """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
 
@@ -160,6 +160,8 @@ class Hatching:
             hatching leaves it bare, counting the runs' ink as it counts the edges'.
         face_darkness : (H, W) float array in [0, 1], optional
             The tone the dithered faces are drawn to; default ``darkness``.
+        run_bias : float
+            The faces' runs' (:func:`~pencilbot.planning.dither.error_diffuse`).
 
         Returns
         -------
@@ -171,7 +173,7 @@ class Hatching:
         if dithered is not None and np.any(dithered > 0.5):
             faces = darkness if face_darkness is None else face_darkness
             runs = within_budget(  # the faces' plotting within FACE_BUDGET (planning/face_budget.py)
-                lambda scale: face_runs(
+                lambda scale, bias: face_runs(
                     scale * faces,
                     dithered,
                     layout,
@@ -179,8 +181,10 @@ class Hatching:
                     pen_width=self.pen_width,
                     blank_below=self.blank_below,
                     paper=darkness if paper is None else paper,  # (the loop's photo_darkness)
+                    run_bias=bias,
                 ),
                 layout.page.width * layout.page.height / 100,
+                thriftier(run_bias),
             )
         loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
         layers = loop.run(edges, runs, dithered)
@@ -200,6 +204,7 @@ class Hatching:
         dithered: np.ndarray | None = None,
         face_darkness: np.ndarray | None = None,
         scale: float = 1.0,
+        run_bias: float = RUN_BIAS,
     ) -> tuple[list[Layer], float]:
         """:meth:`shade`, its pen-down length (mm) within ``budget`` (the faces' runs in it), and
         the factor its tone was scaled by.
@@ -220,6 +225,7 @@ class Hatching:
                 important=important,
                 dithered=dithered,
                 face_darkness=face_darkness,
+                run_bias=run_bias,
             )
             drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
             if drawn <= budget or scale < start or start < 1.0:
@@ -377,55 +383,6 @@ class ToneLoop:
         wanting = request > 0
         short = wanting & (request > reach - SHORTFALL)
         return short.sum() > SHORT_SHARE * max(wanting.sum(), 1)
-
-
-def face_runs(
-    darkness: np.ndarray,
-    dithered: np.ndarray,
-    layout,
-    edges: Paths,
-    *,
-    pen_width: float,
-    blank_below: float,
-    paper: np.ndarray,
-) -> Paths:
-    """The dithered runs (:mod:`pencilbot.planning.dither`) that draw ``darkness`` where
-    ``dithered`` is above ½, on rows ``PITCH`` pen widths apart (more for a close portrait:
-    :func:`~pencilbot.planning.dither.face_pitch`), the edges' ink counted.
-
-    Darkness up to ``LIGHTEST`` is left bare and the rest stretched over the full range; where
-    the photo (``paper``) is lighter than ``blank_below`` the paper stays blank, as elsewhere.
-    """
-    grid = Grid(layout.drawing_box, pen_width * PITCH)
-    region = sample_image(dithered, layout, grid) > 0.5
-    pitch = face_pitch(float(region.mean()))
-    if pitch != PITCH:
-        grid = Grid(layout.drawing_box, pen_width * pitch)
-        region = sample_image(dithered, layout, grid) > 0.5
-    if not region.any():
-        return Paths.empty()
-    rows, cols = np.nonzero(region)
-    window = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
-    target = np.clip((sample_image(darkness, layout, grid)[window] - LIGHTEST) / (1.0 - LIGHTEST), 0.0, 1.0)
-    target[sample_image(paper, layout, grid)[window] < blank_below] = 0.0
-    given = ink_on_grid(edges, grid, pen_width)[window]
-    on = error_diffuse(target, region[window], given, pen=1.0 / pitch)
-    return run_strokes(on, grid, (rows.min(), cols.min()))
-
-
-def ink_on_grid(paths: Paths, grid: Grid, pen_width: float) -> np.ndarray:
-    """Darkness of pen paths on a grid's cells (exact-area rasteriser)."""
-    rows, cols = grid.shape
-    x0, _, _, y1 = grid.box
-    height = rows * grid.cell
-    return render_paths(
-        paths,
-        cols * grid.cell,
-        height,
-        dpi=MM_PER_INCH / grid.cell,
-        pen_width=pen_width,
-        origin=(x0, y1 - height),
-    )
 
 
 def _blur(image: np.ndarray, sigma: float) -> np.ndarray:

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.face_budget import FACE_BUDGET, run_cost, within_budget
+from pencilbot.planning.dither import THRIFTY_RUN_BIASES, face_runs
+from pencilbot.planning.face_budget import FACE_BUDGET, run_cost, thriftier, within_budget
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
-from pencilbot.planning.shading import FACE_TONE, face_runs, shade
+from pencilbot.planning.shading import FACE_TONE, shade
 
 PEN = 0.5
 
@@ -54,7 +55,7 @@ def test_the_scale_is_one_at_the_budget_and_falls_continuously_past_it():
     def scales_for(length: float) -> list[float]:
         asked: list[float] = []
 
-        def draw(scale: float) -> Paths:
+        def draw(scale: float, bias: float) -> Paths:
             asked.append(scale)
             return Paths.of([np.array([[0.0, 0.0], [length, 0.0]])])
 
@@ -64,3 +65,28 @@ def test_the_scale_is_one_at_the_budget_and_falls_continuously_past_it():
     assert scales_for(1000.0) == [1.0]
     assert scales_for(1001.0)[1] > 0.999  # no step past the budget
     assert scales_for(2021.0)[:2] == [1.0, 0.5**0.75]
+
+
+def test_past_the_budget_the_runs_get_thriftier_before_the_faces_get_lighter():
+    asked: list[tuple[float, float]] = []
+
+    def draw(scale: float, bias: float) -> Paths:
+        asked.append((scale, bias))
+        # Each thriftier bias saves a lift's worth; still past the budget until the tone falls.
+        return Paths.of([np.array([[0.0, 0.0], [2000.0 * scale - 100.0 * bias, 0.0]])])
+
+    within_budget(draw, 1021.0 / FACE_BUDGET, thriftier(0.2))
+    assert [bias for _, bias in asked[:3]] == [0.2, *THRIFTY_RUN_BIASES]
+    assert all(scale == 1.0 for scale, _ in asked[:3])  # the tone as it is while the runs get thriftier
+    assert asked[3][0] < 1.0 and asked[3][1] == THRIFTY_RUN_BIASES[-1]
+
+
+def test_runs_within_the_budget_at_a_thriftier_bias_keep_their_tone():
+    asked: list[tuple[float, float]] = []
+
+    def draw(scale: float, bias: float) -> Paths:
+        asked.append((scale, bias))
+        return Paths.of([np.array([[0.0, 0.0], [1100.0 - 1000.0 * bias, 0.0]])])  # 900, 800, 700 mm
+
+    within_budget(draw, 821.0 / FACE_BUDGET, thriftier(0.2))  # 800 mm and one lift
+    assert asked == [(1.0, 0.2), (1.0, 0.3)]

@@ -230,8 +230,9 @@ def test_the_shortest_stroke_is_min_run_to_a_fraction_of_the_sample_step(min_run
 def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
     # A ramp with a pale square and a contour: what the ideal dither cannot know (dropped
     # crumbs, crowding, a contour's own ink) leaves an error the loop must shrink, round by round.
+    from pencilbot.planning.dither import ink_on_grid
     from pencilbot.planning.flow import sample_image
-    from pencilbot.planning.shading import _blur, ink_on_grid
+    from pencilbot.planning.shading import _blur
 
     n = 100
     layout = _layout((n, n))
@@ -282,7 +283,7 @@ def test_a_tall_picture_on_a_wide_sheet_is_hatched_to_its_bottom_edge():
 def test_the_first_request_leaves_out_the_ink_a_contour_lays():
     # No correction round: the hatching's request alone must already count a contour in the
     # tone, laying less ink along it than where there is no contour.
-    from pencilbot.planning.shading import ink_on_grid
+    from pencilbot.planning.dither import ink_on_grid
 
     n = 100
     layout = _layout((n, n))

@@ -11,9 +11,19 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning import build, plot_budget
 from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.dither import RUN_BIAS, THRIFTY_RUN_BIASES
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Layer
-from pencilbot.planning.plot_budget import CORNER_MM, LIFT_MM, TRAVEL_WEIGHT, corners, lighter_by, plot_cost
+from pencilbot.planning.plot_budget import (
+    CORNER_MM,
+    LIFT_MM,
+    TRAVEL_WEIGHT,
+    corners,
+    lighter_by,
+    plot_cost,
+    within_plot_budget,
+)
+from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.stats import estimate
 from pencilbot.planning.style import Style
 
@@ -128,3 +138,38 @@ def test_under_the_budget_the_plan_is_the_same_and_ordered_once(busy_bands, no_b
     again = plan_from_sketch(drawing, page, FAST)
     assert [layer.paths for layer in again.layers] == [layer.paths for layer in free.layers]
     assert len(orderings) == 1
+
+
+def _layers(face_strokes: int, hatch_scale: float) -> list[Layer]:
+    """A hatch layer of 40 strokes 10 mm long (fewer as its tone is lighter) and a faces' layer
+    of ``face_strokes`` dots, on a line so that travel is short."""
+    hatch = Paths.of([np.array([[x, 0.0], [x, 10.0]]) for x in range(int(40 * hatch_scale))])
+    runs = Paths.of([np.array([[x * 0.5, 20.0], [x * 0.5 + 0.5, 20.0]]) for x in range(face_strokes)])
+    return [
+        Layer("hatch1-0", hatch, pen_width=0.5, role="hatch"),
+        Layer(FACE_TONE, runs, pen_width=0.5, role="hatch"),
+    ]
+
+
+def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lighter(monkeypatch):
+    strokes = {RUN_BIAS: 60, **dict(zip(THRIFTY_RUN_BIASES, (45, 30), strict=True))}
+    asked: list[tuple[float, float]] = []
+
+    def redraw(scale: float, bias: float) -> list[Layer]:
+        asked.append((scale, bias))
+        return _layers(strokes[bias], scale)
+
+    within = plot_cost(_layers(strokes[THRIFTY_RUN_BIASES[0]], 1.0)).total
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.001 * within / SHEET_CM2)
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
+    kept = within_plot_budget(_layers(strokes[RUN_BIAS], 1.0), redraw, SHEET_CM2)
+    assert asked == [(1.0, THRIFTY_RUN_BIASES[0])]  # the first thriftier bias fits: the tone as it is
+    assert len(kept[1].paths) == 45 and len(kept[0].paths) == 40
+
+    asked.clear()
+    tight = plot_cost(_layers(strokes[THRIFTY_RUN_BIASES[-1]], 1.0)).total * 0.9
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", tight / SHEET_CM2)
+    within_plot_budget(_layers(strokes[RUN_BIAS], 1.0), redraw, SHEET_CM2)
+    assert [bias for _, bias in asked[:2]] == list(THRIFTY_RUN_BIASES)
+    assert all(scale == 1.0 for scale, _ in asked[:2])
+    assert asked[2][0] < 1.0 and asked[2][1] == THRIFTY_RUN_BIASES[-1]  # then lighter, still thrifty
