@@ -24,7 +24,7 @@ from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import RUN_BIAS
+from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.features import features_only, mostly_in
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths
@@ -270,8 +270,8 @@ def plan_from_sketch(
     if hatching is not None and not in_color and not draft:  # and its plotting within PLOT_BUDGET
         ordered = within_plot_budget(
             ordered,
-            lambda factor, run_bias: _ordered(
-                _with_edges(shade(scale * factor, run_bias)[0], strokes, stages.edges.pen_width, pens),
+            lambda factor, level: _ordered(
+                _with_edges(shade(scale * factor, level)[0], strokes, stages.edges.pen_width, pens),
                 stages.order,
             ),
             layout.page.width * layout.page.height / 100,
@@ -291,7 +291,7 @@ def _one_pen_shading(
     )
     face_darkness = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
 
-    def shade(scale: float, run_bias: float = RUN_BIAS) -> tuple[list[Layer], float]:
+    def shade(scale: float, level: RunLevel = LEVELS[0]) -> tuple[list[Layer], float]:
         hatches, used = hatching.shade_within(
             budget,
             tone,
@@ -302,7 +302,7 @@ def _one_pen_shading(
             dithered=dithered,
             face_darkness=face_darkness,
             scale=scale,
-            run_bias=run_bias,
+            level=level,
         )
         return [layer for layer in hatches if layer.paths], used
 

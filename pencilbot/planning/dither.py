@@ -19,6 +19,8 @@ rows 1.2 pen widths apart, joined, the lightest fifth of the tone left bare 0.96
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import cv2
 import numpy as np
 
@@ -40,19 +42,32 @@ PITCH = 1.0
 WIDE_PITCH = 1.2
 CLOSE_SHARE, CLOSER_SHARE = 0.15, 0.25
 #: How much more easily a run continues than starts (a shift of the threshold, in cells of ink):
-#: longer runs, fewer pen lifts, the same ink. RUN_BIAS is the faces' own; a plan past its plot
-#: budget (:mod:`pencilbot.planning.plot_budget`) or the faces' (:mod:`~pencilbot.planning.face_budget`)
-#: draws them at each of THRIFTY_RUN_BIASES first, before anything is drawn lighter. Measured
-#: (bench/fidelity.py --faceset, with the joins' ink taken off, :func:`face_runs`; face rho@1mm /
-#: @0.5mm, median of the faces from 25 mm / of those 12-25 mm): 0.4 alone 0.956 / 0.918, 0.960 /
-#: 0.899; 0.2 then 0.3, 0.4 0.963 / 0.932, 0.958 / 0.914, the lowest face 0.752 / 0.604 -> 0.835 /
-#: 0.752, 1-3 min more plotting within the plot budget. 0.2 for every photo: the photos past the
-#: budget paid with their hatching's tone (whole box down to 0.902); 0.1 first: no better.
+#: longer runs, fewer pen lifts, the same ink.
 RUN_BIAS = 0.2
-THRIFTY_RUN_BIASES = (0.3, 0.4)
 #: Darkness kept bare paper, the rest stretched over the full range: a face's lightest skin
 #: would otherwise be a scatter of single dots, a pen lift each, and its features stand out more.
 LIGHTEST = 0.2
+
+
+@dataclass(frozen=True)
+class RunLevel:
+    """How finely the faces' runs are drawn: ``run_bias`` (:func:`error_diffuse`) and the
+    darkness ``lightest`` up to which a face's skin is left bare (:func:`face_runs`)."""
+
+    run_bias: float = RUN_BIAS
+    lightest: float = LIGHTEST
+
+
+#: The faces' runs from the finest to the thriftiest. A plan is drawn at the first; past its plot
+#: budget (:mod:`pencilbot.planning.plot_budget`) or the faces' (:mod:`~pencilbot.planning.face_budget`)
+#: at each next one in turn, before anything is drawn lighter. Measured (bench/fidelity.py
+#: --faceset, the joins' ink counted, :func:`face_runs`; faces from 25 mm / 12-25 mm meeting their
+#: bars, their medians at 1 mm / 0.5 mm, whole-box rho min): the runs at a bias of 0.4, skin to 0.2
+#: bare (stop 37): 15 / 29, 0.956 / 0.918, 0.941; a bias of 0.2, then 0.3 and 0.4: 15 / 30, 0.963 /
+#: 0.932, 0.942; skin to 0.12 bare first: 16 / 30, 0.972 / 0.935, 0.941 (the lit faces gain most:
+#: biden 0.937 -> 0.959 at 1 mm). The finest for every photo: those past the budget paid with their
+#: hatching's tone (whole box down to 0.869).
+LEVELS = (RunLevel(RUN_BIAS, 0.12), RunLevel(), RunLevel(0.3), RunLevel(0.4))
 #: The ink the joins of a face's runs add (:func:`face_runs`) is taken off its request over this
 #: Gaussian sigma, in cells: the runs nearby, not the join's own cells, lay less.
 JOIN_SPREAD = 1.5
@@ -265,13 +280,15 @@ def face_runs(
     pen_width: float,
     blank_below: float,
     paper: np.ndarray,
-    run_bias: float = RUN_BIAS,
+    level: RunLevel = LEVELS[0],
+    ink_scale: float = 1.0,
 ) -> Paths:
     """The dithered runs (:mod:`pencilbot.planning.dither`) that draw ``darkness`` where
     ``dithered`` is above ½, on rows ``PITCH`` pen widths apart (more for a close portrait:
     :func:`~pencilbot.planning.dither.face_pitch`), the edges' ink counted.
 
-    Darkness up to ``LIGHTEST`` is left bare and the rest stretched over the full range; where
+    Darkness up to ``level.lightest`` is left bare and the rest stretched over the full range,
+    times ``ink_scale`` (a sheet drawn lighter for its budgets, the same skin bare); where
     the photo (``paper``) is lighter than ``blank_below`` the paper stays blank, as elsewhere.
     """
     grid = Grid(layout.drawing_box, pen_width * PITCH)
@@ -284,11 +301,12 @@ def face_runs(
         return Paths.empty()
     rows, cols = np.nonzero(region)
     window = (slice(rows.min(), rows.max() + 1), slice(cols.min(), cols.max() + 1))
-    target = np.clip((sample_image(darkness, layout, grid)[window] - LIGHTEST) / (1.0 - LIGHTEST), 0.0, 1.0)
+    cut = level.lightest
+    target = ink_scale * np.clip((sample_image(darkness, layout, grid)[window] - cut) / (1.0 - cut), 0.0, 1.0)
     target[sample_image(paper, layout, grid)[window] < blank_below] = 0.0
     given = ink_on_grid(edges, grid, pen_width)[window]
     origin = (int(rows.min()), int(cols.min()))
-    on = error_diffuse(target, region[window], given, pen=1.0 / pitch, run_bias=run_bias)
+    on = error_diffuse(target, region[window], given, pen=1.0 / pitch, run_bias=level.run_bias)
     runs = run_strokes(on, grid, origin)
     # The joins' steps between rows lay ink the diffusion did not count (a shorter bias joins
     # more of them: a mid grey of 0.35 came to 0.43): taken off the request around them, and the
@@ -303,7 +321,7 @@ def face_runs(
         0.0,
         1.0,
     )
-    on = error_diffuse(request, region[window], given, pen=1.0 / pitch, run_bias=run_bias)
+    on = error_diffuse(request, region[window], given, pen=1.0 / pitch, run_bias=level.run_bias)
     return run_strokes(on, grid, origin)
 
 

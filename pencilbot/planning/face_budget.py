@@ -10,7 +10,7 @@ pen-down, stays. A face closer or darker than that one went past 30 minutes what
 Here the runs are costed as a plotter spends its time: their pen-down plus ``LIFT_MM`` for each
 stroke (a lift, a move and a drop take as long as that much drawing). Within ``FACE_BUDGET`` they
 are drawn as they are; past it they are drawn with fewer, longer runs first
-(:data:`pencilbot.planning.dither.THRIFTY_RUN_BIASES`), and then the faces' tone lighter by
+(:data:`pencilbot.planning.dither.LEVELS`), and then the faces' tone lighter by
 (budget / cost)^¾ (again, if still past it), as the
 hatching is past its budget: one factor over every face, so their order of tones stays, and the
 factor is 1 at the budget, so the rule has no step.
@@ -21,7 +21,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import RUN_BIAS, THRIFTY_RUN_BIASES
+from pencilbot.planning.dither import LEVELS, RunLevel
 
 #: A stroke's lift, move and drop in mm of pen-down of the same plotting time: on the face set
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew by 0.43 min per m of pen-down and
@@ -45,15 +45,15 @@ def run_cost(runs: Paths) -> float:
 
 
 def within_budget(
-    draw: Callable[[float, float], Paths], sheet_cm2: float, run_biases: Sequence[float] = (RUN_BIAS,)
+    draw: Callable[[float, RunLevel], Paths], sheet_cm2: float, levels: Sequence[RunLevel] = LEVELS[:1]
 ) -> Paths:
-    """The faces' runs ``draw(1, run_biases[0])``; while they cost more than ``FACE_BUDGET`` over a
-    sheet of ``sheet_cm2``, drawn with each thriftier run bias of ``run_biases`` in turn (fewer,
-    longer runs: the same tone for fewer lifts), then (at most ``ROUNDS`` times) with the last,
-    their tone scaled by a further (budget / cost)^DAMPING each time."""
+    """The faces' runs ``draw(1, levels[0])``; while they cost more than ``FACE_BUDGET`` over a
+    sheet of ``sheet_cm2``, drawn at each thriftier level of ``levels`` in turn (fewer, longer runs,
+    more of the lightest skin bare), then (at most ``ROUNDS`` times) at the last, their tone scaled
+    by a further (budget / cost)^DAMPING each time."""
     allowed, scale = FACE_BUDGET * sheet_cm2, 1.0
-    for bias in run_biases:
-        runs = draw(scale, bias)
+    for level in levels:
+        runs = draw(scale, level)
         if run_cost(runs) <= allowed:
             return runs
     for _ in range(ROUNDS):
@@ -61,10 +61,10 @@ def within_budget(
         if cost <= allowed:
             break
         scale *= (allowed / cost) ** DAMPING
-        runs = draw(scale, run_biases[-1])
+        runs = draw(scale, levels[-1])
     return runs
 
 
-def thriftier(run_bias: float) -> tuple[float, ...]:
-    """``run_bias`` and every one of ``THRIFTY_RUN_BIASES`` thriftier than it, in turn."""
-    return (run_bias, *(bias for bias in THRIFTY_RUN_BIASES if bias > run_bias))
+def thriftier(level: RunLevel) -> tuple[RunLevel, ...]:
+    """``level`` and the levels of ``LEVELS`` after it (all of them, for one not among them)."""
+    return LEVELS[LEVELS.index(level) :] if level in LEVELS else (level, *LEVELS)

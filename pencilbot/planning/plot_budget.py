@@ -31,7 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import RUN_BIAS, THRIFTY_RUN_BIASES
+from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.shading import FACE_TONE
 
@@ -139,21 +139,21 @@ def lighter_by(
 
 
 def within_plot_budget(
-    layers: list[Layer], redraw: Callable[[float, float], list[Layer]], sheet_cm2: float
+    layers: list[Layer], redraw: Callable[[float, RunLevel], list[Layer]], sheet_cm2: float
 ) -> list[Layer]:
     """``layers`` (ordered), or, while they cost more than a budget over a sheet of ``sheet_cm2``,
-    ``redraw(scale, run_bias)``: the plan again, ordered. First its faces' runs at each of the
-    thriftier ``THRIFTY_RUN_BIASES`` in turn (fewer, longer runs: the faces' finer runs are what
-    a plan within the budget can afford); then, at most ``REDOS`` times, its hatching's tone scaled by a further
+    ``redraw(scale, level)``: the plan again, ordered. First its faces' runs at each of the
+    thriftier ``LEVELS`` in turn (fewer, longer runs, more of the lightest skin bare: the faces'
+    finer runs are what a plan within the budget can afford); then, at most ``REDOS`` times, its hatching's tone scaled by a further
     :func:`lighter_by` each time; after the first such redo with the damping that redo measured
     (how fast this picture's hatching fell with its tone), aimed further inside (``AIMS``: the
     fall is not smooth, a few dashes more or less)."""
     first = cost = plot_cost(layers)
-    run_bias = RUN_BIAS
+    level = LEVELS[0]
     if any(layer.name == FACE_TONE for layer in layers):
-        for run_bias in (RUN_BIAS, *THRIFTY_RUN_BIASES):
-            if run_bias != RUN_BIAS:
-                layers = redraw(1.0, run_bias)
+        for level in LEVELS:
+            if level != LEVELS[0]:
+                layers = redraw(1.0, level)
                 first = cost = plot_cost(layers)
             if lighter_by(cost, sheet_cm2) >= 1.0:
                 return layers
@@ -169,7 +169,7 @@ def within_plot_budget(
             cost.travel / 1e3,
             scale,
         )
-        layers = redraw(scale, run_bias)
+        layers = redraw(scale, level)
         cost = plot_cost(layers)
         damping = (
             _measured(first.hatch_total, cost.hatch_total, scale),

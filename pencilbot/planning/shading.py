@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import RUN_BIAS, face_runs, ink_on_grid
+from pencilbot.planning.dither import LEVELS, RunLevel, face_runs, ink_on_grid
 from pencilbot.planning.face_budget import thriftier, within_budget
 from pencilbot.planning.flow import Grid, direction_field, sample_image
 from pencilbot.planning.hatching import (
@@ -61,6 +61,13 @@ CORRECTION_BLUR = 2.0
 #: whole-box rho with the contour budget's overflow rule: starry_night 0.924 -> 0.942.
 SHARP_CORRECTION_BLUR = 0.5
 SHARP_ERROR = 0.05
+#: A sheet drawn lighter for its budgets (:meth:`Hatching.shade_within`) draws its faces' runs
+#: lighter by the factor to this power, past the lightest skin's cut (the same skin stays bare).
+#: Held at their tone (0), a dark photo's faces were dark discs on a sheet of light hatching: a
+#: darkened copy of 2008_007676 (bench/fidelity.py --photos, gamma 1/0.6) whole box 0.798, the bar
+#: photo itself 0.941; at 0.5 0.868 and 0.954, at 1 0.889 and 0.959, the face set's faces meeting
+#: their bars 16 / 30 (held), 16 / 29 (0.5), 15 / 29 (1) of 21 / 38.
+FACE_FOLLOWS = 0.5
 #: Cell (mm) of the direction field: forms vary over millimetres, not pen widths.
 FIELD_CELL = 2.0
 #: In a face, tone is matched at this blur (Gaussian sigma, mm; elsewhere the style's
@@ -129,7 +136,8 @@ class Hatching:
         important: np.ndarray | None = None,
         dithered: np.ndarray | None = None,
         face_darkness: np.ndarray | None = None,
-        run_bias: float = RUN_BIAS,
+        level: RunLevel = LEVELS[0],
+        face_scale: float = 1.0,
     ) -> list[Layer]:
         """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
 
@@ -160,8 +168,10 @@ class Hatching:
             hatching leaves it bare, counting the runs' ink as it counts the edges'.
         face_darkness : (H, W) float array in [0, 1], optional
             The tone the dithered faces are drawn to; default ``darkness``.
-        run_bias : float
-            The faces' runs' (:func:`~pencilbot.planning.dither.error_diffuse`).
+        level : RunLevel
+            How finely the faces' runs are drawn (:data:`~pencilbot.planning.dither.LEVELS`).
+        face_scale : float
+            The faces' runs' ink scaled by this past their cut (a sheet drawn lighter).
 
         Returns
         -------
@@ -173,7 +183,7 @@ class Hatching:
         if dithered is not None and np.any(dithered > 0.5):
             faces = darkness if face_darkness is None else face_darkness
             runs = within_budget(  # the faces' plotting within FACE_BUDGET (planning/face_budget.py)
-                lambda scale, bias: face_runs(
+                lambda scale, at: face_runs(
                     scale * faces,
                     dithered,
                     layout,
@@ -181,10 +191,11 @@ class Hatching:
                     pen_width=self.pen_width,
                     blank_below=self.blank_below,
                     paper=darkness if paper is None else paper,  # (the loop's photo_darkness)
-                    run_bias=bias,
+                    level=at,
+                    ink_scale=face_scale,
                 ),
                 layout.page.width * layout.page.height / 100,
-                thriftier(run_bias),
+                thriftier(level),
             )
         loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
         layers = loop.run(edges, runs, dithered)
@@ -204,15 +215,15 @@ class Hatching:
         dithered: np.ndarray | None = None,
         face_darkness: np.ndarray | None = None,
         scale: float = 1.0,
-        run_bias: float = RUN_BIAS,
+        level: RunLevel = LEVELS[0],
     ) -> tuple[list[Layer], float]:
         """:meth:`shade`, its pen-down length (mm) within ``budget`` (the faces' runs in it), and
         the factor its tone was scaled by.
 
         Past the budget the tone is shaded once more, scaled by (what the budget leaves it /
         what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order of
-        tones (and its ρ and r). The faces keep theirs: they are what a portrait is plotted for.
-        A ``scale`` under 1 draws the tone that much lighter, once, whatever its pen-down (the
+        tones (and its ρ and r). The faces' runs follow by ``scale ** FACE_FOLLOWS``, past their
+        lightest skin's cut (:func:`~pencilbot.planning.dither.face_runs`' ``ink_scale``). A ``scale`` under 1 draws the tone that much lighter, once, whatever its pen-down (the
         plot's budget, :mod:`pencilbot.planning.plot_budget`). The other keywords are :meth:`shade`'s.
         """
         start = scale
@@ -225,7 +236,8 @@ class Hatching:
                 important=important,
                 dithered=dithered,
                 face_darkness=face_darkness,
-                run_bias=run_bias,
+                level=level,
+                face_scale=scale**FACE_FOLLOWS,
             )
             drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
             if drawn <= budget or scale < start or start < 1.0:

@@ -8,11 +8,11 @@ import pytest
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import (
     CAP,
+    LEVELS,
     LIGHTEST,
     PITCH,
     REACH,
-    RUN_BIAS,
-    THRIFTY_RUN_BIASES,
+    RunLevel,
     error_diffuse,
     face_runs,
     ink_on_grid,
@@ -86,7 +86,7 @@ def test_touching_runs_are_joined_into_fewer_strokes():
             assert along[there[:-1] & there[1:]].sum() - span <= REACH
 
 
-@pytest.mark.parametrize("bias", [RUN_BIAS, *THRIFTY_RUN_BIASES])
+@pytest.mark.parametrize("bias", sorted({level.run_bias for level in LEVELS}))
 def test_the_ink_follows_the_request_and_darker_asks_for_more(bias):
     region = np.ones(GRID.shape, bool)
     means = []
@@ -110,7 +110,16 @@ def test_the_joins_ink_is_taken_off_the_faces_request():
         joined = _ink(run_strokes(on, GRID))[5:-5, 5:-5].mean()
         assert joined - level > 0.06  # the defect: the joins' ink on top of the request's
         request = np.full((120, 120), LIGHTEST + (1 - LIGHTEST) * level, np.float32)
-        runs = face_runs(request, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.0, paper=request)
+        runs = face_runs(
+            request,
+            face,
+            layout,
+            Paths.empty(),
+            pen_width=PEN,
+            blank_below=0.0,
+            paper=request,
+            level=RunLevel(),
+        )
         drawn = ink_on_grid(runs, Grid(layout.drawing_box, PEN / 4), PEN)
         inner = drawn[len(drawn) // 8 : -len(drawn) // 8, len(drawn) // 8 : -len(drawn) // 8].mean()
         assert inner == pytest.approx(level, abs=0.045)
@@ -226,3 +235,23 @@ def test_a_faces_rows_are_a_pen_apart_and_spread_only_in_a_close_portrait():
     assert face_pitch(0.05) == 1.0 and face_pitch(CLOSER_SHARE + 0.1) == WIDE_PITCH
     runs = face_runs(dark, close, layout, Paths.empty(), pen_width=PEN, blank_below=0.04, paper=dark)
     assert np.allclose(_row_gaps(runs), WIDE_PITCH * PEN, atol=1e-6)
+
+
+def test_a_lighter_sheet_draws_the_same_skin_bare_and_the_rest_lighter():
+    layout = Layout.fit((120, 120), Page(80.0, 80.0, margin=10.0))
+    face = np.ones((120, 120), np.float32)
+    ramp = np.repeat(np.linspace(0.0, 1.0, 120, dtype=np.float32)[None, :], 120, axis=0)  # light to dark
+    grid = Grid(layout.drawing_box, PEN / 4)
+
+    def columns(ink_scale: float) -> np.ndarray:
+        runs = face_runs(
+            ramp, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.0, paper=ramp, ink_scale=ink_scale
+        )
+        ink = ink_on_grid(runs, grid, PEN)
+        return ink.reshape(ink.shape[0], 12, -1).mean(axis=(0, 2))  # twelve bands, light to dark
+
+    full, half = columns(1.0), columns(0.5)
+    assert full[0] == half[0] == 0.0  # the lightest skin bare either way ...
+    assert np.array_equal(full > 0.01, half > 0.01)  # ... and no more of it
+    assert np.all(np.diff(half[2:]) > 0)  # the order of tones kept
+    assert half[-4:].mean() == pytest.approx(0.5 * full[-4:].mean(), rel=0.15)

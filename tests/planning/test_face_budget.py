@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import THRIFTY_RUN_BIASES, face_runs
+from pencilbot.planning.dither import LEVELS, face_runs
 from pencilbot.planning.face_budget import FACE_BUDGET, run_cost, thriftier, within_budget
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Page
@@ -68,25 +68,26 @@ def test_the_scale_is_one_at_the_budget_and_falls_continuously_past_it():
 
 
 def test_past_the_budget_the_runs_get_thriftier_before_the_faces_get_lighter():
-    asked: list[tuple[float, float]] = []
+    asked: list[tuple[float, object]] = []
 
-    def draw(scale: float, bias: float) -> Paths:
-        asked.append((scale, bias))
-        # Each thriftier bias saves a lift's worth; still past the budget until the tone falls.
-        return Paths.of([np.array([[0.0, 0.0], [2000.0 * scale - 100.0 * bias, 0.0]])])
+    def draw(scale: float, level) -> Paths:
+        asked.append((scale, level))
+        # Each thriftier level saves a lift's worth; still past the budget until the tone falls.
+        return Paths.of([np.array([[0.0, 0.0], [2000.0 * scale - 30.0 * len(asked), 0.0]])])
 
-    within_budget(draw, 1021.0 / FACE_BUDGET, thriftier(0.2))
-    assert [bias for _, bias in asked[:3]] == [0.2, *THRIFTY_RUN_BIASES]
-    assert all(scale == 1.0 for scale, _ in asked[:3])  # the tone as it is while the runs get thriftier
-    assert asked[3][0] < 1.0 and asked[3][1] == THRIFTY_RUN_BIASES[-1]
+    within_budget(draw, 1021.0 / FACE_BUDGET, thriftier(LEVELS[0]))
+    assert [level for _, level in asked[: len(LEVELS)]] == list(LEVELS)
+    assert all(scale == 1.0 for scale, _ in asked[: len(LEVELS)])  # the tone as it is meanwhile
+    assert asked[len(LEVELS)][0] < 1.0 and asked[len(LEVELS)][1] == LEVELS[-1]
 
 
-def test_runs_within_the_budget_at_a_thriftier_bias_keep_their_tone():
-    asked: list[tuple[float, float]] = []
+def test_runs_within_the_budget_at_a_thriftier_level_keep_their_tone():
+    asked: list[tuple[float, object]] = []
 
-    def draw(scale: float, bias: float) -> Paths:
-        asked.append((scale, bias))
-        return Paths.of([np.array([[0.0, 0.0], [1100.0 - 1000.0 * bias, 0.0]])])  # 900, 800, 700 mm
+    def draw(scale: float, level) -> Paths:
+        asked.append((scale, level))
+        return Paths.of([np.array([[0.0, 0.0], [1000.0 - 100.0 * len(asked), 0.0]])])  # 900, 800, ...
 
-    within_budget(draw, 821.0 / FACE_BUDGET, thriftier(0.2))  # 800 mm and one lift
-    assert asked == [(1.0, 0.2), (1.0, 0.3)]
+    within_budget(draw, 821.0 / FACE_BUDGET, thriftier(LEVELS[0]))  # 800 mm and one lift
+    assert asked == [(1.0, LEVELS[0]), (1.0, LEVELS[1])]
+    assert thriftier(LEVELS[1]) == LEVELS[1:]

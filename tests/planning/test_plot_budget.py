@@ -11,7 +11,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning import build, plot_budget
 from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
-from pencilbot.planning.dither import RUN_BIAS, THRIFTY_RUN_BIASES
+from pencilbot.planning.dither import LEVELS
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.plot_budget import (
@@ -152,24 +152,25 @@ def _layers(face_strokes: int, hatch_scale: float) -> list[Layer]:
 
 
 def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lighter(monkeypatch):
-    strokes = {RUN_BIAS: 60, **dict(zip(THRIFTY_RUN_BIASES, (45, 30), strict=True))}
-    asked: list[tuple[float, float]] = []
+    strokes = dict(zip(LEVELS, (70, 60, 45, 30), strict=True))
+    asked: list[tuple[float, object]] = []
 
-    def redraw(scale: float, bias: float) -> list[Layer]:
-        asked.append((scale, bias))
-        return _layers(strokes[bias], scale)
+    def redraw(scale: float, level) -> list[Layer]:
+        asked.append((scale, level))
+        return _layers(strokes[level], scale)
 
-    within = plot_cost(_layers(strokes[THRIFTY_RUN_BIASES[0]], 1.0)).total
+    within = plot_cost(_layers(strokes[LEVELS[2]], 1.0)).total
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.001 * within / SHEET_CM2)
     monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
-    kept = within_plot_budget(_layers(strokes[RUN_BIAS], 1.0), redraw, SHEET_CM2)
-    assert asked == [(1.0, THRIFTY_RUN_BIASES[0])]  # the first thriftier bias fits: the tone as it is
+    kept = within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2)
+    assert asked == [(1.0, LEVELS[1]), (1.0, LEVELS[2])]  # the third level fits: the tone as it is
     assert len(kept[1].paths) == 45 and len(kept[0].paths) == 40
 
     asked.clear()
-    tight = plot_cost(_layers(strokes[THRIFTY_RUN_BIASES[-1]], 1.0)).total * 0.9
+    tight = plot_cost(_layers(strokes[LEVELS[-1]], 1.0)).total * 0.9
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", tight / SHEET_CM2)
-    within_plot_budget(_layers(strokes[RUN_BIAS], 1.0), redraw, SHEET_CM2)
-    assert [bias for _, bias in asked[:2]] == list(THRIFTY_RUN_BIASES)
-    assert all(scale == 1.0 for scale, _ in asked[:2])
-    assert asked[2][0] < 1.0 and asked[2][1] == THRIFTY_RUN_BIASES[-1]  # then lighter, still thrifty
+    within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2)
+    thrifty = len(LEVELS) - 1
+    assert [level for _, level in asked[:thrifty]] == list(LEVELS[1:])
+    assert all(scale == 1.0 for scale, _ in asked[:thrifty])
+    assert asked[thrifty][0] < 1.0 and asked[thrifty][1] == LEVELS[-1]  # then lighter, still thrifty
