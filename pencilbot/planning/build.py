@@ -19,20 +19,20 @@ import cv2
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.faces import face_mask, find_faces, portrait_darkness
+from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import LoadedImage, image_from_array
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import LEVELS, RunLevel
+from pencilbot.planning.dither import RunLevel
 from pencilbot.planning.features import features_only, mostly_in
 from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.one_pen import one_pen_shading
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.plot_budget import within_plot_budget
 from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE, Hatching
-from pencilbot.planning.sketch_tone import sketch_darkness
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import EdgeOptions, edge_strokes, edge_threshold
 
@@ -262,51 +262,51 @@ def plan_from_sketch(
         )
     elif hatching is not None:
         # A one-pen plan's hatching (and faces' runs) within PEN_DOWN_BUDGET, the faces at their own tone.
-        shade = _one_pen_shading(drawing, layout, hatching, strokes, important, dithered, faces)
+        shade, faces_at = one_pen_shading(
+            drawing, layout, hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
+        )
         hatches, scale = shade(1.0)
         layers += hatches
     layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
     ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
     if hatching is not None and not in_color and not draft:  # and its plotting within PLOT_BUDGET
-        ordered = within_plot_budget(
-            ordered,
-            lambda factor, level: _ordered(
-                _with_edges(shade(scale * factor, level)[0], strokes, stages.edges.pen_width, pens),
-                stages.order,
-            ),
-            layout.page.width * layout.page.height / 100,
+        area = layout.page.width * layout.page.height / 100
+        ordered = _within_plot_budget(
+            ordered, shade, lambda level: faces_at(level, scale), scale, strokes, stages, pens, area
         )
     return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
 
 
-def _one_pen_shading(
-    drawing: Sketch, layout: Layout, hatching: Hatching, strokes: Paths, important, dithered, faces
-):
-    """The one-pen hatching of ``drawing`` (and its faces' runs) within ``PEN_DOWN_BUDGET``, as a
-    function of the tone's scale: its non-empty layers and the scale it was drawn at (see
-    :meth:`~pencilbot.planning.shading.Hatching.shade_within`)."""
-    tone = sketch_darkness(drawing)
-    budget = PEN_DOWN_BUDGET * layout.page.width * layout.page.height / 100 - float(
-        strokes.drawn_lengths().sum()
-    )
-    face_darkness = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
+def _within_plot_budget(
+    ordered: list[Layer],
+    shade,
+    faces_at,
+    scale: float,
+    strokes: Paths,
+    stages: Stages,
+    pens,
+    sheet_cm2: float,
+) -> list[Layer]:
+    """``ordered`` within the plot's budget (:func:`~pencilbot.planning.plot_budget.within_plot_budget`),
+    redrawn by ``shade`` (:func:`~pencilbot.planning.one_pen.one_pen_shading`) from its ``scale``."""
 
-    def shade(scale: float, level: RunLevel = LEVELS[0]) -> tuple[list[Layer], float]:
-        hatches, used = hatching.shade_within(
-            budget,
-            tone,
-            layout,
-            strokes,
-            paper=1.0 - drawing.gray,
-            important=important,
-            dithered=dithered,
-            face_darkness=face_darkness,
-            scale=scale,
-            level=level,
-        )
-        return [layer for layer in hatches if layer.paths], used
+    def redraw(factor: float, level: RunLevel) -> list[Layer]:
+        if factor == 1.0:  # the faces' runs at another level, the hatching as it was drawn
+            return _with_runs(ordered, faces_at(level), stages.order)
+        layers = _with_edges(shade(scale * factor, level)[0], strokes, stages.edges.pen_width, pens)
+        return _ordered(layers, stages.order)
 
-    return shade
+    return within_plot_budget(ordered, redraw, sheet_cm2, faces_at=faces_at)
+
+
+def _with_runs(ordered: list[Layer], runs: Paths, order: Ordering) -> list[Layer]:
+    """``ordered`` with other faces' runs: the layers before theirs as they are, theirs and the
+    rest ordered again from where those end. (The hatching counted the runs it was drawn with
+    round the faces' edges; a thriftier level's differ there by a few runs.)"""
+    at = next(i for i, layer in enumerate(ordered) if layer.name == FACE_TONE)
+    start = tuple(ordered[at - 1].paths.points[-1]) if at and len(ordered[at - 1].paths) else HOME
+    rest = [replace(ordered[at], paths=runs), *ordered[at + 1 :]]
+    return [*ordered[:at], *_ordered([layer for layer in rest if len(layer.paths)], order, start)]
 
 
 @dataclass(frozen=True)
@@ -381,10 +381,10 @@ def _with_edges(layers: list[Layer], strokes: Paths, pen_width: float, pens: Pen
     return layers
 
 
-def _ordered(layers: list[Layer], order: Ordering) -> list[Layer]:
+def _ordered(layers: list[Layer], order: Ordering, start: tuple[float, float] = HOME) -> list[Layer]:
     """Each layer's paths ordered for short pen-up travel, from where the layer before ended
-    (the first from the plotter's home)."""
-    ordered, position = [], HOME
+    (the first from ``start``, the plotter's home)."""
+    ordered, position = [], start
     for layer in layers:
         started = time.perf_counter()
         # Neighbouring hatch runs are joined pen-down (zig-zag), as a hand hatches without

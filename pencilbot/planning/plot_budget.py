@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -139,24 +139,28 @@ def lighter_by(
 
 
 def within_plot_budget(
-    layers: list[Layer], redraw: Callable[[float, RunLevel], list[Layer]], sheet_cm2: float
+    layers: list[Layer],
+    redraw: Callable[[float, RunLevel], list[Layer]],
+    sheet_cm2: float,
+    faces_at: Callable[[RunLevel], Paths] | None = None,
 ) -> list[Layer]:
     """``layers`` (ordered), or, while they cost more than a budget over a sheet of ``sheet_cm2``,
-    ``redraw(scale, level)``: the plan again, ordered. First its faces' runs at each of the
-    thriftier ``LEVELS`` in turn (fewer, longer runs, more of the lightest skin bare: the faces'
-    finer runs are what a plan within the budget can afford); then, at most ``REDOS`` times, its hatching's tone scaled by a further
+    ``redraw(scale, level)``: the plan again, ordered. First its faces' runs at the first of the
+    thriftier ``LEVELS`` (fewer, longer runs, more of the lightest skin bare: the faces' finer
+    runs are what a plan within the budget can afford) that ``faces_at(level)``, the runs alone,
+    foretell within the budget (the last if none: one plan more, not one a level); then, at most ``REDOS`` times, its hatching's tone scaled by a further
     :func:`lighter_by` each time; after the first such redo with the damping that redo measured
     (how fast this picture's hatching fell with its tone), aimed further inside (``AIMS``: the
     fall is not smooth, a few dashes more or less)."""
     first = cost = plot_cost(layers)
     level = LEVELS[0]
-    if any(layer.name == FACE_TONE for layer in layers):
-        for level in LEVELS:
-            if level != LEVELS[0]:
-                layers = redraw(1.0, level)
-                first = cost = plot_cost(layers)
-            if lighter_by(cost, sheet_cm2) >= 1.0:
-                return layers
+    if lighter_by(cost, sheet_cm2) >= 1.0:
+        return layers
+    runs = [layer.paths for layer in layers if layer.name == FACE_TONE]
+    if runs and faces_at is not None:
+        level = _thrifty_level(cost, _drawing_cost(runs[0]), faces_at, sheet_cm2)
+        layers = redraw(1.0, level)
+        first = cost = plot_cost(layers)
     scale, damping = 1.0, (DAMPING, DAMPING)
     for redo in range(REDOS):
         factor = lighter_by(cost, sheet_cm2, damping, AIMS[redo])
@@ -176,6 +180,23 @@ def within_plot_budget(
             _measured(first.hatch_travel, cost.hatch_travel, scale),
         )
     return layers
+
+
+def _drawing_cost(paths: Paths) -> float:
+    """:func:`plot_cost` of ``paths`` without their travel (which their order sets)."""
+    return float(paths.drawn_lengths().sum()) + CORNER_MM * corners(paths) + LIFT_MM * len(paths)
+
+
+def _thrifty_level(
+    cost: PlotCost, runs_cost: float, faces_at: Callable[[RunLevel], Paths], sheet_cm2: float
+) -> RunLevel:
+    """The first of the thriftier ``LEVELS`` whose faces' runs bring ``cost`` within the budgets,
+    the rest of the plan as it is (its travel too: fewer runs travel less), or the last."""
+    for level in LEVELS[1:-1]:
+        foretold = replace(cost, total=cost.total - runs_cost + _drawing_cost(faces_at(level)))
+        if lighter_by(foretold, sheet_cm2) >= 1.0:
+            return level
+    return LEVELS[-1]
 
 
 def _measured(before: float, after: float, scale: float) -> float:

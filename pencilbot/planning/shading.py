@@ -16,6 +16,7 @@ reach full coverage, mid-tones get their share and the tone around contours is k
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 
 import cv2
@@ -138,6 +139,7 @@ class Hatching:
         face_darkness: np.ndarray | None = None,
         level: RunLevel = LEVELS[0],
         face_scale: float = 1.0,
+        runs_for: Callable[[RunLevel, float], Paths] | None = None,
     ) -> list[Layer]:
         """Hatch layers whose rendered ink, with the edges, matches ``darkness`` at the ``blur`` scale.
 
@@ -172,6 +174,9 @@ class Hatching:
             How finely the faces' runs are drawn (:data:`~pencilbot.planning.dither.LEVELS`).
         face_scale : float
             The faces' runs' ink scaled by this past their cut (a sheet drawn lighter).
+        runs_for : callable, optional
+            The faces' runs at a level and ``face_scale``, instead of :meth:`faces` (a plan that
+            draws them again at the same ones keeps them: they are most of a portrait's planning).
 
         Returns
         -------
@@ -179,29 +184,60 @@ class Hatching:
             One per family, lightest first, from the last round; then ``FACE_TONE``, the dithered
             faces' runs, if any.
         """
-        runs = Paths.empty()
-        if dithered is not None and np.any(dithered > 0.5):
-            faces = darkness if face_darkness is None else face_darkness
-            runs = within_budget(  # the faces' plotting within FACE_BUDGET (planning/face_budget.py)
-                lambda scale, at: face_runs(
-                    scale * faces,
-                    dithered,
-                    layout,
-                    edges,
-                    pen_width=self.pen_width,
-                    blank_below=self.blank_below,
-                    paper=darkness if paper is None else paper,  # (the loop's photo_darkness)
-                    level=at,
-                    ink_scale=face_scale,
-                ),
-                layout.page.width * layout.page.height / 100,
-                thriftier(level),
+        runs = (
+            runs_for(level, face_scale)
+            if runs_for is not None
+            else self.faces(
+                darkness if face_darkness is None else face_darkness,
+                layout,
+                edges,
+                paper=darkness if paper is None else paper,  # (the loop's photo_darkness)
+                dithered=dithered,
+                level=level,
+                face_scale=face_scale,
             )
+        )
         loop = ToneLoop(self, darkness, layout, paper=paper, form=form, important=important)
         layers = loop.run(edges, runs, dithered)
         if len(runs):
             layers = [*layers, Layer(FACE_TONE, runs, pen_width=self.pen_width, role="hatch")]
         return layers
+
+    def faces(
+        self,
+        darkness: np.ndarray,
+        layout,
+        edges: Paths,
+        *,
+        paper: np.ndarray,
+        dithered: np.ndarray | None,
+        level: RunLevel = LEVELS[0],
+        face_scale: float = 1.0,
+        drawn: dict | None = None,
+    ) -> Paths:
+        """The dithered faces' runs of :meth:`shade` (its ``face_darkness``, ``level`` and
+        ``face_scale``), within the faces' own budget (:mod:`pencilbot.planning.face_budget`);
+        ``drawn`` keeps each drawing of them for the next call with the same pictures."""
+        if dithered is None or not np.any(dithered > 0.5):
+            return Paths.empty()
+        drawn = {} if drawn is None else drawn
+
+        def draw(scale: float, at: RunLevel) -> Paths:
+            if (scale, at, face_scale) not in drawn:
+                drawn[scale, at, face_scale] = face_runs(
+                    scale * darkness,
+                    dithered,
+                    layout,
+                    edges,
+                    pen_width=self.pen_width,
+                    blank_below=self.blank_below,
+                    paper=paper,
+                    level=at,
+                    ink_scale=face_scale,
+                )
+            return drawn[scale, at, face_scale]
+
+        return within_budget(draw, layout.page.width * layout.page.height / 100, thriftier(level))
 
     def shade_within(
         self,
@@ -216,6 +252,7 @@ class Hatching:
         face_darkness: np.ndarray | None = None,
         scale: float = 1.0,
         level: RunLevel = LEVELS[0],
+        runs_for: Callable[[RunLevel, float], Paths] | None = None,
     ) -> tuple[list[Layer], float]:
         """:meth:`shade`, its pen-down length (mm) within ``budget`` (the faces' runs in it), and
         the factor its tone was scaled by.
@@ -238,6 +275,7 @@ class Hatching:
                 face_darkness=face_darkness,
                 level=level,
                 face_scale=scale**FACE_FOLLOWS,
+                runs_for=runs_for,
             )
             drawn = sum(float(layer.paths.drawn_lengths().sum()) for layer in layers)
             if drawn <= budget or scale < start or start < 1.0:

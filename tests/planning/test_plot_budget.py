@@ -159,18 +159,45 @@ def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lig
         asked.append((scale, level))
         return _layers(strokes[level], scale)
 
+    def faces_at(level) -> Paths:
+        return _layers(strokes[level], 1.0)[1].paths
+
+    # (The foretelling keeps the first plan's travel: a little more than fewer runs travel.)
     within = plot_cost(_layers(strokes[LEVELS[2]], 1.0)).total
-    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.001 * within / SHEET_CM2)
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.02 * within / SHEET_CM2)
     monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
-    kept = within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2)
-    assert asked == [(1.0, LEVELS[1]), (1.0, LEVELS[2])]  # the third level fits: the tone as it is
+    kept = within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2, faces_at=faces_at)
+    # The runs alone foretell the third level within the budget: one plan more, the tone as it is.
+    assert asked == [(1.0, LEVELS[2])]
     assert len(kept[1].paths) == 45 and len(kept[0].paths) == 40
 
     asked.clear()
     tight = plot_cost(_layers(strokes[LEVELS[-1]], 1.0)).total * 0.9
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", tight / SHEET_CM2)
-    within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2)
-    thrifty = len(LEVELS) - 1
-    assert [level for _, level in asked[:thrifty]] == list(LEVELS[1:])
-    assert all(scale == 1.0 for scale, _ in asked[:thrifty])
-    assert asked[thrifty][0] < 1.0 and asked[thrifty][1] == LEVELS[-1]  # then lighter, still thrifty
+    within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2, faces_at=faces_at)
+    assert asked[0] == (1.0, LEVELS[-1])  # no level is enough: the thriftiest, then ...
+    assert asked[1][0] < 1.0 and asked[1][1] == LEVELS[-1]  # ... the hatching lighter, still thrifty
+    assert plot_cost(_layers(strokes[LEVELS[-1]], asked[-1][0])).total <= tight
+
+
+def test_faces_at_another_level_keep_the_hatching_and_order_the_rest_from_its_end():
+    hatch, faces, _ = (*_layers(12, 1.0), None)
+    edges = Layer("edges", Paths.of([np.array([[50.0, 50.0], [60.0, 50.0]])]), pen_width=0.5, role="edges")
+    ordered = build._ordered(
+        [hatch, faces, edges], build.Ordering(pen_width=0.5, hatch_join=1.0, min_hatch_run=1.0, rounds=1)
+    )
+    thrifty = Paths.of(
+        [np.array([[3.0 * x, 20.0], [3.0 * x + 0.5, 20.0]]) for x in range(5)]
+    )  # apart: no joins
+    again = build._with_runs(
+        ordered, thrifty, build.Ordering(pen_width=0.5, hatch_join=1.0, min_hatch_run=1.0, rounds=1)
+    )
+    assert again[0] is ordered[0]  # the hatching as it was
+    assert again[1].name == FACE_TONE and len(again[1].paths) == 5
+    assert sorted(map(tuple, again[1].paths.points.round(6))) == sorted(map(tuple, thrifty.points.round(6)))
+    # Ordered from where the hatching ends: its first run is the one nearest that point.
+    end = ordered[0].paths.points[-1]
+    first = again[1].paths[0]
+    nearest = min(np.hypot(*(tip - end)) for path in thrifty for tip in (path[0], path[-1]))
+    assert np.hypot(*(first[0] - end)) == pytest.approx(nearest)
+    assert [layer.name for layer in again] == [layer.name for layer in ordered]
