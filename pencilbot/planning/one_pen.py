@@ -24,16 +24,17 @@ def one_pen_shading(
     faces,
     pen_down_budget: float,
 ):
-    """The one-pen hatching of ``drawing`` (and its faces' runs) within ``pen_down_budget`` (mm per cm² of the sheet), as a
-    function of the tone's scale and the faces' level: its non-empty layers and the scale it was
-    drawn at (see :meth:`~pencilbot.planning.shading.Hatching.shade_within`); and the faces' runs
-    alone at a level, as that shading draws them at a scale."""
+    """The one-pen hatching of ``drawing`` (and its faces' runs) within ``pen_down_budget`` (mm
+    per cm² of the sheet), as a function of the tone's scale and the faces' level: its non-empty
+    layers and the scale it was drawn at (see
+    :meth:`~pencilbot.planning.shading.Hatching.shade_within`); and the faces' runs alone at a
+    level, as that shading draws them at a scale. The faces' runs are drawn once per level and
+    scale: a close portrait's are most of its planning, and the budgets ask for them again."""
     tone = sketch_darkness(drawing)
     budget = pen_down_budget * layout.page.width * layout.page.height / 100 - float(
         strokes.drawn_lengths().sum()
     )
     face_darkness = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
-
     paper = 1.0 - drawing.gray
     drawn: dict = {}  # every drawing of the faces' runs, for the next one at the same level and scale
 

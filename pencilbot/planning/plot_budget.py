@@ -148,8 +148,8 @@ def within_plot_budget(
     ``redraw(scale, level)``: the plan again, ordered. First its faces' runs at the first of the
     thriftier ``LEVELS`` (fewer, longer runs, more of the lightest skin bare: the faces' finer
     runs are what a plan within the budget can afford) that ``faces_at(level)``, the runs alone,
-    foretell within the budget (the last if none: one plan more, not one a level); then, at most ``REDOS`` times, its hatching's tone scaled by a further
-    :func:`lighter_by` each time; after the first such redo with the damping that redo measured
+    foretell within the budget (the last if none: one plan more, not one a level); then, at most
+    ``REDOS`` times, its hatching's tone scaled by a further :func:`lighter_by` each time; after the first such redo with the damping that redo measured
     (how fast this picture's hatching fell with its tone), aimed further inside (``AIMS``: the
     fall is not smooth, a few dashes more or less)."""
     first = cost = plot_cost(layers)

@@ -67,7 +67,8 @@ SHARP_ERROR = 0.05
 #: Held at their tone (0), a dark photo's faces were dark discs on a sheet of light hatching: a
 #: darkened copy of 2008_007676 (bench/fidelity.py --photos, gamma 1/0.6) whole box 0.798, the bar
 #: photo itself 0.941; at 0.5 0.868 and 0.954, at 1 0.889 and 0.959, the face set's faces meeting
-#: their bars 16 / 30 (held), 16 / 29 (0.5), 15 / 29 (1) of 21 / 38.
+#: their bars 16 / 30 (held), 16 / 29 (0.5), 15 / 29 (1) of 21 / 38 (with the faces' level
+#: foretold by the plot budget since: 16 / 30 at 0.5).
 FACE_FOLLOWS = 0.5
 #: Cell (mm) of the direction field: forms vary over millimetres, not pen widths.
 FIELD_CELL = 2.0
