@@ -153,7 +153,8 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
     vs_sketch = likeness(plotted, 1.0 - drawing.result)
     total = estimate(plan, load_profile(PROFILE)).total
     if montage is not None:
-        write_montage(montage / f"{name}.png", image, drawing.result, plotted)
+        # (A photo given as a file path is named by its file: the montage goes into the folder asked for.)
+        write_montage(montage / f"{Path(name).name}.png", image, drawing.result, plotted)
     faces = []
     height, width = drawing.gray.shape
     if HAND_BOXES and name in faceset.PHOTOS:
