@@ -96,8 +96,8 @@ def error_diffuse(
 
     Each cell's error goes to its neighbours to the right and below; a cell continuing a run
     lays ``pen`` of ink (the pen covers that share of the row), one starting a run its round end,
-    ``CAP · pen²``. The rows are one sequential pass each (error diffusion is), over a face's
-    few thousand cells.
+    ``CAP · pen²``. Error diffusion is sequential, cell after cell; the cells of one
+    anti-diagonal wave are independent of each other and are diffused together.
 
     Parameters
     ----------
@@ -118,30 +118,28 @@ def error_diffuse(
     (H, W) bool array
     """
     rows, cols = request.shape
-    want = np.where(region, np.clip(request, 0.0, 1.0), 0.0)
-    given = np.zeros((rows, cols)) if given is None else np.clip(given, 0.0, 1.0)
-    on = np.zeros((rows, cols), bool)
-    below = np.zeros(cols + 2)
-    for r in range(rows):
-        values, base, inside = (want[r] + below[1:-1]).tolist(), given[r].tolist(), region[r].tolist()
-        errors = [0.0] * cols
-        ahead, previous = 0.0, False
-        for c in range(cols):
-            if not inside[c]:
-                ahead, previous = 0.0, False
-                continue
-            value = values[c] + ahead
-            ink = 1.0 - (1.0 - (pen if previous else CAP * pen * pen)) * (1.0 - base[c])
-            previous = value > (ink + base[c]) / 2 - (run_bias if previous else -run_bias)
-            on[r, c] = previous
-            errors[c] = value - (ink if previous else base[c])
-            ahead = errors[c] * 7 / 16
-        error = np.asarray(errors)
-        below = np.zeros(cols + 2)
-        below[:-2] += error * 3 / 16
-        below[1:-1] += error * 5 / 16
-        below[2:] += error * 1 / 16
-    return on
+    want = np.where(region, np.clip(request, 0.0, 1.0), 0.0).astype(np.float64)
+    base = np.zeros((rows, cols)) if given is None else np.clip(given, 0.0, 1.0).astype(np.float64)
+    cap = CAP * pen * pen
+    # A cell waits for the one on its left and the three above it: the cells of one anti-diagonal
+    # 2·row + column are each other's equals, and each such wave is one set of array operations.
+    # Errors and inked cells are kept with a bare row above and a bare column either side.
+    error = np.zeros((rows + 1, cols + 2))
+    on = np.zeros((rows + 1, cols + 2), bool)
+    for wave in range(2 * (rows - 1) + cols):
+        r = np.arange(max(0, (wave - cols + 2) // 2), min(rows - 1, wave // 2) + 1)
+        c = wave - 2 * r
+        # What the row above passed down (its error 3/16 down-left, 5/16 down, 1/16 down-right),
+        # summed in that order, then this row's error from the left (7/16).
+        below = error[r, c + 2] * 3 / 16 + error[r, c + 1] * 5 / 16 + error[r, c] * 1 / 16
+        value = (want[r, c] + below) + error[r + 1, c] * 7 / 16
+        previous = on[r + 1, c]
+        ink = 1.0 - (1.0 - np.where(previous, pen, cap)) * (1.0 - base[r, c])
+        inked = value > (ink + base[r, c]) / 2 - np.where(previous, run_bias, -run_bias)
+        inside = region[r, c]
+        on[r + 1, c + 1] = inked & inside
+        error[r + 1, c + 1] = np.where(inside, value - np.where(inked, ink, base[r, c]), 0.0)
+    return on[1:, 1:-1]
 
 
 def row_runs(on: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

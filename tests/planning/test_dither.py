@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import (
@@ -255,3 +257,52 @@ def test_a_lighter_sheet_draws_the_same_skin_bare_and_the_rest_lighter():
     assert np.array_equal(full > 0.01, half > 0.01)  # ... and no more of it
     assert np.all(np.diff(half[2:]) > 0)  # the order of tones kept
     assert half[-4:].mean() == pytest.approx(0.5 * full[-4:].mean(), rel=0.15)
+
+
+def _diffused_cell_by_cell(request, region, given, pen, run_bias):
+    """error_diffuse as it is defined: one cell after another, row by row (the reference the
+    wave-by-wave diffusion must equal bit for bit)."""
+    rows, cols = request.shape
+    want = np.where(region, np.clip(request, 0.0, 1.0), 0.0)
+    given = np.zeros((rows, cols)) if given is None else np.clip(given, 0.0, 1.0)
+    on = np.zeros((rows, cols), bool)
+    below = np.zeros(cols + 2)
+    for r in range(rows):
+        values, base, inside = (want[r] + below[1:-1]).tolist(), given[r].tolist(), region[r].tolist()
+        errors = [0.0] * cols
+        ahead, previous = 0.0, False
+        for c in range(cols):
+            if not inside[c]:
+                ahead, previous = 0.0, False
+                continue
+            value = values[c] + ahead
+            ink = 1.0 - (1.0 - (pen if previous else CAP * pen * pen)) * (1.0 - base[c])
+            previous = value > (ink + base[c]) / 2 - (run_bias if previous else -run_bias)
+            on[r, c] = previous
+            errors[c] = value - (ink if previous else base[c])
+            ahead = errors[c] * 7 / 16
+        error = np.asarray(errors)
+        below = np.zeros(cols + 2)
+        below[:-2] += error * 3 / 16
+        below[1:-1] += error * 5 / 16
+        below[2:] += error * 1 / 16
+    return on
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    shape=st.tuples(st.integers(1, 30), st.integers(1, 30)),
+    seed=st.integers(0, 2**32 - 1),
+    share=st.floats(0.0, 1.0),
+    with_given=st.booleans(),
+    pen=st.sampled_from([1.0, 1 / 1.2, 0.9]),
+    bias=st.sampled_from([0.0, 0.2, 0.3, 0.4]),
+    single=st.booleans(),
+)
+def test_the_waves_diffuse_as_cell_after_cell(shape, seed, share, with_given, pen, bias, single):
+    rng = np.random.default_rng(seed)
+    request = rng.random(shape).astype(np.float32 if single else np.float64)
+    region = rng.random(shape) < share
+    given_ink = (rng.random(shape) * rng.random()).astype(np.float32) if with_given else None
+    expected = _diffused_cell_by_cell(request, region, given_ink, pen, bias)
+    assert np.array_equal(error_diffuse(request, region, given_ink, pen=pen, run_bias=bias), expected)
