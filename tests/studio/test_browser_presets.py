@@ -65,7 +65,10 @@ def test_a_preset_is_saved_in_the_config_folder_loaded_and_deleted(server, brows
 def test_undo_and_redo_by_buttons_and_keys(server, browser):
     open_page(server, browser)
     browser.find_element(By.ID, "reset").click()
-    wait_for(browser, lambda: server.studio.placement.scale == 1, "a clean start")
+    # The reset done (its settings at the server and its undo step taken), as a person sees it:
+    # the placement alone may already be the default, and a pick made meanwhile raced its requests.
+    wait_for(browser, lambda: "the style's own settings" in text(browser, "preset-message"), "a clean start")
+    wait_for(browser, lambda: server.studio.placement.scale == 1, "a clean start at the server")
     pick(browser, "style", "outline")
     wait_for(browser, lambda: server.studio.options.style == "outline", "outline")
     pick(browser, "pens", "cmyk")
