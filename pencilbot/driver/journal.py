@@ -97,6 +97,18 @@ class Journal:
         write_atomic(self.path, json.dumps(data, indent=1).encode("utf-8"))
 
 
+def for_file(path: Path, *, port: str, profile: str, total_lines: int) -> Journal:
+    """A new journal of the job file at ``path`` (not yet saved): its digest, where it is kept."""
+    return Journal(
+        gcode=str(path.resolve()),
+        sha256=file_sha256(path),
+        port=port,
+        profile=profile,
+        total_lines=total_lines,
+        path=journal_path(path),
+    )
+
+
 def file_sha256(path: Path) -> str:
     """Hex SHA-256 of a file's bytes (read a block at a time: a big job is not held twice)."""
     digest = hashlib.sha256()

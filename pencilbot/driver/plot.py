@@ -248,14 +248,7 @@ def _start(job: Job, journal, start_line: int | None) -> tuple[int, list[float] 
 def _running_journal(journal, path: Path | None, job: Job, port: str, profile: str):
     """The journal of this run (a file's new one, or the resumed one), marked running."""
     if path is not None and journal is None:
-        journal = journal_mod.Journal(
-            gcode=str(path.resolve()),
-            sha256=journal_mod.file_sha256(path),
-            port=port,
-            profile=profile,
-            total_lines=job.total_lines,
-            path=journal_mod.journal_path(path),
-        )
+        journal = journal_mod.for_file(path, port=port, profile=profile, total_lines=job.total_lines)
     if journal is not None:
         journal.port, journal.profile, journal.status = port, profile, "running"  # the message: once resumed
     return journal

@@ -107,12 +107,7 @@ def plot_cost(layers: Sequence[Layer], start: tuple[float, float] = (0.0, 0.0)) 
             continue
         tails = np.vstack([position, paths.lasts[:-1]])
         moved = float(np.hypot(*(paths.firsts - tails).T).sum())
-        cost = (
-            float(paths.drawn_lengths().sum())
-            + CORNER_MM * corners(paths)
-            + LIFT_MM * len(paths)
-            + TRAVEL_WEIGHT * moved
-        )
+        cost = _drawing_cost(paths) + TRAVEL_WEIGHT * moved
         total, travel = total + cost, travel + moved
         if layer.role == "hatch" and layer.name != FACE_TONE:
             hatch_total, hatch_travel = hatch_total + cost, hatch_travel + moved

@@ -131,14 +131,7 @@ def draw_polled(
     run.resuming = journal is not None
     baud = baud or fw.baud
     if path is not None and journal is None:
-        journal = journal_mod.Journal(
-            gcode=str(path.resolve()),
-            sha256=journal_mod.file_sha256(path),
-            port=port,
-            profile=profile_arg,
-            total_lines=len(program),
-            path=journal_mod.journal_path(path),
-        )
+        journal = journal_mod.for_file(path, port=port, profile=profile_arg, total_lines=len(program))
     if journal is not None:
         journal.port, journal.status, journal.options = port, "running", {"baud": baud, "timeout": timeout}
         journal.save()
