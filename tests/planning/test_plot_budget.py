@@ -152,7 +152,7 @@ def _layers(face_strokes: int, hatch_scale: float) -> list[Layer]:
 
 
 def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lighter(monkeypatch):
-    strokes = dict(zip(LEVELS, (70, 60, 45, 30), strict=True))
+    strokes = dict(zip(LEVELS, np.linspace(70, 30, len(LEVELS)).astype(int).tolist(), strict=True))
     asked: list[tuple[float, object]] = []
 
     def redraw(scale: float, level) -> list[Layer]:
@@ -163,13 +163,14 @@ def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lig
         return _layers(strokes[level], 1.0)[1].paths
 
     # (The foretelling keeps the first plan's travel: a little more than fewer runs travel.)
-    within = plot_cost(_layers(strokes[LEVELS[2]], 1.0)).total
+    within = plot_cost(_layers(strokes[LEVELS[-2]], 1.0)).total
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.02 * within / SHEET_CM2)
     monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
     kept = within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2, faces_at=faces_at)
-    # The runs alone foretell the third level within the budget: one plan more, the tone as it is.
-    assert asked == [(1.0, LEVELS[2])]
-    assert len(kept[1].paths) == 45 and len(kept[0].paths) == 40
+    # The runs alone foretell the last level but one within the budget: one plan more, the tone
+    # as it is.
+    assert asked == [(1.0, LEVELS[-2])]
+    assert len(kept[1].paths) == strokes[LEVELS[-2]] and len(kept[0].paths) == 40
 
     asked.clear()
     tight = plot_cost(_layers(strokes[LEVELS[-1]], 1.0)).total * 0.9
