@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -244,19 +246,32 @@ def test_a_lighter_sheet_draws_the_same_skin_bare_and_the_rest_lighter():
     face = np.ones((120, 120), np.float32)
     ramp = np.repeat(np.linspace(0.0, 1.0, 120, dtype=np.float32)[None, :], 120, axis=0)  # light to dark
     grid = Grid(layout.drawing_box, PEN / 4)
+    # (No price on a lift: at one, the search leaves bare what is too light to pay for its runs.)
+    free = replace(LEVELS[0], lift=0.0, lightest=0.12)
 
     def columns(ink_scale: float) -> np.ndarray:
         runs = face_runs(
-            ramp, face, layout, Paths.empty(), pen_width=PEN, blank_below=0.0, paper=ramp, ink_scale=ink_scale
+            ramp,
+            face,
+            layout,
+            Paths.empty(),
+            pen_width=PEN,
+            blank_below=0.0,
+            paper=ramp,
+            ink_scale=ink_scale,
+            level=free,
         )
         ink = ink_on_grid(runs, grid, PEN)
-        return ink.reshape(ink.shape[0], 12, -1).mean(axis=(0, 2))  # twelve bands, light to dark
+        return ink.mean(axis=0)  # light to dark
 
     full, half = columns(1.0), columns(0.5)
-    assert full[0] == half[0] == 0.0  # the lightest skin bare either way ...
-    assert np.array_equal(full > 0.01, half > 0.01)  # ... and no more of it
-    assert np.all(np.diff(half[2:]) > 0)  # the order of tones kept
-    assert half[-4:].mean() == pytest.approx(0.5 * full[-4:].mean(), rel=0.15)
+    darkness = np.linspace(0.0, 1.0, full.size)
+    below, above = darkness < free.lightest - 0.02, (darkness > free.lightest + 0.05) & (darkness < 0.3)
+    assert full[below].max() == half[below].max() == 0.0  # the lightest skin bare either way ...
+    assert full[above].mean() > 0.04 and half[above].mean() > 0.02  # ... and no more of it
+    bands, halves = full.reshape(12, -1).mean(axis=1), half.reshape(12, -1).mean(axis=1)
+    assert np.all(np.diff(halves[2:]) > 0)  # the order of tones kept
+    assert halves[-4:].mean() == pytest.approx(0.5 * bands[-4:].mean(), rel=0.15)
 
 
 def _diffused_cell_by_cell(request, region, given, pen, run_bias):
