@@ -31,7 +31,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import LEVELS, RunLevel
+from pencilbot.planning.dither import LEVELS, SPARSEST, RunLevel
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.shading import FACE_TONE
 
@@ -144,10 +144,12 @@ def within_plot_budget(
     thriftier ``LEVELS`` (fewer, longer runs, more of the lightest skin bare: the faces' finer
     runs are what a plan within the budget can afford) that ``faces_at(level)``, the runs alone,
     foretell within the budget (the last if none: one plan more, not one a level); then, at most
-    ``REDOS`` times, its hatching's tone scaled by a further :func:`lighter_by` each time; after the first such redo with the damping that redo measured
-    (how fast this picture's hatching fell with its tone), aimed further inside (``AIMS``: the
-    fall is not smooth, a few dashes more or less)."""
-    first = cost = plot_cost(layers)
+    ``REDOS`` times, its hatching's tone scaled by a further :func:`lighter_by` each time; after
+    the first such redo with the damping that redo measured (how fast this picture's hatching
+    fell with its tone), aimed further inside (``AIMS``: the fall is not smooth, a few dashes more
+    or less). A plan still past the budget then has its faces' runs at ``SPARSEST`` and its
+    hatching lightened again from its own tone, kept if that comes nearer the budget."""
+    cost = plot_cost(layers)
     level = LEVELS[0]
     if lighter_by(cost, sheet_cm2) >= 1.0:
         return layers
@@ -155,7 +157,27 @@ def within_plot_budget(
     if runs and faces_at is not None:
         level = _thrifty_level(cost, _drawing_cost(runs[0]), faces_at, sheet_cm2)
         layers = redraw(1.0, level)
-        first = cost = plot_cost(layers)
+    layers, cost = _lighter(layers, level, redraw, sheet_cm2)
+    if runs and faces_at is not None and lighter_by(cost, sheet_cm2) < 1.0:
+        # Still past the budget with its hatching lighter: many faces, whose runs are most of the
+        # plot. The sparsest runs, the hatching from its own tone again.
+        log.debug(
+            "plot cost %.1f m (pen-up %.2f m) still over the budget: the sparsest runs",
+            cost.total / 1e3,
+            cost.travel / 1e3,
+        )
+        sparse, within = _lighter(redraw(1.0, SPARSEST), SPARSEST, redraw, sheet_cm2)
+        if lighter_by(within, sheet_cm2) > lighter_by(cost, sheet_cm2):  # nearer the budget
+            return sparse
+    return layers
+
+
+def _lighter(
+    layers: list[Layer], level: RunLevel, redraw: Callable[[float, RunLevel], list[Layer]], sheet_cm2: float
+) -> tuple[list[Layer], PlotCost]:
+    """``layers`` with the faces' runs at ``level``, their hatching redrawn lighter (at most ``REDOS``
+    times) while past the budget, and what they cost."""
+    first = cost = plot_cost(layers)
     scale, damping = 1.0, (DAMPING, DAMPING)
     for redo in range(REDOS):
         factor = lighter_by(cost, sheet_cm2, damping, AIMS[redo])
@@ -174,7 +196,7 @@ def within_plot_budget(
             _measured(first.hatch_total, cost.hatch_total, scale),
             _measured(first.hatch_travel, cost.hatch_travel, scale),
         )
-    return layers
+    return layers, cost
 
 
 def _drawing_cost(paths: Paths) -> float:

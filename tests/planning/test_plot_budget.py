@@ -11,7 +11,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning import build, plot_budget
 from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
-from pencilbot.planning.dither import LEVELS
+from pencilbot.planning.dither import LEVELS, SPARSEST
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.plot_budget import (
@@ -179,6 +179,31 @@ def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lig
     assert asked[0] == (1.0, LEVELS[-1])  # no level is enough: the thriftiest, then ...
     assert asked[1][0] < 1.0 and asked[1][1] == LEVELS[-1]  # ... the hatching lighter, still thrifty
     assert plot_cost(_layers(strokes[LEVELS[-1]], asked[-1][0])).total <= tight
+
+
+def test_a_plan_of_many_faces_still_past_the_budget_takes_the_sparsest_runs(monkeypatch):
+    # The faces' runs are most of this plot: no level and no lighter hatching bring it within.
+    strokes = {
+        **dict(zip(LEVELS, np.linspace(400, 300, len(LEVELS)).astype(int).tolist(), strict=True)),
+        SPARSEST: 150,
+    }
+    asked: list[tuple[float, object]] = []
+
+    def redraw(scale: float, level) -> list[Layer]:
+        asked.append((scale, level))
+        return _layers(strokes[level], scale)
+
+    def faces_at(level) -> Paths:
+        return _layers(strokes[level], 1.0)[1].paths
+
+    within = plot_cost(_layers(strokes[SPARSEST], 1.0)).total
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.02 * within / SHEET_CM2)
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
+    kept = within_plot_budget(_layers(strokes[LEVELS[0]], 1.0), redraw, SHEET_CM2, faces_at=faces_at)
+    assert (1.0, LEVELS[-1]) in asked and asked[-1][1] == SPARSEST  # the thriftiest level first
+    assert len(kept[1].paths) == strokes[SPARSEST]
+    assert len(kept[0].paths) == 40  # its hatching from its own tone again, within the budget at it
+    assert plot_cost(kept).total <= plot_budget.PLOT_BUDGET * SHEET_CM2
 
 
 def test_faces_at_another_level_keep_the_hatching_and_order_the_rest_from_its_end():
