@@ -151,8 +151,8 @@ def _layers(face_strokes: int, hatch_scale: float) -> list[Layer]:
     ]
 
 
-def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lighter(monkeypatch):
-    strokes = dict(zip(LEVELS, np.linspace(70, 30, len(LEVELS)).astype(int).tolist(), strict=True))
+def _replanned(strokes: dict) -> tuple[list, object, object]:
+    """The plans asked for, a plan's ``redraw`` and ``faces_at`` with ``strokes`` runs at each level."""
     asked: list[tuple[float, object]] = []
 
     def redraw(scale: float, level) -> list[Layer]:
@@ -162,6 +162,12 @@ def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lig
     def faces_at(level) -> Paths:
         return _layers(strokes[level], 1.0)[1].paths
 
+    return asked, redraw, faces_at
+
+
+def test_past_the_budget_the_faces_runs_get_thriftier_before_the_hatching_is_lighter(monkeypatch):
+    strokes = dict(zip(LEVELS, np.linspace(70, 30, len(LEVELS)).astype(int).tolist(), strict=True))
+    asked, redraw, faces_at = _replanned(strokes)
     # (The foretelling keeps the first plan's travel: a little more than fewer runs travel.)
     within = plot_cost(_layers(strokes[LEVELS[-2]], 1.0)).total
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.02 * within / SHEET_CM2)
@@ -187,15 +193,7 @@ def test_a_plan_of_many_faces_still_past_the_budget_takes_the_sparsest_runs(monk
         **dict(zip(LEVELS, np.linspace(400, 300, len(LEVELS)).astype(int).tolist(), strict=True)),
         SPARSEST: 150,
     }
-    asked: list[tuple[float, object]] = []
-
-    def redraw(scale: float, level) -> list[Layer]:
-        asked.append((scale, level))
-        return _layers(strokes[level], scale)
-
-    def faces_at(level) -> Paths:
-        return _layers(strokes[level], 1.0)[1].paths
-
+    asked, redraw, faces_at = _replanned(strokes)
     within = plot_cost(_layers(strokes[SPARSEST], 1.0)).total
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 1.02 * within / SHEET_CM2)
     monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
