@@ -5,9 +5,9 @@ are as coarse as its features: an eye is a dash or two. Here the face's darkness
 onto a grid of rows about a pen width apart, error-diffused (Floyd–Steinberg) into inked and
 bare cells, those improved by a search that weighs the blurred error against the pen lifts
 (:mod:`pencilbot.planning.run_search`), and each row's runs of inked cells are drawn as straight
-strokes from the first cell's centre to the last's. The diffusion counts the ink a run really lays (its round first
-end covers less than a cell) and the ink the contours already lay there, and it continues a
-run more easily than it starts one, so the same ink takes fewer, longer runs.
+strokes from the first cell's centre to the last's. The diffusion counts the ink a run really
+lays (its round first end covers less than a cell) and the ink the contours already lay there,
+and it continues a run more easily than it starts one, so the same ink takes fewer, longer runs.
 
 Each stroke is a pen lift, the costliest move of a servo plotter, so runs that touch across
 neighbouring rows are joined into one stroke: from a run's end straight down (or diagonally,
@@ -51,7 +51,8 @@ RUN_BIAS = 0.2
 LIGHTEST = 0.2
 
 
-#: Price of a pen lift in the search that improves the diffused cells (:mod:`pencilbot.planning.run_search`).
+#: Price of a pen lift in the search that improves the diffused cells
+#: (:mod:`pencilbot.planning.run_search`), at the finest level.
 LIFT = 0.05
 
 
@@ -79,13 +80,14 @@ class RunLevel:
 #: hatching's tone (whole box down to 0.869). Since every level's cells are searched
 #: (:mod:`~pencilbot.planning.run_search`), a thriftier level leaves less skin bare at a lower ink
 #: instead: its search spreads the same lifts evenly over the skin, where error diffusion
-#: scattered them. The finest as before, then (0.4, 0.05, lift 0.1, ink 0.88) then (0.4, 0.12, 0.2, 0.88): 19 /
-#: 33, 0.983 / 0.924, 0.937 (2008_001322, its faces darker in the sheet's order of tones); the
-#: levels before, searched: 14 / 30, 0.969 / 0.940, 0.944; at ink 1: 19 / 34, 0.981 / 0.940,
-#: 0.929; at ink 0.8: 18 / 31, 0.982 / 0.918, 0.938. The finest with skin to 0.05 bare at ink
-#: 0.88 too (these LEVELS): 19 / 32, 0.979 / 0.922, 0.941, every photo's whole box at 0.94 or
-#: more. A fourth level, (0.4, 0.2, 0.2, 0.88): 17 / 30 (the photos past the budget took it
-#: instead of a lighter hatching; the held-out bald_guys.jpg's whole box 0.948 -> 0.926).
+#: scattered them. The finest as before, then (bias 0.4, skin to 0.05 bare, lift 0.1, ink 0.88)
+#: and (0.4, 0.12, 0.2, 0.88): 19 / 33, 0.983 / 0.924, 0.937 (2008_001322, its faces darker in
+#: the sheet's order of tones); the levels before, searched: 14 / 30, 0.969 / 0.940, 0.944; at ink
+#: 1: 19 / 34, 0.981 / 0.940, 0.929; at ink 0.8: 18 / 31, 0.982 / 0.918, 0.938. The finest with
+#: skin to 0.05 bare at ink 0.88 too (these LEVELS): 19 / 32, 0.979 / 0.922, 0.941, every photo's
+#: whole box at 0.94 or more. A fourth level, (0.4, 0.2, 0.2, 0.88): 17 / 30 (the photos past the
+#: budget took it instead of a lighter hatching; the held-out bald_guys.jpg's whole box 0.948 ->
+#: 0.926).
 LEVELS = (
     RunLevel(RUN_BIAS, 0.05, LIFT, 0.88),
     RunLevel(0.4, 0.05, 0.1, 0.88),

@@ -58,7 +58,8 @@ def search_runs(
     pen : float
         Ink of an inked cell (the pen's width in cells).
     lift : float
-        Price of one more run, in the blurred squared error (about 0.03 is a single cell's worth).
+        Price of one more run, in the blurred squared error (a lone inked cell's own share of it
+        is 0.055 at the default ``sigma``).
     sigma : float
         The blur, cells.
 
