@@ -205,31 +205,39 @@ def run_strokes(on: np.ndarray, grid: Grid, origin: tuple[int, int] = (0, 0)) ->
     links = _links(on, rows, first, last)
     partner = _partners(rows.size, links)
     # Where each join reaches the run it steps onto.
+    row_of = rows.tolist()
+    joined = partner[links[:, 0].astype(np.int64)] == links[:, 1].astype(np.int64)
     via = {}
-    for end, other, _, _, column in links.tolist():
+    for end, other, _, _, column in links[joined].tolist():
         end, other = int(end), int(other)
-        if partner[end] == other:
-            via[end, other] = via[other, end] = (rows[other // 2], int(column))
-    tips = np.stack([np.repeat(rows, 2), np.stack([first, last], 1).ravel()], 1)
-    drawn = np.zeros(rows.size, bool)
-    strokes = []
+        via[end, other] = via[other, end] = (row_of[other // 2], int(column))
+    # Each chain of runs walked from a free end, its cells gathered in one list; the cells become
+    # page points in one step (a stroke's points one by one were most of the time here).
+    tips = np.stack([np.repeat(rows, 2), np.stack([first, last], 1).ravel()], 1).tolist()
+    following = partner.tolist()
+    drawn = bytearray(rows.size)
+    cells: list = []
+    ends = [0]
     for start in np.flatnonzero(partner < 0).tolist():
         if drawn[start // 2]:
             continue
-        cells, end = [], start
+        end = start
         while True:
-            drawn[end // 2] = True
-            cells += [tuple(tips[end]), tuple(tips[end ^ 1])]
-            following = partner[end ^ 1]
-            if following < 0:
+            drawn[end // 2] = 1
+            cells += (tips[end], tips[end ^ 1])
+            after = following[end ^ 1]
+            if after < 0:
                 break
-            cells.append(via[end ^ 1, following])
-            end = following
-        points = grid.to_mm(np.asarray(cells, np.float64) + np.asarray(origin))
-        moved = np.ones(len(points), bool)
-        moved[1:] = np.any(points[1:] != points[:-1], axis=1)
-        strokes.append(points[moved])
-    return Paths.of(strokes)
+            cells.append(via[end ^ 1, after])
+            end = after
+        ends.append(len(cells))
+    points = grid.to_mm(np.asarray(cells, np.float64) + np.asarray(origin))
+    offsets = np.asarray(ends)
+    # A point where the one before it in the same stroke is (a run of one cell, a join onto a tip).
+    kept = np.ones(len(points), bool)
+    kept[1:] = np.any(points[1:] != points[:-1], axis=1)
+    kept[offsets[:-1]] = True
+    return Paths(points[kept], np.concatenate([[0], np.cumsum(kept)[offsets[1:] - 1]]))
 
 
 def solo_strokes(on: np.ndarray, grid: Grid, origin: tuple[int, int] = (0, 0)) -> Paths:
