@@ -150,15 +150,16 @@ def within_plot_budget(
     or less). A plan still past the budget then has its faces' runs at ``SPARSEST`` and its
     hatching lightened again from its own tone, kept if that comes nearer the budget."""
     cost = plot_cost(layers)
-    level = LEVELS[0]
     if lighter_by(cost, sheet_cm2) >= 1.0:
         return layers
     runs = [layer.paths for layer in layers if layer.name == FACE_TONE]
-    if runs and faces_at is not None:
-        level = _thrifty_level(cost, _drawing_cost(runs[0]), faces_at, sheet_cm2)
+    foretell = faces_at if runs else None  # (faces whose runs can be drawn thriftier)
+    level = LEVELS[0]
+    if foretell is not None:
+        level = _thrifty_level(cost, _drawing_cost(runs[0]), foretell, sheet_cm2)
         layers = redraw(1.0, level)
     layers, cost = _lighter(layers, level, redraw, sheet_cm2)
-    if runs and faces_at is not None and lighter_by(cost, sheet_cm2) < 1.0:
+    if foretell is not None and lighter_by(cost, sheet_cm2) < 1.0:
         # Still past the budget with its hatching lighter: many faces, whose runs are most of the
         # plot. The sparsest runs, the hatching from its own tone again.
         log.debug(

@@ -79,26 +79,29 @@ def search_runs(
     wide = sigma * np.sqrt(2.0)
     centre = _centre(wide)  # a toggle's own share of its change
     rows, cols = on.shape
-    padded = np.zeros((rows, cols + 2), bool)  # a bare column either side, for the run neighbours
+    # The PHASE² interleaved sub-grids' cells in the region, found once for every pass.
+    phases = []
+    for r0 in range(PHASE):
+        for c0 in range(PHASE):
+            r, c = np.meshgrid(np.arange(r0, rows, PHASE), np.arange(c0, cols, PHASE), indexing="ij")
+            inside = region[r, c]
+            if inside.any():
+                r, c = r[inside], c[inside]
+                phases.append((r, c, c > 0, c < cols - 1, weight[r, c]))
     for _ in range(SWEEPS):
         changed = 0
-        for r0 in range(PHASE):
-            for c0 in range(PHASE):
-                r, c = np.meshgrid(np.arange(r0, rows, PHASE), np.arange(c0, cols, PHASE), indexing="ij")
-                inside = region[r, c]
-                if not inside.any():
-                    continue
-                r, c = r[inside], c[inside]
-                error = _blur(on * weight - want, wide)[r, c]
-                now = on[r, c]
-                step = np.where(now, -weight[r, c], weight[r, c])
-                padded[:, 1:-1] = on
-                neighbours = padded[r, c].astype(np.int8) + padded[r, c + 2].astype(np.int8)
-                runs = np.where(now, neighbours - 1, 1 - neighbours)  # runs added by the toggle
-                gain = 2.0 * step * error + step * step * centre + lift * runs
-                flip = gain < -1e-7
-                on[r[flip], c[flip]] = ~now[flip]
-                changed += int(flip.sum())
+        for r, c, has_left, has_right, weights in phases:
+            error = _blur(on * weight - want, wide)[r, c]
+            now = on[r, c]
+            step = np.where(now, -weights, weights)
+            left = has_left & on[r, np.maximum(c - 1, 0)]
+            right = has_right & on[r, np.minimum(c + 1, cols - 1)]
+            neighbours = left.astype(np.int8) + right.astype(np.int8)
+            runs = np.where(now, neighbours - 1, 1 - neighbours)  # runs added by the toggle
+            gain = 2.0 * step * error + step * step * centre + lift * runs
+            flip = gain < -1e-7
+            on[r[flip], c[flip]] = ~now[flip]
+            changed += int(flip.sum())
         if not changed:
             break
     return on

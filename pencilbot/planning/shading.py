@@ -261,8 +261,9 @@ class Hatching:
         Past the budget the tone is shaded once more, scaled by (what the budget leaves it /
         what it drew)^¾: every tone lighter by one factor, so the drawing keeps its order of
         tones (and its ρ and r). The faces' runs follow by ``scale ** FACE_FOLLOWS``, past their
-        lightest skin's cut (:func:`~pencilbot.planning.dither.face_runs`' ``ink_scale``). A ``scale`` under 1 draws the tone that much lighter, once, whatever its pen-down (the
-        plot's budget, :mod:`pencilbot.planning.plot_budget`). The other keywords are :meth:`shade`'s.
+        lightest skin's cut (:func:`~pencilbot.planning.dither.face_runs`' ``ink_scale``). A
+        ``scale`` under 1 draws the tone that much lighter, once, whatever its pen-down (the plot's
+        budget, :mod:`pencilbot.planning.plot_budget`). The other keywords are :meth:`shade`'s.
         """
         start = scale
         for _ in range(2):
