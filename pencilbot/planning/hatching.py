@@ -37,6 +37,7 @@ from pencilbot.paths import Paths, ramps
 from pencilbot.planning.flow import DirectionField, Grid, bilinear, grid_gradient, stripe_phase
 from pencilbot.planning.onset import Onset
 from pencilbot.planning.plan import Layer
+from pencilbot.planning.spread import GOLDEN, line_mean, spread_lines
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 #: Default hatching, the one place these are said (the style's fields and shade() start here):
@@ -54,8 +55,6 @@ HATCH_COVERAGE = 0.8
 HATCH_OVERLAP = 0.25
 MIN_HATCH_RUN = 1.2
 
-# Golden-ratio conjugate: ranks frac(k·GOLDEN) are as evenly spread as any sequence can be.
-GOLDEN = 0.6180339887498949
 # Widest gap (mm) between neighbouring drawn lines of a family; lighter tones are dashed.
 MAX_GAP = 3.0
 # Shortest stroke of a cross-hatching family, in shortest strokes of the first family.
@@ -89,6 +88,8 @@ class HatchLines:
         Arc length (mm) from the start of the sample's traced line.
     full : (N,) float array
         Paper fraction the family covers at that sample with every line on (w · |∇φ| / s, ≤ 1).
+    normal : (N, 2) float array
+        Unit direction of ∇φ (towards the next level), page mm.
     capacity : (rows, cols) float array
         The same on the field's grid, everywhere (0 where no line of the family passes).
     """
@@ -99,6 +100,7 @@ class HatchLines:
     along: np.ndarray
     full: np.ndarray
     capacity: np.ndarray
+    normal: np.ndarray
 
 
 def family_lines(
@@ -177,7 +179,9 @@ def family_lines(
     piece_level = level[np.searchsorted(piece, np.arange(piece[-1] + 1))]
     capacity = np.minimum(1.0, pen_width * slope / spacing)
     full = coarse.sample(capacity, points)
-    return HatchLines(points, line, piece_level[owner], along, full, capacity)
+    normal = np.stack([coarse.sample(grad_c, points), -coarse.sample(grad_r, points)], axis=1)
+    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-12)[:, None]
+    return HatchLines(points, line, piece_level[owner], along, full, capacity, normal)
 
 
 def hatch_strokes(
@@ -217,10 +221,10 @@ def hatch_strokes(
     if fine is not None and not np.any(fine > 0):
         fine = None  # exactly the plain path: no rounding of cell counts differs
     scale = np.ones(len(lines.points)) if fine is None else 1.0 - (1.0 - FINE) * np.clip(fine, 0.0, 1.0)
-    on = _switched_on(
+    on, line_share = _switched_on(
         lines, request, pen_width=pen_width, min_run=min_run, offset=offset, fine=fine, scale=scale
     )
-    return _strokes(lines, on, min_run, scale)
+    return _strokes(spread_lines(lines, on, line_share, offset, pen_width, SAMPLE_STEP), on, min_run, scale)
 
 
 def _switched_on(lines: HatchLines, request, *, pen_width: float, min_run: float, offset: float, fine, scale):
@@ -248,7 +252,7 @@ def _switched_on(lines: HatchLines, request, *, pen_width: float, min_run: float
     duty = np.bincount(key, weights=share / line_share) / np.bincount(key)
     dash_rank = np.mod(cell * GOLDEN + lines.level * 0.7548776662 + offset, 1.0)
     on = (level_rank < line_share) & (dash_rank < duty[key]) & (share > 0)
-    return on
+    return on, line_share
 
 
 def _strokes(lines: HatchLines, on: np.ndarray, min_run: float, scale: np.ndarray) -> Paths:
@@ -418,17 +422,7 @@ def _resample(
 
 def _along_mean(values: np.ndarray, line: np.ndarray, length: float) -> np.ndarray:
     """Moving average of per-sample ``values`` over ``length`` mm along each line (not across lines)."""
-    half = max(0, int(round(length / (2 * SAMPLE_STEP))))
-    if half == 0 or values.size == 0:
-        return values
-    index = np.arange(values.size)
-    first = np.flatnonzero(np.append(True, line[1:] != line[:-1]))
-    last = np.append(first[1:], values.size) - 1
-    owner = np.cumsum(np.append(True, line[1:] != line[:-1])) - 1
-    lo = np.maximum(index - half, first[owner])
-    hi = np.minimum(index + half, last[owner])
-    total = np.concatenate([[0.0], np.cumsum(values)])
-    return (total[hi + 1] - total[lo]) / (hi - lo + 1)
+    return line_mean(values, line, int(round(length / (2 * SAMPLE_STEP))))
 
 
 def _runs(on: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -443,5 +437,11 @@ def _runs(on: np.ndarray, line: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _no_lines(shape: tuple[int, int]) -> HatchLines:
     empty = np.zeros(0)
     return HatchLines(
-        np.zeros((0, 2)), empty.astype(np.int64), empty.astype(np.int64), empty, empty, np.zeros(shape)
+        np.zeros((0, 2)),
+        empty.astype(np.int64),
+        empty.astype(np.int64),
+        empty,
+        empty,
+        np.zeros(shape),
+        np.zeros((0, 2)),
     )

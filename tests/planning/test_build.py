@@ -17,7 +17,7 @@ from pencilbot.errors import ProfileError
 from pencilbot.imaging.io import image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
-from pencilbot.planning import plot_budget
+from pencilbot.planning import plot_budget, spread
 from pencilbot.planning.build import (
     at_plot_resolution,
     make_plan,
@@ -282,6 +282,9 @@ def test_neighbouring_hatch_runs_are_joined_pen_down(monkeypatch):
     # plan's hatching lighter: the two plans compared here hatch the same tone.
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", float("inf"))
     monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
+    # Lines not spread across their gaps (pencilbot.planning.spread bends them a little): a run's
+    # kept points are then exactly a sample spacing apart, and a longer step is a hop.
+    monkeypatch.setattr(spread, "STEP", 0.0)
     # A dark disc: hatched line after line, so serpentine hops between neighbours are short.
     gray = np.full((120, 120), 0.92, np.float32)
     gray[disk((60, 60), 40)] = 0.02
