@@ -204,6 +204,19 @@ def test_a_plan_of_many_faces_still_past_the_budget_takes_the_sparsest_runs(monk
     assert plot_cost(kept).total <= plot_budget.PLOT_BUDGET * SHEET_CM2
 
 
+def test_far_past_the_budget_the_last_redo_is_not_drawn(monkeypatch):
+    # 300 faces' runs cost more than the budget alone: lightening the hatching cannot bring the
+    # plan within it, and a last redo would only scale its tone towards nothing (the busy bands
+    # above, a little over after two redos, are polished by it).
+    asked, redraw, _ = _replanned({LEVELS[0]: 300})
+    runs_alone = plot_cost(_layers(300, 0.0)).total
+    monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 0.9 * runs_alone / SHEET_CM2)
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
+    within_plot_budget(_layers(300, 1.0), redraw, SHEET_CM2)
+    assert len(asked) == plot_budget.REDOS - 1
+    assert all(scale < 1.0 and level == LEVELS[0] for scale, level in asked)
+
+
 def test_faces_at_another_level_keep_the_hatching_and_order_the_rest_from_its_end():
     hatch, faces, _ = (*_layers(12, 1.0), None)
     edges = Layer("edges", Paths.of([np.array([[50.0, 50.0], [60.0, 50.0]])]), pen_width=0.5, role="edges")
