@@ -75,8 +75,10 @@ def test_a_face_is_drawn_closer_to_the_photo_and_the_rest_as_without(astronaut):
         )
 
     # (The dashes of a light tone shift with any change of the tone elsewhere, which family is
-    # traced where: the median stroke is the same within a fifth, the ink within a tenth.)
-    assert np.median(far_lengths(on)) == pytest.approx(np.median(far_lengths(off)), rel=0.2)
+    # traced where: the mean stroke is the same within a fifth, the ink within a tenth. Not the
+    # median: its strokes are dashes and long lines, about as many of each, and a few strokes
+    # more of one kind moved it by 30 %, at the same count and ink within 1 %.)
+    assert far_lengths(on).mean() == pytest.approx(far_lengths(off).mean(), rel=0.2)
     assert far_lengths(on).sum() == pytest.approx(far_lengths(off).sum(), rel=0.1)
 
 
