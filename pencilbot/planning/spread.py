@@ -19,7 +19,7 @@ two rounds) varies by 0.036 / 0.036 at a 1 mm blur unspread, 0.019 / 0.012 sprea
 (tests/planning/test_spread.py). bench/fidelity.py --faceset: plot vs own sketch r up on all
 21 photos, whole-box rho up on 19 and level on 2, the lowest 0.909 -> 0.914 and 0.941 -> 0.946;
 the unseen and stress photos alike (bus 0.952 -> 0.961 and 0.889 -> 0.897, a dark crowd 0.932 ->
-0.952); 1 MP planning 1.30-1.38 -> 1.47-1.52 CPU s.
+0.952); 1 MP planning 1.39-1.46 -> 1.56-1.73 CPU s (docs/faces.md, sixth round).
 """
 
 from __future__ import annotations
