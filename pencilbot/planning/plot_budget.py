@@ -164,7 +164,8 @@ def within_plot_budget(
     if foretell is not None:
         level = _thrifty_level(cost, _drawing_cost(runs[0]), foretell, sheet_cm2)
         layers = redraw(1.0, level)
-    layers, cost = _lighter(layers, level, redraw, sheet_cm2)
+        cost = plot_cost(layers)
+    layers, cost = _lighter(layers, cost, level, redraw, sheet_cm2)
     if foretell is not None and lighter_by(cost, sheet_cm2) < 1.0:
         # Still past the budget with its hatching lighter: many faces, whose runs are most of the
         # plot. The sparsest runs, the hatching from its own tone again.
@@ -173,18 +174,23 @@ def within_plot_budget(
             cost.total / 1e3,
             cost.travel / 1e3,
         )
-        sparse, within = _lighter(redraw(1.0, SPARSEST), SPARSEST, redraw, sheet_cm2)
+        sparse = redraw(1.0, SPARSEST)
+        sparse, within = _lighter(sparse, plot_cost(sparse), SPARSEST, redraw, sheet_cm2)
         if lighter_by(within, sheet_cm2) > lighter_by(cost, sheet_cm2):  # nearer the budget
             return sparse
     return layers
 
 
 def _lighter(
-    layers: list[Layer], level: RunLevel, redraw: Callable[[float, RunLevel], list[Layer]], sheet_cm2: float
+    layers: list[Layer],
+    cost: PlotCost,
+    level: RunLevel,
+    redraw: Callable[[float, RunLevel], list[Layer]],
+    sheet_cm2: float,
 ) -> tuple[list[Layer], PlotCost]:
-    """``layers`` with the faces' runs at ``level``, their hatching redrawn lighter (at most ``REDOS``
-    times) while past the budget, and what they cost."""
-    first = cost = plot_cost(layers)
+    """``layers`` (costing ``cost``) with the faces' runs at ``level``, their hatching redrawn
+    lighter (at most ``REDOS`` times) while past the budget, and what they cost."""
+    first = cost
     scale, damping = 1.0, (DAMPING, DAMPING)
     for redo in range(REDOS):
         factor = lighter_by(cost, sheet_cm2, damping, AIMS[redo])

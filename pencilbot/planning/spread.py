@@ -58,10 +58,11 @@ def spread_lines(
     move = np.zeros(len(on))
     pitch = pen_width / np.maximum(lines.full[on], 1e-6)
     move[on] = spread_offsets(lines.level[on], line_share[on], offset) * pitch
-    half = int(round(SMOOTH / (2 * step)))
-    move = line_mean(move, lines.line, half) / np.maximum(
-        line_mean(on.astype(np.float64), lines.line, half), 1e-9
+    # The moves' mean along the line over the drawn samples only: both sums in one pass.
+    summed = line_mean(
+        np.stack([move, on.astype(np.float64)], axis=1), lines.line, int(round(SMOOTH / (2 * step)))
     )
+    move = summed[:, 0] / np.maximum(summed[:, 1], 1e-9)
     moved = lines.points + lines.normal * move[:, None]
     low, high = lines.points.min(axis=0), lines.points.max(axis=0)
     out = np.any((moved < low) | (moved > high), axis=1)
@@ -70,18 +71,18 @@ def spread_lines(
 
 
 def line_mean(values: np.ndarray, line: np.ndarray, half: int) -> np.ndarray:
-    """Moving average of per-sample ``values`` over ``half`` samples either side, within each
-    ``line`` (the samples of one line consecutive)."""
+    """Moving average of per-sample ``values`` (N, or N × k: each column) over ``half`` samples
+    either side, within each ``line`` (the samples of one line consecutive)."""
     if half <= 0 or values.size == 0:
         return values
-    index = np.arange(values.size)
+    index = np.arange(len(values))
     first = np.flatnonzero(np.append(True, line[1:] != line[:-1]))
-    last = np.append(first[1:], values.size) - 1
+    last = np.append(first[1:], len(values)) - 1
     owner = np.cumsum(np.append(True, line[1:] != line[:-1])) - 1
     lo = np.maximum(index - half, first[owner])
     hi = np.minimum(index + half, last[owner])
-    total = np.concatenate([[0.0], np.cumsum(values)])
-    return (total[hi + 1] - total[lo]) / (hi - lo + 1)
+    total = np.concatenate([np.zeros((1, *values.shape[1:])), np.cumsum(values, axis=0)])
+    return (total[hi + 1] - total[lo]) / (hi - lo + 1).reshape(-1, *[1] * (values.ndim - 1))
 
 
 def spread_offsets(level: np.ndarray, line_share: np.ndarray, offset: float) -> np.ndarray:
