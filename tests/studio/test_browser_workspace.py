@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from selenium.common.exceptions import StaleElementReferenceException
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.actions.wheel_input import ScrollOrigin
 from selenium.webdriver.common.by import By
@@ -148,7 +149,16 @@ def test_a_skipped_layer_is_shown_faint_and_not_plotted_a_hidden_one_not_shown(s
     name = browser.find_elements(By.CSS_SELECTOR, "#layers .layer")[-1].get_attribute("data-layer")
 
     def toggle(which: str) -> None:  # the list is drawn anew on each change: found each time
-        browser.find_element(By.CSS_SELECTOR, f'#layers .layer[data-layer="{name}"] .layer-{which}').click()
+        def clicked() -> bool:
+            try:
+                browser.find_element(
+                    By.CSS_SELECTOR, f'#layers .layer[data-layer="{name}"] .layer-{which}'
+                ).click()
+            except StaleElementReferenceException:
+                return False  # drawn anew between finding and clicking (a CI run): not clicked, again
+            return True
+
+        wait_for(browser, clicked, f"the layer's {which} toggle clicked")
 
     browser.find_element(By.ID, "zoom-fit").click()  # the whole sheet: an earlier test may have zoomed in
     ink = sheet_pixels(browser, "a > 0 && r < 80")
