@@ -357,6 +357,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--photos", default=",".join(PHOTOS))
     parser.add_argument("--no-faces", action="store_true", help="plan with faces = false")
+    parser.add_argument(
+        "--face-lines", action="store_true", help="plan with face_lines = true (the faces' dark lines in pen)"
+    )
     parser.add_argument("--peers", action="store_true", help="also measure hatched")
     parser.add_argument("--montage", type=Path, help="write photo | sketch | plot PNGs here")
     parser.add_argument("--no-blank", action="store_true", help="skip the blank-picture checks")
@@ -378,8 +381,11 @@ def main() -> None:
             parser.error("--peers needs hatched: pip install hatched (not a pencilbot dependency)")
     if args.no_faces:
         STYLE_OVERRIDES["faces"] = False
+    if args.face_lines:
+        STYLE_OVERRIDES["face_lines"] = True
+    changed = ", ".join(f"{key} = {str(value).lower()}" for key, value in STYLE_OVERRIDES.items())
     results: dict = {
-        "setup": f"default style{' with faces = false' if args.no_faces else ''}, A4 auto, 15 mm "
+        "setup": f"default style{' with ' + changed if changed else ''}, A4 auto, 15 mm "
         f"margin, 0.5 mm pen, {PROFILE}, yardstick at {YARDSTICK_PX_PER_MM:g} px/mm, sigma 1 mm"
     }
     missing = {}

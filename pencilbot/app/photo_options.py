@@ -36,6 +36,7 @@ STYLE_OPTIONS = {
     "--pen-width": "pen_width",
     "--hatch": "hatch",
     "--faces": "faces",
+    "--face-lines": "face_lines",
 }
 
 
@@ -171,6 +172,12 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
         action=argparse.BooleanOptionalAction,
         help="draw the faces found with finer features and hatching, listed in the plan's metadata; "
         f"--no-faces: do not look for them ({style_default('faces')})",
+    )
+    photo.add_argument(
+        "--face-lines",
+        action=argparse.BooleanOptionalAction,
+        help="also draw a face's eyes, brows and mouth as pen lines over its tone: reads more as "
+        f"a drawn portrait, follows the photo's tone less closely ({style_default('face_lines')})",
     )
     photo.add_argument(
         "--max-pixels",

@@ -25,7 +25,7 @@ from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import RunLevel
-from pencilbot.planning.features import features_only, mostly_in
+from pencilbot.planning.features import features_only, outside_faces
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.one_pen import one_pen_shading
 from pencilbot.planning.ordering import order_paths
@@ -243,8 +243,8 @@ def plan_from_sketch(
     dithered = face_mask(line.edges.shape, faces) if faces and hatching and not in_color else None
     if faces and important is not None:  # (important: the faces' mask)
         strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
-    if dithered is not None:
-        strokes = strokes.take(np.flatnonzero(~mostly_in(strokes, layout, dithered)))
+    if dithered is not None:  # the runs draw the faces (and with face_lines, pen lines their dark lines)
+        strokes = outside_faces(strokes, layout, 1.0 - drawing.gray, dithered, lines=stages.face_lines)
     layers = []
     if hatching is not None and in_color:
         assert pens is not None and drawing.tone is not None  # (in colour: a sketch with its tone)
@@ -324,12 +324,14 @@ class Ordering:
 @dataclass(frozen=True)
 class Stages:
     """A style resolved, once, into what each stage of a plan takes: the contours' options,
-    the hatching (None: the style draws contours only), the ordering, whether faces are sought."""
+    the hatching (None: the style draws contours only), the ordering, whether faces are sought
+    and whether their dark lines are drawn with the pen."""
 
     edges: EdgeOptions
     hatching: Hatching | None
     order: Ordering
     faces: bool
+    face_lines: bool
 
 
 def stages_of(style: Style, line) -> Stages:
@@ -357,7 +359,7 @@ def stages_of(style: Style, line) -> Stages:
         seed=style.seed,
     )
     order = Ordering(style.pen_width, style.hatch_join, style.min_hatch_run, style.order_rounds)
-    return Stages(edges, hatching if style.hatch else None, order, style.faces)
+    return Stages(edges, hatching if style.hatch else None, order, style.faces, style.face_lines)
 
 
 def _with_edges(layers: list[Layer], strokes: Paths, pen_width: float, pens: PenSet | None) -> list[Layer]:

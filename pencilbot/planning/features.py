@@ -1,5 +1,6 @@
-"""A face's contours: only its dark features are drawn with the pen (:func:`features_only`), and
-which strokes lie mostly in a mask (a face, its dithered runs)."""
+"""A face's contours: only its dark features are drawn with the pen (:func:`features_only`); in
+a face drawn as runs, none, or only its dark lines (:func:`outside_faces`); and which strokes lie
+mostly in a mask (a face, its dithered runs)."""
 
 from __future__ import annotations
 
@@ -22,6 +23,16 @@ FEATURE_SHARE = 0.7
 FEATURE_BLUR = 0.5
 FEATURE_SURROUND = 2.0
 FEATURE_VALLEY = 0.02
+#: A face drawn as runs (:mod:`pencilbot.planning.dither`) keeps, with the style's ``face_lines``,
+#: the contours along a line this much darker than its surroundings (as FEATURE_VALLEY): the lids
+#: and lashes, the brows, the mouth's line, the nostrils; not the jaw or the hairline, whose rims
+#: the runs draw as tone. Measured (bench/fidelity.py --faceset; faces from 25 mm / 12-25 mm
+#: meeting their bars, of 21 / 38): no contours 18 / 32; every contour the face keeps elsewhere
+#: 12 / 26 (the outlined jaw and lens-shaped lips of the last rounds); lines from 0.04 16 / 27,
+#: from 0.08 too few to read (a brow, half a mouth). Looked at (face-api's demo photos): the three
+#: laughing women of sample1 are blank ovals of runs without them, faces with eyes and a mouth
+#: with them (docs/faces.md, stop 42).
+FACE_LINE_VALLEY = 0.04
 
 
 def features_only(
@@ -48,14 +59,34 @@ def features_only(
     """
     if not len(strokes):
         return strokes
-    photo = np.asarray(photo, np.float32)
     in_face = mostly_in(strokes, layout, important)
-    dark = cv2.GaussianBlur(photo, (0, 0), FEATURE_BLUR / layout.mm_per_px)
-    valley = dark - cv2.GaussianBlur(photo, (0, 0), FEATURE_SURROUND / layout.mm_per_px)
+    dark, valley = _valleys(photo, layout)
     level = float(np.quantile(dark[face_squares(dark.shape, faces)], FEATURE_SHARE))
     light = _path_means(strokes, layout, dark) < level
     flat = _path_means(strokes, layout, valley) < FEATURE_VALLEY
     return strokes.take(np.flatnonzero(~(in_face & light & flat)))
+
+
+def outside_faces(
+    strokes: Paths, layout: Layout, photo: np.ndarray, runs: np.ndarray, *, lines: bool
+) -> Paths:
+    """The edge strokes not mostly in ``runs`` (the faces drawn as dithered runs, which draw
+    their features as tone); with ``lines``, also those in it along a dark line of the ``photo``
+    (darkness 1 − luma on the layout's image grid; see FACE_LINE_VALLEY), in order."""
+    if not len(strokes):
+        return strokes
+    keep = ~mostly_in(strokes, layout, runs)
+    if lines:
+        keep |= _path_means(strokes, layout, _valleys(photo, layout)[1]) >= FACE_LINE_VALLEY
+    return strokes.take(np.flatnonzero(keep))
+
+
+def _valleys(photo: np.ndarray, layout: Layout) -> tuple[np.ndarray, np.ndarray]:
+    """The photo's darkness at a FEATURE_BLUR mm blur, and how much darker that is than at a
+    FEATURE_SURROUND mm blur (a dark line's valley)."""
+    photo = np.asarray(photo, np.float32)
+    dark = cv2.GaussianBlur(photo, (0, 0), FEATURE_BLUR / layout.mm_per_px)
+    return dark, dark - cv2.GaussianBlur(photo, (0, 0), FEATURE_SURROUND / layout.mm_per_px)
 
 
 def mostly_in(strokes: Paths, layout: Layout, mask: np.ndarray) -> np.ndarray:

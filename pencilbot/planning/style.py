@@ -126,6 +126,11 @@ class Style:
         the features are drawn from a finer edge threshold, light skin gets light tone instead
         of bare paper, and the hatching is finer and follows smaller forms. The plan's metadata
         lists the faces it treated so.
+    face_lines : bool
+        Whether a face's dark lines (eyes, brows, the mouth's line, nostrils) are also drawn as
+        pen lines over its runs, as a portrait artist draws them
+        (:func:`~pencilbot.planning.features.outside_faces`): the faces read as drawn faces at
+        arm's length, at some cost in how closely their tone follows the photo's (docs/faces.md).
     order_rounds : int
         Rounds of local improvement the path ordering makes on nearest neighbour, per layer
         (each about one pass over the layer's paths); counted in rounds, not seconds, so a
@@ -159,6 +164,7 @@ class Style:
     hatch_blank_below: float = BLANK_BELOW
     hatch_jitter: float = 0.0
     faces: bool = True
+    face_lines: bool = False
     order_rounds: int = DEFAULT_ROUNDS
     seed: int = 0
 
@@ -254,6 +260,7 @@ STYLE_SCHEMA: dict[str, schema.Rule] = {
     "hatch_blank_below": schema.number(0, 1, below=True, unit="(darkness)"),
     "hatch_jitter": schema.number(0, 1, unit="(fraction of the hatch spacing)"),
     "faces": schema.FLAG,
+    "face_lines": schema.FLAG,
     "order_rounds": schema.whole(0, MAX_ORDER_ROUNDS),
     "seed": schema.whole(0, 2**32 - 1),
 }

@@ -122,6 +122,48 @@ def test_in_a_face_only_dark_features_keep_their_contours():
     assert kept == Paths.of([mouth, outside])
 
 
+def test_a_face_drawn_in_runs_keeps_only_its_dark_lines_and_those_only_with_face_lines():
+    from pencilbot.planning.features import outside_faces
+
+    page = page_size("A5", "portrait", (200, 200), 10.0)
+    layout = Layout.fit((200, 200), page)
+    photo = np.full((200, 200), 0.3, np.float32)  # even skin
+    photo[100:103, 60:140] = 0.8  # a mouth's line
+    photo[60:75, 60:140] = 0.7  # a broad shadow: dark, but no line (its middle is as dark as its rim)
+    mask = np.zeros((200, 200), np.float32)
+    mask[40:160, 40:160] = 1.0
+
+    def stroke(row, c0=70, c1=130):
+        return layout.px_to_mm(np.array([[c0, row], [(c0 + c1) / 2, row], [c1, row]], float))
+
+    mouth, shadow, cheek, outside = stroke(101), stroke(67), stroke(130), stroke(10, 5, 40)
+    strokes = Paths.of([mouth, shadow, cheek, outside])
+    assert outside_faces(strokes, layout, photo, mask, lines=False) == Paths.of([outside])
+    assert outside_faces(strokes, layout, photo, mask, lines=True) == Paths.of([mouth, outside])
+
+
+def test_face_lines_draws_her_eyes_and_mouth_over_the_runs():
+    image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
+    page = page_size("A4", "portrait", image.shape, 10.0)
+    drawing = sketch(at_plot_resolution(image, page, FAST.pen_width))
+    plain = plan_from_sketch(drawing, page, FAST)
+    lined = plan_from_sketch(drawing, page, Style(order_rounds=2, face_lines=True))
+    layout = Layout.fit(drawing.gray.shape, page)
+    faces = find_faces(drawing.rgb)
+    mask = face_mask(drawing.gray.shape, faces)
+    assert not mostly_in(plain.layer("edges").paths, layout, mask).any()
+    edges = lined.layer("edges").paths
+    inside = edges.take(np.flatnonzero(mostly_in(edges, layout, mask)))
+    assert len(inside) >= 3  # her eyes, brows, mouth
+    # They lie on the face's dark lines, not on its skin: darker under the pen than the face is.
+    darkness = 1.0 - drawing.gray
+    px = np.rint(layout.mm_to_px(inside.points)).astype(int)
+    under = darkness[px[:, 1].clip(0, mask.shape[0] - 1), px[:, 0].clip(0, mask.shape[1] - 1)].mean()
+    assert under > darkness[mask > 0.5].mean() + 0.1
+    # The face is still drawn in runs beside them.
+    assert len(lined.layer(FACE_TONE).paths) > 0
+
+
 @pytest.mark.parametrize("page_name", ["100x100", "A4"])
 def test_a_face_small_or_large_is_drawn_in_dithered_runs(page_name):
     image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
