@@ -63,10 +63,11 @@ from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
-from pencilbot.planning.build import HOME, at_plot_resolution, plan_from_sketch
+from pencilbot.planning.build import HOME, plan_from_sketch
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, likeness, plotted_darkness, region_rho
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths, travel_length
+from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.stats import estimate
 from pencilbot.planning.style import load_style, with_overrides
 

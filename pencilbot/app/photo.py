@@ -208,7 +208,7 @@ def _size_text(size: float) -> str:
 def load_photo(photo: ImageLike, prepared: Prepared) -> LoadedImage:
     """The photo as a :class:`LoadedImage`: a file decoded at the size the plan needs (refused
     past ``max_pixels`` before decoding), an array or a LoadedImage as it is."""
-    from pencilbot.planning.build import plot_shape
+    from pencilbot.planning.resolution import plot_shape
 
     if isinstance(photo, LoadedImage):
         return photo

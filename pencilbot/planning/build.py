@@ -10,27 +10,25 @@ layer ended; the first starts at the plotter's home, the page origin.
 from __future__ import annotations
 
 import logging
-import math
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-import cv2
-import numpy as np
-
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.faces import face_mask, find_faces
-from pencilbot.imaging.io import LoadedImage, image_from_array
+from pencilbot.imaging.io import LoadedImage
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.dither import RunLevel
+from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.features import features_only, outside_faces
+from pencilbot.planning.fidelity import sheet_likeness
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.one_pen import one_pen_shading
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
 from pencilbot.planning.plot_budget import within_plot_budget
+from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE, Hatching
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
@@ -41,13 +39,9 @@ HOME = (0.0, 0.0)
 #: (elsewhere :data:`~pencilbot.planning.vectorize.PEN_DARKNESS`): an eyelid, a brow, the
 #: corner of a mouth are faint edges that carry a likeness.
 FACE_PEN_DARKNESS = 0.35
-#: Every face is drawn at the pen's own scale, as dithered runs (:mod:`pencilbot.planning.dither`)
-#: to its photo's tone (:func:`~pencilbot.imaging.faces.portrait_darkness`), without its
-#: contours: the runs draw its features too. The rest of the sheet is hatched to the pencil
-#: tone, as a picture without a face. (Issue 30, bench/fidelity.py --faceset: hatching faces over
-#: 25 mm and lifting the whole sheet's tone to the faces' curve left 2 of 21 such faces at
-#: rho@1mm >= 0.95 and @0.5mm >= 0.85, plot vs own sketch r down to 0.825 and group photos at
-#: 33-51 min; see docs/faces.md.)
+# Every face is drawn at the pen's own scale, as dithered runs (planning/dither.py) to its photo's
+# tone, its contours left out but for its dark lines with the style's face_lines; the rest of the
+# sheet is hatched to the pencil tone as a picture without a face (docs/faces.md).
 #: Pen-down length a one-pen plan aims to stay within, mm per cm² of the sheet (39 m on A4): past
 #: it the hatching's tone is drawn lighter by one factor (:meth:`~pencilbot.planning.shading.Hatching.shade_within`). On the face set
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
@@ -151,54 +145,6 @@ def with_pens(style: Style, pens: PenSet) -> Style:
     return replace(style, pen_width=pens.darkest.width)
 
 
-def at_plot_resolution(image: LoadedImage, page: Page, pen_width: float) -> LoadedImage:
-    """The image resampled so a pixel is at least a third of the pen wide on the page.
-
-    A pen cannot draw detail finer than its width, and the stroke length ℓ is counted in
-    pixels: a 12 MP photo on A4 would give strokes under a millimetre and tens of thousands of
-    them. Smaller images, and images already at that size, are returned unchanged. A photo
-    file is better loaded at that size directly: see :func:`plot_resolution`.
-
-    Parameters
-    ----------
-    image : LoadedImage
-    page : Page
-    pen_width : float
-        Pen width, mm.
-
-    Returns
-    -------
-    LoadedImage
-    """
-    height, width = plot_shape(image.shape, page, pen_width)
-    if (height, width) == image.shape:
-        return image
-    rgb = np.clip(cv2.resize(image.rgb, (width, height), interpolation=cv2.INTER_AREA), 0.0, 1.0)
-    return image_from_array(rgb, source=image.source)
-
-
-def plot_shape(shape: tuple[int, int], page: Page, pen_width: float) -> tuple[int, int]:
-    """``(H, W)`` pixels an image of ``shape`` is planned at on ``page``: a pixel at least a
-    third of the pen wide (sizes rounded down, so that it is), never more than ``shape``."""
-    scale = Layout.fit(shape, page).mm_per_px / (pen_width / 3)
-    if scale >= 1:
-        return shape[0], shape[1]
-    return max(1, math.floor(shape[0] * scale)), max(1, math.floor(shape[1] * scale))
-
-
-def plot_resolution(style: Style, page: Page | None = None):
-    """For :func:`~pencilbot.imaging.io.load_image`'s ``shrink_to``: the size a photo of a given
-    size is planned at with ``style`` (on ``page``, default the style's page for that photo), so
-    that a big photo is reduced while it is decoded instead of after.
-    """
-
-    def shape_for(shape: tuple[int, int]) -> tuple[int, int]:
-        sheet = page if page is not None else page_size(style.page, style.orientation, shape, style.margin)
-        return plot_shape(shape, sheet, style.pen_width)
-
-    return shape_for
-
-
 def plan_from_sketch(
     drawing: Sketch,
     page: Page,
@@ -270,10 +216,7 @@ def plan_from_sketch(
     layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
     ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
     if hatching is not None and not in_color and not draft:  # and its plotting within PLOT_BUDGET
-        area = layout.page.width * layout.page.height / 100
-        ordered = _within_plot_budget(
-            ordered, shade, lambda level: faces_at(level, scale), scale, strokes, stages, pens, area
-        )
+        ordered = _within_plot_budget(ordered, shade, faces_at, scale, strokes, stages, pens, layout, drawing)
     return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
 
 
@@ -285,18 +228,32 @@ def _within_plot_budget(
     strokes: Paths,
     stages: Stages,
     pens,
-    sheet_cm2: float,
+    layout: Layout,
+    drawing: Sketch,
 ) -> list[Layer]:
     """``ordered`` within the plot's budget (:func:`~pencilbot.planning.plot_budget.within_plot_budget`),
-    redrawn by ``shade`` (:func:`~pencilbot.planning.one_pen.one_pen_shading`) from its ``scale``."""
+    redrawn by ``shade`` (:func:`~pencilbot.planning.one_pen.one_pen_shading`) from its ``scale``,
+    two plans told apart by how like ``drawing``'s photo and sketch they are."""
+    plan, pale = ordered, False  # what a redraw at the same tone starts from, and whether it is pale
 
-    def redraw(factor: float, level: RunLevel) -> list[Layer]:
-        if factor == 1.0:  # the faces' runs at another level, the hatching as it was drawn
-            return _with_runs(ordered, faces_at(level), stages.order)
-        layers = _with_edges(shade(scale * factor, level)[0], strokes, stages.edges.pen_width, pens)
-        return _ordered(layers, stages.order)
+    def redraw(factor: float, level: RunLevel, paler: bool = False) -> list[Layer]:
+        nonlocal plan, pale
+        if factor == 1.0 and not paler:  # the faces' runs at another level, the hatching as drawn
+            return _with_runs(plan, faces_at(level, scale), stages.order)
+        hatches = shade(scale * factor, level, pale or paler)[0]
+        layers = _ordered(_with_edges(hatches, strokes, stages.edges.pen_width, pens), stages.order)
+        if paler:
+            plan, pale = layers, True
+        return layers
 
-    return within_plot_budget(ordered, redraw, sheet_cm2, faces_at=faces_at)
+    return within_plot_budget(
+        ordered,
+        redraw,
+        layout.page.width * layout.page.height / 100,
+        faces_at=lambda level: faces_at(level, scale),
+        paler=lambda: redraw(1.0, LEVELS[0], paler=True),
+        judge=lambda layers: sheet_likeness(layers, layout, drawing),
+    )
 
 
 def _with_runs(ordered: list[Layer], runs: Paths, order: Ordering) -> list[Layer]:

@@ -115,6 +115,24 @@ def plotted_darkness(paths, box, *, pen_width: float, px_per_mm: float = YARDSTI
     )
 
 
+#: Resolution (px per mm) at which a plan is judged while it is planned (:func:`sheet_likeness`):
+#: four pixels to the yardstick's 1 mm blur are ample to choose between two plans, at a sixth of
+#: the yardstick's pixels.
+JUDGE_PX_PER_MM = 4.0
+
+
+def sheet_likeness(layers, layout: Layout, drawing: Sketch) -> float:
+    """How like its photo and its own sketch a plan's ``layers`` are, to choose between two plans
+    of one picture: Spearman's rho against the photo's darkness plus Pearson's r against the
+    sketch's, both over the drawing box at the yardstick's blur (:func:`likeness`)."""
+    paths = Paths.concat(layer.paths for layer in layers)
+    pen_width = max((layer.pen_width for layer in layers), default=0.5)
+    plotted = plotted_darkness(paths, layout.drawing_box, pen_width=pen_width, px_per_mm=JUDGE_PX_PER_MM)
+    result = drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2)
+    photo = likeness(plotted, 1.0 - drawing.gray, px_per_mm=JUDGE_PX_PER_MM)
+    return photo.rho + likeness(plotted, 1.0 - result, px_per_mm=JUDGE_PX_PER_MM).r
+
+
 def photo_likeness(plan: Plan, drawing: Sketch) -> Likeness:
     """How well ``plan`` follows the photo its sketch was made from (issue 11's yardstick).
 

@@ -4,12 +4,15 @@ scale and the faces' level, for the budgets that redraw them (:mod:`pencilbot.pl
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 from pencilbot.imaging.faces import portrait_darkness
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.layout import Layout
 from pencilbot.planning.plan import Layer
+from pencilbot.planning.plot_budget import PALE
 from pencilbot.planning.shading import FACE_FOLLOWS, Hatching
 from pencilbot.planning.sketch_tone import sketch_darkness
 
@@ -28,8 +31,10 @@ def one_pen_shading(
     per cm² of the sheet), as a function of the tone's scale and the faces' level: its non-empty
     layers and the scale it was drawn at (see
     :meth:`~pencilbot.planning.shading.Hatching.shade_within`); and the faces' runs alone at a
-    level, as that shading draws them at a scale. The faces' runs are drawn once per level and
-    scale: a close portrait's are most of its planning, and the budgets ask for them again."""
+    level, as that shading draws them at a scale. With ``pale`` the hatching's palest tones are
+    left paper (:data:`~pencilbot.planning.plot_budget.PALE`). The faces' runs are drawn once per
+    level and scale: a close portrait's are most of its planning, and the budgets ask for them
+    again."""
     tone = sketch_darkness(drawing)
     budget = pen_down_budget * layout.page.width * layout.page.height / 100 - float(
         strokes.drawn_lengths().sum()
@@ -52,8 +57,8 @@ def one_pen_shading(
             drawn=drawn,
         )
 
-    def shade(scale: float, level: RunLevel = LEVELS[0]) -> tuple[list[Layer], float]:
-        hatches, used = hatching.shade_within(
+    def shade(scale: float, level: RunLevel = LEVELS[0], pale: bool = False) -> tuple[list[Layer], float]:
+        hatches, used = (replace(hatching, pale=PALE) if pale else hatching).shade_within(
             budget,
             tone,
             layout,

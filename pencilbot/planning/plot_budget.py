@@ -15,9 +15,12 @@ than drawing). On 36 photos (the face set, held-out and stress photos) that coun
 per mm is grbl-servo-a4's estimate (:func:`pencilbot.planning.stats.estimate`) within 0.2 min
 under and 0.33 min over (rms 0.1 min).
 
-Past ``PLOT_BUDGET`` or ``TRAVEL_BUDGET`` the hatching is shaded again, its tone lighter by one
-factor predicted from the excess (:func:`lighter_by`), and ordered again (at most ``REDOS``
-times): every tone lighter by one factor keeps the order of tones, as the pen-down budget does.
+Past ``PLOT_BUDGET`` or ``TRAVEL_BUDGET`` a plan pays with its faces' runs drawn thriftier, or
+with its hatching's palest tones left paper (``PALE``: their dashes, a lift each, are the
+dearest ink of the plot), whichever is likelier (:func:`within_plot_budget`). Still past it, the
+hatching is shaded again, its tone lighter by one factor predicted from the excess
+(:func:`lighter_by`), and ordered again (at most ``REDOS`` times): every tone lighter by one
+factor keeps the order of tones, as the pen-down budget does.
 The faces' runs and the contours stay: their cost is what the hatching has to make room for. A
 plan within both budgets is returned as it is: it pays one sum, not a second ordering.
 """
@@ -71,6 +74,17 @@ LIGHTEST = 0.4
 #: whole box 0.862 -> 0.523); the face set's photos never take it.
 REDOS = 3
 POLISH = 0.85
+#: Tone (the hatching's request at its blur, the pen-down budget's scale in it) under which a plan
+#: past its plot budget may leave the paper blank instead of drawing its faces thriftier: dashes
+#: millimetres apart, in no order at a millimetre's blur, each a lift. Measured (bench/fidelity.py;
+#: faces from 25 mm / 12-25 mm meeting their bars, whole box min, plan vs sketch r min): the face
+#: set 18 / 32, 0.945, 0.924 -> 18 / 34, 0.945, 0.924; face-api's demo photos and two ultralytics
+#: photos, never tuned to: 16 / 3, 0.904 -> 17 / 4, 0.918 (sample5's two lit faces 0.914 / 0.877
+#: -> 0.969 / 0.914 and 0.866 / 0.807 -> 0.936 / 0.898: the lifts saved keep their finer runs,
+#: and skin that was bare paper has tone). Taken whenever within the budget, unjudged: the same
+#: faces, but 2008_001322 0.939 and r 0.917 (its faces want the thriftiest runs). Left blank on
+#: every plan, from 0.05: 18 / 33, 0.944; from 0.1: 17 / 35 but camera 0.965 -> 0.955.
+PALE = 0.08
 log = logging.getLogger(__name__)
 
 
@@ -144,6 +158,8 @@ def within_plot_budget(
     redraw: Callable[[float, RunLevel], list[Layer]],
     sheet_cm2: float,
     faces_at: Callable[[RunLevel], Paths] | None = None,
+    paler: Callable[[], list[Layer]] | None = None,
+    judge: Callable[[list[Layer]], float] | None = None,
 ) -> list[Layer]:
     """``layers`` (ordered), or, while they cost more than a budget over a sheet of ``sheet_cm2``,
     ``redraw(scale, level)``: the plan again, ordered. First its faces' runs at the first of the
@@ -154,17 +170,31 @@ def within_plot_budget(
     the first such redo with the damping that redo measured (how fast this picture's hatching
     fell with its tone), aimed further inside (``AIMS``: the fall is not smooth, a few dashes more
     or less). A plan still past the budget then has its faces' runs at ``SPARSEST`` and its
-    hatching lightened again from its own tone, kept if that comes nearer the budget."""
+    hatching lightened again from its own tone, kept if that comes nearer the budget.
+
+    With ``paler``, the plan again with its hatching's tones under ``PALE`` left paper (its faces'
+    runs at their finest, ordered; every ``redraw`` after it is pale) is drawn too once the faces'
+    level is chosen, and its own faces' level chosen from its cost: taken if it is within the
+    budget and the thriftier runs are not, or if ``judge`` (how like its photo and its sketch a
+    plan is) finds it the likelier of the two; neither within, the pale one is lightened."""
     cost = plot_cost(layers)
     if lighter_by(cost, sheet_cm2) >= 1.0:
         return layers
-    runs = [layer.paths for layer in layers if layer.name == FACE_TONE]
-    foretell = faces_at if runs else None  # (faces whose runs can be drawn thriftier)
-    level = LEVELS[0]
-    if foretell is not None:
-        level = _thrifty_level(cost, _drawing_cost(runs[0]), foretell, sheet_cm2)
-        layers = redraw(1.0, level)
-        cost = plot_cost(layers)
+    foretell = faces_at if any(layer.name == FACE_TONE for layer in layers) else None
+    layers, cost, level = _thriftier(layers, cost, redraw, sheet_cm2, foretell)
+    if paler is not None:
+        log.debug("past the budget: drawn again with the palest hatching left paper")
+        pale = paler()
+        pale, pale_cost, pale_level = _thriftier(pale, plot_cost(pale), redraw, sheet_cm2, foretell)
+        thrifty_within = lighter_by(cost, sheet_cm2) >= 1.0
+        if lighter_by(pale_cost, sheet_cm2) >= 1.0 and (
+            not thrifty_within or judge is None or judge(pale) > judge(layers)
+        ):
+            return pale
+        if not thrifty_within:  # neither: on from the pale plan (every redraw is pale now)
+            layers, cost, level = pale, pale_cost, pale_level
+    if lighter_by(cost, sheet_cm2) >= 1.0:
+        return layers
     layers, cost = _lighter(layers, cost, level, redraw, sheet_cm2)
     if foretell is not None and lighter_by(cost, sheet_cm2) < 1.0:
         # Still past the budget with its hatching lighter: many faces, whose runs are most of the
@@ -179,6 +209,24 @@ def within_plot_budget(
         if lighter_by(within, sheet_cm2) > lighter_by(cost, sheet_cm2):  # nearer the budget
             return sparse
     return layers
+
+
+def _thriftier(
+    layers: list[Layer],
+    cost: PlotCost,
+    redraw: Callable[[float, RunLevel], list[Layer]],
+    sheet_cm2: float,
+    faces_at: Callable[[RunLevel], Paths] | None,
+) -> tuple[list[Layer], PlotCost, RunLevel]:
+    """``layers`` (costing ``cost``, past a budget) with their faces' runs at the first of the
+    thriftier ``LEVELS`` that ``faces_at`` foretells within the budget (the last if none), what
+    that costs and the level; as they are without faces or within the budget."""
+    runs = [layer.paths for layer in layers if layer.name == FACE_TONE]
+    if faces_at is None or not runs or lighter_by(cost, sheet_cm2) >= 1.0:
+        return layers, cost, LEVELS[0]
+    level = _thrifty_level(cost, _drawing_cost(runs[0]), faces_at, sheet_cm2)
+    layers = redraw(1.0, level)
+    return layers, plot_cost(layers), level
 
 
 def _lighter(

@@ -106,6 +106,9 @@ class Hatching:
         Shortest hatch stroke, mm.
     blank_below : float
         Photo darkness (see ``paper`` of :meth:`shade`) below which the paper stays blank.
+    pale : float
+        Tone asked for (at the ``blur``) below which the paper stays blank: a plan past its plot
+        budget leaves its palest dashes out first (:data:`~pencilbot.planning.plot_budget.PALE`).
     wobble : float
         Smooth random bend of the lines, fraction of the spacing.
     blur : float
@@ -122,6 +125,7 @@ class Hatching:
     form_scale: float = FORM_SCALE
     min_run: float = MIN_HATCH_RUN
     blank_below: float = BLANK_BELOW
+    pale: float = 0.0
     wobble: float = 0.0
     blur: float = TONE_BLUR
     rounds: int = 2
@@ -331,7 +335,7 @@ class ToneLoop:
         tone = _blur(raw, self.sigma)
         photo = tone if paper is None else _blur(sample_image(paper, layout, grid), self.sigma)
         self.photo_darkness = darkness if paper is None else paper
-        tone[photo < h.blank_below] = 0.0
+        tone[(photo < h.blank_below) | (tone < h.pale)] = 0.0
         self.tone = tone
         self.fine = self.fine_goal = None
         if important is not None and np.any(important > 0):

@@ -18,17 +18,11 @@ from pencilbot.imaging.io import image_from_array, load_image
 from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
 from pencilbot.planning import plot_budget, spread
-from pencilbot.planning.build import (
-    at_plot_resolution,
-    make_plan,
-    plan_from_sketch,
-    plot_resolution,
-    plot_shape,
-    sketch_and_plan,
-)
+from pencilbot.planning.build import make_plan, plan_from_sketch, sketch_and_plan
 from pencilbot.planning.fidelity import plotted_darkness
 from pencilbot.planning.hatching import POINT_SPACING
 from pencilbot.planning.layout import Layout, ink_on_image_grid, page_size
+from pencilbot.planning.resolution import at_plot_resolution, plot_resolution, plot_shape
 from pencilbot.planning.style import Style, list_styles, load_style, with_overrides
 from pencilbot.planning.vectorize import edge_strokes
 

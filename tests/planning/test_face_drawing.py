@@ -11,9 +11,10 @@ from pencilbot.imaging.faces import face_mask, find_faces
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
 from pencilbot.paths import Paths
-from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.build import plan_from_sketch
 from pencilbot.planning.features import mostly_in
 from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.style import Style
 

@@ -12,7 +12,8 @@ from skimage import data
 
 from pencilbot.imaging.io import image_from_array
 from pencilbot.planning.build import sketch_and_plan
-from pencilbot.planning.fidelity import fidelity
+from pencilbot.planning.fidelity import fidelity, sheet_likeness
+from pencilbot.planning.layout import Layout
 
 
 @pytest.fixture(scope="module")
@@ -38,6 +39,20 @@ def test_shifted_edges_and_missing_hatching_lower_the_figures(planned):
     edges_only = dataclasses.replace(plan, layers=[plan.layer("edges")])
     assert fidelity(shifted, drawing).line_r < good.line_r - 0.3
     assert fidelity(edges_only, drawing).tone_mae > good.tone_mae + 0.05
+
+
+def test_the_planning_judge_prefers_the_plan_that_looks_like_the_photo(planned):
+    drawing, plan = planned
+    layout = Layout.fit(drawing.gray.shape, plan.page)
+    good = sheet_likeness(plan.layers, layout, drawing)
+    assert good > 1.8  # rho against the photo plus r against the sketch, each near 1
+    # The same strokes a centimetre off, or only the contours: less alike.
+    shifted = [
+        dataclasses.replace(layer, paths=layer.paths.with_points(layer.paths.points + 10.0))
+        for layer in plan.layers
+    ]
+    assert sheet_likeness(shifted, layout, drawing) < good - 0.3
+    assert sheet_likeness([plan.layer("edges")], layout, drawing) < good - 0.2
 
 
 def test_a_blank_photo_has_no_line_figure_and_no_warning():

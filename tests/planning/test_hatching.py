@@ -138,6 +138,26 @@ def test_later_families_are_drawn_only_where_the_tone_needs_them():
         assert pts[:, 0].min() >= x_mid - 3.0
 
 
+def test_a_pale_hatching_leaves_the_palest_tones_paper_and_draws_the_rest_alike():
+    layout = _layout((100, 100))
+    tone = np.full((100, 100), 0.05, np.float32)
+    tone[:, 50:] = 0.3  # a pale half and a mid-grey half
+    full = shade(tone, layout, Paths.empty(), pen_width=0.5)
+    pale = shade(tone, layout, Paths.empty(), pen_width=0.5, pale=0.08)
+    halves = [_half_ink(layers, layout) for layers in (full, pale)]
+    assert halves[0][0] > 0.02 and halves[1][0] < 0.005  # the pale half's dashes left out
+    assert halves[1][1] == pytest.approx(halves[0][1], abs=0.03)  # the grey half as it was
+
+
+def _half_ink(layers, layout, inset=6.0) -> tuple[float, float]:
+    """Mean ink of the left and right halves, away from the border and from the edge between them."""
+    x0, y0, x1, y1 = layout.drawing_box
+    paths = [p for layer in layers for p in layer.paths]
+    dark = render_paths(paths, x1 - x0, y1 - y0, dpi=254, pen_width=0.5, origin=(x0, y0))
+    cut, middle = int(inset / 0.1), dark.shape[1] // 2
+    return float(dark[cut:-cut, cut : middle - cut].mean()), float(dark[cut:-cut, middle + cut : -cut].mean())
+
+
 def test_light_tones_are_dashed_lines_not_scratches_far_apart():
     layout = _layout((100, 100))
     # Just above BLANK_BELOW (0.04 itself sits on the threshold in float32 after the blur).

@@ -8,8 +8,9 @@ import pytest
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
 from pencilbot.planning import build
-from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.build import plan_from_sketch
 from pencilbot.planning.layout import page_size
+from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.style import Style
 
 FAST = Style(order_rounds=2, faces=False)

@@ -10,7 +10,7 @@ from pencilbot.imaging.pencil import sketch
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning import build, plot_budget
-from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.build import plan_from_sketch
 from pencilbot.planning.dither import LEVELS, SPARSEST
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Layer
@@ -23,6 +23,7 @@ from pencilbot.planning.plot_budget import (
     plot_cost,
     within_plot_budget,
 )
+from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.shading import FACE_TONE
 from pencilbot.planning.stats import estimate
 from pencilbot.planning.style import Style
@@ -238,3 +239,66 @@ def test_faces_at_another_level_keep_the_hatching_and_order_the_rest_from_its_en
     nearest = min(np.hypot(*(tip - end)) for path in thrifty for tip in (path[0], path[-1]))
     assert np.hypot(*(first[0] - end)) == pytest.approx(nearest)
     assert [layer.name for layer in again] == [layer.name for layer in ordered]
+
+
+def _pale_fixture(monkeypatch, strokes: dict, pale_hatch: float, budget_runs: int):
+    """``_replanned`` with a ``paler`` whose hatching keeps ``pale_hatch`` of its strokes, the
+    budget just above a plan of ``budget_runs`` runs at full hatching; what was asked, in order."""
+    asked, _, faces_at = _replanned(strokes)
+    paled: list = []
+
+    def pale_redraw(scale: float, level) -> list[Layer]:
+        asked.append((scale, level, "pale" if paled else "plain"))
+        return _layers(strokes[level], scale * (pale_hatch if paled else 1.0))
+
+    def paler() -> list[Layer]:
+        paled.append(True)
+        asked.append((1.0, LEVELS[0], "paler"))
+        return _layers(strokes[LEVELS[0]], pale_hatch)
+
+    monkeypatch.setattr(
+        plot_budget, "PLOT_BUDGET", 1.02 * plot_cost(_layers(budget_runs, 1.0)).total / SHEET_CM2
+    )
+    monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", float("inf"))
+    return asked, pale_redraw, faces_at, paler
+
+
+def test_past_the_budget_the_palest_hatching_or_the_thriftier_runs_whichever_is_likelier(monkeypatch):
+    strokes = dict(zip(LEVELS, [70, 50, 30], strict=True))
+    start = _layers(strokes[LEVELS[0]], 1.0)
+    # Both within the budget: the thriftiest runs under the full hatching (40 strokes), and the
+    # finest runs under a quarter of it (10); the judge, here fond of one hatching, chooses.
+    for hatch, runs in ((10, strokes[LEVELS[0]]), (40, strokes[LEVELS[-1]]), (None, strokes[LEVELS[0]])):
+        _, redraw, faces_at, paler = _pale_fixture(monkeypatch, strokes, 0.25, 30)
+        kept = within_plot_budget(
+            start,
+            redraw,
+            SHEET_CM2,
+            faces_at=faces_at,
+            paler=paler,
+            judge=None if hatch is None else lambda layers, hatch=hatch: -abs(len(layers[0].paths) - hatch),
+        )
+        # (Without a judge the pale plan is taken when it is within the budget.)
+        assert (len(kept[0].paths), len(kept[1].paths)) == (hatch or 10, runs)
+        assert plot_cost(kept).total <= plot_budget.PLOT_BUDGET * SHEET_CM2
+
+
+def test_past_the_budget_with_both_plans_over_it_the_pale_one_is_lightened(monkeypatch):
+    strokes = dict(zip(LEVELS, [70, 60, 50], strict=True))
+    # A budget of 10 runs at full hatching: no level and no pale hatching alone brings it within.
+    asked, redraw, faces_at, paler = _pale_fixture(monkeypatch, strokes, 0.8, 10)
+    kept = within_plot_budget(
+        _layers(strokes[LEVELS[0]], 1.0),
+        redraw,
+        SHEET_CM2,
+        faces_at=faces_at,
+        paler=paler,
+        judge=lambda _: 0.0,
+    )
+    after = asked[asked.index((1.0, LEVELS[0], "paler")) + 1 :]
+    # The pale plan's runs thriftiest, then its hatching lighter by what the pale plan costs
+    # (not by what the full hatching's plan cost).
+    assert after[0] == (1.0, LEVELS[-1], "pale")
+    pale_thrifty = plot_cost(_layers(strokes[LEVELS[-1]], 0.8))
+    assert after[1][0] == pytest.approx(lighter_by(pale_thrifty, SHEET_CM2))
+    assert len(kept[0].paths) < 40 * 0.8

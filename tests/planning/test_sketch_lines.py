@@ -7,9 +7,10 @@ import numpy as np
 
 from pencilbot.imaging.io import image_from_array
 from pencilbot.imaging.pencil import sketch
-from pencilbot.planning.build import at_plot_resolution, plan_from_sketch
+from pencilbot.planning.build import plan_from_sketch
 from pencilbot.planning.fidelity import plotted_darkness
 from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.style import Style
 
 
