@@ -24,7 +24,7 @@ FAST = Style(order_rounds=2)
 @pytest.fixture(scope="module")
 def astronaut():
     image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
-    # On A4 her face is about 35 mm: hatched, not dithered.
+    # On A4 her face is about 32 mm, drawn in runs.
     page = page_size("A4", "portrait", image.shape, 10.0)
     drawing = sketch(at_plot_resolution(image, page, FAST.pen_width))
     on = plan_from_sketch(drawing, page, FAST)
@@ -143,11 +143,8 @@ def test_a_face_drawn_in_runs_keeps_only_its_dark_lines_and_those_only_with_face
     assert outside_faces(strokes, layout, photo, mask, lines=True) == Paths.of([mouth, outside])
 
 
-def test_face_lines_draws_her_eyes_and_mouth_over_the_runs():
-    image = image_from_array(data.astronaut()[::2, ::2].copy(), source="astronaut")
-    page = page_size("A4", "portrait", image.shape, 10.0)
-    drawing = sketch(at_plot_resolution(image, page, FAST.pen_width))
-    plain = plan_from_sketch(drawing, page, FAST)
+def test_face_lines_draws_her_eyes_and_mouth_over_the_runs(astronaut):
+    drawing, page, plain, _ = astronaut
     lined = plan_from_sketch(drawing, page, Style(order_rounds=2, face_lines=True))
     layout = Layout.fit(drawing.gray.shape, page)
     faces = find_faces(drawing.rgb)
