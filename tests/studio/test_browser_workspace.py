@@ -14,6 +14,8 @@ from selenium.webdriver.common.keys import Keys
 from selenium.webdriver.support.ui import Select
 from studio_helpers import full_generation, load_photo, set_control, sheet_pixels, text, wait_for
 
+from pencilbot.errors import PencilbotError
+
 PAPER = "a > 0 && r > 250 && g > 250 && b > 250"  # the white sheet (the desk around it is grey)
 
 
@@ -38,6 +40,23 @@ def plan_ready(browser) -> bool:
     return browser.execute_script(
         "return !!sheet.plan && sheet.plan.generation === state.generation && sheet.view !== null"
     )
+
+
+def newest_plan_shown(server, browser) -> bool:
+    """The server's newest generation planned in full and on the sheet: an earlier test's change
+    (the page back to A4) may still be planning when the next test starts."""
+    try:
+        server.studio.raw_plan()
+    except PencilbotError:
+        return False
+    shown = browser.execute_script("return state.generation")
+    return shown == server.studio.planner.generation and plan_ready(browser)
+
+
+def steady_ink(browser, condition: str, seen: list) -> int | None:
+    """``sheet_pixels`` once two reads in a row agree (the sheet is drawn on animation frames)."""
+    seen.append(sheet_pixels(browser, condition))
+    return seen[-1] if len(seen) > 1 and seen[-1] == seen[-2] else None
 
 
 def test_the_landscape_drawing_lies_on_a_landscape_sheet_with_its_outline(server, browser, photo):
@@ -144,7 +163,7 @@ def test_a_custom_paper_size_is_planned_and_drawn_to_scale(server, browser, phot
 def test_a_skipped_layer_is_shown_faint_and_not_plotted_a_hidden_one_not_shown(server, browser, photo):
     if not full_generation(browser):
         load_photo(server, browser, photo)
-    wait_for(browser, lambda: plan_ready(browser), "the plan on the sheet")
+    wait_for(browser, lambda: newest_plan_shown(server, browser), "the newest plan on the sheet")
     wait_for(browser, lambda: browser.find_elements(By.CSS_SELECTOR, "#layers .layer"), "the layer list")
     name = browser.find_elements(By.CSS_SELECTOR, "#layers .layer")[-1].get_attribute("data-layer")
 
@@ -161,7 +180,8 @@ def test_a_skipped_layer_is_shown_faint_and_not_plotted_a_hidden_one_not_shown(s
         wait_for(browser, clicked, f"the layer's {which} toggle clicked")
 
     browser.find_element(By.ID, "zoom-fit").click()  # the whole sheet: an earlier test may have zoomed in
-    ink = sheet_pixels(browser, "a > 0 && r < 80")
+    reads: list = []
+    ink = wait_for(browser, lambda: steady_ink(browser, "a > 0 && r < 80", reads), "the sheet drawn whole")
     toggle("show")
     wait_for(browser, lambda: sheet_pixels(browser, "a > 0 && r < 80") < ink, "the hidden layer's ink gone")
     toggle("plot")
