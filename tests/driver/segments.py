@@ -88,10 +88,12 @@ def drawing_differences(got, reference, tolerance: float = TOLERANCE) -> list[st
     origin = ref[axis_of, 0]
     unit = (ref[axis_of, 1] - origin) / length[axis_of, None]
 
-    # Every drawn piece goes to the group of the reference segment it overlaps most (a piece
-    # shorter than the tolerance: the one it lies on, overlapping or not).
+    # Every drawn piece goes to the group of the reference segment it overlaps most (a piece up to
+    # twice the tolerance long: the one it lies on, overlapping or not; GRBL reports where a stop
+    # left the pen to the micrometre, so a resume may draw the last 1.0 µm of a move, and a
+    # piece of exactly the tolerance fell either side of it by the float's last bit).
     i, j, overlap = _lying_on(drawn, ref, tolerance, touch=True)
-    short = np.linalg.norm(drawn[i, 1] - drawn[i, 0], axis=1) <= tolerance
+    short = np.linalg.norm(drawn[i, 1] - drawn[i, 0], axis=1) <= 2 * tolerance
     i, j, overlap = (
         i[short | (overlap > tolerance)],
         j[short | (overlap > tolerance)],

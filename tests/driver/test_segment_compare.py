@@ -44,6 +44,21 @@ def test_part_of_a_segment_drawn_twice_or_missing_fails(plotted):
     assert any("missing" in p for p in drawing_differences(short, plotted))
 
 
+def test_a_micrometre_jog_where_a_resume_starts_is_the_same_but_a_stray_stroke_is_caught():
+    # GRBL reports where a stop left the pen to the micrometre: the resume's first move may be a
+    # 1.0 µm jog across the line it goes on along (as long as the tolerance, but for the float's
+    # last bit: this one is 1.0000000000012 µm).
+    line = np.array([[26.8401 - 6.0, 19.6805 - 8.0], [26.8401, 19.6805], [26.8401 + 3.0, 19.6805 + 4.0]])
+    jog = np.array([[26.8401, 19.6805], [26.8401, 19.6805 - 0.001]])
+    assert np.linalg.norm(jog[1] - jog[0]) > 0.001
+    assert drawing_differences([line[:2], jog, line[1:]], [line]) == []
+    # Ten micrometres of it, or the same micrometre a few micrometres off the line, are strokes
+    # the reference does not have.
+    long_jog = np.array([[26.8401, 19.6805], [26.8401, 19.6705]])
+    assert any("no stroke" in p for p in drawing_differences([line, long_jog], [line]))
+    assert any("no stroke" in p for p in drawing_differences([line, jog + (0.004, -0.003)], [line]))
+
+
 def test_a_stroke_moved_by_two_micrometres_fails(plotted):
     moved = [s + (0.002, 0.0) if i == 7 else s for i, s in enumerate(plotted)]
     problems = drawing_differences(moved, plotted)
