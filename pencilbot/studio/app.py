@@ -111,6 +111,7 @@ class _Pages:
                 "hatch_coverage": style.hatch_coverage,
                 "line_length": style.line_length,
                 "hatch": style.hatch,
+                "face_lines": style.face_lines,
             }
 
         return JSONResponse(

@@ -41,6 +41,9 @@ class DrawingOptions:
         Hatch density: paper share one hatch family covers at its densest, (0, 1).
     hatch : bool or None
         Whether tone is hatched.
+    face_lines : bool or None
+        Whether a face's eyes, brows and mouth are also drawn in pen lines (the style's
+        ``face_lines``).
     """
 
     style: str = ""
@@ -53,6 +56,7 @@ class DrawingOptions:
     line_length: int | None = None
     hatch_coverage: float | None = None
     hatch: bool | None = None
+    face_lines: bool | None = None
 
     def request(self) -> PhotoRequest:
         """The request these controls make, with the studio's limits and its preview's memory."""

@@ -45,6 +45,25 @@ def test_the_outline_style_does_not_hatch_unless_asked(server, browser, photo):
     assert browser.find_element(By.ID, "hatch").is_selected() and server.studio.options.hatch is True
 
 
+def test_the_face_lines_box_asks_for_the_faces_lines_and_unticked_gives_the_style_back(
+    server, browser, photo
+):
+    if not full_generation(browser):
+        load_photo(server, browser, photo)
+    Select(browser.find_element(By.ID, "style")).select_by_value("default")
+    wait_for(browser, lambda: server.studio.options.style == "default", "the default style")
+    box = browser.find_element(By.ID, "face_lines")
+    assert not box.is_selected()  # the default style draws faces in runs only
+    before = full_generation(browser)
+    box.click()
+    wait_for(browser, lambda: server.studio.options.face_lines is True, "face lines reach the server")
+    assert server.studio.options.resolved_style().face_lines
+    wait_for(browser, lambda: full_generation(browser) > before, "the plan drawn again")
+    box.click()  # unticked: asked for no lines, as the style says
+    wait_for(browser, lambda: server.studio.options.face_lines is False, "no face lines")
+    assert not server.studio.options.resolved_style().face_lines
+
+
 def test_a_second_tab_shows_the_same_settings_as_the_first(server, browser, photo):
     if not full_generation(browser):
         load_photo(server, browser, photo)

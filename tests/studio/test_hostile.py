@@ -42,6 +42,7 @@ BODIES = {  # JSON routes and the bodies a stranger may send them
     "style a list": json.dumps({"style": ["default"]}).encode(),
     "page a number": json.dumps({"page": 4}).encode(),
     "hatch a word": json.dumps({"hatch": "maybe"}).encode(),
+    "face_lines a number": json.dumps({"face_lines": 2}).encode(),
     "line_length huge": json.dumps({"line_length": 10**30}).encode(),
     "margin negative": json.dumps({"margin": -5}).encode(),
     "orientation odd": json.dumps({"orientation": {"x": 1}}).encode(),

@@ -6,7 +6,8 @@ const $ = (id) => document.getElementById(id);
 const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage"];
 // The controls a style sets: each shows the chosen style's value until the person moves it (then
 // it is "touched" and sent); an untouched one is sent as null, so the style's own value applies.
-const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch"];
+const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch", "face_lines"];
+const CHECKS = ["hatch", "face_lines"];  // the styled controls that are check boxes
 let state = null, choices = null, shown = {}, sendTimer = null, sending = 0;
 let shownPlotMessage = null;  // the plot's message last shown (see showPlot)
 let touched = new Set(), applied = "";
@@ -36,7 +37,7 @@ function options() {
   for (const name of ["style", "pens", "profile"]) values[name] = form[name].value || null;
   for (const name of STYLED) {
     if (!touched.has(name)) values[name] = null;
-    else if (name === "hatch") values.hatch = form.hatch.checked;
+    else if (CHECKS.includes(name)) values[name] = form[name].checked;
     else values[name] = NUMBERS.includes(name) ? Number(form[name].value) : form[name].value;
   }
   if (values.line_length !== null && values.line_length < 2) values.line_length = null;  // 0: from the image size
@@ -46,7 +47,7 @@ function options() {
 
 function setControl(name, value) {
   const form = $("controls");
-  if (name === "hatch") form.hatch.checked = !!value;
+  if (CHECKS.includes(name)) form[name].checked = !!value;
   else if (name === "page") {
     const custom = /^([\d.]+)x([\d.]+)$/.exec(value || "");
     form.page.value = custom ? "custom" : value;
