@@ -236,10 +236,13 @@ def _within_plot_budget(
     two plans told apart by how like ``drawing``'s photo and sketch they are."""
     plan, pale = ordered, False  # what a redraw at the same tone starts from, and whether it is pale
 
+    def runs_at(level: RunLevel) -> Paths:  # the faces' runs at a level, at the plan's tone
+        return faces_at(level, scale)
+
     def redraw(factor: float, level: RunLevel, paler: bool = False) -> list[Layer]:
         nonlocal plan, pale
         if factor == 1.0 and not paler:  # the faces' runs at another level, the hatching as drawn
-            return _with_runs(plan, faces_at(level, scale), stages.order)
+            return _with_runs(plan, runs_at(level), stages.order)
         hatches = shade(scale * factor, level, pale or paler)[0]
         layers = _ordered(_with_edges(hatches, strokes, stages.edges.pen_width, pens), stages.order)
         if paler:
@@ -250,7 +253,7 @@ def _within_plot_budget(
         ordered,
         redraw,
         layout.page.width * layout.page.height / 100,
-        faces_at=lambda level: faces_at(level, scale),
+        faces_at=runs_at,
         paler=lambda: redraw(1.0, LEVELS[0], paler=True),
         judge=lambda layers: sheet_likeness(layers, layout, drawing),
     )

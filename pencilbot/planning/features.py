@@ -27,9 +27,9 @@ FEATURE_VALLEY = 0.02
 #: the contours along a line this much darker than its surroundings (as FEATURE_VALLEY): the lids
 #: and lashes, the brows, the mouth's line, the nostrils; not the jaw or the hairline, whose rims
 #: the runs draw as tone. Measured (bench/fidelity.py --faceset; faces from 25 mm / 12-25 mm
-#: meeting their bars, of 20 / 38, grace_hopper not run): no contours 18 / 32; every contour the face keeps elsewhere
-#: 12 / 26 (the outlined jaw and lens-shaped lips of the last rounds); lines from 0.04 16 / 27,
-#: from 0.08 too few to read (a brow, half a mouth). Looked at (face-api's demo photos): the three
+#: meeting their bars, of 20 / 38, grace_hopper not run): no contours 18 / 32; every contour the
+#: face keeps elsewhere 12 / 26 (the outlined jaw and lens-shaped lips of the last rounds); lines
+#: from 0.04 16 / 27, from 0.08 too few to read (a brow, half a mouth). Looked at (face-api's demo photos): the three
 #: laughing women of sample1 are blank ovals of runs without them, faces with eyes and a mouth
 #: with them (docs/faces.md, stop 42).
 FACE_LINE_VALLEY = 0.04

@@ -129,8 +129,11 @@ def sheet_likeness(layers, layout: Layout, drawing: Sketch) -> float:
     pen_width = max((layer.pen_width for layer in layers), default=0.5)
     plotted = plotted_darkness(paths, layout.drawing_box, pen_width=pen_width, px_per_mm=JUDGE_PX_PER_MM)
     result = drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2)
-    photo = likeness(plotted, 1.0 - drawing.gray, px_per_mm=JUDGE_PX_PER_MM)
-    return photo.rho + likeness(plotted, 1.0 - result, px_per_mm=JUDGE_PX_PER_MM).r
+    drawn = _blurred_samples(plotted, plotted.shape, JUDGE_PX_PER_MM)
+    photo = _blurred_samples(1.0 - drawing.gray, plotted.shape, JUDGE_PX_PER_MM)
+    return _spearman(drawn, photo) + pearson(
+        drawn, _blurred_samples(1.0 - result, plotted.shape, JUDGE_PX_PER_MM)
+    )
 
 
 def photo_likeness(plan: Plan, drawing: Sketch) -> Likeness:
@@ -163,15 +166,12 @@ def likeness(
     Likeness
     """
     height, width = plotted.shape
-    ref = cv2.resize(np.asarray(reference, np.float32), (width, height), interpolation=cv2.INTER_AREA)
-    sigma = YARDSTICK_SIGMA_MM * px_per_mm
-    a = ndi.gaussian_filter(np.asarray(plotted, np.float32), sigma)
-    b = ndi.gaussian_filter(ref, sigma)
-    # The blurred pictures vary on the scale of sigma: every third pixel loses nothing.
-    stride = max(1, int(sigma // 3))
-    sa, sb = a[::stride, ::stride].ravel(), b[::stride, ::stride].ravel()
-    flat = np.ptp(sa) == 0 or np.ptp(sb) == 0
-    rho = float("nan") if flat else float(spearmanr(sa, sb).statistic)
+    ref = _resampled(reference, plotted.shape)
+    sa, sb = (
+        _blurred_samples(plotted, plotted.shape, px_per_mm),
+        _blurred_samples(ref, plotted.shape, px_per_mm),
+    )
+    rho = _spearman(sa, sb)
     # SSIM on a 1 px/mm grid with a Gaussian window of SSIM_SIGMA_MM.
     step = max(1, round(px_per_mm))
     # At least SSIM's Gaussian window across (skimage: 2·⌊3.5σ + 0.5⌋ + 1 px): a drawing a few mm
@@ -182,6 +182,28 @@ def likeness(
     cb = cv2.resize(ref, small, interpolation=cv2.INTER_AREA)
     ssim = float(structural_similarity(ca, cb, data_range=1.0, gaussian_weights=True, sigma=SSIM_SIGMA_MM))
     return Likeness(rho=rho, r=pearson(sa, sb), ssim=ssim)
+
+
+def _resampled(picture: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """``picture`` as float32 on an (H, W) ``shape`` grid (area-averaged; as it is at that size)."""
+    picture = np.asarray(picture, np.float32)
+    if picture.shape[:2] == tuple(shape[:2]):
+        return picture
+    return cv2.resize(picture, (shape[1], shape[0]), interpolation=cv2.INTER_AREA)
+
+
+def _blurred_samples(picture: np.ndarray, shape: tuple[int, ...], px_per_mm: float) -> np.ndarray:
+    """``picture`` on the ``shape`` grid at ``px_per_mm``, blurred by the yardstick's sigma, its
+    pixels every third of a sigma (the blurred picture varies on the scale of sigma: every third
+    pixel loses nothing), flattened."""
+    sigma = YARDSTICK_SIGMA_MM * px_per_mm
+    stride = max(1, int(sigma // 3))
+    return ndi.gaussian_filter(_resampled(picture, shape), sigma)[::stride, ::stride].ravel()
+
+
+def _spearman(a: np.ndarray, b: np.ndarray) -> float:
+    """Spearman's rho of two samples; NaN when one of them is flat."""
+    return float("nan") if np.ptp(a) == 0 or np.ptp(b) == 0 else float(spearmanr(a, b).statistic)
 
 
 def region_rho(
