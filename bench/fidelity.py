@@ -18,7 +18,11 @@ installs it, never skipped silently. The yardstick:
 * both blurred with a Gaussian of σ = 1 mm; Spearman's ρ and Pearson's r over the box;
 * inside each face that :func:`pencilbot.imaging.faces.find_faces` finds: ρ at σ = 1 mm and at
   σ = 0.5 mm (features and lines);
-* r against the plan's own raster sketch (1 − R) the same way, and SSIM at 3 mm against the photo.
+* r against the plan's own raster sketch (1 − R) the same way, and SSIM at 3 mm against the photo;
+* ``sketch_lines_r``: how much of the sketch's line drawing the pen draws as lines (the plan's
+  line fidelity, :func:`pencilbot.planning.fidelity.fidelity`: r of its contours against 1 − L;
+  null when it draws none). The tone yardstick above hardly sees contours: a street scene whose
+  contours were all but dropped for the contour budget scores as well as with them.
 
 It also prints pen-down, pen-up, paths and the acceleration-aware plot time on grbl-servo-a4,
 the planning time after imaging (CPU, one run; best of three for coffee and the 1 MP photo), and
@@ -64,7 +68,7 @@ from pencilbot.imaging.pencil import sketch
 from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning.build import HOME, plan_from_sketch
-from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, likeness, plotted_darkness, region_rho
+from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, fidelity, likeness, plotted_darkness, region_rho
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.ordering import order_paths, travel_length
 from pencilbot.planning.resolution import at_plot_resolution
@@ -161,6 +165,7 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
     if HAND_BOXES and name in faceset.PHOTOS:
         return {
             **figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted),
+            "sketch_lines_r": _lines_r(plan, drawing),
             **hand_faces(name, plan, drawing, image, layout, plotted),
         }
     for face in find_faces(drawing.gray if drawing.rgb is None else drawing.rgb):
@@ -178,7 +183,17 @@ def measure(image: LoadedImage, montage: Path | None = None, name: str = "", run
             }
         )
         FACE_CROPS.append((name, region, drawing.gray, drawing.result, plotted))
-    return {**figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted), "faces": faces}
+    return {
+        **figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted),
+        "sketch_lines_r": _lines_r(plan, drawing),
+        "faces": faces,
+    }
+
+
+def _lines_r(plan, drawing) -> float | None:
+    """The plan's contours against the sketch's line drawing (r; None when it draws none)."""
+    r = fidelity(plan, drawing).line_r
+    return None if np.isnan(r) else round(float(r), 3)
 
 
 def figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted) -> dict:
