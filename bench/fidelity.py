@@ -19,7 +19,7 @@ installs it, never skipped silently. The yardstick:
 * inside each face that :func:`pencilbot.imaging.faces.find_faces` finds: ρ at σ = 1 mm and at
   σ = 0.5 mm (features and lines);
 * r against the plan's own raster sketch (1 − R) the same way, and SSIM at 3 mm against the photo;
-* ``sketch_lines_r``: how much of the sketch's line drawing the pen draws as lines (the plan's
+* ``sketch_lines_r``: how closely the pen's contours follow the sketch's line drawing (the plan's
   line fidelity, :func:`pencilbot.planning.fidelity.fidelity`: r of its contours against 1 − L;
   null when it draws none). The tone yardstick above hardly sees contours: a street scene whose
   contours were all but dropped for the contour budget scores as well as with them.
