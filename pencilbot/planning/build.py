@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
+
+import numpy as np
 
 from pencilbot.errors import PencilbotError
 from pencilbot.imaging.faces import face_mask, find_faces
@@ -20,6 +22,7 @@ from pencilbot.imaging.io import LoadedImage
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
+from pencilbot.planning.contour_budget import ROOMY_OVERFLOW_POWER
 from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.features import features_only, outside_faces
 from pencilbot.planning.fidelity import sheet_likeness
@@ -27,18 +30,15 @@ from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.one_pen import one_pen_shading
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
-from pencilbot.planning.plot_budget import within_plot_budget
+from pencilbot.planning.plot_budget import lighter_by, plot_cost, within_plot_budget
 from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.separation import color_hatching
-from pencilbot.planning.shading import FACE_TONE, Hatching
+from pencilbot.planning.shading import FACE_TONE
+from pencilbot.planning.stages import Ordering, Stages, stages_of
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
-from pencilbot.planning.vectorize import EdgeOptions, edge_strokes, edge_threshold
+from pencilbot.planning.vectorize import EdgeOptions, edge_strokes
 
 HOME = (0.0, 0.0)
-#: Darkness of the raster line drawing from which a face's features are drawn with the pen
-#: (elsewhere :data:`~pencilbot.planning.vectorize.PEN_DARKNESS`): an eyelid, a brow, the
-#: corner of a mouth are faint edges that carry a likeness.
-FACE_PEN_DARKNESS = 0.35
 # Every face is drawn at the pen's own scale, as dithered runs (planning/dither.py) to its photo's
 # tone, its contours left out but for its dark lines with the style's face_lines; the rest of the
 # sheet is hatched to the pencil tone as a picture without a face (docs/faces.md).
@@ -50,6 +50,11 @@ FACE_PEN_DARKNESS = 0.35
 #: box rho 0.968 -> 0.957.) Lifts, corners and pen-up travel are bounded once the plan is ordered
 #: (:mod:`pencilbot.planning.plot_budget`).
 PEN_DOWN_BUDGET = 63.0
+#: Faces' runs covering this share of the drawing make it a portrait, whose plot budget is the
+#: faces' (docs/faces.md, eighth round): its contours as the overflow rule keeps them
+#: (:data:`~pencilbot.planning.contour_budget.OVERFLOW_POWER`); another picture's to their budget
+#: itself where the sheet affords them (``ROOMY_OVERFLOW_POWER``).
+PORTRAIT_SHARE = 0.02
 log = logging.getLogger(__name__)
 
 
@@ -183,14 +188,22 @@ def plan_from_sketch(
     faces = find_faces(drawing.gray if drawing.rgb is None else drawing.rgb) if stages.faces else []
     meta = _meta(source, style, stages, page, layout, line, faces, pens)
     important = face_mask(line.edges.shape, faces) if faces else None
-    strokes = edge_strokes(line, layout, stages.edges, important=important)
     in_color = pens is not None and len(pens.pens) > 1
     hatching = stages.hatching
     dithered = face_mask(line.edges.shape, faces) if faces and hatching and not in_color else None
-    if faces and important is not None:  # (important: the faces' mask)
-        strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
-    if dithered is not None:  # the runs draw the faces (and with face_lines, pen lines their dark lines)
-        strokes = outside_faces(strokes, layout, 1.0 - drawing.gray, dithered, lines=stages.face_lines)
+
+    def contours(options: EdgeOptions) -> Paths:
+        strokes = edge_strokes(line, layout, options, important=important)
+        if faces and important is not None:  # (important: the faces' mask)
+            strokes = features_only(strokes, layout, 1.0 - drawing.gray, important, faces)
+        if dithered is not None:  # the runs draw the faces (and with face_lines, pen lines their dark lines)
+            strokes = outside_faces(strokes, layout, 1.0 - drawing.gray, dithered, lines=stages.face_lines)
+        return strokes
+
+    if hatching is not None and not in_color and not draft:
+        ordered = _one_pen_plan(contours, drawing, layout, stages, important, dithered, faces, pens)
+        return Plan(page=page, layers=tuple(ordered), meta=meta)
+    strokes = contours(stages.edges)
     layers = []
     if hatching is not None and in_color:
         assert pens is not None and drawing.tone is not None  # (in colour: a sketch with its tone)
@@ -206,18 +219,81 @@ def plan_from_sketch(
             hatching=hatching,
             draft=draft,
         )
-    elif hatching is not None:
-        # A one-pen plan's hatching (and faces' runs) within PEN_DOWN_BUDGET, the faces at their own tone.
-        shade, faces_at = one_pen_shading(
+    elif hatching is not None:  # a draft: the one-pen shading, unordered (only to be looked at)
+        shade, _ = one_pen_shading(
             drawing, layout, hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
         )
-        hatches, scale = shade(1.0)
-        layers += hatches
+        layers += shade(1.0)[0]
     layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
     ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
-    if hatching is not None and not in_color and not draft:  # and its plotting within PLOT_BUDGET
-        ordered = _within_plot_budget(ordered, shade, faces_at, scale, strokes, stages, pens, layout, drawing)
     return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
+
+
+def _one_pen_plan(
+    contours, drawing: Sketch, layout: Layout, stages: Stages, important, dithered, faces, pens
+):
+    """A one-pen plan's layers, ordered: its hatching (and faces' runs) within PEN_DOWN_BUDGET, the
+    faces at their own tone, its plotting within PLOT_BUDGET, and its ``contours`` (a function of
+    their options) to their budget itself where the sheet affords them and the picture is not a
+    portrait (``PORTRAIT_SHARE``)."""
+    args = (drawing, layout, stages, important, dithered, faces, pens)
+    portrait = dithered is not None and float(np.mean(dithered > 0.5)) >= PORTRAIT_SHARE
+    strokes = contours(
+        stages.edges if portrait else replace(stages.edges, overflow_power=ROOMY_OVERFLOW_POWER)
+    )
+    # Half their budget or more: the budget may have cut them, and the overflow rule would cut more.
+    budget = stages.edges.budget or 0.0
+    binds = _length(strokes) * 1e3 >= 0.5 * budget * drawing.gray.size * layout.mm_per_px**2
+    planned = _one_pen(strokes, *args, roomy=binds and not portrait)
+    if planned is None:  # past a budget with them: the overflow rule's fewer contours
+        lean = contours(stages.edges)
+        log.debug("contours %.1f m past the sheet's budgets: %.1f m", _length(strokes), _length(lean))
+        strokes = lean
+        planned = _one_pen(strokes, *args)
+    assert planned is not None
+    ordered, (shade, faces_at, scale) = planned
+    return _within_plot_budget(ordered, shade, faces_at, scale, strokes, stages, pens, layout, drawing)
+
+
+def _one_pen(
+    strokes: Paths,
+    drawing: Sketch,
+    layout: Layout,
+    stages: Stages,
+    important,
+    dithered,
+    faces,
+    pens,
+    *,
+    roomy: bool = False,
+):
+    """A one-pen plan's layers with ``strokes`` for contours, ordered, and what redraws them
+    (:func:`_within_plot_budget`'s shade, faces_at and the scale the hatching was drawn at).
+    ``roomy``: None instead when the sheet does not afford them (:func:`_affords`), found out
+    before ordering when the pen-down budget already lightens the hatching."""
+    assert stages.hatching is not None
+    shade, faces_at = one_pen_shading(
+        drawing, layout, stages.hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
+    )
+    hatches, scale = shade(1.0)
+    if roomy and scale < 1.0:
+        return None
+    ordered = _ordered(_with_edges(hatches, strokes, stages.edges.pen_width, pens), stages.order)
+    if roomy and not _affords(ordered, scale, layout):
+        return None
+    return ordered, (shade, faces_at, scale)
+
+
+def _affords(ordered: list[Layer], scale: float, layout: Layout) -> bool:
+    """Whether a one-pen plan is within its pen-down budget (its hatching drawn at full tone,
+    ``scale`` 1) and its plot's (:mod:`pencilbot.planning.plot_budget`) as it is."""
+    sheet_cm2 = layout.page.width * layout.page.height / 100
+    return scale >= 1.0 and lighter_by(plot_cost(ordered), sheet_cm2) >= 1.0
+
+
+def _length(paths: Paths) -> float:
+    """Pen-down length of ``paths``, m."""
+    return float(paths.drawn_lengths().sum()) / 1e3
 
 
 def _within_plot_budget(
@@ -267,59 +343,6 @@ def _with_runs(ordered: list[Layer], runs: Paths, order: Ordering) -> list[Layer
     start = tuple(ordered[at - 1].paths.points[-1]) if at and len(ordered[at - 1].paths) else HOME
     rest = [replace(ordered[at], paths=runs), *ordered[at + 1 :]]
     return [*ordered[:at], *_ordered([layer for layer in rest if len(layer.paths)], order, start)]
-
-
-@dataclass(frozen=True)
-class Ordering:
-    """How each layer's paths are ordered (:func:`_ordered`): joins within ``pen_width`` for
-    contours and faces' runs, within ``hatch_join`` for hatch runs from ``1.5 * min_hatch_run``
-    long (mm), ``rounds`` of improvement."""
-
-    pen_width: float
-    hatch_join: float
-    min_hatch_run: float
-    rounds: int
-
-
-@dataclass(frozen=True)
-class Stages:
-    """A style resolved, once, into what each stage of a plan takes: the contours' options,
-    the hatching (None: the style draws contours only), the ordering, whether faces are sought
-    and whether their dark lines are drawn with the pen."""
-
-    edges: EdgeOptions
-    hatching: Hatching | None
-    order: Ordering
-    faces: bool
-    face_lines: bool
-
-
-def stages_of(style: Style, line) -> Stages:
-    """What ``style`` asks of each stage, for the line drawing ``line`` (its edge threshold)."""
-    threshold = edge_threshold(line) if style.edge_threshold is None else style.edge_threshold
-    edges = EdgeOptions(
-        pen_width=style.pen_width,
-        threshold=threshold,
-        min_pixels=style.min_edge_pixels,
-        join=style.edge_join,
-        clutter=style.edge_clutter,
-        max_lines=style.edge_lines,
-        budget=style.edge_budget / 100 if style.edge_budget > 0 else None,
-        fine_threshold=min(threshold, edge_threshold(line, FACE_PEN_DARKNESS)),
-    )
-    hatching = Hatching(
-        pen_width=style.pen_width,
-        angles=style.hatch_angles,
-        coverage=style.hatch_coverage,
-        form_scale=style.hatch_form,
-        min_run=style.min_hatch_run,
-        blank_below=style.hatch_blank_below,
-        wobble=style.hatch_jitter,
-        blur=style.hatch_blur,
-        seed=style.seed,
-    )
-    order = Ordering(style.pen_width, style.hatch_join, style.min_hatch_run, style.order_rounds)
-    return Stages(edges, hatching if style.hatch else None, order, style.faces, style.face_lines)
 
 
 def _with_edges(layers: list[Layer], strokes: Paths, pen_width: float, pens: PenSet | None) -> list[Layer]:

@@ -87,7 +87,7 @@ log = logging.getLogger(__name__)
 @dataclass(frozen=True)
 class Hatching:
     """How tone becomes hatching: every parameter of the tone loop, in one object that travels
-    down from the style (:func:`~pencilbot.planning.build.stages_of`) to the loop (:meth:`shade`, :class:`ToneLoop`).
+    down from the style (:func:`~pencilbot.planning.stages.stages_of`) to the loop (:meth:`shade`, :class:`ToneLoop`).
 
     Attributes
     ----------

@@ -50,6 +50,7 @@ from skimage.morphology import skeletonize
 
 from pencilbot.paths import Paths, ramps
 from pencilbot.planning.chaining import NO_LINKS, Strokes, chain_ids, chain_polylines, link_strokes, relinked
+from pencilbot.planning.contour_budget import OVERFLOW_POWER, within_budget
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 if TYPE_CHECKING:
@@ -69,11 +70,6 @@ CLUTTER_SIGMA = 1.5
 CLUTTER_POWER = 4
 #: Most touching pen lines one contour is drawn with, for the widest raster strokes.
 MAX_LINES = 3
-#: The further a picture's contours overflow the budget, the more of them are texture: the length
-#: kept is the budget over (overflow ** OVERFLOW_POWER). A painting's brush strokes (4.2x the
-#: budget) keep a ninth of it, a street scene (2.2x) a third, a portrait (1.2-1.3x) four fifths;
-#: bench/fidelity.py whole-box rho, with the tone loop's finer correction: starry_night 0.913 -> 0.941.
-OVERFLOW_POWER = 1.5
 
 
 def edge_threshold(line: LineDrawing, darkness: float = PEN_DARKNESS) -> float:
@@ -121,6 +117,8 @@ class EdgeOptions:
     budget : float, optional
         Most contour length, mm per mm² of the image on the page; past it the most cluttered
         chains are dropped first (see the module docstring). None: no budget.
+    overflow_power : float
+        Past the budget the length kept is the budget / overflow ** this (0: the budget itself).
     fine_threshold : float, optional
         The edge threshold where :func:`edge_strokes`' ``important`` is 1 (default: ``threshold``).
     """
@@ -134,6 +132,7 @@ class EdgeOptions:
     max_lines: int = MAX_LINES
     budget: float | None = None
     fine_threshold: float | None = None
+    overflow_power: float = OVERFLOW_POWER
 
 
 def edge_strokes(
@@ -198,7 +197,7 @@ def edge_strokes(
             if important is None
             else np.bincount(comp, weights=np.asarray(important, np.float32)[rows, cols]) / pixels > 0.5
         )
-        keep &= _within_budget(strokes, links, texture, keep, allowed, protected)
+        keep &= within_budget(strokes, links, texture, keep, allowed, protected, o.overflow_power)
     paths = _chained(strokes.take(keep), relinked(links, keep), lines[keep], o, pen_px, edges.shape, ell)
     return paths.with_points(layout.px_to_mm(paths.points)) if len(paths) else paths
 
@@ -392,34 +391,6 @@ def _contours(strokes, links, pixels, texture, ell, min_pixels, clutter) -> np.n
     keep_chain = np.bincount(chain, weights=pixels) >= min_pixels
     keep_chain &= (chain_clutter <= clutter) | (length >= ell * (chain_clutter / clutter) ** CLUTTER_POWER)
     return keep_chain[chain]
-
-
-def _within_budget(strokes, links, texture, keep, allowed, protected) -> np.ndarray:
-    """Which components stay when the kept chains may be ``allowed`` px long in all (less, the
-    more they overflow it: ``OVERFLOW_POWER``).
-
-    Chains are dropped by (1 + clutter) / length, most first (short and cluttered) until the rest fit;
-    ``protected`` components (a face) are never dropped and count against the budget first.
-    """
-    chain = chain_ids(strokes.n, links)
-    length = np.bincount(chain, weights=strokes.extent * keep)
-    if length.sum() <= allowed:
-        return np.ones(strokes.n, bool)
-    allowed = allowed / (length.sum() / allowed) ** OVERFLOW_POWER
-    weight = np.maximum(strokes.extent, 1e-9)
-    clutter = np.bincount(chain, weights=texture * weight) / np.bincount(chain, weights=weight)
-    safe = np.zeros(len(length), bool)
-    if protected is not None:
-        safe = np.bincount(chain, weights=protected.astype(np.float64)) > 0
-    # Long and coherent first: the chains kept are a prefix of the order of (1 + clutter) / length.
-    rank = (1.0 + clutter) / np.maximum(length, 1e-9)
-    rank[safe] = -np.inf
-    order = np.argsort(rank, kind="stable")
-    within = np.cumsum(length[order]) <= allowed
-    stay = np.zeros(len(length), bool)
-    stay[order[within]] = True
-    stay |= safe
-    return stay[chain]
 
 
 def _direction_components(mask: np.ndarray, labels: np.ndarray) -> np.ndarray:

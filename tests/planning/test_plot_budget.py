@@ -11,6 +11,7 @@ from pencilbot.machine.profile import load_profile
 from pencilbot.paths import Paths
 from pencilbot.planning import build, plot_budget
 from pencilbot.planning.build import plan_from_sketch
+from pencilbot.planning.contour_budget import OVERFLOW_POWER
 from pencilbot.planning.dither import LEVELS, SPARSEST
 from pencilbot.planning.layout import Layout, page_size
 from pencilbot.planning.plan import Layer
@@ -110,6 +111,8 @@ def test_over_the_budget_the_hatching_is_lighter_in_the_same_order(
     busy_bands, no_budgets, monkeypatch, budget, cut
 ):
     drawing, page = busy_bands
+    # (The contours as a plan past its budgets draws them, not roomier: tests/planning/test_contour_room.py.)
+    monkeypatch.setattr(build, "ROOMY_OVERFLOW_POWER", OVERFLOW_POWER)
     free = plan_from_sketch(drawing, page, FAST)
     spent = plot_cost(free.layers)
     allowed = cut * (spent.total if budget == "PLOT_BUDGET" else spent.travel)
