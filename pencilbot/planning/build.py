@@ -22,7 +22,7 @@ from pencilbot.imaging.io import LoadedImage
 from pencilbot.imaging.pencil import Sketch, sketch
 from pencilbot.machine.pens import PenSet, load_pens
 from pencilbot.paths import Paths
-from pencilbot.planning.contour_budget import ROOMY_OVERFLOW_POWER
+from pencilbot.planning.contour_budget import ROOMY_OVERFLOW_POWER, budget_length
 from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.features import features_only, outside_faces
 from pencilbot.planning.fidelity import sheet_likeness
@@ -242,8 +242,9 @@ def _one_pen_plan(
         stages.edges if portrait else replace(stages.edges, overflow_power=ROOMY_OVERFLOW_POWER)
     )
     # Half their budget or more: the budget may have cut them, and the overflow rule would cut more.
-    budget = stages.edges.budget or 0.0
-    binds = _length(strokes) * 1e3 >= 0.5 * budget * drawing.gray.size * layout.mm_per_px**2
+    binds = _length(strokes) * 1e3 >= 0.5 * budget_length(
+        stages.edges.budget, drawing.gray.shape, layout.mm_per_px
+    )
     planned = _one_pen(strokes, *args, roomy=binds and not portrait)
     if planned is None:  # past a budget with them: the overflow rule's fewer contours
         lean = contours(stages.edges)

@@ -19,6 +19,12 @@ OVERFLOW_POWER = 1.5
 ROOMY_OVERFLOW_POWER = 0.0
 
 
+def budget_length(budget: float | None, shape: tuple[int, ...], mm_per_px: float) -> float:
+    """The contour length (mm) a ``budget`` (mm per mm², None: none) allows over a picture of
+    ``shape`` pixels laid out at ``mm_per_px``."""
+    return 0.0 if budget is None else budget * shape[0] * shape[1] * mm_per_px**2
+
+
 def within_budget(strokes, links, texture, keep, allowed, protected, power=OVERFLOW_POWER) -> np.ndarray:
     """Which components stay when the kept chains may be ``allowed`` px long in all (less, the
     more they overflow it: ``power``, :data:`OVERFLOW_POWER`).

@@ -50,7 +50,7 @@ from skimage.morphology import skeletonize
 
 from pencilbot.paths import Paths, ramps
 from pencilbot.planning.chaining import NO_LINKS, Strokes, chain_ids, chain_polylines, link_strokes, relinked
-from pencilbot.planning.contour_budget import OVERFLOW_POWER, within_budget
+from pencilbot.planning.contour_budget import OVERFLOW_POWER, budget_length, within_budget
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
 if TYPE_CHECKING:
@@ -191,7 +191,7 @@ def edge_strokes(
     texture = np.bincount(comp, weights=_clutter(skeleton, direction, rows, cols, ell)) / pixels
     keep = _contours(strokes, links, pixels, texture, ell, o.min_pixels, o.clutter)
     if o.budget is not None:
-        allowed = o.budget * edges.size * layout.mm_per_px  # mm per mm² × mm² / (mm per px): px
+        allowed = budget_length(o.budget, edges.shape, layout.mm_per_px) / layout.mm_per_px  # px
         protected = (
             None
             if important is None
