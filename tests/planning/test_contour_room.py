@@ -96,6 +96,7 @@ def test_a_portrait_keeps_the_overflow_rules_contours(street, no_budgets, monkey
         lean = plan_from_sketch(drawing, page, portrait)
     assert drawn.meta["faces"] != "none" and len(drawn.layer("face-tone").paths)
     assert [layer.paths for layer in drawn.layers] == [layer.paths for layer in lean.layers]
-    # Smaller than that, the same face is a detail of a scene: the contours get their budget.
+    # Smaller than that, the same face is a detail of a scene: the contours get their budget (the
+    # face's own contours left to its runs: about 1.4 times the overflow rule's here).
     monkeypatch.setattr(build, "PORTRAIT_SHARE", 0.5)
-    assert _contour_mm(plan_from_sketch(drawing, page, portrait)) > 1.5 * _contour_mm(lean)
+    assert _contour_mm(plan_from_sketch(drawing, page, portrait)) > 1.25 * _contour_mm(lean)
