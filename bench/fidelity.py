@@ -32,7 +32,8 @@ a blank page with ±2 grey levels of noise, a white image.
 ``--peers`` adds hatched (``pip install hatched``; not a pencilbot dependency) on the same photos
 and yardstick, with its pen-up travel. ``--montage DIR`` writes ``DIR/<photo>.png``: photo |
 raster sketch | simulated plot, side by side at the same size, and ``DIR/faces.png``: every face
-found, photo | sketch | plot. ``--no-faces`` plans with the style's ``faces = false``.
+found, photo | sketch | plot. ``--no-faces`` plans with the style's ``faces = false``,
+``--time-budget X`` with its ``time_budget = X`` (plots up to X times as long).
 
 ``--faceset`` measures the face set of ``bench/faceset.py`` instead (fetch it first): per hand-set
 face, whether the plan's detector found it, its size on paper and ρ at 1 mm and 0.5 mm in its
@@ -43,7 +44,7 @@ cascade in place of MTCNN (the detector before issue 30), in the same run.
 ``--photos`` also takes photo files (``--photos coffee,/path/to/bald_guys.jpg``): photos held out of
 the face set, measured with the detector's faces.
 
-Usage: ``python bench/fidelity.py [--photos coffee,astronaut] [--faceset] [--peers] [--montage DIR] [--no-faces]``.
+Usage: ``python bench/fidelity.py [--photos coffee,astronaut] [--faceset] [--peers] [--montage DIR] [--no-faces] [--time-budget X]``.
 """
 
 from __future__ import annotations
@@ -376,6 +377,11 @@ def main() -> None:
     parser.add_argument(
         "--face-lines", action="store_true", help="plan with face_lines = true (the faces' dark lines in pen)"
     )
+    parser.add_argument(
+        "--time-budget",
+        type=float,
+        help="plan with the style's time_budget (how long a plot may take, x the default)",
+    )
     parser.add_argument("--peers", action="store_true", help="also measure hatched")
     parser.add_argument("--montage", type=Path, help="write photo | sketch | plot PNGs here")
     parser.add_argument("--no-blank", action="store_true", help="skip the blank-picture checks")
@@ -399,6 +405,8 @@ def main() -> None:
         STYLE_OVERRIDES["faces"] = False
     if args.face_lines:
         STYLE_OVERRIDES["face_lines"] = True
+    if args.time_budget is not None:
+        STYLE_OVERRIDES["time_budget"] = args.time_budget
     changed = ", ".join(f"{key} = {str(value).lower()}" for key, value in STYLE_OVERRIDES.items())
     results: dict = {
         "setup": f"default style{' with ' + changed if changed else ''}, A4 auto, 15 mm "

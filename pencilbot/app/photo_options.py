@@ -20,6 +20,7 @@ from pencilbot.planning.layout import ORIENTATIONS
 from pencilbot.planning.style import (
     MAX_PEN_WIDTH,
     MIN_PEN_WIDTH,
+    TIME_BUDGETS,
     Style,
     default_style,
     list_styles,
@@ -37,6 +38,7 @@ STYLE_OPTIONS = {
     "--hatch": "hatch",
     "--faces": "faces",
     "--face-lines": "face_lines",
+    "--time-budget": "time_budget",
 }
 
 
@@ -178,6 +180,14 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
         action=argparse.BooleanOptionalAction,
         help="also draw a face's eyes, brows and mouth as pen lines over its tone: reads more as "
         f"a drawn portrait, follows the photo's tone less closely ({style_default('face_lines')})",
+    )
+    photo.add_argument(
+        "--time-budget",
+        type=number("--time-budget", low=TIME_BUDGETS[0], high=TIME_BUDGETS[1], unit="times the default"),
+        metavar="X",
+        help="how long the plot may take, as a multiple of the default (about 28 min for A4 on a "
+        "servo plotter at 50 mm/s): 2 draws faces finer and tones darker in up to twice the time, "
+        f"0.5 plots in about half, lighter ({style_default('time_budget')})",
     )
     photo.add_argument(
         "--max-pixels",

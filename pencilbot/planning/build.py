@@ -26,7 +26,7 @@ from pencilbot.planning.contour_budget import ROOMY_OVERFLOW_POWER, budget_lengt
 from pencilbot.planning.dither import LEVELS, RunLevel
 from pencilbot.planning.features import features_only, outside_faces
 from pencilbot.planning.fidelity import sheet_likeness
-from pencilbot.planning.layout import Layout, page_size
+from pencilbot.planning.layout import Layout, budget_area, page_size
 from pencilbot.planning.one_pen import one_pen_shading
 from pencilbot.planning.ordering import order_paths
 from pencilbot.planning.plan import Layer, Page, Plan
@@ -280,16 +280,15 @@ def _one_pen(
     if roomy and scale < 1.0:
         return None
     ordered = _ordered(_with_edges(hatches, strokes, stages.edges.pen_width, pens), stages.order)
-    if roomy and not _affords(ordered, scale, layout):
+    if roomy and not _affords(ordered, scale, budget_area(layout, stages.hatching.time_budget)):
         return None
     return ordered, (shade, faces_at, scale)
 
 
-def _affords(ordered: list[Layer], scale: float, layout: Layout) -> bool:
+def _affords(ordered: list[Layer], scale: float, area: float) -> bool:
     """Whether a one-pen plan is within its pen-down budget (its hatching drawn at full tone,
-    ``scale`` 1) and its plot's (:mod:`pencilbot.planning.plot_budget`) as it is."""
-    sheet_cm2 = layout.page.width * layout.page.height / 100
-    return scale >= 1.0 and lighter_by(plot_cost(ordered), sheet_cm2) >= 1.0
+    ``scale`` 1) and its plot's (:mod:`pencilbot.planning.plot_budget`) over ``area`` cm², as it is."""
+    return scale >= 1.0 and lighter_by(plot_cost(ordered), area) >= 1.0
 
 
 def _length(paths: Paths) -> float:
@@ -311,6 +310,7 @@ def _within_plot_budget(
     """``ordered`` within the plot's budget (:func:`~pencilbot.planning.plot_budget.within_plot_budget`),
     redrawn by ``shade`` (:func:`~pencilbot.planning.one_pen.one_pen_shading`) from its ``scale``,
     two plans told apart by how like ``drawing``'s photo and sketch they are."""
+    assert stages.hatching is not None  # (a one-pen plan hatches)
     plan, pale = ordered, False  # what a redraw at the same tone starts from, and whether it is pale
 
     def runs_at(level: RunLevel) -> Paths:  # the faces' runs at a level, at the plan's tone
@@ -329,7 +329,7 @@ def _within_plot_budget(
     return within_plot_budget(
         ordered,
         redraw,
-        layout.page.width * layout.page.height / 100,
+        budget_area(layout, stages.hatching.time_budget),
         faces_at=runs_at,
         paler=lambda: redraw(1.0, LEVELS[0], paler=True),
         judge=lambda layers: sheet_likeness(layers, layout, drawing),
@@ -419,6 +419,7 @@ def _meta(source: str, style: Style, stages: Stages, page: Page, layout: Layout,
         "texture_seed": str(style.seed),
         "edge_lines": str(edges.max_lines),
         "edge_budget_mm_per_cm2": f"{style.edge_budget:g}",
+        "time_budget": f"{style.time_budget:g}",
         # Faces treated with care, "x,y,size" in px of the image as planned (image_px).
         "faces": "; ".join(face.describe() for face in faces)
         if faces

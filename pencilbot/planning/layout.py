@@ -252,3 +252,10 @@ def ink_on_image_grid(paths: Paths, layout: Layout, *, pen_width: float, coarsen
         dpi=MM_PER_INCH / coarsen,
         pen_width=pen_width / layout.mm_per_px,
     )
+
+
+def budget_area(layout: Layout, time_budget: float = 1.0) -> float:
+    """The area a plan's plotting budgets are counted over, cm²: its sheet's, times the style's
+    ``time_budget`` (each budget is so much per cm² of the sheet: pen-down, the faces' runs, the
+    plot's cost and its pen-up travel, :mod:`pencilbot.planning.plot_budget`)."""
+    return layout.page.width * layout.page.height / 100 * time_budget

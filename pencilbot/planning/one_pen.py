@@ -10,7 +10,7 @@ from pencilbot.imaging.faces import portrait_darkness
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import LEVELS, RunLevel
-from pencilbot.planning.layout import Layout
+from pencilbot.planning.layout import Layout, budget_area
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.plot_budget import PALE
 from pencilbot.planning.shading import FACE_FOLLOWS, Hatching
@@ -36,7 +36,7 @@ def one_pen_shading(
     level and scale: a close portrait's are most of its planning, and the budgets ask for them
     again."""
     tone = sketch_darkness(drawing)
-    budget = pen_down_budget * layout.page.width * layout.page.height / 100 - float(
+    budget = pen_down_budget * budget_area(layout, hatching.time_budget) - float(
         strokes.drawn_lengths().sum()
     )
     face_darkness = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None

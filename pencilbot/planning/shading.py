@@ -35,6 +35,7 @@ from pencilbot.planning.hatching import (
     family_lines,
     hatch_layers,
 )
+from pencilbot.planning.layout import budget_area
 from pencilbot.planning.plan import Layer
 from pencilbot.units import DEFAULT_PEN_WIDTH
 
@@ -107,8 +108,7 @@ class Hatching:
     blank_below : float
         Photo darkness (see ``paper`` of :meth:`shade`) below which the paper stays blank.
     pale : float
-        Tone asked for (at the ``blur``) below which the paper stays blank: a plan past its plot
-        budget leaves its palest dashes out first (:data:`~pencilbot.planning.plot_budget.PALE`).
+        Tone (at the ``blur``) under which the paper stays blank (:data:`~pencilbot.planning.plot_budget.PALE`).
     wobble : float
         Smooth random bend of the lines, fraction of the spacing.
     blur : float
@@ -116,6 +116,8 @@ class Hatching:
     rounds : int
         Hatch–render–correct rounds (1 = no correction).
     seed : int
+    time_budget : float
+        The style's: the plotting budgets' scale (:func:`~pencilbot.planning.layout.budget_area`).
     """
 
     pen_width: float = DEFAULT_PEN_WIDTH
@@ -130,6 +132,7 @@ class Hatching:
     blur: float = TONE_BLUR
     rounds: int = 2
     seed: int = 0
+    time_budget: float = 1.0
 
     def shade(
         self,
@@ -180,8 +183,8 @@ class Hatching:
         face_scale : float
             The faces' runs' ink scaled by this past their cut (a sheet drawn lighter).
         runs_for : callable, optional
-            The faces' runs at a level and ``face_scale``, instead of :meth:`faces` (a plan that
-            draws them again at the same ones keeps them: they are most of a portrait's planning).
+            The faces' runs at a level and ``face_scale`` instead of :meth:`faces`: kept by a plan
+            that draws them again (they are most of a portrait's planning).
 
         Returns
         -------
@@ -242,7 +245,7 @@ class Hatching:
                 )
             return drawn[scale, at, face_scale]
 
-        return within_budget(draw, layout.page.width * layout.page.height / 100, thriftier(level))
+        return within_budget(draw, budget_area(layout, self.time_budget), thriftier(level))
 
     def shade_within(
         self,

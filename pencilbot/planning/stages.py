@@ -63,6 +63,7 @@ def stages_of(style: Style, line) -> Stages:
         wobble=style.hatch_jitter,
         blur=style.hatch_blur,
         seed=style.seed,
+        time_budget=style.time_budget,
     )
     order = Ordering(style.pen_width, style.hatch_join, style.min_hatch_run, style.order_rounds)
     return Stages(edges, hatching if style.hatch else None, order, style.faces, style.face_lines)

@@ -39,6 +39,9 @@ MAX_FORM_MM = 100.0
 MAX_BLUR_MM = 20.0
 MAX_SIZE_MM = 10_000.0
 MAX_ORDER_ROUNDS = 1000
+#: The plotting time a style may ask for (``time_budget``), as a multiple of the default budget:
+#: from a quarter of it to four times (about two hours on an A4 sheet).
+TIME_BUDGETS = (0.25, 4.0)
 #: The style a plan uses when none is named.
 DEFAULT_STYLE = "default"
 
@@ -135,6 +138,12 @@ class Style:
         Rounds of local improvement the path ordering makes on nearest neighbour, per layer
         (each about one pass over the layer's paths); counted in rounds, not seconds, so a
         plan is reproducible. 0 keeps plain nearest-neighbour order.
+    time_budget : float
+        How long the plot may take, as a multiple of the default (0.25 to 4): 1 is about 28
+        minutes for an A4 sheet on a servo pen plotter drawing at 50 mm/s, and a larger sheet
+        gets more in proportion to its area. The plan keeps within it by drawing the faces with
+        fewer, longer runs and the hatching lighter (:mod:`pencilbot.planning.plot_budget`); more
+        time lets a portrait keep its faces' finest runs (docs/faces.md).
     seed : int
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """
@@ -166,6 +175,7 @@ class Style:
     faces: bool = True
     face_lines: bool = False
     order_rounds: int = DEFAULT_ROUNDS
+    time_budget: float = 1.0
     seed: int = 0
 
 
@@ -262,6 +272,7 @@ STYLE_SCHEMA: dict[str, schema.Rule] = {
     "faces": schema.FLAG,
     "face_lines": schema.FLAG,
     "order_rounds": schema.whole(0, MAX_ORDER_ROUNDS),
+    "time_budget": schema.number(*TIME_BUDGETS, unit="times the default plotting time"),
     "seed": schema.whole(0, 2**32 - 1),
 }
 _FIELDS = [f.name for f in dataclasses.fields(Style) if f.name != "name"]

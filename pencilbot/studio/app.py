@@ -112,6 +112,7 @@ class _Pages:
                 "line_length": style.line_length,
                 "hatch": style.hatch,
                 "face_lines": style.face_lines,
+                "time_budget": style.time_budget,
             }
 
         return JSONResponse(

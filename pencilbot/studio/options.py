@@ -44,6 +44,8 @@ class DrawingOptions:
     face_lines : bool or None
         Whether a face's eyes, brows and mouth are also drawn in pen lines (the style's
         ``face_lines``).
+    time_budget : float or None
+        How long the plot may take, times the default (the style's ``time_budget``).
     """
 
     style: str = ""
@@ -57,6 +59,7 @@ class DrawingOptions:
     hatch_coverage: float | None = None
     hatch: bool | None = None
     face_lines: bool | None = None
+    time_budget: float | None = None
 
     def request(self) -> PhotoRequest:
         """The request these controls make, with the studio's limits and its preview's memory."""
@@ -108,7 +111,7 @@ def parse_options(values: dict) -> DrawingOptions:
         name = given.get(key)
         if name is not None and (not isinstance(name, str) or name not in listing()):
             raise PencilbotError(f"{key} {name!r} is not one of {', '.join(listing())}")
-    for key in ("margin", "pen_width", "hatch_coverage", "line_length"):
+    for key in ("margin", "pen_width", "hatch_coverage", "line_length", "time_budget"):
         value = given.get(key)
         if value is not None and (
             isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value)

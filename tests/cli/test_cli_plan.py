@@ -57,6 +57,16 @@ def test_page_orientation_margin_and_pen_reach_the_plan(photo, tmp_path):
     assert pts.min() >= 10 - 1e-6 and pts[:, 0].max() <= 200 + 1e-6 and pts[:, 1].max() <= 138 + 1e-6
 
 
+def test_the_time_budget_reaches_the_plan_and_a_style_file_may_set_it(photo, tmp_path):
+    out = tmp_path / "plan.svg"
+    assert main(["plan", str(photo), "-o", str(out), "--style", "outline", "--time-budget", "2", "-q"]) == 0
+    assert read_svg(out).meta["time_budget"] == "2"
+    style = tmp_path / "slow.toml"
+    style.write_text("hatch = false\ntime_budget = 1.5\n")
+    assert main(["plan", str(photo), "-o", str(out), "--style", str(style), "-q"]) == 0
+    assert read_svg(out).meta["time_budget"] == "1.5"
+
+
 def test_a_style_file_is_accepted(photo, tmp_path):
     style = tmp_path / "mine.toml"
     style.write_text("hatch_angles = [0]\npen_width = 0.8\n")
@@ -76,6 +86,8 @@ def test_a_style_file_is_accepted(photo, tmp_path):
         (["--max-pixels", "0", "--downscale"], "--max-pixels must be at least 1"),
         (["--page", "B7"], "unknown page size"),
         (["--margin", "200"], "margin"),
+        (["--time-budget", "0"], "--time-budget must be at least 0.25 and at most 4 times the default"),
+        (["--time-budget", "nan"], "--time-budget must be"),
     ],
 )
 def test_bad_options_give_one_clear_error_and_no_file(photo, tmp_path, capsys, extra, message):

@@ -81,6 +81,9 @@ def test_past_its_budget_with_them_a_plan_keeps_the_fewer_contours(street, no_bu
     monkeypatch.setattr(plot_budget, "PLOT_BUDGET", (spent.total + lean_spent.total) / 2 / SHEET_CM2)
     held = plan_from_sketch(drawing, page, BUSY)
     assert [layer.paths for layer in held.layers] == [layer.paths for layer in lean.layers]
+    # With twice the time (the style's time_budget) the same sheet affords them.
+    longer = plan_from_sketch(drawing, page, replace(BUSY, time_budget=2.0))
+    assert [layer.paths for layer in longer.layers] == [layer.paths for layer in roomy.layers]
 
 
 def test_a_portrait_keeps_the_overflow_rules_contours(street, no_budgets, monkeypatch):

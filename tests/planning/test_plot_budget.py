@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -142,6 +144,30 @@ def test_under_the_budget_the_plan_is_the_same_and_ordered_once(busy_bands, no_b
     again = plan_from_sketch(drawing, page, FAST)
     assert [layer.paths for layer in again.layers] == [layer.paths for layer in free.layers]
     assert len(orderings) == 1
+
+
+def test_a_time_budget_scales_every_budget_of_the_plan(busy_bands, no_budgets, monkeypatch):
+    drawing, page = busy_bands
+    free = plan_from_sketch(drawing, page, FAST)
+    spent = plot_cost(free.layers)
+    hatched = sum(float(layer.paths.drawn_lengths().sum()) for layer in free.layers if layer.role == "hatch")
+
+    def held(time_budget: float, over: float):
+        """The plan over ``time_budget`` with every budget at 0.6 of what the free plan spends,
+        divided by ``over``."""
+        monkeypatch.setattr(build, "PEN_DOWN_BUDGET", 0.8 * hatched / SHEET_CM2 / over)
+        monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 0.6 * spent.total / SHEET_CM2 / over)
+        monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", 0.6 * spent.travel / SHEET_CM2 / over)
+        return plan_from_sketch(drawing, page, replace(FAST, time_budget=time_budget))
+
+    tight = held(1.0, 1.0)
+    assert plot_cost(tight.layers).total <= 0.6 * spent.total and tight.meta["time_budget"] == "1"
+    # Twice the time over budgets half as large: the same plan, path for path.
+    assert [layer.paths for layer in held(2.0, 2.0).layers] == [layer.paths for layer in tight.layers]
+    # Twice the time over the same budgets: a darker plan that takes longer, within its double.
+    roomy = held(2.0, 1.0)
+    assert plot_cost(tight.layers).total < plot_cost(roomy.layers).total <= 1.2 * spent.total
+    assert roomy.meta["time_budget"] == "2"
 
 
 def _layers(face_strokes: int, hatch_scale: float) -> list[Layer]:

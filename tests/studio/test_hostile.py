@@ -45,6 +45,8 @@ BODIES = {  # JSON routes and the bodies a stranger may send them
     "face_lines a number": json.dumps({"face_lines": 2}).encode(),
     "line_length huge": json.dumps({"line_length": 10**30}).encode(),
     "margin negative": json.dumps({"margin": -5}).encode(),
+    "time_budget a word": json.dumps({"time_budget": "long"}).encode(),
+    "time_budget past 4": json.dumps({"time_budget": 40}).encode(),
     "orientation odd": json.dumps({"orientation": {"x": 1}}).encode(),
 }
 ROUTES = [

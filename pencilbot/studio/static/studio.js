@@ -3,10 +3,10 @@
 "use strict";
 
 const $ = (id) => document.getElementById(id);
-const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage"];
+const NUMBERS = ["margin", "pen_width", "line_length", "hatch_coverage", "time_budget"];
 // The controls a style sets: each shows the chosen style's value until the person moves it (then
 // it is "touched" and sent); an untouched one is sent as null, so the style's own value applies.
-const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch", "face_lines"];
+const STYLED = ["page", "orientation", "margin", "pen_width", "line_length", "hatch_coverage", "hatch", "face_lines", "time_budget"];
 const CHECKS = ["hatch", "face_lines"];  // the styled controls that are check boxes
 let state = null, choices = null, shown = {}, sendTimer = null, sending = 0;
 let shownPlotMessage = null;  // the plot's message last shown (see showPlot)
