@@ -185,9 +185,9 @@ def add_photo_options(parser: argparse.ArgumentParser) -> None:
         "--time-budget",
         type=number("--time-budget", low=TIME_BUDGETS[0], high=TIME_BUDGETS[1], unit="times the default"),
         metavar="X",
-        help="how long the plot may take, as a multiple of the default (about 28 min for A4 on a "
-        "servo plotter at 50 mm/s): 2 draws faces finer and tones darker in up to twice the time, "
-        f"0.5 plots in about half, lighter ({style_default('time_budget')})",
+        help="how long the plot may take, 1 to 4 times the default (about 28 min for A4 on a servo "
+        "plotter at 50 mm/s): 2 draws faces finer and tones darker in up to twice the time "
+        f"({style_default('time_budget')})",
     )
     photo.add_argument(
         "--max-pixels",

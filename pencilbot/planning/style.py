@@ -40,8 +40,10 @@ MAX_BLUR_MM = 20.0
 MAX_SIZE_MM = 10_000.0
 MAX_ORDER_ROUNDS = 1000
 #: The plotting time a style may ask for (``time_budget``), as a multiple of the default budget:
-#: from a quarter of it to four times (about two hours on an A4 sheet).
-TIME_BUDGETS = (0.25, 4.0)
+#: up to four times (about two hours on an A4 sheet). Not less: a plan past its budgets makes
+#: room by lightening its hatching, not its faces' runs, and at half the time a portrait of three
+#: faces kept a twentieth of its hatching (face-api's sample1: whole-box rho 0.918 -> 0.147).
+TIME_BUDGETS = (1.0, 4.0)
 #: The style a plan uses when none is named.
 DEFAULT_STYLE = "default"
 
@@ -139,11 +141,12 @@ class Style:
         (each about one pass over the layer's paths); counted in rounds, not seconds, so a
         plan is reproducible. 0 keeps plain nearest-neighbour order.
     time_budget : float
-        How long the plot may take, as a multiple of the default (0.25 to 4): 1 is about 28
+        How long the plot may take, as a multiple of the default (1 to 4): 1 is about 28
         minutes for an A4 sheet on a servo pen plotter drawing at 50 mm/s, and a larger sheet
-        gets more in proportion to its area. The plan keeps within it by drawing the faces with
-        fewer, longer runs and the hatching lighter (:mod:`pencilbot.planning.plot_budget`); more
-        time lets a portrait keep its faces' finest runs (docs/faces.md).
+        gets more in proportion to its area. A one-pen plan keeps within it by drawing the faces
+        with fewer, longer runs and the hatching lighter (:mod:`pencilbot.planning.plot_budget`);
+        more time lets a portrait keep its faces' finest runs (docs/faces.md). A colour plan is
+        held to no time.
     seed : int
         Seed of the pencil texture and the hatch jitter, so a plan is reproducible.
     """

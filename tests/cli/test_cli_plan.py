@@ -86,7 +86,7 @@ def test_a_style_file_is_accepted(photo, tmp_path):
         (["--max-pixels", "0", "--downscale"], "--max-pixels must be at least 1"),
         (["--page", "B7"], "unknown page size"),
         (["--margin", "200"], "margin"),
-        (["--time-budget", "0"], "--time-budget must be at least 0.25 and at most 4 times the default"),
+        (["--time-budget", "0.5"], "--time-budget must be at least 1 and at most 4 times the default"),
         (["--time-budget", "nan"], "--time-budget must be"),
     ],
 )

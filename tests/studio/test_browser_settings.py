@@ -64,19 +64,18 @@ def test_the_face_lines_box_asks_for_the_faces_lines_and_unticked_gives_the_styl
     assert not server.studio.options.resolved_style().face_lines
 
 
-def test_the_plot_time_control_asks_for_a_longer_plot_and_the_figures_say_so(server, browser, photo):
+def test_the_plot_time_control_asks_for_a_longer_plot(server, browser, photo):
     if not full_generation(browser):
         load_photo(server, browser, photo)
     Select(browser.find_element(By.ID, "style")).select_by_value("default")
     wait_for(browser, lambda: server.studio.options.style == "default", "the default style")
     assert float(browser.find_element(By.ID, "time_budget").get_attribute("value")) == 1.0  # the style's
-    before, ink = full_generation(browser), float(text(browser, "fig-pen-down").split()[0])
-    set_control(browser, "time_budget", 0.25)
-    wait_for(browser, lambda: server.studio.options.time_budget == 0.25, "the plot time reaches the server")
-    assert server.studio.options.resolved_style().time_budget == 0.25
+    before = full_generation(browser)
+    set_control(browser, "time_budget", 2.5)
+    wait_for(browser, lambda: server.studio.options.time_budget == 2.5, "the plot time reaches the server")
+    assert server.studio.options.resolved_style().time_budget == 2.5
     wait_for(browser, lambda: full_generation(browser) > before, "the plan drawn again")
-    # A quarter of the default time: a lighter plan, with less ink to lay.
-    assert float(text(browser, "fig-pen-down").split()[0]) < ink
+    assert browser.find_element(By.CSS_SELECTOR, 'output[for="time_budget"]').text == "2.5"
 
 
 def test_a_second_tab_shows_the_same_settings_as_the_first(server, browser, photo):
