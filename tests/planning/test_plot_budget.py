@@ -153,8 +153,8 @@ def test_a_time_budget_scales_every_budget_of_the_plan(busy_bands, no_budgets, m
     hatched = sum(float(layer.paths.drawn_lengths().sum()) for layer in free.layers if layer.role == "hatch")
 
     def held(time_budget: float, over: float):
-        """The plan over ``time_budget`` with every budget at 0.6 of what the free plan spends,
-        divided by ``over``."""
+        """The plan over ``time_budget``, its pen-down budget at 0.8 of the free plan's hatching
+        and its plot's and pen-up budgets at 0.6 of what the free plan spends, each over ``over``."""
         monkeypatch.setattr(build, "PEN_DOWN_BUDGET", 0.8 * hatched / SHEET_CM2 / over)
         monkeypatch.setattr(plot_budget, "PLOT_BUDGET", 0.6 * spent.total / SHEET_CM2 / over)
         monkeypatch.setattr(plot_budget, "TRAVEL_BUDGET", 0.6 * spent.travel / SHEET_CM2 / over)
