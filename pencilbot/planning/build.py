@@ -45,9 +45,8 @@ HOME = (0.0, 0.0)
 #: Pen-down length a one-pen plan aims to stay within, mm per cm² of the sheet (39 m on A4): past
 #: it the hatching's tone is drawn lighter by one factor (:meth:`~pencilbot.planning.shading.Hatching.shade_within`). On the face set
 #: (bench/fidelity.py --faceset, grbl-servo-a4) plot time grew with pen-down and lifts, 0.43 min
-#: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min. (Per cm² of the drawing
-#: box instead, a square portrait's smaller box was held to 27 m: astronaut 22 -> 16 min, whole
-#: box rho 0.968 -> 0.957.) Lifts, corners and pen-up travel are bounded once the plan is ordered
+#: per m and 0.54 s per lift; a dark bar photo drew 60 m in 40.9 min (per cm² of the drawing box
+#: instead: docs/faces.md). Lifts, corners and pen-up travel are bounded once the plan is ordered
 #: (:mod:`pencilbot.planning.plot_budget`).
 PEN_DOWN_BUDGET = 63.0
 #: Faces' runs covering this share of the drawing make it a portrait, whose plot budget is the
@@ -203,8 +202,11 @@ def plan_from_sketch(
     if hatching is not None and not in_color and not draft:
         ordered = _one_pen_plan(contours, drawing, layout, stages, important, dithered, faces, pens)
         return Plan(page=page, layers=tuple(ordered), meta=meta)
-    strokes = contours(stages.edges)
-    layers = []
+    layers: list[Layer] = []
+    if hatching is not None and not in_color:  # a draft, only to be looked at
+        strokes, layers = _draft_one_pen(contours, drawing, layout, stages, important, dithered, faces)
+    else:
+        strokes = contours(stages.edges)
     if hatching is not None and in_color:
         assert pens is not None and drawing.tone is not None  # (in colour: a sketch with its tone)
         if drawing.result.ndim != 3:
@@ -219,11 +221,6 @@ def plan_from_sketch(
             hatching=hatching,
             draft=draft,
         )
-    elif hatching is not None:  # a draft: the one-pen shading, unordered (only to be looked at)
-        shade, _ = one_pen_shading(
-            drawing, layout, hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
-        )
-        layers += shade(1.0)[0]
     layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
     ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
     return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
@@ -237,15 +234,8 @@ def _one_pen_plan(
     their options) to their budget itself where the sheet affords them and the picture is not a
     portrait (``PORTRAIT_SHARE``)."""
     args = (drawing, layout, stages, important, dithered, faces, pens)
-    portrait = dithered is not None and float(np.mean(dithered > 0.5)) >= PORTRAIT_SHARE
-    strokes = contours(
-        stages.edges if portrait else replace(stages.edges, overflow_power=ROOMY_OVERFLOW_POWER)
-    )
-    # Half their budget or more: the budget may have cut them, and the overflow rule would cut more.
-    binds = _length(strokes) * 1e3 >= 0.5 * budget_length(
-        stages.edges.budget, drawing.gray.shape, layout.mm_per_px
-    )
-    planned = _one_pen(strokes, *args, roomy=binds and not portrait)
+    strokes, roomy = _first_contours(contours, drawing, layout, stages, dithered)
+    planned = _one_pen(strokes, *args, roomy=roomy)
     if planned is None:  # past a budget with them: the overflow rule's fewer contours
         lean = contours(stages.edges)
         log.debug("contours %.1f m past the sheet's budgets: %.1f m", _length(strokes), _length(lean))
@@ -254,6 +244,34 @@ def _one_pen_plan(
     assert planned is not None
     ordered, (shade, faces_at, scale) = planned
     return _within_plot_budget(ordered, shade, faces_at, scale, strokes, stages, pens, layout, drawing)
+
+
+def _first_contours(
+    contours, drawing: Sketch, layout: Layout, stages: Stages, dithered
+) -> tuple[Paths, bool]:
+    """The contours a one-pen plan tries first and whether the sheet must afford them: a picture not a
+    portrait gets them to their budget itself (``ROOMY_OVERFLOW_POWER``; cut, maybe, from half on)."""
+    portrait = dithered is not None and float(np.mean(dithered > 0.5)) >= PORTRAIT_SHARE
+    strokes = contours(
+        stages.edges if portrait else replace(stages.edges, overflow_power=ROOMY_OVERFLOW_POWER)
+    )
+    cut = budget_length(stages.edges.budget, drawing.gray.shape, layout.mm_per_px)
+    return strokes, not portrait and _length(strokes) * 1e3 >= 0.5 * cut
+
+
+def _draft_one_pen(contours, drawing: Sketch, layout: Layout, stages: Stages, important, dithered, faces):
+    """A draft's contours and one-pen shading: those :func:`_one_pen_plan` tries first, the overflow
+    rule's past the pen-down budget with them (a draft is unordered: its plot's budget is unknown)."""
+    assert stages.hatching is not None
+    strokes, roomy = _first_contours(contours, drawing, layout, stages, dithered)
+    while True:
+        shade, _ = one_pen_shading(
+            drawing, layout, stages.hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
+        )
+        hatches, scale = shade(1.0)
+        if not roomy or scale >= 1.0:
+            return strokes, hatches
+        strokes, roomy = contours(stages.edges), False
 
 
 def _one_pen(

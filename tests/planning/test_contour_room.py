@@ -103,3 +103,19 @@ def test_a_portrait_keeps_the_overflow_rules_contours(street, no_budgets, monkey
     # face's own contours left to its runs: about 1.4 times the overflow rule's here).
     monkeypatch.setattr(build, "PORTRAIT_SHARE", 0.5)
     assert _contour_mm(plan_from_sketch(drawing, page, portrait)) > 1.25 * _contour_mm(lean)
+
+
+def test_a_draft_shows_the_contours_its_plan_draws(street, no_budgets, monkeypatch):
+    """The studio's first preview (a draft, unordered) tries the contours the plan tries first."""
+    drawing, page = street
+    final, lean = plan_from_sketch(drawing, page, BUSY), _lean(monkeypatch, drawing, page)
+    draft = plan_from_sketch(drawing, page, BUSY, draft=True)
+    assert draft.meta["draft"] == "unordered"
+    # The same contours (the plan's are joined where they touch, which adds under a pen width).
+    assert _contour_mm(draft) == pytest.approx(_contour_mm(final), rel=0.02)
+    assert _contour_mm(draft) > 2.0 * _contour_mm(lean)
+    # Past the pen-down budget with them, the draft shows the overflow rule's, as the plan draws.
+    monkeypatch.setattr(build, "PEN_DOWN_BUDGET", 1.0)
+    draft = plan_from_sketch(drawing, page, BUSY, draft=True)
+    assert _contour_mm(draft) == pytest.approx(_contour_mm(plan_from_sketch(drawing, page, BUSY)), rel=0.02)
+    assert _contour_mm(draft) == pytest.approx(_contour_mm(lean), rel=0.02)
