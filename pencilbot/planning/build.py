@@ -199,15 +199,13 @@ def plan_from_sketch(
             strokes = outside_faces(strokes, layout, 1.0 - drawing.gray, dithered, lines=stages.face_lines)
         return strokes
 
-    if hatching is not None and not in_color and not draft:
-        ordered = _one_pen_plan(contours, drawing, layout, stages, important, dithered, faces, pens)
-        return Plan(page=page, layers=tuple(ordered), meta=meta)
+    draft_meta = {**meta, "draft": "unordered"} if draft else meta
+    if hatching is not None and not in_color:
+        one_pen = _one_pen_plan(contours, drawing, layout, stages, important, dithered, faces, pens, draft)
+        return Plan(page=page, layers=tuple(one_pen), meta=draft_meta)
+    strokes = contours(stages.edges)
     layers: list[Layer] = []
-    if hatching is not None and not in_color:  # a draft, only to be looked at
-        strokes, layers = _draft_one_pen(contours, drawing, layout, stages, important, dithered, faces)
-    else:
-        strokes = contours(stages.edges)
-    if hatching is not None and in_color:
+    if hatching is not None:  # in colour
         assert pens is not None and drawing.tone is not None  # (in colour: a sketch with its tone)
         if drawing.result.ndim != 3:
             raise ValueError("a plan with several pens needs a colour sketch (sketch(..., color=True))")
@@ -223,17 +221,18 @@ def plan_from_sketch(
         )
     layers = _with_edges(layers, strokes, stages.edges.pen_width, pens)
     ordered = layers if draft else _ordered(layers, stages.order)  # (a draft is only looked at)
-    return Plan(page=page, layers=tuple(ordered), meta={**meta, "draft": "unordered"} if draft else meta)
+    return Plan(page=page, layers=tuple(ordered), meta=draft_meta)
 
 
 def _one_pen_plan(
-    contours, drawing: Sketch, layout: Layout, stages: Stages, important, dithered, faces, pens
+    contours, drawing: Sketch, layout: Layout, stages: Stages, important, dithered, faces, pens, draft: bool
 ):
     """A one-pen plan's layers, ordered: its hatching (and faces' runs) within PEN_DOWN_BUDGET, the
     faces at their own tone, its plotting within PLOT_BUDGET, and its ``contours`` (a function of
     their options) to their budget itself where the sheet affords them and the picture is not a
-    portrait (``PORTRAIT_SHARE``)."""
-    args = (drawing, layout, stages, important, dithered, faces, pens)
+    portrait (``PORTRAIT_SHARE``). A ``draft``'s are unordered: past the pen-down budget with those
+    contours it has the overflow rule's, but the plot's budget is only known once ordered."""
+    args = (drawing, layout, stages, important, dithered, faces, pens, draft)
     strokes, roomy = _first_contours(contours, drawing, layout, stages, dithered)
     planned = _one_pen(strokes, *args, roomy=roomy)
     if planned is None:  # past a budget with them: the overflow rule's fewer contours
@@ -243,6 +242,8 @@ def _one_pen_plan(
         planned = _one_pen(strokes, *args)
     assert planned is not None
     ordered, (shade, faces_at, scale) = planned
+    if draft:
+        return ordered
     return _within_plot_budget(ordered, shade, faces_at, scale, strokes, stages, pens, layout, drawing)
 
 
@@ -259,21 +260,6 @@ def _first_contours(
     return strokes, not portrait and _length(strokes) * 1e3 >= 0.5 * cut
 
 
-def _draft_one_pen(contours, drawing: Sketch, layout: Layout, stages: Stages, important, dithered, faces):
-    """A draft's contours and one-pen shading: those :func:`_one_pen_plan` tries first, the overflow
-    rule's past the pen-down budget with them (a draft is unordered: its plot's budget is unknown)."""
-    assert stages.hatching is not None
-    strokes, roomy = _first_contours(contours, drawing, layout, stages, dithered)
-    while True:
-        shade, _ = one_pen_shading(
-            drawing, layout, stages.hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
-        )
-        hatches, scale = shade(1.0)
-        if not roomy or scale >= 1.0:
-            return strokes, hatches
-        strokes, roomy = contours(stages.edges), False
-
-
 def _one_pen(
     strokes: Paths,
     drawing: Sketch,
@@ -283,13 +269,14 @@ def _one_pen(
     dithered,
     faces,
     pens,
+    draft: bool,
     *,
     roomy: bool = False,
 ):
-    """A one-pen plan's layers with ``strokes`` for contours, ordered, and what redraws them
-    (:func:`_within_plot_budget`'s shade, faces_at and the scale the hatching was drawn at).
-    ``roomy``: None instead when the sheet does not afford them (:func:`_affords`), found out
-    before ordering when the pen-down budget already lightens the hatching."""
+    """A one-pen plan's layers with ``strokes`` for contours, ordered (a ``draft``'s not), and
+    what redraws them (:func:`_within_plot_budget`'s shade, faces_at and the scale the hatching
+    was drawn at). ``roomy``: None instead when the sheet does not afford them (:func:`_affords`),
+    found out before ordering when the pen-down budget already lightens the hatching."""
     assert stages.hatching is not None
     shade, faces_at = one_pen_shading(
         drawing, layout, stages.hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
@@ -297,7 +284,10 @@ def _one_pen(
     hatches, scale = shade(1.0)
     if roomy and scale < 1.0:
         return None
-    ordered = _ordered(_with_edges(hatches, strokes, stages.edges.pen_width, pens), stages.order)
+    layers = _with_edges(hatches, strokes, stages.edges.pen_width, pens)
+    if draft:
+        return layers, (shade, faces_at, scale)
+    ordered = _ordered(layers, stages.order)
     if roomy and not _affords(ordered, scale, budget_area(layout, stages.hatching.time_budget)):
         return None
     return ordered, (shade, faces_at, scale)
