@@ -12,7 +12,7 @@ same plotting time (:func:`plot_cost`): the pen-down length, ``CORNER_MM`` for e
 than ``CORNER_TURN`` (the motion all but stops there), ``LIFT_MM`` for each path (the lift, the
 drop and the stops around them) and ``TRAVEL_WEIGHT`` of the pen-up travel (the travel is faster
 than drawing). On 36 photos (the face set, held-out and stress photos) that count times 0.02124 s
-per mm is grbl-servo-a4's estimate (:func:`pencilbot.planning.stats.estimate`) within 0.2 min
+per mm (``SECONDS_PER_MM``) is grbl-servo-a4's estimate (:func:`pencilbot.planning.stats.estimate`) within 0.2 min
 under and 0.33 min over (rms 0.1 min).
 
 Past ``PLOT_BUDGET`` or ``TRAVEL_BUDGET`` a plan pays with its faces' runs drawn thriftier, or
@@ -47,6 +47,8 @@ CORNER_MM = 2.2
 LIFT_MM = 24.0
 #: A mm of pen-up travel in mm of pen-down (the travel runs at twice the drawing feed).
 TRAVEL_WEIGHT = 0.55
+#: Plotting seconds per mm of cost on grbl-servo-a4 (the fit over 36 photos, see the module).
+SECONDS_PER_MM = 0.02124
 #: What a plan may cost, mm per cm² of the sheet (80.5 m on A4: 28.5 min on grbl-servo-a4).
 PLOT_BUDGET = 129.0
 #: Pen-up travel a plan may take, mm per cm² of the sheet (7.36 m on A4; grbl-servo-a4's estimate
@@ -116,24 +118,68 @@ def corners(paths: Paths) -> int:
     return int(np.count_nonzero(inside & (cosine < np.cos(np.radians(CORNER_TURN)))))
 
 
-def plot_cost(layers: Sequence[Layer], start: tuple[float, float] = (0.0, 0.0)) -> PlotCost:
-    """The plotting cost of ordered ``layers`` drawn one after another from ``start`` and back
-    (the plotter's home), the travel into a path counted with its layer."""
-    total = travel = hatch_total = hatch_travel = 0.0
-    position = np.asarray(start, np.float64)
+@dataclass(frozen=True)
+class LayerCost:
+    """One ordered layer's part of :func:`plot_cost`, mm of pen-down: its ``drawn`` length, the
+    price of its ``corners`` and its ``lifts`` (one a path) and its ``travel`` into each of its
+    paths, weighted (``moved`` unweighted): where a plan's plotting time goes (bench/plot_cost.py)."""
+
+    name: str
+    role: str
+    paths: int
+    drawn: float
+    corners: float
+    lifts: float
+    moved: float
+
+    @property
+    def travel(self) -> float:
+        return TRAVEL_WEIGHT * self.moved
+
+    @property
+    def total(self) -> float:
+        return self.drawn + self.corners + self.lifts + self.travel
+
+
+def layer_costs(layers: Sequence[Layer], start: tuple[float, float] = (0.0, 0.0)) -> list[LayerCost]:
+    """Each of ordered ``layers``' part of :func:`plot_cost`, drawn one after another from ``start``
+    (the travel into a path counted with its layer; empty layers left out)."""
+    costs, position = [], np.asarray(start, np.float64)
     for layer in layers:
         paths = layer.paths
         if not len(paths):
             continue
         tails = np.vstack([position, paths.lasts[:-1]])
+        drawn = float(paths.drawn_lengths().sum())
         moved = float(np.hypot(*(paths.firsts - tails).T).sum())
-        cost = _drawing_cost(paths) + TRAVEL_WEIGHT * moved
-        total, travel = total + cost, travel + moved
-        if layer.role == "hatch" and layer.name != FACE_TONE:
-            hatch_total, hatch_travel = hatch_total + cost, hatch_travel + moved
+        costs.append(
+            LayerCost(
+                layer.name,
+                layer.role,
+                len(paths),
+                drawn,
+                CORNER_MM * corners(paths),
+                LIFT_MM * len(paths),
+                moved,
+            )
+        )
         position = paths.lasts[-1]
-    home = float(np.hypot(*(position - np.asarray(start, np.float64))))
-    return PlotCost(total + TRAVEL_WEIGHT * home, travel + home, hatch_total, hatch_travel)
+    return costs
+
+
+def plot_cost(layers: Sequence[Layer], start: tuple[float, float] = (0.0, 0.0)) -> PlotCost:
+    """The plotting cost of ordered ``layers`` drawn one after another from ``start`` and back
+    (the plotter's home), the travel into a path counted with its layer."""
+    costs = layer_costs(layers, start)
+    hatch = [cost for cost in costs if cost.role == "hatch" and cost.name != FACE_TONE]
+    last = next((layer.paths.lasts[-1] for layer in reversed(layers) if len(layer.paths)), start)
+    home = float(np.hypot(*(np.asarray(last, np.float64) - np.asarray(start, np.float64))))
+    return PlotCost(
+        sum(cost.total for cost in costs) + TRAVEL_WEIGHT * home,
+        sum(cost.moved for cost in costs) + home,
+        sum(cost.total for cost in hatch),
+        sum(cost.moved for cost in hatch),
+    )
 
 
 def lighter_by(

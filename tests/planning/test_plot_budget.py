@@ -20,8 +20,10 @@ from pencilbot.planning.plan import Layer
 from pencilbot.planning.plot_budget import (
     CORNER_MM,
     LIFT_MM,
+    SECONDS_PER_MM,
     TRAVEL_WEIGHT,
     corners,
+    layer_costs,
     lighter_by,
     plot_cost,
     within_plot_budget,
@@ -86,6 +88,29 @@ def test_the_cost_counts_pen_down_corners_lifts_and_weighted_travel():
     assert cost.hatch_travel == pytest.approx(10.0)
 
 
+def test_each_layer_s_part_of_the_cost_is_its_own_and_they_add_up_to_it():
+    first = np.array([[10.0, 0.0], [20.0, 0.0], [20.0, 5.0]])  # 15 mm, one corner
+    second = np.array([[20.0, 10.0], [30.0, 10.0]])
+    third = np.array([[30.0, 12.0], [40.0, 12.0]])
+    layers = [
+        Layer("hatch0", [first], role="hatch"),
+        Layer("empty", [], role="hatch"),
+        Layer("edges", [second, third], role="edges"),
+    ]
+    hatch, edges = layer_costs(layers)  # the empty layer left out
+    assert (hatch.name, hatch.paths, edges.name, edges.paths) == ("hatch0", 1, "edges", 2)
+    assert (hatch.drawn, hatch.corners, hatch.lifts, hatch.moved) == pytest.approx(
+        (15.0, CORNER_MM, LIFT_MM, 10.0)
+    )
+    # The travel into each path is its own layer's: from the first layer's end, then between its two.
+    assert (edges.drawn, edges.corners, edges.lifts) == pytest.approx((20.0, 0.0, 2 * LIFT_MM))
+    assert edges.moved == pytest.approx(5.0 + 2.0)
+    assert edges.travel == pytest.approx(TRAVEL_WEIGHT * edges.moved)
+    home = np.hypot(40.0, 12.0)
+    assert plot_cost(layers).total == pytest.approx(hatch.total + edges.total + TRAVEL_WEIGHT * home)
+    assert plot_cost(layers).hatch_total == pytest.approx(hatch.total)
+
+
 def test_the_factor_is_one_within_the_budgets_and_falls_with_the_excess():
     def cost(total: float, travel: float = 0.0):
         return plot_budget.PlotCost(total, travel, 0.8 * total, 0.8 * travel)
@@ -102,8 +127,8 @@ def test_the_cost_follows_the_plot_time_on_the_servo_plotter(busy_bands, no_budg
     drawing, page = busy_bands
     plan = plan_from_sketch(drawing, page, FAST)
     seconds = estimate(plan, load_profile("grbl-servo-a4")).total.seconds
-    # 0.02124 s per mm of cost: the fit over 36 photos (docs/faces.md).
-    assert plot_cost(plan.layers).total * 0.02124 == pytest.approx(seconds, rel=0.1)
+    # SECONDS_PER_MM: the fit over 36 photos (docs/faces.md).
+    assert plot_cost(plan.layers).total * SECONDS_PER_MM == pytest.approx(seconds, rel=0.1)
 
 
 # Pen-up travel falls more slowly than the cost as the dashes thin out (they spread over the same
