@@ -150,19 +150,8 @@ def layer_costs(layers: Sequence[Layer], start: tuple[float, float] = (0.0, 0.0)
         if not len(paths):
             continue
         tails = np.vstack([position, paths.lasts[:-1]])
-        drawn = float(paths.drawn_lengths().sum())
         moved = float(np.hypot(*(paths.firsts - tails).T).sum())
-        costs.append(
-            LayerCost(
-                layer.name,
-                layer.role,
-                len(paths),
-                drawn,
-                CORNER_MM * corners(paths),
-                LIFT_MM * len(paths),
-                moved,
-            )
-        )
+        costs.append(LayerCost(layer.name, layer.role, len(paths), *_drawing_parts(paths), moved))
         position = paths.lasts[-1]
     return costs
 
@@ -306,9 +295,15 @@ def _lighter(
     return layers, cost
 
 
+def _drawing_parts(paths: Paths) -> tuple[float, float, float]:
+    """:func:`plot_cost` of ``paths`` without their travel (which their order sets): their drawn
+    length, their corners' price and their lifts'."""
+    return float(paths.drawn_lengths().sum()), CORNER_MM * corners(paths), LIFT_MM * len(paths)
+
+
 def _drawing_cost(paths: Paths) -> float:
-    """:func:`plot_cost` of ``paths`` without their travel (which their order sets)."""
-    return float(paths.drawn_lengths().sum()) + CORNER_MM * corners(paths) + LIFT_MM * len(paths)
+    """:func:`plot_cost` of ``paths`` without their travel."""
+    return sum(_drawing_parts(paths))
 
 
 def _thrifty_level(
