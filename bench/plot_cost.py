@@ -23,6 +23,7 @@ import faceset
 import fidelity
 import numpy as np
 
+from pencilbot.errors import ProfileError
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.build import HOME
 from pencilbot.planning.layout import budget_area
@@ -84,7 +85,10 @@ def main() -> None:
     if args.time_budget is not None:
         fidelity.STYLE_OVERRIDES["time_budget"] = args.time_budget
     names = list(faceset.PHOTOS) if args.faceset else [name for name in args.photos.split(",") if name]
-    result = {name: breakdown(name) for name in names}
+    try:
+        result = {name: breakdown(name) for name in names}
+    except ProfileError as error:  # a time budget out of the style's range
+        parser.error(str(error))
     missing = [name for name, value in result.items() if value is None]
     print(json.dumps({**{k: v for k, v in result.items() if v is not None}, "missing": missing}, indent=1))
 
