@@ -12,8 +12,8 @@ same plotting time (:func:`plot_cost`): the pen-down length, ``CORNER_MM`` for e
 than ``CORNER_TURN`` (the motion all but stops there), ``LIFT_MM`` for each path (the lift, the
 drop and the stops around them) and ``TRAVEL_WEIGHT`` of the pen-up travel (the travel is faster
 than drawing). On 36 photos (the face set, held-out and stress photos) that count times 0.02124 s
-per mm (``SECONDS_PER_MM``) is grbl-servo-a4's estimate (:func:`pencilbot.planning.stats.estimate`) within 0.2 min
-under and 0.33 min over (rms 0.1 min).
+per mm (``SECONDS_PER_MM``) is grbl-servo-a4's estimate (:func:`pencilbot.planning.stats.estimate`)
+within 0.2 min under and 0.33 min over (rms 0.1 min); :func:`layer_costs` tells it layer by layer.
 
 Past ``PLOT_BUDGET`` or ``TRAVEL_BUDGET`` a plan pays with its faces' runs drawn thriftier, or
 with its hatching's palest tones left paper (``PALE``: their dashes, a lift each, are the
