@@ -18,12 +18,14 @@ from __future__ import annotations
 
 import argparse
 import json
+from pathlib import Path
 
 import faceset
 import fidelity
 import numpy as np
 
-from pencilbot.errors import ProfileError
+from pencilbot.errors import PencilbotError
+from pencilbot.imaging.io import load_image
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.build import HOME
 from pencilbot.planning.layout import budget_area
@@ -39,7 +41,8 @@ def _m(mm: float) -> float:
 
 def breakdown(name: str) -> dict | None:
     """The plan of photo ``name`` costed layer by layer (None when its package is missing)."""
-    image = fidelity.photo(name)
+    # A path that is there but not a regular file (a FIFO, a folder) is read to say so, not skipped.
+    image = load_image(Path(name)) if Path(name).exists() else fidelity.photo(name)
     if image is None:
         return None
     plan, _, layout, _ = fidelity.plan_photo(image)
@@ -87,7 +90,7 @@ def main() -> None:
     names = list(faceset.PHOTOS) if args.faceset else [name for name in args.photos.split(",") if name]
     try:
         result = {name: breakdown(name) for name in names}
-    except ProfileError as error:  # a time budget out of the style's range
+    except PencilbotError as error:  # an unreadable photo, a time budget out of the style's range
         parser.error(str(error))
     missing = [name for name, value in result.items() if value is None]
     print(json.dumps({**{k: v for k, v in result.items() if v is not None}, "missing": missing}, indent=1))
