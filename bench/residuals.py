@@ -6,14 +6,16 @@ yardstick's resolution and blurred by its 1 mm, as is the photo's darkness and t
 Every pixel's rank (0 lightest, 1 darkest) in the plot minus its rank in the photo is the plot's
 residual: above 0 the plot draws it darker than its place among the photo's tones, below 0
 lighter. The same for the sketch. Per photo: rho of the plot and of the sketch, the mean squared
-residual and its share inside the faces found (the detector's squares, ``plan.meta["faces"]``),
-and the faces' mean residual (how much darker or lighter they are drawn than their place).
+residual, its share in the photo's lightest and darkest ``BAND`` of pixels and inside the faces
+found (the detector's squares, ``plan.meta["faces"]``), and the faces' mean residual (how much
+darker or lighter they are drawn than their place).
 
 With ``--maps DIR``, a PNG per photo: the blurred photo and the blurred plot above, the sketch's
 residual and the plot's below (red: drawn darker than its place, blue: lighter).
 
-At stop 46 (docs/faces.md, eleventh round) it showed sample1's three faces ranked darker than the
-photo has them, all over their skin, where the sketch's are not.
+At stop 46 (docs/faces.md, eleventh round) it showed where sample1's whole box (0.918) is lost:
+three fifths of it in the photo's lightest 30 % (sparse dashes and bare paper, in no order at
+1 mm), a seventh in its three faces (6.5 % of the box), drawn darker than their place.
 
 Usage: ``python bench/residuals.py [--photos coffee,/path/to/photo.jpg] [--faceset] [--maps DIR]
 [--time-budget X]``; prints JSON ``{photo: {...}, "missing": [...]}``.
@@ -37,6 +39,8 @@ from pencilbot.imaging.io import load_image
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, YARDSTICK_SIGMA_MM, plotted_darkness
 from pencilbot.planning.layout import Layout
 
+#: The photo's lightest and darkest tones whose share of the residual is told: this share of its pixels.
+BAND = 0.3
 #: Height of each panel of a map, px.
 PANEL = 500
 
@@ -77,6 +81,12 @@ def residuals(name: str, maps: Path | None = None) -> dict | None:
         "rho_sketch": round(_rho(from_sketch, from_photo), 3),
         "mean_sq_residual_plot": round(float(squared.mean()), 4),
         "mean_sq_residual_sketch": round(float((sketch_residual**2).mean()), 4),
+        "lightest_share_of_residual": round(
+            float(squared[from_photo < BAND].sum() / max(squared.sum(), 1e-12)), 3
+        ),
+        "darkest_share_of_residual": round(
+            float(squared[from_photo > 1 - BAND].sum() / max(squared.sum(), 1e-12)), 3
+        ),
         "faces_share_of_box": round(float(faces.mean()), 3),
         "faces_share_of_residual": round(float(squared[faces].sum() / max(squared.sum(), 1e-12)), 3),
         "faces_mean_residual_plot": round(float(plot_residual[faces].mean()), 3) if faces.any() else None,
