@@ -76,19 +76,19 @@ def residuals(name: str, maps: Path | None = None) -> dict | None:
     plot_residual, sketch_residual = from_plot - from_photo, from_sketch - from_photo
     faces = _squares(plan.meta.get("faces", ""), drawing.gray.shape, (height, width))
     squared = plot_residual**2
+
+    def share(where: np.ndarray) -> float:  # of the plot's squared residual
+        return round(float(squared[where].sum() / max(squared.sum(), 1e-12)), 3)
+
     result = {
         "rho_plot": round(_rho(from_plot, from_photo), 3),
         "rho_sketch": round(_rho(from_sketch, from_photo), 3),
         "mean_sq_residual_plot": round(float(squared.mean()), 4),
         "mean_sq_residual_sketch": round(float((sketch_residual**2).mean()), 4),
-        "lightest_share_of_residual": round(
-            float(squared[from_photo < BAND].sum() / max(squared.sum(), 1e-12)), 3
-        ),
-        "darkest_share_of_residual": round(
-            float(squared[from_photo > 1 - BAND].sum() / max(squared.sum(), 1e-12)), 3
-        ),
+        "lightest_share_of_residual": share(from_photo < BAND),
+        "darkest_share_of_residual": share(from_photo > 1 - BAND),
         "faces_share_of_box": round(float(faces.mean()), 3),
-        "faces_share_of_residual": round(float(squared[faces].sum() / max(squared.sum(), 1e-12)), 3),
+        "faces_share_of_residual": share(faces),
         "faces_mean_residual_plot": round(float(plot_residual[faces].mean()), 3) if faces.any() else None,
         "faces_mean_residual_sketch": round(float(sketch_residual[faces].mean()), 3) if faces.any() else None,
     }
