@@ -217,15 +217,20 @@ def figures(vs_photo, vs_sketch, drawing, image, total, planning_s, plotted) -> 
 HAND_BOXES: list = []
 
 
+def planned_faces(plan) -> list[tuple[float, ...]]:
+    """The faces a plan was drawn with, ``(x, y, size)`` in px of its image as planned
+    (``plan.meta["faces"]``: "x,y,size" each, "; " between, "none" or "off" for none)."""
+    described = plan.meta.get("faces", "none")
+    if described in ("none", "off"):
+        return []
+    return [tuple(float(v) for v in face.split(",")) for face in described.split("; ")]
+
+
 def hand_faces(name: str, plan, drawing, image: LoadedImage, layout: Layout, plotted: np.ndarray) -> dict:
     """Each hand-set face of the face set: found by the plan's detector?, size, ρ; and false faces."""
     height, width = drawing.gray.shape
     scale = width / image.shape[1]
-    found = (
-        []
-        if plan.meta["faces"] in ("none", "off")
-        else [tuple(float(v) for v in face.split(",")) for face in plan.meta["faces"].split("; ")]
-    )
+    found = planned_faces(plan)
     matched, faces = set(), []
     for x, y, w, h in faceset.PHOTOS[name].boxes:
         x, y, side = x * scale, y * scale, max(w, h) * scale

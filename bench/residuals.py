@@ -38,6 +38,7 @@ from pencilbot.errors import PencilbotError
 from pencilbot.imaging.io import load_image
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, YARDSTICK_SIGMA_MM, plotted_darkness
 from pencilbot.planning.layout import Layout
+from pencilbot.render import write_png
 
 #: The photo's lightest and darkest tones whose share of the residual is told: this share of its pixels.
 BAND = 0.3
@@ -74,7 +75,7 @@ def residuals(name: str, maps: Path | None = None) -> dict | None:
     )
     from_photo, from_plot, from_sketch = ranks(photo), ranks(plot), ranks(drawn)
     plot_residual, sketch_residual = from_plot - from_photo, from_sketch - from_photo
-    faces = _squares(plan.meta.get("faces", ""), drawing.gray.shape, (height, width))
+    faces = _squares(fidelity.planned_faces(plan), drawing.gray.shape, (height, width))
     squared = plot_residual**2
 
     def share(where: np.ndarray) -> float:  # of the plot's squared residual
@@ -93,9 +94,7 @@ def residuals(name: str, maps: Path | None = None) -> dict | None:
         "faces_mean_residual_sketch": round(float(sketch_residual[faces].mean()), 3) if faces.any() else None,
     }
     if maps is not None:
-        target = maps / f"{Path(name).name}.png"
-        if not cv2.imwrite(str(target), _map(photo, plot, sketch_residual, plot_residual)):
-            raise PencilbotError(f"could not write {target}; give --maps a folder you can write to")
+        write_png(maps / f"{Path(name).name}.png", _map(photo, plot, sketch_residual, plot_residual))
     return result
 
 
@@ -104,16 +103,12 @@ def _rho(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.corrcoef(a.ravel(), b.ravel())[0, 1])
 
 
-def _squares(described: str, image: tuple[int, int], box: tuple[int, int]) -> np.ndarray:
-    """(H, W) bool over the drawing box: the faces' squares of ``plan.meta["faces"]`` ("x,y,size"
-    in px of the ``image`` as planned, "; " between faces; "none" or "off" for none)."""
+def _squares(faces: list, image: tuple[int, int], box: tuple[int, int]) -> np.ndarray:
+    """(H, W) bool over the drawing box: the squares of ``faces`` ((x, y, size) in px of the
+    ``image`` as planned, :func:`fidelity.planned_faces`)."""
     inside = np.zeros(box, bool)
     scale_y, scale_x = box[0] / image[0], box[1] / image[1]
-    for face in described.split("; "):
-        parts = face.split(",")
-        if len(parts) != 3:
-            continue
-        x, y, size = (float(part) for part in parts)
+    for x, y, size in faces:
         r0, c0 = max(0, int(y * scale_y)), max(0, int(x * scale_x))
         inside[r0 : int((y + size) * scale_y), c0 : int((x + size) * scale_x)] = True
     return inside
@@ -127,13 +122,13 @@ def _map(
 
     def grey(darkness: np.ndarray) -> np.ndarray:
         small = cv2.resize(np.clip(1.0 - darkness, 0.0, 1.0), size, interpolation=cv2.INTER_AREA)
-        return cv2.cvtColor((255 * small).astype(np.uint8), cv2.COLOR_GRAY2BGR)
+        return np.repeat((255 * small).astype(np.uint8)[..., None], 3, axis=2)
 
     def coloured(residual: np.ndarray) -> np.ndarray:
         d = np.clip(cv2.resize(residual, size, interpolation=cv2.INTER_AREA) / 0.5, -1.0, 1.0)
-        blue = np.where(d < 0, 1.0, 1.0 - d)  # (OpenCV's BGR) a darker residual loses blue and green
-        red = np.where(d > 0, 1.0, 1.0 + d)
-        return (255 * np.dstack([blue, 1.0 - np.abs(d), red])).astype(np.uint8)
+        red = np.where(d > 0, 1.0, 1.0 + d)  # a darker residual loses green and blue: red
+        blue = np.where(d < 0, 1.0, 1.0 - d)
+        return (255 * np.dstack([red, 1.0 - np.abs(d), blue])).astype(np.uint8)
 
     return np.vstack(
         [
@@ -160,7 +155,7 @@ def main() -> None:
     names = list(faceset.PHOTOS) if args.faceset else [name for name in args.photos.split(",") if name]
     try:
         result = {name: residuals(name, args.maps) for name in names}
-    except PencilbotError as error:  # an unreadable photo, a time budget out of range, a map unwritten
+    except PencilbotError as error:  # an unreadable photo, a time budget out of range, a map not written
         parser.error(str(error))
     missing = [name for name, value in result.items() if value is None]
     print(json.dumps({**{k: v for k, v in result.items() if v is not None}, "missing": missing}, indent=1))
