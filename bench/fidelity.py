@@ -62,6 +62,7 @@ import faceset
 import numpy as np
 from skimage import data, io
 
+from pencilbot.errors import PencilbotError
 from pencilbot.imaging import mtcnn
 from pencilbot.imaging.faces import find_faces
 from pencilbot.imaging.io import LoadedImage, image_from_array, load_image
@@ -111,9 +112,12 @@ FLOW_IMAGER_RHO = {"coffee": 0.917, "astronaut": 0.898}
 
 
 def photo(name: str) -> LoadedImage | None:
-    """The photo, or None when the package that ships it is not installed."""
-    if Path(name).suffix and Path(name).is_file():  # any photo file: one held out of the set
-        return load_image(Path(name))
+    """The photo, or None when the package that ships it is not installed. A path (with a suffix
+    or a folder) that is there is read as the CLI reads it: one not a regular file (a FIFO, a
+    folder) or not an image raises PencilbotError saying so, rather than being "missing"."""
+    path = Path(name)
+    if (path.suffix or len(path.parts) > 1) and (path.exists() or path.is_symlink()):
+        return load_image(path)  # any photo file: one held out of the set
     if name not in PHOTOS and name in faceset.PHOTOS:
         rgb = faceset.load(name)
         return None if rgb is None else image_from_array(rgb, source=f"face set: {name}")
@@ -419,7 +423,10 @@ def main() -> None:
     }
     missing = {}
     for name in args.photos.split(","):
-        image = photo(name)
+        try:
+            image = photo(name)
+        except PencilbotError as error:  # an unreadable photo file
+            parser.error(str(error))
         if image is None:
             missing[name] = PHOTOS[name][1] if name in PHOTOS else "python bench/faceset.py fetch"
             continue

@@ -18,14 +18,12 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 import faceset
 import fidelity
 import numpy as np
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.io import load_image
 from pencilbot.machine.profile import load_profile
 from pencilbot.planning.build import HOME
 from pencilbot.planning.layout import budget_area
@@ -41,8 +39,7 @@ def _m(mm: float) -> float:
 
 def breakdown(name: str) -> dict | None:
     """The plan of photo ``name`` costed layer by layer (None when its package is missing)."""
-    # A path that is there but not a regular file (a FIFO, a folder) is read to say so, not skipped.
-    image = load_image(Path(name)) if Path(name).exists() else fidelity.photo(name)
+    image = fidelity.photo(name)
     if image is None:
         return None
     plan, _, layout, _ = fidelity.plan_photo(image)

@@ -35,7 +35,6 @@ from scipy import ndimage as ndi
 from scipy.stats import rankdata
 
 from pencilbot.errors import PencilbotError
-from pencilbot.imaging.io import load_image
 from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, YARDSTICK_SIGMA_MM, plotted_darkness
 from pencilbot.planning.layout import Layout
 from pencilbot.render import write_png
@@ -53,8 +52,7 @@ def ranks(picture: np.ndarray) -> np.ndarray:
 
 def residuals(name: str, maps: Path | None = None) -> dict | None:
     """The rank residuals of photo ``name``'s plan and sketch (None when its package is missing)."""
-    # A path that is there but not a regular file (a FIFO, a folder) is read to say so, not skipped.
-    image = load_image(Path(name)) if Path(name).exists() else fidelity.photo(name)
+    image = fidelity.photo(name)
     if image is None:
         return None
     plan, drawing, _, _ = fidelity.plan_photo(image)
