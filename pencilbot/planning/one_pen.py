@@ -35,7 +35,7 @@ def one_pen_shading(
     left paper (:data:`~pencilbot.planning.plot_budget.PALE`). The faces' runs are drawn once per
     level and scale: a close portrait's are most of its planning, and the budgets ask for them
     again."""
-    tone = sketch_darkness(drawing)
+    tone = sketch_darkness(drawing, 1.0 / layout.mm_per_px)
     budget = pen_down_budget * budget_area(layout, hatching.time_budget) - float(
         strokes.drawn_lengths().sum()
     )
