@@ -416,6 +416,10 @@ def main() -> None:
         STYLE_OVERRIDES["face_lines"] = True
     if args.time_budget is not None:
         STYLE_OVERRIDES["time_budget"] = args.time_budget
+    try:  # a time budget out of the style's range: one usage line, before any photo is planned
+        with_overrides(load_style("default"), STYLE_OVERRIDES)
+    except PencilbotError as error:
+        parser.error(str(error))
     changed = ", ".join(f"{key} = {str(value).lower()}" for key, value in STYLE_OVERRIDES.items())
     results: dict = {
         "setup": f"default style{' with ' + changed if changed else ''}, A4 auto, 15 mm "
