@@ -139,9 +139,14 @@ def photo(name: str) -> LoadedImage | None:
 STYLE_OVERRIDES: dict = {}
 
 
+def bench_style():
+    """The default style with the command line's overrides (raises ProfileError for a bad one)."""
+    return with_overrides(load_style("default"), STYLE_OVERRIDES)
+
+
 def plan_photo(image: LoadedImage, runs: int = 1):
     """The default style's plan of ``image`` on A4, its sketch and layout, and the planning time."""
-    style = with_overrides(load_style("default"), STYLE_OVERRIDES)
+    style = bench_style()
     page = page_size(style.page, style.orientation, image.shape, style.margin)
     small = at_plot_resolution(image, page, style.pen_width)
     drawing = sketch(small, line_length=style.line_length, texture_seed=style.seed)
@@ -417,7 +422,7 @@ def main() -> None:
     if args.time_budget is not None:
         STYLE_OVERRIDES["time_budget"] = args.time_budget
     try:  # a time budget out of the style's range: one usage line, before any photo is planned
-        with_overrides(load_style("default"), STYLE_OVERRIDES)
+        bench_style()
     except PencilbotError as error:
         parser.error(str(error))
     changed = ", ".join(f"{key} = {str(value).lower()}" for key, value in STYLE_OVERRIDES.items())

@@ -35,7 +35,7 @@ from scipy import ndimage as ndi
 from scipy.stats import rankdata
 
 from pencilbot.errors import PencilbotError
-from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, YARDSTICK_SIGMA_MM, plotted_darkness
+from pencilbot.planning.fidelity import YARDSTICK_PX_PER_MM, YARDSTICK_SIGMA_MM, plotted_darkness, sketch_grey
 from pencilbot.planning.layout import Layout
 from pencilbot.render import write_png
 
@@ -60,7 +60,7 @@ def residuals(name: str, maps: Path | None = None) -> dict | None:
     plotted = plotted_darkness(plan.paths(), layout.drawing_box, pen_width=plan.pen_width)
     height, width = plotted.shape
     sigma = YARDSTICK_SIGMA_MM * YARDSTICK_PX_PER_MM
-    sketch = drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2)
+    sketch = sketch_grey(drawing)
 
     def blurred(darkness: np.ndarray) -> np.ndarray:
         darkness = cv2.resize(np.asarray(darkness, np.float32), (width, height), interpolation=cv2.INTER_AREA)

@@ -34,6 +34,7 @@ from pencilbot.planning.plot_budget import lighter_by, plot_cost, within_plot_bu
 from pencilbot.planning.resolution import at_plot_resolution
 from pencilbot.planning.separation import color_hatching
 from pencilbot.planning.shading import FACE_TONE
+from pencilbot.planning.sketch_tone import sketch_darkness
 from pencilbot.planning.stages import Ordering, Stages, stages_of
 from pencilbot.planning.style import DEFAULT_STYLE, Style, load_style
 from pencilbot.planning.vectorize import EdgeOptions, edge_strokes
@@ -232,7 +233,8 @@ def _one_pen_plan(
     their options) to their budget itself where the sheet affords them and the picture is not a
     portrait (``PORTRAIT_SHARE``). A ``draft``'s are unordered: past the pen-down budget with those
     contours it has the overflow rule's, but the plot's budget is only known once ordered."""
-    args = (drawing, layout, stages, important, dithered, faces, pens, draft)
+    tone = sketch_darkness(drawing, 1.0 / layout.mm_per_px)  # once, for both tries of the contours
+    args = (drawing, tone, layout, stages, important, dithered, faces, pens, draft)
     strokes, roomy = _first_contours(contours, drawing, layout, stages, dithered)
     planned = _one_pen(strokes, *args, roomy=roomy)
     if planned is None:  # past a budget with them: the overflow rule's fewer contours
@@ -263,6 +265,7 @@ def _first_contours(
 def _one_pen(
     strokes: Paths,
     drawing: Sketch,
+    tone: np.ndarray,
     layout: Layout,
     stages: Stages,
     important,
@@ -279,7 +282,7 @@ def _one_pen(
     found out before ordering when the pen-down budget already lightens the hatching."""
     assert stages.hatching is not None
     shade, faces_at = one_pen_shading(
-        drawing, layout, stages.hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
+        drawing, tone, layout, stages.hatching, strokes, important, dithered, faces, PEN_DOWN_BUDGET
     )
     hatches, scale = shade(1.0)
     if roomy and scale < 1.0:

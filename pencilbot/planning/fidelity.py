@@ -128,12 +128,17 @@ def sheet_likeness(layers, layout: Layout, drawing: Sketch) -> float:
     paths = Paths.concat(layer.paths for layer in layers)
     pen_width = max((layer.pen_width for layer in layers), default=0.5)
     plotted = plotted_darkness(paths, layout.drawing_box, pen_width=pen_width, px_per_mm=JUDGE_PX_PER_MM)
-    result = drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2)
     drawn = _blurred_samples(plotted, plotted.shape, JUDGE_PX_PER_MM)
     photo = _blurred_samples(1.0 - drawing.gray, plotted.shape, JUDGE_PX_PER_MM)
     return _spearman(drawn, photo) + pearson(
-        drawn, _blurred_samples(1.0 - result, plotted.shape, JUDGE_PX_PER_MM)
+        drawn, _blurred_samples(1.0 - sketch_grey(drawing), plotted.shape, JUDGE_PX_PER_MM)
     )
+
+
+def sketch_grey(drawing: Sketch) -> np.ndarray:
+    """The pencil drawing R in grey, what a one-pen plot is compared with: R itself, or the mean
+    of a colour sketch's channels."""
+    return drawing.result if drawing.result.ndim == 2 else drawing.result.mean(axis=2)
 
 
 def photo_likeness(plan: Plan, drawing: Sketch) -> Likeness:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+
 from pencilbot.imaging.faces import portrait_darkness
 from pencilbot.imaging.pencil import Sketch
 from pencilbot.paths import Paths
@@ -14,11 +16,11 @@ from pencilbot.planning.layout import Layout, budget_area
 from pencilbot.planning.plan import Layer
 from pencilbot.planning.plot_budget import PALE
 from pencilbot.planning.shading import FACE_FOLLOWS, Hatching
-from pencilbot.planning.sketch_tone import sketch_darkness
 
 
 def one_pen_shading(
     drawing: Sketch,
+    tone: np.ndarray,
     layout: Layout,
     hatching: Hatching,
     strokes: Paths,
@@ -27,15 +29,16 @@ def one_pen_shading(
     faces,
     pen_down_budget: float,
 ):
-    """The one-pen hatching of ``drawing`` (and its faces' runs) within ``pen_down_budget`` (mm
-    per cm² of the sheet), as a function of the tone's scale and the faces' level: its non-empty
-    layers and the scale it was drawn at (see
+    """The one-pen hatching of ``drawing`` to its darkness ``tone``
+    (:func:`~pencilbot.planning.sketch_tone.sketch_darkness`, found once for every try of the
+    contours), and its faces' runs, within ``pen_down_budget`` (mm per cm² of the sheet), as a
+    function of the tone's scale and the faces' level: its non-empty layers and the scale it was
+    drawn at (see
     :meth:`~pencilbot.planning.shading.Hatching.shade_within`); and the faces' runs alone at a
     level, as that shading draws them at a scale. With ``pale`` the hatching's palest tones are
     left paper (:data:`~pencilbot.planning.plot_budget.PALE`). The faces' runs are drawn once per
     level and scale: a close portrait's are most of its planning, and the budgets ask for them
     again."""
-    tone = sketch_darkness(drawing, 1.0 / layout.mm_per_px)
     budget = pen_down_budget * budget_area(layout, hatching.time_budget) - float(
         strokes.drawn_lengths().sum()
     )

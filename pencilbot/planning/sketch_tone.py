@@ -16,7 +16,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from pencilbot.planning.fidelity import pearson
+from pencilbot.planning.fidelity import pearson, sketch_grey
 
 #: Share of the line drawing's darkness (1 − L) in the hatching's darkness. Measured (face set,
 #: bench/fidelity.py --faceset; plot vs own sketch r@1mm and whole-box rho): 2008_001322 0.892 ->
@@ -49,18 +49,13 @@ def sketch_darkness(drawing, px_per_mm: float) -> np.ndarray:
     ``MOST_LINES``) while that darkness follows the sketch less than ``FOLLOW_SKETCH`` at 1 mm."""
     lines = 1.0 - np.asarray(drawing.line.drawing, np.float32)
     tone = np.asarray(drawing.tone, np.float32)
-    pencil = drawing.result if drawing.result.ndim == 2 else drawing.line.drawing * drawing.fit.T
-    sketch = _blurred(1.0 - np.asarray(pencil, np.float32), px_per_mm)
-    share = SKETCH_LINES
-    while True:
+    sketch = _blurred(1.0 - np.asarray(sketch_grey(drawing), np.float32), px_per_mm)
+    for share in np.arange(SKETCH_LINES, MOST_LINES + LINES_STEP / 2, LINES_STEP):
         darkness = 1.0 - tone * (1.0 - np.float32(share) * lines)
         # (A flat picture's r is NaN: nothing to follow, and its darkness is returned.)
-        if (
-            share + LINES_STEP > MOST_LINES + 1e-9
-            or not pearson(_blurred(darkness, px_per_mm), sketch) < FOLLOW_SKETCH
-        ):
-            return darkness
-        share += LINES_STEP
+        if not pearson(_blurred(darkness, px_per_mm), sketch) < FOLLOW_SKETCH:
+            break
+    return darkness
 
 
 def _blurred(picture: np.ndarray, px_per_mm: float) -> np.ndarray:
