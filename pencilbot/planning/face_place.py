@@ -76,37 +76,39 @@ def place_gains(
     if count < 2:
         return None
     grid = Grid(layout.drawing_box, CELL)
-    sigma = BLUR / CELL
-    ink = _blur(ink_on_grid(sheet, grid, pen_width), sigma)
-    tone = _blur(sample_image(photo, layout, grid), sigma)
-    faces = sample_image(np.asarray(dithered, np.float32), layout, grid) > 0.5
-    if not faces.any() or faces.mean() > MOST_SHARE:
+    # Each cell's face: the label of the picture's pixel at its centre (0: none).
+    px = np.rint(layout.mm_to_px(grid.centres().reshape(-1, 2))).astype(np.int64)
+    rows, cols = np.clip(px[:, 1], 0, labels.shape[0] - 1), np.clip(px[:, 0], 0, labels.shape[1] - 1)
+    cells = labels[rows, cols].reshape(grid.shape)
+    if not cells.any() or np.mean(cells > 0) > MOST_SHARE:
         return None
+    ink = _blur(ink_on_grid(sheet, grid, pen_width), BLUR / CELL)
+    tone = _blur(sample_image(photo, layout, grid), BLUR / CELL)
     order = np.argsort(tone, axis=None, kind="stable")
     rank = np.empty(tone.size, np.float32)
     rank[order] = (np.arange(tone.size) + 0.5) / tone.size
     bins = np.minimum((rank.reshape(tone.shape) * BINS).astype(np.int64), BINS - 1)
-    outside = ~faces
+    outside = cells == 0
     totals = np.bincount(bins[outside], ink[outside], BINS)
     counts = np.bincount(bins[outside], minlength=BINS)
     known = counts > 0
     centres = (np.arange(BINS) + 0.5) / BINS
     curve = np.interp(centres, centres[known], totals[known] / counts[known])  # darkness at each rank
-    gains = np.ones(labels.shape, np.float32)
-    raised = False
-    for face in range(1, count):
-        member = labels == face
-        cells = sample_image(member.astype(np.float32), layout, grid) > 0.5
-        if not cells.any():
-            continue
-        drawn, placed = float(ink[cells].mean()), float(curve[bins[cells]].mean())
-        mean = float(darkness[member].mean())
-        if placed <= drawn * (1.0 + SLACK) or mean <= cut:
-            continue
-        ratio = placed / max(drawn, 1e-3)
-        gains[member] = min(MOST, ratio * (1.0 - cut / mean) + cut / mean)
-        raised = True
-    return gains if raised else None
+    # Per face: its ink, the sheet's darkness at its ranks (both on the grid), its mean darkness.
+    size = np.maximum(np.bincount(cells.ravel(), minlength=count), 1)
+    drawn = np.bincount(cells.ravel(), ink.ravel(), count) / size
+    placed = np.bincount(cells.ravel(), curve[bins].ravel(), count) / size
+    pixels = np.maximum(np.bincount(labels.ravel(), minlength=count), 1)
+    mean = np.bincount(labels.ravel(), np.asarray(darkness, np.float64).ravel(), count) / pixels
+    low = placed <= drawn * (1.0 + SLACK)
+    low |= (mean <= cut) | (np.bincount(cells.ravel(), minlength=count) == 0)
+    low[0] = True  # (not a face)
+    if low.all():
+        return None
+    ratio = placed / np.maximum(drawn, 1e-3)
+    share = cut / np.maximum(mean, 1e-6)
+    factor = np.where(low, 1.0, np.minimum(MOST, ratio * (1.0 - share) + share)).astype(np.float32)
+    return factor[labels]
 
 
 def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
