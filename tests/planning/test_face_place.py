@@ -31,17 +31,17 @@ def _face(x0: int, x1: int, y0: int = 40, y1: int = 120) -> np.ndarray:
     return face
 
 
-def _sheet(photo: np.ndarray, faces: np.ndarray, drawn_to: np.ndarray) -> tuple[Paths, Paths]:
-    """Everything the sheet draws (hatching to ``photo``, the faces' runs to ``drawn_to``) and the runs."""
+def _sheet(photo: np.ndarray, faces: np.ndarray, drawn_to: np.ndarray) -> Paths:
+    """Everything the sheet draws: hatching to ``photo``, the faces' runs to ``drawn_to``."""
     layers = shade(photo, _layout(), Paths.empty(), pen_width=PEN, dithered=faces, face_darkness=drawn_to)
-    runs = next(layer.paths for layer in layers if layer.name == FACE_TONE)
-    return Paths.concat(layer.paths for layer in layers), runs
+    assert any(layer.name == FACE_TONE and len(layer.paths) for layer in layers)
+    return Paths.concat(layer.paths for layer in layers)
 
 
 def _gains(factor: float, faces: np.ndarray) -> np.ndarray | None:
     photo = _photo()
     drawn_to = np.clip(photo * factor, 0.0, 1.0)
-    sheet, _ = _sheet(photo, faces, drawn_to)
+    sheet = _sheet(photo, faces, drawn_to)
     return place_gains(sheet, photo, faces, drawn_to, _layout(), pen_width=PEN, cut=0.05)
 
 
@@ -67,7 +67,7 @@ def test_raised_to_its_place_the_face_lays_what_the_sheet_lays_at_its_tones():
         from pencilbot.planning.dither import ink_on_grid
         from pencilbot.planning.flow import Grid
 
-        sheet, _ = _sheet(photo, faces, drawn_to)
+        sheet = _sheet(photo, faces, drawn_to)
         grid = Grid(_layout().drawing_box, 1.0)  # a millimetre's cells: the face 20 by 40
         ink = ink_on_grid(sheet, grid, PEN)
         return float(ink[22:58, 32:48].mean() / np.concatenate([ink[2:16, 32:48], ink[64:78, 32:48]]).mean())
@@ -88,7 +88,7 @@ def test_each_face_gets_its_own_factor():
     drawn_to = photo.copy()
     drawn_to[:, :80] *= 0.4  # the left face drawn far lighter than its place, the right one darker
     drawn_to[:, 80:] = np.clip(drawn_to[:, 80:] * 1.5, 0.0, 1.0)
-    sheet, _ = _sheet(photo, faces, drawn_to)
+    sheet = _sheet(photo, faces, drawn_to)
     gains = place_gains(sheet, photo, faces, drawn_to, _layout(), pen_width=PEN, cut=0.05)
     assert gains is not None
     assert gains[80, 35] > 1.3 and gains[80, 125] == 1.0
@@ -96,7 +96,7 @@ def test_each_face_gets_its_own_factor():
 
 def test_no_faces_or_only_face_give_nothing():
     photo = _photo()
-    sheet, _ = _sheet(photo, _face(60, 100), photo)
+    sheet = _sheet(photo, _face(60, 100), photo)
     assert place_gains(sheet, photo, np.zeros_like(photo), photo, _layout(), pen_width=PEN, cut=0.05) is None
     everywhere = np.ones_like(photo)
     assert place_gains(sheet, photo, everywhere, photo, _layout(), pen_width=PEN, cut=0.05) is None
