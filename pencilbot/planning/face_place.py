@@ -24,7 +24,7 @@ import numpy as np
 
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import ink_on_grid
-from pencilbot.planning.flow import Grid, sample_image
+from pencilbot.planning.flow import Grid, gaussian, sample_image
 
 #: Cell (mm) of the grid the sheet is judged on, and the blur (mm) it is judged at: the 1 mm at
 #: which the whole sheet and its faces are compared with the photo.
@@ -82,8 +82,8 @@ def place_gains(
     cells = labels[rows, cols].reshape(grid.shape)
     if not cells.any() or np.mean(cells > 0) > MOST_SHARE:
         return None
-    ink = _blur(ink_on_grid(sheet, grid, pen_width), BLUR / CELL)
-    tone = _blur(sample_image(photo, layout, grid), BLUR / CELL)
+    ink = gaussian(ink_on_grid(sheet, grid, pen_width), BLUR / CELL)
+    tone = gaussian(sample_image(photo, layout, grid), BLUR / CELL)
     order = np.argsort(tone, axis=None, kind="stable")
     rank = np.empty(tone.size, np.float32)
     rank[order] = (np.arange(tone.size) + 0.5) / tone.size
@@ -95,13 +95,14 @@ def place_gains(
     centres = (np.arange(BINS) + 0.5) / BINS
     curve = np.interp(centres, centres[known], totals[known] / counts[known])  # darkness at each rank
     # Per face: its ink, the sheet's darkness at its ranks (both on the grid), its mean darkness.
-    size = np.maximum(np.bincount(cells.ravel(), minlength=count), 1)
+    sizes = np.bincount(cells.ravel(), minlength=count)
+    size = np.maximum(sizes, 1)
     drawn = np.bincount(cells.ravel(), ink.ravel(), count) / size
     placed = np.bincount(cells.ravel(), curve[bins].ravel(), count) / size
     pixels = np.maximum(np.bincount(labels.ravel(), minlength=count), 1)
     mean = np.bincount(labels.ravel(), np.asarray(darkness, np.float64).ravel(), count) / pixels
     low = placed <= drawn * (1.0 + SLACK)
-    low |= (mean <= cut) | (np.bincount(cells.ravel(), minlength=count) == 0)
+    low |= (mean <= cut) | (sizes == 0)
     low[0] = True  # (not a face)
     if low.all():
         return None
@@ -109,7 +110,3 @@ def place_gains(
     share = cut / np.maximum(mean, 1e-6)
     factor = np.where(low, 1.0, np.minimum(MOST, ratio * (1.0 - share) + share)).astype(np.float32)
     return factor[labels]
-
-
-def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
-    return cv2.GaussianBlur(np.asarray(image, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)

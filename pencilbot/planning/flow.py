@@ -319,6 +319,14 @@ def sample_image(image: np.ndarray, layout, grid: Grid) -> np.ndarray:
     return cv2.remap(image, maps[..., 0], maps[..., 1], cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
+def gaussian(image: np.ndarray, sigma: float) -> np.ndarray:
+    """``image`` (float32) blurred by a Gaussian of ``sigma`` cells, its edges replicated; as it is
+    for a ``sigma`` of 0 or less."""
+    if sigma <= 0:
+        return np.asarray(image, np.float32)
+    return cv2.GaussianBlur(np.asarray(image, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)
+
+
 def grid_gradient(values: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """``np.gradient`` of a 2-D grid (per mm; along rows, along columns), zero along an axis the
     grid is one cell across: the grid of a 1 x N picture's sheet has one row, with no slope."""

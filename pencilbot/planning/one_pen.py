@@ -47,13 +47,13 @@ def one_pen_shading(
     face_darkness = portrait_darkness(tone, 1.0 - drawing.gray, faces) if faces else None
     paper = 1.0 - drawing.gray
     drawn: dict = {}  # every drawing of the faces' runs, for the next one at the same level and scale
-    placed: list = []  # the faces' darkness at their place, once found
+    placed: np.ndarray | None = None  # the faces' darkness at their place, once found
 
     def runs_for(level: RunLevel, face_scale: float) -> Paths:
         if face_darkness is None:
             return Paths.empty()
         return hatching.faces(
-            placed[0] if placed else face_darkness,
+            face_darkness if placed is None else placed,
             layout,
             strokes,
             paper=paper,
@@ -77,17 +77,18 @@ def one_pen_shading(
             level=level,
             runs_for=runs_for,
         )
-        if face_darkness is not None and dithered is not None and not placed:
+        if face_darkness is not None and dithered is not None and placed is None:
             hatches = at_place(hatches, used, level)
         return [layer for layer in hatches if layer.paths], used
 
     def at_place(hatches: list[Layer], used: float, level: RunLevel) -> list[Layer]:
         """``hatches`` with the faces' runs redrawn at their place, which is kept for every later drawing."""
+        nonlocal placed
         assert face_darkness is not None and dithered is not None
         sheet = Paths.concat([strokes, *(layer.paths for layer in hatches)])
         pen = hatching.pen_width
         gains = place_gains(sheet, paper, dithered, face_darkness, layout, pen_width=pen, cut=level.lightest)
-        placed.append(face_darkness if gains is None else np.clip(face_darkness * gains, 0.0, 1.0))
+        placed = face_darkness if gains is None else np.clip(face_darkness * gains, 0.0, 1.0)
         if gains is None:
             return hatches
         drawn.clear()

@@ -19,13 +19,12 @@ import logging
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 
-import cv2
 import numpy as np
 
 from pencilbot.paths import Paths
 from pencilbot.planning.dither import LEVELS, RunLevel, face_runs, ink_on_grid
 from pencilbot.planning.face_budget import thriftier, within_budget
-from pencilbot.planning.flow import Grid, direction_field, sample_image
+from pencilbot.planning.flow import Grid, direction_field, gaussian, sample_image
 from pencilbot.planning.hatching import (
     HATCH_ANGLES,
     HATCH_COVERAGE,
@@ -335,15 +334,15 @@ class ToneLoop:
         self.layout = layout
         self.sigma = h.blur / cell
         raw = np.clip(sample_image(darkness, layout, grid), 0.0, 1.0)
-        tone = _blur(raw, self.sigma)
-        photo = tone if paper is None else _blur(sample_image(paper, layout, grid), self.sigma)
+        tone = gaussian(raw, self.sigma)
+        photo = tone if paper is None else gaussian(sample_image(paper, layout, grid), self.sigma)
         self.photo_darkness = darkness if paper is None else paper
         tone[(photo < h.blank_below) | (tone < h.pale)] = 0.0
         self.tone = tone
         self.fine = self.fine_goal = None
         if important is not None and np.any(important > 0):
             self.fine = np.clip(sample_image(important, layout, grid), 0.0, 1.0)
-            self.fine_goal = _blur(raw, FACE_BLUR / cell)
+            self.fine_goal = gaussian(raw, FACE_BLUR / cell)
             self.fine_goal[photo < h.blank_below] = 0.0
         field_grid = Grid(box, FIELD_CELL)
         self.field = direction_field(
@@ -362,7 +361,7 @@ class ToneLoop:
         h, grid, cell, tone = self.hatching, self.grid, self.cell, self.tone
         edge_ink = self.ink(edges)
         # Where the tone itself changes over a millimetre or two, the loop corrects at that scale.
-        detail = np.abs(_blur(tone, SHARP_CORRECTION_BLUR / cell) - _blur(tone, CORRECTION_BLUR / cell))
+        detail = np.abs(gaussian(tone, SHARP_CORRECTION_BLUR / cell) - gaussian(tone, CORRECTION_BLUR / cell))
         detail = np.clip(detail / SHARP_ERROR, 0.0, 1.0)
         paper = tone == 0.0
         if len(runs):
@@ -371,7 +370,7 @@ class ToneLoop:
         # Start from the tone with the contours' own ink taken out where it lies (ink stacks as
         # 1 − (1 − e)(1 − h)), judged at half a millimetre: the loop's correction is coarser and
         # would spread a contour's share into a pale band beside it.
-        local_edges = _blur(edge_ink, 0.5 / cell)
+        local_edges = gaussian(edge_ink, 0.5 / cell)
         request = np.clip(1.0 - (1.0 - tone) / np.maximum(1.0 - local_edges, 0.05), 0.0, 1.0)
         request[paper] = 0.0
         for round_ in range(max(1, h.rounds)):
@@ -409,11 +408,13 @@ class ToneLoop:
         # Correct at the scale of the hatch pattern itself (light tones are dashes millimetres
         # apart): a correction finer than that only moves dashes about, unless the tone has
         # detail at that scale (SHARP_ERROR).
-        difference = self.tone - _blur(ink, self.sigma)
-        error = _blur(difference, CORRECTION_BLUR / cell)
-        error = (1.0 - detail) * error + detail * _blur(difference, SHARP_CORRECTION_BLUR / cell)
+        difference = self.tone - gaussian(ink, self.sigma)
+        error = gaussian(difference, CORRECTION_BLUR / cell)
+        error = (1.0 - detail) * error + detail * gaussian(difference, SHARP_CORRECTION_BLUR / cell)
         if self.fine is not None:  # in faces the hatching is finer, and so is the correction
-            fine_error = _blur(self.fine_goal - _blur(ink, FACE_BLUR / cell), FACE_CORRECTION_BLUR / cell)
+            fine_error = gaussian(
+                self.fine_goal - gaussian(ink, FACE_BLUR / cell), FACE_CORRECTION_BLUR / cell
+            )
             error = (1.0 - self.fine) * error + self.fine * fine_error
         return error
 
@@ -442,9 +443,3 @@ class ToneLoop:
         wanting = request > 0
         short = wanting & (request > reach - SHORTFALL)
         return short.sum() > SHORT_SHARE * max(wanting.sum(), 1)
-
-
-def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
-    if sigma <= 0:
-        return np.asarray(image, np.float32)
-    return cv2.GaussianBlur(np.asarray(image, np.float32), (0, 0), sigma, borderType=cv2.BORDER_REPLICATE)

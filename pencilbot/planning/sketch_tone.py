@@ -13,10 +13,10 @@ the hatching is drawn to follows the sketch at 1 mm (``FOLLOW_SKETCH``), as the 
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 
 from pencilbot.planning.fidelity import pearson, sketch_grey
+from pencilbot.planning.flow import gaussian
 
 #: Share of the line drawing's darkness (1 − L) in the hatching's darkness. Measured (face set,
 #: bench/fidelity.py --faceset; plot vs own sketch r@1mm and whole-box rho): 2008_001322 0.892 ->
@@ -49,14 +49,10 @@ def sketch_darkness(drawing, px_per_mm: float) -> np.ndarray:
     ``MOST_LINES``) while that darkness follows the sketch less than ``FOLLOW_SKETCH`` at 1 mm."""
     lines = 1.0 - np.asarray(drawing.line.drawing, np.float32)
     tone = np.asarray(drawing.tone, np.float32)
-    sketch = _blurred(1.0 - np.asarray(sketch_grey(drawing), np.float32), px_per_mm)
+    sketch = gaussian(1.0 - np.asarray(sketch_grey(drawing), np.float32), px_per_mm)
     for share in np.arange(SKETCH_LINES, MOST_LINES + LINES_STEP / 2, LINES_STEP):
         darkness = 1.0 - tone * (1.0 - np.float32(share) * lines)
         # (A flat picture's r is NaN: nothing to follow, and its darkness is returned.)
-        if not pearson(_blurred(darkness, px_per_mm), sketch) < FOLLOW_SKETCH:
+        if not pearson(gaussian(darkness, px_per_mm), sketch) < FOLLOW_SKETCH:
             break
     return darkness
-
-
-def _blurred(picture: np.ndarray, px_per_mm: float) -> np.ndarray:
-    return cv2.GaussianBlur(picture, (0, 0), px_per_mm, borderType=cv2.BORDER_REPLICATE)
