@@ -255,8 +255,8 @@ def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
     # A ramp with a pale square and a contour: what the ideal dither cannot know (dropped
     # crumbs, crowding, a contour's own ink) leaves an error the loop must shrink, round by round.
     from pencilbot.planning.dither import ink_on_grid
-    from pencilbot.planning.flow import sample_image
-    from pencilbot.planning.shading import CORRECTION_BLUR, _blur
+    from pencilbot.planning.flow import gaussian, sample_image
+    from pencilbot.planning.shading import CORRECTION_BLUR
 
     n = 100
     layout = _layout((n, n))
@@ -267,16 +267,16 @@ def test_each_round_of_the_tone_loop_brings_the_drawn_tone_closer():
     # lines in one cell stacks as 1 − Π(1 − c) and would be undercounted).
     grid = Grid(layout.drawing_box, min(0.5, 0.5 / HATCH_COVERAGE / 2))
     sigma = 1.0 / grid.cell  # the loop's own judging scale: the default blur, 1 mm
-    goal = _blur(sample_image(dark, layout, grid), sigma)
+    goal = gaussian(sample_image(dark, layout, grid), sigma)
     edge_ink = ink_on_grid(edges, grid, 0.5)
 
     def tone_error(rounds):
         layers = shade(dark, layout, edges, rounds=rounds)
         hatch_ink = ink_on_grid(Paths.concat(layer.paths for layer in layers), grid, 0.5)
-        seen = _blur(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
+        seen = gaussian(1.0 - (1.0 - edge_ink) * (1.0 - hatch_ink), sigma)
         # At the scale the loop corrects: finer, what is left is the lines' own pattern (spread
         # lines leave less of it, and a correction then only moves dashes about).
-        error = _blur(seen - goal, CORRECTION_BLUR / grid.cell)
+        error = gaussian(seen - goal, CORRECTION_BLUR / grid.cell)
         return float(np.abs(error)[8:-8, 8:-8].mean())
 
     uncorrected, once, twice = tone_error(1), tone_error(2), tone_error(3)
